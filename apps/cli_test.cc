@@ -1,0 +1,88 @@
+// Runs the real `loom` binary and checks what a user sees: output, stderr and exit codes.
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <string>
+
+#include "core/version.h"
+
+namespace {
+
+struct LoomRun {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+LoomRun RunLoom(const std::string& arguments) {
+  const std::string command = std::string(LOOM_BINARY) + " " + arguments + " 2>&1";
+  LoomRun run;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) run.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(CliTest, HelpListsEveryCommand) {
+  const LoomRun run = RunLoom("--help");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_TRUE(Contains(run.output, "Usage: loom")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "  version ")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "  help ")) << run.output;
+}
+
+TEST(CliTest, NoCommandIsAUsageError) {
+  const LoomRun run = RunLoom("");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_TRUE(Contains(run.output, "Commands:")) << run.output;
+}
+
+TEST(CliTest, UnknownCommandIsAUsageError) {
+  const LoomRun run = RunLoom("scna");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_TRUE(Contains(run.output, "unknown command 'scna'")) << run.output;
+}
+
+TEST(CliTest, EveryCommandHasHelp) {
+  for (const char* command : {"help", "version"}) {
+    const LoomRun run = RunLoom(std::string(command) + " --help");
+    EXPECT_EQ(run.exit_code, 0) << command << ": " << run.output;
+    EXPECT_TRUE(Contains(run.output, "--log-level")) << command << ": " << run.output;
+    const LoomRun via_help = RunLoom(std::string("help ") + command);
+    EXPECT_EQ(via_help.exit_code, 0) << command;
+    EXPECT_EQ(via_help.output, run.output) << command;
+  }
+}
+
+TEST(CliTest, VersionNamesLoomAndItsLibraries) {
+  const LoomRun run = RunLoom("version");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_TRUE(Contains(run.output, "loom " + std::string(loom::Version()))) << run.output;
+  for (const char* library : {"Aravis", "libmodbus", "libusb", "OpenCV", "Ceres", "OpenEXR", "LibTorch"}) {
+    EXPECT_TRUE(Contains(run.output, library)) << library << " missing in:\n" << run.output;
+  }
+  EXPECT_EQ(RunLoom("version --short").output, std::string(loom::Version()) + "\n");
+}
+
+TEST(CliTest, BadOptionsAreUsageErrorsOnStderr) {
+  const LoomRun bogus = RunLoom("version --bogus");
+  EXPECT_EQ(bogus.exit_code, 2) << bogus.output;
+  EXPECT_TRUE(Contains(bogus.output, "--bogus")) << bogus.output;
+  const LoomRun level = RunLoom("version --log-level loud");
+  EXPECT_EQ(level.exit_code, 2) << level.output;
+  EXPECT_TRUE(Contains(level.output, "loud")) << level.output;
+  EXPECT_EQ(RunLoom("--log-level debug version --short").exit_code, 0);
+  EXPECT_EQ(RunLoom("--log-level loud version").exit_code, 2);
+}
+
+}  // namespace

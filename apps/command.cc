@@ -1,0 +1,48 @@
+#include "apps/command.h"
+
+#include <iostream>
+
+#include "core/log.h"
+
+namespace loom::apps {
+
+const std::vector<Command>& Commands() {
+  static const std::vector<Command> commands = {
+      {"help", "Show the commands, or one command's options: loom help <command>", RunHelp},
+      {"version", "Print loom's version and the libraries it runs with", RunVersion},
+  };
+  return commands;
+}
+
+void AddCommonOptions(CLI::App& app) {
+  app.add_option_function<std::string>(
+         "--log-level",
+         [](const std::string& name) {
+           const Result<LogLevel> level = ParseLogLevel(name);
+           if (!level.ok()) throw CLI::ValidationError("--log-level", level.status().message());
+           SetLogLevel(*level);
+         },
+         "Log threshold: debug, info, warning, error, off (default info)")
+      ->type_name("LEVEL");
+}
+
+std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    std::cout << app.help();
+    return kExitOk;
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "error: " << e.what() << "\n"
+              << "Run '" << app.get_name() << " --help' for usage.\n";
+    return kExitUsage;
+  }
+  return std::nullopt;
+}
+
+int ReportFailure(const Status& status) {
+  std::cerr << "error: " << status.ToString() << "\n";
+  return kExitFailure;
+}
+
+}  // namespace loom::apps

@@ -1,0 +1,44 @@
+#pragma once
+// The `loom` binary's command table and the options every command shares.
+// A command is a function RunX(argc, argv) where argv[0] is the command's name; it returns an
+// exit code: kExitOk, kExitFailure (the work failed; message on stderr) or kExitUsage.
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "core/status.h"
+
+namespace loom::apps {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitUsage = 2;
+
+struct Command {
+  std::string_view name;
+  std::string_view summary;  // one line for `loom --help`
+  int (*run)(int argc, char** argv);
+};
+
+// All commands, in the order `loom --help` lists them.
+const std::vector<Command>& Commands();
+
+// Options every command accepts: --log-level. Call before parsing.
+void AddCommonOptions(CLI::App& app);
+
+// Parses argv into `app`. Returns nothing on success; otherwise the exit code to return:
+// kExitOk after --help, kExitUsage after a usage error (message on stderr).
+std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv);
+
+// Prints "error: <status>" on stderr and returns kExitFailure.
+int ReportFailure(const Status& status);
+
+// The commands.
+int RunHelp(int argc, char** argv);
+int RunVersion(int argc, char** argv);
+
+}  // namespace loom::apps

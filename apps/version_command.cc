@@ -1,0 +1,39 @@
+#include <iostream>
+
+#include "apps/command.h"
+#include "calibration/opencv_library.h"
+#include "core/version.h"
+#include "fitting/solver_libraries.h"
+#include "hal/aravis/aravis_library.h"
+#include "hal/modbus/modbus_library.h"
+#include "hal/usb/usb_library.h"
+
+namespace loom::apps {
+
+int RunVersion(int argc, char** argv) {
+  CLI::App app("Print loom's version and the libraries it runs with (for bug reports)",
+               "loom version");
+  bool short_form = false;
+  app.add_flag("--short", short_form, "Print only loom's version number");
+  AddCommonOptions(app);
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (short_form) {
+    std::cout << Version() << "\n";
+    return kExitOk;
+  }
+  std::cout << "loom " << VersionWithCommit() << "\n";
+  std::vector<LinkedLibrary> libraries = CoreLibraries();
+  for (const LinkedLibrary& library :
+       {hal::AravisLibrary(), hal::ModbusLibrary(), hal::UsbLibrary(),
+        calibration::OpenCvLibrary()}) {
+    libraries.push_back(library);
+  }
+  for (const LinkedLibrary& library : fitting::SolverLibraries()) libraries.push_back(library);
+  for (const LinkedLibrary& library : libraries) {
+    std::cout << "  " << library.name << std::string(10 - library.name.size(), ' ')
+              << library.version << "\n";
+  }
+  return kExitOk;
+}
+
+}  // namespace loom::apps

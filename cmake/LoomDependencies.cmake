@@ -1,0 +1,23 @@
+# Every dependency comes from Debian 12's packages (scripts/install-deps.sh).
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(ARAVIS REQUIRED IMPORTED_TARGET aravis-0.8)
+pkg_check_modules(LIBUSB REQUIRED IMPORTED_TARGET libusb-1.0)
+pkg_check_modules(LIBMODBUS REQUIRED IMPORTED_TARGET libmodbus)
+
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(yaml-cpp REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d)
+find_package(Ceres 2 REQUIRED)
+find_package(OpenEXR 3 CONFIG REQUIRED)
+find_package(Torch REQUIRED)
+find_package(Threads REQUIRED)
+
+if(LOOM_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+  include(GoogleTest)
+endif()
+if(LOOM_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

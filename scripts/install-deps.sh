@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs exactly the Debian 12 packages loom builds, tests and runs with.
+# Idempotent: when everything is present it only checks and returns in a second or two.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  cmake ninja-build g++ pkg-config ccache
+  # hardware backends
+  libaravis-dev aravis-tools libusb-1.0-0-dev libmodbus-dev
+  # algorithms and data
+  libopencv-dev libceres-dev libopenexr-dev libtorch-dev libopenblas0-pthread
+  libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+if [[ $(id -u) -ne 0 ]]; then
+  echo "install-deps: missing packages: ${missing[*]} (run as root to install them)" >&2
+  exit 1
+fi
+
+export DEBIAN_FRONTEND=noninteractive
+# apt's lists can be locked for a moment by another apt run: retry a few times.
+for attempt in 1 2 3 4 5; do
+  if apt-get update -qq; then break; fi
+  echo "install-deps: apt-get update failed (attempt $attempt), retrying in 5 s" >&2
+  sleep 5
+done
+apt-get install -y -qq --no-install-recommends "${missing[@]}"
+echo "install-deps: installed ${#missing[@]} packages"

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# README command (2): installs what is needed, builds everything and runs every test.
+# The last lines are ctest's summary. .ci/run calls exactly this.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+start=$(date +%s)
+bash scripts/install-deps.sh
+bash scripts/build.sh
+echo "build finished after $(( $(date +%s) - start )) s"
+cd build
+ctest --output-on-failure --no-label-summary -j "$(nproc)"
