@@ -45,7 +45,8 @@ class LogLine {
 }  // namespace internal
 }  // namespace loom
 
-#define LOOM_LOG(level)                                      \
-  if (!::loom::ShouldLog(::loom::LogLevel::k##level)) {      \
-  } else                                                     \
-    ::loom::internal::LogLine(::loom::LogLevel::k##level, __FILE__, __LINE__).stream()
+// A for-statement rather than if/else: safe inside an unbraced `if` (no dangling else).
+#define LOOM_LOG(level)                                                            \
+  for (bool loom_log_enabled = ::loom::ShouldLog(::loom::LogLevel::k##level);      \
+       loom_log_enabled; loom_log_enabled = false)                                 \
+  ::loom::internal::LogLine(::loom::LogLevel::k##level, __FILE__, __LINE__).stream()

@@ -1,0 +1,296 @@
+#include "hal/modbus/modbus_backends.h"
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include "core/interrupt.h"
+#include "hal/internal/format.h"
+#include "hal/modbus/modbus_link.h"
+#include "hal/modbus/register_map.h"
+
+namespace loom::hal {
+namespace {
+
+namespace map = modbus_map;
+using internal::FormatNumber;
+using Clock = std::chrono::steady_clock;
+
+constexpr std::chrono::milliseconds kPollInterval(5);
+
+struct ModbusOptions {
+  ModbusEndpoint endpoint;
+  std::chrono::milliseconds response_timeout{500};
+};
+
+Result<ModbusOptions> ReadOptions(const DeviceConfig& config) {
+  std::string endpoint;
+  int timeout_ms = 500;
+  config.node.Required("endpoint", &endpoint);
+  config.node.Optional("response_timeout_ms", &timeout_ms);
+  ModbusOptions options;
+  options.response_timeout = std::chrono::milliseconds(timeout_ms);
+  if (endpoint.empty()) return options;  // the missing key is recorded in the document
+  Result<ModbusEndpoint> parsed = ParseModbusEndpoint(endpoint);
+  if (!parsed.ok()) {
+    return InvalidArgumentError("key '" + config.node.path() + ".endpoint'", parsed.status().ToString());
+  }
+  options.endpoint = *parsed;
+  return options;
+}
+
+std::string_view TypeName(uint16_t type) {
+  switch (type) {
+    case map::kTypeTurntable: return "turntable";
+    case map::kTypeLeds: return "LED controller";
+    case map::kTypeLinearLight: return "linear light";
+    default: return "unknown device";
+  }
+}
+
+std::string_view FaultName(uint16_t code) {
+  switch (code) {
+    case map::kFaultNone: return "none";
+    case map::kFaultMotorStall: return "motor stall";
+    case map::kFaultOverTemperature: return "over-temperature";
+    case map::kFaultLimitSwitch: return "limit switch";
+    default: return "unknown fault";
+  }
+}
+
+// Connects, checks the device type and returns the identity from the common block.
+Result<DeviceIdentity> OpenController(ModbusLink& link, uint16_t expected_type,
+                                      const std::string& description) {
+  LOOM_RETURN_IF_ERROR(link.Connect());
+  LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> common, link.Read(0, map::kSerialLow + 1));
+  if (common[map::kDeviceType] != expected_type) {
+    link.Close();
+    return InvalidArgumentError(description, "the controller at " + link.endpoint().ToString() +
+                                                 " is a " + std::string(TypeName(common[map::kDeviceType])) +
+                                                 ", not a " + std::string(TypeName(expected_type)));
+  }
+  DeviceIdentity identity;
+  identity.vendor = "loom Modbus controller";
+  identity.model = std::string(TypeName(expected_type));
+  identity.serial = std::to_string((static_cast<uint32_t>(common[map::kSerialHigh]) << 16) |
+                                   common[map::kSerialLow]);
+  identity.firmware = std::to_string(common[map::kFirmwareVersion] >> 8) + "." +
+                      std::to_string(common[map::kFirmwareVersion] & 0xFF);
+  return identity;
+}
+
+// A Modbus axis (turntable or linear carriage): commands and the wait for a move to finish.
+class Axis {
+ public:
+  Axis(ModbusLink& link, const std::string& description, std::string unit, double counts_per_unit)
+      : link_(link), description_(description), unit_(std::move(unit)), counts_per_unit_(counts_per_unit) {}
+
+  Result<double> Position() {
+    LOOM_ASSIGN_OR_RETURN(const int32_t counts, link_.Read32(map::kTurntablePosition));
+    return counts / counts_per_unit_;
+  }
+
+  Status MoveTo(double target, int timeout_ms) {
+    LOOM_RETURN_IF_ERROR(link_.Write32(map::kTurntableTarget,
+                                       static_cast<int32_t>(std::lround(target * counts_per_unit_))));
+    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandMove));
+    return WaitUntilSettled("move to " + FormatNumber(target) + " " + unit_, timeout_ms, map::kStatusInPosition);
+  }
+
+  Status Home(int timeout_ms) {
+    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandHome));
+    return WaitUntilSettled("homing", timeout_ms, map::kStatusHomed);
+  }
+
+  Status Stop() { return link_.Write(map::kCommand, map::kCommandStop); }
+
+ private:
+  // Polls the status until the axis is idle with `done_bit` set, a fault, the timeout or Ctrl-C;
+  // the last two stop the motion.
+  Status WaitUntilSettled(const std::string& what, int timeout_ms, uint16_t done_bit) {
+    const Clock::time_point deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
+    while (true) {
+      LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> block, link_.Read(map::kStatus, 2));
+      const uint16_t status = block[0];
+      if (status & map::kStatusFault) {
+        return Status(StatusCode::kUnavailable, description_,
+                      what + " failed: the controller reports fault " + std::to_string(block[1]) +
+                          " (" + std::string(FaultName(block[1])) + ")");
+      }
+      if (!(status & map::kStatusBusy) && (status & done_bit)) return Status::Ok();
+      if (InterruptRequested() || Clock::now() > deadline) {
+        const Status stopped = Stop();
+        const Result<double> where = Position();
+        const std::string at = where.ok() ? " (stopped at " + FormatNumber(*where) + " " + unit_ + ")" : "";
+        if (InterruptRequested()) return Status(StatusCode::kCancelled, description_, what + " interrupted" + at);
+        return Status(StatusCode::kTimeout, description_,
+                      what + " did not complete within " + std::to_string(timeout_ms) + " ms" + at +
+                          (stopped.ok() ? "" : "; stopping failed too: " + stopped.message()));
+      }
+      std::this_thread::sleep_for(kPollInterval);
+    }
+  }
+
+  ModbusLink& link_;
+  const std::string& description_;
+  std::string unit_;
+  double counts_per_unit_;
+};
+
+static_assert(map::kTurntableTarget == map::kLinearTarget && map::kTurntablePosition == map::kLinearPosition,
+              "Axis uses one target/position layout for both axes");
+
+class ModbusTurntable : public Turntable {
+ public:
+  ModbusTurntable(const DeviceConfig& config, ModbusOptions options)
+      : Turntable(config.name, config.backend, options.endpoint.ToString()),
+        link_(description(), options.endpoint, options.response_timeout),
+        axis_(link_, description(), "deg", 1000.0) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    LOOM_ASSIGN_OR_RETURN(DeviceIdentity identity, OpenController(link_, map::kTypeTurntable, description()));
+    LOOM_ASSIGN_OR_RETURN(const uint16_t max_speed, link_.Read(map::kTurntableMaxSpeed));
+    set_max_speed(max_speed / 100.0);
+    return identity;
+  }
+  Status DoConfigure(const TurntableSettings& applied) override {
+    return link_.Write(map::kTurntableSpeed, static_cast<uint16_t>(std::lround(applied.speed_deg_s * 100)));
+  }
+  Status DoStart() override { return link_.Write(map::kCommand, map::kCommandEnable); }
+  Status DoStop() override { return link_.Write(map::kCommand, map::kCommandDisable); }
+  Status DoClose() override {
+    link_.Close();
+    return Status::Ok();
+  }
+  Status DoMakeSafe() override { return axis_.Stop(); }
+  Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
+  Status DoMoveTo(double angle_deg) override { return axis_.MoveTo(angle_deg, settings().move_timeout_ms); }
+  Result<double> DoAngle() override { return axis_.Position(); }
+
+ private:
+  ModbusLink link_;
+  Axis axis_;
+};
+
+class ModbusLinearLight : public LinearLight {
+ public:
+  ModbusLinearLight(const DeviceConfig& config, ModbusOptions options)
+      : LinearLight(config.name, config.backend, options.endpoint.ToString()),
+        link_(description(), options.endpoint, options.response_timeout),
+        axis_(link_, description(), "mm", 1000.0) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    LOOM_ASSIGN_OR_RETURN(DeviceIdentity identity, OpenController(link_, map::kTypeLinearLight, description()));
+    LOOM_ASSIGN_OR_RETURN(const uint16_t max_speed, link_.Read(map::kLinearMaxSpeed));
+    LOOM_ASSIGN_OR_RETURN(const int32_t travel_um, link_.Read32(map::kLinearTravel));
+    set_limits(travel_um / 1000.0, max_speed / 10.0);
+    return identity;
+  }
+  Status DoConfigure(const LinearLightSettings& applied) override {
+    return link_.Write(map::kLinearSpeed, static_cast<uint16_t>(std::lround(applied.speed_mm_s * 10)));
+  }
+  Status DoStart() override { return link_.Write(map::kCommand, map::kCommandEnable); }
+  Status DoStop() override { return link_.Write(map::kCommand, map::kCommandDisable); }
+  Status DoClose() override {
+    link_.Close();
+    return Status::Ok();
+  }
+  Status DoMakeSafe() override {
+    const Status stopped = axis_.Stop();
+    const Status dark = link_.Write(map::kLinearStripOn, 0);
+    return stopped.ok() ? dark : stopped;
+  }
+  Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
+  Status DoMoveTo(double position_mm) override { return axis_.MoveTo(position_mm, settings().move_timeout_ms); }
+  Status DoSetStrip(bool on, double intensity) override {
+    const uint16_t values[2] = {static_cast<uint16_t>(on ? 1 : 0),
+                                static_cast<uint16_t>(std::lround(intensity * 1000))};
+    return link_.Write(map::kLinearStripOn, values);
+  }
+  Result<LinearLightReadback> DoRead() override {
+    LOOM_ASSIGN_OR_RETURN(const double position, axis_.Position());
+    LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> strip, link_.Read(map::kLinearStripOn, 2));
+    return LinearLightReadback{position, strip[0] != 0, strip[1] / 1000.0};
+  }
+
+ private:
+  ModbusLink link_;
+  Axis axis_;
+};
+
+class ModbusLedArray : public LedArray {
+ public:
+  ModbusLedArray(const DeviceConfig& config, ModbusOptions options)
+      : LedArray(config.name, config.backend, options.endpoint.ToString()),
+        link_(description(), options.endpoint, options.response_timeout) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    LOOM_ASSIGN_OR_RETURN(DeviceIdentity identity, OpenController(link_, map::kTypeLeds, description()));
+    LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> limits, link_.Read(map::kLedCount, 2));
+    set_limits(std::min<int>(limits[0], map::kMaxLeds), limits[1]);
+    return identity;
+  }
+  Status DoConfigure(const LedArraySettings& applied) override {
+    return link_.Write(map::kLedCurrentLimit, static_cast<uint16_t>(std::lround(applied.current_limit_ma)));
+  }
+  Status DoStart() override { return link_.Write(map::kCommand, map::kCommandEnable); }
+  Status DoStop() override {
+    const Status dark = DoAllOff();
+    const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
+    return dark.ok() ? disabled : dark;
+  }
+  Status DoClose() override {
+    link_.Close();
+    return Status::Ok();
+  }
+  Status DoDrive(std::span<const LedDrive> leds) override {
+    std::vector<uint16_t> currents(led_count(), 0);
+    for (const LedDrive& drive : leds) currents[drive.led] = static_cast<uint16_t>(std::lround(drive.current_ma));
+    const Status written = link_.Write(map::kLedCurrents, currents);
+    if (written.ok() || written.code() != StatusCode::kUnavailable) return written;
+    // A refused write: say why if the controller knows.
+    const Result<uint16_t> status = link_.Read(map::kStatus);
+    if (status.ok() && (*status & map::kStatusOverTemperature)) {
+      return Error(StatusCode::kUnavailable, "over-temperature: the controller switched every LED off");
+    }
+    return written;
+  }
+  Status DoAllOff() override {
+    const std::vector<uint16_t> zeros(led_count(), 0);
+    return link_.Write(map::kLedCurrents, zeros);
+  }
+  Result<LedArrayReadback> DoRead() override {
+    LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> currents, link_.Read(map::kLedCurrents, led_count()));
+    LOOM_ASSIGN_OR_RETURN(const uint16_t status, link_.Read(map::kStatus));
+    LOOM_ASSIGN_OR_RETURN(const uint16_t temperature, link_.Read(map::kLedTemperature));
+    LedArrayReadback readback;
+    readback.current_ma.assign(currents.begin(), currents.end());
+    readback.temperature_c = temperature / 10.0;
+    readback.over_temperature = (status & map::kStatusOverTemperature) != 0;
+    return readback;
+  }
+
+ private:
+  ModbusLink link_;
+};
+
+template <typename Base, typename Concrete>
+DeviceFactory<Base> Factory() {
+  return [](const DeviceConfig& config) -> Result<std::unique_ptr<Base>> {
+    LOOM_ASSIGN_OR_RETURN(ModbusOptions options, ReadOptions(config));
+    return std::unique_ptr<Base>(std::make_unique<Concrete>(config, std::move(options)));
+  };
+}
+
+}  // namespace
+
+void RegisterModbusBackends(BackendRegistry& registry) {
+  registry.Register<Turntable>("modbus", Factory<Turntable, ModbusTurntable>());
+  registry.Register<LinearLight>("modbus", Factory<LinearLight, ModbusLinearLight>());
+  registry.Register<LedArray>("modbus", Factory<LedArray, ModbusLedArray>());
+}
+
+}  // namespace loom::hal

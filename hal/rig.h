@@ -1,0 +1,102 @@
+#pragma once
+// Rig: every device of a scanner, created from the `devices:` section of a rig YAML through the
+// BackendRegistry, with the settings the YAML gives each device.
+//
+//   devices:
+//     cameras:
+//       - {name: cam0, backend: aravis, address: 127.0.0.1,
+//          settings: {pixel_format: Mono16, exposure_us: 8000, trigger: software}}
+//     leds: {name: leds, backend: modbus, endpoint: "tcp://127.0.0.1:1502"}
+//     filter_wheels: [{name: wheel0, backend: usb, ...}]
+//     turntable: {...}
+//     linear_light: {...}
+//     projector: {...}
+//
+// Every section is optional (a rig without a projector cannot run structured light; the plan
+// says so). Device names are unique. SafeStateGuard puts the rig in its safe state — LEDs off,
+// motion stopped, projector blank, acquisition stopped — when it goes out of scope, on every
+// exit path: return, exception, and Ctrl-C (it installs the interrupt handler; long waits notice
+// the flag and return Cancelled, unwinding to the guard).
+// Thread-safety: one thread drives a rig.
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/config.h"
+#include "hal/registry.h"
+#include "hal/rig_state.h"
+
+namespace loom::hal {
+
+inline constexpr int kRigSchemaVersion = 1;
+
+class Rig {
+ public:
+  // Reads `devices` (the mapping under the `devices:` key) and creates every device. Problems
+  // in the YAML are recorded in the document (call its Finish()); a backend that cannot create
+  // its device is returned as an error naming the device.
+  static Result<std::unique_ptr<Rig>> Create(const ConfigNode& devices,
+                                             const BackendRegistry& registry);
+  // Loads a rig YAML whose top level is `schema_version`, `name` and `devices`.
+  static Result<std::unique_ptr<Rig>> Load(const std::filesystem::path& path,
+                                           const BackendRegistry& registry);
+
+  const std::string& name() const { return name_; }
+
+  const std::vector<std::unique_ptr<Camera>>& cameras() const { return cameras_; }
+  const std::vector<std::unique_ptr<FilterWheel>>& filter_wheels() const { return filter_wheels_; }
+  LedArray* leds() const { return leds_.get(); }
+  Turntable* turntable() const { return turntable_.get(); }
+  LinearLight* linear_light() const { return linear_light_.get(); }
+  Projector* projector() const { return projector_.get(); }
+  // Every device, cameras first.
+  std::vector<Device*> devices() const;
+  Device* FindDevice(const std::string& name) const;
+
+  // Opens every device and configures it with its rig settings. Stops at the first failure,
+  // which names the device (an adjusted setting is logged, an invalid one is an error).
+  Status OpenAndConfigure();
+  Status StartAll();
+  // Stops every running device; returns the first error.
+  Status StopAll();
+  // Every device's MakeSafe(), whatever fails; returns the first error.
+  Status MakeSafe();
+  Status CloseAll();
+  // What the devices report now (turntable angle, LEDs lit, wheel slots, ...).
+  Result<RigState> ReadState();
+
+ private:
+  Rig() = default;
+  Status Configure(Device* device);
+
+  std::string name_;
+  std::vector<std::unique_ptr<Camera>> cameras_;
+  std::vector<CameraSettings> camera_settings_;
+  std::vector<std::unique_ptr<FilterWheel>> filter_wheels_;
+  std::vector<FilterWheelSettings> filter_wheel_settings_;
+  std::unique_ptr<LedArray> leds_;
+  LedArraySettings led_settings_;
+  std::unique_ptr<Turntable> turntable_;
+  TurntableSettings turntable_settings_;
+  std::unique_ptr<LinearLight> linear_light_;
+  LinearLightSettings linear_light_settings_;
+  std::unique_ptr<Projector> projector_;
+  ProjectorSettings projector_settings_;
+};
+
+// Puts the rig in its safe state when it goes out of scope (failures are logged: a destructor
+// has nobody to return them to). Installs the SIGINT/SIGTERM handler (core/interrupt.h).
+class SafeStateGuard {
+ public:
+  explicit SafeStateGuard(Rig& rig);
+  ~SafeStateGuard();
+  SafeStateGuard(const SafeStateGuard&) = delete;
+  SafeStateGuard& operator=(const SafeStateGuard&) = delete;
+
+ private:
+  Rig& rig_;
+};
+
+}  // namespace loom::hal
