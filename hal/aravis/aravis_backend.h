@@ -1,0 +1,18 @@
+#pragma once
+// The `aravis` backend: GigE Vision (and USB3 Vision) cameras through Aravis 0.8 (GenICam).
+//
+// Rig YAML keys of an aravis camera (besides name, backend, settings):
+//   address: 192.168.10.11      # IP address (unicast, no discovery), or an Aravis device id
+//                               # ("Basler-21234567"), which makes Aravis discover devices
+//   reconnect_attempts: 2       # optional: reopen attempts after the camera dropped out
+//
+// Opening by device id broadcasts discovery on every interface: on a rig that is the point; in
+// tests it happens only inside a private network namespace.
+
+#include "hal/registry.h"
+
+namespace loom::hal {
+
+void RegisterAravisBackend(BackendRegistry& registry);
+
+}  // namespace loom::hal

@@ -1,0 +1,54 @@
+#pragma once
+// AravisCamera: the Camera on Aravis 0.8. Private to hal/aravis and its tests (which reach the
+// underlying ArvCamera to set an Aravis fake camera's frame content).
+
+#include <arv.h>
+
+#include "hal/camera.h"
+
+namespace loom::hal {
+
+struct AravisCameraOptions {
+  std::string address;         // IP address or Aravis device id
+  int reconnect_attempts = 2;  // after a dropped camera
+};
+
+class AravisCamera : public Camera {
+ public:
+  AravisCamera(std::string name, AravisCameraOptions options);
+  ~AravisCamera() override;
+
+  // The open ArvCamera (nullptr when closed). For tests of fake cameras.
+  ArvCamera* native_camera() const { return camera_; }
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override;
+  Status DoConfigure(CameraSettings* applied) override;
+  Status DoStart() override;
+  Status DoStop() override;
+  Status DoClose() override;
+  Status DoMakeSafe() override;
+  Status DoTriggerSoftware() override;
+  Result<RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override;
+
+ private:
+  Status Connect();
+  Status ApplySettings(CameraSettings* applied);
+  Status StartStream();
+  void StopStream();
+  // The camera still answers on its control channel.
+  bool Answers();
+  // The camera still has the settings loom applied (a restarted one has its defaults).
+  bool KeepsSettings();
+  // After a lost camera: reopen, reconfigure and restart acquisition.
+  Status Reconnect();
+  Result<RawFrame> ToRawFrame(ArvBuffer* buffer) const;
+  // A status naming this camera from an Aravis GError (which it frees); OK if none.
+  Status FromGError(GError* error, const std::string& what, StatusCode code = StatusCode::kUnavailable) const;
+
+  AravisCameraOptions options_;
+  ArvCamera* camera_ = nullptr;
+  ArvStream* stream_ = nullptr;
+};
+
+}  // namespace loom::hal
