@@ -15,6 +15,7 @@ find_package(Torch REQUIRED)
 find_package(Threads REQUIRED)
 
 if(LOOM_BUILD_TESTS)
+  pkg_check_modules(UMOCKDEV REQUIRED IMPORTED_TARGET umockdev-1.0)
   find_package(GTest REQUIRED)
   include(GoogleTest)
 endif()

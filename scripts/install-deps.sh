@@ -5,14 +5,14 @@ set -euo pipefail
 
 packages=(
   # toolchain
-  cmake ninja-build g++ pkg-config ccache
+  cmake ninja-build g++ pkg-config ccache iproute2
   # hardware backends
   libaravis-dev aravis-tools libusb-1.0-0-dev libmodbus-dev
   # algorithms and data
   libopencv-dev libceres-dev libopenexr-dev libtorch-dev libopenblas0-pthread
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
 )
 
 missing=()
