@@ -13,13 +13,13 @@ function(loom_library name)
   loom_set_warnings(${name})
 endfunction()
 
-# loom_test(NAME SOURCES ... DEPS ... [LABELS unit|sim|peer|gpu])
+# loom_test(NAME SOURCES ... DEPS ... [LABELS unit|sim|peer|gpu] [RESOURCE_LOCK name])
 # One executable per module keeps link time (LibTorch!) down; every TEST becomes a CTest test.
 function(loom_test name)
   if(NOT LOOM_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "RESOURCE_LOCK" "SOURCES;DEPS;LABELS" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
@@ -29,7 +29,9 @@ function(loom_test name)
     LOOM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
 )
   loom_set_warnings(${name})
-  gtest_discover_tests(${name}
-    PROPERTIES LABELS "${ARG_LABELS}"
-    DISCOVERY_TIMEOUT 60)
+  set(properties LABELS "${ARG_LABELS}")
+  if(ARG_RESOURCE_LOCK)
+    list(APPEND properties RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
+  endif()
+  gtest_discover_tests(${name} PROPERTIES ${properties} DISCOVERY_TIMEOUT 60)
 endfunction()

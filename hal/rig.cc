@@ -174,11 +174,13 @@ Status Rig::Configure(Device* device) {
 }
 
 Status Rig::OpenAndConfigure() {
-  for (Device* device : devices()) {
-    if (device->state() == DeviceState::kClosed) LOOM_RETURN_IF_ERROR(device->Open());
-    LOOM_RETURN_IF_ERROR(Configure(device));
-  }
+  for (Device* device : devices()) LOOM_RETURN_IF_ERROR(OpenAndConfigure(device));
   return Status::Ok();
+}
+
+Status Rig::OpenAndConfigure(Device* device) {
+  if (device->state() == DeviceState::kClosed) LOOM_RETURN_IF_ERROR(device->Open());
+  return Configure(device);
 }
 
 Status Rig::StartAll() {

@@ -58,6 +58,8 @@ class Rig {
   // Opens every device and configures it with its rig settings. Stops at the first failure,
   // which names the device (an adjusted setting is logged, an invalid one is an error).
   Status OpenAndConfigure();
+  // The same for one device of this rig.
+  Status OpenAndConfigure(Device* device);
   Status StartAll();
   // Stops every running device; returns the first error.
   Status StopAll();

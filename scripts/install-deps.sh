@@ -12,7 +12,7 @@ packages=(
   libopencv-dev libceres-dev libopenexr-dev libtorch-dev libopenblas0-pthread
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
+  libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev xvfb
 )
 
 missing=()

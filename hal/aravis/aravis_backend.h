@@ -9,10 +9,26 @@
 // Opening by device id broadcasts discovery on every interface: on a rig that is the point; in
 // tests it happens only inside a private network namespace.
 
+#include <string>
+#include <vector>
+
 #include "hal/registry.h"
 
 namespace loom::hal {
 
 void RegisterAravisBackend(BackendRegistry& registry);
+
+struct DiscoveredCamera {
+  std::string id;        // Aravis device id, usable as `address:`
+  std::string vendor;
+  std::string model;
+  std::string serial;
+  std::string address;   // IP address for GigE Vision
+  std::string protocol;  // "GigEVision", "USB3Vision"
+};
+
+// Every camera Aravis can find. BROADCASTS GigE Vision discovery on every network interface:
+// for setting up a rig on its camera network; tests call it only inside a private namespace.
+std::vector<DiscoveredCamera> DiscoverAravisCameras();
 
 }  // namespace loom::hal

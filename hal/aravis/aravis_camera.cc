@@ -294,6 +294,18 @@ Result<RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeout) {
   return frame;
 }
 
+std::vector<DiscoveredCamera> DiscoverAravisCameras() {
+  arv_update_device_list();
+  std::vector<DiscoveredCamera> cameras;
+  const auto text = [](const char* value) { return std::string(value ? value : ""); };
+  for (unsigned i = 0; i < arv_get_n_devices(); ++i) {
+    cameras.push_back({text(arv_get_device_id(i)), text(arv_get_device_vendor(i)), text(arv_get_device_model(i)),
+                       text(arv_get_device_serial_nbr(i)), text(arv_get_device_address(i)),
+                       text(arv_get_device_protocol(i))});
+  }
+  return cameras;
+}
+
 void RegisterAravisBackend(BackendRegistry& registry) {
   registry.Register<Camera>("aravis", [](const DeviceConfig& config) -> Result<std::unique_ptr<Camera>> {
     AravisCameraOptions options;

@@ -1,0 +1,265 @@
+// loom rig list | status | snap | move | leds: operate a rig's devices one at a time, e.g. to
+// check the wiring of a new scanner or to recalibrate by hand. Every subcommand holds a
+// safe-state guard: LEDs go off and motion stops when it ends, Ctrl-C included.
+#include <chrono>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "apps/backends.h"
+#include "apps/command.h"
+#include "core/exr_io.h"
+#include "core/interrupt.h"
+#include "hal/aravis/aravis_backend.h"
+#include "hal/rig.h"
+
+namespace loom::apps {
+namespace {
+
+using hal::Camera;
+using hal::Device;
+using hal::Rig;
+
+std::string Pad(const std::string& text, size_t width) {
+  return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
+}
+
+Result<std::unique_ptr<Rig>> LoadRig(const std::string& path) { return Rig::Load(path, AllBackends()); }
+
+Result<Device*> FindDevice(const Rig& rig, const std::string& name) {
+  if (Device* device = rig.FindDevice(name)) return device;
+  std::string names;
+  for (Device* device : rig.devices()) names += (names.empty() ? "" : ", ") + device->name();
+  return NotFoundError("device '" + name + "'", "not in rig '" + rig.name() + "' (devices: " + names + ")");
+}
+
+int List(const std::string& rig_path, bool discover) {
+  if (!rig_path.empty()) {
+    Result<std::unique_ptr<Rig>> rig = LoadRig(rig_path);
+    if (!rig.ok()) return ReportFailure(rig.status());
+    std::cout << "rig '" << (*rig)->name() << "' (" << rig_path << "): " << (*rig)->devices().size()
+              << " devices\n";
+    for (Device* device : (*rig)->devices()) {
+      std::cout << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11)
+                << device->address() << "\n";
+    }
+  }
+  if (discover) {
+    const std::vector<hal::DiscoveredCamera> cameras = hal::DiscoverAravisCameras();
+    std::cout << "cameras found by Aravis discovery: " << cameras.size() << "\n";
+    for (const hal::DiscoveredCamera& camera : cameras) {
+      std::cout << "  " << Pad(camera.id, 28) << Pad(camera.protocol, 12) << Pad(camera.address, 16)
+                << camera.vendor << " " << camera.model << " serial " << camera.serial << "\n";
+    }
+  }
+  return kExitOk;
+}
+
+// One line about what a device reports now.
+Result<std::string> Describe(Device* device) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3);
+  const hal::DeviceIdentity& id = device->identity();
+  out << id.vendor << (id.model.empty() ? "" : " " + id.model) << (id.serial.empty() ? "" : " serial " + id.serial);
+  if (auto* camera = dynamic_cast<Camera*>(device)) {
+    const hal::CameraCapabilities& caps = camera->capabilities();
+    out << "; sensor " << caps.sensor_width << "x" << caps.sensor_height << ", exposure " << caps.exposure_min_us
+        << ".." << caps.exposure_max_us << " us";
+  } else if (auto* leds = dynamic_cast<hal::LedArray*>(device)) {
+    LOOM_ASSIGN_OR_RETURN(const hal::LedArrayReadback read, leds->Read());
+    int lit = 0;
+    for (double current : read.current_ma) lit += current > 0;
+    out << "; " << leds->led_count() << " LEDs, " << lit << " lit, " << read.temperature_c << " C"
+        << (read.over_temperature ? ", OVER TEMPERATURE" : "");
+  } else if (auto* turntable = dynamic_cast<hal::Turntable*>(device)) {
+    LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
+    out << "; at " << angle << " deg";
+  } else if (auto* light = dynamic_cast<hal::LinearLight*>(device)) {
+    LOOM_ASSIGN_OR_RETURN(const hal::LinearLightReadback read, light->Read());
+    out << "; at " << read.position_mm << " of " << light->travel_mm() << " mm, strip "
+        << (read.on ? "on" : "off");
+  } else if (auto* wheel = dynamic_cast<hal::FilterWheel*>(device)) {
+    LOOM_ASSIGN_OR_RETURN(const int slot, wheel->Position());
+    out << "; slot " << slot << " of " << wheel->slot_count();
+  } else if (auto* projector = dynamic_cast<hal::Projector*>(device)) {
+    out << "; " << projector->native_width() << "x" << projector->native_height();
+  }
+  return out.str();
+}
+
+int StatusOfAll(Rig& rig) {
+  hal::SafeStateGuard guard(rig);
+  int failures = 0;
+  for (Device* device : rig.devices()) {
+    const Status opened = device->Open();
+    Result<std::string> line = opened.ok() ? Describe(device) : Result<std::string>(opened);
+    std::cout << "  " << Pad(device->name(), 14);
+    if (line.ok()) {
+      std::cout << "ok      " << *line << "\n";
+    } else {
+      ++failures;
+      std::cout << "FAILED  " << line.status().ToString() << "\n";
+    }
+  }
+  rig.MakeSafe().ok();
+  rig.CloseAll().ok();
+  return failures == 0 ? kExitOk : kExitFailure;
+}
+
+Status WriteFrame(const hal::RawFrame& frame, const std::string& path) {
+  if (path.ends_with(".png")) {
+    const cv::Mat image(frame.height, frame.width, CV_16UC1, const_cast<uint16_t*>(frame.pixels.data()));
+    if (!cv::imwrite(path, image)) return IoError(path, "cannot write PNG");
+    return Status::Ok();
+  }
+  if (!path.ends_with(".exr")) return InvalidArgumentError("--out " + path, "must end in .exr or .png");
+  Image image(frame.width, frame.height, {"Y"});
+  std::copy(frame.pixels.begin(), frame.pixels.end(), image.channel(0).begin());
+  const hal::FrameMetadata& meta = frame.metadata;
+  return WriteExr(path, image,
+                  {{"loom.camera", meta.camera},
+                   {"loom.cameraSerial", meta.camera_serial},
+                   {"loom.pixelFormat", std::string(hal::PixelFormatName(meta.pixel_format))},
+                   {"loom.exposure_us", meta.exposure_us},
+                   {"loom.gain", meta.gain},
+                   {"loom.frameId", static_cast<int>(meta.frame_id)},
+                   {"loom.units", std::string("raw sensor counts (DN)")}});
+}
+
+Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& out) {
+  LOOM_ASSIGN_OR_RETURN(Device* device, FindDevice(rig, camera_name));
+  auto* camera = dynamic_cast<Camera*>(device);
+  if (camera == nullptr) return InvalidArgumentError("--camera " + camera_name, "is a " + device->kind() + ", not a camera");
+  hal::SafeStateGuard guard(rig);
+  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(camera));
+  if (exposure_us > 0 || camera->settings().trigger != hal::TriggerMode::kSoftware) {
+    hal::CameraSettings settings = camera->settings();
+    if (exposure_us > 0) settings.exposure_us = exposure_us;
+    settings.trigger = hal::TriggerMode::kSoftware;
+    LOOM_ASSIGN_OR_RETURN(const hal::ConfigureReport report, camera->Configure(settings));
+    LOOM_RETURN_IF_ERROR(report.ToStatus(camera->description()));
+  }
+  LOOM_RETURN_IF_ERROR(camera->Start());
+  LOOM_ASSIGN_OR_RETURN(const hal::RawFrame frame, camera->Snap());
+  LOOM_RETURN_IF_ERROR(WriteFrame(frame, out));
+  std::cout << "wrote " << out << ": " << frame.width << "x" << frame.height << " "
+            << hal::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us
+            << " us, from " << camera->description() << "\n";
+  return camera->Close();
+}
+
+Status Move(Rig& rig, const std::string& name, double to) {
+  LOOM_ASSIGN_OR_RETURN(Device* device, FindDevice(rig, name));
+  hal::SafeStateGuard guard(rig);
+  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(device));
+  LOOM_RETURN_IF_ERROR(device->Start());
+  std::ostringstream where;
+  if (auto* turntable = dynamic_cast<hal::Turntable*>(device)) {
+    LOOM_RETURN_IF_ERROR(turntable->MoveTo(to));
+    LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
+    where << angle << " deg";
+  } else if (auto* light = dynamic_cast<hal::LinearLight*>(device)) {
+    LOOM_RETURN_IF_ERROR(light->MoveTo(to));
+    LOOM_ASSIGN_OR_RETURN(const hal::LinearLightReadback read, light->Read());
+    where << read.position_mm << " mm";
+  } else if (auto* wheel = dynamic_cast<hal::FilterWheel*>(device)) {
+    if (to != static_cast<int>(to)) return InvalidArgumentError("--to", "a filter wheel slot is a whole number");
+    LOOM_RETURN_IF_ERROR(wheel->MoveTo(static_cast<int>(to)));
+    LOOM_ASSIGN_OR_RETURN(const int slot, wheel->Position());
+    where << "slot " << slot;
+  } else {
+    return InvalidArgumentError("--device " + name, "is a " + device->kind() + ", which does not move");
+  }
+  std::cout << device->name() << " is at " << where.str() << "\n";
+  return device->Close();
+}
+
+Result<std::vector<hal::LedDrive>> ParseLeds(const std::string& text) {
+  std::vector<hal::LedDrive> leds;
+  std::stringstream items(text);
+  std::string item;
+  while (std::getline(items, item, ',')) {
+    const size_t colon = item.find(':');
+    try {
+      if (colon == std::string::npos) throw std::invalid_argument(item);
+      leds.push_back({std::stoi(item.substr(0, colon)), std::stod(item.substr(colon + 1))});
+    } catch (const std::exception&) {
+      return InvalidArgumentError("--on '" + text + "'", "expected LED:MILLIAMPS[,LED:MILLIAMPS...], got '" + item + "'");
+    }
+  }
+  return leds;
+}
+
+Status Leds(Rig& rig, const std::string& on, double hold_s) {
+  if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
+  LOOM_ASSIGN_OR_RETURN(const std::vector<hal::LedDrive> leds, ParseLeds(on));
+  hal::SafeStateGuard guard(rig);
+  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
+  LOOM_RETURN_IF_ERROR(rig.leds()->Start());
+  LOOM_RETURN_IF_ERROR(rig.leds()->Drive(leds));
+  std::cout << leds.size() << " LEDs on for " << hold_s << " s (Ctrl-C ends it)\n";
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(hold_s);
+  while (std::chrono::steady_clock::now() < until && !InterruptRequested()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::cout << "LEDs off\n";
+  return Status::Ok();  // the guard switches them off
+}
+
+}  // namespace
+
+int RunRig(int argc, char** argv) {
+  CLI::App app("Operate a rig's devices one at a time: list, status, snap, move, leds", "loom rig");
+  AddCommonOptions(app);
+  app.require_subcommand(1);
+  std::string rig_path;
+  bool discover = false;
+  CLI::App* list = app.add_subcommand("list", "List the rig's devices (and, with --discover, the cameras on the network)");
+  list->add_option("--rig", rig_path, "Rig YAML");
+  list->add_flag("--discover", discover, "Broadcast GigE Vision discovery on every network interface");
+  CLI::App* status = app.add_subcommand("status", "Open every device and print what it reports");
+  status->add_option("--rig", rig_path, "Rig YAML")->required();
+  std::string camera;
+  std::string out;
+  double exposure_us = 0;
+  CLI::App* snap = app.add_subcommand("snap", "Capture one frame from a camera to EXR (float DN) or 16-bit PNG");
+  snap->add_option("--rig", rig_path, "Rig YAML")->required();
+  snap->add_option("--camera", camera, "Camera name in the rig")->required();
+  snap->add_option("--out", out, "Output file, .exr or .png")->required();
+  snap->add_option("--exposure-us", exposure_us, "Exposure (default: the rig's setting)");
+  std::string device;
+  double to = 0;
+  CLI::App* move = app.add_subcommand("move", "Move the turntable (deg), the linear light (mm) or a filter wheel (slot)");
+  move->add_option("--rig", rig_path, "Rig YAML")->required();
+  move->add_option("--device", device, "Device name in the rig")->required();
+  move->add_option("--to", to, "Target: degrees, mm or slot")->required();
+  std::string on;
+  double hold_s = 5;
+  CLI::App* leds = app.add_subcommand("leds", "Light LEDs for a while, then switch them off");
+  leds->add_option("--rig", rig_path, "Rig YAML")->required();
+  leds->add_option("--on", on, "LED:MILLIAMPS[,LED:MILLIAMPS...], LEDs numbered from 0")->required();
+  leds->add_option("--hold-s", hold_s, "Seconds to keep them on (default 5)")->check(CLI::NonNegativeNumber);
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+
+  if (*list) {
+    if (rig_path.empty() && !discover) {
+      std::cerr << "error: loom rig list needs --rig FILE or --discover\n";
+      return kExitUsage;
+    }
+    return List(rig_path, discover);
+  }
+  Result<std::unique_ptr<Rig>> rig = LoadRig(rig_path);
+  if (!rig.ok()) return ReportFailure(rig.status());
+  if (*status) return StatusOfAll(**rig);
+  Status done;
+  if (*snap) done = Snap(**rig, camera, exposure_us, out);
+  if (*move) done = Move(**rig, device, to);
+  if (*leds) done = Leds(**rig, on, hold_s);
+  return done.ok() ? kExitOk : ReportFailure(done);
+}
+
+}  // namespace loom::apps

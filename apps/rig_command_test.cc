@@ -1,0 +1,142 @@
+// `loom rig` against real peers: loom-modbus-sim controllers on 127.0.0.1, an
+// arv-fake-gv-camera-0.8 process on 127.0.0.1 (opened by address: unicast only), and the
+// recording projector.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "core/exr_io.h"
+#include "core/testing/subprocess.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using loom::testing::Subprocess;
+using namespace std::chrono_literals;
+
+struct LoomRun {
+  int exit_code = -1;
+  std::string output;
+};
+
+LoomRun RunLoom(const std::string& arguments) {
+  LoomRun run;
+  FILE* pipe = popen((std::string(LOOM_BINARY) + " " + arguments + " 2>&1").c_str(), "r");
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) run.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+class RigCommandTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / "rig_command_test";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    for (const char* device : {"leds", "turntable", "linear-light"}) {
+      auto sim = Subprocess::Start({LOOM_MODBUS_SIM, "--device", device, "--tcp", "127.0.0.1:0"});
+      ASSERT_TRUE(sim.ok());
+      auto line = sim->ReadLine(5s);
+      ASSERT_TRUE(line.ok());
+      endpoints_.push_back("tcp://" + line->substr(14));
+      peers_.push_back(std::move(*sim));
+    }
+    auto camera = Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", "127.0.0.1", "-s", "LOOMCLI0"});
+    ASSERT_TRUE(camera.ok());
+    peers_.push_back(std::move(*camera));
+    rig_ = WriteRig(endpoints_[0]);
+    // The fake camera needs a moment before it answers.
+    for (int i = 0; i < 50 && RunLoom("rig status --rig " + rig_.string()).exit_code != 0; ++i) {
+      std::this_thread::sleep_for(100ms);
+    }
+  }
+
+  fs::path WriteRig(const std::string& led_endpoint, const std::string& extra = "") {
+    const fs::path path = dir_ / ("rig" + std::to_string(rigs_++) + ".yaml");
+    std::ofstream(path) << "schema_version: 1\nname: cli-peers\ndevices:\n"
+                        << "  cameras:\n    - {name: cam0, backend: aravis, address: 127.0.0.1,\n"
+                        << "       settings: {pixel_format: Mono16, roi: [0, 0, 64, 48], exposure_us: 3000}}\n"
+                        << "  leds: {name: leds, backend: modbus, endpoint: \"" << led_endpoint << "\""
+                        << extra << "}\n"
+                        << "  turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1]
+                        << "\", settings: {speed_deg_s: 60}}\n"
+                        << "  linear_light: {name: strip, backend: modbus, endpoint: \"" << endpoints_[2] << "\"}\n"
+                        << "  projector: {name: projector, backend: recording, native_width: 64, native_height: 32}\n";
+    return path;
+  }
+
+  fs::path dir_;
+  fs::path rig_;
+  int rigs_ = 0;
+  std::vector<std::string> endpoints_;
+  std::vector<Subprocess> peers_;
+};
+
+TEST_F(RigCommandTest, ListAndStatus) {
+  const LoomRun list = RunLoom("rig list --rig " + rig_.string());
+  EXPECT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_TRUE(Contains(list.output, "rig 'cli-peers'")) << list.output;
+  EXPECT_TRUE(Contains(list.output, "turntable")) << list.output;
+  const LoomRun status = RunLoom("rig status --rig " + rig_.string());
+  EXPECT_EQ(status.exit_code, 0) << status.output;
+  EXPECT_TRUE(Contains(status.output, "serial LOOMCLI0")) << status.output;
+  EXPECT_TRUE(Contains(status.output, "29 LEDs, 0 lit")) << status.output;
+  EXPECT_TRUE(Contains(status.output, "at 0.000 deg")) << status.output;
+}
+
+TEST_F(RigCommandTest, MoveSnapAndLeds) {
+  const LoomRun move = RunLoom("rig move --rig " + rig_.string() + " --device turntable --to 45");
+  EXPECT_EQ(move.exit_code, 0) << move.output;
+  EXPECT_TRUE(Contains(move.output, "turntable is at 45 deg")) << move.output;
+
+  const fs::path exr = dir_ / "snap.exr";
+  const LoomRun snap = RunLoom("rig snap --rig " + rig_.string() + " --camera cam0 --exposure-us 2000 --out " + exr.string());
+  ASSERT_EQ(snap.exit_code, 0) << snap.output;
+  const auto image = loom::ReadExr(exr);
+  ASSERT_TRUE(image.ok()) << image.status().ToString();
+  EXPECT_EQ(image->image.width(), 64);
+  EXPECT_EQ(std::get<std::string>(image->attributes.at("loom.cameraSerial")), "LOOMCLI0");
+  EXPECT_EQ(std::get<double>(image->attributes.at("loom.exposure_us")), 2000.0);
+  const LoomRun png = RunLoom("rig snap --rig " + rig_.string() + " --camera cam0 --out " + (dir_ / "snap.png").string());
+  EXPECT_EQ(png.exit_code, 0) << png.output;
+  EXPECT_TRUE(fs::file_size(dir_ / "snap.png") > 0);
+
+  const LoomRun leds = RunLoom("rig leds --rig " + rig_.string() + " --on 3:100,7:50 --hold-s 0");
+  EXPECT_EQ(leds.exit_code, 0) << leds.output;
+  EXPECT_TRUE(Contains(leds.output, "2 LEDs on")) << leds.output;
+  const LoomRun after = RunLoom("rig status --rig " + rig_.string());
+  EXPECT_TRUE(Contains(after.output, "29 LEDs, 0 lit")) << after.output;  // the guard switched them off
+}
+
+TEST_F(RigCommandTest, ErrorsNameTheKeyOrTheDevice) {
+  const LoomRun typo = RunLoom("rig status --rig " + WriteRig(endpoints_[0], ", setings: {}").string());
+  EXPECT_EQ(typo.exit_code, 1);
+  EXPECT_TRUE(Contains(typo.output, "key 'devices.leds.setings'")) << typo.output;
+  EXPECT_TRUE(Contains(typo.output, "did you mean 'settings'")) << typo.output;
+
+  const LoomRun unknown = RunLoom("rig move --rig " + rig_.string() + " --device turntabel --to 3");
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_TRUE(Contains(unknown.output, "device 'turntabel': not in rig 'cli-peers'")) << unknown.output;
+
+  const LoomRun down = RunLoom("rig status --rig " + WriteRig("tcp://127.0.0.1:1").string());
+  EXPECT_EQ(down.exit_code, 1);
+  EXPECT_TRUE(Contains(down.output, "FAILED  unavailable: LED array 'leds'")) << down.output;
+
+  EXPECT_EQ(RunLoom("rig").exit_code, 2);
+  EXPECT_EQ(RunLoom("rig move --rig x.yaml").exit_code, 2);
+  const LoomRun missing = RunLoom("rig status --rig /nonexistent/rig.yaml");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_TRUE(Contains(missing.output, "not found: /nonexistent/rig.yaml")) << missing.output;
+}
+
+}  // namespace
