@@ -74,6 +74,14 @@ TEST(CliTest, VersionNamesLoomAndItsLibraries) {
   EXPECT_EQ(RunLoom("version --short").output, std::string(loom::Version()) + "\n");
 }
 
+TEST(CliTest, ShippedRigFilesLoad) {
+  // Loading creates every device through its backend without connecting to any.
+  const LoomRun run = RunLoom("rig list --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/peer.yaml");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_TRUE(Contains(run.output, "rig 'peer'")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "5 devices")) << run.output;
+}
+
 TEST(CliTest, BadOptionsAreUsageErrorsOnStderr) {
   const LoomRun bogus = RunLoom("version --bogus");
   EXPECT_EQ(bogus.exit_code, 2) << bogus.output;

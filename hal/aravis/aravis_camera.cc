@@ -180,6 +180,17 @@ Status AravisCamera::DoMakeSafe() {
   return Status::Ok();
 }
 
+AravisCamera::StreamStatistics AravisCamera::stream_statistics() const {
+  StreamStatistics statistics;
+  if (stream_ == nullptr) return statistics;
+  guint64 completed = 0, failures = 0, underruns = 0;
+  arv_stream_get_statistics(stream_, &completed, &failures, &underruns);
+  statistics.completed = completed;
+  statistics.failures = failures;
+  statistics.underruns = underruns;
+  return statistics;
+}
+
 Status AravisCamera::DoTriggerSoftware() {
   GError* error = nullptr;
   arv_camera_software_trigger(camera_, &error);

@@ -21,6 +21,14 @@ class AravisCamera : public Camera {
   // The open ArvCamera (nullptr when closed). For tests of fake cameras.
   ArvCamera* native_camera() const { return camera_; }
 
+  struct StreamStatistics {
+    uint64_t completed = 0;  // frames delivered
+    uint64_t failures = 0;   // frames that arrived incomplete
+    uint64_t underruns = 0;  // frames dropped because no buffer was free
+  };
+  // Of the current acquisition (zeros when not running).
+  StreamStatistics stream_statistics() const;
+
  protected:
   Result<DeviceIdentity> DoOpen() override;
   Status DoConfigure(CameraSettings* applied) override;

@@ -1,0 +1,193 @@
+// Hardware-layer throughput against real protocol peers:
+// - frames per second from 1 and from 4 fake GigE cameras (arv-fake-gv-camera-0.8 processes on
+//   127.0.0.1-4, 640x480 Mono16, through loom's Camera), software-triggered (the fake polls its
+//   trigger at 25 Hz: that caps it) and free-running (the transport's limit) — needs the
+//   private network namespace: run as `hal/aravis/run_in_netns.sh build/bench/bench_hal`;
+// - Modbus request latency over TCP and RTU (loom-modbus-sim), and reading 29 LED currents in
+//   one block request vs 29 single-register requests (the naive way).
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <thread>
+
+#include "bench/bench_report.h"
+#include "core/testing/subprocess.h"
+#include "hal/aravis/internal/aravis_camera.h"
+#include "hal/modbus/modbus_link.h"
+#include "hal/modbus/register_map.h"
+
+namespace {
+
+using loom::testing::Subprocess;
+using namespace std::chrono_literals;
+namespace map = loom::hal::modbus_map;
+
+struct CameraPeers {
+  std::vector<Subprocess> fakes;
+  std::vector<std::unique_ptr<loom::hal::AravisCamera>> cameras;
+  std::string error;
+};
+
+CameraPeers& Cameras() {
+  static CameraPeers peers = [] {
+    CameraPeers p;
+    const char* netns = std::getenv("LOOM_IN_PRIVATE_NETNS");
+    if (netns == nullptr || std::string(netns) != "1") {
+      p.error = "run inside hal/aravis/run_in_netns.sh for the camera benchmarks";
+      return p;
+    }
+    arv_enable_interface("GigEVision");
+    arv_disable_interface("Fake");
+    for (int i = 0; i < 4; ++i) {
+      const std::string address = "127.0.0." + std::to_string(i + 1);
+      p.fakes.push_back(std::move(*Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", address, "-s",
+                                                      "BENCH0" + std::to_string(i)})));
+      auto camera = std::make_unique<loom::hal::AravisCamera>("cam" + std::to_string(i),
+                                                              loom::hal::AravisCameraOptions{address, 1});
+      loom::Status opened;
+      for (int attempt = 0; attempt < 50 && !(opened = camera->Open()).ok(); ++attempt) {
+        std::this_thread::sleep_for(100ms);
+      }
+      loom::hal::CameraSettings settings;
+      settings.roi = {0, 0, 640, 480};
+      settings.exposure_us = 100;
+      settings.buffer_count = 8;
+      if (!opened.ok() || !camera->Configure(settings).ok() || !camera->Start().ok()) {
+        p.error = "cannot bring up " + address + ": " + opened.ToString();
+        return p;
+      }
+      p.cameras.push_back(std::move(camera));
+    }
+    return p;
+  }();
+  return peers;
+}
+
+// Free-run frame rate asked of every camera: above what loopback GigE Vision carries for 4
+// cameras of 640x480 Mono16 here, so the benchmark shows the transport's limit and its losses.
+constexpr double kFreeRunFps = 100.0;
+
+// Restarts every camera in the given trigger mode.
+bool Rearm(CameraPeers& peers, loom::hal::TriggerMode mode) {
+  for (auto& camera : peers.cameras) {
+    loom::hal::CameraSettings settings = camera->settings();
+    settings.trigger = mode;
+    if (camera->state() == loom::hal::DeviceState::kRunning && !camera->Stop().ok()) return false;
+    if (!camera->Configure(settings).ok()) return false;
+    if (mode == loom::hal::TriggerMode::kFreeRun) {
+      arv_camera_set_frame_rate(camera->native_camera(), kFreeRunFps, nullptr);
+    }
+    if (!camera->Start().ok()) return false;
+  }
+  return true;
+}
+
+// range(0): cameras; range(1): 1 = software trigger (how a scan runs), 0 = free-run.
+void BM_CameraFrames(benchmark::State& state) {
+  CameraPeers& peers = Cameras();
+  const bool triggered = state.range(1) == 1;
+  if (peers.error.empty() &&
+      !Rearm(peers, triggered ? loom::hal::TriggerMode::kSoftware : loom::hal::TriggerMode::kFreeRun)) {
+    peers.error = "cannot restart the cameras";
+  }
+  if (!peers.error.empty()) {
+    state.SkipWithError(peers.error.c_str());
+    return;
+  }
+  const int count = static_cast<int>(state.range(0));
+  std::vector<uint64_t> dropped_before;
+  for (int i = 0; i < count; ++i) {
+    const auto s = peers.cameras[i]->stream_statistics();
+    dropped_before.push_back(s.failures);
+  }
+  int64_t frames = 0;
+  int64_t incomplete = 0;
+  for (auto _ : state) {
+    for (int i = 0; triggered && i < count; ++i) {
+      if (!peers.cameras[i]->TriggerSoftware().ok()) state.SkipWithError("trigger failed");
+    }
+    for (int i = 0; i < count; ++i) {
+      const auto frame = peers.cameras[i]->WaitFrame();
+      if (!frame.ok() && frame.status().code() == loom::StatusCode::kDataLoss) {
+        ++incomplete;  // counted below through the stream statistics
+        continue;
+      }
+      if (!frame.ok()) {
+        state.SkipWithError(frame.status().ToString().c_str());
+        return;
+      }
+      ++frames;
+    }
+  }
+  uint64_t dropped = 0;
+  for (int i = 0; i < count; ++i) {
+    const auto s = peers.cameras[i]->stream_statistics();
+    dropped += s.failures - dropped_before[i];
+  }
+  state.SetItemsProcessed(frames);
+  state.SetBytesProcessed(frames * 640 * 480 * 2);
+  // Frames Aravis could not complete (lost packets); the ones this loop popped are a subset.
+  state.counters["dropped_frames"] = static_cast<double>(dropped);
+  state.counters["incomplete_frames_popped"] = static_cast<double>(incomplete);
+}
+BENCHMARK(BM_CameraFrames)->Args({1, 1})->Args({4, 1})->Args({1, 0})->Args({4, 0})->UseRealTime()->MinTime(2.0);
+
+struct ModbusPeer {
+  Subprocess process;
+  std::unique_ptr<loom::hal::ModbusLink> link;
+};
+
+ModbusPeer StartModbus(bool rtu) {
+  std::vector<std::string> argv = {LOOM_MODBUS_SIM, "--device", "leds"};
+  if (rtu) {
+    argv.push_back("--rtu");
+  } else {
+    argv.insert(argv.end(), {"--tcp", "127.0.0.1:0"});
+  }
+  ModbusPeer peer{std::move(*Subprocess::Start(argv)), nullptr};
+  const std::string line = *peer.process.ReadLine(5s);
+  const std::string endpoint = (rtu ? "rtu://" : "tcp://") + line.substr(14);
+  peer.link = std::make_unique<loom::hal::ModbusLink>("bench", *loom::hal::ParseModbusEndpoint(endpoint), 500ms);
+  if (!peer.link->Connect().ok()) peer.link.reset();
+  return peer;
+}
+
+void BM_ModbusRead(benchmark::State& state, bool rtu, bool block) {
+  ModbusPeer peer = StartModbus(rtu);
+  if (!peer.link) {
+    state.SkipWithError("cannot connect to loom-modbus-sim");
+    return;
+  }
+  int64_t values = 0;
+  for (auto _ : state) {
+    if (block) {
+      if (!peer.link->Read(map::kLedCurrents, 29).ok()) state.SkipWithError("read failed");
+    } else {
+      for (int i = 0; i < 29; ++i) {
+        if (!peer.link->Read(map::kLedCurrents + i).ok()) state.SkipWithError("read failed");
+      }
+    }
+    values += 29;
+  }
+  state.SetItemsProcessed(values);  // register values read
+  state.counters["requests_per_second"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * (block ? 1 : 29), benchmark::Counter::kIsRate);
+}
+BENCHMARK_CAPTURE(BM_ModbusRead, tcp_block, false, true)->UseRealTime();
+BENCHMARK_CAPTURE(BM_ModbusRead, tcp_single, false, false)->UseRealTime();
+BENCHMARK_CAPTURE(BM_ModbusRead, rtu_block, true, true)->UseRealTime();
+BENCHMARK_CAPTURE(BM_ModbusRead, rtu_single, true, false)->UseRealTime();
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return loom::bench::RunBenchmarks(
+      argc, argv, "bench_hal",
+      "Hardware layer against peers: camera frames/s (items = frames), Modbus register reads/s",
+      {{"four_vs_one_camera_frames_triggered", "BM_CameraFrames/4/1/min_time:2.000/real_time",
+        "BM_CameraFrames/1/1/min_time:2.000/real_time"},
+       {"four_vs_one_camera_frames_free_run", "BM_CameraFrames/4/0/min_time:2.000/real_time",
+        "BM_CameraFrames/1/0/min_time:2.000/real_time"},
+       {"modbus_tcp_block_vs_single", "BM_ModbusRead/tcp_block/real_time", "BM_ModbusRead/tcp_single/real_time"},
+       {"modbus_rtu_block_vs_single", "BM_ModbusRead/rtu_block/real_time", "BM_ModbusRead/rtu_single/real_time"}});
+}
