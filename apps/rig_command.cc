@@ -127,6 +127,8 @@ Status WriteFrame(const hal::RawFrame& frame, const std::string& path) {
                    {"loom.exposure_us", meta.exposure_us},
                    {"loom.gain", meta.gain},
                    {"loom.frameId", static_cast<int>(meta.frame_id)},
+                   {"loom.turntable_deg", meta.rig_state.turntable_deg},
+                   {"loom.ledsOn", static_cast<int>(meta.rig_state.leds_on.size())},
                    {"loom.units", std::string("raw sensor counts (DN)")}});
 }
 
@@ -144,7 +146,9 @@ Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const 
     LOOM_RETURN_IF_ERROR(report.ToStatus(camera->description()));
   }
   LOOM_RETURN_IF_ERROR(camera->Start());
-  LOOM_ASSIGN_OR_RETURN(const hal::RawFrame frame, camera->Snap());
+  // The other devices are read for the frame's rig state only where they are open: snap does not
+  // move anything, so the state recorded is what the open devices report.
+  LOOM_ASSIGN_OR_RETURN(const hal::RawFrame frame, rig.Snap(*camera));
   LOOM_RETURN_IF_ERROR(WriteFrame(frame, out));
   std::cout << "wrote " << out << ": " << frame.width << "x" << frame.height << " "
             << hal::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us
@@ -201,7 +205,7 @@ Status Leds(Rig& rig, const std::string& on, double hold_s) {
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
   LOOM_RETURN_IF_ERROR(rig.leds()->Start());
   LOOM_RETURN_IF_ERROR(rig.leds()->Drive(leds));
-  std::cout << leds.size() << " LEDs on for " << hold_s << " s (Ctrl-C ends it)\n";
+  std::cout << leds.size() << " LEDs on for " << hold_s << " s (Ctrl-C ends it)" << std::endl;
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(hold_s);
   while (std::chrono::steady_clock::now() < until && !InterruptRequested()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));

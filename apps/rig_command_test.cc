@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <csignal>
 #include <thread>
 
 #include "core/exr_io.h"
@@ -107,6 +108,7 @@ TEST_F(RigCommandTest, MoveSnapAndLeds) {
   EXPECT_EQ(image->image.width(), 64);
   EXPECT_EQ(std::get<std::string>(image->attributes.at("loom.cameraSerial")), "LOOMCLI0");
   EXPECT_EQ(std::get<double>(image->attributes.at("loom.exposure_us")), 2000.0);
+  EXPECT_EQ(image->attributes.count("loom.turntable_deg"), 1u);  // the rig state is recorded
   const LoomRun png = RunLoom("rig snap --rig " + rig_.string() + " --camera cam0 --out " + (dir_ / "snap.png").string());
   EXPECT_EQ(png.exit_code, 0) << png.output;
   EXPECT_TRUE(fs::file_size(dir_ / "snap.png") > 0);
@@ -116,6 +118,20 @@ TEST_F(RigCommandTest, MoveSnapAndLeds) {
   EXPECT_TRUE(Contains(leds.output, "2 LEDs on")) << leds.output;
   const LoomRun after = RunLoom("rig status --rig " + rig_.string());
   EXPECT_TRUE(Contains(after.output, "29 LEDs, 0 lit")) << after.output;  // the guard switched them off
+}
+
+TEST_F(RigCommandTest, CtrlCEndsPromptlyWithTheLedsOff) {
+  auto loom = Subprocess::Start({LOOM_BINARY, "rig", "leds", "--rig", rig_.string(), "--on", "4:120", "--hold-s", "60"});
+  ASSERT_TRUE(loom.ok());
+  const auto line = loom->ReadLine(10s);
+  ASSERT_TRUE(line.ok()) << line.status().ToString();
+  EXPECT_TRUE(Contains(*line, "1 LEDs on")) << *line;
+  EXPECT_TRUE(Contains(RunLoom("rig status --rig " + rig_.string()).output, "29 LEDs, 1 lit"));
+  const auto sent = std::chrono::steady_clock::now();
+  loom->Signal(SIGINT);
+  EXPECT_EQ(loom->Wait(), 0);
+  EXPECT_LT(std::chrono::steady_clock::now() - sent, 5s);  // not the 60 s hold
+  EXPECT_TRUE(Contains(RunLoom("rig status --rig " + rig_.string()).output, "29 LEDs, 0 lit"));
 }
 
 TEST_F(RigCommandTest, ErrorsNameTheKeyOrTheDevice) {

@@ -244,6 +244,13 @@ Result<RigState> Rig::ReadState() {
   return state;
 }
 
+Result<RawFrame> Rig::Snap(Camera& camera) {
+  LOOM_ASSIGN_OR_RETURN(RigState state, ReadState());
+  LOOM_ASSIGN_OR_RETURN(RawFrame frame, camera.Snap());
+  frame.metadata.rig_state = std::move(state);
+  return frame;
+}
+
 SafeStateGuard::SafeStateGuard(Rig& rig) : rig_(rig) { InstallInterruptHandler(); }
 
 SafeStateGuard::~SafeStateGuard() {

@@ -68,6 +68,9 @@ class Rig {
   Status CloseAll();
   // What the devices report now (turntable angle, LEDs lit, wheel slots, ...).
   Result<RigState> ReadState();
+  // One software-triggered frame from `camera` (running), stamped with ReadState() taken just
+  // before the trigger: what the rig really did for this frame.
+  Result<RawFrame> Snap(Camera& camera);
 
  private:
   Rig() = default;

@@ -115,6 +115,24 @@ TEST_F(FakeInterfaceTest, NegotiatesMono12AndOutOfRangeValues) {
   EXPECT_NE(invalid->ToStatus(camera.description()).ToString().find("camera 'cam0'"), std::string::npos);
 }
 
+TEST_F(FakeInterfaceTest, HardwareTriggerTakesFramesFromTheLine) {
+  AravisCamera camera("cam4", {.address = "Fake_1"});
+  ASSERT_TRUE(camera.Open().ok());
+  ArvFakeCamera* fake = arv_fake_device_get_fake_camera(ARV_FAKE_DEVICE(arv_camera_get_device(camera.native_camera())));
+  arv_fake_camera_set_fill_pattern(fake, FillTestPattern, nullptr);
+  arv_fake_camera_set_trigger_frequency(fake, 50.0);  // the fake pulses its Line0 itself
+  CameraSettings settings = SmallMono16(1000);
+  settings.trigger = TriggerMode::kHardware;
+  ASSERT_TRUE(camera.Configure(settings).ok());
+  ASSERT_TRUE(camera.Start().ok());
+  EXPECT_EQ(camera.TriggerSoftware().code(), StatusCode::kFailedPrecondition);
+  for (int i = 0; i < 3; ++i) {
+    const Result<RawFrame> frame = camera.WaitFrame();
+    ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+    ExpectTestPattern(*frame, 1000);
+  }
+}
+
 TEST_F(FakeInterfaceTest, WrongStateAndMissingCameraAreErrors) {
   AravisCamera camera("cam9", {.address = "Fake_9"});
   EXPECT_EQ(camera.Snap().status().code(), StatusCode::kFailedPrecondition);
