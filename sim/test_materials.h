@@ -1,0 +1,35 @@
+#pragma once
+// Materials with known answers, for calibration captures and for tests of every stage:
+//
+// | material         | what                                              | used by                      |
+// |------------------|---------------------------------------------------|------------------------------|
+// | Uniform          | one WardParams everywhere, flat                   | renderer tests (white        |
+// |                  |                                                   | Lambertian, uniform glossy)  |
+// | WhiteTile        | Lambertian a_d = 0.95 (a Spectralon-like tile)    | flat field, LED intensities  |
+// | Chessboard       | black/white squares, flat, Lambertian             | geometric calibration        |
+// | ColourChart      | the 24 patches of a ColorChecker, Lambertian      | the filter → sRGB matrix     |
+//
+// All flat (height 0, n_s = z), centred on the sample like every material.
+
+#include "fitting/model/ward_gd10.h"
+#include "sim/material.h"
+
+namespace loom::sim {
+
+struct GridOptions {
+  int width_px = 256;
+  int height_px = 256;
+  double pixel_mm = 0.5;
+};
+
+Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params,
+                         const GridOptions& grid);
+Material WhiteTile(const GridOptions& grid);
+// A board of (inner_cols + 1) × (inner_rows + 1) squares of square_mm, centred, on white.
+Material Chessboard(int inner_cols, int inner_rows, double square_mm, const GridOptions& grid);
+// 6 × 4 patches of patch_mm with 20 % gaps, centred, on black; PatchAlbedo(i) gives patch i's
+// a_d (row-major from the top left, dark skin first).
+Material ColourChart(double patch_mm, const GridOptions& grid);
+Eigen::Vector3d ColourChartAlbedo(int patch);
+
+}  // namespace loom::sim
