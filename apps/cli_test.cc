@@ -54,7 +54,7 @@ TEST(CliTest, UnknownCommandIsAUsageError) {
 }
 
 TEST(CliTest, EveryCommandHasHelp) {
-  for (const char* command : {"help", "rig", "version"}) {
+  for (const char* command : {"help", "rig", "sim", "version"}) {
     const LoomRun run = RunLoom(std::string(command) + " --help");
     EXPECT_EQ(run.exit_code, 0) << command << ": " << run.output;
     EXPECT_TRUE(Contains(run.output, "--log-level")) << command << ": " << run.output;

@@ -1,0 +1,116 @@
+// loom sim material: procedural materials (and the known test materials) as SVBRDF maps with
+// preview PNGs. (`loom sim render` arrives with the renderer.)
+#include <filesystem>
+#include <iostream>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "apps/command.h"
+#include "fitting/model/svbrdf_maps.h"
+#include "sim/fabric.h"
+#include "sim/test_materials.h"
+
+namespace loom::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+uint8_t ToSrgb8(double linear) {
+  const double v = std::clamp(linear, 0.0, 1.0);
+  const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
+  return static_cast<uint8_t>(std::lround(255 * encoded));
+}
+
+// Preview images a person can look at: albedos in sRGB, normals as RGB, σ and height as grey,
+// α as hue.
+Status WritePreviews(const sim::Material& m, const fs::path& dir) {
+  const int w = m.width();
+  const int h = m.height();
+  cv::Mat diffuse(h, w, CV_8UC3), specular(h, w, CV_8UC3), normal(h, w, CV_8UC3), sigma(h, w, CV_8UC3),
+      alpha(h, w, CV_8UC3), height(h, w, CV_8UC1);
+  const int height_channel = m.maps.FindChannel(fitting::kHeightChannel).value_or(-1);
+  float max_height = 1e-6f;
+  if (height_channel >= 0) {
+    for (float v : m.maps.channel(height_channel)) max_height = std::max(max_height, v);
+  }
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const fitting::WardParams<double> p = fitting::GetParams(m.maps, x, y);
+      // OpenCV stores BGR.
+      diffuse.at<cv::Vec3b>(y, x) = {ToSrgb8(p.a_d.z()), ToSrgb8(p.a_d.y()), ToSrgb8(p.a_d.x())};
+      specular.at<cv::Vec3b>(y, x) = {ToSrgb8(p.a_s.z()), ToSrgb8(p.a_s.y()), ToSrgb8(p.a_s.x())};
+      const Eigen::Vector3d n = (p.n_s * 0.5 + Eigen::Vector3d::Constant(0.5)) * 255;
+      normal.at<cv::Vec3b>(y, x) = {static_cast<uint8_t>(n.z()), static_cast<uint8_t>(n.y()), static_cast<uint8_t>(n.x())};
+      sigma.at<cv::Vec3b>(y, x) = {0, static_cast<uint8_t>(255 * std::min(1.0, p.sigma_y)),
+                                   static_cast<uint8_t>(255 * std::min(1.0, p.sigma_x))};
+      cv::Vec3b hue;
+      const double t = (p.alpha + kPi / 2) / kPi;  // (−π/2, π/2] → (0, 1]
+      hue[2] = static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * t)));
+      hue[1] = static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * (t - 1.0 / 3))));
+      hue[0] = static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * (t - 2.0 / 3))));
+      alpha.at<cv::Vec3b>(y, x) = hue;
+      height.at<uint8_t>(y, x) =
+          height_channel < 0 ? 0 : static_cast<uint8_t>(255 * m.maps.at(height_channel, y, x) / max_height);
+    }
+  }
+  const std::pair<const char*, cv::Mat*> previews[] = {{"diffuse", &diffuse}, {"specular", &specular},
+                                                       {"normal", &normal},   {"sigma", &sigma},
+                                                       {"alpha", &alpha},     {"height", &height}};
+  for (const auto& [name, image] : previews) {
+    const fs::path path = dir / (std::string(name) + ".png");
+    if (!cv::imwrite(path.string(), *image)) return IoError(path.string(), "cannot write the preview");
+  }
+  return Status::Ok();
+}
+
+Result<sim::Material> MakeMaterial(const std::string& kind, uint64_t seed, int size_px, double pixel_mm) {
+  const sim::GridOptions grid{size_px, size_px, pixel_mm};
+  if (kind == "fabric") {
+    sim::FabricOptions options;
+    options.width_px = options.height_px = size_px;
+    options.pixel_mm = pixel_mm;
+    return sim::GenerateFabric(seed, options);
+  }
+  if (kind == "white-tile") return sim::WhiteTile(grid);
+  if (kind == "chessboard") return sim::Chessboard(9, 6, size_px * pixel_mm / 14, grid);
+  if (kind == "colour-chart") return sim::ColourChart(size_px * pixel_mm / 8, grid);
+  return InvalidArgumentError("--kind " + kind, "unknown (expected fabric, white-tile, chessboard, colour-chart)");
+}
+
+int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_mm, const fs::path& out) {
+  Result<sim::Material> material = MakeMaterial(kind, seed, size_px, pixel_mm);
+  if (!material.ok()) return ReportFailure(material.status());
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return ReportFailure(IoError(out.string(), "cannot create: " + ec.message()));
+  const fs::path maps = out / "svbrdf.exr";
+  if (Status written = sim::WriteMaterial(*material, maps); !written.ok()) return ReportFailure(written);
+  if (Status previews = WritePreviews(*material, out); !previews.ok()) return ReportFailure(previews);
+  std::cout << material->name << " (" << material->width() << "x" << material->height() << " px of "
+            << material->pixel_mm << " mm): " << maps.string() << " and previews in " << out.string() << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunSim(int argc, char** argv) {
+  CLI::App app("The simulator: procedural materials (render: with the virtual rig)", "loom sim");
+  AddCommonOptions(app);
+  app.require_subcommand(1);
+  std::string kind = "fabric";
+  uint64_t seed = 0;
+  int size_px = 256;
+  double pixel_mm = 0.1;
+  std::string out;
+  CLI::App* material = app.add_subcommand("material", "Write a material's SVBRDF maps (OpenEXR) and preview PNGs");
+  material->add_option("--kind", kind, "fabric (procedural, by seed), white-tile, chessboard, colour-chart");
+  material->add_option("--seed", seed, "Seed of a procedural fabric (same seed, same maps)");
+  material->add_option("--size", size_px, "Map size in pixels (square)")->check(CLI::Range(8, 8192));
+  material->add_option("--pixel-mm", pixel_mm, "Map pixel size on the sample in mm")->check(CLI::PositiveNumber);
+  material->add_option("--out", out, "Output directory")->required();
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  return Material(kind, seed, size_px, pixel_mm, out);
+}
+
+}  // namespace loom::apps
