@@ -5,6 +5,7 @@
 #include <random>
 
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/heightfield.h"
 #include "sim/internal/noise.h"
 
 namespace loom::sim {
@@ -128,40 +129,6 @@ PointParams ParamsAt(const FabricDescription& f, double x_mm, double y_mm) {
   return out;
 }
 
-// Separable Gaussian blur with clamped edges.
-std::vector<double> Blur(const std::vector<double>& in, int width, int height, double sigma_px) {
-  if (sigma_px <= 0) return in;
-  const int radius = static_cast<int>(std::ceil(3 * sigma_px));
-  std::vector<double> kernel(2 * radius + 1);
-  double total = 0;
-  for (int k = -radius; k <= radius; ++k) total += kernel[k + radius] = std::exp(-0.5 * k * k / (sigma_px * sigma_px));
-  for (double& w : kernel) w /= total;
-  std::vector<double> tmp(in.size()), out(in.size());
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      double sum = 0;
-      for (int k = -radius; k <= radius; ++k) sum += kernel[k + radius] * in[y * width + std::clamp(x + k, 0, width - 1)];
-      tmp[y * width + x] = sum;
-    }
-  }
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      double sum = 0;
-      for (int k = -radius; k <= radius; ++k) sum += kernel[k + radius] * tmp[std::clamp(y + k, 0, height - 1) * width + x];
-      out[y * width + x] = sum;
-    }
-  }
-  return out;
-}
-
-// Normal of a heightmap (mm) at a pixel, by central differences.
-Eigen::Vector3d NormalAt(const std::vector<double>& h, int width, int height, int x, int y, double pixel_mm) {
-  const auto at = [&](int xx, int yy) { return h[std::clamp(yy, 0, height - 1) * width + std::clamp(xx, 0, width - 1)]; };
-  const double dx = (at(x + 1, y) - at(x - 1, y)) / (2 * pixel_mm);
-  const double dy = (at(x, y + 1) - at(x, y - 1)) / (2 * pixel_mm);
-  return Eigen::Vector3d(-dx, -dy, 1).normalized();
-}
-
 Eigen::Vector3d HsvToLinearRgb(double h, double s, double v) {
   const double c = v * s;
   const double hp = h * 6;
@@ -248,13 +215,13 @@ Material MakeFabric(const FabricDescription& f, const FabricOptions& options) {
       }
     }
   }
-  const std::vector<double> coarse = Blur(height, w, h, options.geometric_blur_mm / px);
+  const std::vector<Eigen::Vector3d> geometric_normals = GeometricNormals(height, w, h, px, options.geometric_blur_mm);
   const int height_channel = *material.maps.ChannelIndex(fitting::kHeightChannel);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
-      const Eigen::Vector3d geometric = NormalAt(coarse, w, h, x, y, px);
-      const Eigen::Vector3d fine = NormalAt(height, w, h, x, y, px);
+      const Eigen::Vector3d& geometric = geometric_normals[i];
+      const Eigen::Vector3d fine = HeightfieldNormal(height, w, h, x, y, px);
       const Eigen::Matrix3d world_from_local = WorldFromLocal(geometric, Eigen::Vector3d::UnitX());
       fitting::WardParams<double> p;
       p.n_s = (world_from_local.transpose() * fine).normalized();
@@ -273,7 +240,8 @@ Material MakeFabric(const FabricDescription& f, const FabricOptions& options) {
                          {"loom.weave", std::string(WeaveName(f.weave))},
                          {"loom.pitch_mm", f.pitch_mm},
                          {"loom.rotation_rad", f.rotation_rad},
-                         {"loom.relief_mm", f.relief_mm}};
+                         {"loom.relief_mm", f.relief_mm},
+                         {"loom.geometric_blur_mm", options.geometric_blur_mm}};
   return material;
 }
 

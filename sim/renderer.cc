@@ -1,0 +1,247 @@
+#include "sim/renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include "fitting/model/svbrdf_maps.h"
+#include "sim/heightfield.h"
+#include "sim/internal/noise.h"
+#include "sim/spectra.h"
+
+namespace loom::sim {
+namespace {
+
+constexpr double kHolderAlbedo = 0.05;  // the matte black sample holder
+
+int ThreadCount(int requested) {
+  return requested > 0 ? requested : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+// Runs body(y) for every row, rows interleaved over threads.
+template <typename Body>
+void ForEachRow(int rows, int threads, Body body) {
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&, t] {
+      for (int y = t; y < rows; y += threads) body(y);
+    });
+  }
+  for (std::thread& worker : workers) worker.join();
+}
+
+double StandardNormal(uint64_t seed, uint64_t index, uint64_t stream) {
+  const double u1 = std::max(internal::Hash01(seed, index, stream), 1e-300);
+  const double u2 = internal::Hash01(seed, index, stream + 1);
+  return std::sqrt(-2 * std::log(u1)) * std::cos(2 * kPi * u2);
+}
+
+// Poisson-distributed electron count: exact (Knuth) for small means, normal beyond.
+double ShotNoise(double mean, uint64_t seed, uint64_t index) {
+  if (mean <= 0) return 0;
+  if (mean > 30) return std::max(0.0, mean + std::sqrt(mean) * StandardNormal(seed, index, 10));
+  const double limit = std::exp(-mean);
+  double product = internal::Hash01(seed, index, 20);
+  int count = 0;
+  while (product > limit && count < 200) {
+    ++count;
+    product *= internal::Hash01(seed, index, 21 + count);
+  }
+  return count;
+}
+
+}  // namespace
+
+struct Scene::Surface {
+  fitting::WardParams<double> params;
+  Eigen::Matrix3d world_from_local = Eigen::Matrix3d::Identity();
+};
+
+Scene::Scene(RigModel rig, Material material) : rig_(std::move(rig)), material_(std::move(material)) {
+  const int w = material_.width();
+  const int h = material_.height();
+  const std::optional<int> height_channel = material_.maps.FindChannel(fitting::kHeightChannel);
+  std::vector<double> heights(static_cast<size_t>(w) * h, 0.0);
+  if (height_channel) {
+    const auto plane = material_.maps.channel(*height_channel);
+    std::copy(plane.begin(), plane.end(), heights.begin());
+  }
+  height_.assign(heights.begin(), heights.end());
+  max_height_ = heights.empty() ? 0 : *std::max_element(heights.begin(), heights.end());
+  double blur_mm = 1.0;
+  if (auto it = material_.provenance.find("loom.geometric_blur_mm");
+      it != material_.provenance.end() && std::holds_alternative<double>(it->second)) {
+    blur_mm = std::get<double>(it->second);
+  }
+  const std::vector<Eigen::Vector3d> normals = GeometricNormals(heights, w, h, material_.pixel_mm, blur_mm);
+  frames_.resize(normals.size());
+  for (size_t i = 0; i < normals.size(); ++i) frames_[i] = WorldFromLocal(normals[i], Eigen::Vector3d::UnitX());
+  panchromatic_ = PanchromaticWeights();
+}
+
+std::optional<int> Scene::MapPixel(double x_mm, double y_mm) const {
+  const int x = static_cast<int>(std::floor(x_mm / material_.pixel_mm + material_.width() / 2.0));
+  const int y = static_cast<int>(std::floor(y_mm / material_.pixel_mm + material_.height() / 2.0));
+  if (x < 0 || y < 0 || x >= material_.width() || y >= material_.height()) return std::nullopt;
+  return y * material_.width() + x;
+}
+
+double Scene::HeightAt(double x_mm, double y_mm) const {
+  if (max_height_ <= 0) return 0;
+  // Bilinear between pixel centres, so the surface is continuous for ray marching.
+  const double gx = x_mm / material_.pixel_mm + material_.width() / 2.0 - 0.5;
+  const double gy = y_mm / material_.pixel_mm + material_.height() / 2.0 - 0.5;
+  const int x0 = static_cast<int>(std::floor(gx));
+  const int y0 = static_cast<int>(std::floor(gy));
+  const double fx = gx - x0;
+  const double fy = gy - y0;
+  const auto at = [&](int x, int y) -> double {
+    if (x < 0 || y < 0 || x >= material_.width() || y >= material_.height()) return 0.0;
+    return height_[static_cast<size_t>(y) * material_.width() + x];
+  };
+  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+}
+
+std::optional<Eigen::Vector3d> Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const {
+  if (direction.z() >= 0) return std::nullopt;
+  const double top = max_height_ + 1e-6;
+  const double t_top = std::max(0.0, (top - origin.z()) / direction.z());
+  const double t_bottom = -origin.z() / direction.z();
+  Eigen::Vector3d hit = origin + t_bottom * direction;
+  if (max_height_ > 0) {
+    const double horizontal = std::max(direction.head<2>().norm(), 1e-9);
+    const double dt = 0.5 * material_.pixel_mm / horizontal;
+    double previous = t_top;
+    for (double t = t_top + dt;; t += dt) {
+      const double tt = std::min(t, t_bottom);
+      const Eigen::Vector3d p = origin + tt * direction;
+      if (p.z() <= HeightAt(p.x(), p.y())) {
+        double lo = previous, hi = tt;  // above at lo, below at hi
+        for (int i = 0; i < 12; ++i) {
+          const double mid = 0.5 * (lo + hi);
+          const Eigen::Vector3d q = origin + mid * direction;
+          (q.z() <= HeightAt(q.x(), q.y()) ? hi : lo) = mid;
+        }
+        hit = origin + hi * direction;
+        break;
+      }
+      if (tt >= t_bottom) break;
+      previous = tt;
+    }
+  }
+  if (hit.head<2>().norm() > rig_.sample_holder_diameter_mm / 2 && !MapPixel(hit.x(), hit.y())) return std::nullopt;
+  return hit;
+}
+
+bool Scene::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) const {
+  if (max_height_ <= 0) return false;
+  const Eigen::Vector3d s = (light - p).normalized();
+  if (s.z() <= 0) return true;
+  const double t_max = (max_height_ - p.z()) / s.z();
+  const double horizontal = std::max(s.head<2>().norm(), 1e-9);
+  const double dt = 0.5 * material_.pixel_mm / horizontal;
+  for (double t = std::min(dt, t_max) * 0.5; t < t_max; t += dt) {
+    const Eigen::Vector3d q = p + t * s;
+    if (q.z() < HeightAt(q.x(), q.y()) - 1e-4) return true;
+  }
+  return false;
+}
+
+double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state,
+                         bool shadows) const {
+  Surface surface;
+  if (const std::optional<int> pixel = MapPixel(p.x(), p.y())) {
+    surface.params = fitting::GetParams(material_.maps, *pixel % material_.width(), *pixel / material_.width());
+    surface.world_from_local = frames_[*pixel];
+  } else {
+    surface.params.a_d = Eigen::Vector3d::Constant(kHolderAlbedo);
+    surface.params.a_s = Eigen::Vector3d::Zero();
+  }
+  const fitting::WardLobe<double> lobe(surface.params);
+  const Eigen::Matrix3d local_from_world = surface.world_from_local.transpose();
+  const Eigen::Vector3d v_local = local_from_world * (eye - p).normalized();
+  const Rigid3d rig_from_sample = rig_.turntable.RigFromSample(state.turntable_deg);
+  const Rigid3d sample_from_rig = rig_from_sample.inverse();
+  const Eigen::Vector3d p_in_rig = rig_from_sample * p;
+  double radiance = 0;
+  for (const LitLed& lit : state.leds) {
+    if (lit.led < 0 || lit.led >= static_cast<int>(rig_.leds.size())) continue;
+    const LedModel& led = rig_.leds[lit.led];
+    const double intensity = led.IntensityTowards(p_in_rig, lit.current_ma);
+    if (intensity <= 0) continue;
+    const Eigen::Vector3d light = sample_from_rig * led.position_mm;
+    const Eigen::Vector3d to_light = light - p;
+    const double distance2 = to_light.squaredNorm();
+    if (shadows && Shadowed(p, light)) continue;
+    Eigen::Vector3d weights = panchromatic_;
+    for (size_t w = 0; w < rig_.filter_wheels.size(); ++w) {
+      const FilterWheelModel& wheel = rig_.filter_wheels[w];
+      const auto slot = state.filter_slots.find(static_cast<int>(w));
+      if (wheel.led == lit.led && slot != state.filter_slots.end() && slot->second >= 0 &&
+          slot->second < static_cast<int>(wheel.filters.size())) {
+        weights = FilterWeights(wheel.filters[slot->second]);
+      }
+    }
+    const fitting::WardTerms<double> terms = lobe.Terms(local_from_world * to_light.normalized(), v_local);
+    radiance += intensity / distance2 *
+                (weights.dot(surface.params.a_d) * terms.diffuse + weights.dot(surface.params.a_s) * terms.specular) *
+                terms.cos_l;
+  }
+  return radiance;
+}
+
+Image Scene::RenderRadiance(int camera_index, const SceneState& state, const RenderOptions& options) const {
+  const CameraModel& camera = rig_.cameras.at(camera_index);
+  const Rigid3d sample_from_rig = rig_.turntable.RigFromSample(state.turntable_deg).inverse();
+  const Eigen::Vector3d eye = sample_from_rig * camera.CentreInRig();
+  const Eigen::Matrix3d sample_from_cam = sample_from_rig.linear() * camera.cam_from_rig.linear().transpose();
+  Image radiance(camera.width, camera.height, {"L"});
+  const int ss = std::max(1, options.supersampling);
+  ForEachRow(camera.height, ThreadCount(options.threads), [&](int y) {
+    for (int x = 0; x < camera.width; ++x) {
+      double sum = 0;
+      for (int sy = 0; sy < ss; ++sy) {
+        for (int sx = 0; sx < ss; ++sx) {
+          const Eigen::Vector2d pixel(x + (sx + 0.5) / ss - 0.5, y + (sy + 0.5) / ss - 0.5);
+          const Eigen::Vector3d direction = sample_from_cam * camera.Unproject(pixel);
+          if (const std::optional<Eigen::Vector3d> hit = Intersect(eye, direction)) {
+            sum += RadianceAt(*hit, eye, state, options.shadows);
+          }
+        }
+      }
+      radiance.at(0, y, x) = static_cast<float>(sum / (ss * ss));
+    }
+  });
+  return radiance;
+}
+
+std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
+                                 uint64_t noise_seed, bool noise) {
+  const int w = radiance.width();
+  const int h = radiance.height();
+  const double max_dn = (1 << sensor.adc_bits) - 1;
+  const double gain = std::pow(10.0, settings.gain_db / 20);
+  const double dn_per_electron = gain / sensor.ElectronsPerDn();
+  const double corner2 = 0.25 * (static_cast<double>(w) * w + static_cast<double>(h) * h);
+  std::vector<uint16_t> raw(static_cast<size_t>(w) * h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const uint64_t index = static_cast<uint64_t>(y) * w + x;
+      const double dx = x - (w - 1) / 2.0;
+      const double dy = y - (h - 1) / 2.0;
+      const double vignetting = 1 - sensor.vignetting * (dx * dx + dy * dy) / corner2;
+      const double mean_e = std::max(0.0, radiance.at(0, y, x) * sensor.sensitivity * settings.exposure_us * 1e-6 * vignetting);
+      double electrons = noise ? ShotNoise(mean_e, noise_seed, index) : mean_e;
+      if (electrons >= sensor.full_well_e) {  // a full well reads as the ADC's top, noise-free
+        raw[index] = static_cast<uint16_t>(max_dn);
+        continue;
+      }
+      double dn = sensor.dark_offset_dn + electrons * dn_per_electron;
+      if (noise) dn += sensor.read_noise_e * dn_per_electron * StandardNormal(noise_seed, index, 1);
+      raw[index] = static_cast<uint16_t>(std::clamp(std::round(dn), 0.0, max_dn));
+    }
+  }
+  return raw;
+}
+
+}  // namespace loom::sim

@@ -1,0 +1,85 @@
+#pragma once
+// The renderer of the virtual rig: the raw frame a camera records for a rig state.
+//
+// Radiance (RenderRadiance): for each camera pixel, supersampling² rays through the lens model
+// (distortion included) into the scene: the material's heightfield on the turntable (rotated by
+// the table angle) on a dark sample holder. At the hit point: the GD10 Ward BRDF with that map
+// pixel's parameters in its local geometric frame; every lit LED adds I(θ)/d² · f_r · cos, with
+// a cast-shadow test against the heightfield; colour through the LED's filter (spectra.h).
+// Sensor (CaptureRaw): radiance × sensitivity × exposure × vignetting → electrons, shot noise,
+// full-well clipping, gain, read noise, dark offset, ADC quantisation and saturation.
+// Deterministic: the noise of pixel (x, y) comes from (seed, x, y) only, whatever the threads.
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include "core/image.h"
+#include "sim/material.h"
+#include "sim/rig_model.h"
+
+namespace loom::sim {
+
+struct LitLed {
+  int led = 0;
+  double current_ma = 0;
+};
+
+// What the devices are doing, as the renderer needs it.
+struct SceneState {
+  std::vector<LitLed> leds;
+  std::map<int, int> filter_slots;  // filter wheel index (in RigModel) → slot
+  double turntable_deg = 0;
+};
+
+struct CaptureSettings {
+  double exposure_us = 10000;
+  double gain_db = 0;
+};
+
+struct RenderOptions {
+  int supersampling = 2;   // rays per pixel per axis
+  bool shadows = true;
+  int threads = 0;         // 0 = one per core
+};
+
+class Scene {
+ public:
+  // The material lies on the turntable, centred on its axis.
+  Scene(RigModel rig, Material material);
+
+  const RigModel& rig() const { return rig_; }
+  const Material& material() const { return material_; }
+
+  // Radiance (one channel, radiance units) seen by camera `camera` (index into rig().cameras).
+  Image RenderRadiance(int camera, const SceneState& state, const RenderOptions& options = {}) const;
+
+  // Radiance leaving the sample at sample-frame point `p` (on the surface) towards `eye` (a
+  // sample-frame position), under `state`; also used by tests and by the fast path.
+  double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state,
+                    bool shadows) const;
+  // First surface point along a sample-frame ray (direction unit), or nothing if it misses the
+  // holder.
+  std::optional<Eigen::Vector3d> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+  // True if the heightfield blocks the segment from surface point `p` towards `light`.
+  bool Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) const;
+  // Surface height (mm) at a sample-frame point (0 off the material).
+  double HeightAt(double x_mm, double y_mm) const;
+
+ private:
+  struct Surface;  // BRDF parameters and local frame of one map pixel
+  std::optional<int> MapPixel(double x_mm, double y_mm) const;
+
+  RigModel rig_;
+  Material material_;
+  std::vector<float> height_;               // mm, from the material's height channel
+  std::vector<Eigen::Matrix3d> frames_;     // world_from_local per map pixel (geometric frame)
+  double max_height_ = 0;
+  Eigen::Vector3d panchromatic_;
+};
+
+// The sensor: electrons → DN with noise, 16-bit container holding adc_bits values.
+std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
+                                 uint64_t noise_seed, bool noise = true);
+
+}  // namespace loom::sim

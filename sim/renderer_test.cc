@@ -1,0 +1,173 @@
+// The renderer against answers from first principles: analytic radiance of a white Lambertian
+// target, the inverse-square law and LED falloff, a cast shadow where the geometry puts it, the
+// sensor's noise and saturation statistics, determinism, lens distortion and filter colours.
+#include "sim/renderer.h"
+
+#include <gtest/gtest.h>
+
+#include "fitting/model/svbrdf_maps.h"
+#include "sim/spectra.h"
+#include "sim/test_materials.h"
+
+namespace loom::sim {
+namespace {
+
+// One camera 500 mm straight above the sample (0.5 mm per pixel at the sample), no distortion.
+RigModel TestRig() {
+  RigModel rig;
+  CameraModel camera;
+  camera.name = "top";
+  camera.width = camera.height = 101;
+  camera.K << 1000, 0, 50, 0, 1000, 50, 0, 0, 1;
+  Eigen::Matrix3d down;  // x → x, y → −y, z → −z: looking down
+  down << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  camera.cam_from_rig = MakeRigid(down, -down * Eigen::Vector3d(0, 0, 500));
+  camera.sensor.vignetting = 0;
+  rig.cameras.push_back(camera);
+  LedModel led;
+  led.position_mm = {150, 0, 300};
+  led.axis = -led.position_mm.normalized();
+  led.intensity = 1e6;
+  led.falloff_exponent = 2;
+  rig.leds.push_back(led);
+  return rig;
+}
+
+Material WhiteLambertian(int size_px = 128, double pixel_mm = 0.5) {
+  fitting::WardParams<double> white;
+  white.a_d = Eigen::Vector3d::Ones();
+  white.a_s = Eigen::Vector3d::Zero();
+  return UniformMaterial("white", white, {size_px, size_px, pixel_mm});
+}
+
+// Radiance of a white Lambertian surface point p (z = 0) lit by `led` at 1000 mA.
+double AnalyticRadiance(const LedModel& led, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d to_light = led.position_mm - p;
+  const double d = to_light.norm();
+  const double falloff = std::pow(led.axis.dot(-to_light / d), led.falloff_exponent);
+  return led.intensity * falloff / (d * d) * (to_light.z() / d) / kPi;
+}
+
+TEST(RendererTest, WhiteLambertianHasTheAnalyticRadiance) {
+  const Scene scene(TestRig(), WhiteLambertian());
+  const SceneState state{{{0, 1000}}, {}, 0};
+  const Image radiance = scene.RenderRadiance(0, state, {.supersampling = 1});
+  // Pixel (50, 50) sees the origin; pixel (70, 50) sees x = +10 mm; (50, 30) sees y = +10 mm.
+  const LedModel& led = scene.rig().leds[0];
+  EXPECT_NEAR(radiance.at(0, 50, 50), AnalyticRadiance(led, {0, 0, 0}), 1e-5 * AnalyticRadiance(led, {0, 0, 0}));
+  EXPECT_NEAR(radiance.at(0, 50, 70), AnalyticRadiance(led, {10, 0, 0}), 1e-5 * AnalyticRadiance(led, {10, 0, 0}));
+  EXPECT_NEAR(radiance.at(0, 30, 50), AnalyticRadiance(led, {0, 10, 0}), 1e-5 * AnalyticRadiance(led, {0, 10, 0}));
+  EXPECT_GT(radiance.at(0, 50, 70), radiance.at(0, 50, 30));  // nearer the LED
+}
+
+TEST(RendererTest, InverseSquareAndAngularFalloff) {
+  RigModel rig = TestRig();
+  const Eigen::Vector3d p(0, 0, 0);
+  const Eigen::Vector3d eye(0, 0, 500);
+  const SceneState state{{{0, 1000}}, {}, 0};
+  const double near = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, state, true);
+  rig.leds[0].position_mm *= 2;  // same direction, twice as far
+  const double far = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, state, true);
+  EXPECT_NEAR(far / near, 0.25, 1e-12);
+  const double axis_angle = DegToRad(40);
+  rig.leds[0].axis = Eigen::AngleAxisd(axis_angle, Eigen::Vector3d::UnitY()) * rig.leds[0].axis;
+  const double tilted = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, state, true);
+  EXPECT_NEAR(tilted / far, std::pow(std::cos(axis_angle), 2), 1e-9);
+  const SceneState half{{{0, 500}}, {}, 0};
+  EXPECT_NEAR(Scene(rig, WhiteLambertian()).RadianceAt(p, eye, half, true) / tilted, 0.5, 1e-12);
+}
+
+TEST(RendererTest, CastShadowFallsWhereTheGeometryPutsIt) {
+  RigModel rig = TestRig();
+  rig.leds[0].position_mm = {400, 0, 400};  // 45° elevation from +x
+  rig.leds[0].axis = -rig.leds[0].position_mm.normalized();
+  Material block = WhiteLambertian(200, 0.1);  // 20 mm square
+  block.provenance["loom.geometric_blur_mm"] = 0.2;
+  const int height = *block.maps.ChannelIndex("height");
+  for (int y = 0; y < 200; ++y) {
+    for (int x = 0; x < 200; ++x) {
+      const double cx = (x + 0.5 - 100) * 0.1, cy = (y + 0.5 - 100) * 0.1;
+      if (std::abs(cx) < 5 && std::abs(cy) < 5) block.maps.at(height, y, x) = 2.0f;  // a 2 mm block
+    }
+  }
+  const Scene scene(rig, block);
+  const SceneState state{{{0, 1000}}, {}, 0};
+  const Eigen::Vector3d eye(0, 0, 500);
+  // The block's far edge is at x = −5; from 45°, its 2 mm cast a 2 mm shadow down to x = −7
+  // (the light is not at infinity: at 400 mm the shadow ends 2.04 mm from the edge).
+  const double edge = -5 - 2 * (400 + 5) / (400 - 2.0);
+  for (double x : {-5.3, -6.0, edge + 0.15}) {
+    EXPECT_EQ(scene.RadianceAt({x, 0, 0}, eye, state, true), 0.0) << "x = " << x;
+  }
+  for (double x : {edge - 0.15, -8.0, 6.0}) {
+    EXPECT_GT(scene.RadianceAt({x, 0, 0}, eye, state, true), 0.0) << "x = " << x;
+  }
+  EXPECT_GT(scene.RadianceAt({-6.0, 0, 0}, eye, state, /*shadows=*/false), 0.0);
+}
+
+TEST(RendererTest, SameSeedSameFrameWhateverTheThreads) {
+  const Scene scene(TestRig(), WhiteLambertian());
+  const SceneState state{{{0, 1000}}, {}, 0};
+  const Image one = scene.RenderRadiance(0, state, {.supersampling = 2, .threads = 1});
+  const Image two = scene.RenderRadiance(0, state, {.supersampling = 2, .threads = 2});
+  ASSERT_TRUE(std::equal(one.data(), one.data() + one.pixel_count(), two.data()));
+  const SensorModel& sensor = scene.rig().cameras[0].sensor;
+  EXPECT_EQ(CaptureRaw(one, sensor, {}, 7), CaptureRaw(two, sensor, {}, 7));
+  EXPECT_NE(CaptureRaw(one, sensor, {}, 7), CaptureRaw(one, sensor, {}, 8));
+}
+
+TEST(RendererTest, SensorNoiseAndSaturationFollowTheModel) {
+  SensorModel sensor;
+  sensor.vignetting = 0;
+  const CaptureSettings settings{.exposure_us = 10000, .gain_db = 0};
+  // Radiance giving 2000 electrons: well inside the range.
+  const double mean_e = 2000;
+  Image flat(200, 200, {"L"});
+  std::fill(flat.channel(0).begin(), flat.channel(0).end(),
+            static_cast<float>(mean_e / (sensor.sensitivity * settings.exposure_us * 1e-6)));
+  const std::vector<uint16_t> raw = CaptureRaw(flat, sensor, settings, 1);
+  double sum = 0, sum2 = 0;
+  for (uint16_t v : raw) {
+    sum += v;
+    sum2 += static_cast<double>(v) * v;
+  }
+  const double n = raw.size();
+  const double mean = sum / n;
+  const double variance = sum2 / n - mean * mean;
+  const double g = 1 / sensor.ElectronsPerDn();  // DN per electron
+  EXPECT_NEAR(mean, sensor.dark_offset_dn + mean_e * g, 0.2);
+  const double expected_variance = (mean_e + sensor.read_noise_e * sensor.read_noise_e) * g * g + 1.0 / 12;
+  EXPECT_NEAR(variance / expected_variance, 1.0, 0.03);  // 40,000 samples: ±0.7 % standard error
+  // Ten times the full well: every pixel at the ADC's top.
+  std::fill(flat.channel(0).begin(), flat.channel(0).end(), flat.at(0, 0, 0) * 50);
+  for (uint16_t v : CaptureRaw(flat, sensor, settings, 2)) ASSERT_EQ(v, (1 << sensor.adc_bits) - 1);
+  // No light: the dark offset with read noise only.
+  std::fill(flat.channel(0).begin(), flat.channel(0).end(), 0.0f);
+  const std::vector<uint16_t> dark = CaptureRaw(flat, sensor, settings, 3, /*noise=*/false);
+  EXPECT_EQ(dark[0], static_cast<uint16_t>(sensor.dark_offset_dn));
+}
+
+TEST(RendererTest, LensDistortionRoundTrips) {
+  CameraModel camera = TestRig().cameras[0];
+  camera.distortion << -0.12, 0.03, 0.001, -0.0007, 0.0;
+  for (const Eigen::Vector2d& pixel : {Eigen::Vector2d(3, 4), Eigen::Vector2d(50, 50), Eigen::Vector2d(97.5, 12)}) {
+    Eigen::Vector2d back;
+    ASSERT_TRUE(camera.Project(camera.Unproject(pixel) * 10, &back));
+    EXPECT_NEAR((back - pixel).norm(), 0.0, 1e-6) << pixel.transpose();
+  }
+}
+
+TEST(RendererTest, FiltersSeeColour) {
+  const Eigen::Vector3d pan = PanchromaticWeights();
+  EXPECT_NEAR(pan.sum(), 1.0, 1e-12);
+  const Eigen::Vector3d red(0.7, 0.05, 0.05);
+  const Eigen::Vector3d blue(0.05, 0.05, 0.7);
+  const FilterModel long_pass{650, 30, 0.9};
+  const FilterModel short_pass{450, 30, 0.9};
+  EXPECT_GT(FilterWeights(long_pass).dot(red), 5 * FilterWeights(long_pass).dot(blue));
+  EXPECT_GT(FilterWeights(short_pass).dot(blue), 5 * FilterWeights(short_pass).dot(red));
+  EXPECT_LT(FilterWeights(long_pass).sum(), 0.3);  // a band-pass filter lets a fraction through
+}
+
+}  // namespace
+}  // namespace loom::sim

@@ -1,0 +1,162 @@
+#include "sim/rig_model.h"
+
+#include <cmath>
+
+namespace loom::sim {
+namespace {
+
+// cam_from_rig for a camera at `position` looking at `target`, with `up` appearing up in the
+// image (OpenCV axes: x right, y down, z forward).
+Rigid3d LookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target, const Eigen::Vector3d& up) {
+  const Eigen::Vector3d z = (target - position).normalized();
+  const Eigen::Vector3d y = -(up - up.dot(z) * z).normalized();
+  const Eigen::Vector3d x = y.cross(z);
+  Eigen::Matrix3d r;
+  r.row(0) = x.transpose();
+  r.row(1) = y.transpose();
+  r.row(2) = z.transpose();
+  return MakeRigid(r, -r * position);
+}
+
+void ReadSensor(const ConfigNode& node, SensorModel* sensor) {
+  node.Optional("adc_bits", &sensor->adc_bits);
+  node.Optional("dark_offset_dn", &sensor->dark_offset_dn);
+  node.Optional("read_noise_e", &sensor->read_noise_e);
+  node.Optional("full_well_e", &sensor->full_well_e);
+  node.Optional("sensitivity", &sensor->sensitivity);
+  node.Optional("vignetting", &sensor->vignetting);
+  if (sensor->adc_bits < 8 || sensor->adc_bits > 16) node.AddError("adc_bits", "must be 8..16");
+  if (sensor->full_well_e <= 0) node.AddError("full_well_e", "must be > 0");
+}
+
+// Reads a pinhole pose and intrinsics shared by cameras and the projector.
+void ReadPinhole(const ConfigNode& node, int* width, int* height, Eigen::Matrix3d* k, Rigid3d* from_rig) {
+  std::vector<int> resolution;
+  Eigen::Vector2d focal(1, 1), principal(0, 0);
+  Eigen::Vector3d position = Eigen::Vector3d::UnitZ(), look_at = Eigen::Vector3d::Zero(), up = Eigen::Vector3d::UnitY();
+  node.Required("resolution", &resolution);
+  node.Required("focal_px", &focal);
+  node.Optional("principal_px", &principal);
+  node.Required("position_mm", &position);
+  node.Optional("look_at_mm", &look_at);
+  node.Optional("up", &up);
+  if (resolution.size() == 2) {
+    *width = resolution[0];
+    *height = resolution[1];
+  } else {
+    node.AddError("resolution", "expected [width, height]");
+  }
+  if (!node.Has("principal_px")) principal = {(*width - 1) / 2.0, (*height - 1) / 2.0};
+  *k << focal.x(), 0, principal.x(), 0, focal.y(), principal.y(), 0, 0, 1;
+  if ((look_at - position).norm() < 1e-9) node.AddError("look_at_mm", "must differ from position_mm");
+  *from_rig = LookAt(position, look_at, up);
+}
+
+}  // namespace
+
+bool CameraModel::Project(const Eigen::Vector3d& p, Eigen::Vector2d* pixel) const {
+  if (p.z() <= 0) return false;
+  const double x = p.x() / p.z();
+  const double y = p.y() / p.z();
+  const double r2 = x * x + y * y;
+  const auto& d = distortion;
+  const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
+  const double xd = x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
+  const double yd = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
+  *pixel = {K(0, 0) * xd + K(0, 2), K(1, 1) * yd + K(1, 2)};
+  return true;
+}
+
+Eigen::Vector3d CameraModel::Unproject(const Eigen::Vector2d& pixel) const {
+  const double xd = (pixel.x() - K(0, 2)) / K(0, 0);
+  const double yd = (pixel.y() - K(1, 2)) / K(1, 1);
+  const auto& d = distortion;
+  double x = xd, y = yd;
+  for (int i = 0; i < 20; ++i) {  // fixed-point inversion, as OpenCV's undistortPoints
+    const double r2 = x * x + y * y;
+    const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
+    const double dx = 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
+    const double dy = d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
+    x = (xd - dx) / radial;
+    y = (yd - dy) / radial;
+  }
+  return Eigen::Vector3d(x, y, 1).normalized();
+}
+
+double LedModel::IntensityTowards(const Eigen::Vector3d& point_in_rig, double current_ma) const {
+  const double c = axis.dot((point_in_rig - position_mm).normalized());
+  if (c <= 0 || current_ma <= 0) return 0;
+  return intensity * (current_ma / 1000.0) * std::pow(c, falloff_exponent);
+}
+
+Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
+  return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));
+}
+
+const CameraModel* RigModel::FindCamera(const std::string& camera_name) const {
+  for (const CameraModel& camera : cameras) {
+    if (camera.name == camera_name) return &camera;
+  }
+  return nullptr;
+}
+
+const FilterWheelModel* RigModel::WheelOfLed(int led) const {
+  for (const FilterWheelModel& wheel : filter_wheels) {
+    if (wheel.led == led) return &wheel;
+  }
+  return nullptr;
+}
+
+RigModel ReadRigModel(const ConfigNode& geometry) {
+  RigModel rig;
+  geometry.Optional("sample_holder_diameter_mm", &rig.sample_holder_diameter_mm);
+  if (std::optional<ConfigNode> turntable = geometry.OptionalChild("turntable")) {
+    turntable->Optional("axis_point_mm", &rig.turntable.axis_point_mm);
+    turntable->Optional("axis_direction", &rig.turntable.axis_direction);
+    rig.turntable.axis_direction.normalize();
+  }
+  for (const ConfigNode& node : geometry.Sequence("cameras")) {
+    CameraModel camera;
+    node.Required("name", &camera.name);
+    ReadPinhole(node, &camera.width, &camera.height, &camera.K, &camera.cam_from_rig);
+    std::vector<double> distortion;
+    node.Optional("distortion", &distortion);
+    if (distortion.size() == 5) {
+      camera.distortion = Eigen::Map<const Eigen::Matrix<double, 5, 1>>(distortion.data());
+    } else if (!distortion.empty()) {
+      node.AddError("distortion", "expected [k1, k2, p1, p2, k3]");
+    }
+    if (std::optional<ConfigNode> sensor = node.OptionalChild("sensor")) ReadSensor(*sensor, &camera.sensor);
+    rig.cameras.push_back(camera);
+  }
+  for (const ConfigNode& node : geometry.Sequence("leds")) {
+    LedModel led;
+    node.Required("position_mm", &led.position_mm);
+    node.Optional("intensity", &led.intensity);
+    node.Optional("falloff_exponent", &led.falloff_exponent);
+    // By default an LED points at the rig origin (the sample centre).
+    led.axis = -led.position_mm.normalized();
+    node.Optional("axis", &led.axis);
+    led.axis.normalize();
+    rig.leds.push_back(led);
+  }
+  for (const ConfigNode& node : geometry.OptionalSequence("filter_wheels")) {
+    FilterWheelModel wheel;
+    node.Required("name", &wheel.name);
+    node.Required("led", &wheel.led);
+    if (wheel.led < 0 || wheel.led >= static_cast<int>(rig.leds.size())) {
+      node.AddError("led", "no LED " + std::to_string(wheel.led));
+    }
+    for (const ConfigNode& filter_node : node.Sequence("filters")) {
+      FilterModel filter;
+      filter_node.Required("center_nm", &filter.center_nm);
+      filter_node.Optional("fwhm_nm", &filter.fwhm_nm);
+      filter_node.Optional("peak_transmission", &filter.peak_transmission);
+      wheel.filters.push_back(filter);
+    }
+    rig.filter_wheels.push_back(wheel);
+  }
+  return rig;
+}
+
+}  // namespace loom::sim

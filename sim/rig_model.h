@@ -1,0 +1,92 @@
+#pragma once
+// The virtual scanner: geometry, light sources and sensors of a TAC7-like rig, read from the
+// `geometry:` section of a rig YAML (configs/rig/tac7*.yaml). Frames: `rig` has its origin at
+// the centre of the turntable's top surface, z up, mm; `sample` turns with the turntable
+// (rig_from_sample = rotation about the turntable axis by the table angle); cameras follow
+// OpenCV (x right, y down, z forward).
+//
+// Light units: an LED's radiant intensity is `intensity` (radiance units · mm² per sr) at 1000 mA
+// along its axis, falling off as cos^n of the angle to its axis; irradiance = I / d² · cos. A
+// camera turns radiance into electrons with `sensitivity` (electrons per radiance unit per
+// second of exposure at the image centre), less vignetting towards the corners.
+
+#include <string>
+#include <vector>
+
+#include "core/config.h"
+#include "core/geometry.h"
+
+namespace loom::sim {
+
+struct SensorModel {
+  int adc_bits = 12;
+  double dark_offset_dn = 64;
+  double read_noise_e = 2.5;       // electrons rms
+  double full_well_e = 10000;      // electrons
+  double sensitivity = 2.0e6;      // electrons per (radiance unit · s)
+  double vignetting = 0.25;        // relative loss at the image corner: 1 − v (r / r_corner)²
+  // Electrons per DN at unit gain: the ADC range spans the full well above the dark offset.
+  double ElectronsPerDn() const { return full_well_e / ((1 << adc_bits) - 1 - dark_offset_dn); }
+};
+
+struct CameraModel {
+  std::string name;
+  int width = 0;
+  int height = 0;
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();   // pixels
+  Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();  // k1 k2 p1 p2 k3
+  Rigid3d cam_from_rig = Rigid3d::Identity();
+  SensorModel sensor;
+
+  Eigen::Vector3d CentreInRig() const { return cam_from_rig.inverse().translation(); }
+  // Pixel (subpixel coordinates, pixel centres at integers) of a point in the camera frame,
+  // with lens distortion (OpenCV's model). False if behind the camera.
+  bool Project(const Eigen::Vector3d& p_in_cam, Eigen::Vector2d* pixel) const;
+  // Unit ray direction in the camera frame through a pixel (inverts the distortion).
+  Eigen::Vector3d Unproject(const Eigen::Vector2d& pixel) const;
+};
+
+struct LedModel {
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  // rig frame
+  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();       // unit, where the LED points
+  double intensity = 1.0e6;
+  double falloff_exponent = 1.0;
+  // Radiant intensity towards `point_in_rig` at `current_ma`.
+  double IntensityTowards(const Eigen::Vector3d& point_in_rig, double current_ma) const;
+};
+
+struct FilterModel {
+  double center_nm = 550;
+  double fwhm_nm = 30;
+  double peak_transmission = 0.9;
+};
+
+struct FilterWheelModel {
+  std::string name;
+  int led = 0;  // the LED it sits in front of
+  std::vector<FilterModel> filters;
+};
+
+struct TurntableModel {
+  Eigen::Vector3d axis_point_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_direction = Eigen::Vector3d::UnitZ();
+  Rigid3d RigFromSample(double angle_deg) const;
+};
+
+struct RigModel {
+  std::string name;
+  double sample_holder_diameter_mm = 140;
+  std::vector<CameraModel> cameras;
+  std::vector<LedModel> leds;
+  std::vector<FilterWheelModel> filter_wheels;
+  TurntableModel turntable;
+
+  const CameraModel* FindCamera(const std::string& name) const;
+  // The wheel in front of `led`, or nullptr.
+  const FilterWheelModel* WheelOfLed(int led) const;
+};
+
+// Reads the `geometry:` mapping (problems are recorded in its document).
+RigModel ReadRigModel(const ConfigNode& geometry);
+
+}  // namespace loom::sim

@@ -1,0 +1,20 @@
+#pragma once
+// A spectral model just detailed enough for colour through filters: a material's linear-sRGB
+// albedo is turned into a reflectance spectrum as a sum of three smooth basis spectra (red,
+// green, blue bumps), lit by a white phosphor LED and seen by a panchromatic sensor. What a
+// monochrome camera records of albedo a through filter f is then linear in a: w_f · a. Weights
+// are normalised so that, unfiltered, a grey albedo g records as g.
+
+#include <Eigen/Core>
+
+#include "sim/rig_model.h"
+
+namespace loom::sim {
+
+// Weights of (R, G, B) albedo seen without a filter: they sum to 1.
+Eigen::Vector3d PanchromaticWeights();
+// Weights seen through a band-pass filter (Gaussian transmission): small, they sum to the
+// filter's share of the panchromatic signal.
+Eigen::Vector3d FilterWeights(const FilterModel& filter);
+
+}  // namespace loom::sim
