@@ -112,8 +112,11 @@ TEST(RendererTest, SameSeedSameFrameWhateverTheThreads) {
   const Image two = scene.RenderRadiance(0, state, {.supersampling = 2, .threads = 2});
   ASSERT_TRUE(std::equal(one.data(), one.data() + one.pixel_count(), two.data()));
   const SensorModel& sensor = scene.rig().cameras[0].sensor;
-  EXPECT_EQ(CaptureRaw(one, sensor, {}, 7), CaptureRaw(two, sensor, {}, 7));
-  EXPECT_NE(CaptureRaw(one, sensor, {}, 7), CaptureRaw(one, sensor, {}, 8));
+  const CaptureSettings unsaturated{.exposure_us = 100};
+  const std::vector<uint16_t> frame = CaptureRaw(one, sensor, unsaturated, 7);
+  EXPECT_EQ(frame, CaptureRaw(two, sensor, unsaturated, 7));
+  EXPECT_NE(frame, CaptureRaw(one, sensor, unsaturated, 8));
+  EXPECT_LT(*std::max_element(frame.begin(), frame.end()), (1 << sensor.adc_bits) - 1);
 }
 
 TEST(RendererTest, SensorNoiseAndSaturationFollowTheModel) {
