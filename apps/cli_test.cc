@@ -82,6 +82,19 @@ TEST(CliTest, ShippedRigFilesLoad) {
   EXPECT_TRUE(Contains(run.output, "5 devices")) << run.output;
 }
 
+TEST(CliTest, SimulatedRigsLoadAndSnap) {
+  for (const char* rig : {"tac7", "tac7-mini"}) {
+    const LoomRun list = RunLoom("rig list --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig + ".yaml");
+    EXPECT_EQ(list.exit_code, 0) << list.output;
+    EXPECT_TRUE(Contains(list.output, "simulated")) << list.output;
+  }
+  const std::string out = ::testing::TempDir() + "/tac7_mini_cam1.exr";
+  const LoomRun snap = RunLoom("rig snap --rig " + std::string(LOOM_SOURCE_DIR) +
+                               "/configs/rig/tac7-mini.yaml --camera cam1 --leds 3:1000 --out " + out);
+  EXPECT_EQ(snap.exit_code, 0) << snap.output;
+  EXPECT_TRUE(Contains(snap.output, "96x96 Mono12")) << snap.output;
+}
+
 TEST(CliTest, BadOptionsAreUsageErrorsOnStderr) {
   const LoomRun bogus = RunLoom("version --bogus");
   EXPECT_EQ(bogus.exit_code, 2) << bogus.output;

@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "apps/backends.h"
+#include "apps/rig_loader.h"
 #include "apps/command.h"
 #include "core/exr_io.h"
 #include "core/interrupt.h"
@@ -28,8 +28,6 @@ std::string Pad(const std::string& text, size_t width) {
   return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
 }
 
-Result<std::unique_ptr<Rig>> LoadRig(const std::string& path) { return Rig::Load(path, AllBackends()); }
-
 Result<Device*> FindDevice(const Rig& rig, const std::string& name) {
   if (Device* device = rig.FindDevice(name)) return device;
   std::string names;
@@ -39,11 +37,12 @@ Result<Device*> FindDevice(const Rig& rig, const std::string& name) {
 
 int List(const std::string& rig_path, bool discover) {
   if (!rig_path.empty()) {
-    Result<std::unique_ptr<Rig>> rig = LoadRig(rig_path);
-    if (!rig.ok()) return ReportFailure(rig.status());
-    std::cout << "rig '" << (*rig)->name() << "' (" << rig_path << "): " << (*rig)->devices().size()
-              << " devices\n";
-    for (Device* device : (*rig)->devices()) {
+    Result<LoadedRig> loaded = LoadRig(rig_path);
+    if (!loaded.ok()) return ReportFailure(loaded.status());
+    const Rig& rig = *loaded->rig;
+    std::cout << "rig '" << rig.name() << "' (" << rig_path << "): " << rig.devices().size() << " devices"
+              << (loaded->world ? ", simulated" : "") << "\n";
+    for (Device* device : rig.devices()) {
       std::cout << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11)
                 << device->address() << "\n";
     }
@@ -132,11 +131,21 @@ Status WriteFrame(const hal::RawFrame& frame, const std::string& path) {
                    {"loom.units", std::string("raw sensor counts (DN)")}});
 }
 
-Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& out) {
+Result<std::vector<hal::LedDrive>> ParseLeds(const std::string& text);
+
+Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& leds,
+            const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(Device* device, FindDevice(rig, camera_name));
   auto* camera = dynamic_cast<Camera*>(device);
   if (camera == nullptr) return InvalidArgumentError("--camera " + camera_name, "is a " + device->kind() + ", not a camera");
   hal::SafeStateGuard guard(rig);
+  if (!leds.empty()) {
+    if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
+    LOOM_ASSIGN_OR_RETURN(const std::vector<hal::LedDrive> drives, ParseLeds(leds));
+    LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
+    LOOM_RETURN_IF_ERROR(rig.leds()->Start());
+    LOOM_RETURN_IF_ERROR(rig.leds()->Drive(drives));
+  }
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(camera));
   if (exposure_us > 0 || camera->settings().trigger != hal::TriggerMode::kSoftware) {
     hal::CameraSettings settings = camera->settings();
@@ -235,6 +244,8 @@ int RunRig(int argc, char** argv) {
   snap->add_option("--camera", camera, "Camera name in the rig")->required();
   snap->add_option("--out", out, "Output file, .exr or .png")->required();
   snap->add_option("--exposure-us", exposure_us, "Exposure (default: the rig's setting)");
+  std::string snap_leds;
+  snap->add_option("--leds", snap_leds, "Light these LEDs for the frame: LED:MILLIAMPS[,...]");
   std::string device;
   double to = 0;
   CLI::App* move = app.add_subcommand("move", "Move the turntable (deg), the linear light (mm) or a filter wheel (slot)");
@@ -256,13 +267,14 @@ int RunRig(int argc, char** argv) {
     }
     return List(rig_path, discover);
   }
-  Result<std::unique_ptr<Rig>> rig = LoadRig(rig_path);
-  if (!rig.ok()) return ReportFailure(rig.status());
-  if (*status) return StatusOfAll(**rig);
+  Result<LoadedRig> loaded = LoadRig(rig_path);
+  if (!loaded.ok()) return ReportFailure(loaded.status());
+  Rig& rig = *loaded->rig;
+  if (*status) return StatusOfAll(rig);
   Status done;
-  if (*snap) done = Snap(**rig, camera, exposure_us, out);
-  if (*move) done = Move(**rig, device, to);
-  if (*leds) done = Leds(**rig, on, hold_s);
+  if (*snap) done = Snap(rig, camera, exposure_us, snap_leds, out);
+  if (*move) done = Move(rig, device, to);
+  if (*leds) done = Leds(rig, on, hold_s);
   return done.ok() ? kExitOk : ReportFailure(done);
 }
 

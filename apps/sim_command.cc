@@ -8,8 +8,7 @@
 
 #include "apps/command.h"
 #include "fitting/model/svbrdf_maps.h"
-#include "sim/fabric.h"
-#include "sim/test_materials.h"
+#include "sim/sample.h"
 
 namespace loom::apps {
 namespace {
@@ -64,22 +63,8 @@ Status WritePreviews(const sim::Material& m, const fs::path& dir) {
   return Status::Ok();
 }
 
-Result<sim::Material> MakeMaterial(const std::string& kind, uint64_t seed, int size_px, double pixel_mm) {
-  const sim::GridOptions grid{size_px, size_px, pixel_mm};
-  if (kind == "fabric") {
-    sim::FabricOptions options;
-    options.width_px = options.height_px = size_px;
-    options.pixel_mm = pixel_mm;
-    return sim::GenerateFabric(seed, options);
-  }
-  if (kind == "white-tile") return sim::WhiteTile(grid);
-  if (kind == "chessboard") return sim::Chessboard(9, 6, size_px * pixel_mm / 14, grid);
-  if (kind == "colour-chart") return sim::ColourChart(size_px * pixel_mm / 8, grid);
-  return InvalidArgumentError("--kind " + kind, "unknown (expected fabric, white-tile, chessboard, colour-chart)");
-}
-
 int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_mm, const fs::path& out) {
-  Result<sim::Material> material = MakeMaterial(kind, seed, size_px, pixel_mm);
+  Result<sim::Material> material = sim::MakeSample({kind, seed, size_px, pixel_mm});
   if (!material.ok()) return ReportFailure(material.status());
   std::error_code ec;
   fs::create_directories(out, ec);

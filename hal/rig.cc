@@ -69,8 +69,10 @@ Result<std::unique_ptr<D>> CreateDevice(const ConfigNode& node, const BackendReg
 
 }  // namespace
 
-Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const BackendRegistry& registry) {
+Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const BackendRegistry& registry,
+                                         std::string name) {
   std::unique_ptr<Rig> rig(new Rig());
+  rig->name_ = std::move(name);
   for (const ConfigNode& node : devices.OptionalSequence("cameras")) {
     LOOM_ASSIGN_OR_RETURN(std::unique_ptr<Camera> camera, CreateDevice<Camera>(node, registry));
     rig->cameras_.push_back(std::move(camera));
@@ -129,10 +131,9 @@ Result<std::unique_ptr<Rig>> Rig::Load(const std::filesystem::path& path, const 
   doc.root().Required("name", &name);
   // Factories only read their keys (they connect in Open()), so a failure here is a bad value;
   // after one, later keys are unread and Finish() would wrongly call them unknown.
-  Result<std::unique_ptr<Rig>> rig = Create(doc.root().Child("devices"), registry);
+  Result<std::unique_ptr<Rig>> rig = Create(doc.root().Child("devices"), registry, name);
   if (!rig.ok()) return rig.status().WithContext(path.string());
   LOOM_RETURN_IF_ERROR(doc.Finish());
-  (*rig)->name_ = name;
   return rig;
 }
 

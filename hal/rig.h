@@ -38,7 +38,7 @@ class Rig {
   // in the YAML are recorded in the document (call its Finish()); a backend that cannot create
   // its device is returned as an error naming the device.
   static Result<std::unique_ptr<Rig>> Create(const ConfigNode& devices,
-                                             const BackendRegistry& registry);
+                                             const BackendRegistry& registry, std::string name = "");
   // Loads a rig YAML whose top level is `schema_version`, `name` and `devices`.
   static Result<std::unique_ptr<Rig>> Load(const std::filesystem::path& path,
                                            const BackendRegistry& registry);

@@ -129,7 +129,28 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     if (std::optional<ConfigNode> sensor = node.OptionalChild("sensor")) ReadSensor(*sensor, &camera.sensor);
     rig.cameras.push_back(camera);
   }
-  for (const ConfigNode& node : geometry.Sequence("leds")) {
+  // LEDs by ring (elevation, count, azimuth offset on a dome), then any listed one by one
+  // (e.g. calibrated positions). Indices follow this order.
+  for (const ConfigNode& node : geometry.OptionalSequence("led_rings")) {
+    double radius_mm = 650, elevation_deg = 45, azimuth_offset_deg = 0, intensity = 1e6, falloff = 1;
+    int count = 1;
+    node.Required("radius_mm", &radius_mm);
+    node.Required("elevation_deg", &elevation_deg);
+    node.Required("count", &count);
+    node.Optional("azimuth_offset_deg", &azimuth_offset_deg);
+    node.Optional("intensity", &intensity);
+    node.Optional("falloff_exponent", &falloff);
+    for (int i = 0; i < count; ++i) {
+      LedModel led;
+      const double azimuth = DegToRad(azimuth_offset_deg + 360.0 * i / count);
+      led.position_mm = radius_mm * DirectionFromSpherical(DegToRad(90 - elevation_deg), azimuth);
+      led.axis = -led.position_mm.normalized();
+      led.intensity = intensity;
+      led.falloff_exponent = falloff;
+      rig.leds.push_back(led);
+    }
+  }
+  for (const ConfigNode& node : geometry.OptionalSequence("leds")) {
     LedModel led;
     node.Required("position_mm", &led.position_mm);
     node.Optional("intensity", &led.intensity);
@@ -140,6 +161,7 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     led.axis.normalize();
     rig.leds.push_back(led);
   }
+  if (rig.leds.empty()) geometry.AddError("led_rings", "the rig has no LEDs (give led_rings or leds)");
   for (const ConfigNode& node : geometry.OptionalSequence("filter_wheels")) {
     FilterWheelModel wheel;
     node.Required("name", &wheel.name);

@@ -1,0 +1,36 @@
+#include "apps/rig_loader.h"
+
+#include "apps/backends.h"
+#include "sim/rig_model.h"
+#include "sim/sample.h"
+
+namespace loom::apps {
+
+Result<LoadedRig> LoadRig(const std::filesystem::path& path) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
+  const ConfigNode root = doc.root();
+  std::string name;
+  root.Required("name", &name);
+  hal::BackendRegistry registry = AllBackends();
+  LoadedRig loaded;
+  if (std::optional<ConfigNode> geometry = root.OptionalChild("geometry")) {
+    sim::RigModel model = sim::ReadRigModel(*geometry);
+    model.name = name;
+    sim::SampleSpec sample;
+    if (std::optional<ConfigNode> sample_node = root.OptionalChild("sample")) sample = sim::ReadSampleSpec(*sample_node);
+    int seed = 0;
+    root.Optional("seed", &seed);
+    Result<sim::Material> material = sim::MakeSample(sample);
+    if (!material.ok()) return material.status().WithContext(path.string());
+    loaded.world = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(std::move(model), std::move(*material)),
+                                                   static_cast<uint64_t>(seed));
+    hal::RegisterSimBackends(registry, loaded.world);
+  }
+  Result<std::unique_ptr<hal::Rig>> rig = hal::Rig::Create(root.Child("devices"), registry, name);
+  if (!rig.ok()) return rig.status().WithContext(path.string());
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  loaded.rig = std::move(*rig);
+  return loaded;
+}
+
+}  // namespace loom::apps

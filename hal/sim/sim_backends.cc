@@ -1,0 +1,325 @@
+#include "hal/sim/sim_backends.h"
+
+#include <cstring>
+#include <deque>
+
+namespace loom::hal {
+namespace {
+
+// SplitMix64 finaliser: mixes the fields of a frame into its noise seed.
+uint64_t Mix(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+uint64_t HashDouble(uint64_t h, double value) {
+  uint64_t bits;
+  std::memcpy(&bits, &value, sizeof(bits));
+  return Mix(h ^ bits);
+}
+
+// The noise seed of a frame: what it shows, not when it was taken.
+uint64_t FrameSeed(uint64_t world_seed, int camera, const sim::SceneState& state, const CameraSettings& settings) {
+  uint64_t h = Mix(world_seed ^ static_cast<uint64_t>(camera));
+  for (const sim::LitLed& led : state.leds) h = HashDouble(Mix(h ^ static_cast<uint64_t>(led.led)), led.current_ma);
+  for (const auto& [wheel, slot] : state.filter_slots) h = Mix(h ^ (static_cast<uint64_t>(wheel) << 32) ^ slot);
+  h = HashDouble(h, state.turntable_deg);
+  h = HashDouble(h, settings.exposure_us);
+  return HashDouble(h, settings.gain);
+}
+
+class SimCamera : public Camera {
+ public:
+  SimCamera(const DeviceConfig& config, std::shared_ptr<SimWorld> world, std::string model, int supersampling)
+      : Camera(config.name, "sim", "virtual " + model), world_(std::move(world)), model_(std::move(model)),
+        supersampling_(supersampling) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    const auto& cameras = world_->scene->rig().cameras;
+    for (size_t i = 0; i < cameras.size(); ++i) {
+      if (cameras[i].name == model_) index_ = static_cast<int>(i);
+    }
+    if (index_ < 0) return Error(StatusCode::kNotFound, "the rig geometry has no camera '" + model_ + "'");
+    const sim::CameraModel& camera = cameras[index_];
+    CameraCapabilities caps;
+    caps.sensor_width = camera.width;
+    caps.sensor_height = camera.height;
+    caps.pixel_formats = {PixelFormat::kMono12, PixelFormat::kMono16};
+    caps.exposure_min_us = 10;
+    caps.exposure_max_us = 1e7;
+    caps.gain_min = 0;
+    caps.gain_max = 24;
+    set_capabilities(caps);
+    return DeviceIdentity{"loom", "simulated camera", "SIM-" + model_, ""};
+  }
+  Status DoConfigure(CameraSettings*) override { return Status::Ok(); }
+  Status DoStart() override {
+    queue_.clear();
+    return Status::Ok();
+  }
+  Status DoStop() override { return Status::Ok(); }
+  Status DoClose() override { return Status::Ok(); }
+  Status DoMakeSafe() override { return Status::Ok(); }
+  Status DoTriggerSoftware() override {
+    queue_.push_back(Render());
+    return Status::Ok();
+  }
+  Result<RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override {
+    if (queue_.empty() && settings().trigger == TriggerMode::kFreeRun) queue_.push_back(Render());
+    if (queue_.empty()) {
+      return Error(StatusCode::kTimeout, "no frame within " + std::to_string(timeout.count()) + " ms (not triggered)");
+    }
+    RawFrame frame = std::move(queue_.front());
+    queue_.pop_front();
+    return frame;
+  }
+
+ private:
+  RawFrame Render() {
+    sim::SceneState state;
+    {
+      std::lock_guard lock(world_->mutex);
+      state = world_->state;
+    }
+    const sim::Scene& scene = *world_->scene;
+    const sim::CameraModel& model = scene.rig().cameras[index_];
+    const Image radiance = scene.RenderRadiance(index_, state, {.supersampling = supersampling_});
+    const CameraSettings& s = settings();
+    const std::vector<uint16_t> full =
+        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us, s.gain}, FrameSeed(world_->seed, index_, state, s));
+    const int shift = s.pixel_format == PixelFormat::kMono16 ? 16 - model.sensor.adc_bits : 0;
+    RawFrame frame;
+    frame.width = s.roi.width;
+    frame.height = s.roi.height;
+    frame.pixels.resize(static_cast<size_t>(frame.width) * frame.height);
+    for (int y = 0; y < frame.height; ++y) {
+      for (int x = 0; x < frame.width; ++x) {
+        frame.pixels[static_cast<size_t>(y) * frame.width + x] =
+            static_cast<uint16_t>(full[static_cast<size_t>(y + s.roi.y) * model.width + x + s.roi.x] << shift);
+      }
+    }
+    FrameMetadata& meta = frame.metadata;
+    meta.camera = name();
+    meta.camera_serial = identity().serial;
+    meta.pixel_format = s.pixel_format;
+    meta.roi = s.roi;
+    meta.exposure_us = s.exposure_us;
+    meta.gain = s.gain;
+    meta.frame_id = ++frames_;
+    meta.host_timestamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                 std::chrono::system_clock::now().time_since_epoch()).count();
+    return frame;
+  }
+
+  std::shared_ptr<SimWorld> world_;
+  std::string model_;
+  int supersampling_;
+  int index_ = -1;
+  uint64_t frames_ = 0;
+  std::deque<RawFrame> queue_;
+};
+
+class SimLedArray : public LedArray {
+ public:
+  SimLedArray(const DeviceConfig& config, std::shared_ptr<SimWorld> world)
+      : LedArray(config.name, "sim", "virtual"), world_(std::move(world)) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    set_limits(static_cast<int>(world_->scene->rig().leds.size()), 1000);
+    return DeviceIdentity{"loom", "simulated LED controller", "SIM-LEDS", ""};
+  }
+  Status DoConfigure(const LedArraySettings&) override { return Status::Ok(); }
+  Status DoStart() override { return Status::Ok(); }
+  Status DoStop() override { return DoAllOff(); }
+  Status DoClose() override { return Status::Ok(); }
+  Status DoDrive(std::span<const LedDrive> leds) override {
+    std::lock_guard lock(world_->mutex);
+    world_->state.leds.clear();
+    for (const LedDrive& drive : leds) {
+      if (drive.current_ma > 0) world_->state.leds.push_back({drive.led, drive.current_ma});
+    }
+    return Status::Ok();
+  }
+  Status DoAllOff() override {
+    std::lock_guard lock(world_->mutex);
+    world_->state.leds.clear();
+    return Status::Ok();
+  }
+  Result<LedArrayReadback> DoRead() override {
+    std::lock_guard lock(world_->mutex);
+    LedArrayReadback read;
+    read.current_ma.assign(led_count(), 0.0);
+    for (const sim::LitLed& led : world_->state.leds) read.current_ma[led.led] = led.current_ma;
+    read.temperature_c = 30;
+    return read;
+  }
+
+ private:
+  std::shared_ptr<SimWorld> world_;
+};
+
+class SimFilterWheel : public FilterWheel {
+ public:
+  SimFilterWheel(const DeviceConfig& config, std::shared_ptr<SimWorld> world, std::string model)
+      : FilterWheel(config.name, "sim", "virtual " + model), world_(std::move(world)), model_(std::move(model)) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    const auto& wheels = world_->scene->rig().filter_wheels;
+    for (size_t i = 0; i < wheels.size(); ++i) {
+      if (wheels[i].name == model_) index_ = static_cast<int>(i);
+    }
+    if (index_ < 0) return Error(StatusCode::kNotFound, "the rig geometry has no filter wheel '" + model_ + "'");
+    set_slot_count(static_cast<int>(wheels[index_].filters.size()));
+    return DeviceIdentity{"loom", "simulated filter wheel", "SIM-" + model_, ""};
+  }
+  Status DoConfigure(const FilterWheelSettings&) override { return Status::Ok(); }
+  Status DoStart() override { return Status::Ok(); }
+  Status DoStop() override { return Status::Ok(); }
+  Status DoClose() override { return Status::Ok(); }
+  Status DoMakeSafe() override { return Status::Ok(); }
+  Status DoMoveTo(int slot) override {
+    std::lock_guard lock(world_->mutex);
+    world_->state.filter_slots[index_] = slot;
+    return Status::Ok();
+  }
+  Result<int> DoPosition() override {
+    std::lock_guard lock(world_->mutex);
+    const auto it = world_->state.filter_slots.find(index_);
+    return it == world_->state.filter_slots.end() ? 0 : it->second;
+  }
+
+ private:
+  std::shared_ptr<SimWorld> world_;
+  std::string model_;
+  int index_ = -1;
+};
+
+class SimTurntable : public Turntable {
+ public:
+  SimTurntable(const DeviceConfig& config, std::shared_ptr<SimWorld> world)
+      : Turntable(config.name, "sim", "virtual"), world_(std::move(world)) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    set_max_speed(360);
+    return DeviceIdentity{"loom", "simulated turntable", "SIM-TT", ""};
+  }
+  Status DoConfigure(const TurntableSettings&) override { return Status::Ok(); }
+  Status DoStart() override { return Status::Ok(); }
+  Status DoStop() override { return Status::Ok(); }
+  Status DoClose() override { return Status::Ok(); }
+  Status DoMakeSafe() override { return Status::Ok(); }
+  Status DoHome() override { return DoMoveTo(0); }
+  Status DoMoveTo(double angle_deg) override {
+    std::lock_guard lock(world_->mutex);
+    world_->state.turntable_deg = angle_deg;
+    return Status::Ok();
+  }
+  Result<double> DoAngle() override {
+    std::lock_guard lock(world_->mutex);
+    return world_->state.turntable_deg;
+  }
+
+ private:
+  std::shared_ptr<SimWorld> world_;
+};
+
+class SimLinearLight : public LinearLight {
+ public:
+  SimLinearLight(const DeviceConfig& config, std::shared_ptr<SimWorld> world, double travel_mm)
+      : LinearLight(config.name, "sim", "virtual"), world_(std::move(world)), travel_mm_(travel_mm) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    set_limits(travel_mm_, 500);
+    return DeviceIdentity{"loom", "simulated linear light", "SIM-LL", ""};
+  }
+  Status DoConfigure(const LinearLightSettings&) override { return Status::Ok(); }
+  Status DoStart() override { return Status::Ok(); }
+  Status DoStop() override { return Status::Ok(); }
+  Status DoClose() override { return Status::Ok(); }
+  Status DoMakeSafe() override { return DoSetStrip(false, 0); }
+  Status DoHome() override { return DoMoveTo(0); }
+  Status DoMoveTo(double position_mm) override {
+    std::lock_guard lock(world_->mutex);
+    world_->linear_light_mm = position_mm;
+    return Status::Ok();
+  }
+  Status DoSetStrip(bool on, double intensity) override {
+    std::lock_guard lock(world_->mutex);
+    world_->linear_light_on = on;
+    world_->linear_light_intensity = intensity;
+    return Status::Ok();
+  }
+  Result<LinearLightReadback> DoRead() override {
+    std::lock_guard lock(world_->mutex);
+    return LinearLightReadback{world_->linear_light_mm, world_->linear_light_on, world_->linear_light_intensity};
+  }
+
+ private:
+  std::shared_ptr<SimWorld> world_;
+  double travel_mm_;
+};
+
+class SimProjector : public Projector {
+ public:
+  SimProjector(const DeviceConfig& config, int width, int height)
+      : Projector(config.name, "sim", "virtual"), width_(width), height_(height) {}
+
+ protected:
+  Result<DeviceIdentity> DoOpen() override {
+    set_native_size(width_, height_);
+    return DeviceIdentity{"loom", "simulated projector", "SIM-PROJ", ""};
+  }
+  Status DoConfigure(const ProjectorSettings&) override { return Status::Ok(); }
+  Status DoStart() override { return Status::Ok(); }
+  Status DoStop() override { return Status::Ok(); }
+  Status DoClose() override { return Status::Ok(); }
+  Status DoShow(const Pattern&) override { return Status::Ok(); }
+  Status DoBlank() override { return Status::Ok(); }
+
+ private:
+  int width_;
+  int height_;
+};
+
+}  // namespace
+
+void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world) {
+  registry.Register<Camera>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Camera>> {
+    std::string model = config.name;
+    int supersampling = 2;
+    config.node.Optional("model", &model);
+    config.node.Optional("supersampling", &supersampling);
+    return std::unique_ptr<Camera>(std::make_unique<SimCamera>(config, world, model, supersampling));
+  });
+  registry.Register<LedArray>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<LedArray>> {
+    return std::unique_ptr<LedArray>(std::make_unique<SimLedArray>(config, world));
+  });
+  registry.Register<FilterWheel>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<FilterWheel>> {
+    std::string model = config.name;
+    config.node.Optional("model", &model);
+    return std::unique_ptr<FilterWheel>(std::make_unique<SimFilterWheel>(config, world, model));
+  });
+  registry.Register<Turntable>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Turntable>> {
+    return std::unique_ptr<Turntable>(std::make_unique<SimTurntable>(config, world));
+  });
+  registry.Register<LinearLight>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<LinearLight>> {
+    double travel_mm = 400;
+    config.node.Optional("travel_mm", &travel_mm);
+    return std::unique_ptr<LinearLight>(std::make_unique<SimLinearLight>(config, world, travel_mm));
+  });
+  registry.Register<Projector>("sim", [](const DeviceConfig& config) -> Result<std::unique_ptr<Projector>> {
+    int width = 1280, height = 800;
+    config.node.Optional("native_width", &width);
+    config.node.Optional("native_height", &height);
+    return std::unique_ptr<Projector>(std::make_unique<SimProjector>(config, width, height));
+  });
+}
+
+}  // namespace loom::hal

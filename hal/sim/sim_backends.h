@@ -1,0 +1,36 @@
+#pragma once
+// The `sim` backend: every device kind on the virtual rig (sim/), registered like the real
+// backends, so acquisition cannot tell the simulated scanner from a real one. All sim devices
+// of a rig share one SimWorld: LEDs, wheels and the turntable change its state; triggering a
+// camera renders that state (sim::Scene) through the camera's sensor model.
+//
+// Device names match the rig's `geometry:` (cameras and filter wheels by name; `model:` picks
+// another). Moves are instantaneous. A frame's noise is seeded by the world seed and what the
+// frame shows (camera, lights, slots, angle, exposure), so the same capture twice — e.g. after
+// a resumed scan — gives the same frame.
+// Not modelled yet: light from the linear light and the projector (their devices keep state).
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "hal/registry.h"
+#include "sim/renderer.h"
+
+namespace loom::hal {
+
+struct SimWorld {
+  SimWorld(std::shared_ptr<const sim::Scene> scene, uint64_t seed) : scene(std::move(scene)), seed(seed) {}
+
+  std::shared_ptr<const sim::Scene> scene;
+  uint64_t seed;
+  std::mutex mutex;  // guards everything below; sim devices may run on different threads
+  sim::SceneState state;
+  double linear_light_mm = 0;
+  bool linear_light_on = false;
+  double linear_light_intensity = 0;
+};
+
+void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world);
+
+}  // namespace loom::hal

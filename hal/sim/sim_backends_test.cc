@@ -1,0 +1,145 @@
+// The sim backend: devices that share one virtual world, frames rendered from the rig state.
+#include "hal/sim/sim_backends.h"
+
+#include <gtest/gtest.h>
+
+#include "hal/rig.h"
+#include "sim/test_materials.h"
+
+namespace loom::hal {
+namespace {
+
+constexpr char kRigYaml[] = R"(
+cameras:
+  - {name: top, backend: sim, supersampling: 1,
+     settings: {pixel_format: Mono12, exposure_us: 20000, trigger: software}}
+leds: {name: leds, backend: sim}
+filter_wheels: [{name: wheel0, backend: sim}]
+turntable: {name: turntable, backend: sim}
+)";
+
+sim::RigModel SmallRig() {
+  sim::RigModel rig;
+  sim::CameraModel camera;
+  camera.name = "top";
+  camera.width = camera.height = 48;
+  camera.K << 600, 0, 23.5, 0, 600, 23.5, 0, 0, 1;
+  Eigen::Matrix3d down;
+  down << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  camera.cam_from_rig = MakeRigid(down, -down * Eigen::Vector3d(0, 0, 500));
+  camera.sensor.sensitivity = 1.3e6;
+  rig.cameras.push_back(camera);
+  for (double azimuth : {0.0, 90.0, 180.0}) {
+    sim::LedModel led;
+    led.position_mm = 600 * DirectionFromSpherical(DegToRad(50), DegToRad(azimuth));
+    led.axis = -led.position_mm.normalized();
+    rig.leds.push_back(led);
+  }
+  rig.filter_wheels.push_back({"wheel0", 1, {{450, 40, 0.9}, {650, 40, 0.9}}});
+  return rig;
+}
+
+class SimBackendsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    world_ = std::make_shared<SimWorld>(
+        std::make_shared<sim::Scene>(SmallRig(), sim::ColourChart(4.0, {64, 64, 0.5})), 3);
+    BackendRegistry registry;
+    RegisterSimBackends(registry, world_);
+    // The devices section at the top level of the document.
+    auto doc = ConfigDocument::LoadString(std::string("schema_version: 1") + kRigYaml, "sim.yaml", 1);
+    ASSERT_TRUE(doc.ok());
+    auto rig = Rig::Create(doc->root(), registry, "sim");
+    ASSERT_TRUE(rig.ok()) << rig.status().ToString();
+    ASSERT_TRUE(doc->Finish().ok()) << doc->Finish().ToString();
+    rig_ = std::move(*rig);
+    ASSERT_TRUE(rig_->OpenAndConfigure().ok());
+    ASSERT_TRUE(rig_->StartAll().ok());
+  }
+
+  double MeanDn(const RawFrame& frame) {
+    double sum = 0;
+    for (uint16_t v : frame.pixels) sum += v;
+    return sum / frame.pixels.size();
+  }
+
+  std::shared_ptr<SimWorld> world_;
+  std::unique_ptr<Rig> rig_;
+};
+
+TEST_F(SimBackendsTest, LightsChangeWhatTheCameraRenders) {
+  Camera& camera = *rig_->cameras()[0];
+  const Result<RawFrame> dark = rig_->Snap(camera);
+  ASSERT_TRUE(dark.ok()) << dark.status().ToString();
+  EXPECT_NEAR(MeanDn(*dark), 64, 1.0);  // the dark offset
+  const LedDrive drive[] = {{0, 800}};
+  ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
+  const Result<RawFrame> lit = rig_->Snap(camera);
+  ASSERT_TRUE(lit.ok());
+  EXPECT_GT(MeanDn(*lit), 150);
+  EXPECT_EQ(lit->metadata.rig_state.leds_on, (std::vector<LedDrive>{{0, 800}}));
+  EXPECT_EQ(lit->metadata.camera_serial, "SIM-top");
+}
+
+TEST_F(SimBackendsTest, SameStateSameFrameAndTheTurntableMovesTheSample) {
+  Camera& camera = *rig_->cameras()[0];
+  const LedDrive drive[] = {{0, 800}};
+  ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
+  const RawFrame a = *rig_->Snap(camera);
+  const RawFrame b = *rig_->Snap(camera);
+  EXPECT_EQ(a.pixels, b.pixels);  // what a resumed scan relies on
+  ASSERT_TRUE(rig_->turntable()->MoveTo(90).ok());
+  const RawFrame turned = *rig_->Snap(camera);
+  EXPECT_NE(turned.pixels, a.pixels);
+  EXPECT_EQ(turned.metadata.rig_state.turntable_deg, 90);
+}
+
+TEST_F(SimBackendsTest, FilterWheelColoursTheLight) {
+  Camera& camera = *rig_->cameras()[0];
+  const LedDrive drive[] = {{1, 1000}};  // the LED behind wheel0
+  ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
+  FilterWheel& wheel = *rig_->filter_wheels()[0];
+  ASSERT_TRUE(wheel.MoveTo(0).ok());  // 450 nm
+  const RawFrame blue = *rig_->Snap(camera);
+  ASSERT_TRUE(wheel.MoveTo(1).ok());  // 650 nm
+  const RawFrame red = *rig_->Snap(camera);
+  EXPECT_EQ(red.metadata.rig_state.filter_slots.at("wheel0"), 1);
+  // The chart's red patch (row 2, column 2: index 14) is bright through 650 nm, dark through 450.
+  // Patch centres lie 4.8 mm apart; camera: 500 mm away, f = 600 px → 1.2 px per mm.
+  const double x_mm = (2 - 3 + 0.5) * 4.8, y_mm = (2 - 2 + 0.5) * 4.8;
+  const int px = static_cast<int>(std::lround(23.5 + 1.2 * x_mm));
+  const int py = static_cast<int>(std::lround(23.5 - 1.2 * y_mm));
+  EXPECT_GT(red.at(py, px) - 64, 3 * (blue.at(py, px) - 64)) << red.at(py, px) << " vs " << blue.at(py, px);
+}
+
+TEST_F(SimBackendsTest, RoiAndMono16) {
+  Camera& camera = *rig_->cameras()[0];
+  const LedDrive drive[] = {{0, 800}};
+  ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
+  const RawFrame full = *rig_->Snap(camera);
+  ASSERT_TRUE(camera.Stop().ok());
+  CameraSettings settings = camera.settings();
+  settings.roi = {10, 5, 20, 12};
+  settings.pixel_format = PixelFormat::kMono16;
+  ASSERT_TRUE(camera.Configure(settings).ok());
+  ASSERT_TRUE(camera.Start().ok());
+  const RawFrame roi = *rig_->Snap(camera);
+  ASSERT_EQ(roi.width, 20);
+  ASSERT_EQ(roi.height, 12);
+  EXPECT_EQ(roi.at(3, 4), full.at(5 + 3, 10 + 4) << 4);  // 12-bit values, MSB-aligned
+}
+
+TEST_F(SimBackendsTest, UnknownModelIsNamed) {
+  BackendRegistry registry;
+  RegisterSimBackends(registry, world_);
+  auto doc = ConfigDocument::LoadString("schema_version: 1\nc: {name: side, backend: sim}\n", "x.yaml", 1);
+  const ConfigNode node = doc->root().Child("c");
+  auto camera = registry.Create<Camera>({"side", "sim", node});
+  ASSERT_TRUE(camera.ok());
+  const Status opened = (*camera)->Open();
+  EXPECT_EQ(opened.code(), StatusCode::kNotFound);
+  EXPECT_NE(opened.message().find("no camera 'side'"), std::string::npos) << opened.ToString();
+}
+
+}  // namespace
+}  // namespace loom::hal

@@ -1,0 +1,37 @@
+#include "sim/sample.h"
+
+#include "sim/fabric.h"
+#include "sim/test_materials.h"
+
+namespace loom::sim {
+
+SampleSpec ReadSampleSpec(const ConfigNode& node) {
+  SampleSpec spec;
+  int seed = 0;
+  node.Optional("kind", &spec.kind);
+  node.Optional("seed", &seed);
+  node.Optional("size_px", &spec.size_px);
+  node.Optional("pixel_mm", &spec.pixel_mm);
+  spec.seed = static_cast<uint64_t>(seed);
+  if (spec.size_px < 8) node.AddError("size_px", "must be ≥ 8");
+  if (spec.pixel_mm <= 0) node.AddError("pixel_mm", "must be > 0");
+  return spec;
+}
+
+Result<Material> MakeSample(const SampleSpec& spec) {
+  const GridOptions grid{spec.size_px, spec.size_px, spec.pixel_mm};
+  const double side_mm = spec.size_px * spec.pixel_mm;
+  if (spec.kind == "fabric") {
+    FabricOptions options;
+    options.width_px = options.height_px = spec.size_px;
+    options.pixel_mm = spec.pixel_mm;
+    return GenerateFabric(spec.seed, options);
+  }
+  if (spec.kind == "white-tile") return WhiteTile(grid);
+  if (spec.kind == "chessboard") return Chessboard(9, 6, side_mm / 14, grid);
+  if (spec.kind == "colour-chart") return ColourChart(side_mm / 8, grid);
+  return InvalidArgumentError("sample kind '" + spec.kind + "'",
+                              "unknown (expected fabric, white-tile, chessboard, colour-chart)");
+}
+
+}  // namespace loom::sim

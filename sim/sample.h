@@ -1,0 +1,27 @@
+#pragma once
+// What lies on the simulated rig's turntable: a material chosen by kind (and seed), as the
+// `sample:` section of a sim rig YAML or `loom sim material` ask for it.
+//
+//   sample: {kind: fabric, seed: 1, size_px: 256, pixel_mm: 0.1}
+//
+// kinds: fabric (procedural, by seed), white-tile, chessboard, colour-chart.
+
+#include <cstdint>
+#include <string>
+
+#include "core/config.h"
+#include "sim/material.h"
+
+namespace loom::sim {
+
+struct SampleSpec {
+  std::string kind = "fabric";
+  uint64_t seed = 0;
+  int size_px = 256;
+  double pixel_mm = 0.1;
+};
+
+SampleSpec ReadSampleSpec(const ConfigNode& node);
+Result<Material> MakeSample(const SampleSpec& spec);
+
+}  // namespace loom::sim
