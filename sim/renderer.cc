@@ -102,6 +102,11 @@ double Scene::HeightAt(double x_mm, double y_mm) const {
   return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
 }
 
+Eigen::Vector3d Scene::GeometricNormalAt(double x_mm, double y_mm) const {
+  const std::optional<int> pixel = MapPixel(x_mm, y_mm);
+  return pixel ? Eigen::Vector3d(frames_[*pixel].col(2)) : Eigen::Vector3d::UnitZ();
+}
+
 std::optional<Eigen::Vector3d> Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const {
   if (direction.z() >= 0) return std::nullopt;
   const double top = max_height_ + 1e-6;

@@ -65,6 +65,8 @@ class Scene {
   bool Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) const;
   // Surface height (mm) at a sample-frame point (0 off the material).
   double HeightAt(double x_mm, double y_mm) const;
+  // Geometric normal (sample frame) at a point: the blurred heightmap's, z off the material.
+  Eigen::Vector3d GeometricNormalAt(double x_mm, double y_mm) const;
 
  private:
   struct Surface;  // BRDF parameters and local frame of one map pixel

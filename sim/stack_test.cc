@@ -1,0 +1,105 @@
+// The fast path against the full renderer: a stack pixel holds what a camera's raw render shows
+// at that point when re-projected through the true camera model; occluded points are NaN.
+#include "sim/stack.h"
+
+#include <gtest/gtest.h>
+
+#include "sim/test_materials.h"
+
+namespace loom::sim {
+namespace {
+
+// Two cameras 500 mm away (top and 45° from the normal on the −x side), two LEDs.
+RigModel TwoCameraRig() {
+  RigModel rig;
+  for (double inclination : {0.0, 45.0}) {
+    CameraModel camera;
+    camera.name = inclination == 0 ? "top" : "side";
+    camera.width = camera.height = 120;
+    camera.K << 1500, 0, 59.5, 0, 1500, 59.5, 0, 0, 1;
+    camera.distortion << -0.1, 0.02, 0, 0, 0;
+    const Eigen::Vector3d position = 500 * DirectionFromSpherical(DegToRad(inclination), kPi);
+    const Eigen::Vector3d z = -position.normalized();
+    const Eigen::Vector3d y = -(Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z).normalized();
+    Eigen::Matrix3d r;
+    r.row(0) = y.cross(z).transpose();
+    r.row(1) = y.transpose();
+    r.row(2) = z.transpose();
+    camera.cam_from_rig = MakeRigid(r, -r * position);
+    rig.cameras.push_back(camera);
+  }
+  for (double azimuth : {30.0, 200.0}) {
+    LedModel led;
+    led.position_mm = 600 * DirectionFromSpherical(DegToRad(40), DegToRad(azimuth));
+    led.axis = -led.position_mm.normalized();
+    rig.leds.push_back(led);
+  }
+  return rig;
+}
+
+double Bilinear(const Image& image, const Eigen::Vector2d& pixel) {
+  const int x0 = static_cast<int>(std::floor(pixel.x()));
+  const int y0 = static_cast<int>(std::floor(pixel.y()));
+  const double fx = pixel.x() - x0, fy = pixel.y() - y0;
+  const auto at = [&](int x, int y) { return static_cast<double>(image.at(0, y, x)); };
+  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+}
+
+TEST(StackTest, AgreesWithRawRendersReprojectedByTheCameraModel) {
+  fitting::WardParams<double> glossy;
+  glossy.a_d = Eigen::Vector3d::Constant(0.5);
+  glossy.a_s = Eigen::Vector3d::Constant(0.2);
+  glossy.sigma_x = glossy.sigma_y = 0.3;
+  const Scene scene(TwoCameraRig(), UniformMaterial("glossy", glossy, {60, 60, 0.5}));
+  const std::vector<Observation> observations = {{1, {{{0, 1000}}, {}, 0}}, {0, {{{1, 1000}}, {}, 30}}};
+  const Image stack = RenderStack(scene, observations, {});
+  for (size_t o = 0; o < observations.size(); ++o) {
+    const Observation& obs = observations[o];
+    const Image raw = scene.RenderRadiance(obs.camera, obs.state, {.supersampling = 4});
+    const CameraModel& camera = scene.rig().cameras[obs.camera];
+    const Rigid3d cam_from_sample = camera.cam_from_rig * scene.rig().turntable.RigFromSample(obs.state.turntable_deg);
+    int compared = 0;
+    for (int y = 10; y < 50; y += 3) {
+      for (int x = 10; x < 50; x += 3) {
+        const Eigen::Vector3d p(stack.at(0, y, x), stack.at(1, y, x), stack.at(2, y, x));
+        Eigen::Vector2d pixel;
+        ASSERT_TRUE(camera.Project(cam_from_sample * p, &pixel));
+        const double expected = Bilinear(raw, pixel);
+        const double actual = stack.at(6 + static_cast<int>(o), y, x);
+        ASSERT_NEAR(actual, expected, 0.01 * expected) << "obs " << o << " at " << x << "," << y;
+        ++compared;
+      }
+    }
+    EXPECT_GT(compared, 100);
+  }
+}
+
+TEST(StackTest, PointsTheCameraCannotSeeAreNaN) {
+  Material block = WhiteTile({80, 80, 0.25});  // 20 mm
+  const int height = *block.maps.ChannelIndex("height");
+  for (int y = 0; y < 80; ++y) {
+    for (int x = 30; x < 50; ++x) block.maps.at(height, y, x) = 3.0f;  // a 3 mm ridge along y
+  }
+  const Scene scene(TwoCameraRig(), block);
+  // The side camera looks from −x: the floor just beyond the ridge (x > +2.5 mm) is hidden.
+  const Image stack = RenderStack(scene, {{1, {{{0, 1000}}, {}, 0}}, {0, {{{0, 1000}}, {}, 0}}}, {});
+  const int hidden_x = 52;   // x ≈ +3.1 mm, behind the ridge for the 45° camera
+  const int visible_x = 20;  // x ≈ −4.9 mm, in front of it
+  EXPECT_TRUE(std::isnan(stack.at(6, 40, hidden_x)));
+  EXPECT_FALSE(std::isnan(stack.at(6, 40, visible_x)));
+  EXPECT_FALSE(std::isnan(stack.at(7, 40, hidden_x)));  // the top camera sees it
+  EXPECT_NEAR(stack.at(2, 40, 40), 3.0, 1e-6);          // pos.Z on the ridge
+}
+
+TEST(StackTest, DefaultObservationsCoverCamerasLightsAnglesAndFilters) {
+  RigModel rig = TwoCameraRig();
+  rig.filter_wheels.push_back({"wheel0", 1, {{450, 30, 0.9}, {550, 30, 0.9}, {650, 30, 0.9}}});
+  const std::vector<Observation> observations = DefaultObservations(rig, {0, 120, 240});
+  EXPECT_EQ(observations.size(), 2u * 2u * 3u + 3u * 2u);
+  const std::string described = DescribeObservations(rig, observations);
+  EXPECT_NE(described.find("obs0015: camera side, turntable 0 deg, leds 1@1000mA, wheel0 slot 1 (550 nm)"),
+            std::string::npos) << described;
+}
+
+}  // namespace
+}  // namespace loom::sim
