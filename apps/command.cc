@@ -10,7 +10,7 @@ const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
       {"help", "Show the commands, or one command's options: loom help <command>", RunHelp},
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
-      {"sim", "The simulator: procedural materials", RunSim},
+      {"sim", "The simulator: procedural materials, frames and observation stacks", RunSim},
       {"version", "Print loom's version and the libraries it runs with", RunVersion},
   };
   return commands;

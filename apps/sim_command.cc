@@ -2,13 +2,17 @@
 // preview PNGs. (`loom sim render` arrives with the renderer.)
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "apps/command.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "apps/rig_loader.h"
+#include "core/exr_io.h"
 #include "sim/sample.h"
+#include "sim/stack.h"
 
 namespace loom::apps {
 namespace {
@@ -77,10 +81,57 @@ int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_m
   return kExitOk;
 }
 
+// One raw frame (and its radiance) of a simulated rig's camera, or the fast-path stack.
+int Render(const std::string& rig_path, const std::string& camera_name, const std::string& leds, double angle_deg,
+           double exposure_us, bool stack, const fs::path& out) {
+  Result<LoadedRig> loaded = LoadRig(rig_path);
+  if (!loaded.ok()) return ReportFailure(loaded.status());
+  if (!loaded->world) {
+    return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
+  }
+  const sim::Scene& scene = *loaded->world->scene;
+  if (stack) {
+    const std::vector<sim::Observation> observations = sim::DefaultObservations(scene.rig(), {0, 120, 240});
+    const Image image = sim::RenderStack(scene, observations, {});
+    if (Status written = sim::WriteStack(out, image, scene.rig(), observations, scene.material().pixel_mm); !written.ok()) {
+      return ReportFailure(written);
+    }
+    std::cout << "wrote " << out.string() << ": " << image.width() << "x" << image.height() << " px, "
+              << observations.size() << " observations\n";
+    return kExitOk;
+  }
+  int camera = -1;
+  for (size_t i = 0; i < scene.rig().cameras.size(); ++i) {
+    if (scene.rig().cameras[i].name == camera_name) camera = static_cast<int>(i);
+  }
+  if (camera < 0) return ReportFailure(NotFoundError("--camera " + camera_name, "not in the rig geometry"));
+  sim::SceneState state;
+  state.turntable_deg = angle_deg;
+  std::stringstream items(leds);
+  std::string item;
+  while (std::getline(items, item, ',')) {
+    const size_t colon = item.find(':');
+    if (colon == std::string::npos) return ReportFailure(InvalidArgumentError("--leds " + leds, "expected LED:MILLIAMPS,..."));
+    state.leds.push_back({std::stoi(item.substr(0, colon)), std::stod(item.substr(colon + 1))});
+  }
+  const Image radiance = scene.RenderRadiance(camera, state);
+  const sim::CameraModel& model = scene.rig().cameras[camera];
+  const std::vector<uint16_t> raw = sim::CaptureRaw(radiance, model.sensor, {exposure_us, 0}, loaded->world->seed);
+  Image image(radiance.width(), radiance.height(), {"radiance", "raw"});
+  std::copy(radiance.channel(0).begin(), radiance.channel(0).end(), image.channel(0).begin());
+  std::copy(raw.begin(), raw.end(), image.channel(1).begin());
+  if (Status written = WriteExr(out, image, {{"loom.camera", camera_name}, {"loom.exposure_us", exposure_us}});
+      !written.ok()) {
+    return ReportFailure(written);
+  }
+  std::cout << "wrote " << out.string() << ": radiance and raw DN of " << camera_name << "\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunSim(int argc, char** argv) {
-  CLI::App app("The simulator: procedural materials (render: with the virtual rig)", "loom sim");
+  CLI::App app("The simulator: procedural materials and renders of a simulated rig", "loom sim");
   AddCommonOptions(app);
   app.require_subcommand(1);
   std::string kind = "fabric";
@@ -94,7 +145,20 @@ int RunSim(int argc, char** argv) {
   material->add_option("--size", size_px, "Map size in pixels (square)")->check(CLI::Range(8, 8192));
   material->add_option("--pixel-mm", pixel_mm, "Map pixel size on the sample in mm")->check(CLI::PositiveNumber);
   material->add_option("--out", out, "Output directory")->required();
+  std::string rig_path, camera = "cam0", leds = "0:1000";
+  double angle_deg = 0, exposure_us = 10000;
+  bool stack = false;
+  CLI::App* render = app.add_subcommand("render", "Render one camera frame (radiance + raw DN) or, with --stack, "
+                                                  "the fast-path observation stack");
+  render->add_option("--rig", rig_path, "Simulated rig YAML (with geometry:)")->required();
+  render->add_option("--camera", camera, "Camera of the rig geometry");
+  render->add_option("--leds", leds, "LED:MILLIAMPS[,...] lit for the frame");
+  render->add_option("--turntable-deg", angle_deg, "Turntable angle");
+  render->add_option("--exposure-us", exposure_us, "Exposure of the raw frame");
+  render->add_flag("--stack", stack, "Render the observation stack in the top-view frame instead");
+  render->add_option("--out", out, "Output EXR")->required();
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, out);
   return Material(kind, seed, size_px, pixel_mm, out);
 }
 
