@@ -35,7 +35,7 @@ const Scene& Scenes(int which) {
 // range(0): 0 tac7-mini, 1 tac7; range(1): threads.
 void BM_RenderFrame(benchmark::State& state) {
   const Scene& scene = Scenes(static_cast<int>(state.range(0)));
-  const loom::sim::SceneState lights{{{3, 1000}}, {}, 0};
+  const loom::sim::SceneState lights{.leds = {{3, 1000}}};
   const int threads = static_cast<int>(state.range(1));
   int64_t rays = 0;
   for (auto _ : state) {

@@ -152,6 +152,21 @@ bool Scene::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) con
   return false;
 }
 
+double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
+                                  const Eigen::Vector3d& weights, const fitting::WardLobe<double>& lobe,
+                                  const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local,
+                                  bool shadows) const {
+  if (intensity <= 0) return 0;
+  const Eigen::Vector3d to_light = light - p;
+  const double distance2 = to_light.squaredNorm();
+  const fitting::WardTerms<double> terms = lobe.Terms(local_from_world * (to_light / std::sqrt(distance2)), v_local);
+  if (terms.cos_l <= 0) return 0;
+  if (shadows && Shadowed(p, light)) return 0;
+  const fitting::WardParams<double>& params = lobe.params();
+  return intensity / distance2 *
+         (weights.dot(params.a_d) * terms.diffuse + weights.dot(params.a_s) * terms.specular) * terms.cos_l;
+}
+
 double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state,
                          bool shadows) const {
   Surface surface;
@@ -172,12 +187,6 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
   for (const LitLed& lit : state.leds) {
     if (lit.led < 0 || lit.led >= static_cast<int>(rig_.leds.size())) continue;
     const LedModel& led = rig_.leds[lit.led];
-    const double intensity = led.IntensityTowards(p_in_rig, lit.current_ma);
-    if (intensity <= 0) continue;
-    const Eigen::Vector3d light = sample_from_rig * led.position_mm;
-    const Eigen::Vector3d to_light = light - p;
-    const double distance2 = to_light.squaredNorm();
-    if (shadows && Shadowed(p, light)) continue;
     Eigen::Vector3d weights = panchromatic_;
     for (size_t w = 0; w < rig_.filter_wheels.size(); ++w) {
       const FilterWheelModel& wheel = rig_.filter_wheels[w];
@@ -187,10 +196,41 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
         weights = FilterWeights(wheel.filters[slot->second]);
       }
     }
-    const fitting::WardTerms<double> terms = lobe.Terms(local_from_world * to_light.normalized(), v_local);
-    radiance += intensity / distance2 *
-                (weights.dot(surface.params.a_d) * terms.diffuse + weights.dot(surface.params.a_s) * terms.specular) *
-                terms.cos_l;
+    radiance += PointSourceRadiance(p, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma),
+                                    weights, lobe, local_from_world, v_local, shadows);
+  }
+  if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
+    // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
+    const LinearLightModel& strip = *rig_.linear_light;
+    const Eigen::Vector3d centre = strip.StripCentre(state.linear_light_mm);
+    const Eigen::Vector3d normal = strip.StripNormal(state.linear_light_mm);
+    const double segment_mm = strip.strip_length_mm / strip.segments;
+    for (int k = 0; k < strip.segments; ++k) {
+      const Eigen::Vector3d source = centre + strip.sweep_axis * ((k + 0.5) * segment_mm - strip.strip_length_mm / 2);
+      const double c = normal.dot((p_in_rig - source).normalized());
+      if (c <= 0) continue;
+      const double intensity = strip.intensity_per_mm * segment_mm * state.linear_light_intensity *
+                               std::pow(c, strip.falloff_exponent);
+      radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, lobe, local_from_world,
+                                      v_local, shadows);
+    }
+  }
+  if (rig_.projector && state.projector_image) {
+    // The projector pixel that lights p, and its grey level.
+    const ProjectorModel& projector = *rig_.projector;
+    const ProjectedImage& image = *state.projector_image;
+    const Eigen::Vector3d p_in_projector = projector.proj_from_rig * p_in_rig;
+    if (p_in_projector.z() > 0) {
+      const Eigen::Vector3d uv = projector.K * (p_in_projector / p_in_projector.z());
+      const int u = static_cast<int>(std::floor(uv.x() + 0.5));
+      const int v = static_cast<int>(std::floor(uv.y() + 0.5));
+      if (u >= 0 && v >= 0 && u < image.width && v < image.height && u < projector.width && v < projector.height) {
+        const double level = image.pixels[static_cast<size_t>(v) * image.width + u] / 255.0;
+        radiance += PointSourceRadiance(p, sample_from_rig * projector.proj_from_rig.inverse().translation(),
+                                        projector.max_intensity * level, panchromatic_, lobe, local_from_world,
+                                        v_local, shadows);
+      }
+    }
   }
   return radiance;
 }

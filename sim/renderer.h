@@ -12,9 +12,11 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <vector>
 
 #include "core/image.h"
+#include "fitting/model/ward_gd10.h"
 #include "sim/material.h"
 #include "sim/rig_model.h"
 
@@ -25,11 +27,22 @@ struct LitLed {
   double current_ma = 0;
 };
 
+// An 8-bit grey image the projector shows.
+struct ProjectedImage {
+  int width = 0;
+  int height = 0;
+  std::vector<uint8_t> pixels;  // row-major
+};
+
 // What the devices are doing, as the renderer needs it.
 struct SceneState {
-  std::vector<LitLed> leds;
-  std::map<int, int> filter_slots;  // filter wheel index (in RigModel) → slot
+  std::vector<LitLed> leds = {};
+  std::map<int, int> filter_slots = {};  // filter wheel index (in RigModel) → slot
   double turntable_deg = 0;
+  bool linear_light_on = false;
+  double linear_light_mm = 0;       // carriage position
+  double linear_light_intensity = 1;
+  std::shared_ptr<const ProjectedImage> projector_image = nullptr;  // null: projector dark
 };
 
 struct CaptureSettings {
@@ -78,6 +91,13 @@ class Scene {
   std::vector<Eigen::Matrix3d> frames_;     // world_from_local per map pixel (geometric frame)
   double max_height_ = 0;
   Eigen::Vector3d panchromatic_;
+
+  // Radiance at `p` from one point source at `light` (sample frame) of radiant intensity
+  // `intensity` towards p, with `weights` for the albedos.
+  double PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
+                             const Eigen::Vector3d& weights, const fitting::WardLobe<double>& lobe,
+                             const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local,
+                             bool shadows) const;
 };
 
 // The sensor: electrons → DN with noise, 16-bit container holding adc_bits values.

@@ -50,7 +50,7 @@ double AnalyticRadiance(const LedModel& led, const Eigen::Vector3d& p) {
 
 TEST(RendererTest, WhiteLambertianHasTheAnalyticRadiance) {
   const Scene scene(TestRig(), WhiteLambertian());
-  const SceneState state{{{0, 1000}}, {}, 0};
+  const SceneState state{.leds = {{0, 1000}}};
   const Image radiance = scene.RenderRadiance(0, state, {.supersampling = 1});
   // Pixel (50, 50) sees the origin; pixel (70, 50) sees x = +10 mm; (50, 30) sees y = +10 mm.
   const LedModel& led = scene.rig().leds[0];
@@ -64,7 +64,7 @@ TEST(RendererTest, InverseSquareAndAngularFalloff) {
   RigModel rig = TestRig();
   const Eigen::Vector3d p(0, 0, 0);
   const Eigen::Vector3d eye(0, 0, 500);
-  const SceneState state{{{0, 1000}}, {}, 0};
+  const SceneState state{.leds = {{0, 1000}}};
   const double near = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, state, true);
   rig.leds[0].position_mm *= 2;  // same direction, twice as far
   const double far = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, state, true);
@@ -73,7 +73,7 @@ TEST(RendererTest, InverseSquareAndAngularFalloff) {
   rig.leds[0].axis = Eigen::AngleAxisd(axis_angle, Eigen::Vector3d::UnitY()) * rig.leds[0].axis;
   const double tilted = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, state, true);
   EXPECT_NEAR(tilted / far, std::pow(std::cos(axis_angle), 2), 1e-9);
-  const SceneState half{{{0, 500}}, {}, 0};
+  const SceneState half{.leds = {{0, 500}}};
   EXPECT_NEAR(Scene(rig, WhiteLambertian()).RadianceAt(p, eye, half, true) / tilted, 0.5, 1e-12);
 }
 
@@ -91,7 +91,7 @@ TEST(RendererTest, CastShadowFallsWhereTheGeometryPutsIt) {
     }
   }
   const Scene scene(rig, block);
-  const SceneState state{{{0, 1000}}, {}, 0};
+  const SceneState state{.leds = {{0, 1000}}};
   const Eigen::Vector3d eye(0, 0, 500);
   // The block's far edge is at x = −5; from 45°, its 2 mm cast a 2 mm shadow down to x = −7
   // (the light is not at infinity: at 400 mm the shadow ends 2.04 mm from the edge).
@@ -107,7 +107,7 @@ TEST(RendererTest, CastShadowFallsWhereTheGeometryPutsIt) {
 
 TEST(RendererTest, SameSeedSameFrameWhateverTheThreads) {
   const Scene scene(TestRig(), WhiteLambertian());
-  const SceneState state{{{0, 1000}}, {}, 0};
+  const SceneState state{.leds = {{0, 1000}}};
   const Image one = scene.RenderRadiance(0, state, {.supersampling = 2, .threads = 1});
   const Image two = scene.RenderRadiance(0, state, {.supersampling = 2, .threads = 2});
   ASSERT_TRUE(std::equal(one.data(), one.data() + one.pixel_count(), two.data()));
@@ -170,6 +170,78 @@ TEST(RendererTest, FiltersSeeColour) {
   EXPECT_GT(FilterWeights(long_pass).dot(red), 5 * FilterWeights(long_pass).dot(blue));
   EXPECT_GT(FilterWeights(short_pass).dot(blue), 5 * FilterWeights(short_pass).dot(red));
   EXPECT_LT(FilterWeights(long_pass).sum(), 0.3);  // a band-pass filter lets a fraction through
+}
+
+LinearLightModel Strip(double length_mm, int segments) {
+  LinearLightModel strip;
+  strip.arm_radius_mm = 400;
+  strip.strip_length_mm = length_mm;
+  strip.sweep_axis = Eigen::Vector3d::UnitY();
+  strip.start_deg = -60;
+  strip.end_deg = 60;
+  strip.travel_mm = 240;
+  strip.intensity_per_mm = 5000;
+  strip.falloff_exponent = 1;
+  strip.segments = segments;
+  return strip;
+}
+
+TEST(RendererTest, AShortStripIsAPointSourceAndALongOneIsIntegrated) {
+  const Eigen::Vector3d p(3, -2, 0);
+  const Eigen::Vector3d eye(0, 0, 500);
+  RigModel rig = TestRig();
+  rig.linear_light = Strip(1.0, 1);
+  SceneState strip_on{.linear_light_on = true, .linear_light_mm = 60, .linear_light_intensity = 0.8};
+  const double strip = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, strip_on, false);
+  // The same light as an LED at the strip centre, pointing along the strip's normal.
+  LedModel led;
+  led.position_mm = rig.linear_light->StripCentre(60);
+  led.axis = rig.linear_light->StripNormal(60);
+  led.intensity = 5000 * 1.0 * 0.8;
+  led.falloff_exponent = 1;
+  EXPECT_GT(strip, 0);
+  EXPECT_NEAR(strip, AnalyticRadiance(led, p), 1e-9 * strip);
+  // A 300 mm strip: 32 segments integrate it to within 0.5 % of 2000.
+  rig.linear_light = Strip(300, 32);
+  const double coarse = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, strip_on, false);
+  rig.linear_light = Strip(300, 2000);
+  const double fine = Scene(rig, WhiteLambertian()).RadianceAt(p, eye, strip_on, false);
+  EXPECT_NEAR(coarse, fine, 0.005 * fine);
+  // The sweep: a white Lambertian point is lit most with the strip overhead (mid travel).
+  const auto at = [&](double position) {
+    SceneState state = strip_on;
+    state.linear_light_mm = position;
+    return Scene(rig, WhiteLambertian()).RadianceAt({0, 0, 0}, eye, state, false);
+  };
+  EXPECT_GT(at(120), at(60));
+  EXPECT_GT(at(120), at(180));
+  EXPECT_NEAR(at(60), at(180), 1e-9 * at(60));  // symmetric sweep
+}
+
+TEST(RendererTest, ProjectorLightFollowsThePatternsGreyLevel) {
+  RigModel rig = TestRig();
+  ProjectorModel projector;
+  projector.width = 64;
+  projector.height = 40;
+  projector.K << 200, 0, 31.5, 0, 200, 19.5, 0, 0, 1;
+  Eigen::Matrix3d down;
+  down << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  projector.proj_from_rig = MakeRigid(down, -down * Eigen::Vector3d(0, 0, 400));
+  rig.projector = projector;
+  const Scene scene(rig, WhiteLambertian());
+  const auto lit_by = [&](uint8_t left, uint8_t right, const Eigen::Vector3d& p) {
+    auto image = std::make_shared<ProjectedImage>(ProjectedImage{64, 40, std::vector<uint8_t>(64 * 40)});
+    for (int v = 0; v < 40; ++v) {
+      for (int u = 0; u < 64; ++u) image->pixels[v * 64 + u] = u < 32 ? left : right;
+    }
+    return scene.RadianceAt(p, {0, 0, 500}, SceneState{.projector_image = image}, true);
+  };
+  // The projector looks straight down from 400 mm: image column u sees x = (u − 31.5) · 2 mm.
+  const Eigen::Vector3d left_point(-20, 0, 0), right_point(20, 0, 0);
+  EXPECT_GT(lit_by(255, 0, left_point), 0);
+  EXPECT_EQ(lit_by(255, 0, right_point), 0);
+  EXPECT_NEAR(lit_by(128, 0, left_point) / lit_by(255, 0, left_point), 128.0 / 255, 1e-12);
+  EXPECT_EQ(scene.RadianceAt(left_point, {0, 0, 500}, SceneState{}, true), 0);  // dark projector
 }
 
 }  // namespace

@@ -89,6 +89,15 @@ double LedModel::IntensityTowards(const Eigen::Vector3d& point_in_rig, double cu
   return intensity * (current_ma / 1000.0) * std::pow(c, falloff_exponent);
 }
 
+Eigen::Vector3d LinearLightModel::StripCentre(double position_mm) const {
+  const double angle = DegToRad(start_deg + (end_deg - start_deg) * position_mm / travel_mm);
+  return arm_radius_mm * (Eigen::AngleAxisd(angle, sweep_axis.normalized()) * Eigen::Vector3d::UnitZ());
+}
+
+Eigen::Vector3d LinearLightModel::StripNormal(double position_mm) const {
+  return -StripCentre(position_mm).normalized();
+}
+
 Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
   return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));
 }
@@ -162,6 +171,28 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     rig.leds.push_back(led);
   }
   if (rig.leds.empty()) geometry.AddError("led_rings", "the rig has no LEDs (give led_rings or leds)");
+  if (std::optional<ConfigNode> node = geometry.OptionalChild("linear_light")) {
+    LinearLightModel light;
+    node->Required("arm_radius_mm", &light.arm_radius_mm);
+    node->Required("strip_length_mm", &light.strip_length_mm);
+    node->Optional("sweep_axis", &light.sweep_axis);
+    node->Required("start_deg", &light.start_deg);
+    node->Required("end_deg", &light.end_deg);
+    node->Required("travel_mm", &light.travel_mm);
+    node->Optional("intensity_per_mm", &light.intensity_per_mm);
+    node->Optional("falloff_exponent", &light.falloff_exponent);
+    node->Optional("segments", &light.segments);
+    light.sweep_axis.normalize();
+    if (light.travel_mm <= 0) node->AddError("travel_mm", "must be > 0");
+    if (light.segments < 1) node->AddError("segments", "must be ≥ 1");
+    rig.linear_light = light;
+  }
+  if (std::optional<ConfigNode> node = geometry.OptionalChild("projector")) {
+    ProjectorModel projector;
+    ReadPinhole(*node, &projector.width, &projector.height, &projector.K, &projector.proj_from_rig);
+    node->Optional("max_intensity", &projector.max_intensity);
+    rig.projector = projector;
+  }
   for (const ConfigNode& node : geometry.OptionalSequence("filter_wheels")) {
     FilterWheelModel wheel;
     node.Required("name", &wheel.name);

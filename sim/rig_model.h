@@ -10,6 +10,7 @@
 // camera turns radiance into electrons with `sensitivity` (electrons per radiance unit per
 // second of exposure at the image centre), less vignetting towards the corners.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,36 @@ struct FilterWheelModel {
   std::vector<FilterModel> filters;
 };
 
+// The linear light: an LED strip on an arm that sweeps over the sample. The arm turns about
+// `sweep_axis` (through the rig origin); the strip lies parallel to that axis at
+// `arm_radius_mm` from it, emitting towards it. The carriage position of the hal LinearLight
+// (0..travel_mm) maps linearly onto the arm angle start_deg..end_deg (0° = the zenith).
+struct LinearLightModel {
+  double arm_radius_mm = 500;
+  double strip_length_mm = 300;
+  Eigen::Vector3d sweep_axis = Eigen::Vector3d::UnitY();
+  double start_deg = -70;
+  double end_deg = 70;
+  double travel_mm = 400;
+  double intensity_per_mm = 4000;  // radiant intensity per mm of strip, along its normal, at full power
+  double falloff_exponent = 1;
+  int segments = 32;               // point sources the strip is integrated with
+
+  // Centre of the strip and its emitting direction (unit, towards the sweep axis) at a carriage position.
+  Eigen::Vector3d StripCentre(double position_mm) const;
+  Eigen::Vector3d StripNormal(double position_mm) const;
+};
+
+// The structured-light projector: a pinhole that emits the pattern it shows; a white pixel's
+// radiant intensity is `max_intensity`.
+struct ProjectorModel {
+  int width = 0;
+  int height = 0;
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  Rigid3d proj_from_rig = Rigid3d::Identity();
+  double max_intensity = 2.0e5;
+};
+
 struct TurntableModel {
   Eigen::Vector3d axis_point_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis_direction = Eigen::Vector3d::UnitZ();
@@ -80,6 +111,8 @@ struct RigModel {
   std::vector<LedModel> leds;
   std::vector<FilterWheelModel> filter_wheels;
   TurntableModel turntable;
+  std::optional<LinearLightModel> linear_light;
+  std::optional<ProjectorModel> projector;
 
   const CameraModel* FindCamera(const std::string& name) const;
   // The wheel in front of `led`, or nullptr.

@@ -28,14 +28,14 @@ std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vec
   for (double angle : turntable_deg) {
     for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
       for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) {
-        observations.push_back({camera, {{{led, 1000}}, {}, angle}});
+        observations.push_back({camera, {.leds = {{led, 1000}}, .turntable_deg = angle}});
       }
     }
   }
   for (int wheel = 0; wheel < static_cast<int>(rig.filter_wheels.size()); ++wheel) {
     for (int slot = 0; slot < static_cast<int>(rig.filter_wheels[wheel].filters.size()); ++slot) {
       for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
-        observations.push_back({camera, {{{rig.filter_wheels[wheel].led, 1000}}, {{wheel, slot}}, 0}});
+        observations.push_back({camera, {.leds = {{rig.filter_wheels[wheel].led, 1000}}, .filter_slots = {{wheel, slot}}}});
       }
     }
   }

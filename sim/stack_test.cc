@@ -51,7 +51,7 @@ TEST(StackTest, AgreesWithRawRendersReprojectedByTheCameraModel) {
   glossy.a_s = Eigen::Vector3d::Constant(0.2);
   glossy.sigma_x = glossy.sigma_y = 0.3;
   const Scene scene(TwoCameraRig(), UniformMaterial("glossy", glossy, {60, 60, 0.5}));
-  const std::vector<Observation> observations = {{1, {{{0, 1000}}, {}, 0}}, {0, {{{1, 1000}}, {}, 30}}};
+  const std::vector<Observation> observations = {{1, {.leds = {{0, 1000}}}}, {0, {.leds = {{1, 1000}}, .turntable_deg = 30}}};
   const Image stack = RenderStack(scene, observations, {});
   for (size_t o = 0; o < observations.size(); ++o) {
     const Observation& obs = observations[o];
@@ -82,7 +82,7 @@ TEST(StackTest, PointsTheCameraCannotSeeAreNaN) {
   }
   const Scene scene(TwoCameraRig(), block);
   // The side camera looks from −x: the floor just beyond the ridge (x > +2.5 mm) is hidden.
-  const Image stack = RenderStack(scene, {{1, {{{0, 1000}}, {}, 0}}, {0, {{{0, 1000}}, {}, 0}}}, {});
+  const Image stack = RenderStack(scene, {{1, {.leds = {{0, 1000}}}}, {0, {.leds = {{0, 1000}}}}}, {});
   const int hidden_x = 52;   // x ≈ +3.1 mm, behind the ridge for the 45° camera
   const int visible_x = 20;  // x ≈ −4.9 mm, in front of it
   EXPECT_TRUE(std::isnan(stack.at(6, 40, hidden_x)));

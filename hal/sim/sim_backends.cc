@@ -247,18 +247,19 @@ class SimLinearLight : public LinearLight {
   Status DoHome() override { return DoMoveTo(0); }
   Status DoMoveTo(double position_mm) override {
     std::lock_guard lock(world_->mutex);
-    world_->linear_light_mm = position_mm;
+    world_->state.linear_light_mm = position_mm;
     return Status::Ok();
   }
   Status DoSetStrip(bool on, double intensity) override {
     std::lock_guard lock(world_->mutex);
-    world_->linear_light_on = on;
-    world_->linear_light_intensity = intensity;
+    world_->state.linear_light_on = on;
+    world_->state.linear_light_intensity = intensity;
     return Status::Ok();
   }
   Result<LinearLightReadback> DoRead() override {
     std::lock_guard lock(world_->mutex);
-    return LinearLightReadback{world_->linear_light_mm, world_->linear_light_on, world_->linear_light_intensity};
+    const sim::SceneState& s = world_->state;
+    return LinearLightReadback{s.linear_light_mm, s.linear_light_on, s.linear_light_intensity};
   }
 
  private:
@@ -268,8 +269,8 @@ class SimLinearLight : public LinearLight {
 
 class SimProjector : public Projector {
  public:
-  SimProjector(const DeviceConfig& config, int width, int height)
-      : Projector(config.name, "sim", "virtual"), width_(width), height_(height) {}
+  SimProjector(const DeviceConfig& config, std::shared_ptr<SimWorld> world, int width, int height)
+      : Projector(config.name, "sim", "virtual"), world_(std::move(world)), width_(width), height_(height) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -280,10 +281,20 @@ class SimProjector : public Projector {
   Status DoStart() override { return Status::Ok(); }
   Status DoStop() override { return Status::Ok(); }
   Status DoClose() override { return Status::Ok(); }
-  Status DoShow(const Pattern&) override { return Status::Ok(); }
-  Status DoBlank() override { return Status::Ok(); }
+  Status DoShow(const Pattern& pattern) override {
+    auto image = std::make_shared<sim::ProjectedImage>(sim::ProjectedImage{pattern.width, pattern.height, pattern.pixels});
+    std::lock_guard lock(world_->mutex);
+    world_->state.projector_image = std::move(image);
+    return Status::Ok();
+  }
+  Status DoBlank() override {
+    std::lock_guard lock(world_->mutex);
+    world_->state.projector_image.reset();
+    return Status::Ok();
+  }
 
  private:
+  std::shared_ptr<SimWorld> world_;
   int width_;
   int height_;
 };
@@ -310,15 +321,18 @@ void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> wo
     return std::unique_ptr<Turntable>(std::make_unique<SimTurntable>(config, world));
   });
   registry.Register<LinearLight>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<LinearLight>> {
-    double travel_mm = 400;
+    const auto& geometry = world->scene->rig().linear_light;
+    double travel_mm = geometry ? geometry->travel_mm : 400;
     config.node.Optional("travel_mm", &travel_mm);
     return std::unique_ptr<LinearLight>(std::make_unique<SimLinearLight>(config, world, travel_mm));
   });
-  registry.Register<Projector>("sim", [](const DeviceConfig& config) -> Result<std::unique_ptr<Projector>> {
-    int width = 1280, height = 800;
+  registry.Register<Projector>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Projector>> {
+    const auto& geometry = world->scene->rig().projector;
+    int width = geometry ? geometry->width : 1280;
+    int height = geometry ? geometry->height : 800;
     config.node.Optional("native_width", &width);
     config.node.Optional("native_height", &height);
-    return std::unique_ptr<Projector>(std::make_unique<SimProjector>(config, width, height));
+    return std::unique_ptr<Projector>(std::make_unique<SimProjector>(config, world, width, height));
   });
 }
 

@@ -8,7 +8,8 @@
 // another). Moves are instantaneous. A frame's noise is seeded by the world seed and what the
 // frame shows (camera, lights, slots, angle, exposure), so the same capture twice — e.g. after
 // a resumed scan — gives the same frame.
-// Not modelled yet: light from the linear light and the projector (their devices keep state).
+// The linear light's travel and the projector's resolution come from the geometry when it has
+// them (else from the backend keys travel_mm, native_width, native_height).
 
 #include <memory>
 #include <mutex>
@@ -26,9 +27,6 @@ struct SimWorld {
   uint64_t seed;
   std::mutex mutex;  // guards everything below; sim devices may run on different threads
   sim::SceneState state;
-  double linear_light_mm = 0;
-  bool linear_light_on = false;
-  double linear_light_intensity = 0;
 };
 
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world);

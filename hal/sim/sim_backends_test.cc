@@ -16,6 +16,8 @@ cameras:
 leds: {name: leds, backend: sim}
 filter_wheels: [{name: wheel0, backend: sim}]
 turntable: {name: turntable, backend: sim}
+linear_light: {name: strip, backend: sim}
+projector: {name: projector, backend: sim}
 )";
 
 sim::RigModel SmallRig() {
@@ -36,6 +38,13 @@ sim::RigModel SmallRig() {
     rig.leds.push_back(led);
   }
   rig.filter_wheels.push_back({"wheel0", 1, {{450, 40, 0.9}, {650, 40, 0.9}}});
+  rig.linear_light = sim::LinearLightModel{};
+  sim::ProjectorModel projector;
+  projector.width = 32;
+  projector.height = 24;
+  projector.K << 100, 0, 15.5, 0, 100, 11.5, 0, 0, 1;
+  projector.proj_from_rig = camera.cam_from_rig;  // beside the camera, looking down
+  rig.projector = projector;
   return rig;
 }
 
@@ -110,6 +119,25 @@ TEST_F(SimBackendsTest, FilterWheelColoursTheLight) {
   const int px = static_cast<int>(std::lround(23.5 + 1.2 * x_mm));
   const int py = static_cast<int>(std::lround(23.5 - 1.2 * y_mm));
   EXPECT_GT(red.at(py, px) - 64, 3 * (blue.at(py, px) - 64)) << red.at(py, px) << " vs " << blue.at(py, px);
+}
+
+TEST_F(SimBackendsTest, LinearLightAndProjectorLightTheSample) {
+  Camera& camera = *rig_->cameras()[0];
+  const double dark = MeanDn(*rig_->Snap(camera));
+  ASSERT_TRUE(rig_->linear_light()->MoveTo(rig_->linear_light()->travel_mm() / 2).ok());
+  ASSERT_TRUE(rig_->linear_light()->SetStrip(true, 1.0).ok());
+  const RawFrame strip = *rig_->Snap(camera);
+  EXPECT_GT(MeanDn(strip), dark + 20);
+  EXPECT_TRUE(strip.metadata.rig_state.linear_light_on);
+  ASSERT_TRUE(rig_->linear_light()->SetStrip(false, 0).ok());
+  Projector& projector = *rig_->projector();
+  EXPECT_EQ(projector.native_width(), 32);  // from the geometry
+  ASSERT_TRUE(projector.Show({"white", 32, 24, std::vector<uint8_t>(32 * 24, 255)}).ok());
+  const RawFrame white = *rig_->Snap(camera);
+  EXPECT_GT(MeanDn(white), dark + 20);
+  EXPECT_EQ(white.metadata.rig_state.projector_pattern, "white");
+  ASSERT_TRUE(rig_->MakeSafe().ok());  // blanks the projector, strip off
+  EXPECT_NEAR(MeanDn(*rig_->Snap(camera)), dark, 1.0);
 }
 
 TEST_F(SimBackendsTest, RoiAndMono16) {
