@@ -1,7 +1,11 @@
 // loom sim material: procedural materials (and the known test materials) as SVBRDF maps with
 // preview PNGs. (`loom sim render` arrives with the renderer.)
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include <opencv2/core.hpp>
@@ -11,6 +15,7 @@
 #include "fitting/model/svbrdf_maps.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
+#include "sim/fabric.h"
 #include "sim/sample.h"
 #include "sim/stack.h"
 
@@ -78,6 +83,63 @@ int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_m
   if (Status previews = WritePreviews(*material, out); !previews.ok()) return ReportFailure(previews);
   std::cout << material->name << " (" << material->width() << "x" << material->height() << " px of "
             << material->pixel_mm << " mm): " << maps.string() << " and previews in " << out.string() << "\n";
+  return kExitOk;
+}
+
+// Histograms of the generated fabrics' parameters over many seeds: what a CNN trained on them
+// has seen.
+int Stats(int seeds, int size_px, const std::string& json_path) {
+  struct Histogram {
+    std::string name;
+    double low, high;
+    std::vector<int64_t> bins = std::vector<int64_t>(10, 0);
+    double min = 1e300, max = -1e300, sum = 0;
+    int64_t count = 0;
+    void Add(double v) {
+      const int bin = std::clamp(static_cast<int>((v - low) / (high - low) * bins.size()), 0, static_cast<int>(bins.size()) - 1);
+      ++bins[bin];
+      min = std::min(min, v);
+      max = std::max(max, v);
+      sum += v;
+      ++count;
+    }
+  };
+  std::vector<Histogram> histograms = {{"a_d (mean of RGB)", 0, 1}, {"a_s (mean of RGB)", 0, 1},   {"sigma_x", 0, 1},
+                                       {"sigma_y", 0, 1},           {"sigma_y / sigma_x", 1, 11}, {"alpha (deg)", -90, 90},
+                                       {"F0", 0, 1},                {"n_s tilt (deg)", 0, 45},    {"height (mm)", 0, 0.3}};
+  std::map<std::string, int> weaves;
+  sim::FabricOptions options;
+  options.width_px = options.height_px = size_px;
+  for (int seed = 0; seed < seeds; ++seed) {
+    const sim::Material m = sim::GenerateFabric(static_cast<uint64_t>(seed), options);
+    ++weaves[std::get<std::string>(m.provenance.at("loom.weave"))];
+    const int height = *m.maps.ChannelIndex(fitting::kHeightChannel);
+    for (int y = 0; y < m.height(); ++y) {
+      for (int x = 0; x < m.width(); ++x) {
+        const fitting::WardParams<double> p = fitting::GetParams(m.maps, x, y);
+        const double values[] = {p.a_d.mean(), p.a_s.mean(), p.sigma_x, p.sigma_y, p.sigma_y / p.sigma_x,
+                                 RadToDeg(p.alpha), p.f0, RadToDeg(std::acos(std::clamp(p.n_s.z(), -1.0, 1.0))),
+                                 m.maps.at(height, y, x)};
+        for (size_t i = 0; i < histograms.size(); ++i) histograms[i].Add(values[i]);
+      }
+    }
+  }
+  std::cout << seeds << " fabrics of " << size_px << "x" << size_px << " px; weaves:";
+  for (const auto& [weave, count] : weaves) std::cout << " " << weave << " " << count;
+  std::cout << "\n" << std::fixed << std::setprecision(3);
+  nlohmann::json json;
+  for (const Histogram& h : histograms) {
+    std::cout << "  " << std::left << std::setw(20) << h.name << std::right << " min " << std::setw(8) << h.min
+              << " max " << std::setw(8) << h.max << " mean " << std::setw(8) << h.sum / h.count << "  [" << h.low
+              << ".." << h.high << "]:";
+    for (int64_t b : h.bins) std::cout << " " << std::setw(4) << (1000 * b + h.count / 2) / h.count;
+    std::cout << " per mille\n";
+    json[h.name] = {{"min", h.min}, {"max", h.max}, {"mean", h.sum / h.count}, {"range", {h.low, h.high}}, {"bins", h.bins}};
+  }
+  if (!json_path.empty()) {
+    std::ofstream(json_path) << json.dump(2) << "\n";
+    std::cout << "wrote " << json_path << "\n";
+  }
   return kExitOk;
 }
 
@@ -157,7 +219,14 @@ int RunSim(int argc, char** argv) {
   render->add_option("--exposure-us", exposure_us, "Exposure of the raw frame");
   render->add_flag("--stack", stack, "Render the observation stack in the top-view frame instead");
   render->add_option("--out", out, "Output EXR")->required();
+  int seeds = 200;
+  std::string json_path;
+  CLI::App* stats = app.add_subcommand("stats", "Histograms of the procedural fabrics' parameters over many seeds");
+  stats->add_option("--seeds", seeds, "Seeds 0..N-1")->check(CLI::Range(1, 100000));
+  stats->add_option("--size", size_px, "Map size per fabric")->check(CLI::Range(8, 4096));
+  stats->add_option("--json", json_path, "Also write the histograms as JSON");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (*stats) return Stats(seeds, size_px, json_path);
   if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, out);
   return Material(kind, seed, size_px, pixel_mm, out);
 }

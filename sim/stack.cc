@@ -21,6 +21,13 @@ std::vector<std::string> StackChannels(size_t observations) {
   return names;
 }
 
+std::string FormatPoint(const Eigen::Vector3d& p) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(2) << "[" << (std::abs(p.x()) < 5e-3 ? 0.0 : p.x()) << ", "
+      << (std::abs(p.y()) < 5e-3 ? 0.0 : p.y()) << ", " << (std::abs(p.z()) < 5e-3 ? 0.0 : p.z()) << "]";
+  return out.str();
+}
+
 }  // namespace
 
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg) {
@@ -46,9 +53,13 @@ std::string DescribeObservations(const RigModel& rig, const std::vector<Observat
   std::ostringstream out;
   for (size_t i = 0; i < observations.size(); ++i) {
     const Observation& o = observations[i];
+    const Eigen::Vector3d eye = rig.cameras.at(o.camera).CentreInRig();
     out << "obs" << std::setw(4) << std::setfill('0') << i << std::setfill(' ') << ": camera "
-        << rig.cameras.at(o.camera).name << ", turntable " << o.state.turntable_deg << " deg, leds";
-    for (const LitLed& led : o.state.leds) out << " " << led.led << "@" << led.current_ma << "mA";
+        << rig.cameras.at(o.camera).name << " at " << FormatPoint(eye) << " mm, turntable " << o.state.turntable_deg
+        << " deg, leds";
+    for (const LitLed& led : o.state.leds) {
+      out << " " << led.led << "@" << led.current_ma << "mA at " << FormatPoint(rig.leds.at(led.led).position_mm) << " mm";
+    }
     for (const auto& [wheel, slot] : o.state.filter_slots) {
       out << ", " << rig.filter_wheels.at(wheel).name << " slot " << slot << " ("
           << rig.filter_wheels.at(wheel).filters.at(slot).center_nm << " nm)";

@@ -97,8 +97,9 @@ TEST(StackTest, DefaultObservationsCoverCamerasLightsAnglesAndFilters) {
   const std::vector<Observation> observations = DefaultObservations(rig, {0, 120, 240});
   EXPECT_EQ(observations.size(), 2u * 2u * 3u + 3u * 2u);
   const std::string described = DescribeObservations(rig, observations);
-  EXPECT_NE(described.find("obs0015: camera side, turntable 0 deg, leds 1@1000mA, wheel0 slot 1 (550 nm)"),
+  EXPECT_NE(described.find("obs0015: camera side at [-353.55, 0.00, 353.55] mm, turntable 0 deg, leds 1@1000mA at [-362.41, -131.91, 459.63] mm"),
             std::string::npos) << described;
+  EXPECT_NE(described.find("wheel0 slot 1 (550 nm)"), std::string::npos) << described;
 }
 
 }  // namespace
