@@ -275,9 +275,21 @@ Result<RawFrame> AravisCamera::ToRawFrame(ArvBuffer* buffer) const {
   return frame;
 }
 
+ArvBuffer* AravisCamera::PopFrameBuffer(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (true) {
+    const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return nullptr;
+    ArvBuffer* buffer = arv_stream_timeout_pop_buffer(stream_, static_cast<guint64>(left.count()));
+    // A cleared buffer never received a frame (e.g. one Aravis recycled at acquisition start):
+    // it is not a frame, complete or not. Give it back and keep waiting.
+    if (buffer == nullptr || arv_buffer_get_status(buffer) != ARV_BUFFER_STATUS_CLEARED) return buffer;
+    arv_stream_push_buffer(stream_, buffer);
+  }
+}
+
 Result<RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeout) {
-  const guint64 timeout_us = static_cast<guint64>(timeout.count()) * 1000;
-  ArvBuffer* buffer = arv_stream_timeout_pop_buffer(stream_, timeout_us);
+  ArvBuffer* buffer = PopFrameBuffer(timeout);
   if (buffer == nullptr) {
     // No frame: an untriggered hardware trigger, or a camera that dropped out or restarted
     // (a restarted camera answers again but has lost its settings and its stream).

@@ -51,6 +51,8 @@ class AravisCamera : public Camera {
   // After a lost camera: reopen, reconfigure and restart acquisition.
   Status Reconnect();
   Result<RawFrame> ToRawFrame(ArvBuffer* buffer) const;
+  // The next filled buffer within `timeout`, or nullptr.
+  ArvBuffer* PopFrameBuffer(std::chrono::milliseconds timeout);
   // A status naming this camera from an Aravis GError (which it frees); OK if none.
   Status FromGError(GError* error, const std::string& what, StatusCode code = StatusCode::kUnavailable) const;
 
