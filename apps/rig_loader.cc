@@ -1,7 +1,7 @@
 #include "apps/rig_loader.h"
 
 #include "apps/backends.h"
-#include "sim/rig_model.h"
+#include "core/rig_model.h"
 #include "sim/sample.h"
 
 namespace loom::apps {
@@ -14,7 +14,7 @@ Result<LoadedRig> LoadRig(const std::filesystem::path& path) {
   hal::BackendRegistry registry = AllBackends();
   LoadedRig loaded;
   if (std::optional<ConfigNode> geometry = root.OptionalChild("geometry")) {
-    sim::RigModel model = sim::ReadRigModel(*geometry);
+    RigModel model = ReadRigModel(*geometry);
     model.name = name;
     sim::SampleSpec sample;
     if (std::optional<ConfigNode> sample_node = root.OptionalChild("sample")) sample = sim::ReadSampleSpec(*sample_node);

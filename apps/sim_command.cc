@@ -177,7 +177,7 @@ int Render(const std::string& rig_path, const std::string& camera_name, const st
     state.leds.push_back({std::stoi(item.substr(0, colon)), std::stod(item.substr(colon + 1))});
   }
   const Image radiance = scene.RenderRadiance(camera, state);
-  const sim::CameraModel& model = scene.rig().cameras[camera];
+  const CameraModel& model = scene.rig().cameras[camera];
   const std::vector<uint16_t> raw = sim::CaptureRaw(radiance, model.sensor, {exposure_us, 0}, loaded->world->seed);
   Image image(radiance.width(), radiance.height(), {"radiance", "raw"});
   std::copy(radiance.channel(0).begin(), radiance.channel(0).end(), image.channel(0).begin());

@@ -5,7 +5,7 @@
 
 #include "bench/bench_report.h"
 #include "core/config.h"
-#include "sim/rig_model.h"
+#include "core/rig_model.h"
 #include "sim/sample.h"
 #include "sim/stack.h"
 
@@ -17,7 +17,7 @@ std::unique_ptr<Scene> LoadScene(const std::string& rig) {
   const std::string path = std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig + ".yaml";
   auto doc = loom::ConfigDocument::LoadFile(path, 1);
   if (!doc.ok()) return nullptr;
-  loom::sim::RigModel model = loom::sim::ReadRigModel(doc->root().Child("geometry"));
+  loom::RigModel model = loom::ReadRigModel(doc->root().Child("geometry"));
   auto material = loom::sim::MakeSample(loom::sim::ReadSampleSpec(doc->root().Child("sample")));
   if (!material.ok()) return nullptr;
   return std::make_unique<Scene>(std::move(model), std::move(*material));

@@ -18,7 +18,7 @@
 #include "core/image.h"
 #include "fitting/model/ward_gd10.h"
 #include "sim/material.h"
-#include "sim/rig_model.h"
+#include "core/rig_model.h"
 
 namespace loom::sim {
 

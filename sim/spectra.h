@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "sim/rig_model.h"
+#include "core/rig_model.h"
 
 namespace loom::sim {
 

@@ -43,7 +43,7 @@ class SimCamera : public Camera {
       if (cameras[i].name == model_) index_ = static_cast<int>(i);
     }
     if (index_ < 0) return Error(StatusCode::kNotFound, "the rig geometry has no camera '" + model_ + "'");
-    const sim::CameraModel& camera = cameras[index_];
+    const CameraModel& camera = cameras[index_];
     CameraCapabilities caps;
     caps.sensor_width = camera.width;
     caps.sensor_height = camera.height;
@@ -85,7 +85,7 @@ class SimCamera : public Camera {
       state = world_->state;
     }
     const sim::Scene& scene = *world_->scene;
-    const sim::CameraModel& model = scene.rig().cameras[index_];
+    const CameraModel& model = scene.rig().cameras[index_];
     const Image radiance = scene.RenderRadiance(index_, state, {.supersampling = supersampling_});
     const CameraSettings& s = settings();
     const std::vector<uint16_t> full =

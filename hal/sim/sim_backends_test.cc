@@ -20,9 +20,9 @@ linear_light: {name: strip, backend: sim}
 projector: {name: projector, backend: sim}
 )";
 
-sim::RigModel SmallRig() {
-  sim::RigModel rig;
-  sim::CameraModel camera;
+RigModel SmallRig() {
+  RigModel rig;
+  CameraModel camera;
   camera.name = "top";
   camera.width = camera.height = 48;
   camera.K << 600, 0, 23.5, 0, 600, 23.5, 0, 0, 1;
@@ -32,14 +32,14 @@ sim::RigModel SmallRig() {
   camera.sensor.sensitivity = 1.3e6;
   rig.cameras.push_back(camera);
   for (double azimuth : {0.0, 90.0, 180.0}) {
-    sim::LedModel led;
+    LedModel led;
     led.position_mm = 600 * DirectionFromSpherical(DegToRad(50), DegToRad(azimuth));
     led.axis = -led.position_mm.normalized();
     rig.leds.push_back(led);
   }
   rig.filter_wheels.push_back({"wheel0", 1, {{450, 40, 0.9}, {650, 40, 0.9}}});
-  rig.linear_light = sim::LinearLightModel{};
-  sim::ProjectorModel projector;
+  rig.linear_light = LinearLightModel{};
+  ProjectorModel projector;
   projector.width = 32;
   projector.height = 24;
   projector.K << 100, 0, 15.5, 0, 100, 11.5, 0, 0, 1;

@@ -1,8 +1,8 @@
-#include "sim/rig_model.h"
+#include "core/rig_model.h"
 
 #include <cmath>
 
-namespace loom::sim {
+namespace loom {
 namespace {
 
 // cam_from_rig for a camera at `position` looking at `target`, with `up` appearing up in the
@@ -212,4 +212,4 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
   return rig;
 }
 
-}  // namespace loom::sim
+}  // namespace loom

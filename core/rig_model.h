@@ -1,6 +1,7 @@
 #pragma once
-// The virtual scanner: geometry, light sources and sensors of a TAC7-like rig, read from the
-// `geometry:` section of a rig YAML (configs/rig/tac7*.yaml). Frames: `rig` has its origin at
+// A scanner's description: geometry, light sources and sensors of a TAC7-like rig, read from the
+// `geometry:` section of a rig YAML (configs/rig/*.yaml). Nominal for a real rig (calibration
+// refines it), exact for the simulated one; plans use it to know what there is to capture. Frames: `rig` has its origin at
 // the centre of the turntable's top surface, z up, mm; `sample` turns with the turntable
 // (rig_from_sample = rotation about the turntable axis by the table angle); cameras follow
 // OpenCV (x right, y down, z forward).
@@ -17,7 +18,7 @@
 #include "core/config.h"
 #include "core/geometry.h"
 
-namespace loom::sim {
+namespace loom {
 
 struct SensorModel {
   int adc_bits = 12;
@@ -122,4 +123,4 @@ struct RigModel {
 // Reads the `geometry:` mapping (problems are recorded in its document).
 RigModel ReadRigModel(const ConfigNode& geometry);
 
-}  // namespace loom::sim
+}  // namespace loom
