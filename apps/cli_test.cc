@@ -54,7 +54,7 @@ TEST(CliTest, UnknownCommandIsAUsageError) {
 }
 
 TEST(CliTest, EveryCommandHasHelp) {
-  for (const char* command : {"help", "rig", "sim", "version"}) {
+  for (const char* command : {"help", "plan", "rig", "sim", "version"}) {
     const LoomRun run = RunLoom(std::string(command) + " --help");
     EXPECT_EQ(run.exit_code, 0) << command << ": " << run.output;
     EXPECT_TRUE(Contains(run.output, "--log-level")) << command << ": " << run.output;
@@ -93,6 +93,18 @@ TEST(CliTest, SimulatedRigsLoadAndSnap) {
                                "/configs/rig/tac7-mini.yaml --camera cam1 --leds 3:1000 --out " + out);
   EXPECT_EQ(snap.exit_code, 0) << snap.output;
   EXPECT_TRUE(Contains(snap.output, "96x96 Mono12")) << snap.output;
+}
+
+TEST(CliTest, PlanShowsCountsAndDuration) {
+  const LoomRun run = RunLoom("plan --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7.yaml --preset high");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_TRUE(Contains(run.output, "monochrome           87 steps    348 images")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "linear light        825 steps   3300 images")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "colour               50 steps    100 images")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "estimated duration:")) << run.output;
+  const LoomRun missing = RunLoom("plan --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/peer.yaml");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_TRUE(Contains(missing.output, "has no 'geometry:' section")) << missing.output;
 }
 
 TEST(CliTest, BadOptionsAreUsageErrorsOnStderr) {

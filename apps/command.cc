@@ -9,6 +9,7 @@ namespace loom::apps {
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
       {"help", "Show the commands, or one command's options: loom help <command>", RunHelp},
+      {"plan", "Show the measurement plan of a rig and a gloss preset, with its duration", RunPlan},
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
       {"sim", "The simulator: procedural materials, frames and observation stacks", RunSim},
       {"version", "Print loom's version and the libraries it runs with", RunVersion},

@@ -39,6 +39,7 @@ int ReportFailure(const Status& status);
 
 // The commands.
 int RunHelp(int argc, char** argv);
+int RunPlan(int argc, char** argv);
 int RunRig(int argc, char** argv);
 int RunSim(int argc, char** argv);
 int RunVersion(int argc, char** argv);

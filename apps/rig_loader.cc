@@ -33,4 +33,19 @@ Result<LoadedRig> LoadRig(const std::filesystem::path& path) {
   return loaded;
 }
 
+Result<RigModel> LoadRigModel(const std::filesystem::path& path) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
+  const ConfigNode root = doc.root();
+  std::string name;
+  root.Required("name", &name);
+  if (!root.Has("geometry")) {
+    return InvalidArgumentError(path.string(), "has no 'geometry:' section: planning needs the rig's description");
+  }
+  RigModel model = ReadRigModel(root.Child("geometry"));
+  model.name = name;
+  for (const char* other : {"devices", "sample", "seed"}) root.Ignore(other);
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  return model;
+}
+
 }  // namespace loom::apps

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "core/rig_model.h"
 #include "hal/rig.h"
 #include "hal/sim/sim_backends.h"
 
@@ -19,5 +20,8 @@ struct LoadedRig {
 };
 
 Result<LoadedRig> LoadRig(const std::filesystem::path& path);
+
+// Only the rig's description (its `geometry:`), for commands that plan rather than drive.
+Result<RigModel> LoadRigModel(const std::filesystem::path& path);
 
 }  // namespace loom::apps

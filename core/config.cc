@@ -211,6 +211,8 @@ bool ConfigNode::Has(std::string_view key) const {
   return record.is_map && Find(record.node, key).IsDefined();
 }
 
+void ConfigNode::Ignore(std::string_view key) const { Lookup(state_->nodes[index_], key); }
+
 std::vector<std::string> ConfigNode::Keys() const {
   const ConfigNodeRecord& record = state_->nodes[index_];
   std::vector<std::string> keys;

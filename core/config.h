@@ -55,6 +55,9 @@ class ConfigNode {
 #undef LOOM_CONFIG_ACCESSORS
 
   bool Has(std::string_view key) const;
+  // Marks `key` as read without reading it: for a command that uses part of a file whose other
+  // sections belong to other readers (a missing key is fine).
+  void Ignore(std::string_view key) const;
   // Keys of this mapping in file order (for maps keyed by name). Marks none as read.
   std::vector<std::string> Keys() const;
 

@@ -134,6 +134,16 @@ TEST(ConfigTest, FileErrorsNameTheFile) {
   EXPECT_NE(broken.status().message().find("not valid YAML"), std::string::npos);
 }
 
+TEST(ConfigTest, IgnoredSectionsAreNotUnknown) {
+  const auto doc = ConfigDocument::LoadString("schema_version: 1\ngeometry: {a: 1}\ndevices: {b: 2}\n", "r.yaml", 1);
+  ASSERT_TRUE(doc.ok());
+  int a = 0;
+  doc->root().Child("geometry").Required("a", &a);
+  doc->root().Ignore("devices");
+  doc->root().Ignore("sample");  // absent: fine
+  EXPECT_TRUE(doc->Finish().ok()) << doc->Finish().ToString();
+}
+
 TEST(ConfigTest, NestedChildrenAndMissingChild) {
   const auto doc = ConfigDocument::LoadString(
       "schema_version: 1\nturntable:\n  backend: sim\n  axis: {point_mm: [0, 0, 0]}\n", "r.yaml", 1);

@@ -1,0 +1,223 @@
+#include "acquisition/plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "core/config.h"
+
+namespace loom::acquisition {
+namespace {
+
+constexpr int kPresetSchemaVersion = 1;
+
+std::vector<std::string> AllCameras(const RigModel& rig) {
+  std::vector<std::string> names;
+  for (const CameraModel& camera : rig.cameras) names.push_back(camera.name);
+  return names;
+}
+
+double ZenithDeg(const CameraModel& camera) {
+  return RadToDeg(std::acos(std::clamp(camera.CentreInRig().normalized().z(), -1.0, 1.0)));
+}
+
+// The camera nearest each wanted view angle (each camera at most once), in the rig's order.
+std::vector<std::string> ColourCameras(const RigModel& rig, const std::vector<double>& views_deg) {
+  std::set<int> chosen;
+  for (double view : views_deg) {
+    int best = -1;
+    for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+      if (chosen.contains(i)) continue;
+      if (best < 0 || std::abs(ZenithDeg(rig.cameras[i]) - view) < std::abs(ZenithDeg(rig.cameras[best]) - view)) best = i;
+    }
+    if (best >= 0) chosen.insert(best);
+  }
+  std::vector<std::string> names;
+  for (int i : chosen) names.push_back(rig.cameras[i].name);
+  return names;
+}
+
+class PlanBuilder {
+ public:
+  PlanBuilder(const RigModel& rig, const Preset& preset, std::string purpose) : rig_(rig), preset_(preset) {
+    plan_.rig = rig.name;
+    plan_.preset = preset.name;
+    plan_.purpose = std::move(purpose);
+  }
+
+  Step& Add(StepKind kind, std::vector<std::string> cameras, double turntable_deg, const std::string& object) {
+    Step step;
+    step.index = static_cast<int>(plan_.steps.size());
+    step.kind = kind;
+    step.cameras = std::move(cameras);
+    step.turntable_deg = turntable_deg;
+    step.object = object;
+    step.exposure = preset_.exposure;
+    plan_.steps.push_back(std::move(step));
+    return plan_.steps.back();
+  }
+
+  void StructuredLight(double angle) {
+    if (!rig_.projector) return;
+    for (const std::string& pattern : StructuredLightPatterns(rig_.projector->width, preset_.gray_bits, preset_.phase_steps)) {
+      Add(StepKind::kStructuredLight, AllCameras(rig_), angle, "sample").projector_pattern = pattern;
+    }
+  }
+
+  // Every filter of every wheel, for `cameras`.
+  void Filtered(StepKind kind, const std::vector<std::string>& cameras, const std::string& object) {
+    for (const FilterWheelModel& wheel : rig_.filter_wheels) {
+      for (int slot = 0; slot < static_cast<int>(wheel.filters.size()); ++slot) {
+        Step& step = Add(kind, cameras, 0, object);
+        step.leds = {{wheel.led, preset_.led_current_ma}};
+        step.filter = FilterSetting{wheel.name, slot, wheel.filters[slot].center_nm};
+      }
+    }
+  }
+
+  void EveryLed(StepKind kind, double angle, const std::string& object) {
+    for (int led = 0; led < static_cast<int>(rig_.leds.size()); ++led) {
+      Add(kind, AllCameras(rig_), angle, object).leds = {{led, preset_.led_current_ma}};
+    }
+  }
+
+  void LinearLight(double angle) {
+    const int n = preset_.linear_light_positions;
+    const double travel = rig_.linear_light->travel_mm;
+    for (int k = 0; k < n; ++k) {
+      Add(StepKind::kLinearLight, AllCameras(rig_), angle, "sample").linear_light_mm = n == 1 ? travel / 2 : travel * k / (n - 1);
+    }
+  }
+
+  Plan Finish() { return std::move(plan_); }
+
+ private:
+  const RigModel& rig_;
+  const Preset& preset_;
+  Plan plan_;
+};
+
+}  // namespace
+
+std::string_view StepKindName(StepKind kind) {
+  switch (kind) {
+    case StepKind::kDark: return "dark";
+    case StepKind::kTarget: return "target";
+    case StepKind::kWhiteReference: return "white reference";
+    case StepKind::kColourChart: return "colour chart";
+    case StepKind::kStructuredLight: return "structured light";
+    case StepKind::kColour: return "colour";
+    case StepKind::kMonochrome: return "monochrome";
+    case StepKind::kLinearLight: return "linear light";
+  }
+  return "unknown";
+}
+
+Result<Preset> LoadPreset(const std::filesystem::path& path) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kPresetSchemaVersion));
+  const ConfigNode root = doc.root();
+  Preset preset;
+  root.Required("preset", &preset.name);
+  root.Optional("turntable_deg", &preset.turntable_deg);
+  root.Optional("colour_views_deg", &preset.colour_views_deg);
+  root.Required("linear_light_positions", &preset.linear_light_positions);
+  root.Optional("led_current_ma", &preset.led_current_ma);
+  root.Optional("probe_exposure_us", &preset.exposure.probe_us);
+  root.Optional("max_exposures", &preset.exposure.max_exposures);
+  if (std::optional<ConfigNode> structured = root.OptionalChild("structured_light")) {
+    structured->Optional("gray_bits", &preset.gray_bits);
+    structured->Optional("phase_steps", &preset.phase_steps);
+  }
+  if (preset.linear_light_positions < 0) root.AddError("linear_light_positions", "must be ≥ 0");
+  if (preset.turntable_deg.empty()) root.AddError("turntable_deg", "needs at least one angle");
+  if (preset.exposure.probe_us <= 0) root.AddError("probe_exposure_us", "must be > 0");
+  if (preset.exposure.max_exposures < 1) root.AddError("max_exposures", "must be ≥ 1");
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  return preset;
+}
+
+int Plan::Images(StepKind kind) const {
+  int count = 0;
+  for (const Step& step : steps) {
+    if (step.kind == kind) count += step.images();
+  }
+  return count;
+}
+
+int Plan::Images() const {
+  int count = 0;
+  for (const Step& step : steps) count += step.images();
+  return count;
+}
+
+std::vector<std::string> StructuredLightPatterns(int projector_width, int gray_bits, int phase_steps) {
+  int bits = gray_bits;
+  if (bits <= 0) bits = static_cast<int>(std::ceil(std::log2(std::max(2, projector_width))));
+  std::vector<std::string> patterns = {"white", "black"};
+  for (int b = 0; b < bits; ++b) {
+    const std::string name = "gray_x_" + std::string(b < 10 ? "0" : "") + std::to_string(b);
+    patterns.push_back(name);
+    patterns.push_back(name + "_inv");
+  }
+  for (int k = 0; k < phase_steps; ++k) patterns.push_back("phase_x_" + std::to_string(k));
+  return patterns;
+}
+
+Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
+  if (rig.cameras.empty() || rig.leds.empty()) {
+    return FailedPreconditionError("rig '" + rig.name + "'", "a material scan needs cameras and LEDs");
+  }
+  if (preset.linear_light_positions > 0 && !rig.linear_light) {
+    return FailedPreconditionError("rig '" + rig.name + "'", "preset '" + preset.name + "' needs a linear light (" +
+                                                                 std::to_string(preset.linear_light_positions) +
+                                                                 " positions), the rig has none");
+  }
+  PlanBuilder builder(rig, preset, "material");
+  // Everything at the first angle first: the turntable moves once per further angle.
+  const double first = preset.turntable_deg.front();
+  builder.StructuredLight(first);
+  builder.Filtered(StepKind::kColour, ColourCameras(rig, preset.colour_views_deg), "sample");
+  builder.EveryLed(StepKind::kMonochrome, first, "sample");
+  if (preset.linear_light_positions > 0) builder.LinearLight(first);
+  for (size_t a = 1; a < preset.turntable_deg.size(); ++a) builder.EveryLed(StepKind::kMonochrome, preset.turntable_deg[a], "sample");
+  return builder.Finish();
+}
+
+Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
+  if (rig.cameras.empty()) return FailedPreconditionError("rig '" + rig.name + "'", "calibration needs cameras");
+  PlanBuilder builder(rig, preset, "calibration");
+  builder.Add(StepKind::kDark, AllCameras(rig), 0, "nothing (lights off)");
+  // The target at 8 turntable angles, lit evenly by every LED at a quarter of the current.
+  for (int k = 0; k < 8; ++k) {
+    Step& step = builder.Add(StepKind::kTarget, AllCameras(rig), 45.0 * k, "target");
+    for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
+  }
+  builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
+  builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), "colour chart");
+  return builder.Finish();
+}
+
+double EstimateSeconds(const Plan& plan, const DurationModel& model) {
+  double seconds = 0;
+  double angle = 0;
+  double strip_mm = 0;
+  std::map<std::string, int> slots;
+  for (const Step& step : plan.steps) {
+    double move = std::abs(step.turntable_deg - angle) / model.turntable_deg_s;
+    angle = step.turntable_deg;
+    if (step.filter) {
+      const int from = slots.contains(step.filter->wheel) ? slots[step.filter->wheel] : 0;
+      move = std::max(move, std::abs(step.filter->slot - from) * model.wheel_s_per_slot);
+      slots[step.filter->wheel] = step.filter->slot;
+    }
+    if (step.linear_light_mm) {
+      move = std::max(move, std::abs(*step.linear_light_mm - strip_mm) / model.linear_light_mm_s);
+      strip_mm = *step.linear_light_mm;
+    }
+    seconds += move + model.exposures_per_bracket * (step.exposure.probe_us * 1e-6 + model.frame_overhead_s);
+  }
+  return seconds;
+}
+
+}  // namespace loom::acquisition

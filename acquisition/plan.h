@@ -1,0 +1,101 @@
+#pragma once
+// Measurement plans: what a scan captures, step by step, generated from a rig's description
+// (core/rig_model.h) and a gloss preset (configs/plans/{low,medium,high}.yaml).
+//
+// A material scan (the paper's counts on configs/rig/tac7.yaml):
+// | kind        | steps                                                     | tac7 images       |
+// |-------------|-----------------------------------------------------------|-------------------|
+// | structured  | Gray-code + phase-shift patterns, all cameras at once     | (heightmap)       |
+// | colour      | each filtered LED × each filter, colour-view cameras      | 5 × 10 × 2 = 100  |
+// | monochrome  | each LED × each turntable angle, all cameras              | 29 × 3 × 4 = 348  |
+// | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
+// A calibration scan: dark frames, the calibration target at several turntable angles, the
+// white reference under every LED, the colour chart through every filter.
+//
+// Steps come in capture order, grouped to keep slow moves few: one turntable angle at a time,
+// wheel slots in order, the strip swept in one direction. Every step carries an HDR bracket
+// (probe exposure, bounded count) that the sequencer refines.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/rig_model.h"
+#include "core/status.h"
+#include "hal/rig_state.h"
+
+namespace loom::acquisition {
+
+enum class StepKind { kDark, kTarget, kWhiteReference, kColourChart, kStructuredLight, kColour, kMonochrome, kLinearLight };
+std::string_view StepKindName(StepKind kind);
+
+struct ExposureBracket {
+  double probe_us = 10000;  // the first exposure; the sequencer brackets around it
+  int max_exposures = 5;
+};
+
+struct FilterSetting {
+  std::string wheel;
+  int slot = 0;
+  double center_nm = 0;
+};
+
+struct Step {
+  int index = 0;
+  StepKind kind = StepKind::kMonochrome;
+  std::vector<std::string> cameras;     // triggered together
+  std::vector<hal::LedDrive> leds;      // lit; all others off
+  std::optional<FilterSetting> filter;
+  double turntable_deg = 0;
+  std::optional<double> linear_light_mm;  // strip on at this position
+  std::string projector_pattern;          // empty: projector dark
+  std::string object;                     // what must lie on the turntable: "sample", "target", ...
+  ExposureBracket exposure;
+
+  // Images this step produces before bracketing (one per camera).
+  int images() const { return static_cast<int>(cameras.size()); }
+};
+
+struct Preset {
+  std::string name;                                // low, medium, high
+  std::vector<double> turntable_deg = {0, 120, 240};
+  std::vector<double> colour_views_deg = {0, 45};  // colour from the cameras nearest these
+  int linear_light_positions = 70;
+  double led_current_ma = 1000;
+  ExposureBracket exposure;
+  int gray_bits = 0;                               // 0: enough for the projector width
+  int phase_steps = 4;
+};
+
+// Reads configs/plans/<name>.yaml (strict keys).
+Result<Preset> LoadPreset(const std::filesystem::path& path);
+
+struct Plan {
+  std::string rig;
+  std::string preset;
+  std::string purpose;  // "material" or "calibration"
+  std::vector<Step> steps;
+
+  int Images(StepKind kind) const;
+  int Images() const;
+};
+
+Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset);
+Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset);
+
+// The structured-light pattern names for a projector width: gray_x_NN and their inverses,
+// phase_x_K, plus "white" and "black" references.
+std::vector<std::string> StructuredLightPatterns(int projector_width, int gray_bits, int phase_steps);
+
+// What the scan will take on a rig with these speeds (moves + exposures + frame readout).
+struct DurationModel {
+  double turntable_deg_s = 30;
+  double wheel_s_per_slot = 0.25;
+  double linear_light_mm_s = 50;
+  double frame_overhead_s = 0.4;   // readout and storage of one frame of every camera (GigE, 3 MP)
+  double exposures_per_bracket = 3;
+};
+double EstimateSeconds(const Plan& plan, const DurationModel& model = {});
+
+}  // namespace loom::acquisition

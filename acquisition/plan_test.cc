@@ -1,0 +1,108 @@
+#include "acquisition/plan.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "core/config.h"
+
+namespace loom::acquisition {
+namespace {
+
+RigModel LoadRigModel(const std::string& name) {
+  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml", 1);
+  EXPECT_TRUE(doc.ok()) << doc.status().ToString();
+  RigModel rig = ReadRigModel(doc->root().Child("geometry"));
+  rig.name = name;
+  return rig;
+}
+
+Preset LoadShippedPreset(const std::string& name) {
+  Result<Preset> preset = LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/" + name + ".yaml");
+  EXPECT_TRUE(preset.ok()) << preset.status().ToString();
+  return *preset;
+}
+
+TEST(PlanTest, Tac7PresetsHaveThePapersCounts) {
+  const RigModel rig = LoadRigModel("tac7");
+  const std::pair<const char*, int> presets[] = {{"low", 280}, {"medium", 560}, {"high", 3300}};
+  for (const auto& [name, linear] : presets) {
+    const Result<Plan> plan = MakeMaterialPlan(rig, LoadShippedPreset(name));
+    ASSERT_TRUE(plan.ok()) << plan.status().ToString();
+    EXPECT_EQ(plan->Images(StepKind::kColour), 100) << name;
+    EXPECT_EQ(plan->Images(StepKind::kMonochrome), 348) << name;
+    EXPECT_EQ(plan->Images(StepKind::kLinearLight), linear) << name;
+    EXPECT_GT(plan->Images(StepKind::kStructuredLight), 0) << name;
+  }
+}
+
+TEST(PlanTest, ColourComesFromTheTopAndThe45DegreeCameras) {
+  const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset("low"));
+  for (const Step& step : plan.steps) {
+    if (step.kind != StepKind::kColour) continue;
+    EXPECT_EQ(step.cameras, (std::vector<std::string>{"cam0", "cam2"}));
+    ASSERT_TRUE(step.filter.has_value());
+    ASSERT_EQ(step.leds.size(), 1u);
+  }
+}
+
+TEST(PlanTest, StepsKeepSlowMovesFew) {
+  const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset("medium"));
+  int turntable_moves = 0;
+  double strip = -1;
+  for (size_t i = 1; i < plan.steps.size(); ++i) {
+    turntable_moves += plan.steps[i].turntable_deg != plan.steps[i - 1].turntable_deg;
+    if (plan.steps[i].linear_light_mm) {
+      EXPECT_GT(*plan.steps[i].linear_light_mm, strip);  // one sweep, one direction
+      strip = *plan.steps[i].linear_light_mm;
+    }
+  }
+  EXPECT_EQ(turntable_moves, 2);  // 0 → 120 → 240
+  for (size_t i = 0; i < plan.steps.size(); ++i) EXPECT_EQ(plan.steps[i].index, static_cast<int>(i));
+}
+
+TEST(PlanTest, StructuredLightPatternsCoverTheProjectorWidth) {
+  const std::vector<std::string> patterns = StructuredLightPatterns(1280, 0, 4);
+  // white, black, 11 Gray bits (2^11 ≥ 1280) and their inverses, 4 phase shifts.
+  EXPECT_EQ(patterns.size(), 2u + 22u + 4u);
+  EXPECT_EQ(patterns[2], "gray_x_00");
+  EXPECT_EQ(patterns[3], "gray_x_00_inv");
+  EXPECT_EQ(patterns.back(), "phase_x_3");
+}
+
+TEST(PlanTest, MiniRigAndCalibrationPlan) {
+  const RigModel rig = LoadRigModel("tac7-mini");
+  const Plan plan = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
+  EXPECT_EQ(plan.Images(StepKind::kMonochrome), 12 * 2 * 3);
+  EXPECT_EQ(plan.Images(StepKind::kColour), 2 * 4 * 2);
+  EXPECT_EQ(plan.Images(StepKind::kLinearLight), 70 * 2);
+  const Plan calibration = *MakeCalibrationPlan(rig, LoadShippedPreset("low"));
+  EXPECT_EQ(calibration.purpose, "calibration");
+  EXPECT_EQ(calibration.Images(StepKind::kWhiteReference), 12 * 2);
+  EXPECT_EQ(calibration.Images(StepKind::kTarget), 8 * 2);
+  EXPECT_EQ(calibration.Images(StepKind::kDark), 2);
+  EXPECT_GT(EstimateSeconds(plan), 0);
+  // More positions, more time.
+  EXPECT_GT(EstimateSeconds(*MakeMaterialPlan(rig, LoadShippedPreset("high"))), EstimateSeconds(plan));
+}
+
+TEST(PlanTest, ARigWithoutALinearLightCannotScanWithIt) {
+  RigModel rig = LoadRigModel("tac7-mini");
+  rig.linear_light.reset();
+  const Result<Plan> plan = MakeMaterialPlan(rig, LoadShippedPreset("low"));
+  ASSERT_FALSE(plan.ok());
+  EXPECT_NE(plan.status().ToString().find("needs a linear light (70 positions)"), std::string::npos)
+      << plan.status().ToString();
+}
+
+TEST(PlanTest, PresetTyposAreErrors) {
+  const std::string path = ::testing::TempDir() + "/typo.yaml";
+  std::ofstream(path) << "schema_version: 1\npreset: low\nlinear_light_positons: 70\n";
+  const Result<Preset> preset = LoadPreset(path);
+  ASSERT_FALSE(preset.ok());
+  EXPECT_NE(preset.status().message().find("did you mean 'linear_light_positions'"), std::string::npos)
+      << preset.status().ToString();
+}
+
+}  // namespace
+}  // namespace loom::acquisition
