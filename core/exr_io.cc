@@ -176,6 +176,56 @@ Status FsyncFile(const fs::path& path) {
   return Status::Ok();
 }
 
+fs::path TemporaryPathFor(const fs::path& path);
+
+Status CheckAttributeNames(const fs::path& path, const ExrAttributes& attributes) {
+  for (const auto& [name, value] : attributes) {
+    if (StandardAttributeNames().contains(name)) {
+      return InvalidArgumentError(path.string(), "attribute '" + name + "' is reserved by OpenEXR");
+    }
+  }
+  return Status::Ok();
+}
+
+// Makes a rename durable: the directory entry itself must reach the disk.
+void FsyncDirectory(const fs::path& directory) {
+  const int fd = ::open(directory.empty() ? "." : directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+// Writes `path` through a temporary file: write, verify, fsync, rename, fsync the directory.
+template <typename WriteFn>
+Status WriteAtomically(const fs::path& path, WriteFn write) {
+  EnsureThreadPool();
+  const fs::path temporary = TemporaryPathFor(path);
+  std::error_code ec;
+  try {
+    write(temporary);
+    // OpenEXR's destructor may swallow a failed final write (e.g. a full disk): re-open and
+    // check that every scanline's offset landed before the file replaces anything.
+    if (!Imf::InputFile(temporary.c_str()).isComplete()) {
+      fs::remove(temporary, ec);
+      return IoError(path.string(), "write incomplete (disk full?)");
+    }
+  } catch (const std::exception& e) {
+    fs::remove(temporary, ec);
+    return IoError(path.string(), std::string("cannot write: ") + e.what());
+  }
+  if (Status synced = FsyncFile(temporary); !synced.ok()) {
+    fs::remove(temporary, ec);
+    return IoError(path.string(), synced.message());
+  }
+  fs::rename(temporary, path, ec);
+  if (ec) {
+    fs::remove(temporary, ec);
+    return IoError(path.string(), "cannot rename temporary file into place: " + ec.message());
+  }
+  FsyncDirectory(path.parent_path());
+  return Status::Ok();
+}
+
 fs::path TemporaryPathFor(const fs::path& path) {
   return path.parent_path() /
          ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
@@ -225,36 +275,8 @@ Status WriteExr(const fs::path& path, const Image& image, const ExrAttributes& a
                                                    std::to_string(image.num_channels()) +
                                                    " channels)");
   }
-  for (const auto& [name, value] : attributes) {
-    if (StandardAttributeNames().contains(name)) {
-      return InvalidArgumentError(path.string(), "attribute '" + name + "' is reserved by OpenEXR");
-    }
-  }
-  EnsureThreadPool();
-  const fs::path temporary = TemporaryPathFor(path);
-  std::error_code ec;
-  try {
-    WritePixels(temporary, image, attributes, options);
-    // OpenEXR's destructor may swallow a failed final write (e.g. a full disk): re-open and
-    // check that every scanline's offset landed before the file replaces anything.
-    if (!Imf::InputFile(temporary.c_str()).isComplete()) {
-      fs::remove(temporary, ec);
-      return IoError(path.string(), "write incomplete (disk full?)");
-    }
-  } catch (const std::exception& e) {
-    fs::remove(temporary, ec);
-    return IoError(path.string(), std::string("cannot write: ") + e.what());
-  }
-  if (Status synced = FsyncFile(temporary); !synced.ok()) {
-    fs::remove(temporary, ec);
-    return IoError(path.string(), synced.message());
-  }
-  fs::rename(temporary, path, ec);
-  if (ec) {
-    fs::remove(temporary, ec);
-    return IoError(path.string(), "cannot rename temporary file into place: " + ec.message());
-  }
-  return Status::Ok();
+  LOOM_RETURN_IF_ERROR(CheckAttributeNames(path, attributes));
+  return WriteAtomically(path, [&](const fs::path& temporary) { WritePixels(temporary, image, attributes, options); });
 }
 
 Result<ExrHeader> ReadExrHeader(const fs::path& path) {
@@ -303,6 +325,60 @@ Result<ExrImage> ReadExr(const fs::path& path, const ExrReadOptions& options) {
     file.setFrameBuffer(frame_buffer);
     file.readPixels(window.min.y, window.max.y);
     return result;
+  } catch (const std::exception& e) {
+    return DataLossError(path.string(), std::string("corrupt or truncated EXR: ") + e.what());
+  }
+}
+
+Status WriteExrUint16(const fs::path& path, int width, int height, std::span<const uint16_t> pixels,
+                      const std::string& channel, const ExrAttributes& attributes) {
+  if (width <= 0 || height <= 0 || pixels.size() != static_cast<size_t>(width) * height) {
+    return InvalidArgumentError(path.string(), "frame of " + std::to_string(pixels.size()) + " pixels is not " +
+                                                   std::to_string(width) + "x" + std::to_string(height));
+  }
+  LOOM_RETURN_IF_ERROR(CheckAttributeNames(path, attributes));
+  return WriteAtomically(path, [&](const fs::path& temporary) {
+    // EXR has no 16-bit integer type: UINT (32-bit) holds the values exactly; ZIP keeps it small.
+    std::vector<uint32_t> values(pixels.begin(), pixels.end());
+    Imf::Header header(width, height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    header.channels().insert(channel, Imf::Channel(Imf::UINT));
+    for (const auto& [name, value] : attributes) InsertAttribute(header, name, value);
+    Imf::FrameBuffer frame_buffer;
+    frame_buffer.insert(channel, Imf::Slice(Imf::UINT, reinterpret_cast<char*>(values.data()), sizeof(uint32_t),
+                                            sizeof(uint32_t) * width));
+    Imf::OutputFile file(temporary.c_str(), header);
+    file.setFrameBuffer(frame_buffer);
+    file.writePixels(height);
+  });
+}
+
+Result<ExrUint16Image> ReadExrUint16(const fs::path& path, const std::string& channel) {
+  LOOM_RETURN_IF_ERROR(CheckReadableExr(path));
+  EnsureThreadPool();
+  try {
+    Imf::InputFile file(path.c_str());
+    if (!file.isComplete()) return DataLossError(path.string(), "truncated or incomplete: some scanlines were never written");
+    const Imf::Channel* stored = file.header().channels().findChannel(channel);
+    if (stored == nullptr) return NotFoundError(path.string(), "no channel '" + channel + "'");
+    if (stored->type != Imf::UINT) return InvalidArgumentError(path.string(), "channel '" + channel + "' is not UINT");
+    const Imath::Box2i window = file.header().dataWindow();
+    ExrUint16Image image;
+    image.width = window.max.x - window.min.x + 1;
+    image.height = window.max.y - window.min.y + 1;
+    std::vector<uint32_t> values(static_cast<size_t>(image.width) * image.height);
+    Imf::FrameBuffer frame_buffer;
+    frame_buffer.insert(channel, Imf::Slice::Make(Imf::UINT, values.data(), window, sizeof(uint32_t),
+                                                  sizeof(uint32_t) * image.width));
+    file.setFrameBuffer(frame_buffer);
+    file.readPixels(window.min.y, window.max.y);
+    image.pixels.resize(values.size());
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (values[i] > 0xFFFF) return DataLossError(path.string(), "value " + std::to_string(values[i]) + " exceeds 16 bits");
+      image.pixels[i] = static_cast<uint16_t>(values[i]);
+    }
+    image.attributes = ReadAttributes(file.header());
+    return image;
   } catch (const std::exception& e) {
     return DataLossError(path.string(), std::string("corrupt or truncated EXR: ") + e.what());
   }

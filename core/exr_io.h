@@ -13,7 +13,9 @@
 // Thread-safety: functions are reentrant; OpenEXR's internal thread pool is shared.
 
 #include <filesystem>
+#include <cstdint>
 #include <map>
+#include <span>
 #include <string>
 #include <variant>
 #include <vector>
@@ -68,5 +70,17 @@ Result<ExrImage> ReadExr(const std::filesystem::path& path, const ExrReadOptions
 
 // Reads the header only (fast: no pixel data).
 Result<ExrHeader> ReadExrHeader(const std::filesystem::path& path);
+
+// One 16-bit integer channel stored losslessly (EXR UINT, ZIP): raw camera frames.
+// Same atomicity and errors as WriteExr/ReadExr. Reading a value above 65535 is DataLoss.
+Status WriteExrUint16(const std::filesystem::path& path, int width, int height, std::span<const uint16_t> pixels,
+                      const std::string& channel, const ExrAttributes& attributes = {});
+struct ExrUint16Image {
+  int width = 0;
+  int height = 0;
+  std::vector<uint16_t> pixels;
+  ExrAttributes attributes;
+};
+Result<ExrUint16Image> ReadExrUint16(const std::filesystem::path& path, const std::string& channel);
 
 }  // namespace loom

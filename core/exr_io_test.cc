@@ -185,5 +185,21 @@ TEST_F(ExrIoTest, WriteIsAtomicAndFailureNamesTheFile) {
   EXPECT_TRUE(ReadExr(path).ok());  // the earlier file is intact
 }
 
+TEST_F(ExrIoTest, Uint16FramesAreLossless) {
+  std::vector<uint16_t> pixels(64 * 48);
+  for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<uint16_t>((i * 2654435761u) & 0xFFFF);
+  const fs::path path = dir_ / "frame.exr";
+  ASSERT_TRUE(WriteExrUint16(path, 64, 48, pixels, "Y", {{"loom.camera", std::string("cam0")}}).ok());
+  const Result<ExrUint16Image> read = ReadExrUint16(path, "Y");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->pixels, pixels);
+  EXPECT_EQ(std::get<std::string>(read->attributes.at("loom.camera")), "cam0");
+  EXPECT_EQ(ReadExrUint16(path, "Z").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(WriteExrUint16(path, 10, 10, pixels, "Y").code(), StatusCode::kInvalidArgument);
+  // A float EXR is not a raw frame.
+  ASSERT_TRUE(WriteExr(dir_ / "float.exr", RandomImage(4, 4, {"Y"}, 1)).ok());
+  EXPECT_EQ(ReadExrUint16(dir_ / "float.exr", "Y").status().code(), StatusCode::kInvalidArgument);
+}
+
 }  // namespace
 }  // namespace loom

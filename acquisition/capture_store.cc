@@ -1,0 +1,232 @@
+#include "acquisition/capture_store.h"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "core/config.h"
+#include "core/exr_io.h"
+#include "core/file_io.h"
+#include "core/version.h"
+
+namespace loom::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr int kScanSchemaVersion = 1;
+constexpr char kPixelChannel[] = "DN";
+
+std::string FrameFileName(const FrameKey& key) {
+  char name[160];
+  std::snprintf(name, sizeof(name), "frames/s%05d_%s_e%02d.exr", key.step, key.camera.c_str(), key.exposure);
+  return name;
+}
+
+Json ToJson(const FrameRecord& r) {
+  const hal::FrameMetadata& m = r.metadata;
+  Json leds = Json::array();
+  for (const hal::LedDrive& led : m.rig_state.leds_on) leds.push_back({led.led, led.current_ma});
+  return {{"step", r.key.step},
+          {"camera", r.key.camera},
+          {"exposure", r.key.exposure},
+          {"file", r.file},
+          {"checksum", r.checksum},
+          {"width", r.width},
+          {"height", r.height},
+          {"serial", m.camera_serial},
+          {"pixel_format", std::string(hal::PixelFormatName(m.pixel_format))},
+          {"exposure_us", m.exposure_us},
+          {"gain", m.gain},
+          {"frame_id", m.frame_id},
+          {"device_timestamp_ns", m.device_timestamp_ns},
+          {"host_timestamp_ns", m.host_timestamp_ns},
+          {"rig", {{"leds", leds},
+                   {"filter_slots", m.rig_state.filter_slots},
+                   {"turntable_deg", m.rig_state.turntable_deg},
+                   {"linear_light_mm", m.rig_state.linear_light_mm},
+                   {"linear_light_on", m.rig_state.linear_light_on},
+                   {"linear_light_intensity", m.rig_state.linear_light_intensity},
+                   {"projector_pattern", m.rig_state.projector_pattern}}}};
+}
+
+FrameRecord FromJson(const Json& j) {
+  FrameRecord r;
+  r.key = {j.at("step").get<int>(), j.at("camera").get<std::string>(), j.at("exposure").get<int>()};
+  r.file = j.at("file").get<std::string>();
+  r.checksum = j.at("checksum").get<std::string>();
+  r.width = j.at("width").get<int>();
+  r.height = j.at("height").get<int>();
+  hal::FrameMetadata& m = r.metadata;
+  m.camera = r.key.camera;
+  m.camera_serial = j.at("serial").get<std::string>();
+  m.pixel_format = hal::ParsePixelFormat(j.at("pixel_format").get<std::string>()).value();
+  m.exposure_us = j.at("exposure_us").get<double>();
+  m.gain = j.at("gain").get<double>();
+  m.frame_id = j.at("frame_id").get<uint64_t>();
+  m.device_timestamp_ns = j.at("device_timestamp_ns").get<uint64_t>();
+  m.host_timestamp_ns = j.at("host_timestamp_ns").get<int64_t>();
+  const Json& rig = j.at("rig");
+  for (const Json& led : rig.at("leds")) m.rig_state.leds_on.push_back({led.at(0).get<int>(), led.at(1).get<double>()});
+  m.rig_state.filter_slots = rig.at("filter_slots").get<std::map<std::string, int>>();
+  m.rig_state.turntable_deg = rig.at("turntable_deg").get<double>();
+  m.rig_state.linear_light_mm = rig.at("linear_light_mm").get<double>();
+  m.rig_state.linear_light_on = rig.at("linear_light_on").get<bool>();
+  m.rig_state.linear_light_intensity = rig.at("linear_light_intensity").get<double>();
+  m.rig_state.projector_pattern = rig.at("projector_pattern").get<std::string>();
+  return r;
+}
+
+std::string ScanYaml(const ScanInfo& info) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "schema_version" << YAML::Value << kScanSchemaVersion;
+  out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
+  out << YAML::Key << "object" << YAML::Value << info.object;
+  out << YAML::Key << "plan" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "purpose" << YAML::Value << info.purpose;
+  out << YAML::Key << "preset" << YAML::Value << info.preset;
+  out << YAML::Key << "steps" << YAML::Value << info.steps;
+  out << YAML::EndMap;
+  out << YAML::Key << "rig" << YAML::Value << YAML::Literal << info.rig_yaml;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+Result<ScanInfo> ReadScanYaml(const fs::path& path) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kScanSchemaVersion));
+  ScanInfo info;
+  std::string version;
+  doc.root().Required("loom_version", &version);
+  doc.root().Required("object", &info.object);
+  doc.root().Required("rig", &info.rig_yaml);
+  const ConfigNode plan = doc.root().Child("plan");
+  plan.Required("purpose", &info.purpose);
+  plan.Required("preset", &info.preset);
+  plan.Required("steps", &info.steps);
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  return info;
+}
+
+}  // namespace
+
+std::string FrameChecksum(const std::vector<uint16_t>& pixels) {
+  uint64_t hash = 0xcbf29ce484222325ull;
+  for (uint16_t value : pixels) {
+    for (int byte = 0; byte < 2; ++byte) {
+      hash ^= (value >> (8 * byte)) & 0xFF;
+      hash *= 0x100000001b3ull;
+    }
+  }
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanInfo& info) {
+  std::error_code ec;
+  if (fs::exists(directory, ec) && !fs::is_empty(directory, ec)) {
+    return AlreadyExistsError(directory.string(), "not empty: a scan is never written over (use --resume to continue it)");
+  }
+  fs::create_directories(directory / "frames", ec);
+  if (ec) return IoError(directory.string(), "cannot create: " + ec.message());
+  CaptureStore store(directory);
+  store.info_ = info;
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(directory / "scan.yaml", ScanYaml(info)));
+  return store;
+}
+
+Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) {
+  CaptureStore store(directory);
+  LOOM_ASSIGN_OR_RETURN(store.info_, ReadScanYaml(directory / "scan.yaml"));
+  std::string journal;
+  if (fs::exists(store.JournalPath())) {
+    LOOM_ASSIGN_OR_RETURN(journal, ReadFile(store.JournalPath()));
+  }
+  size_t good_bytes = 0;
+  int line_number = 0;
+  for (size_t begin = 0; begin < journal.size();) {
+    ++line_number;
+    const size_t end = journal.find('\n', begin);
+    const bool torn = end == std::string::npos;  // the last append never completed
+    const std::string line = journal.substr(begin, torn ? std::string::npos : end - begin);
+    try {
+      if (torn) throw std::runtime_error("no newline");
+      store.records_.push_back(FromJson(Json::parse(line)));
+      good_bytes = end + 1;
+    } catch (const std::exception& e) {
+      if (!torn) {
+        return DataLossError(store.JournalPath().string(),
+                             "line " + std::to_string(line_number) + " is corrupt (" + e.what() + ")");
+      }
+    }
+    if (torn) break;
+    begin = end + 1;
+  }
+  if (repair) {
+    if (good_bytes < journal.size()) {
+      fs::resize_file(store.JournalPath(), good_bytes);
+    }
+    // Frames without a record never completed: remove them, and any temporary files.
+    std::set<std::string> recorded;
+    for (const FrameRecord& record : store.records_) recorded.insert(record.file);
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(directory / "frames", ec)) {
+      const std::string relative = "frames/" + entry.path().filename().string();
+      if (!recorded.contains(relative)) fs::remove(entry.path(), ec);
+    }
+  }
+  return store;
+}
+
+bool CaptureStore::Has(const FrameKey& key) const {
+  for (const FrameRecord& record : records_) {
+    if (record.key == key) return true;
+  }
+  return false;
+}
+
+Status CaptureStore::Append(const FrameKey& key, const hal::RawFrame& frame) {
+  if (Has(key)) {
+    return AlreadyExistsError(directory_.string(), "frame " + FrameFileName(key) + " is already stored");
+  }
+  FrameRecord record;
+  record.key = key;
+  record.file = FrameFileName(key);
+  record.checksum = FrameChecksum(frame.pixels);
+  record.width = frame.width;
+  record.height = frame.height;
+  record.metadata = frame.metadata;
+  LOOM_RETURN_IF_ERROR(WriteExrUint16(directory_ / record.file, frame.width, frame.height, frame.pixels, kPixelChannel,
+                                      {{"loom.camera", key.camera}, {"loom.step", key.step}}));
+  LOOM_RETURN_IF_ERROR(AppendLineDurably(JournalPath(), ToJson(record).dump()));
+  records_.push_back(std::move(record));
+  return Status::Ok();
+}
+
+Result<hal::RawFrame> CaptureStore::ReadFrame(const FrameRecord& record) const {
+  const fs::path path = directory_ / record.file;
+  LOOM_ASSIGN_OR_RETURN(ExrUint16Image image, ReadExrUint16(path, kPixelChannel));
+  if (image.width != record.width || image.height != record.height) {
+    return DataLossError(path.string(), "is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                                            ", the journal says " + std::to_string(record.width) + "x" +
+                                            std::to_string(record.height));
+  }
+  const std::string checksum = FrameChecksum(image.pixels);
+  if (checksum != record.checksum) {
+    return DataLossError(path.string(), "checksum mismatch (" + checksum + ", journal " + record.checksum +
+                                            "): the frame was altered after it was stored");
+  }
+  hal::RawFrame frame;
+  frame.width = image.width;
+  frame.height = image.height;
+  frame.pixels = std::move(image.pixels);
+  frame.metadata = record.metadata;
+  return frame;
+}
+
+}  // namespace loom::acquisition

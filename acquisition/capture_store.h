@@ -1,0 +1,79 @@
+#pragma once
+// CaptureStore: a scan on disk, crash-safe and append-only.
+//
+//   SCAN/scan.yaml       what was scanned: the rig YAML (snapshot), the plan, the object, loom's
+//                        version (written once, atomically)
+//   SCAN/frames/         raw frames, s<step>_<camera>_e<exposure>.exr: one UINT channel "DN",
+//                        lossless, never rewritten
+//   SCAN/journal.jsonl   one JSON record per frame: what the devices really did, the file and a
+//                        checksum of its pixels
+//
+// Order of a write: the frame file (temporary name, fsync, rename, fsync of the directory),
+// then its journal record (appended, fsync). A frame without a record is partial and is redone
+// on resume; a torn last journal line (a crash mid-append) is dropped. Reading verifies every
+// frame against its record: a missing, truncated or altered frame is an error naming the file.
+// Not thread-safe: one writer per scan.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/status.h"
+#include "hal/camera.h"
+
+namespace loom::acquisition {
+
+struct FrameKey {
+  int step = 0;
+  std::string camera;
+  int exposure = 0;  // index in the step's HDR bracket
+  auto operator<=>(const FrameKey&) const = default;
+};
+
+struct FrameRecord {
+  FrameKey key;
+  std::string file;        // relative to the scan directory
+  std::string checksum;    // FNV-1a 64 of the pixels, hex
+  int width = 0;
+  int height = 0;
+  hal::FrameMetadata metadata;
+};
+
+struct ScanInfo {
+  std::string rig_yaml;  // the rig file's text
+  std::string object;    // what was on the turntable
+  std::string purpose;   // material or calibration
+  std::string preset;
+  int steps = 0;
+};
+
+class CaptureStore {
+ public:
+  // A new scan in `directory` (created; must not exist or be empty).
+  static Result<CaptureStore> Create(const std::filesystem::path& directory, const ScanInfo& info);
+  // An existing scan, for reading or resuming: reads scan.yaml and the journal. With
+  // `repair`, drops a torn last journal line from the file and deletes partial frames.
+  static Result<CaptureStore> Open(const std::filesystem::path& directory, bool repair = false);
+
+  const std::filesystem::path& directory() const { return directory_; }
+  const ScanInfo& info() const { return info_; }
+  const std::vector<FrameRecord>& records() const { return records_; }
+  bool Has(const FrameKey& key) const;
+
+  // Stores a frame durably, then records it. A key already stored is AlreadyExists.
+  Status Append(const FrameKey& key, const hal::RawFrame& frame);
+  // The frame of a record, verified against its checksum.
+  Result<hal::RawFrame> ReadFrame(const FrameRecord& record) const;
+
+ private:
+  explicit CaptureStore(std::filesystem::path directory) : directory_(std::move(directory)) {}
+  std::filesystem::path JournalPath() const { return directory_ / "journal.jsonl"; }
+
+  std::filesystem::path directory_;
+  ScanInfo info_;
+  std::vector<FrameRecord> records_;
+};
+
+std::string FrameChecksum(const std::vector<uint16_t>& pixels);
+
+}  // namespace loom::acquisition

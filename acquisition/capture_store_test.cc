@@ -1,0 +1,132 @@
+#include "acquisition/capture_store.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "core/exr_io.h"
+#include "core/file_io.h"
+
+namespace loom::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+
+hal::RawFrame Frame(int seed) {
+  hal::RawFrame frame;
+  frame.width = 16;
+  frame.height = 12;
+  for (int i = 0; i < 16 * 12; ++i) frame.pixels.push_back(static_cast<uint16_t>((i * 37 + seed * 1001) % 4096));
+  frame.metadata.camera = "cam0";
+  frame.metadata.camera_serial = "SIM-cam0";
+  frame.metadata.pixel_format = hal::PixelFormat::kMono12;
+  frame.metadata.exposure_us = 1250.5;
+  frame.metadata.frame_id = 7 + seed;
+  frame.metadata.rig_state.leds_on = {{3, 800}};
+  frame.metadata.rig_state.filter_slots = {{"wheel0", 2}};
+  frame.metadata.rig_state.turntable_deg = 120;
+  return frame;
+}
+
+class CaptureStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / ("store_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CaptureStore MakeStore() {
+    Result<CaptureStore> store = CaptureStore::Create(dir_, {"schema_version: 1\nname: r\n", "fabric 3", "material", "low", 10});
+    EXPECT_TRUE(store.ok()) << store.status().ToString();
+    return std::move(*store);
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(CaptureStoreTest, FramesAndWhatTheDevicesDidRoundTrip) {
+  CaptureStore store = MakeStore();
+  ASSERT_TRUE(store.Append({0, "cam0", 0}, Frame(0)).ok());
+  ASSERT_TRUE(store.Append({0, "cam0", 1}, Frame(1)).ok());
+  EXPECT_EQ(store.Append({0, "cam0", 1}, Frame(1)).code(), StatusCode::kAlreadyExists);
+
+  const Result<CaptureStore> reopened = CaptureStore::Open(dir_);
+  ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
+  EXPECT_EQ(reopened->info().object, "fabric 3");
+  EXPECT_EQ(reopened->info().rig_yaml, "schema_version: 1\nname: r\n");
+  ASSERT_EQ(reopened->records().size(), 2u);
+  const Result<hal::RawFrame> frame = reopened->ReadFrame(reopened->records()[1]);
+  ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+  EXPECT_EQ(frame->pixels, Frame(1).pixels);
+  EXPECT_EQ(frame->metadata.exposure_us, 1250.5);
+  EXPECT_EQ(frame->metadata.rig_state, Frame(1).metadata.rig_state);
+  EXPECT_TRUE(reopened->Has({0, "cam0", 0}));
+  EXPECT_FALSE(reopened->Has({1, "cam0", 0}));
+}
+
+TEST_F(CaptureStoreTest, AlteredTruncatedAndMissingFramesAreNamed) {
+  CaptureStore store = MakeStore();
+  for (int e = 0; e < 3; ++e) ASSERT_TRUE(store.Append({4, "cam1", e}, Frame(e)).ok());
+  const auto& records = store.records();
+  // Altered: a valid frame file with other pixels.
+  const fs::path altered = dir_ / records[0].file;
+  ASSERT_TRUE(WriteExrUint16(altered, 16, 12, Frame(9).pixels, "DN").ok());
+  const Result<hal::RawFrame> bad = store.ReadFrame(records[0]);
+  EXPECT_EQ(bad.status().code(), StatusCode::kDataLoss);
+  EXPECT_EQ(bad.status().subject(), altered.string());
+  EXPECT_NE(bad.status().message().find("checksum mismatch"), std::string::npos);
+  // Truncated.
+  const fs::path truncated = dir_ / records[1].file;
+  fs::resize_file(truncated, fs::file_size(truncated) / 2);
+  EXPECT_EQ(store.ReadFrame(records[1]).status().code(), StatusCode::kDataLoss);
+  // Missing.
+  fs::remove(dir_ / records[2].file);
+  const Result<hal::RawFrame> missing = store.ReadFrame(records[2]);
+  EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(missing.status().subject(), (dir_ / records[2].file).string());
+}
+
+TEST_F(CaptureStoreTest, ACrashMidAppendIsRepairedOnResume) {
+  CaptureStore store = MakeStore();
+  ASSERT_TRUE(store.Append({0, "cam0", 0}, Frame(0)).ok());
+  ASSERT_TRUE(store.Append({1, "cam0", 0}, Frame(1)).ok());
+  // A crash after the frame of step 2 but mid-way through its journal record, plus a leftover
+  // temporary file and a frame that never got a record.
+  const std::string journal = *ReadFile(dir_ / "journal.jsonl");
+  std::ofstream(dir_ / "journal.jsonl", std::ios::app) << journal.substr(0, 40);
+  std::ofstream(dir_ / "frames" / ".s00002_cam0_e00.exr.tmp-123") << "partial";
+  ASSERT_TRUE(WriteExrUint16(dir_ / "frames" / "s00002_cam0_e00.exr", 16, 12, Frame(2).pixels, "DN").ok());
+
+  // Reading tolerates the torn line; resuming removes it and the partial files.
+  ASSERT_EQ(CaptureStore::Open(dir_)->records().size(), 2u);
+  Result<CaptureStore> resumed = CaptureStore::Open(dir_, /*repair=*/true);
+  ASSERT_TRUE(resumed.ok()) << resumed.status().ToString();
+  EXPECT_FALSE(resumed->Has({2, "cam0", 0}));
+  EXPECT_FALSE(fs::exists(dir_ / "frames" / "s00002_cam0_e00.exr"));
+  EXPECT_FALSE(fs::exists(dir_ / "frames" / ".s00002_cam0_e00.exr.tmp-123"));
+  ASSERT_TRUE(resumed->Append({2, "cam0", 0}, Frame(2)).ok());
+  const Result<CaptureStore> after = CaptureStore::Open(dir_);
+  ASSERT_TRUE(after.ok()) << after.status().ToString();
+  EXPECT_EQ(after->records().size(), 3u);
+  for (const FrameRecord& record : after->records()) EXPECT_TRUE(after->ReadFrame(record).ok()) << record.file;
+}
+
+TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {
+  CaptureStore store = MakeStore();
+  ASSERT_TRUE(store.Append({0, "cam0", 0}, Frame(0)).ok());
+  ASSERT_TRUE(store.Append({1, "cam0", 0}, Frame(1)).ok());
+  std::string journal = *ReadFile(dir_ / "journal.jsonl");
+  journal[5] = '#';  // inside the first record, not the last line
+  ASSERT_TRUE(WriteFileAtomically(dir_ / "journal.jsonl", journal).ok());
+  const Result<CaptureStore> opened = CaptureStore::Open(dir_);
+  ASSERT_FALSE(opened.ok());
+  EXPECT_EQ(opened.status().code(), StatusCode::kDataLoss);
+  EXPECT_NE(opened.status().ToString().find("journal.jsonl: line 1 is corrupt"), std::string::npos)
+      << opened.status().ToString();
+  const Result<CaptureStore> again = CaptureStore::Create(dir_, {});
+  EXPECT_EQ(again.status().code(), StatusCode::kAlreadyExists);
+}
+
+}  // namespace
+}  // namespace loom::acquisition

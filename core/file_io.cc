@@ -1,0 +1,85 @@
+#include "core/file_io.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace loom {
+namespace {
+
+namespace fs = std::filesystem;
+
+Status WriteAll(int fd, std::string_view data, const fs::path& path) {
+  while (!data.empty()) {
+    const ssize_t n = ::write(fd, data.data(), data.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return IoError(path.string(), std::string("cannot write: ") + std::strerror(errno));
+    }
+    data.remove_prefix(static_cast<size_t>(n));
+  }
+  return Status::Ok();
+}
+
+Status SyncAndClose(int fd, const fs::path& path) {
+  const int synced = ::fsync(fd);
+  const int sync_errno = errno;
+  const int closed = ::close(fd);
+  if (synced != 0) return IoError(path.string(), std::string("fsync failed: ") + std::strerror(sync_errno));
+  if (closed != 0) return IoError(path.string(), std::string("close failed: ") + std::strerror(errno));
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status WriteFileAtomically(const fs::path& path, std::string_view text) {
+  const fs::path temporary = path.parent_path() / ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return IoError(path.string(), std::string("cannot create: ") + std::strerror(errno));
+  Status written = WriteAll(fd, text, path);
+  const Status closed = SyncAndClose(fd, path);
+  if (written.ok()) written = closed;
+  std::error_code ec;
+  if (written.ok()) {
+    fs::rename(temporary, path, ec);
+    if (ec) written = IoError(path.string(), "cannot rename into place: " + ec.message());
+  }
+  if (!written.ok()) {
+    fs::remove(temporary, ec);
+    return written;
+  }
+  const int dir = ::open(path.parent_path().empty() ? "." : path.parent_path().c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
+  return Status::Ok();
+}
+
+Status AppendLineDurably(const fs::path& path, std::string_view line) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  if (fd < 0) return IoError(path.string(), std::string("cannot open for appending: ") + std::strerror(errno));
+  std::string record(line);
+  record += '\n';
+  const Status written = WriteAll(fd, record, path);
+  const Status closed = SyncAndClose(fd, path);
+  return written.ok() ? closed : written;
+}
+
+Result<std::string> ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::error_code ec;
+    if (!fs::exists(path, ec)) return NotFoundError(path.string(), "no such file");
+    return IoError(path.string(), "cannot open for reading");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace loom
