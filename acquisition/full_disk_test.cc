@@ -1,0 +1,44 @@
+// A scan that fills its disk: the frame that does not fit is a clear error naming its file, and
+// everything stored before it is intact and readable. Runs inside run_in_small_tmpfs.sh.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "acquisition/capture_store.h"
+
+namespace loom::acquisition {
+namespace {
+
+TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
+  const char* tmpfs = std::getenv("LOOM_SMALL_TMPFS");
+  if (tmpfs == nullptr) GTEST_SKIP() << "needs run_in_small_tmpfs.sh";
+  const std::filesystem::path dir = std::filesystem::path(tmpfs) / "scan";
+  Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", "material", "low", 1000});
+  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  hal::RawFrame frame;
+  frame.width = frame.height = 64;
+  uint32_t state = 1;
+  for (int i = 0; i < 64 * 64; ++i) {
+    state = state * 1664525u + 1013904223u;  // noise: does not compress
+    frame.pixels.push_back(static_cast<uint16_t>(state >> 20));
+  }
+  Status failed;
+  int stored = 0;
+  for (int step = 0; step < 1000 && failed.ok(); ++step) {
+    failed = store->Append({step, "cam0", 0}, frame);
+    if (failed.ok()) ++stored;
+  }
+  ASSERT_FALSE(failed.ok()) << "the 256 KiB disk never filled";
+  EXPECT_EQ(failed.code(), StatusCode::kIoError) << failed.ToString();
+  EXPECT_NE(failed.subject().find("/frames/s"), std::string::npos) << failed.ToString();  // names the frame file
+  EXPECT_GT(stored, 0);
+  const Result<CaptureStore> reopened = CaptureStore::Open(dir, /*repair=*/true);
+  ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
+  EXPECT_EQ(static_cast<int>(reopened->records().size()), stored);
+  for (const FrameRecord& record : reopened->records()) {
+    ASSERT_TRUE(reopened->ReadFrame(record).ok()) << record.file;
+  }
+}
+
+}  // namespace
+}  // namespace loom::acquisition
