@@ -156,7 +156,12 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
     const std::string line = journal.substr(begin, torn ? std::string::npos : end - begin);
     try {
       if (torn) throw std::runtime_error("no newline");
-      store.records_.push_back(FromJson(Json::parse(line)));
+      const Json record = Json::parse(line);
+      if (record.contains("step_done")) {
+        store.done_steps_.insert(record.at("step_done").get<int>());
+      } else {
+        store.records_.push_back(FromJson(record));
+      }
       good_bytes = end + 1;
     } catch (const std::exception& e) {
       if (!torn) {
@@ -205,6 +210,12 @@ Status CaptureStore::Append(const FrameKey& key, const hal::RawFrame& frame) {
                                       {{"loom.camera", key.camera}, {"loom.step", key.step}}));
   LOOM_RETURN_IF_ERROR(AppendLineDurably(JournalPath(), ToJson(record).dump()));
   records_.push_back(std::move(record));
+  return Status::Ok();
+}
+
+Status CaptureStore::MarkStepDone(int step) {
+  LOOM_RETURN_IF_ERROR(AppendLineDurably(JournalPath(), Json{{"step_done", step}}.dump()));
+  done_steps_.insert(step);
   return Status::Ok();
 }
 

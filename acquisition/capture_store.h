@@ -15,6 +15,7 @@
 // Not thread-safe: one writer per scan.
 
 #include <filesystem>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,11 @@ class CaptureStore {
 
   // Stores a frame durably, then records it. A key already stored is AlreadyExists.
   Status Append(const FrameKey& key, const hal::RawFrame& frame);
+  // Records that every frame of `step` is stored (its HDR bracket is complete).
+  Status MarkStepDone(int step);
+  bool StepDone(int step) const { return done_steps_.contains(step); }
+  int steps_done() const { return static_cast<int>(done_steps_.size()); }
+
   // The frame of a record, verified against its checksum.
   Result<hal::RawFrame> ReadFrame(const FrameRecord& record) const;
 
@@ -72,6 +78,7 @@ class CaptureStore {
   std::filesystem::path directory_;
   ScanInfo info_;
   std::vector<FrameRecord> records_;
+  std::set<int> done_steps_;
 };
 
 std::string FrameChecksum(const std::vector<uint16_t>& pixels);

@@ -11,6 +11,7 @@ const std::vector<Command>& Commands() {
       {"help", "Show the commands, or one command's options: loom help <command>", RunHelp},
       {"plan", "Show the measurement plan of a rig and a gloss preset, with its duration", RunPlan},
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
+      {"scan", "Run a measurement plan into a crash-safe scan directory, or resume one", RunScan},
       {"sim", "The simulator: procedural materials, frames and observation stacks", RunSim},
       {"version", "Print loom's version and the libraries it runs with", RunVersion},
   };

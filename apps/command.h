@@ -41,6 +41,7 @@ int ReportFailure(const Status& status);
 int RunHelp(int argc, char** argv);
 int RunPlan(int argc, char** argv);
 int RunRig(int argc, char** argv);
+int RunScan(int argc, char** argv);
 int RunSim(int argc, char** argv);
 int RunVersion(int argc, char** argv);
 

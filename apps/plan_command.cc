@@ -16,13 +16,7 @@ using acquisition::Plan;
 using acquisition::Step;
 using acquisition::StepKind;
 
-// A preset by name (configs/plans/NAME.yaml, from here or from loom's source tree) or by path.
-fs::path PresetPath(const std::string& preset) {
-  if (fs::exists(preset)) return preset;
-  const fs::path local = fs::path("configs/plans") / (preset + ".yaml");
-  if (fs::exists(local)) return local;
-  return fs::path(LOOM_CONFIGS_DIR) / "plans" / (preset + ".yaml");
-}
+}  // namespace
 
 std::string FormatDuration(double seconds) {
   const int total = static_cast<int>(std::lround(seconds));
@@ -31,6 +25,8 @@ std::string FormatDuration(double seconds) {
   out << (total % 3600) / 60 << " min " << total % 60 << " s";
   return out.str();
 }
+
+namespace {
 
 void PrintStep(const Step& step) {
   std::cout << "  " << std::setw(5) << step.index << "  " << std::left << std::setw(17) << acquisition::StepKindName(step.kind)
@@ -64,7 +60,7 @@ int RunPlan(int argc, char** argv) {
 
   Result<RigModel> rig = LoadRigModel(rig_path);
   if (!rig.ok()) return ReportFailure(rig.status());
-  Result<acquisition::Preset> preset = acquisition::LoadPreset(PresetPath(preset_name));
+  Result<acquisition::Preset> preset = acquisition::LoadPreset(ResolvePresetPath(preset_name));
   if (!preset.ok()) return ReportFailure(preset.status());
   Result<Plan> plan = calibration ? acquisition::MakeCalibrationPlan(*rig, *preset) : acquisition::MakeMaterialPlan(*rig, *preset);
   if (!plan.ok()) return ReportFailure(plan.status());

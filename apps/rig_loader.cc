@@ -6,8 +6,9 @@
 
 namespace loom::apps {
 
-Result<LoadedRig> LoadRig(const std::filesystem::path& path) {
-  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
+namespace {
+
+Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& source, const std::string& object) {
   const ConfigNode root = doc.root();
   std::string name;
   root.Required("name", &name);
@@ -16,21 +17,51 @@ Result<LoadedRig> LoadRig(const std::filesystem::path& path) {
   if (std::optional<ConfigNode> geometry = root.OptionalChild("geometry")) {
     RigModel model = ReadRigModel(*geometry);
     model.name = name;
+    loaded.model = model;
     sim::SampleSpec sample;
     if (std::optional<ConfigNode> sample_node = root.OptionalChild("sample")) sample = sim::ReadSampleSpec(*sample_node);
+    if (!object.empty()) {
+      const size_t colon = object.find(':');
+      sample.kind = object.substr(0, colon);
+      try {
+        if (colon != std::string::npos) sample.seed = std::stoull(object.substr(colon + 1));
+      } catch (const std::exception&) {
+        return InvalidArgumentError("object '" + object + "'", "expected KIND or fabric:SEED");
+      }
+    }
     int seed = 0;
     root.Optional("seed", &seed);
     Result<sim::Material> material = sim::MakeSample(sample);
-    if (!material.ok()) return material.status().WithContext(path.string());
+    if (!material.ok()) return material.status().WithContext(source);
     loaded.world = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(std::move(model), std::move(*material)),
                                                    static_cast<uint64_t>(seed));
     hal::RegisterSimBackends(registry, loaded.world);
   }
   Result<std::unique_ptr<hal::Rig>> rig = hal::Rig::Create(root.Child("devices"), registry, name);
-  if (!rig.ok()) return rig.status().WithContext(path.string());
+  if (!rig.ok()) return rig.status().WithContext(source);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   loaded.rig = std::move(*rig);
   return loaded;
+}
+
+}  // namespace
+
+Result<LoadedRig> LoadRig(const std::filesystem::path& path, const std::string& object) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
+  return LoadRigDocument(doc, path.string(), object);
+}
+
+Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& source, const std::string& object) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadString(text, source, kRigSchemaVersion));
+  return LoadRigDocument(doc, source, object);
+}
+
+std::filesystem::path ResolvePresetPath(const std::string& preset) {
+  namespace fs = std::filesystem;
+  if (fs::exists(preset)) return preset;
+  const fs::path local = fs::path("configs/plans") / (preset + ".yaml");
+  if (fs::exists(local)) return local;
+  return fs::path(LOOM_CONFIGS_DIR) / "plans" / (preset + ".yaml");
 }
 
 Result<RigModel> LoadRigModel(const std::filesystem::path& path) {

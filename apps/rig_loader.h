@@ -16,10 +16,21 @@ inline constexpr int kRigSchemaVersion = 1;
 
 struct LoadedRig {
   std::unique_ptr<hal::Rig> rig;
+  std::optional<RigModel> model;         // from `geometry:`, when the file has one
   std::shared_ptr<hal::SimWorld> world;  // null for a rig of real devices
 };
 
-Result<LoadedRig> LoadRig(const std::filesystem::path& path);
+// `object` replaces a simulated rig's `sample:` ("fabric:SEED", "white-tile", "chessboard",
+// "colour-chart"); empty keeps it.
+Result<LoadedRig> LoadRig(const std::filesystem::path& path, const std::string& object = "");
+// The same from the text of a rig file (a scan's snapshot); `source` names it in messages.
+Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& source, const std::string& object = "");
+
+// A gloss preset by name (configs/plans/NAME.yaml, from here or loom's source tree) or path.
+std::filesystem::path ResolvePresetPath(const std::string& preset);
+
+// "1 h 2 min 3 s".
+std::string FormatDuration(double seconds);
 
 // Only the rig's description (its `geometry:`), for commands that plan rather than drive.
 Result<RigModel> LoadRigModel(const std::filesystem::path& path);

@@ -1,0 +1,191 @@
+#include "acquisition/sequencer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "acquisition/patterns.h"
+#include "core/interrupt.h"
+#include "core/log.h"
+
+namespace loom::acquisition {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Exposure {
+  double us;
+  int index;  // capture order
+};
+
+}  // namespace
+
+Sequencer::Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options)
+    : rig_(rig), plan_(plan), store_(store), options_(options) {}
+
+Result<hal::Camera*> Sequencer::FindCamera(const std::string& name) const {
+  auto* camera = dynamic_cast<hal::Camera*>(rig_.FindDevice(name));
+  if (camera == nullptr) return NotFoundError("camera '" + name + "'", "the plan uses it, rig '" + rig_.name() + "' has no such camera");
+  return camera;
+}
+
+Status Sequencer::ApplyStep(const Step& step) {
+  const std::string where = "step " + std::to_string(step.index);
+  if (hal::Turntable* turntable = rig_.turntable()) {
+    LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
+    if (std::abs(angle - step.turntable_deg) > 1e-6) LOOM_RETURN_IF_ERROR(turntable->MoveTo(step.turntable_deg));
+  } else if (step.turntable_deg != 0) {
+    return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a turntable");
+  }
+  if (step.filter) {
+    hal::FilterWheel* wheel = nullptr;
+    for (const auto& candidate : rig_.filter_wheels()) {
+      if (candidate->name() == step.filter->wheel) wheel = candidate.get();
+    }
+    if (wheel == nullptr) return NotFoundError("filter wheel '" + step.filter->wheel + "'", where + " needs it");
+    LOOM_RETURN_IF_ERROR(wheel->MoveTo(step.filter->slot));
+  }
+  if (rig_.leds() != nullptr) {
+    LOOM_RETURN_IF_ERROR(step.leds.empty() ? rig_.leds()->AllOff() : rig_.leds()->Drive(step.leds));
+  } else if (!step.leds.empty()) {
+    return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs an LED array");
+  }
+  if (step.linear_light_mm) {
+    hal::LinearLight* strip = rig_.linear_light();
+    if (strip == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a linear light");
+    LOOM_RETURN_IF_ERROR(strip->MoveTo(*step.linear_light_mm));
+    if (!strip_on_) LOOM_RETURN_IF_ERROR(strip->SetStrip(true, 1.0));
+    strip_on_ = true;
+  } else if (strip_on_) {
+    LOOM_RETURN_IF_ERROR(rig_.linear_light()->SetStrip(false, 0));
+    strip_on_ = false;
+  }
+  if (!step.projector_pattern.empty()) {
+    hal::Projector* projector = rig_.projector();
+    if (projector == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a projector");
+    LOOM_ASSIGN_OR_RETURN(const hal::Pattern pattern, MakePattern(step.projector_pattern, projector->settings().width,
+                                                                 projector->settings().height, options_.phase_steps));
+    LOOM_RETURN_IF_ERROR(projector->Show(pattern));
+    projector_showing_ = true;
+  } else if (projector_showing_) {
+    LOOM_RETURN_IF_ERROR(rig_.projector()->Blank());
+    projector_showing_ = false;
+  }
+  return Status::Ok();
+}
+
+Status Sequencer::SetExposure(hal::Camera& camera, double exposure_us) {
+  if (camera.settings().exposure_us == exposure_us && camera.state() == hal::DeviceState::kRunning) return Status::Ok();
+  hal::CameraSettings settings = camera.settings();
+  settings.exposure_us = exposure_us;
+  settings.trigger = hal::TriggerMode::kSoftware;
+  if (camera.state() == hal::DeviceState::kRunning) LOOM_RETURN_IF_ERROR(camera.Stop());
+  LOOM_ASSIGN_OR_RETURN(const hal::ConfigureReport report, camera.Configure(settings));
+  LOOM_RETURN_IF_ERROR(report.ToStatus(camera.description()));
+  return camera.Start();
+}
+
+Result<hal::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const Step& step) {
+  Status last;
+  for (int attempt = 0; attempt <= options_.max_retries; ++attempt) {
+    if (InterruptRequested()) return CancelledError("scan", "interrupted at step " + std::to_string(step.index));
+    Result<hal::RawFrame> frame = rig_.Snap(camera);
+    if (frame.ok()) return frame;
+    last = frame.status();
+    const bool transient = last.code() == StatusCode::kTimeout || last.code() == StatusCode::kUnavailable ||
+                           last.code() == StatusCode::kDataLoss;
+    if (!transient) break;
+    LOOM_LOG(Warning) << last.ToString() << " (attempt " << attempt + 1 << " of " << options_.max_retries + 1 << ")";
+  }
+  return last.WithContext("step " + std::to_string(step.index));
+}
+
+Result<std::vector<hal::RawFrame>> Sequencer::CaptureExposure(const Step& step, double exposure_us, int exposure_index) {
+  std::vector<hal::RawFrame> frames;
+  for (const std::string& name : step.cameras) {
+    const FrameKey key{step.index, name, exposure_index};
+    if (store_.Has(key)) {  // resumed: what was captured decides the bracket as it did then
+      for (const FrameRecord& record : store_.records()) {
+        if (record.key == key) {
+          LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, store_.ReadFrame(record));
+          frames.push_back(std::move(frame));
+        }
+      }
+      continue;
+    }
+    LOOM_ASSIGN_OR_RETURN(hal::Camera* camera, FindCamera(name));
+    LOOM_RETURN_IF_ERROR(SetExposure(*camera, exposure_us));
+    LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, CaptureWithRetries(*camera, step));
+    LOOM_RETURN_IF_ERROR(store_.Append(key, frame));
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
+Status Sequencer::CaptureStep(const Step& step) {
+  LOOM_RETURN_IF_ERROR(ApplyStep(step));
+  LOOM_ASSIGN_OR_RETURN(hal::Camera* first, FindCamera(step.cameras.front()));
+  const double min_us = first->capabilities().exposure_min_us;
+  const double max_us = first->capabilities().exposure_max_us;
+  std::vector<Exposure> exposures = {{std::clamp(step.exposure.probe_us, min_us, max_us), 0}};
+  LOOM_ASSIGN_OR_RETURN(std::vector<hal::RawFrame> probe, CaptureExposure(step, exposures[0].us, 0));
+  std::vector<std::vector<hal::RawFrame>> frames = {std::move(probe)};
+  while (static_cast<int>(exposures.size()) < step.exposure.max_exposures) {
+    const auto shortest = std::min_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
+    const auto longest = std::max_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
+    bool saturated = false;
+    bool weak = false;
+    for (const hal::RawFrame& frame : frames[shortest->index]) {
+      const double top = (1 << hal::BitDepth(frame.metadata.pixel_format)) - 1 - options_.saturation_margin_dn;
+      saturated |= std::any_of(frame.pixels.begin(), frame.pixels.end(), [&](uint16_t v) { return v >= top; });
+    }
+    for (const hal::RawFrame& frame : frames[longest->index]) {
+      // Lit but weak: some signal above black, less than the noise floor. Unlit pixels (off
+      // the sample, in shadow) would never leave the floor: they do not ask for more.
+      const size_t count = std::count_if(frame.pixels.begin(), frame.pixels.end(), [&](uint16_t v) {
+        const double signal = v - options_.black_level_dn;
+        return signal > options_.noise_floor_dn / 3 && signal < options_.noise_floor_dn;
+      });
+      weak |= count > frame.pixels.size() / 100;
+    }
+    double next = 0;
+    if (saturated && shortest->us > min_us) {
+      next = std::max(min_us, shortest->us / options_.exposure_factor);
+    } else if (weak && longest->us < max_us) {
+      next = std::min(max_us, longest->us * options_.exposure_factor);
+    } else {
+      break;
+    }
+    const int index = static_cast<int>(exposures.size());
+    exposures.push_back({next, index});
+    LOOM_ASSIGN_OR_RETURN(std::vector<hal::RawFrame> more, CaptureExposure(step, next, index));
+    frames.push_back(std::move(more));
+  }
+  return store_.MarkStepDone(step.index);
+}
+
+Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) {
+  LOOM_RETURN_IF_ERROR(rig_.OpenAndConfigure());
+  LOOM_RETURN_IF_ERROR(rig_.StartAll());
+  const Clock::time_point start = Clock::now();
+  const int already = store_.steps_done();
+  int done_now = 0;
+  for (const Step& step : plan_.steps) {
+    if (store_.StepDone(step.index)) continue;
+    if (InterruptRequested()) return CancelledError("scan", "interrupted before step " + std::to_string(step.index));
+    LOOM_RETURN_IF_ERROR(CaptureStep(step));
+    ++done_now;
+    if (progress) {
+      ScanProgress p;
+      p.steps_done = already + done_now;
+      p.steps_total = static_cast<int>(plan_.steps.size());
+      p.frames_stored = static_cast<int>(store_.records().size());
+      p.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+      p.eta_s = p.elapsed_s / done_now * (p.steps_total - p.steps_done);
+      progress(p);
+    }
+  }
+  return rig_.MakeSafe();
+}
+
+}  // namespace loom::acquisition

@@ -1,0 +1,63 @@
+#pragma once
+// Sequencer: runs a plan on a rig into a capture store. For every step it sets the rig (turntable,
+// filter wheel, LEDs, linear light, projector pattern), triggers the step's cameras together and
+// brackets the exposure: starting from the plan's probe, it adds shorter exposures while pixels
+// saturate at the shortest and longer ones while lit pixels stay under the noise floor at the
+// longest, up to the plan's bound — so that every lit pixel is recorded unsaturated and above
+// the noise floor at least once. Raw frames are stored; merging is calibration's job.
+//
+// Resume: steps marked done are skipped; in an unfinished step, frames already stored are read
+// back instead of captured, so the bracket takes the same decisions and the scan ends identical
+// to an uninterrupted one. A camera that fails (timeout, dropped out) is retried, then the scan
+// stops with an error naming it and the step; Ctrl-C stops between frames. Either way the
+// caller's SafeStateGuard leaves the rig safe, and the store holds only complete frames.
+
+#include <functional>
+
+#include "acquisition/capture_store.h"
+#include "acquisition/plan.h"
+#include "hal/rig.h"
+
+namespace loom::acquisition {
+
+struct SequencerOptions {
+  int max_retries = 2;              // per camera capture, after a timeout or drop-out
+  double black_level_dn = 64;       // the cameras' dark offset (in their bit depth)
+  double noise_floor_dn = 24;       // above black: a weaker reading is too noisy to use
+  double saturation_margin_dn = 1;  // within this of the top a reading is saturated
+  double exposure_factor = 4;       // between bracket exposures
+  int phase_steps = 4;              // of the structured-light phase patterns
+};
+
+struct ScanProgress {
+  int steps_done = 0;
+  int steps_total = 0;
+  int frames_stored = 0;
+  double elapsed_s = 0;
+  double eta_s = 0;
+};
+
+class Sequencer {
+ public:
+  Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options = {});
+  // Brings the rig up (open, configure, start) and runs every step not yet done.
+  Status Run(const std::function<void(const ScanProgress&)>& progress = nullptr);
+
+ private:
+  Status ApplyStep(const Step& step);
+  Status CaptureStep(const Step& step);
+  // One frame of every camera of `step` at `exposure_us`: read back when stored, else captured.
+  Result<std::vector<hal::RawFrame>> CaptureExposure(const Step& step, double exposure_us, int exposure_index);
+  Result<hal::RawFrame> CaptureWithRetries(hal::Camera& camera, const Step& step);
+  Status SetExposure(hal::Camera& camera, double exposure_us);
+  Result<hal::Camera*> FindCamera(const std::string& name) const;
+
+  hal::Rig& rig_;
+  const Plan& plan_;
+  CaptureStore& store_;
+  SequencerOptions options_;
+  bool strip_on_ = false;
+  bool projector_showing_ = false;
+};
+
+}  // namespace loom::acquisition

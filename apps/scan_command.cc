@@ -1,0 +1,115 @@
+// loom scan: run a measurement plan on a rig into a crash-safe scan directory, or resume one.
+#include <unistd.h>
+
+#include <iostream>
+
+#include "acquisition/capture_store.h"
+#include "acquisition/sequencer.h"
+#include "apps/command.h"
+#include "apps/rig_loader.h"
+#include "core/file_io.h"
+
+namespace loom::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A progress line with ETA: redrawn in place on a terminal, every 10 % otherwise.
+class ProgressPrinter {
+ public:
+  explicit ProgressPrinter(bool quiet) : quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0) {}
+  void operator()(const acquisition::ScanProgress& p) {
+    if (quiet_) return;
+    const int percent = p.steps_total ? 100 * p.steps_done / p.steps_total : 100;
+    if (!tty_ && percent / 10 == last_decile_ && p.steps_done != p.steps_total) return;
+    last_decile_ = percent / 10;
+    const int width = 30;
+    const int filled = width * percent / 100;
+    std::cerr << (tty_ ? "\r" : "") << "scan [" << std::string(filled, '=') << std::string(width - filled, ' ') << "] "
+              << p.steps_done << "/" << p.steps_total << " steps, " << p.frames_stored << " frames, ETA "
+              << FormatDuration(p.eta_s) << (tty_ ? "   " : "\n") << std::flush;
+  }
+  ~ProgressPrinter() {
+    if (tty_ && !quiet_) std::cerr << "\n";
+  }
+
+ private:
+  bool quiet_;
+  bool tty_;
+  int last_decile_ = -1;
+};
+
+Result<acquisition::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, const std::string& purpose) {
+  if (!loaded.model) {
+    return InvalidArgumentError("rig '" + loaded.rig->name() + "'", "has no 'geometry:' section: a plan needs the rig's description");
+  }
+  LOOM_ASSIGN_OR_RETURN(const acquisition::Preset preset, acquisition::LoadPreset(ResolvePresetPath(preset_name)));
+  return purpose == "calibration" ? acquisition::MakeCalibrationPlan(*loaded.model, preset)
+                                  : acquisition::MakeMaterialPlan(*loaded.model, preset);
+}
+
+Status RunScan(LoadedRig& loaded, const acquisition::Plan& plan, acquisition::CaptureStore& store, bool quiet) {
+  hal::SafeStateGuard guard(*loaded.rig);
+  acquisition::Sequencer sequencer(*loaded.rig, plan, store);
+  ProgressPrinter printer(quiet);
+  LOOM_RETURN_IF_ERROR(sequencer.Run([&](const acquisition::ScanProgress& p) { printer(p); }));
+  std::cout << "scan complete: " << store.records().size() << " frames in " << store.directory().string() << "\n";
+  return Status::Ok();
+}
+
+Status NewScan(const std::string& rig_path, const std::string& preset, const std::string& object, bool calibration,
+               const fs::path& out, bool quiet) {
+  LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(rig_path));
+  LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, rig_path, object));
+  const std::string purpose = calibration ? "calibration" : "material";
+  LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, MakePlan(loaded, preset, purpose));
+  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store,
+                        acquisition::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, purpose,
+                                                                preset, static_cast<int>(plan.steps.size())}));
+  return RunScan(loaded, plan, store, quiet);
+}
+
+Status ResumeScan(const fs::path& directory, bool quiet) {
+  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store, acquisition::CaptureStore::Open(directory, /*repair=*/true));
+  const acquisition::ScanInfo& info = store.info();
+  const std::string object = info.object == "sample" ? "" : info.object;
+  LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(info.rig_yaml, (directory / "scan.yaml").string() + " (rig)", object));
+  LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, MakePlan(loaded, info.preset, info.purpose));
+  if (static_cast<int>(plan.steps.size()) != info.steps) {
+    return FailedPreconditionError(directory.string(), "the plan now has " + std::to_string(plan.steps.size()) +
+                                                           " steps, the scan was started with " +
+                                                           std::to_string(info.steps) + " (preset '" + info.preset +
+                                                           "' changed?)");
+  }
+  if (!quiet) {
+    std::cerr << "resuming " << directory.string() << ": " << store.steps_done() << " of " << info.steps
+              << " steps done, " << store.records().size() << " frames kept\n";
+  }
+  return RunScan(loaded, plan, store, quiet);
+}
+
+}  // namespace
+
+int RunScan(int argc, char** argv) {
+  CLI::App app("Scan: run a measurement plan on a rig into a scan directory, or resume one", "loom scan");
+  AddCommonOptions(app);
+  std::string rig, preset = "low", object, out, resume;
+  bool calibration = false, quiet = false;
+  app.add_option("--rig", rig, "Rig YAML");
+  app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
+  app.add_option("--object", object, "What lies on the turntable; on a simulated rig: fabric:SEED, white-tile, "
+                                     "chessboard, colour-chart");
+  app.add_flag("--calibration", calibration, "Run the calibration plan");
+  app.add_option("--out", out, "New scan directory");
+  app.add_option("--resume", resume, "Continue the interrupted scan in this directory");
+  app.add_flag("--quiet", quiet, "No progress output");
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (resume.empty() && (rig.empty() || out.empty())) {
+    std::cerr << "error: loom scan needs --rig and --out (or --resume DIR)\n";
+    return kExitUsage;
+  }
+  const Status done = resume.empty() ? NewScan(rig, preset, object, calibration, out, quiet) : ResumeScan(resume, quiet);
+  return done.ok() ? kExitOk : ReportFailure(done);
+}
+
+}  // namespace loom::apps
