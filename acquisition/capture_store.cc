@@ -1,5 +1,7 @@
 #include "acquisition/capture_store.h"
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -132,15 +134,33 @@ Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanI
   if (fs::exists(directory, ec) && !fs::is_empty(directory, ec)) {
     return AlreadyExistsError(directory.string(), "not empty: a scan is never written over (use --resume to continue it)");
   }
-  fs::create_directories(directory / "frames", ec);
+  // Built under a temporary name and renamed: a scan directory always has its scan.yaml, so a
+  // crash here leaves either nothing or a scan that can be resumed.
+  const fs::path parent = directory.parent_path().empty() ? fs::path(".") : directory.parent_path();
+  const fs::path building = parent / ("." + directory.filename().string() + ".creating-" + std::to_string(::getpid()));
+  fs::remove_all(building, ec);
+  fs::create_directories(building / "frames", ec);
   if (ec) return IoError(directory.string(), "cannot create: " + ec.message());
+  if (Status written = WriteFileAtomically(building / "scan.yaml", ScanYaml(info)); !written.ok()) {
+    fs::remove_all(building, ec);
+    return written;
+  }
+  fs::remove(directory, ec);  // empty, if it exists
+  fs::rename(building, directory, ec);
+  if (ec) {
+    fs::remove_all(building, ec);
+    return IoError(directory.string(), "cannot create: " + ec.message());
+  }
   CaptureStore store(directory);
   store.info_ = info;
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(directory / "scan.yaml", ScanYaml(info)));
   return store;
 }
 
 Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) {
+  std::error_code ec;
+  if (!fs::exists(directory / "scan.yaml", ec)) {
+    return NotFoundError(directory.string(), "not a scan directory (no scan.yaml): nothing to read or resume");
+  }
   CaptureStore store(directory);
   LOOM_ASSIGN_OR_RETURN(store.info_, ReadScanYaml(directory / "scan.yaml"));
   std::string journal;

@@ -126,6 +126,9 @@ TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {
       << opened.status().ToString();
   const Result<CaptureStore> again = CaptureStore::Create(dir_, {});
   EXPECT_EQ(again.status().code(), StatusCode::kAlreadyExists);
+  const Result<CaptureStore> nothing = CaptureStore::Open(dir_ / "nowhere");
+  EXPECT_EQ(nothing.status().code(), StatusCode::kNotFound);
+  EXPECT_NE(nothing.status().message().find("not a scan directory"), std::string::npos);
 }
 
 }  // namespace
