@@ -1,33 +1,16 @@
 // Runs the real `loom` binary and checks what a user sees: output, stderr and exit codes.
-#include <sys/wait.h>
-
 #include <gtest/gtest.h>
 
-#include <array>
-#include <cstdio>
 #include <string>
 
+#include "core/testing/subprocess.h"
 #include "core/version.h"
 
 namespace {
 
-struct LoomRun {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
+using LoomRun = loom::testing::CommandResult;
 
-LoomRun RunLoom(const std::string& arguments) {
-  const std::string command = std::string(LOOM_BINARY) + " " + arguments + " 2>&1";
-  LoomRun run;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) run.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(std::string(LOOM_BINARY) + " " + arguments); }
 
 bool Contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;

@@ -2,10 +2,6 @@
 // arv-fake-gv-camera-0.8 process on 127.0.0.1 (opened by address: unicast only), and the
 // recording projector.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <csignal>
@@ -20,21 +16,9 @@ namespace fs = std::filesystem;
 using loom::testing::Subprocess;
 using namespace std::chrono_literals;
 
-struct LoomRun {
-  int exit_code = -1;
-  std::string output;
-};
+using LoomRun = loom::testing::CommandResult;
 
-LoomRun RunLoom(const std::string& arguments) {
-  LoomRun run;
-  FILE* pipe = popen((std::string(LOOM_BINARY) + " " + arguments + " 2>&1").c_str(), "r");
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) run.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(std::string(LOOM_BINARY) + " " + arguments); }
 
 bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 

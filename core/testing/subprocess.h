@@ -37,4 +37,11 @@ class Subprocess {
   std::string buffer_;
 };
 
+// Runs a shell command line to completion: its exit code and stdout and stderr together.
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;
+};
+CommandResult RunCommand(const std::string& command_line);
+
 }  // namespace loom::testing
