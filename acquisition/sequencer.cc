@@ -101,25 +101,50 @@ Result<hal::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const S
 }
 
 Result<std::vector<hal::RawFrame>> Sequencer::CaptureExposure(const Step& step, double exposure_us, int exposure_index) {
-  std::vector<hal::RawFrame> frames;
-  for (const std::string& name : step.cameras) {
-    const FrameKey key{step.index, name, exposure_index};
-    if (store_.Has(key)) {  // resumed: what was captured decides the bracket as it did then
-      for (const FrameRecord& record : store_.records()) {
-        if (record.key == key) {
-          LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, store_.ReadFrame(record));
-          frames.push_back(std::move(frame));
-        }
-      }
+  std::vector<std::optional<hal::RawFrame>> frames(step.cameras.size());
+  std::vector<size_t> to_capture;
+  for (size_t i = 0; i < step.cameras.size(); ++i) {
+    const FrameKey key{step.index, step.cameras[i], exposure_index};
+    if (!store_.Has(key)) {
+      to_capture.push_back(i);
       continue;
     }
-    LOOM_ASSIGN_OR_RETURN(hal::Camera* camera, FindCamera(name));
-    LOOM_RETURN_IF_ERROR(SetExposure(*camera, exposure_us));
-    LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, CaptureWithRetries(*camera, step));
-    LOOM_RETURN_IF_ERROR(store_.Append(key, frame));
-    frames.push_back(std::move(frame));
+    for (const FrameRecord& record : store_.records()) {  // resumed: what was captured decides as it did then
+      if (record.key == key) {
+        LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, store_.ReadFrame(record));
+        frames[i] = std::move(frame);
+      }
+    }
   }
-  return frames;
+  if (!to_capture.empty()) {
+    std::vector<hal::Camera*> cameras;
+    for (size_t i : to_capture) {
+      LOOM_ASSIGN_OR_RETURN(hal::Camera* camera, FindCamera(step.cameras[i]));
+      LOOM_RETURN_IF_ERROR(SetExposure(*camera, exposure_us));
+      cameras.push_back(camera);
+    }
+    // The step's cameras are triggered together, then read out; a camera that fails is retried
+    // on its own.
+    LOOM_ASSIGN_OR_RETURN(const hal::RigState state, rig_.ReadState());
+    std::vector<Status> triggered;
+    for (hal::Camera* camera : cameras) triggered.push_back(camera->TriggerSoftware());
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      Result<hal::RawFrame> frame = triggered[c].ok() ? cameras[c]->WaitFrame() : Result<hal::RawFrame>(triggered[c]);
+      if (frame.ok()) {
+        frame->metadata.rig_state = state;
+      } else {
+        LOOM_LOG(Warning) << frame.status().ToString() << "; retrying " << cameras[c]->name() << " alone";
+        frame = CaptureWithRetries(*cameras[c], step);
+      }
+      if (!frame.ok()) return frame.status();
+      const size_t i = to_capture[c];
+      LOOM_RETURN_IF_ERROR(store_.Append({step.index, step.cameras[i], exposure_index}, *frame));
+      frames[i] = std::move(*frame);
+    }
+  }
+  std::vector<hal::RawFrame> result;
+  for (auto& frame : frames) result.push_back(std::move(*frame));
+  return result;
 }
 
 Status Sequencer::CaptureStep(const Step& step) {

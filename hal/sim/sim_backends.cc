@@ -68,6 +68,10 @@ class SimCamera : public Camera {
     return Status::Ok();
   }
   Result<RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override {
+    if (InjectedFailure()) {
+      queue_.clear();
+      return Error(StatusCode::kUnavailable, "camera dropped out (injected by the simulator)");
+    }
     if (queue_.empty() && settings().trigger == TriggerMode::kFreeRun) queue_.push_back(Render());
     if (queue_.empty()) {
       return Error(StatusCode::kTimeout, "no frame within " + std::to_string(timeout.count()) + " ms (not triggered)");
@@ -78,6 +82,14 @@ class SimCamera : public Camera {
   }
 
  private:
+  bool InjectedFailure() {
+    std::lock_guard lock(world_->mutex);
+    const auto it = world_->camera_failures.find(name());
+    if (it == world_->camera_failures.end() || it->second == 0) return false;
+    if (it->second > 0) --it->second;
+    return true;
+  }
+
   RawFrame Render() {
     sim::SceneState state;
     {

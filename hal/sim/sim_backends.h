@@ -11,6 +11,7 @@
 // The linear light's travel and the projector's resolution come from the geometry when it has
 // them (else from the backend keys travel_mm, native_width, native_height).
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -27,6 +28,9 @@ struct SimWorld {
   uint64_t seed;
   std::mutex mutex;  // guards everything below; sim devices may run on different threads
   sim::SceneState state;
+  // Fault injection for tests of what uses the rig: camera name → frames that fail as if the
+  // camera had dropped out (−1: all of them from now on).
+  std::map<std::string, int> camera_failures;
 };
 
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world);

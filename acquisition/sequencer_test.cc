@@ -1,0 +1,90 @@
+// The sequencer on the simulated tac7-mini: a camera that drops out is retried, and one that
+// stays out stops the scan with an error naming it, the rig safe and the store consistent.
+#include "acquisition/sequencer.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "core/config.h"
+#include "hal/sim/sim_backends.h"
+#include "sim/test_materials.h"
+
+namespace loom::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+
+class SequencerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / ("sequencer_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
+    ASSERT_TRUE(doc.ok());
+    model_ = ReadRigModel(doc->root().Child("geometry"));
+    model_.name = "tac7-mini";
+    world_ = std::make_shared<hal::SimWorld>(
+        std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
+    hal::BackendRegistry registry;
+    hal::RegisterSimBackends(registry, world_);
+    auto rig = hal::Rig::Create(doc->root().Child("devices"), registry, "tac7-mini");
+    ASSERT_TRUE(rig.ok()) << rig.status().ToString();
+    rig_ = std::move(*rig);
+    Preset preset;
+    preset.name = "tiny";
+    preset.turntable_deg = {0};
+    preset.colour_views_deg = {0};
+    preset.linear_light_positions = 1;
+    preset.exposure.max_exposures = 2;
+    preset.gray_bits = 1;
+    preset.phase_steps = 1;
+    plan_ = *MakeMaterialPlan(model_, preset);
+  }
+
+  CaptureStore NewStore() {
+    return std::move(*CaptureStore::Create(dir_, {"rig", "white tile", "material", "tiny", static_cast<int>(plan_.steps.size())}));
+  }
+
+  fs::path dir_;
+  RigModel model_;
+  std::shared_ptr<hal::SimWorld> world_;
+  std::unique_ptr<hal::Rig> rig_;
+  Plan plan_;
+};
+
+TEST_F(SequencerTest, ACameraThatDropsOutBrieflyIsRetried) {
+  world_->camera_failures["cam1"] = 2;
+  CaptureStore store = NewStore();
+  Sequencer sequencer(*rig_, plan_, store);
+  const Status done = sequencer.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  EXPECT_EQ(store.steps_done(), static_cast<int>(plan_.steps.size()));
+  EXPECT_EQ(world_->camera_failures["cam1"], 0);  // both injected failures were met
+}
+
+TEST_F(SequencerTest, ACameraThatStaysOutStopsTheScanCleanly) {
+  CaptureStore store = NewStore();
+  Sequencer sequencer(*rig_, plan_, store);
+  int steps = 0;
+  // Let a few steps pass, then pull cam1's cable for good.
+  const Status done = sequencer.Run([&](const ScanProgress&) {
+    if (++steps == 3) world_->camera_failures["cam1"] = -1;
+  });
+  ASSERT_FALSE(done.ok());
+  EXPECT_EQ(done.code(), StatusCode::kUnavailable);
+  EXPECT_EQ(done.subject(), "camera 'cam1' (sim virtual cam1)");
+  EXPECT_NE(done.message().find("step 3"), std::string::npos) << done.ToString();
+  {
+    hal::SafeStateGuard guard(*rig_);  // what loom scan holds around the sequencer
+  }
+  EXPECT_TRUE(world_->state.leds.empty());
+  const Result<CaptureStore> reopened = CaptureStore::Open(dir_, /*repair=*/true);
+  ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
+  EXPECT_EQ(reopened->steps_done(), 3);
+  EXPECT_FALSE(reopened->StepDone(3));
+  for (const FrameRecord& record : reopened->records()) EXPECT_TRUE(reopened->ReadFrame(record).ok()) << record.file;
+}
+
+}  // namespace
+}  // namespace loom::acquisition
