@@ -1,0 +1,151 @@
+// The sequencer against real protocol peers, as acquisition drives a real TAC7: four
+// arv-fake-gv-camera-0.8 processes on 127.0.0.1–4 (a private network namespace), loom-modbus-sim
+// controllers for the LEDs, turntable and linear light, five filter wheels emulated by umockdev,
+// the recording projector; the plan comes from tac7.yaml's geometry. Runs under run_in_netns.sh
+// and umockdev-wrapper (CTest does both).
+#include <gtest/gtest.h>
+#include <umockdev.h>
+
+#include <cstdlib>
+#include <sstream>
+#include <thread>
+
+#include "acquisition/sequencer.h"
+#include "core/config.h"
+#include "core/testing/subprocess.h"
+#include "hal/aravis/aravis_backend.h"
+#include "hal/modbus/modbus_backends.h"
+#include "hal/recording/recording_projector.h"
+#include "hal/usb/emulated_filter_wheel.h"
+#include "hal/usb/usb_backend.h"
+
+namespace loom::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+using loom::testing::Subprocess;
+using namespace std::chrono_literals;
+
+class PeerScanTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    testbed_ = umockdev_testbed_new();
+    const char* netns = std::getenv("LOOM_IN_PRIVATE_NETNS");
+    if (netns == nullptr || std::string(netns) != "1" || !umockdev_in_mock_environment()) {
+      GTEST_SKIP() << "needs run_in_netns.sh and umockdev-wrapper";
+    }
+    for (int i = 0; i < 4; ++i) {
+      auto fake = Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", "127.0.0." + std::to_string(i + 1), "-s",
+                                     "PEERCAM" + std::to_string(i)});
+      ASSERT_TRUE(fake.ok());
+      peers_.push_back(std::move(*fake));
+    }
+    const std::pair<const char*, std::vector<std::string>> controllers[] = {
+        {"leds", {"--led-count", "29"}}, {"turntable", {}}, {"linear-light", {"--max-speed", "5000"}}};
+    for (const auto& [device, extra] : controllers) {
+      std::vector<std::string> argv = {LOOM_MODBUS_SIM, "--device", device, "--tcp", "127.0.0.1:0"};
+      argv.insert(argv.end(), extra.begin(), extra.end());
+      auto sim = Subprocess::Start(argv);
+      ASSERT_TRUE(sim.ok());
+      auto line = sim->ReadLine(5s);
+      ASSERT_TRUE(line.ok());
+      endpoints_.push_back("tcp://" + line->substr(14));
+      peers_.push_back(std::move(*sim));
+    }
+    for (int w = 0; w < 5; ++w) {
+      wheels_.push_back(std::make_unique<hal::testing::EmulatedFilterWheel>(testbed_, w + 2, "W" + std::to_string(w), 10, 2));
+    }
+  }
+  void TearDown() override {
+    wheels_.clear();
+    g_clear_object(&testbed_);
+  }
+
+  std::string DevicesYaml() const {
+    std::ostringstream yaml;
+    yaml << "schema_version: 1\ncameras:\n";
+    for (int i = 0; i < 4; ++i) {
+      yaml << "  - {name: cam" << i << ", backend: aravis, address: 127.0.0." << i + 1
+           << ", settings: {pixel_format: Mono16, roi: [0, 0, 64, 48], trigger: software, frame_timeout_ms: 2000}}\n";
+    }
+    yaml << "leds: {name: leds, backend: modbus, endpoint: \"" << endpoints_[0] << "\"}\n"
+         << "turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1] << "\"}\n"
+         << "linear_light: {name: linear_light, backend: modbus, endpoint: \"" << endpoints_[2]
+         << "\", settings: {speed_mm_s: 4000}}\n"
+         << "filter_wheels:\n";
+    for (int w = 0; w < 5; ++w) yaml << "  - {name: wheel" << w << ", backend: usb, serial: W" << w << "}\n";
+    yaml << "projector: {name: projector, backend: recording, native_width: 1280, native_height: 800}\n";
+    return yaml.str();
+  }
+
+  UMockdevTestbed* testbed_ = nullptr;
+  std::vector<std::unique_ptr<hal::testing::EmulatedFilterWheel>> wheels_;
+  std::vector<Subprocess> peers_;
+  std::vector<std::string> endpoints_;
+};
+
+TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
+  auto geometry_doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7.yaml", 1);
+  ASSERT_TRUE(geometry_doc.ok());
+  RigModel model = ReadRigModel(geometry_doc->root().Child("geometry"));
+  model.name = "tac7-peers";
+  Preset preset;
+  preset.name = "peer";
+  preset.turntable_deg = {0, 120};
+  preset.colour_views_deg = {0};
+  preset.linear_light_positions = 2;
+  preset.exposure.probe_us = 1000;
+  preset.exposure.max_exposures = 2;
+  preset.gray_bits = 1;
+  preset.phase_steps = 1;
+  const Plan plan = *MakeMaterialPlan(model, preset);
+
+  hal::BackendRegistry registry;
+  hal::RegisterAravisBackend(registry);
+  hal::RegisterModbusBackends(registry);
+  hal::RegisterUsbBackend(registry);
+  hal::RegisterRecordingBackend(registry);
+  auto devices = ConfigDocument::LoadString(DevicesYaml(), "peer devices", 1);
+  ASSERT_TRUE(devices.ok()) << devices.status().ToString();
+  auto rig = hal::Rig::Create(devices->root(), registry, "tac7-peers");
+  ASSERT_TRUE(rig.ok()) << rig.status().ToString();
+  ASSERT_TRUE(devices->Finish().ok()) << devices->Finish().ToString();
+  // The fake cameras exit silently if they could not start, and need a moment: wait for them.
+  for (const auto& camera : (*rig)->cameras()) {
+    Status opened;
+    for (int attempt = 0; attempt < 50 && !(opened = camera->Open()).ok(); ++attempt) std::this_thread::sleep_for(100ms);
+    ASSERT_TRUE(opened.ok()) << opened.ToString();
+  }
+
+  const fs::path dir = fs::path(::testing::TempDir()) / "peer_scan";
+  fs::remove_all(dir);
+  auto store = CaptureStore::Create(dir, {"peer rig", "fake cameras", "material", "peer", static_cast<int>(plan.steps.size())});
+  ASSERT_TRUE(store.ok());
+  {
+    hal::SafeStateGuard guard(**rig);
+    Sequencer sequencer(**rig, plan, *store);
+    const Status done = sequencer.Run();
+    ASSERT_TRUE(done.ok()) << done.ToString();
+  }
+  EXPECT_EQ(store->steps_done(), static_cast<int>(plan.steps.size()));
+  // What the devices did is what the plan asked: check the journal against the plan.
+  for (const FrameRecord& record : store->records()) {
+    const Step& step = plan.steps[record.key.step];
+    const hal::RigState& state = record.metadata.rig_state;
+    ASSERT_EQ(state.leds_on, step.leds) << record.file;
+    ASSERT_NEAR(state.turntable_deg, step.turntable_deg, 1e-3) << record.file;
+    if (step.filter) {
+      ASSERT_EQ(state.filter_slots.at(step.filter->wheel), step.filter->slot) << record.file;
+    }
+    if (step.linear_light_mm) {
+      ASSERT_TRUE(state.linear_light_on) << record.file;
+      ASSERT_NEAR(state.linear_light_mm, *step.linear_light_mm, 1e-3) << record.file;
+    }
+    ASSERT_EQ(state.projector_pattern, step.projector_pattern) << record.file;
+    ASSERT_TRUE(store->ReadFrame(record).ok()) << record.file;
+  }
+  EXPECT_GE(store->records().size(), static_cast<size_t>(plan.Images()));
+}
+
+}  // namespace
+}  // namespace loom::acquisition
