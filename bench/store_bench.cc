@@ -1,0 +1,108 @@
+// Frames from 4 peer cameras into the capture store: arv-fake-gv-camera-0.8 processes on
+// 127.0.0.1–4 (run as `hal/aravis/run_in_netns.sh build/bench/bench_store`), 640×480 Mono16,
+// triggered together, each frame stored durably (lossless EXR, fsync, journal record).
+// Frames/s and bytes/s into the store, dropped frames (must be 0), and the naive comparison:
+// the same captures without storing — what durability costs.
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include "acquisition/capture_store.h"
+#include "bench/bench_report.h"
+#include "core/testing/subprocess.h"
+#include "hal/aravis/internal/aravis_camera.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using loom::testing::Subprocess;
+using namespace std::chrono_literals;
+
+struct Peers {
+  std::vector<Subprocess> fakes;
+  std::vector<std::unique_ptr<loom::hal::AravisCamera>> cameras;
+  std::string error;
+};
+
+Peers& Cameras() {
+  static Peers peers = [] {
+    Peers p;
+    const char* netns = std::getenv("LOOM_IN_PRIVATE_NETNS");
+    if (netns == nullptr || std::string(netns) != "1") {
+      p.error = "run inside hal/aravis/run_in_netns.sh";
+      return p;
+    }
+    arv_enable_interface("GigEVision");
+    arv_disable_interface("Fake");
+    for (int i = 0; i < 4; ++i) {
+      const std::string address = "127.0.0." + std::to_string(i + 1);
+      p.fakes.push_back(std::move(*Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", address, "-s", "STORE0" + std::to_string(i)})));
+      auto camera = std::make_unique<loom::hal::AravisCamera>("cam" + std::to_string(i), loom::hal::AravisCameraOptions{address, 1});
+      loom::Status opened;
+      for (int attempt = 0; attempt < 50 && !(opened = camera->Open()).ok(); ++attempt) std::this_thread::sleep_for(100ms);
+      loom::hal::CameraSettings settings;
+      settings.roi = {0, 0, 640, 480};
+      settings.exposure_us = 100;
+      if (!opened.ok() || !camera->Configure(settings).ok() || !camera->Start().ok()) {
+        p.error = "cannot bring up " + address;
+        return p;
+      }
+      p.cameras.push_back(std::move(camera));
+    }
+    return p;
+  }();
+  return peers;
+}
+
+void BM_FourCameras(benchmark::State& state) {
+  Peers& peers = Cameras();
+  if (!peers.error.empty()) {
+    state.SkipWithError(peers.error.c_str());
+    return;
+  }
+  const bool store_frames = state.range(0) == 1;
+  const fs::path dir = fs::temp_directory_path() / "loom_bench_store";
+  fs::remove_all(dir);
+  auto store = loom::acquisition::CaptureStore::Create(dir, {"bench", "fake", "material", "bench", 0});
+  if (!store.ok()) {
+    state.SkipWithError(store.status().ToString().c_str());
+    return;
+  }
+  int64_t frames = 0, bytes = 0, dropped = 0, step = 0;
+  for (auto _ : state) {
+    for (auto& camera : peers.cameras) {
+      if (!camera->TriggerSoftware().ok()) ++dropped;
+    }
+    for (auto& camera : peers.cameras) {
+      auto frame = camera->WaitFrame();
+      if (!frame.ok()) {
+        ++dropped;
+        continue;
+      }
+      if (store_frames && !store->Append({static_cast<int>(step), camera->name(), 0}, *frame).ok()) {
+        state.SkipWithError("store append failed");
+        return;
+      }
+      ++frames;
+      bytes += static_cast<int64_t>(frame->pixels.size() * 2);
+    }
+    ++step;
+  }
+  state.SetItemsProcessed(frames);
+  state.SetBytesProcessed(bytes);
+  state.counters["dropped_frames"] = static_cast<double>(dropped);
+  fs::remove_all(dir);
+}
+BENCHMARK(BM_FourCameras)->Arg(1)->Arg(0)->UseRealTime()->MinTime(3.0);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return loom::bench::RunBenchmarks(argc, argv, "bench_store",
+                                    "4 fake GigE cameras (640x480 Mono16, triggered together) into the capture store; "
+                                    "items = frames, bytes = raw pixel payload",
+                                    {{"stored_vs_not_stored", "BM_FourCameras/1/min_time:3.000/real_time",
+                                      "BM_FourCameras/0/min_time:3.000/real_time"}});
+}
