@@ -34,6 +34,9 @@ void AddCommonOptions(CLI::App& app);
 // kExitOk after --help, kExitUsage after a usage error (message on stderr).
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv);
 
+// "1 h 2 min 3 s", "4 min 5 s".
+std::string FormatDuration(double seconds);
+
 // Prints "error: <status>" on stderr and returns kExitFailure.
 int ReportFailure(const Status& status);
 

@@ -11,22 +11,9 @@
 namespace loom::apps {
 namespace {
 
-namespace fs = std::filesystem;
 using acquisition::Plan;
 using acquisition::Step;
 using acquisition::StepKind;
-
-}  // namespace
-
-std::string FormatDuration(double seconds) {
-  const int total = static_cast<int>(std::lround(seconds));
-  std::ostringstream out;
-  if (total >= 3600) out << total / 3600 << " h ";
-  out << (total % 3600) / 60 << " min " << total % 60 << " s";
-  return out.str();
-}
-
-namespace {
 
 void PrintStep(const Step& step) {
   std::cout << "  " << std::setw(5) << step.index << "  " << std::left << std::setw(17) << acquisition::StepKindName(step.kind)

@@ -29,9 +29,6 @@ Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& so
 // A gloss preset by name (configs/plans/NAME.yaml, from here or loom's source tree) or path.
 std::filesystem::path ResolvePresetPath(const std::string& preset);
 
-// "1 h 2 min 3 s".
-std::string FormatDuration(double seconds);
-
 // Only the rig's description (its `geometry:`), for commands that plan rather than drive.
 Result<RigModel> LoadRigModel(const std::filesystem::path& path);
 
