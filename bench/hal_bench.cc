@@ -7,12 +7,11 @@
 //   one block request vs 29 single-register requests (the naive way).
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
-#include <thread>
 
 #include "bench/bench_report.h"
 #include "core/testing/subprocess.h"
-#include "hal/aravis/internal/aravis_camera.h"
+#include "bench/fake_camera_peers.h"
+#include "core/testing/subprocess.h"
 #include "hal/modbus/modbus_link.h"
 #include "hal/modbus/register_map.h"
 
@@ -22,43 +21,15 @@ using loom::testing::Subprocess;
 using namespace std::chrono_literals;
 namespace map = loom::hal::modbus_map;
 
-struct CameraPeers {
-  std::vector<Subprocess> fakes;
-  std::vector<std::unique_ptr<loom::hal::AravisCamera>> cameras;
-  std::string error;
-};
+using CameraPeers = loom::bench::FakeCameraPeers;
 
 CameraPeers& Cameras() {
   static CameraPeers peers = [] {
-    CameraPeers p;
-    const char* netns = std::getenv("LOOM_IN_PRIVATE_NETNS");
-    if (netns == nullptr || std::string(netns) != "1") {
-      p.error = "run inside hal/aravis/run_in_netns.sh for the camera benchmarks";
-      return p;
-    }
-    arv_enable_interface("GigEVision");
-    arv_disable_interface("Fake");
-    for (int i = 0; i < 4; ++i) {
-      const std::string address = "127.0.0." + std::to_string(i + 1);
-      p.fakes.push_back(std::move(*Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", address, "-s",
-                                                      "BENCH0" + std::to_string(i)})));
-      auto camera = std::make_unique<loom::hal::AravisCamera>("cam" + std::to_string(i),
-                                                              loom::hal::AravisCameraOptions{address, 1});
-      loom::Status opened;
-      for (int attempt = 0; attempt < 50 && !(opened = camera->Open()).ok(); ++attempt) {
-        std::this_thread::sleep_for(100ms);
-      }
-      loom::hal::CameraSettings settings;
-      settings.roi = {0, 0, 640, 480};
-      settings.exposure_us = 100;
-      settings.buffer_count = 8;
-      if (!opened.ok() || !camera->Configure(settings).ok() || !camera->Start().ok()) {
-        p.error = "cannot bring up " + address + ": " + opened.ToString();
-        return p;
-      }
-      p.cameras.push_back(std::move(camera));
-    }
-    return p;
+    loom::hal::CameraSettings settings;
+    settings.roi = {0, 0, 640, 480};
+    settings.exposure_us = 100;
+    settings.buffer_count = 8;
+    return loom::bench::StartFakeCameraPeers("BENCH0", settings);
   }();
   return peers;
 }

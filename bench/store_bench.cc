@@ -5,53 +5,24 @@
 // the same captures without storing — what durability costs.
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
 #include <filesystem>
-#include <thread>
 
 #include "acquisition/capture_store.h"
 #include "bench/bench_report.h"
-#include "core/testing/subprocess.h"
-#include "hal/aravis/internal/aravis_camera.h"
+#include "bench/fake_camera_peers.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-using loom::testing::Subprocess;
-using namespace std::chrono_literals;
 
-struct Peers {
-  std::vector<Subprocess> fakes;
-  std::vector<std::unique_ptr<loom::hal::AravisCamera>> cameras;
-  std::string error;
-};
+using Peers = loom::bench::FakeCameraPeers;
 
 Peers& Cameras() {
   static Peers peers = [] {
-    Peers p;
-    const char* netns = std::getenv("LOOM_IN_PRIVATE_NETNS");
-    if (netns == nullptr || std::string(netns) != "1") {
-      p.error = "run inside hal/aravis/run_in_netns.sh";
-      return p;
-    }
-    arv_enable_interface("GigEVision");
-    arv_disable_interface("Fake");
-    for (int i = 0; i < 4; ++i) {
-      const std::string address = "127.0.0." + std::to_string(i + 1);
-      p.fakes.push_back(std::move(*Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", address, "-s", "STORE0" + std::to_string(i)})));
-      auto camera = std::make_unique<loom::hal::AravisCamera>("cam" + std::to_string(i), loom::hal::AravisCameraOptions{address, 1});
-      loom::Status opened;
-      for (int attempt = 0; attempt < 50 && !(opened = camera->Open()).ok(); ++attempt) std::this_thread::sleep_for(100ms);
-      loom::hal::CameraSettings settings;
-      settings.roi = {0, 0, 640, 480};
-      settings.exposure_us = 100;
-      if (!opened.ok() || !camera->Configure(settings).ok() || !camera->Start().ok()) {
-        p.error = "cannot bring up " + address;
-        return p;
-      }
-      p.cameras.push_back(std::move(camera));
-    }
-    return p;
+    loom::hal::CameraSettings settings;
+    settings.roi = {0, 0, 640, 480};
+    settings.exposure_us = 100;
+    return loom::bench::StartFakeCameraPeers("STORE0", settings);
   }();
   return peers;
 }
