@@ -22,6 +22,7 @@ using Json = nlohmann::json;
 
 constexpr int kScanSchemaVersion = 1;
 constexpr char kPixelChannel[] = "DN";
+constexpr char kPlanFile[] = "plan.yaml";
 
 std::string FrameFileName(const FrameKey& key) {
   char name[160];
@@ -90,27 +91,38 @@ std::string ScanYaml(const ScanInfo& info) {
   out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
   out << YAML::Key << "object" << YAML::Value << info.object;
   out << YAML::Key << "plan" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "purpose" << YAML::Value << info.purpose;
-  out << YAML::Key << "preset" << YAML::Value << info.preset;
-  out << YAML::Key << "steps" << YAML::Value << info.steps;
+  out << YAML::Key << "purpose" << YAML::Value << info.plan.purpose;
+  out << YAML::Key << "preset" << YAML::Value << info.plan.preset;
+  out << YAML::Key << "steps" << YAML::Value << info.plan.steps.size();
+  out << YAML::Key << "file" << YAML::Value << kPlanFile;
   out << YAML::EndMap;
   out << YAML::Key << "rig" << YAML::Value << YAML::Literal << info.rig_yaml;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
 
-Result<ScanInfo> ReadScanYaml(const fs::path& path) {
+Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
+  const fs::path path = directory / "scan.yaml";
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kScanSchemaVersion));
   ScanInfo info;
-  std::string version;
+  std::string version, purpose, preset, plan_file;
+  int steps = 0;
   doc.root().Required("loom_version", &version);
   doc.root().Required("object", &info.object);
   doc.root().Required("rig", &info.rig_yaml);
   const ConfigNode plan = doc.root().Child("plan");
-  plan.Required("purpose", &info.purpose);
-  plan.Required("preset", &info.preset);
-  plan.Required("steps", &info.steps);
+  plan.Required("purpose", &purpose);
+  plan.Required("preset", &preset);
+  plan.Required("steps", &steps);
+  plan.Required("file", &plan_file);
   LOOM_RETURN_IF_ERROR(doc.Finish());
+  const fs::path plan_path = directory / plan_file;
+  LOOM_ASSIGN_OR_RETURN(const std::string plan_text, ReadFile(plan_path));
+  LOOM_ASSIGN_OR_RETURN(info.plan, ParsePlanYaml(plan_text, plan_path.string()));
+  if (static_cast<int>(info.plan.steps.size()) != steps || info.plan.purpose != purpose || info.plan.preset != preset) {
+    return DataLossError(plan_path.string(), "does not match " + path.string() + " (" + std::to_string(steps) +
+                                                 " steps of a " + purpose + " scan with preset '" + preset + "')");
+  }
   return info;
 }
 
@@ -141,9 +153,11 @@ Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanI
   fs::remove_all(building, ec);
   fs::create_directories(building / "frames", ec);
   if (ec) return IoError(directory.string(), "cannot create: " + ec.message());
-  if (Status written = WriteFileAtomically(building / "scan.yaml", ScanYaml(info)); !written.ok()) {
-    fs::remove_all(building, ec);
-    return written;
+  for (const auto& [file, text] : {std::pair{kPlanFile, PlanToYaml(info.plan)}, std::pair{"scan.yaml", ScanYaml(info)}}) {
+    if (Status written = WriteFileAtomically(building / file, text); !written.ok()) {
+      fs::remove_all(building, ec);
+      return written;
+    }
   }
   fs::remove(directory, ec);  // empty, if it exists
   fs::rename(building, directory, ec);
@@ -162,7 +176,7 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
     return NotFoundError(directory.string(), "not a scan directory (no scan.yaml): nothing to read or resume");
   }
   CaptureStore store(directory);
-  LOOM_ASSIGN_OR_RETURN(store.info_, ReadScanYaml(directory / "scan.yaml"));
+  LOOM_ASSIGN_OR_RETURN(store.info_, ReadScanYaml(directory));
   std::string journal;
   if (fs::exists(store.JournalPath())) {
     LOOM_ASSIGN_OR_RETURN(journal, ReadFile(store.JournalPath()));

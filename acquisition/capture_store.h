@@ -1,8 +1,9 @@
 #pragma once
 // CaptureStore: a scan on disk, crash-safe and append-only.
 //
-//   SCAN/scan.yaml       what was scanned: the rig YAML (snapshot), the plan, the object, loom's
-//                        version (written once, atomically)
+//   SCAN/scan.yaml       what was scanned: the rig YAML (snapshot), the object, loom's version and
+//                        the plan's summary (written once, atomically)
+//   SCAN/plan.yaml       the expanded plan, step by step (acquisition/plan.h's PlanToYaml)
 //   SCAN/frames/         raw frames, s<step>_<camera>_e<exposure>.exr: one UINT channel "DN",
 //                        lossless, never rewritten
 //   SCAN/journal.jsonl   one JSON record per frame: what the devices really did, the file and a
@@ -19,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "acquisition/plan.h"
 #include "core/status.h"
 #include "hal/camera.h"
 
@@ -43,9 +45,7 @@ struct FrameRecord {
 struct ScanInfo {
   std::string rig_yaml;  // the rig file's text
   std::string object;    // what was on the turntable
-  std::string purpose;   // material or calibration
-  std::string preset;
-  int steps = 0;
+  Plan plan;             // what was planned (purpose, preset, steps)
 };
 
 class CaptureStore {

@@ -28,6 +28,16 @@ hal::RawFrame Frame(int seed) {
   return frame;
 }
 
+Plan TwoStepPlan() {
+  Plan plan{"r", "low", "material", {}};
+  plan.steps.resize(2);
+  plan.steps[1].index = 1;
+  plan.steps[1].leds = {{3, 800}};
+  plan.steps[1].linear_light_mm = 1.0 / 3;
+  for (Step& step : plan.steps) step.cameras = {"cam0"};
+  return plan;
+}
+
 class CaptureStoreTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -37,7 +47,7 @@ class CaptureStoreTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   CaptureStore MakeStore() {
-    Result<CaptureStore> store = CaptureStore::Create(dir_, {"schema_version: 1\nname: r\n", "fabric 3", "material", "low", 10});
+    Result<CaptureStore> store = CaptureStore::Create(dir_, {"schema_version: 1\nname: r\n", "fabric 3", TwoStepPlan()});
     EXPECT_TRUE(store.ok()) << store.status().ToString();
     return std::move(*store);
   }
@@ -55,6 +65,7 @@ TEST_F(CaptureStoreTest, FramesAndWhatTheDevicesDidRoundTrip) {
   ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
   EXPECT_EQ(reopened->info().object, "fabric 3");
   EXPECT_EQ(reopened->info().rig_yaml, "schema_version: 1\nname: r\n");
+  EXPECT_EQ(reopened->info().plan, TwoStepPlan());
   ASSERT_EQ(reopened->records().size(), 2u);
   const Result<hal::RawFrame> frame = reopened->ReadFrame(reopened->records()[1]);
   ASSERT_TRUE(frame.ok()) << frame.status().ToString();
@@ -110,6 +121,17 @@ TEST_F(CaptureStoreTest, ACrashMidAppendIsRepairedOnResume) {
   ASSERT_TRUE(after.ok()) << after.status().ToString();
   EXPECT_EQ(after->records().size(), 3u);
   for (const FrameRecord& record : after->records()) EXPECT_TRUE(after->ReadFrame(record).ok()) << record.file;
+}
+
+TEST_F(CaptureStoreTest, APlanFileThatDisagreesWithScanYamlIsAnError) {
+  MakeStore();
+  Plan other = TwoStepPlan();
+  other.steps.pop_back();
+  ASSERT_TRUE(WriteFileAtomically(dir_ / "plan.yaml", PlanToYaml(other)).ok());
+  const Result<CaptureStore> opened = CaptureStore::Open(dir_);
+  ASSERT_FALSE(opened.ok());
+  EXPECT_EQ(opened.status().code(), StatusCode::kDataLoss);
+  EXPECT_NE(opened.status().subject().find("plan.yaml"), std::string::npos) << opened.status().ToString();
 }
 
 TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {

@@ -13,7 +13,7 @@ TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
   const char* tmpfs = std::getenv("LOOM_SMALL_TMPFS");
   if (tmpfs == nullptr) GTEST_SKIP() << "needs run_in_small_tmpfs.sh";
   const std::filesystem::path dir = std::filesystem::path(tmpfs) / "scan";
-  Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", "material", "low", 1000});
+  Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", {}});
   ASSERT_TRUE(store.ok()) << store.status().ToString();
   hal::RawFrame frame;
   frame.width = frame.height = 64;

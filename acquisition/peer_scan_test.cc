@@ -119,7 +119,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
 
   const fs::path dir = fs::path(::testing::TempDir()) / "peer_scan";
   fs::remove_all(dir);
-  auto store = CaptureStore::Create(dir, {"peer rig", "fake cameras", "material", "peer", static_cast<int>(plan.steps.size())});
+  auto store = CaptureStore::Create(dir, {"peer rig", "fake cameras", plan});
   ASSERT_TRUE(store.ok());
   {
     hal::SafeStateGuard guard(**rig);

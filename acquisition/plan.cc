@@ -114,6 +114,14 @@ std::string_view StepKindName(StepKind kind) {
   return "unknown";
 }
 
+std::optional<StepKind> ParseStepKind(std::string_view name) {
+  for (StepKind kind : {StepKind::kDark, StepKind::kTarget, StepKind::kWhiteReference, StepKind::kColourChart,
+                        StepKind::kStructuredLight, StepKind::kColour, StepKind::kMonochrome, StepKind::kLinearLight}) {
+    if (StepKindName(kind) == name) return kind;
+  }
+  return std::nullopt;
+}
+
 Result<Preset> LoadPreset(const std::filesystem::path& path) {
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kPresetSchemaVersion));
   const ConfigNode root = doc.root();
@@ -176,6 +184,8 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
   PlanBuilder builder(rig, preset, "material");
   // Everything at the first angle first: the turntable moves once per further angle.
   const double first = preset.turntable_deg.front();
+  // Lights off first: the sequencer takes each camera's black level and noise from it.
+  builder.Add(StepKind::kDark, AllCameras(rig), first, "sample");
   builder.StructuredLight(first);
   builder.Filtered(StepKind::kColour, ColourCameras(rig, preset.colour_views_deg), "sample");
   builder.EveryLed(StepKind::kMonochrome, first, "sample");

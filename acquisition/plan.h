@@ -5,6 +5,7 @@
 // A material scan (the paper's counts on configs/rig/tac7.yaml):
 // | kind        | steps                                                     | tac7 images       |
 // |-------------|-----------------------------------------------------------|-------------------|
+// | dark        | lights off, all cameras (black level and noise)           | 4                 |
 // | structured  | Gray-code + phase-shift patterns, all cameras at once     | (heightmap)       |
 // | colour      | each filtered LED × each filter, colour-view cameras      | 5 × 10 × 2 = 100  |
 // | monochrome  | each LED × each turntable angle, all cameras              | 29 × 3 × 4 = 348  |
@@ -29,16 +30,19 @@ namespace loom::acquisition {
 
 enum class StepKind { kDark, kTarget, kWhiteReference, kColourChart, kStructuredLight, kColour, kMonochrome, kLinearLight };
 std::string_view StepKindName(StepKind kind);
+std::optional<StepKind> ParseStepKind(std::string_view name);
 
 struct ExposureBracket {
   double probe_us = 10000;  // the first exposure; the sequencer brackets around it
   int max_exposures = 5;
+  bool operator==(const ExposureBracket&) const = default;
 };
 
 struct FilterSetting {
   std::string wheel;
   int slot = 0;
   double center_nm = 0;
+  bool operator==(const FilterSetting&) const = default;
 };
 
 struct Step {
@@ -55,6 +59,7 @@ struct Step {
 
   // Images this step produces before bracketing (one per camera).
   int images() const { return static_cast<int>(cameras.size()); }
+  bool operator==(const Step&) const = default;
 };
 
 struct Preset {
@@ -79,7 +84,14 @@ struct Plan {
 
   int Images(StepKind kind) const;
   int Images() const;
+  bool operator==(const Plan&) const = default;
 };
+
+// The expanded plan as YAML (one flow mapping per step; doubles round-trip exactly), as a scan
+// directory keeps it in plan.yaml, and back. Reading is strict: unknown keys, a step out of
+// order or an unknown kind are errors naming the file and the step.
+std::string PlanToYaml(const Plan& plan);
+Result<Plan> ParsePlanYaml(std::string_view text, const std::string& source_name);
 
 Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset);
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset);

@@ -104,5 +104,35 @@ TEST(PlanTest, PresetTyposAreErrors) {
       << preset.status().ToString();
 }
 
+TEST(PlanTest, TheExpandedPlanRoundTripsThroughYaml) {
+  for (const char* preset : {"low", "high"}) {
+    const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset(preset));
+    const Result<Plan> back = ParsePlanYaml(PlanToYaml(plan), "plan.yaml");
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    EXPECT_EQ(*back, plan) << preset;
+  }
+  const Plan calibration = *MakeCalibrationPlan(LoadRigModel("tac7-mini"), LoadShippedPreset("low"));
+  EXPECT_EQ(*ParsePlanYaml(PlanToYaml(calibration), "plan.yaml"), calibration);
+}
+
+TEST(PlanTest, ABadPlanFileNamesTheStepAndKey) {
+  const std::string text =
+      "schema_version: 1\nrig: r\npreset: low\npurpose: material\nsteps:\n"
+      "  - {index: 0, kind: dark, cameras: [c], turntable_deg: 0, object: s, probe_exposure_us: 1, max_exposures: 1}\n"
+      "  - {index: 1, kind: sparkle, cameras: [c], turntable_deg: 0, object: s, probe_exposure_us: 1, max_exposures: 1}\n";
+  const Result<Plan> plan = ParsePlanYaml(text, "SCAN/plan.yaml");
+  ASSERT_FALSE(plan.ok());
+  EXPECT_NE(plan.status().ToString().find("SCAN/plan.yaml"), std::string::npos) << plan.status().ToString();
+  EXPECT_NE(plan.status().ToString().find("steps[1].kind"), std::string::npos) << plan.status().ToString();
+  EXPECT_NE(plan.status().ToString().find("sparkle"), std::string::npos) << plan.status().ToString();
+}
+
+TEST(PlanTest, AMaterialScanStartsWithDarkFrames) {
+  const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset("low"));
+  EXPECT_EQ(plan.steps.front().kind, StepKind::kDark);
+  EXPECT_TRUE(plan.steps.front().leds.empty());
+  EXPECT_EQ(plan.Images(StepKind::kDark), 4);
+}
+
 }  // namespace
 }  // namespace loom::acquisition

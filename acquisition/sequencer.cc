@@ -20,6 +20,21 @@ struct Exposure {
 
 }  // namespace
 
+DarkLevel MeasureDarkLevel(const hal::RawFrame& dark) {
+  if (dark.pixels.empty()) return {};
+  std::vector<uint16_t> values = dark.pixels;
+  const auto middle = values.begin() + values.size() / 2;
+  std::nth_element(values.begin(), middle, values.end());
+  const double median = *middle;
+  std::vector<double> deviations;
+  deviations.reserve(values.size());
+  for (uint16_t v : values) deviations.push_back(std::abs(v - median));
+  const auto mid_deviation = deviations.begin() + deviations.size() / 2;
+  std::nth_element(deviations.begin(), mid_deviation, deviations.end());
+  // A 12-bit reading quantises to 1 DN: the spread is never below its 1/sqrt(12).
+  return {median, std::max(1.4826 * *mid_deviation, 0.29)};
+}
+
 Sequencer::Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options)
     : rig_(rig), plan_(plan), store_(store), options_(options) {}
 
@@ -147,7 +162,26 @@ Result<std::vector<hal::RawFrame>> Sequencer::CaptureExposure(const Step& step, 
   return result;
 }
 
+std::pair<double, double> Sequencer::BlackAndFloor(const std::string& camera) const {
+  if (auto it = dark_.find(camera); it != dark_.end()) {
+    return {it->second.black_dn, std::max(1.0, options_.noise_floor_sigmas * it->second.noise_dn)};
+  }
+  return {options_.black_level_dn, options_.noise_floor_dn};
+}
+
+Status Sequencer::CaptureDark(const Step& step) {
+  if (!store_.StepDone(step.index)) LOOM_RETURN_IF_ERROR(ApplyStep(step));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
+  for (const hal::RawFrame& frame : frames) {
+    dark_[frame.metadata.camera] = MeasureDarkLevel(frame);
+    LOOM_LOG(Info) << frame.metadata.camera << ": black level " << dark_[frame.metadata.camera].black_dn << " DN, noise "
+                   << dark_[frame.metadata.camera].noise_dn << " DN";
+  }
+  return store_.StepDone(step.index) ? Status::Ok() : store_.MarkStepDone(step.index);
+}
+
 Status Sequencer::CaptureStep(const Step& step) {
+  if (step.kind == StepKind::kDark) return CaptureDark(step);
   LOOM_RETURN_IF_ERROR(ApplyStep(step));
   LOOM_ASSIGN_OR_RETURN(hal::Camera* first, FindCamera(step.cameras.front()));
   const double min_us = first->capabilities().exposure_min_us;
@@ -167,9 +201,10 @@ Status Sequencer::CaptureStep(const Step& step) {
     for (const hal::RawFrame& frame : frames[longest->index]) {
       // Lit but weak: some signal above black, less than the noise floor. Unlit pixels (off
       // the sample, in shadow) would never leave the floor: they do not ask for more.
+      const auto [black, floor] = BlackAndFloor(frame.metadata.camera);
       const size_t count = std::count_if(frame.pixels.begin(), frame.pixels.end(), [&](uint16_t v) {
-        const double signal = v - options_.black_level_dn;
-        return signal > options_.noise_floor_dn / 3 && signal < options_.noise_floor_dn;
+        const double signal = v - black;
+        return signal > floor / 3 && signal < floor;
       });
       weak |= count > frame.pixels.size() / 100;
     }
@@ -196,6 +231,8 @@ Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) 
   const int already = store_.steps_done();
   int done_now = 0;
   for (const Step& step : plan_.steps) {
+    // A resumed scan reads its stored dark frames again: the brackets to come depend on them.
+    if (store_.StepDone(step.index) && step.kind == StepKind::kDark) LOOM_RETURN_IF_ERROR(CaptureDark(step));
     if (store_.StepDone(step.index)) continue;
     if (InterruptRequested()) return CancelledError("scan", "interrupted before step " + std::to_string(step.index));
     LOOM_RETURN_IF_ERROR(CaptureStep(step));

@@ -4,7 +4,9 @@
 // brackets the exposure: starting from the plan's probe, it adds shorter exposures while pixels
 // saturate at the shortest and longer ones while lit pixels stay under the noise floor at the
 // longest, up to the plan's bound — so that every lit pixel is recorded unsaturated and above
-// the noise floor at least once. Raw frames are stored; merging is calibration's job.
+// the noise floor at least once. Raw frames are stored; merging is calibration's job. Black level
+// and noise floor come from the plan's dark step (each camera's median and robust spread with
+// the lights off); a plan without one falls back to the options' values.
 //
 // Resume: steps marked done are skipped; in an unfinished step, frames already stored are read
 // back instead of captured, so the bracket takes the same decisions and the scan ends identical
@@ -13,6 +15,7 @@
 // caller's SafeStateGuard leaves the rig safe, and the store holds only complete frames.
 
 #include <functional>
+#include <map>
 
 #include "acquisition/capture_store.h"
 #include "acquisition/plan.h"
@@ -22,8 +25,9 @@ namespace loom::acquisition {
 
 struct SequencerOptions {
   int max_retries = 2;              // per camera capture, after a timeout or drop-out
-  double black_level_dn = 64;       // the cameras' dark offset (in their bit depth)
-  double noise_floor_dn = 24;       // above black: a weaker reading is too noisy to use
+  double black_level_dn = 64;       // without a dark step: the cameras' dark offset (in their bit depth)
+  double noise_floor_dn = 24;       // without a dark step: above black, a weaker reading is too noisy
+  double noise_floor_sigmas = 10;   // with a dark step: the floor in dark-frame standard deviations
   double saturation_margin_dn = 1;  // within this of the top a reading is saturated
   double exposure_factor = 4;       // between bracket exposures
   int phase_steps = 4;              // of the structured-light phase patterns
@@ -37,6 +41,13 @@ struct ScanProgress {
   double eta_s = 0;
 };
 
+// A camera's dark frame, summarised.
+struct DarkLevel {
+  double black_dn = 0;  // median
+  double noise_dn = 0;  // 1.4826 × median absolute deviation: hot pixels do not count
+};
+DarkLevel MeasureDarkLevel(const hal::RawFrame& dark);
+
 class Sequencer {
  public:
   Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options = {});
@@ -46,6 +57,10 @@ class Sequencer {
  private:
   Status ApplyStep(const Step& step);
   Status CaptureStep(const Step& step);
+  // A dark step: one exposure, no bracket; sets the cameras' black levels and noise floors.
+  Status CaptureDark(const Step& step);
+  // Black level and, above it, the weakest usable reading of `camera`.
+  std::pair<double, double> BlackAndFloor(const std::string& camera) const;
   // One frame of every camera of `step` at `exposure_us`: read back when stored, else captured.
   Result<std::vector<hal::RawFrame>> CaptureExposure(const Step& step, double exposure_us, int exposure_index);
   Result<hal::RawFrame> CaptureWithRetries(hal::Camera& camera, const Step& step);
@@ -56,6 +71,7 @@ class Sequencer {
   const Plan& plan_;
   CaptureStore& store_;
   SequencerOptions options_;
+  std::map<std::string, DarkLevel> dark_;  // by camera
   bool strip_on_ = false;
   bool projector_showing_ = false;
 };

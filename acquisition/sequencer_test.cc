@@ -43,7 +43,7 @@ class SequencerTest : public ::testing::Test {
   }
 
   CaptureStore NewStore() {
-    return std::move(*CaptureStore::Create(dir_, {"rig", "white tile", "material", "tiny", static_cast<int>(plan_.steps.size())}));
+    return std::move(*CaptureStore::Create(dir_, {"rig", "white tile", plan_}));
   }
 
   fs::path dir_;
@@ -84,6 +84,31 @@ TEST_F(SequencerTest, ACameraThatStaysOutStopsTheScanCleanly) {
   EXPECT_EQ(reopened->steps_done(), 3);
   EXPECT_FALSE(reopened->StepDone(3));
   for (const FrameRecord& record : reopened->records()) EXPECT_TRUE(reopened->ReadFrame(record).ok()) << record.file;
+}
+
+TEST(DarkLevelTest, MedianAndRobustSpreadIgnoreHotPixels) {
+  hal::RawFrame dark;
+  dark.width = 100;
+  dark.height = 10;
+  for (int i = 0; i < 1000; ++i) dark.pixels.push_back(static_cast<uint16_t>(64 + (i % 3) - 1));  // 63, 64, 65
+  for (int i = 0; i < 10; ++i) dark.pixels[i * 97] = 4095;                                         // hot pixels
+  const DarkLevel level = MeasureDarkLevel(dark);
+  EXPECT_EQ(level.black_dn, 64);
+  EXPECT_NEAR(level.noise_dn, 1.4826, 1e-9);  // MAD 1 of a spread whose std is 0.82: robust, not exact
+}
+
+TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
+  CaptureStore store = NewStore();
+  Sequencer sequencer(*rig_, plan_, store);
+  ASSERT_TRUE(sequencer.Run().ok());
+  ASSERT_EQ(plan_.steps.front().kind, StepKind::kDark);
+  for (const FrameRecord& record : store.records()) {
+    if (record.key.step != 0) continue;
+    const DarkLevel level = MeasureDarkLevel(*store.ReadFrame(record));
+    EXPECT_NEAR(level.black_dn, model_.cameras[0].sensor.dark_offset_dn, 1) << record.file;
+    EXPECT_GT(level.noise_dn, 0.29) << record.file;
+    EXPECT_LT(level.noise_dn, 3) << record.file;  // 2.5 e- read noise at ~2.4 e-/DN
+  }
 }
 
 }  // namespace

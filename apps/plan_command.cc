@@ -39,10 +39,12 @@ int RunPlan(int argc, char** argv) {
   std::string preset_name = "low";
   bool calibration = false;
   bool steps = false;
+  bool yaml = false;
   app.add_option("--rig", rig_path, "Rig YAML with a geometry: section")->required();
   app.add_option("--preset", preset_name, "low, medium, high (configs/plans/) or a preset file");
   app.add_flag("--calibration", calibration, "The calibration scan instead of a material scan");
   app.add_flag("--steps", steps, "List every step");
+  app.add_flag("--yaml", yaml, "Print the expanded plan as YAML (what a scan keeps in SCAN/plan.yaml)");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
 
   Result<RigModel> rig = LoadRigModel(rig_path);
@@ -51,6 +53,10 @@ int RunPlan(int argc, char** argv) {
   if (!preset.ok()) return ReportFailure(preset.status());
   Result<Plan> plan = calibration ? acquisition::MakeCalibrationPlan(*rig, *preset) : acquisition::MakeMaterialPlan(*rig, *preset);
   if (!plan.ok()) return ReportFailure(plan.status());
+  if (yaml) {
+    std::cout << acquisition::PlanToYaml(*plan);
+    return kExitOk;
+  }
 
   std::cout << plan->purpose << " scan of rig '" << plan->rig << "' with preset '" << plan->preset << "': "
             << plan->steps.size() << " steps, " << plan->Images() << " images (before HDR bracketing)\n";

@@ -64,9 +64,8 @@ Status NewScan(const std::string& rig_path, const std::string& preset, const std
   const std::string purpose = calibration ? "calibration" : "material";
   LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, MakePlan(loaded, preset, purpose));
   LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store,
-                        acquisition::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, purpose,
-                                                                preset, static_cast<int>(plan.steps.size())}));
-  return RunScan(loaded, plan, store, quiet);
+                        acquisition::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan}));
+  return RunScan(loaded, store.info().plan, store, quiet);
 }
 
 Status ResumeScan(const fs::path& directory, bool quiet) {
@@ -74,18 +73,12 @@ Status ResumeScan(const fs::path& directory, bool quiet) {
   const acquisition::ScanInfo& info = store.info();
   const std::string object = info.object == "sample" ? "" : info.object;
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(info.rig_yaml, (directory / "scan.yaml").string() + " (rig)", object));
-  LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, MakePlan(loaded, info.preset, info.purpose));
-  if (static_cast<int>(plan.steps.size()) != info.steps) {
-    return FailedPreconditionError(directory.string(), "the plan now has " + std::to_string(plan.steps.size()) +
-                                                           " steps, the scan was started with " +
-                                                           std::to_string(info.steps) + " (preset '" + info.preset +
-                                                           "' changed?)");
-  }
   if (!quiet) {
-    std::cerr << "resuming " << directory.string() << ": " << store.steps_done() << " of " << info.steps
+    std::cerr << "resuming " << directory.string() << ": " << store.steps_done() << " of " << info.plan.steps.size()
               << " steps done, " << store.records().size() << " frames kept\n";
   }
-  return RunScan(loaded, plan, store, quiet);
+  // The plan the scan was started with, not today's preset: the resumed scan ends as planned.
+  return RunScan(loaded, info.plan, store, quiet);
 }
 
 }  // namespace

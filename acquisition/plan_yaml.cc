@@ -1,0 +1,109 @@
+// Plans as YAML: what a scan directory keeps in plan.yaml, so that resuming, calibration and
+// reconstruction read the steps that were really planned, whatever the presets say today.
+#include <yaml-cpp/yaml.h>
+
+#include "acquisition/plan.h"
+#include "core/config.h"
+
+namespace loom::acquisition {
+namespace {
+
+constexpr int kPlanSchemaVersion = 1;
+
+void EmitStep(YAML::Emitter& out, const Step& step) {
+  out << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "index" << YAML::Value << step.index;
+  out << YAML::Key << "kind" << YAML::Value << std::string(StepKindName(step.kind));
+  out << YAML::Key << "cameras" << YAML::Value << YAML::Flow << step.cameras;
+  if (!step.leds.empty()) {
+    std::vector<int> leds;
+    std::vector<double> currents;
+    for (const hal::LedDrive& led : step.leds) {
+      leds.push_back(led.led);
+      currents.push_back(led.current_ma);
+    }
+    out << YAML::Key << "leds" << YAML::Value << YAML::Flow << leds;
+    out << YAML::Key << "currents_ma" << YAML::Value << YAML::Flow << currents;
+  }
+  if (step.filter) {
+    out << YAML::Key << "filter" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "wheel" << YAML::Value
+        << step.filter->wheel << YAML::Key << "slot" << YAML::Value << step.filter->slot << YAML::Key << "center_nm"
+        << YAML::Value << step.filter->center_nm << YAML::EndMap;
+  }
+  out << YAML::Key << "turntable_deg" << YAML::Value << step.turntable_deg;
+  if (step.linear_light_mm) out << YAML::Key << "linear_light_mm" << YAML::Value << *step.linear_light_mm;
+  if (!step.projector_pattern.empty()) out << YAML::Key << "pattern" << YAML::Value << step.projector_pattern;
+  out << YAML::Key << "object" << YAML::Value << step.object;
+  out << YAML::Key << "probe_exposure_us" << YAML::Value << step.exposure.probe_us;
+  out << YAML::Key << "max_exposures" << YAML::Value << step.exposure.max_exposures;
+  out << YAML::EndMap;
+}
+
+Step ReadStep(const ConfigNode& node, int expected_index) {
+  Step step;
+  node.Required("index", &step.index);
+  if (step.index != expected_index) node.AddError("index", "is out of order: expected " + std::to_string(expected_index));
+  std::string kind;
+  node.Required("kind", &kind);
+  if (std::optional<StepKind> parsed = ParseStepKind(kind)) {
+    step.kind = *parsed;
+  } else {
+    node.AddError("kind", "unknown step kind '" + kind + "'");
+  }
+  node.Required("cameras", &step.cameras);
+  std::vector<int> leds;
+  std::vector<double> currents;
+  node.Optional("leds", &leds);
+  node.Optional("currents_ma", &currents);
+  if (leds.size() != currents.size()) node.AddError("currents_ma", "needs one current per LED");
+  for (size_t i = 0; i < std::min(leds.size(), currents.size()); ++i) step.leds.push_back({leds[i], currents[i]});
+  if (std::optional<ConfigNode> filter = node.OptionalChild("filter")) {
+    FilterSetting setting;
+    filter->Required("wheel", &setting.wheel);
+    filter->Required("slot", &setting.slot);
+    filter->Required("center_nm", &setting.center_nm);
+    step.filter = setting;
+  }
+  node.Required("turntable_deg", &step.turntable_deg);
+  if (node.Has("linear_light_mm")) {
+    double mm = 0;
+    node.Required("linear_light_mm", &mm);
+    step.linear_light_mm = mm;
+  }
+  node.Optional("pattern", &step.projector_pattern);
+  node.Required("object", &step.object);
+  node.Required("probe_exposure_us", &step.exposure.probe_us);
+  node.Required("max_exposures", &step.exposure.max_exposures);
+  return step;
+}
+
+}  // namespace
+
+std::string PlanToYaml(const Plan& plan) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);  // positions and currents come back bit for bit
+  out << YAML::BeginMap;
+  out << YAML::Key << "schema_version" << YAML::Value << kPlanSchemaVersion;
+  out << YAML::Key << "rig" << YAML::Value << plan.rig;
+  out << YAML::Key << "preset" << YAML::Value << plan.preset;
+  out << YAML::Key << "purpose" << YAML::Value << plan.purpose;
+  out << YAML::Key << "steps" << YAML::Value << YAML::BeginSeq;
+  for (const Step& step : plan.steps) EmitStep(out, step);
+  out << YAML::EndSeq << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+Result<Plan> ParsePlanYaml(std::string_view text, const std::string& source_name) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadString(text, source_name, kPlanSchemaVersion));
+  Plan plan;
+  doc.root().Required("rig", &plan.rig);
+  doc.root().Required("preset", &plan.preset);
+  doc.root().Required("purpose", &plan.purpose);
+  for (const ConfigNode& node : doc.root().Sequence("steps")) {
+    plan.steps.push_back(ReadStep(node, static_cast<int>(plan.steps.size())));
+  }
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  return plan;
+}
+
+}  // namespace loom::acquisition
