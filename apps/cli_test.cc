@@ -37,7 +37,7 @@ TEST(CliTest, UnknownCommandIsAUsageError) {
 }
 
 TEST(CliTest, EveryCommandHasHelp) {
-  for (const char* command : {"help", "plan", "rig", "sim", "version"}) {
+  for (const char* command : {"calibrate", "help", "plan", "rig", "scan", "sim", "version"}) {
     const LoomRun run = RunLoom(std::string(command) + " --help");
     EXPECT_EQ(run.exit_code, 0) << command << ": " << run.output;
     EXPECT_TRUE(Contains(run.output, "--log-level")) << command << ": " << run.output;
@@ -45,6 +45,21 @@ TEST(CliTest, EveryCommandHasHelp) {
     EXPECT_EQ(via_help.exit_code, 0) << command;
     EXPECT_EQ(via_help.output, run.output) << command;
   }
+}
+
+TEST(CliTest, CalibrateIntrinsicsFromPhotosWritesACalibrationFile) {
+  const std::string out = ::testing::TempDir() + "/cli_intrinsics.yaml";
+  const LoomRun run = RunLoom("calibrate intrinsics --images '" + std::string(LOOM_SOURCE_DIR) +
+                              "/calibration/testdata/opencv-left/left0*.jpg' --board chessboard:9x6:25 --name cam3 --out " + out);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_TRUE(Contains(run.output, "board found in 9 of 9 images")) << run.output;
+  EXPECT_TRUE(Contains(run.output, "RMS reprojection error 0.")) << run.output;
+  const LoomRun bad = RunLoom("calibrate intrinsics --images '/nowhere/*.jpg' --out " + out);
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_TRUE(Contains(bad.output, "--images '/nowhere/*.jpg': matches no file")) << bad.output;
+  const LoomRun typo = RunLoom("calibrate intrinsics --images x --board chessbord:9x6:25 --out " + out);
+  EXPECT_EQ(typo.exit_code, 1);
+  EXPECT_TRUE(Contains(typo.output, "board 'chessbord:9x6:25'")) << typo.output;
 }
 
 TEST(CliTest, VersionNamesLoomAndItsLibraries) {

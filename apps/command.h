@@ -41,6 +41,7 @@ std::string FormatDuration(double seconds);
 int ReportFailure(const Status& status);
 
 // The commands.
+int RunCalibrate(int argc, char** argv);
 int RunHelp(int argc, char** argv);
 int RunPlan(int argc, char** argv);
 int RunRig(int argc, char** argv);

@@ -1,0 +1,132 @@
+#include "calibration/calibration_yaml.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <ctime>
+
+#include "core/config.h"
+#include "core/file_io.h"
+#include "core/version.h"
+
+namespace loom::calibration {
+namespace {
+
+constexpr int kCalibrationSchemaVersion = 1;
+constexpr char kCameraModel[] = "pinhole + OpenCV 5-term distortion (k1 k2 p1 p2 k3); pixel centres at integers";
+
+void EmitMatrix(YAML::Emitter& out, const Eigen::Matrix3d& m) {
+  out << YAML::BeginSeq;
+  for (int r = 0; r < 3; ++r) out << YAML::Flow << std::vector<double>{m(r, 0), m(r, 1), m(r, 2)};
+  out << YAML::EndSeq;
+}
+
+std::string NowUtc() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+}  // namespace
+
+Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCalibration& calibration) {
+  const Intrinsics& in = calibration.intrinsics;
+  YAML::Emitter out;
+  out.SetDoublePrecision(12);
+  out << YAML::BeginMap;
+  out << YAML::Key << "schema_version" << YAML::Value << kCalibrationSchemaVersion;
+  out << YAML::Key << "device" << YAML::Value << "camera";
+  out << YAML::Key << "name" << YAML::Value << calibration.name;
+  out << YAML::Key << "model" << YAML::Value << kCameraModel;
+  out << YAML::Key << "image_size_px" << YAML::Value << YAML::Flow << std::vector<int>{in.width, in.height};
+  out << YAML::Key << "K_px" << YAML::Value;
+  EmitMatrix(out, in.K);
+  out << YAML::Key << "distortion" << YAML::Value << YAML::Flow
+      << std::vector<double>(in.distortion.data(), in.distortion.data() + 5);
+  if (calibration.cam_from_rig) {
+    out << YAML::Key << "cam_from_rig" << YAML::Value << YAML::BeginMap << YAML::Key << "rotation" << YAML::Value;
+    EmitMatrix(out, calibration.cam_from_rig->linear());
+    const Eigen::Vector3d t = calibration.cam_from_rig->translation();
+    out << YAML::Key << "translation_mm" << YAML::Value << YAML::Flow << std::vector<double>{t.x(), t.y(), t.z()};
+    out << YAML::EndMap;
+  }
+  out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "rms_px" << YAML::Value << in.rms_px;
+  out << YAML::Key << "views" << YAML::Value << YAML::BeginSeq;
+  for (size_t i = 0; i < in.per_view_rms_px.size(); ++i) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "source" << YAML::Value
+        << (i < calibration.view_sources.size() ? calibration.view_sources[i] : "") << YAML::Key << "rms_px"
+        << YAML::Value << in.per_view_rms_px[i] << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::Key << "skipped" << YAML::Value << YAML::Flow << calibration.skipped;
+  out << YAML::EndMap;
+  out << YAML::Key << "source" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "from" << YAML::Value << calibration.from;
+  out << YAML::Key << "board" << YAML::Value << calibration.board;
+  out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
+  out << YAML::Key << "created" << YAML::Value << NowUtc();
+  out << YAML::EndMap << YAML::EndMap;
+  return WriteFileAtomically(path, std::string(out.c_str()) + "\n");
+}
+
+Result<CameraCalibration> ReadCameraCalibration(const std::filesystem::path& path) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kCalibrationSchemaVersion));
+  const ConfigNode root = doc.root();
+  CameraCalibration calibration;
+  Intrinsics& in = calibration.intrinsics;
+  std::string device, model;
+  root.Required("device", &device);
+  if (device != "camera") root.AddError("device", "is '" + device + "', expected camera");
+  root.Required("name", &calibration.name);
+  root.Required("model", &model);
+  if (model != kCameraModel) root.AddError("model", "unknown camera model '" + model + "'");
+  std::vector<int> size;
+  root.Required("image_size_px", &size);
+  if (size.size() == 2) {
+    in.width = size[0];
+    in.height = size[1];
+  } else {
+    root.AddError("image_size_px", "needs [width, height]");
+  }
+  root.Required("K_px", &in.K);
+  std::vector<double> distortion;
+  root.Required("distortion", &distortion);
+  if (distortion.size() == 5) {
+    for (int i = 0; i < 5; ++i) in.distortion[i] = distortion[i];
+  } else {
+    root.AddError("distortion", "needs 5 terms: k1 k2 p1 p2 k3");
+  }
+  if (std::optional<ConfigNode> pose = root.OptionalChild("cam_from_rig")) {
+    Eigen::Matrix3d rotation;
+    Eigen::Vector3d translation;
+    pose->Required("rotation", &rotation);
+    pose->Required("translation_mm", &translation);
+    calibration.cam_from_rig = MakeRigid(rotation, translation);
+  }
+  const ConfigNode quality = root.Child("quality");
+  quality.Required("rms_px", &in.rms_px);
+  for (const ConfigNode& view : quality.Sequence("views")) {
+    std::string source;
+    double rms = 0;
+    view.Required("source", &source);
+    view.Required("rms_px", &rms);
+    calibration.view_sources.push_back(source);
+    in.per_view_rms_px.push_back(rms);
+  }
+  quality.Optional("skipped", &calibration.skipped);
+  const ConfigNode source = root.Child("source");
+  source.Required("from", &calibration.from);
+  source.Required("board", &calibration.board);
+  source.Ignore("loom_version");
+  source.Ignore("created");
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  if (calibration.cam_from_rig && !IsRigid(*calibration.cam_from_rig, 1e-6)) {
+    return InvalidArgumentError(path.string(), "cam_from_rig.rotation is not a rotation");
+  }
+  return calibration;
+}
+
+}  // namespace loom::calibration
