@@ -1,0 +1,159 @@
+#include "fitting/pixel_fitter.h"
+
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+#include <ceres/sphere_manifold.h>
+
+#include "fitting/internal/pixel_cost.h"
+
+#include <cmath>
+
+namespace loom::fitting {
+namespace {
+
+struct Blocks {
+  double n_s[3];
+  double a_d[3];
+  double a_s[3];
+  double sigma[2];
+  double alpha[1];
+  double f0[1];
+
+  explicit Blocks(const WardParams<double>& p)
+      : n_s{p.n_s.x(), p.n_s.y(), p.n_s.z()},
+        a_d{p.a_d.x(), p.a_d.y(), p.a_d.z()},
+        a_s{p.a_s.x(), p.a_s.y(), p.a_s.z()},
+        sigma{p.sigma_x, p.sigma_y},
+        alpha{p.alpha},
+        f0{p.f0} {}
+
+  WardParams<double> Params() const {
+    WardParams<double> p;
+    p.n_s = Eigen::Vector3d(n_s[0], n_s[1], n_s[2]).normalized();
+    p.a_d = Eigen::Vector3d(a_d[0], a_d[1], a_d[2]);
+    p.a_s = Eigen::Vector3d(a_s[0], a_s[1], a_s[2]);
+    p.sigma_x = sigma[0];
+    p.sigma_y = sigma[1];
+    // α and α + π are the same lobe: wrap into (−π/2, π/2].
+    p.alpha = alpha[0] - kPi * std::ceil((alpha[0] - kPi / 2) / kPi);
+    p.f0 = f0[0];
+    return p;
+  }
+};
+
+struct Start {
+  PixelFitResult result;
+  bool ok = false;
+};
+
+Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
+              const PixelFitOptions& options) {
+  Blocks blocks(initial);
+  ceres::CostFunction* cost = internal::MakePixelCost(usable, inverse_scale);
+  ceres::Problem problem;
+  problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber_scale), blocks.n_s, blocks.a_d, blocks.a_s,
+                           blocks.sigma, blocks.alpha, blocks.f0);
+  problem.SetManifold(blocks.n_s, new ceres::SphereManifold<3>());
+  for (int i = 0; i < 3; ++i) {
+    problem.SetParameterLowerBound(blocks.a_d, i, 0);
+    problem.SetParameterLowerBound(blocks.a_s, i, 0);
+  }
+  for (int i = 0; i < 2; ++i) {
+    problem.SetParameterLowerBound(blocks.sigma, i, kMinSigma);
+    problem.SetParameterUpperBound(blocks.sigma, i, kMaxSigma);
+  }
+  if (options.fixed_f0) {
+    blocks.f0[0] = *options.fixed_f0;
+    problem.SetParameterBlockConstant(blocks.f0);
+  } else {
+    problem.SetParameterLowerBound(blocks.f0, 0, 0);
+    problem.SetParameterUpperBound(blocks.f0, 0, 1);
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = 1;  // parallelism is over pixels
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  Start start;
+  start.ok = summary.IsSolutionUsable();
+  start.result.params = blocks.Params();
+  start.result.cost = summary.final_cost;
+  start.result.observations_used = static_cast<int>(usable.size());
+  start.result.iterations = static_cast<int>(summary.iterations.size());
+  start.result.converged = summary.termination_type == ceres::CONVERGENCE;
+  return start;
+}
+
+std::vector<WardParams<double>> Starts(const WardParams<double>& initial, bool multi_start) {
+  std::vector<WardParams<double>> starts = {initial};
+  if (!multi_start) return starts;
+  for (double turn : {kPi / 4, kPi / 2, 3 * kPi / 4}) {
+    WardParams<double> start = initial;
+    start.alpha += turn;
+    starts.push_back(start);
+  }
+  return starts;
+}
+
+}  // namespace
+
+Status PixelFitOptions::Check() const {
+  std::vector<std::string> problems;
+  if (max_iterations < 1) problems.push_back("max_iterations must be ≥ 1");
+  if (!(huber_scale > 0)) problems.push_back("huber_scale must be > 0");
+  if (fixed_f0 && !(*fixed_f0 >= 0 && *fixed_f0 <= 1)) problems.push_back("fixed_f0 must be in [0, 1]");
+  if (problems.empty()) return Status::Ok();
+  std::string message;
+  for (const std::string& problem : problems) message += (message.empty() ? "" : "; ") + problem;
+  return InvalidArgumentError("PixelFitOptions", message);
+}
+
+WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& observations) {
+  // a_d as if every observation were Lambertian under its lights: L = a·Σ E cos / π.
+  double measured = 0;
+  double lambert = 0;
+  for (const PixelObservation& o : observations) {
+    if (std::isnan(o.radiance)) continue;
+    double shading = 0;
+    for (const LightSample& light : o.lights) shading += light.irradiance * std::max(0.0, light.l_local.z()) / kPi;
+    measured += o.radiance;
+    lambert += shading * o.rgb_weights.sum();
+  }
+  WardParams<double> p;
+  p.a_d = Eigen::Vector3d::Constant(lambert > 0 ? std::clamp(0.5 * measured / lambert, 0.01, 1.0) : 0.3);
+  p.a_s = Eigen::Vector3d::Constant(0.1);
+  p.sigma_x = 0.2;
+  p.sigma_y = 0.2;
+  return p;
+}
+
+Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observations, const WardParams<double>& initial,
+                                const PixelFitOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  std::vector<PixelObservation> usable;
+  double sum = 0;
+  for (const PixelObservation& o : observations) {
+    if (std::isnan(o.radiance) || o.lights.empty()) continue;
+    usable.push_back(o);
+    sum += std::abs(o.radiance);
+  }
+  if (usable.size() < kNumWardParams) {
+    return FailedPreconditionError("pixel fit", std::to_string(usable.size()) + " usable observations, need at least " +
+                                                    std::to_string(kNumWardParams));
+  }
+  const double mean = sum / usable.size();
+  const double inverse_scale = mean > 0 ? 1 / mean : 1;
+  Start best;
+  for (const WardParams<double>& start : Starts(initial, options.multi_start)) {
+    Start fitted = FitFrom(usable, inverse_scale, start, options);
+    const int iterations = best.result.iterations + fitted.result.iterations;
+    if (fitted.ok && (!best.ok || fitted.result.cost < best.result.cost)) best = std::move(fitted);
+    best.result.iterations = iterations;
+  }
+  if (!best.ok) return InternalError("pixel fit", "Ceres found no usable solution from any start");
+  return best.result;
+}
+
+}  // namespace loom::fitting

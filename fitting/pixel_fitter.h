@@ -1,0 +1,83 @@
+#pragma once
+// The per-pixel Ceres fitter: one pixel's observations → its 13 GD10 Ward parameters.
+//
+// An observation is a radiance with the geometry that made it, in the pixel's local geometric
+// frame (x tangent, y bitangent, z geometric normal): the view direction, the colour weights
+// the camera records of RGB albedo (panchromatic or through a filter), and one or more light
+// samples (one for an LED, several for a segment of the linear light), each a direction and the
+// irradiance it brings (I / d², the cosine left to the model):
+//
+//   L = Σ_j E_j · (w·a_d / π + w·a_s · F(l_j·h) D(h)) · (n_s·l_j)
+//
+// Parameter blocks: n_s (unit, on ceres::SphereManifold<3>), a_d ≥ 0, a_s ≥ 0, (σx, σy) in
+// [kMinSigma, kMaxSigma], α (free; wrapped to (−π/2, π/2] after), F0 ∈ [0, 1]. Residuals are
+// radiances relative to the pixel's mean observed radiance, under a Huber loss, so a shadowed or
+// mis-registered observation cannot drag the fit. Observations with NaN radiance are skipped.
+// Derivatives: automatic (ceres::Jet), one dynamic residual block per pixel (the formulation
+// measured fastest in shared/docs/build-notes.md); checked by ceres::GradientChecker in tests.
+// Reentrant: fit different pixels on different threads.
+
+#include <optional>
+#include <vector>
+
+#include "core/status.h"
+#include "fitting/model/ward_gd10.h"
+
+namespace loom::fitting {
+
+struct LightSample {
+  Eigen::Vector3d l_local;   // unit, towards the light
+  double irradiance = 0;     // I / d² at the pixel, radiance units
+};
+
+struct PixelObservation {
+  double radiance = 0;                                      // NaN: masked (unseen, shadowed)
+  Eigen::Vector3d v_local = Eigen::Vector3d::UnitZ();       // unit, towards the camera
+  Eigen::Vector3d rgb_weights = Eigen::Vector3d::Constant(1.0 / 3);
+  std::vector<LightSample> lights;
+};
+
+// The model's prediction for one observation.
+template <typename T>
+T PredictRadiance(const WardLobe<T>& lobe, const PixelObservation& observation) {
+  const Vec3<T> v = observation.v_local.cast<T>();
+  const Vec3<T> w = observation.rgb_weights.cast<T>();
+  const T diffuse_albedo = w.dot(lobe.params().a_d);
+  const T specular_albedo = w.dot(lobe.params().a_s);
+  T radiance = T(0);
+  for (const LightSample& light : observation.lights) {
+    const WardTerms<T> terms = lobe.Terms(light.l_local.cast<T>(), v);
+    radiance += T(light.irradiance) * (diffuse_albedo * terms.diffuse + specular_albedo * terms.specular) * terms.cos_l;
+  }
+  return radiance;
+}
+
+struct PixelFitOptions {
+  int max_iterations = 50;       // per start
+  double huber_scale = 0.5;      // of the residual, in units of the pixel's mean radiance
+  bool multi_start = true;       // also start from 3 more anisotropy angles (α local minima)
+  // F0 held at this value instead of fitted. Away from grazing angles the observations fix
+  // only a_s · F(l·h) ≈ a_s · F0, so Pantora fits one F0 per material; so can we.
+  std::optional<double> fixed_f0;
+  // Check(): every problem, each naming the field.
+  Status Check() const;
+};
+
+struct PixelFitResult {
+  WardParams<double> params;
+  double cost = 0;           // Ceres' final cost (½ Σ ρ(r²)) of the best start
+  int observations_used = 0;
+  int iterations = 0;        // over all starts
+  bool converged = false;
+};
+
+// Fits from `initial` (and, with multi_start, from α + 45°, 90°, 135°; α + 90° is the start
+// with σx and σy swapped): the start with the lowest cost wins. Fewer than 13 usable observations is an error.
+Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observations, const WardParams<double>& initial,
+                                const PixelFitOptions& options = {});
+
+// A neutral start from the observations alone: n_s = z, a_d from the mean radiance as if
+// Lambertian, a small grey a_s, σ = 0.2, α = 0, F0 = 1.
+WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& observations);
+
+}  // namespace loom::fitting

@@ -1,0 +1,209 @@
+// The per-pixel fitter on the observations tac7-mini makes of one flat pixel at the sample's
+// centre: 2 cameras × 12 LEDs × 3 turntable angles, the filtered LEDs through 4 filters, and 16
+// positions of the linear light — with the simulator's colour weights.
+#include "fitting/pixel_fitter.h"
+
+#include <ceres/gradient_checker.h>
+#include <ceres/manifold.h>
+#include <ceres/sphere_manifold.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "core/config.h"
+#include "fitting/internal/pixel_cost.h"
+#include "sim/spectra.h"
+
+namespace loom::fitting {
+namespace {
+
+RigModel TacMini() {
+  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
+  EXPECT_TRUE(doc.ok());
+  return ReadRigModel(doc->root().Child("geometry"));
+}
+
+LightSample PointLight(const Eigen::Vector3d& light_in_sample, double intensity) {
+  return {light_in_sample.normalized(), intensity / light_in_sample.squaredNorm()};
+}
+
+// Observations of the sample-frame origin (flat: local frame = sample frame).
+std::vector<PixelObservation> Geometry(const RigModel& rig) {
+  std::vector<PixelObservation> observations;
+  for (double angle : {0.0, 120.0, 240.0}) {
+    const Rigid3d sample_from_rig = rig.turntable.RigFromSample(angle).inverse();
+    const Eigen::Vector3d origin_in_rig = rig.turntable.RigFromSample(angle).translation();
+    for (const CameraModel& camera : rig.cameras) {
+      const Eigen::Vector3d v = (sample_from_rig * camera.CentreInRig()).normalized();
+      for (const LedModel& led : rig.leds) {
+        observations.push_back({0, v, sim::PanchromaticWeights(),
+                                {PointLight(sample_from_rig * led.position_mm, led.IntensityTowards(origin_in_rig, 1000))}});
+      }
+      if (angle == 0) {
+        for (const FilterWheelModel& wheel : rig.filter_wheels) {
+          const LedModel& led = rig.leds[wheel.led];
+          for (const FilterModel& filter : wheel.filters) {
+            observations.push_back({0, v, sim::FilterWeights(filter),
+                                    {PointLight(sample_from_rig * led.position_mm, led.IntensityTowards(origin_in_rig, 1000))}});
+          }
+        }
+      }
+      const LinearLightModel& strip = *rig.linear_light;
+      for (int k = 0; k < 16; ++k) {
+        const double position = strip.travel_mm * k / 15;
+        PixelObservation o{0, v, sim::PanchromaticWeights(), {}};
+        const double segment_mm = strip.strip_length_mm / strip.segments;
+        for (int s = 0; s < strip.segments; ++s) {
+          const Eigen::Vector3d source = strip.StripCentre(position) +
+                                         strip.sweep_axis * ((s + 0.5) * segment_mm - strip.strip_length_mm / 2);
+          const double c = strip.StripNormal(position).dot((origin_in_rig - source).normalized());
+          if (c <= 0) continue;
+          o.lights.push_back(PointLight(sample_from_rig * source,
+                                        strip.intensity_per_mm * segment_mm * std::pow(c, strip.falloff_exponent)));
+        }
+        observations.push_back(std::move(o));
+      }
+    }
+  }
+  return observations;
+}
+
+WardParams<double> Truth() {
+  WardParams<double> p;
+  p.n_s = Eigen::Vector3d(0.12, -0.06, 1).normalized();
+  p.a_d = {0.35, 0.2, 0.08};
+  p.a_s = {0.25, 0.22, 0.2};
+  p.sigma_x = 0.12;
+  p.sigma_y = 0.3;
+  p.alpha = 0.5;
+  p.f0 = 0.6;
+  return p;
+}
+
+std::vector<PixelObservation> Observe(const WardParams<double>& truth, double relative_noise, uint32_t seed) {
+  std::vector<PixelObservation> observations = Geometry(TacMini());
+  const WardLobe<double> lobe(truth);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0, relative_noise);
+  for (PixelObservation& o : observations) o.radiance = PredictRadiance(lobe, o) * (1 + noise(rng));
+  return observations;
+}
+
+// σx ↔ σy with α + 90° is (for n_s near z, nearly) the same lobe: compare in either form.
+void ExpectSameLobe(const WardParams<double>& fit, const WardParams<double>& truth, double sigma_tolerance, double alpha_deg) {
+  const bool swapped = std::abs(fit.sigma_x - truth.sigma_x) > std::abs(fit.sigma_x - truth.sigma_y);
+  const double sigma_x = swapped ? fit.sigma_y : fit.sigma_x;
+  const double sigma_y = swapped ? fit.sigma_x : fit.sigma_y;
+  EXPECT_NEAR(sigma_x, truth.sigma_x, sigma_tolerance * truth.sigma_x) << (swapped ? "(swapped)" : "");
+  EXPECT_NEAR(sigma_y, truth.sigma_y, sigma_tolerance * truth.sigma_y) << (swapped ? "(swapped)" : "");
+  // α is defined modulo π (and modulo π/2 with the swap).
+  const double period = kPi;
+  double difference = std::fmod(fit.alpha + (swapped ? kPi / 2 : 0) - truth.alpha, period);
+  if (difference > period / 2) difference -= period;
+  if (difference < -period / 2) difference += period;
+  EXPECT_LT(std::abs(RadToDeg(difference)), alpha_deg);
+}
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return RadToDeg(std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)));
+}
+
+TEST(PixelFitterTest, TheCostsDerivativesPassCeresGradientChecker) {
+  const std::vector<PixelObservation> observations = Observe(Truth(), 0, 1);
+  std::unique_ptr<ceres::CostFunction> cost(internal::MakePixelCost(observations, 0.1));
+  ceres::SphereManifold<3> sphere;
+  const std::vector<const ceres::Manifold*> manifolds = {&sphere, nullptr, nullptr, nullptr, nullptr, nullptr};
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-4;  // the default 1e-2 steps across the narrow highlights
+  ceres::GradientChecker checker(cost.get(), &manifolds, numeric);
+  const WardParams<double> p = Truth();
+  for (double perturb : {0.0, 0.05}) {
+    double n_s[3] = {p.n_s.x() + perturb, p.n_s.y(), p.n_s.z()};
+    Eigen::Map<Eigen::Vector3d>(n_s).normalize();
+    double a_d[3] = {p.a_d.x(), p.a_d.y() + perturb, p.a_d.z()};
+    double a_s[3] = {p.a_s.x(), p.a_s.y(), p.a_s.z() + perturb};
+    double sigma[2] = {p.sigma_x + perturb, p.sigma_y};
+    double alpha[1] = {p.alpha - perturb};
+    double f0[1] = {p.f0 + perturb};
+    const double* blocks[] = {n_s, a_d, a_s, sigma, alpha, f0};
+    ceres::GradientChecker::ProbeResults results;
+    checker.Probe(blocks, 1e-6, &results);
+    // Probe's own verdict is per entry and relative: entries of 1e-16 (deep in the lobe's tail)
+    // fail it on numeric noise alone. Judge each Jacobian against its largest entry instead.
+    for (size_t b = 0; b < results.local_jacobians.size(); ++b) {
+      const Eigen::MatrixXd& user = results.local_jacobians[b];
+      const Eigen::MatrixXd& numeric_jacobian = results.local_numeric_jacobians[b];
+      const double scale = numeric_jacobian.cwiseAbs().maxCoeff();
+      EXPECT_LT((user - numeric_jacobian).cwiseAbs().maxCoeff(), 1e-6 * scale) << "block " << b << ", perturbation " << perturb;
+    }
+  }
+}
+
+TEST(PixelFitterTest, RecoversAnAnisotropicPixelFromAGenericStart) {
+  const WardParams<double> truth = Truth();
+  const std::vector<PixelObservation> observations = Observe(truth, 0.01, 7);
+  PixelFitOptions options;
+  options.fixed_f0 = truth.f0;  // one F0 per material, as Pantora fits it
+  const Result<PixelFitResult> fit = FitPixel(observations, GenericInitialParams(observations), options);
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  const WardParams<double>& p = fit->params;
+  EXPECT_LT(AngleDeg(p.n_s, truth.n_s), 1.0);
+  EXPECT_LT((p.a_d - truth.a_d).cwiseAbs().maxCoeff(), 0.02);
+  EXPECT_LT((p.a_s - truth.a_s).cwiseAbs().maxCoeff(), 0.03);
+  ExpectSameLobe(p, truth, 0.1, 5);
+  EXPECT_EQ(fit->observations_used, static_cast<int>(observations.size()));
+}
+
+TEST(PixelFitterTest, WithF0FreeTheObservableSpecularProductIsRecovered) {
+  const WardParams<double> truth = Truth();
+  const std::vector<PixelObservation> observations = Observe(truth, 0.01, 7);
+  const Result<PixelFitResult> fit = FitPixel(observations, GenericInitialParams(observations));
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_LT((fit->params.a_s * fit->params.f0 - truth.a_s * truth.f0).cwiseAbs().maxCoeff(), 0.01);
+  EXPECT_LT((fit->params.a_d - truth.a_d).cwiseAbs().maxCoeff(), 0.02);
+  ExpectSameLobe(fit->params, truth, 0.1, 5);
+}
+
+TEST(PixelFitterTest, ShadowedObservationsAreOutliersTheFitSurvives) {
+  const WardParams<double> truth = Truth();
+  std::vector<PixelObservation> observations = Observe(truth, 0.01, 8);
+  // Every 10th monochrome observation in shadow: black, though the model lights it. (The colour
+  // observations are left alone: each filter is seen twice only, so a shadowed one could not
+  // be told from a colour.)
+  for (size_t k = 0; k < observations.size(); k += 10) {
+    if (observations[k].rgb_weights == sim::PanchromaticWeights()) observations[k].radiance = 0;
+  }
+  PixelFitOptions options;
+  options.fixed_f0 = truth.f0;
+  const Result<PixelFitResult> fit = FitPixel(observations, GenericInitialParams(observations), options);
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_LT(AngleDeg(fit->params.n_s, truth.n_s), 3.0);
+  // The brightness of the diffuse albedo survives; its colour (fixed by 16 filtered
+  // observations only) does not yet: blue comes out at its bound 0 here. Clustering pixels to
+  // pool colour observations (the paper's initialisation) is the planned remedy.
+  const Eigen::Vector3d w = sim::PanchromaticWeights();
+  EXPECT_NEAR(w.dot(fit->params.a_d), w.dot(truth.a_d), 0.02) << fit->params.a_d.transpose();
+}
+
+TEST(PixelFitterTest, MaskedObservationsAreSkippedAndTooFewAreAnError) {
+  std::vector<PixelObservation> observations = Observe(Truth(), 0, 9);
+  const size_t total = observations.size();
+  for (size_t k = 0; k < total; k += 2) observations[k].radiance = std::nan("");
+  const Result<PixelFitResult> fit = FitPixel(observations, GenericInitialParams(observations));
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_EQ(fit->observations_used, static_cast<int>(total / 2));
+  observations.resize(24);
+  const Result<PixelFitResult> few = FitPixel(observations, GenericInitialParams(observations));
+  ASSERT_FALSE(few.ok());
+  EXPECT_NE(few.status().message().find("12 usable observations, need at least 13"), std::string::npos)
+      << few.status().ToString();
+  PixelFitOptions bad;
+  bad.max_iterations = 0;
+  bad.huber_scale = -1;
+  const Status check = bad.Check();
+  EXPECT_NE(check.message().find("max_iterations"), std::string::npos);
+  EXPECT_NE(check.message().find("huber_scale"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace loom::fitting
