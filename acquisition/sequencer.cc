@@ -31,7 +31,7 @@ DarkLevel MeasureDarkLevel(const hal::RawFrame& dark) {
   for (uint16_t v : values) deviations.push_back(std::abs(v - median));
   const auto mid_deviation = deviations.begin() + deviations.size() / 2;
   std::nth_element(deviations.begin(), mid_deviation, deviations.end());
-  // A 12-bit reading quantises to 1 DN: the spread is never below its 1/sqrt(12).
+  // Readings quantise to 1 DN: the spread is never below the quantisation's 1/sqrt(12).
   return {median, std::max(1.4826 * *mid_deviation, 0.29)};
 }
 
@@ -169,20 +169,22 @@ std::pair<double, double> Sequencer::BlackAndFloor(const std::string& camera) co
   return {options_.black_level_dn, options_.noise_floor_dn};
 }
 
-Status Sequencer::CaptureDark(const Step& step) {
-  if (!store_.StepDone(step.index)) LOOM_RETURN_IF_ERROR(ApplyStep(step));
+Status Sequencer::MeasureDark(const Step& step) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
   for (const hal::RawFrame& frame : frames) {
-    dark_[frame.metadata.camera] = MeasureDarkLevel(frame);
-    LOOM_LOG(Info) << frame.metadata.camera << ": black level " << dark_[frame.metadata.camera].black_dn << " DN, noise "
-                   << dark_[frame.metadata.camera].noise_dn << " DN";
+    const DarkLevel level = MeasureDarkLevel(frame);
+    dark_[frame.metadata.camera] = level;
+    LOOM_LOG(Info) << frame.metadata.camera << ": black level " << level.black_dn << " DN, noise " << level.noise_dn << " DN";
   }
-  return store_.StepDone(step.index) ? Status::Ok() : store_.MarkStepDone(step.index);
+  return Status::Ok();
 }
 
 Status Sequencer::CaptureStep(const Step& step) {
-  if (step.kind == StepKind::kDark) return CaptureDark(step);
   LOOM_RETURN_IF_ERROR(ApplyStep(step));
+  if (step.kind == StepKind::kDark) {
+    LOOM_RETURN_IF_ERROR(MeasureDark(step));
+    return store_.MarkStepDone(step.index);
+  }
   LOOM_ASSIGN_OR_RETURN(hal::Camera* first, FindCamera(step.cameras.front()));
   const double min_us = first->capabilities().exposure_min_us;
   const double max_us = first->capabilities().exposure_max_us;
@@ -231,9 +233,11 @@ Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) 
   const int already = store_.steps_done();
   int done_now = 0;
   for (const Step& step : plan_.steps) {
-    // A resumed scan reads its stored dark frames again: the brackets to come depend on them.
-    if (store_.StepDone(step.index) && step.kind == StepKind::kDark) LOOM_RETURN_IF_ERROR(CaptureDark(step));
-    if (store_.StepDone(step.index)) continue;
+    if (store_.StepDone(step.index)) {
+      // A resumed scan reads its stored dark frames again: the brackets to come depend on them.
+      if (step.kind == StepKind::kDark) LOOM_RETURN_IF_ERROR(MeasureDark(step));
+      continue;
+    }
     if (InterruptRequested()) return CancelledError("scan", "interrupted before step " + std::to_string(step.index));
     LOOM_RETURN_IF_ERROR(CaptureStep(step));
     ++done_now;

@@ -53,12 +53,15 @@ class Sequencer {
   Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options = {});
   // Brings the rig up (open, configure, start) and runs every step not yet done.
   Status Run(const std::function<void(const ScanProgress&)>& progress = nullptr);
+  // Each camera's dark level from the plan's dark step (empty before it, or without one).
+  const std::map<std::string, DarkLevel>& dark_levels() const { return dark_; }
 
  private:
   Status ApplyStep(const Step& step);
   Status CaptureStep(const Step& step);
-  // A dark step: one exposure, no bracket; sets the cameras' black levels and noise floors.
-  Status CaptureDark(const Step& step);
+  // A dark step's one exposure (no bracket), captured or read back from the store: sets the
+  // cameras' black levels and noise floors.
+  Status MeasureDark(const Step& step);
   // Black level and, above it, the weakest usable reading of `camera`.
   std::pair<double, double> BlackAndFloor(const std::string& camera) const;
   // One frame of every camera of `step` at `exposure_us`: read back when stored, else captured.

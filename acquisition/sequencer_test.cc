@@ -26,11 +26,8 @@ class SequencerTest : public ::testing::Test {
     model_.name = "tac7-mini";
     world_ = std::make_shared<hal::SimWorld>(
         std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
-    hal::BackendRegistry registry;
-    hal::RegisterSimBackends(registry, world_);
-    auto rig = hal::Rig::Create(doc->root().Child("devices"), registry, "tac7-mini");
-    ASSERT_TRUE(rig.ok()) << rig.status().ToString();
-    rig_ = std::move(*rig);
+    rig_ = MakeRig();
+    ASSERT_NE(rig_, nullptr);
     Preset preset;
     preset.name = "tiny";
     preset.turntable_deg = {0};
@@ -40,6 +37,16 @@ class SequencerTest : public ::testing::Test {
     preset.gray_bits = 1;
     preset.phase_steps = 1;
     plan_ = *MakeMaterialPlan(model_, preset);
+  }
+
+  // The sim rig on world_, as a new `loom scan` process would load it.
+  std::unique_ptr<hal::Rig> MakeRig() {
+    auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
+    hal::BackendRegistry registry;
+    hal::RegisterSimBackends(registry, world_);
+    auto rig = hal::Rig::Create(doc->root().Child("devices"), registry, "tac7-mini");
+    EXPECT_TRUE(rig.ok()) << rig.status().ToString();
+    return rig.ok() ? std::move(*rig) : nullptr;
   }
 
   CaptureStore NewStore() {
@@ -98,17 +105,27 @@ TEST(DarkLevelTest, MedianAndRobustSpreadIgnoreHotPixels) {
 }
 
 TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
-  CaptureStore store = NewStore();
-  Sequencer sequencer(*rig_, plan_, store);
-  ASSERT_TRUE(sequencer.Run().ok());
   ASSERT_EQ(plan_.steps.front().kind, StepKind::kDark);
-  for (const FrameRecord& record : store.records()) {
-    if (record.key.step != 0) continue;
-    const DarkLevel level = MeasureDarkLevel(*store.ReadFrame(record));
-    EXPECT_NEAR(level.black_dn, model_.cameras[0].sensor.dark_offset_dn, 1) << record.file;
-    EXPECT_GT(level.noise_dn, 0.29) << record.file;
-    EXPECT_LT(level.noise_dn, 3) << record.file;  // 2.5 e- read noise at ~2.4 e-/DN
+  {
+    CaptureStore store = NewStore();
+    Sequencer sequencer(*rig_, plan_, store);
+    ASSERT_TRUE(sequencer.Run().ok());
+    ASSERT_EQ(sequencer.dark_levels().size(), model_.cameras.size());
+    for (const auto& [camera, level] : sequencer.dark_levels()) {
+      EXPECT_NEAR(level.black_dn, model_.cameras[0].sensor.dark_offset_dn, 1) << camera;
+      EXPECT_GT(level.noise_dn, 0.29) << camera;
+      EXPECT_LT(level.noise_dn, 3) << camera;  // 2.5 e- read noise at ~2.4 e-/DN
+    }
   }
+  // Resumed by a new process (here: with every step done), the levels come from the stored
+  // dark frames.
+  Result<CaptureStore> reopened = CaptureStore::Open(dir_, /*repair=*/true);
+  ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
+  const std::unique_ptr<hal::Rig> fresh_rig = MakeRig();
+  Sequencer resumed(*fresh_rig, plan_, *reopened);
+  const Status done = resumed.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  EXPECT_EQ(resumed.dark_levels().size(), model_.cameras.size());
 }
 
 }  // namespace

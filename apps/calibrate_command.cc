@@ -24,7 +24,7 @@ Result<std::vector<std::string>> ExpandGlob(const std::string& pattern) {
   return files;
 }
 
-Status Intrinsics(const std::string& images, const std::string& board_text, const std::string& name,
+Status CalibrateFromPhotos(const std::string& images, const std::string& board_text, const std::string& name,
                   const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(const calibration::BoardSpec board, calibration::ParseBoardSpec(board_text));
   LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> files, ExpandGlob(images));
@@ -61,7 +61,7 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--out", out, "Calibration YAML to write")->required();
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   Status done;
-  if (*intrinsics) done = Intrinsics(images, board, name, out);
+  if (*intrinsics) done = CalibrateFromPhotos(images, board, name, out);
   return done.ok() ? kExitOk : ReportFailure(done);
 }
 

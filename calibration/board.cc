@@ -50,7 +50,7 @@ std::optional<std::vector<Eigen::Vector2d>> FindBoardCorners(const cv::Mat& grey
   for (const cv::Point2f& p : found) corners.emplace_back(p.x, p.y);
   // A symmetric board is found in either of two orders (rotated by 180°): start from the
   // corner nearest the image's top-left so that the same view always numbers corners alike.
-  if ((corners.front() - Eigen::Vector2d::Zero()).norm() > (corners.back() - Eigen::Vector2d::Zero()).norm()) {
+  if (corners.front().norm() > corners.back().norm()) {
     std::reverse(corners.begin(), corners.end());
   }
   return corners;
