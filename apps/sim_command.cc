@@ -11,7 +11,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "acquisition/plan.h"
 #include "apps/command.h"
+#include "apps/plan_observations.h"
+#include "core/observation_stack.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
@@ -144,24 +147,31 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
 }
 
 // One raw frame (and its radiance) of a simulated rig's camera, or the fast-path stack.
+// The fast-path stack of the observations a material plan with `preset` makes.
+int RenderStack(const LoadedRig& loaded, const std::string& preset_name, const fs::path& out) {
+  const sim::Scene& scene = *loaded.world->scene;
+  Result<acquisition::Preset> preset = acquisition::LoadPreset(ResolvePresetPath(preset_name));
+  if (!preset.ok()) return ReportFailure(preset.status());
+  Result<acquisition::Plan> plan = acquisition::MakeMaterialPlan(scene.rig(), *preset);
+  if (!plan.ok()) return ReportFailure(plan.status());
+  Result<std::vector<sim::Observation>> observations = PlanObservations(scene.rig(), *plan);
+  if (!observations.ok()) return ReportFailure(observations.status());
+  const ObservationStack stack = sim::RenderStack(scene, *observations, {});
+  if (Status written = WriteObservationStack(out, stack); !written.ok()) return ReportFailure(written);
+  std::cout << "wrote " << out.string() << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
+            << observations->size() << " observations (preset " << preset->name << ")\n";
+  return kExitOk;
+}
+
 int Render(const std::string& rig_path, const std::string& camera_name, const std::string& leds, double angle_deg,
-           double exposure_us, bool stack, const fs::path& out) {
+           double exposure_us, bool stack, const std::string& preset, const fs::path& out) {
   Result<LoadedRig> loaded = LoadRig(rig_path);
   if (!loaded.ok()) return ReportFailure(loaded.status());
   if (!loaded->world) {
     return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
   }
+  if (stack) return RenderStack(*loaded, preset, out);
   const sim::Scene& scene = *loaded->world->scene;
-  if (stack) {
-    const std::vector<sim::Observation> observations = sim::DefaultObservations(scene.rig(), {0, 120, 240});
-    const Image image = sim::RenderStack(scene, observations, {});
-    if (Status written = sim::WriteStack(out, image, scene.rig(), observations, scene.material().pixel_mm); !written.ok()) {
-      return ReportFailure(written);
-    }
-    std::cout << "wrote " << out.string() << ": " << image.width() << "x" << image.height() << " px, "
-              << observations.size() << " observations\n";
-    return kExitOk;
-  }
   int camera = -1;
   for (size_t i = 0; i < scene.rig().cameras.size(); ++i) {
     if (scene.rig().cameras[i].name == camera_name) camera = static_cast<int>(i);
@@ -210,6 +220,7 @@ int RunSim(int argc, char** argv) {
   std::string rig_path, camera = "cam0", leds = "0:1000";
   double angle_deg = 0, exposure_us = 10000;
   bool stack = false;
+  std::string preset = "low";
   CLI::App* render = app.add_subcommand("render", "Render one camera frame (radiance + raw DN) or, with --stack, "
                                                   "the fast-path observation stack");
   render->add_option("--rig", rig_path, "Simulated rig YAML (with geometry:)")->required();
@@ -218,6 +229,7 @@ int RunSim(int argc, char** argv) {
   render->add_option("--turntable-deg", angle_deg, "Turntable angle");
   render->add_option("--exposure-us", exposure_us, "Exposure of the raw frame");
   render->add_flag("--stack", stack, "Render the observation stack in the top-view frame instead");
+  render->add_option("--preset", preset, "With --stack: the gloss preset whose material plan gives the observations");
   render->add_option("--out", out, "Output EXR")->required();
   int seeds = 200;
   std::string json_path;
@@ -227,7 +239,7 @@ int RunSim(int argc, char** argv) {
   stats->add_option("--json", json_path, "Also write the histograms as JSON");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (*stats) return Stats(seeds, size_px, json_path);
-  if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, out);
+  if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, preset, out);
   return Material(kind, seed, size_px, pixel_mm, out);
 }
 

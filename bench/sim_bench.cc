@@ -55,9 +55,9 @@ void BM_FastPathStack(benchmark::State& state) {
   const auto observations = loom::sim::DefaultObservations(scene.rig(), {0, 120, 240});
   int64_t values = 0;
   for (auto _ : state) {
-    const loom::Image stack = loom::sim::RenderStack(scene, observations, {.threads = static_cast<int>(state.range(0))});
-    benchmark::DoNotOptimize(stack.data());
-    values += static_cast<int64_t>(stack.pixel_count() * observations.size());
+    const loom::ObservationStack stack = loom::sim::RenderStack(scene, observations, {.threads = static_cast<int>(state.range(0))});
+    benchmark::DoNotOptimize(stack.image.data());
+    values += static_cast<int64_t>(stack.image.pixel_count() * observations.size());
   }
   state.SetItemsProcessed(values);  // pixel-observations
 }

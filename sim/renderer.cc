@@ -66,8 +66,7 @@ Scene::Scene(RigModel rig, Material material) : rig_(std::move(rig)), material_(
     const auto plane = material_.maps.channel(*height_channel);
     std::copy(plane.begin(), plane.end(), heights.begin());
   }
-  height_.assign(heights.begin(), heights.end());
-  max_height_ = heights.empty() ? 0 : *std::max_element(heights.begin(), heights.end());
+  heightmap_ = Heightmap(std::vector<float>(heights.begin(), heights.end()), w, h, material_.pixel_mm);
   double blur_mm = 1.0;
   if (auto it = material_.provenance.find("loom.geometric_blur_mm");
       it != material_.provenance.end() && std::holds_alternative<double>(it->second)) {
@@ -86,21 +85,7 @@ std::optional<int> Scene::MapPixel(double x_mm, double y_mm) const {
   return y * material_.width() + x;
 }
 
-double Scene::HeightAt(double x_mm, double y_mm) const {
-  if (max_height_ <= 0) return 0;
-  // Bilinear between pixel centres, so the surface is continuous for ray marching.
-  const double gx = x_mm / material_.pixel_mm + material_.width() / 2.0 - 0.5;
-  const double gy = y_mm / material_.pixel_mm + material_.height() / 2.0 - 0.5;
-  const int x0 = static_cast<int>(std::floor(gx));
-  const int y0 = static_cast<int>(std::floor(gy));
-  const double fx = gx - x0;
-  const double fy = gy - y0;
-  const auto at = [&](int x, int y) -> double {
-    if (x < 0 || y < 0 || x >= material_.width() || y >= material_.height()) return 0.0;
-    return height_[static_cast<size_t>(y) * material_.width() + x];
-  };
-  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
-}
+double Scene::HeightAt(double x_mm, double y_mm) const { return heightmap_.HeightAt(x_mm, y_mm); }
 
 Eigen::Vector3d Scene::GeometricNormalAt(double x_mm, double y_mm) const {
   const std::optional<int> pixel = MapPixel(x_mm, y_mm);
@@ -109,11 +94,11 @@ Eigen::Vector3d Scene::GeometricNormalAt(double x_mm, double y_mm) const {
 
 std::optional<Eigen::Vector3d> Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const {
   if (direction.z() >= 0) return std::nullopt;
-  const double top = max_height_ + 1e-6;
+  const double top = heightmap_.max_height_mm() + 1e-6;
   const double t_top = std::max(0.0, (top - origin.z()) / direction.z());
   const double t_bottom = -origin.z() / direction.z();
   Eigen::Vector3d hit = origin + t_bottom * direction;
-  if (max_height_ > 0) {
+  if (heightmap_.max_height_mm() > 0) {
     const double horizontal = std::max(direction.head<2>().norm(), 1e-9);
     const double dt = 0.5 * material_.pixel_mm / horizontal;
     double previous = t_top;
@@ -139,17 +124,8 @@ std::optional<Eigen::Vector3d> Scene::Intersect(const Eigen::Vector3d& origin, c
 }
 
 bool Scene::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) const {
-  if (max_height_ <= 0) return false;
-  const Eigen::Vector3d s = (light - p).normalized();
-  if (s.z() <= 0) return true;
-  const double t_max = (max_height_ - p.z()) / s.z();
-  const double horizontal = std::max(s.head<2>().norm(), 1e-9);
-  const double dt = 0.5 * material_.pixel_mm / horizontal;
-  for (double t = std::min(dt, t_max) * 0.5; t < t_max; t += dt) {
-    const Eigen::Vector3d q = p + t * s;
-    if (q.z() < HeightAt(q.x(), q.y()) - 1e-4) return true;
-  }
-  return false;
+  // A flat material casts no shadow (a light below its horizon gets cos ≤ 0 from the BRDF).
+  return heightmap_.max_height_mm() > 0 && heightmap_.Shadowed(p, light);
 }
 
 double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,

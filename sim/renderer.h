@@ -15,6 +15,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/heightmap.h"
 #include "core/image.h"
 #include "fitting/model/ward_gd10.h"
 #include "sim/material.h"
@@ -87,9 +88,8 @@ class Scene {
 
   RigModel rig_;
   Material material_;
-  std::vector<float> height_;               // mm, from the material's height channel
+  Heightmap heightmap_;                     // from the material's height channel
   std::vector<Eigen::Matrix3d> frames_;     // world_from_local per map pixel (geometric frame)
-  double max_height_ = 0;
   Eigen::Vector3d panchromatic_;
 
   // Radiance at `p` from one point source at `light` (sample frame) of radiant intensity

@@ -1,35 +1,14 @@
 #include "sim/stack.h"
 
 #include <cmath>
-#include <iomanip>
 #include <limits>
 #include <sstream>
 #include <thread>
 
-#include "core/version.h"
+#include "core/check.h"
+#include "sim/spectra.h"
 
 namespace loom::sim {
-namespace {
-
-std::vector<std::string> StackChannels(size_t observations) {
-  std::vector<std::string> names = {"pos.X", "pos.Y", "pos.Z", "normal.X", "normal.Y", "normal.Z"};
-  for (size_t i = 0; i < observations; ++i) {
-    std::ostringstream name;
-    name << "obs" << std::setw(4) << std::setfill('0') << i;
-    names.push_back(name.str());
-  }
-  return names;
-}
-
-std::string FormatPoint(const Eigen::Vector3d& p) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(2) << "[" << (std::abs(p.x()) < 5e-3 ? 0.0 : p.x()) << ", "
-      << (std::abs(p.y()) < 5e-3 ? 0.0 : p.y()) << ", " << (std::abs(p.z()) < 5e-3 ? 0.0 : p.z()) << "]";
-  return out.str();
-}
-
-}  // namespace
-
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg) {
   std::vector<Observation> observations;
   for (double angle : turntable_deg) {
@@ -49,33 +28,83 @@ std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vec
   return observations;
 }
 
-std::string DescribeObservations(const RigModel& rig, const std::vector<Observation>& observations) {
-  std::ostringstream out;
-  for (size_t i = 0; i < observations.size(); ++i) {
-    const Observation& o = observations[i];
-    const Eigen::Vector3d eye = rig.cameras.at(o.camera).CentreInRig();
-    out << "obs" << std::setw(4) << std::setfill('0') << i << std::setfill(' ') << ": camera "
-        << rig.cameras.at(o.camera).name << " at " << FormatPoint(eye) << " mm, turntable " << o.state.turntable_deg
-        << " deg, leds";
-    for (const LitLed& led : o.state.leds) {
-      out << " " << led.led << "@" << led.current_ma << "mA at " << FormatPoint(rig.leds.at(led.led).position_mm) << " mm";
+namespace {
+
+// The colour weights of a lit LED: through its wheel's filter if one is in, else panchromatic.
+Eigen::Vector3d LedWeights(const RigModel& rig, const SceneState& state, int led) {
+  for (size_t w = 0; w < rig.filter_wheels.size(); ++w) {
+    const auto slot = state.filter_slots.find(static_cast<int>(w));
+    const FilterWheelModel& wheel = rig.filter_wheels[w];
+    if (wheel.led == led && slot != state.filter_slots.end() && slot->second >= 0 &&
+        slot->second < static_cast<int>(wheel.filters.size())) {
+      return FilterWeights(wheel.filters[slot->second]);
     }
-    for (const auto& [wheel, slot] : o.state.filter_slots) {
-      out << ", " << rig.filter_wheels.at(wheel).name << " slot " << slot << " ("
-          << rig.filter_wheels.at(wheel).filters.at(slot).center_nm << " nm)";
-    }
-    out << "\n";
   }
+  return PanchromaticWeights();
+}
+
+std::string Describe(const RigModel& rig, const Observation& o) {
+  std::ostringstream out;
+  out << rig.cameras.at(o.camera).name << ", turntable " << o.state.turntable_deg << " deg";
+  for (const LitLed& led : o.state.leds) out << ", led " << led.led << " at " << led.current_ma << " mA";
+  for (const auto& [wheel, slot] : o.state.filter_slots) {
+    out << ", " << rig.filter_wheels.at(wheel).name << " slot " << slot << " ("
+        << rig.filter_wheels.at(wheel).filters.at(slot).center_nm << " nm)";
+  }
+  if (o.state.linear_light_on) out << ", linear light at " << o.state.linear_light_mm << " mm";
   return out.str();
 }
 
-Image RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options) {
+}  // namespace
+
+StackObservation DescribeObservation(const RigModel& rig, const Observation& observation) {
+  const SceneState& state = observation.state;
+  const Rigid3d sample_from_rig = rig.turntable.RigFromSample(state.turntable_deg).inverse();
+  StackObservation o;
+  o.camera = rig.cameras.at(observation.camera).name;
+  o.camera_mm = sample_from_rig * rig.cameras.at(observation.camera).CentreInRig();
+  o.turntable_deg = state.turntable_deg;
+  o.rgb_weights = PanchromaticWeights();
+  o.description = Describe(rig, observation);
+  bool weights_set = false;
+  for (const LitLed& lit : state.leds) {
+    const LedModel& led = rig.leds.at(lit.led);
+    const Eigen::Vector3d weights = LedWeights(rig, state, lit.led);
+    LOOM_CHECK(!weights_set || weights == o.rgb_weights) << "observation mixes LEDs of different colour: " << o.description;
+    o.rgb_weights = weights;
+    weights_set = true;
+    o.emitters.push_back({sample_from_rig * led.position_mm, sample_from_rig.linear() * led.axis,
+                          led.intensity * lit.current_ma / 1000.0, led.falloff_exponent});
+  }
+  o.group = state.filter_slots.empty() ? ObservationGroup::kMonochrome : ObservationGroup::kColour;
+  if (rig.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
+    LOOM_CHECK(!weights_set || o.rgb_weights == PanchromaticWeights()) << "linear light with a filtered LED: " << o.description;
+    o.group = ObservationGroup::kLinearLight;
+    const LinearLightModel& strip = *rig.linear_light;
+    const Eigen::Vector3d centre = strip.StripCentre(state.linear_light_mm);
+    const Eigen::Vector3d normal = sample_from_rig.linear() * strip.StripNormal(state.linear_light_mm);
+    const double segment_mm = strip.strip_length_mm / strip.segments;
+    for (int k = 0; k < strip.segments; ++k) {
+      const Eigen::Vector3d source = centre + strip.sweep_axis * ((k + 0.5) * segment_mm - strip.strip_length_mm / 2);
+      o.emitters.push_back({sample_from_rig * source, normal,
+                            strip.intensity_per_mm * segment_mm * state.linear_light_intensity, strip.falloff_exponent});
+    }
+  }
+  return o;
+}
+
+ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options) {
   const Material& material = scene.material();
   const double pixel_mm = options.pixel_mm > 0 ? options.pixel_mm : material.pixel_mm;
   const int width = options.width_px > 0 ? options.width_px : material.width();
   const int height = options.height_px > 0 ? options.height_px : material.height();
-  Image stack(width, height, StackChannels(observations.size()));
   const RigModel& rig = scene.rig();
+  std::vector<StackObservation> table;
+  for (const Observation& observation : observations) table.push_back(DescribeObservation(rig, observation));
+  ObservationStack result = MakeObservationStack(width, height, pixel_mm, std::move(table));
+  result.rig = rig.name;
+  result.source = "sim fast path";
+  Image& stack = result.image;
   const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
@@ -106,19 +135,7 @@ Image RenderStack(const Scene& scene, const std::vector<Observation>& observatio
     });
   }
   for (std::thread& worker : workers) worker.join();
-  return stack;
-}
-
-Status WriteStack(const std::filesystem::path& path, const Image& stack, const RigModel& rig,
-                  const std::vector<Observation>& observations, double pixel_mm) {
-  return WriteExr(path, stack,
-                  {{"loom.kind", std::string("observation stack (sim fast path)")},
-                   {"loom.rig", rig.name},
-                   {"loom.pixel_mm", pixel_mm},
-                   {"loom.units", std::string("pos mm (sample frame); obs radiance; NaN = not seen")},
-                   {"loom.observations", DescribeObservations(rig, observations)},
-                   {"loom.version", std::string(VersionWithCommit())}},
-                  {.compression = ExrCompression::kNone});
+  return result;
 }
 
 }  // namespace loom::sim

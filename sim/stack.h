@@ -1,19 +1,16 @@
 #pragma once
-// The fast path: the ideal observation stack, rendered directly in the top-view reference frame
-// (the sample frame at turntable angle 0, seen from above): for every stack pixel, the surface
-// point's position and geometric normal, and for every observation the radiance leaving that
-// point towards the observation's camera under its lights — shadowing included; NaN where the
-// camera does not see the point (occluded by the relief). This is the ground truth that
-// reconstruction's calibrated stacks approximate, and the CNN's training data.
-//
-// Channels: pos.X pos.Y pos.Z (mm, sample frame), normal.X normal.Y normal.Z (geometric), then
-// obs0000, obs0001, ... (radiance units). The observations are described in the EXR attribute
-// `loom.observations` (one line each: camera, turntable angle, LEDs and currents, filter).
+// The fast path: the ideal observation stack (core/observation_stack.h), rendered directly in
+// the top-view reference frame: for every stack pixel, the surface point's position and
+// geometric normal, and for every observation the radiance leaving that point towards the
+// observation's camera under its lights — shadowing included; NaN where the camera does not see
+// the point (occluded by the relief). This is the ground truth that reconstruction's calibrated
+// stacks approximate, and the CNN's training data. Its observation table holds the true rig
+// geometry and light model, so the model reproduces every value exactly (tested in fitting).
 
 #include <string>
 #include <vector>
 
-#include "core/exr_io.h"
+#include "core/observation_stack.h"
 #include "sim/renderer.h"
 
 namespace loom::sim {
@@ -35,13 +32,12 @@ struct StackOptions {
 // each filter for every camera at angle 0: a plan-free default until acquisition's plans exist.
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg);
 
-// One line per observation, for the `loom.observations` attribute.
-std::string DescribeObservations(const RigModel& rig, const std::vector<Observation>& observations);
+// The table entry of an observation: group (colour if a filter is in front of a lit LED, linear
+// if the strip is on, else monochrome), camera centre, colour weights and point emitters — one
+// per lit LED, one per strip segment — in the sample frame at the observation's turntable angle.
+// An observation that mixes filtered and unfiltered LEDs has no single colour weight: CHECKed.
+StackObservation DescribeObservation(const RigModel& rig, const Observation& observation);
 
-Image RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options);
-
-// Writes a stack with its observations described, uncompressed (noise does not compress).
-Status WriteStack(const std::filesystem::path& path, const Image& stack, const RigModel& rig,
-                  const std::vector<Observation>& observations, double pixel_mm);
+ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options);
 
 }  // namespace loom::sim

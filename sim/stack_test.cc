@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "sim/spectra.h"
 #include "sim/test_materials.h"
 
 namespace loom::sim {
@@ -52,7 +53,7 @@ TEST(StackTest, AgreesWithRawRendersReprojectedByTheCameraModel) {
   glossy.sigma_x = glossy.sigma_y = 0.3;
   const Scene scene(TwoCameraRig(), UniformMaterial("glossy", glossy, {60, 60, 0.5}));
   const std::vector<Observation> observations = {{1, {.leds = {{0, 1000}}}}, {0, {.leds = {{1, 1000}}, .turntable_deg = 30}}};
-  const Image stack = RenderStack(scene, observations, {});
+  const Image stack = RenderStack(scene, observations, {}).image;
   for (size_t o = 0; o < observations.size(); ++o) {
     const Observation& obs = observations[o];
     const Image raw = scene.RenderRadiance(obs.camera, obs.state, {.supersampling = 4});
@@ -82,7 +83,7 @@ TEST(StackTest, PointsTheCameraCannotSeeAreNaN) {
   }
   const Scene scene(TwoCameraRig(), block);
   // The side camera looks from −x: the floor just beyond the ridge (x > +2.5 mm) is hidden.
-  const Image stack = RenderStack(scene, {{1, {.leds = {{0, 1000}}}}, {0, {.leds = {{0, 1000}}}}}, {});
+  const Image stack = RenderStack(scene, {{1, {.leds = {{0, 1000}}}}, {0, {.leds = {{0, 1000}}}}}, {}).image;
   const int hidden_x = 52;   // x ≈ +3.1 mm, behind the ridge for the 45° camera
   const int visible_x = 20;  // x ≈ −4.9 mm, in front of it
   EXPECT_TRUE(std::isnan(stack.at(6, 40, hidden_x)));
@@ -96,10 +97,38 @@ TEST(StackTest, DefaultObservationsCoverCamerasLightsAnglesAndFilters) {
   rig.filter_wheels.push_back({"wheel0", 1, {{450, 30, 0.9}, {550, 30, 0.9}, {650, 30, 0.9}}});
   const std::vector<Observation> observations = DefaultObservations(rig, {0, 120, 240});
   EXPECT_EQ(observations.size(), 2u * 2u * 3u + 3u * 2u);
-  const std::string described = DescribeObservations(rig, observations);
-  EXPECT_NE(described.find("obs0015: camera side at [-353.55, 0.00, 353.55] mm, turntable 0 deg, leds 1@1000mA at [-362.41, -131.91, 459.63] mm"),
-            std::string::npos) << described;
-  EXPECT_NE(described.find("wheel0 slot 1 (550 nm)"), std::string::npos) << described;
+  const StackObservation side = DescribeObservation(rig, observations[3]);  // angle 0, side camera, LED 1
+  EXPECT_EQ(side.description, "side, turntable 0 deg, led 1 at 1000 mA");
+  EXPECT_EQ(side.group, ObservationGroup::kMonochrome);
+  EXPECT_LT((side.camera_mm - Eigen::Vector3d(-353.55, 0, 353.55)).norm(), 0.01);
+  ASSERT_EQ(side.emitters.size(), 1u);
+  EXPECT_LT((side.emitters[0].position_mm - rig.leds[1].position_mm).norm(), 1e-9);
+  const StackObservation filtered = DescribeObservation(rig, observations[12 + 2]);
+  EXPECT_EQ(filtered.group, ObservationGroup::kColour);
+  EXPECT_NE(filtered.description.find("wheel0 slot 1 (550 nm)"), std::string::npos) << filtered.description;
+  EXPECT_EQ(filtered.rgb_weights, FilterWeights(rig.filter_wheels[0].filters[1]));
+}
+
+TEST(StackTest, TheTurntableAngleMovesLightsAndCamerasIntoTheSampleFrame) {
+  RigModel rig = TwoCameraRig();
+  const StackObservation turned = DescribeObservation(rig, {0, {.leds = {{0, 500}}, .turntable_deg = 90}});
+  const Rigid3d sample_from_rig = rig.turntable.RigFromSample(90).inverse();
+  EXPECT_LT((turned.emitters[0].position_mm - sample_from_rig * rig.leds[0].position_mm).norm(), 1e-9);
+  EXPECT_NEAR(turned.emitters[0].intensity, 0.5 * rig.leds[0].intensity, 1e-9);
+  // At 90° the LED's azimuth of 30° becomes −60° in the sample frame.
+  EXPECT_NEAR(RadToDeg(std::atan2(turned.emitters[0].position_mm.y(), turned.emitters[0].position_mm.x())), -60, 1e-9);
+}
+
+TEST(StackTest, TheLinearLightIsOneEmitterPerSegment) {
+  RigModel rig = TwoCameraRig();
+  rig.linear_light = LinearLightModel{};
+  const StackObservation strip =
+      DescribeObservation(rig, {0, {.linear_light_on = true, .linear_light_mm = 100, .linear_light_intensity = 0.5}});
+  EXPECT_EQ(strip.group, ObservationGroup::kLinearLight);
+  ASSERT_EQ(strip.emitters.size(), static_cast<size_t>(rig.linear_light->segments));
+  const double segment_mm = rig.linear_light->strip_length_mm / rig.linear_light->segments;
+  EXPECT_NEAR(strip.emitters[0].intensity, 0.5 * rig.linear_light->intensity_per_mm * segment_mm, 1e-9);
+  EXPECT_NEAR((strip.emitters[1].position_mm - strip.emitters[0].position_mm).norm(), segment_mm, 1e-9);
 }
 
 }  // namespace

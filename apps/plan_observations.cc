@@ -1,0 +1,47 @@
+#include "apps/plan_observations.h"
+
+namespace loom::apps {
+namespace {
+
+using acquisition::Step;
+using acquisition::StepKind;
+
+template <typename Device>
+Result<int> IndexOf(const std::vector<Device>& devices, const std::string& name, const Step& step) {
+  for (size_t i = 0; i < devices.size(); ++i) {
+    if (devices[i].name == name) return static_cast<int>(i);
+  }
+  return NotFoundError("plan step " + std::to_string(step.index), "'" + name + "' is not in the rig geometry");
+}
+
+Result<sim::SceneState> StateOf(const RigModel& rig, const Step& step) {
+  sim::SceneState state;
+  state.turntable_deg = step.turntable_deg;
+  for (const hal::LedDrive& led : step.leds) state.leds.push_back({led.led, led.current_ma});
+  if (step.filter) {
+    LOOM_ASSIGN_OR_RETURN(const int wheel, IndexOf(rig.filter_wheels, step.filter->wheel, step));
+    state.filter_slots[wheel] = step.filter->slot;
+  }
+  if (step.linear_light_mm) {
+    state.linear_light_on = true;
+    state.linear_light_mm = *step.linear_light_mm;
+  }
+  return state;
+}
+
+}  // namespace
+
+Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, const acquisition::Plan& plan) {
+  std::vector<sim::Observation> observations;
+  for (const Step& step : plan.steps) {
+    if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;
+    LOOM_ASSIGN_OR_RETURN(const sim::SceneState state, StateOf(rig, step));
+    for (const std::string& camera : step.cameras) {
+      LOOM_ASSIGN_OR_RETURN(const int index, IndexOf(rig.cameras, camera, step));
+      observations.push_back({index, state});
+    }
+  }
+  return observations;
+}
+
+}  // namespace loom::apps

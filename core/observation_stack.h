@@ -1,0 +1,90 @@
+#pragma once
+// The observation stack: the contract between reconstruction (which writes calibrated stacks),
+// the simulator's fast path (which writes ideal ones) and fitting (which reads both).
+//
+// Pixels lie on a regular grid in the top-view reference frame (the sample frame at turntable
+// angle 0, x right, y down the image, z up out of the sample; pixel (i, j) is centred at
+// ((i + 0.5 − W/2)·pixel_mm, (j + 0.5 − H/2)·pixel_mm)). Channels:
+//
+// | channel                      | meaning                                        | unit       |
+// |------------------------------|------------------------------------------------|------------|
+// | pos.X, pos.Y, pos.Z          | surface point (pos.Z: the heightmap)           | mm, sample |
+// | normal.X, normal.Y, normal.Z | geometric normal                               | unit       |
+// | obs0000, obs0001, ...        | radiance towards observation k's camera        | radiance   |
+//
+// An observation's radiance is NaN where its camera does not see the point. Shadows are left
+// in (the CNN learns from them); a fitter decides them from the heightmap (core/heightmap.h).
+//
+// Each observation is described in the EXR attribute `loom.observation_table` (JSON): its group
+// (colour, monochrome, linear), the camera and its centre in the sample frame (turntable angle
+// applied), the colour weights (what the camera records of an RGB albedo: w · a), and its
+// light as point emitters, each a position and axis in the sample frame, a radiant intensity
+// along the axis and a cosine-power falloff: I(p) = intensity · max(0, axis · (p − e)/|p − e|)^n.
+// One LED is one emitter; the linear light is one emitter per strip segment.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "core/status.h"
+
+namespace loom {
+
+enum class ObservationGroup { kColour, kMonochrome, kLinearLight };
+std::string_view ObservationGroupName(ObservationGroup group);
+
+struct PointEmitter {
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  // sample frame
+  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();       // unit, where it emits most
+  double intensity = 0;                                   // radiant intensity along the axis
+  double falloff_exponent = 1;
+
+  double IntensityTowards(const Eigen::Vector3d& p_in_sample) const;
+};
+
+struct StackObservation {
+  ObservationGroup group = ObservationGroup::kMonochrome;
+  std::string camera;
+  Eigen::Vector3d camera_mm = Eigen::Vector3d::Zero();  // camera centre, sample frame
+  double turntable_deg = 0;
+  Eigen::Vector3d rgb_weights = Eigen::Vector3d::Constant(1.0 / 3);
+  std::vector<PointEmitter> emitters;
+  std::string description;  // for people: "led 3 at 1000 mA, wheel0 slot 2 (590 nm)"
+};
+
+inline constexpr int kStackGeometryChannels = 6;  // pos.XYZ, normal.XYZ come first
+
+struct ObservationStack {
+  Image image;                                  // StackChannelNames(observations.size())
+  double pixel_mm = 0;
+  std::string rig;                              // the rig's name
+  std::string source;                           // what made it: "sim fast path", "reconstruction"
+  std::vector<StackObservation> observations;
+
+  static int ObservationChannel(int observation) { return kStackGeometryChannels + observation; }
+  Eigen::Vector3d Position(int x, int y) const;
+  Eigen::Vector3d Normal(int x, int y) const;
+};
+
+std::vector<std::string> StackChannelNames(size_t observations);
+
+// An empty stack of the right shape: channels named, observations described.
+ObservationStack MakeObservationStack(int width, int height, double pixel_mm, std::vector<StackObservation> observations);
+
+// Uncompressed float EXR (radiance noise does not compress), atomically.
+Status WriteObservationStack(const std::filesystem::path& path, const ObservationStack& stack);
+
+// Strict: the channels must be exactly StackChannelNames(n) for the n observations of the
+// table; the table must parse with every key; positions and normals must be finite; an
+// observation value may be NaN (unseen) but not ±Inf. Errors name the file and the channel,
+// pixel or table entry.
+Result<ObservationStack> ReadObservationStack(const std::filesystem::path& path);
+
+// The table alone, as stored in `loom.observation_table`, and back (errors name `source`).
+std::string ObservationTableToJson(const std::vector<StackObservation>& observations);
+Result<std::vector<StackObservation>> ParseObservationTable(const std::string& json, const std::string& source);
+
+}  // namespace loom

@@ -1,0 +1,144 @@
+#include "core/observation_stack.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include "core/exr_io.h"
+#include "core/heightmap.h"
+
+namespace loom {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ObservationStackTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("loom_stack_test_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  static ObservationStack SmallStack() {
+    StackObservation led{ObservationGroup::kColour, "cam0", {1, 2, 600}, 120, {0.1, 0.2, 0.3}, {}, "led 3 through 530 nm"};
+    led.emitters.push_back({{100, -200, 300}, Eigen::Vector3d(-1, 2, -3).normalized(), 1e6, 1.5});
+    StackObservation strip{ObservationGroup::kLinearLight, "cam1", {-400, 0, 400}, 0, {0.3, 0.4, 0.3}, {}, "strip"};
+    for (int k = 0; k < 4; ++k) strip.emitters.push_back({{-10.0 * k, 5, 450}, -Eigen::Vector3d::UnitZ(), 4000, 1});
+    ObservationStack stack = MakeObservationStack(3, 2, 0.25, {led, strip});
+    stack.rig = "tiny";
+    stack.source = "test";
+    for (int c = 0; c < stack.image.num_channels(); ++c) {
+      for (int y = 0; y < 2; ++y) {
+        for (int x = 0; x < 3; ++x) stack.image.at(c, y, x) = static_cast<float>(c + 0.5 * x + 0.25 * y);
+      }
+    }
+    stack.image.at(ObservationStack::ObservationChannel(1), 1, 2) = std::numeric_limits<float>::quiet_NaN();
+    return stack;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(ObservationStackTest, RoundTripsChannelsAndTable) {
+  const ObservationStack written = SmallStack();
+  ASSERT_TRUE(WriteObservationStack(dir_ / "stack.exr", written).ok());
+  Result<ObservationStack> read = ReadObservationStack(dir_ / "stack.exr");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->rig, "tiny");
+  EXPECT_EQ(read->source, "test");
+  EXPECT_EQ(read->pixel_mm, 0.25);
+  EXPECT_EQ(read->image.channel_names(), StackChannelNames(2));
+  EXPECT_TRUE(std::isnan(read->image.at(7, 1, 2)));
+  EXPECT_EQ(read->image.at(6, 1, 2), written.image.at(6, 1, 2));
+  ASSERT_EQ(read->observations.size(), 2u);
+  const StackObservation& led = read->observations[0];
+  EXPECT_EQ(led.group, ObservationGroup::kColour);
+  EXPECT_EQ(led.camera, "cam0");
+  EXPECT_EQ(led.camera_mm, Eigen::Vector3d(1, 2, 600));
+  EXPECT_EQ(led.turntable_deg, 120);
+  EXPECT_EQ(led.rgb_weights, Eigen::Vector3d(0.1, 0.2, 0.3));
+  EXPECT_EQ(led.description, "led 3 through 530 nm");
+  ASSERT_EQ(led.emitters.size(), 1u);
+  EXPECT_EQ(led.emitters[0].position_mm, Eigen::Vector3d(100, -200, 300));
+  EXPECT_EQ(led.emitters[0].axis, Eigen::Vector3d(-1, 2, -3).normalized());  // doubles survive exactly
+  EXPECT_EQ(led.emitters[0].falloff_exponent, 1.5);
+  EXPECT_EQ(read->observations[1].group, ObservationGroup::kLinearLight);
+  EXPECT_EQ(read->observations[1].emitters.size(), 4u);
+}
+
+TEST(PointEmitterTest, FallsOffAsACosinePowerAndIsDarkBehind) {
+  const PointEmitter e{{0, 0, 100}, -Eigen::Vector3d::UnitZ(), 1000, 2};
+  EXPECT_DOUBLE_EQ(e.IntensityTowards({0, 0, 0}), 1000);
+  EXPECT_NEAR(e.IntensityTowards({100, 0, 0}), 1000 * 0.5, 1e-9);  // 45°: cos² = 1/2
+  EXPECT_EQ(e.IntensityTowards({0, 0, 200}), 0);
+}
+
+TEST_F(ObservationStackTest, AMismatchedTableNamesTheFile) {
+  ObservationStack stack = SmallStack();
+  // Two observation channels but a table of one: written around WriteObservationStack's CHECK.
+  ASSERT_TRUE(WriteExr(dir_ / "bad.exr", stack.image,
+                       {{"loom.observation_table", ObservationTableToJson({stack.observations[0]})},
+                        {"loom.pixel_mm", 0.25}})
+                  .ok());
+  const Result<ObservationStack> read = ReadObservationStack(dir_ / "bad.exr");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().ToString().find("bad.exr"), std::string::npos) << read.status().ToString();
+  EXPECT_NE(read.status().ToString().find("1 observations"), std::string::npos) << read.status().ToString();
+}
+
+TEST_F(ObservationStackTest, ACorruptTableNamesTheEntryAndKey) {
+  const ObservationStack stack = SmallStack();
+  std::string table = ObservationTableToJson(stack.observations);
+  table.replace(table.find("\"turntable_deg\""), 15, "\"turntable_dgr\"");
+  const Result<std::vector<StackObservation>> parsed = ParseObservationTable(table, "stack.exr");
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_NE(parsed.status().ToString().find("entry 0"), std::string::npos) << parsed.status().ToString();
+  EXPECT_NE(parsed.status().ToString().find("turntable_dgr"), std::string::npos) << parsed.status().ToString();
+  EXPECT_FALSE(ParseObservationTable("[{\"group\": ", "stack.exr").ok());
+}
+
+TEST_F(ObservationStackTest, InfinityAndNanGeometryAreErrorsNamingChannelAndPixel) {
+  ObservationStack stack = SmallStack();
+  stack.image.at(7, 0, 1) = std::numeric_limits<float>::infinity();
+  ASSERT_TRUE(WriteObservationStack(dir_ / "inf.exr", stack).ok());
+  Result<ObservationStack> read = ReadObservationStack(dir_ / "inf.exr");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().ToString().find("obs0001"), std::string::npos) << read.status().ToString();
+  EXPECT_NE(read.status().ToString().find("(1, 0)"), std::string::npos) << read.status().ToString();
+
+  stack = SmallStack();
+  stack.image.at(2, 1, 0) = std::numeric_limits<float>::quiet_NaN();  // pos.Z: no height there
+  ASSERT_TRUE(WriteObservationStack(dir_ / "nan.exr", stack).ok());
+  read = ReadObservationStack(dir_ / "nan.exr");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().ToString().find("pos.Z"), std::string::npos) << read.status().ToString();
+}
+
+TEST(HeightmapTest, InterpolatesBetweenPixelCentresAndIsZeroOffTheGrid) {
+  // 2 × 1 pixels of 1 mm: centres at x = −0.5 and +0.5.
+  const Heightmap map({1.0f, 3.0f}, 2, 1, 1.0);
+  EXPECT_DOUBLE_EQ(map.HeightAt(0.0, 0.0), 2.0);
+  EXPECT_DOUBLE_EQ(map.HeightAt(-0.5, 0.0), 1.0);
+  EXPECT_DOUBLE_EQ(map.HeightAt(10.0, 0.0), 0.0);
+  EXPECT_EQ(map.max_height_mm(), 3.0);
+}
+
+TEST(HeightmapTest, AWallCastsAShadowOnlyOnItsFarSide) {
+  // A 2 mm wall at x ∈ [0, 1) mm on a 10 mm wide flat grid.
+  std::vector<float> heights(40 * 40, 0.0f);
+  for (int y = 0; y < 40; ++y) {
+    for (int x = 20; x < 24; ++x) heights[y * 40 + x] = 2.0f;
+  }
+  const Heightmap map(heights, 40, 40, 0.25);
+  const Eigen::Vector3d light(500, 0, 500);  // 45° from +x
+  EXPECT_TRUE(map.Shadowed({-1.0, 0, 0}, light));   // behind the wall, within its 2 mm shadow
+  EXPECT_FALSE(map.Shadowed({-3.0, 0, 0}, light));  // beyond the shadow
+  EXPECT_FALSE(map.Shadowed({2.0, 0, 0}, light));   // on the lit side
+  EXPECT_TRUE(map.Shadowed({2.0, 0, 0}, {-500, 0, -1}));  // below the horizon
+}
+
+}  // namespace
+}  // namespace loom
