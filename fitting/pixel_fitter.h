@@ -35,6 +35,7 @@ struct PixelObservation {
   Eigen::Vector3d v_local = Eigen::Vector3d::UnitZ();       // unit, towards the camera
   Eigen::Vector3d rgb_weights = Eigen::Vector3d::Constant(1.0 / 3);
   std::vector<LightSample> lights;
+  int source = -1;  // the stack observation it came from (−1: not from a stack)
 };
 
 // The model's prediction for one observation.

@@ -1,0 +1,46 @@
+#include "fitting/stack_pixels.h"
+
+#include <cmath>
+
+#include "core/geometry.h"
+
+namespace loom::fitting {
+
+StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions& options)
+    : stack_(stack), options_(options) {
+  const auto heights = stack.image.channel(2);  // pos.Z
+  heightmap_ = Heightmap(std::vector<float>(heights.begin(), heights.end()), stack.image.width(), stack.image.height(),
+                         stack.pixel_mm);
+}
+
+Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
+  return WorldFromLocal(stack_.Normal(x, y), Eigen::Vector3d::UnitX()).transpose();
+}
+
+std::vector<PixelObservation> StackPixels::Observations(int x, int y) const {
+  const Eigen::Vector3d p = stack_.Position(x, y);
+  const Eigen::Matrix3d local_from_sample = LocalFromSample(x, y);
+  std::vector<PixelObservation> observations;
+  observations.reserve(stack_.observations.size());
+  for (size_t k = 0; k < stack_.observations.size(); ++k) {
+    const float radiance = stack_.image.at(ObservationStack::ObservationChannel(static_cast<int>(k)), y, x);
+    if (std::isnan(radiance)) continue;
+    const StackObservation& o = stack_.observations[k];
+    PixelObservation observation;
+    observation.radiance = radiance;
+    observation.v_local = local_from_sample * (o.camera_mm - p).normalized();
+    observation.rgb_weights = o.rgb_weights;
+    observation.source = static_cast<int>(k);
+    for (const PointEmitter& emitter : o.emitters) {
+      const double intensity = emitter.IntensityTowards(p);
+      if (intensity <= 0) continue;
+      if (options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm)) continue;
+      const Eigen::Vector3d to_light = emitter.position_mm - p;
+      observation.lights.push_back({local_from_sample * to_light.normalized(), intensity / to_light.squaredNorm()});
+    }
+    if (!observation.lights.empty()) observations.push_back(std::move(observation));
+  }
+  return observations;
+}
+
+}  // namespace loom::fitting

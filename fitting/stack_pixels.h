@@ -1,0 +1,41 @@
+#pragma once
+// One stack pixel's observations as the per-pixel fitter takes them (pixel_fitter.h): every
+// observation its camera saw, in the pixel's local geometric frame (z = the stack's geometric
+// normal, x = the sample's x made orthogonal to it: svbrdf_maps.h's frame), each emitter a light
+// sample of irradiance I(p)/d². Emitters the heightmap (pos.Z) hides from the pixel are left
+// out; an observation with no emitter left is a shadow and is left out as well, so cast
+// shadows never reach the fit. The light model is the stack table's (core/observation_stack.h).
+// Thread-safety: immutable after construction; Observations() may run on many threads.
+
+#include <vector>
+
+#include "core/heightmap.h"
+#include "core/observation_stack.h"
+#include "fitting/pixel_fitter.h"
+
+namespace loom::fitting {
+
+struct StackPixelOptions {
+  bool cast_shadows = true;  // test every emitter against the stack's heightmap
+};
+
+class StackPixels {
+ public:
+  // Keeps a reference to `stack`: it must outlive this.
+  explicit StackPixels(const ObservationStack& stack, const StackPixelOptions& options = {});
+
+  int width() const { return stack_.image.width(); }
+  int height() const { return stack_.image.height(); }
+
+  // The pixel's usable observations (unseen and fully shadowed ones left out).
+  std::vector<PixelObservation> Observations(int x, int y) const;
+  // local_from_sample of the pixel's geometric frame.
+  Eigen::Matrix3d LocalFromSample(int x, int y) const;
+
+ private:
+  const ObservationStack& stack_;
+  StackPixelOptions options_;
+  Heightmap heightmap_;
+};
+
+}  // namespace loom::fitting

@@ -1,0 +1,65 @@
+// The stack's observation table is a complete light model: with a pixel's true parameters the
+// model predicts every value of the simulator's fast-path stack — colour, point-lit and linear
+// light, at three turntable angles — and the observations the heightmap says are shadowed are
+// exactly the dark ones.
+#include "fitting/stack_pixels.h"
+
+#include <gtest/gtest.h>
+
+#include "core/config.h"
+#include "fitting/model/svbrdf_maps.h"
+#include "sim/fabric.h"
+#include "sim/stack.h"
+
+namespace loom::fitting {
+namespace {
+
+RigModel TacMini() {
+  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
+  EXPECT_TRUE(doc.ok());
+  return ReadRigModel(doc->root().Child("geometry"));
+}
+
+std::vector<sim::Observation> WithLinearLight(const RigModel& rig) {
+  std::vector<sim::Observation> observations = sim::DefaultObservations(rig, {0, 120, 240});
+  for (double position : {0.0, 100.0, 200.0, 300.0, 400.0}) {
+    for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
+      observations.push_back({camera, {.linear_light_on = true, .linear_light_mm = position}});
+    }
+  }
+  return observations;
+}
+
+TEST(StackPixelsTest, TheTableAndTrueParametersReproduceTheFastPathStack) {
+  const sim::Material fabric = sim::GenerateFabric(7, {.width_px = 24, .height_px = 24, .pixel_mm = 0.2});
+  const sim::Scene scene(TacMini(), fabric);
+  const ObservationStack stack = sim::RenderStack(scene, WithLinearLight(scene.rig()), {});
+  const StackPixels pixels(stack);
+  int compared = 0;
+  int shadowed = 0;
+  double worst = 0;
+  for (int y = 0; y < stack.image.height(); ++y) {
+    for (int x = 0; x < stack.image.width(); ++x) {
+      const WardLobe<double> lobe(GetParams(fabric.maps, x, y));
+      std::vector<bool> kept(stack.observations.size(), false);
+      for (const PixelObservation& o : pixels.Observations(x, y)) {
+        kept[o.source] = true;
+        const double predicted = PredictRadiance(lobe, o);
+        worst = std::max(worst, std::abs(predicted - o.radiance) / (std::abs(o.radiance) + 1e-3));
+        ++compared;
+      }
+      for (size_t k = 0; k < kept.size(); ++k) {
+        const float value = stack.image.at(ObservationStack::ObservationChannel(static_cast<int>(k)), y, x);
+        if (kept[k] || std::isnan(value)) continue;
+        EXPECT_EQ(value, 0.0f) << "observation " << k << " left out as shadowed at " << x << "," << y;
+        ++shadowed;
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-4);  // float storage of the stack
+  EXPECT_GT(compared, 24 * 24 * 80);
+  EXPECT_GT(shadowed, 0) << "the fabric's relief should shadow some grazing LEDs";
+}
+
+}  // namespace
+}  // namespace loom::fitting
