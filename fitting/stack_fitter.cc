@@ -1,0 +1,213 @@
+#include "fitting/stack_fitter.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+#include <opencv2/core.hpp>
+
+#include "core/parallel.h"
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// log(1 + L / typical): compresses highlights so that k-means groups by appearance, not by
+// the few brightest observations.
+cv::Mat AppearanceFeatures(const ObservationStack& stack) {
+  const int pixels = static_cast<int>(stack.image.pixel_count());
+  const int n = static_cast<int>(stack.observations.size());
+  std::vector<float> finite;
+  for (int k = 0; k < n; ++k) {
+    for (float v : stack.image.channel(ObservationStack::ObservationChannel(k))) {
+      if (std::isfinite(v) && v > 0) finite.push_back(v);
+    }
+  }
+  float typical = 1;
+  if (!finite.empty()) {
+    std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
+    typical = finite[finite.size() / 2];
+  }
+  cv::Mat features(pixels, n, CV_32F);
+  for (int k = 0; k < n; ++k) {
+    const auto values = stack.image.channel(ObservationStack::ObservationChannel(k));
+    double sum = 0;
+    int seen = 0;
+    for (float v : values) {
+      if (std::isfinite(v)) sum += std::log1p(std::max(0.0f, v) / typical), ++seen;
+    }
+    const float unseen = seen ? static_cast<float>(sum / seen) : 0.0f;
+    for (int i = 0; i < pixels; ++i) {
+      const float v = values[i];
+      features.at<float>(i, k) = std::isfinite(v) ? std::log1p(std::max(0.0f, v) / typical) : unseen;
+    }
+  }
+  return features;
+}
+
+double Median(std::vector<std::pair<double, int>> weighted) {
+  std::sort(weighted.begin(), weighted.end());
+  const int total = std::accumulate(weighted.begin(), weighted.end(), 0, [](int s, const auto& w) { return s + w.second; });
+  int running = 0;
+  for (const auto& [value, weight] : weighted) {
+    running += weight;
+    if (2 * running >= total) return value;
+  }
+  return weighted.empty() ? 0 : weighted.back().first;
+}
+
+// RMS of the model's residuals relative to the pixel's mean radiance.
+double RelativeRms(const WardParams<double>& params, const std::vector<PixelObservation>& observations) {
+  const WardLobe<double> lobe(params);
+  double squares = 0, sum = 0;
+  for (const PixelObservation& o : observations) {
+    const double r = PredictRadiance(lobe, o) - o.radiance;
+    squares += r * r;
+    sum += std::abs(o.radiance);
+  }
+  if (observations.empty() || sum <= 0) return 0;
+  return std::sqrt(squares / observations.size()) / (sum / observations.size());
+}
+
+// The cluster's start: its most typical pixels' observations pooled into one fit.
+Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters& clusters, int cluster,
+                                  const StackFitOptions& options) {
+  std::vector<std::pair<float, int>> members;
+  for (size_t i = 0; i < clusters.labels.size(); ++i) {
+    if (clusters.labels[i] == cluster) members.push_back({clusters.distances[i], static_cast<int>(i)});
+  }
+  const size_t take = std::min(members.size(), static_cast<size_t>(options.pixels_per_cluster_fit));
+  std::partial_sort(members.begin(), members.begin() + take, members.end());
+  std::vector<PixelObservation> pooled;
+  for (size_t m = 0; m < take; ++m) {
+    const int i = members[m].second;
+    std::vector<PixelObservation> own = pixels.Observations(i % pixels.width(), i / pixels.width());
+    pooled.insert(pooled.end(), std::make_move_iterator(own.begin()), std::make_move_iterator(own.end()));
+  }
+  PixelFitOptions fit = options.cluster_fit;
+  fit.fixed_f0.reset();
+  return FitPixel(pooled, GenericInitialParams(pooled), fit);
+}
+
+void FillChannels(Image& maps, const ObservationStack& stack) {
+  const int height = *maps.ChannelIndex(kHeightChannel);
+  std::copy(stack.image.channel(2).begin(), stack.image.channel(2).end(), maps.channel(height).begin());
+  maps.AddChannel(kFitClusterChannel);
+  maps.AddChannel(kFitObservationsChannel);
+  maps.AddChannel(kFitRmsChannel);
+}
+
+}  // namespace
+
+Status StackFitOptions::Check() const {
+  std::vector<std::string> problems;
+  if (clusters < 1) problems.push_back("clusters must be ≥ 1");
+  if (pixels_per_cluster_fit < 1) problems.push_back("pixels_per_cluster_fit must be ≥ 1");
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
+  if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());
+  if (problems.empty()) return Status::Ok();
+  std::string message;
+  for (const std::string& problem : problems) message += (message.empty() ? "" : "; ") + problem;
+  return InvalidArgumentError("StackFitOptions", message);
+}
+
+PixelClusters ClusterPixels(const ObservationStack& stack, int clusters, uint64_t seed) {
+  const cv::Mat features = AppearanceFeatures(stack);
+  PixelClusters result;
+  result.count = std::min(clusters, features.rows);
+  result.labels.assign(features.rows, 0);
+  result.distances.assign(features.rows, 0);
+  if (result.count <= 1) return result;
+  cv::Mat labels, centres;
+  cv::theRNG().state = seed;  // k-means++ seeding draws from OpenCV's thread-local generator
+  cv::kmeans(features, result.count, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4),
+             3, cv::KMEANS_PP_CENTERS, centres);
+  for (int i = 0; i < features.rows; ++i) {
+    result.labels[i] = labels.at<int>(i);
+    result.distances[i] = static_cast<float>(cv::norm(features.row(i), centres.row(result.labels[i])));
+  }
+  return result;
+}
+
+Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  const int width = stack.image.width();
+  const int height = stack.image.height();
+  const int pixel_count = width * height;
+  const StackPixels pixels(stack, options.pixels);
+  StackFit fit;
+  StackFitSummary& summary = fit.summary;
+  summary.pixels = pixel_count;
+  summary.threads = ThreadCount(options.threads);
+  const auto report = [&](const char* stage, int done, int total) {
+    if (options.progress) options.progress({stage, done, total});
+  };
+
+  const Clock::time_point cluster_start = Clock::now();
+  const PixelClusters clusters = ClusterPixels(stack, options.clusters, options.seed);
+  std::vector<Result<PixelFitResult>> cluster_fits(clusters.count, InternalError("cluster", "not fitted"));
+  ParallelFor(
+      clusters.count, options.threads, [&](int c) { cluster_fits[c] = FitCluster(pixels, clusters, c, options); },
+      [&](int done) { report("clusters", done, clusters.count); });
+  summary.cluster_sizes.assign(clusters.count, 0);
+  for (int label : clusters.labels) ++summary.cluster_sizes[label];
+  std::vector<std::pair<double, int>> f0s;
+  for (int c = 0; c < clusters.count; ++c) {
+    if (!cluster_fits[c].ok()) {
+      return FailedPreconditionError("cluster " + std::to_string(c) + " of the stack", cluster_fits[c].status().ToString());
+    }
+    summary.cluster_params.push_back(cluster_fits[c]->params);
+    f0s.push_back({cluster_fits[c]->params.f0, summary.cluster_sizes[c]});
+  }
+  summary.f0 = Median(f0s);
+  summary.cluster_seconds = SecondsSince(cluster_start);
+
+  fit.maps = MakeSvbrdfImage(width, height, /*with_height=*/true);
+  FillChannels(fit.maps, stack);
+  const int cluster_channel = *fit.maps.ChannelIndex(kFitClusterChannel);
+  const int used_channel = *fit.maps.ChannelIndex(kFitObservationsChannel);
+  const int rms_channel = *fit.maps.ChannelIndex(kFitRmsChannel);
+  PixelFitOptions pixel_options = options.pixel_fit;
+  if (options.one_f0_per_material) pixel_options.fixed_f0 = summary.f0;
+  std::atomic<int64_t> iterations{0}, observations_used{0};
+  std::atomic<int> fitted{0};
+  const Clock::time_point pixel_start = Clock::now();
+  ParallelFor(
+      pixel_count, options.threads,
+      [&](int i) {
+        const int x = i % width, y = i / width;
+        const std::vector<PixelObservation> observations = pixels.Observations(x, y);
+        WardParams<double> start = summary.cluster_params[clusters.labels[i]];
+        if (options.one_f0_per_material && summary.f0 > 0) {
+          start.a_s *= start.f0 / summary.f0;  // keeps a_s·F0, the observable product
+          start.f0 = summary.f0;
+        }
+        WardParams<double> params = start;
+        if (Result<PixelFitResult> result = FitPixel(observations, start, pixel_options); result.ok()) {
+          params = result->params;
+          iterations += result->iterations;
+          ++fitted;
+        }
+        observations_used += static_cast<int64_t>(observations.size());
+        SetParams(fit.maps, x, y, params);
+        fit.maps.at(cluster_channel, y, x) = static_cast<float>(clusters.labels[i]);
+        fit.maps.at(used_channel, y, x) = static_cast<float>(observations.size());
+        fit.maps.at(rms_channel, y, x) = static_cast<float>(RelativeRms(params, observations));
+      },
+      [&](int done) { report("pixels", done, pixel_count); });
+  summary.pixel_seconds = SecondsSince(pixel_start);
+  summary.pixels_fitted = fitted.load();
+  summary.pixels_kept_at_cluster = pixel_count - summary.pixels_fitted;
+  summary.mean_iterations = summary.pixels_fitted ? static_cast<double>(iterations.load()) / summary.pixels_fitted : 0;
+  summary.mean_observations = pixel_count ? static_cast<double>(observations_used.load()) / pixel_count : 0;
+  return fit;
+}
+
+}  // namespace loom::fitting
