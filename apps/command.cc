@@ -14,6 +14,8 @@ const std::vector<Command>& Commands() {
       {"plan", "Show the measurement plan of a rig and a gloss preset, with its duration", RunPlan},
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
       {"scan", "Run a measurement plan into a crash-safe scan directory, or resume one", RunScan},
+      {"fit", "Fit SVBRDF maps to an observation stack (Ceres; clusters then pixels)", RunFit},
+      {"eval", "Evaluate fitted maps: re-render error, parameter error, an HTML report", RunEval},
       {"sim", "The simulator: procedural materials, frames and observation stacks", RunSim},
       {"version", "Print loom's version and the libraries it runs with", RunVersion},
   };

@@ -1,11 +1,10 @@
 // loom scan: run a measurement plan on a rig into a crash-safe scan directory, or resume one.
-#include <unistd.h>
-
 #include <iostream>
 
 #include "acquisition/capture_store.h"
 #include "acquisition/sequencer.h"
 #include "apps/command.h"
+#include "apps/progress.h"
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
 
@@ -13,31 +12,6 @@ namespace loom::apps {
 namespace {
 
 namespace fs = std::filesystem;
-
-// A progress line with ETA: redrawn in place on a terminal, every 10 % otherwise.
-class ProgressPrinter {
- public:
-  explicit ProgressPrinter(bool quiet) : quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0) {}
-  void operator()(const acquisition::ScanProgress& p) {
-    if (quiet_) return;
-    const int percent = p.steps_total ? 100 * p.steps_done / p.steps_total : 100;
-    if (!tty_ && percent / 10 == last_decile_ && p.steps_done != p.steps_total) return;
-    last_decile_ = percent / 10;
-    const int width = 30;
-    const int filled = width * percent / 100;
-    std::cerr << (tty_ ? "\r" : "") << "scan [" << std::string(filled, '=') << std::string(width - filled, ' ') << "] "
-              << p.steps_done << "/" << p.steps_total << " steps, " << p.frames_stored << " frames, ETA "
-              << FormatDuration(p.eta_s) << (tty_ ? "   " : "\n") << std::flush;
-  }
-  ~ProgressPrinter() {
-    if (tty_ && !quiet_) std::cerr << "\n";
-  }
-
- private:
-  bool quiet_;
-  bool tty_;
-  int last_decile_ = -1;
-};
 
 Result<acquisition::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, const std::string& purpose) {
   if (!loaded.model) {
@@ -51,8 +25,10 @@ Result<acquisition::Plan> MakePlan(const LoadedRig& loaded, const std::string& p
 Status RunScan(LoadedRig& loaded, const acquisition::Plan& plan, acquisition::CaptureStore& store, bool quiet) {
   hal::SafeStateGuard guard(*loaded.rig);
   acquisition::Sequencer sequencer(*loaded.rig, plan, store);
-  ProgressPrinter printer(quiet);
-  LOOM_RETURN_IF_ERROR(sequencer.Run([&](const acquisition::ScanProgress& p) { printer(p); }));
+  ProgressBar bar("scan", quiet);
+  LOOM_RETURN_IF_ERROR(sequencer.Run([&](const acquisition::ScanProgress& p) {
+    bar.Update(p.steps_done, p.steps_total, "steps", std::to_string(p.frames_stored) + " frames", p.eta_s);
+  }));
   std::cout << "scan complete: " << store.records().size() << " frames in " << store.directory().string() << "\n";
   return Status::Ok();
 }

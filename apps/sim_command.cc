@@ -8,13 +8,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "acquisition/plan.h"
 #include "apps/command.h"
 #include "apps/plan_observations.h"
 #include "core/observation_stack.h"
+#include "fitting/export.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
@@ -27,54 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-uint8_t ToSrgb8(double linear) {
-  const double v = std::clamp(linear, 0.0, 1.0);
-  const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
-  return static_cast<uint8_t>(std::lround(255 * encoded));
-}
-
-// Preview images a person can look at: albedos in sRGB, normals as RGB, σ and height as grey,
-// α as hue.
-Status WritePreviews(const sim::Material& m, const fs::path& dir) {
-  const int w = m.width();
-  const int h = m.height();
-  cv::Mat diffuse(h, w, CV_8UC3), specular(h, w, CV_8UC3), normal(h, w, CV_8UC3), sigma(h, w, CV_8UC3),
-      alpha(h, w, CV_8UC3), height(h, w, CV_8UC1);
-  const int height_channel = m.maps.FindChannel(fitting::kHeightChannel).value_or(-1);
-  float max_height = 1e-6f;
-  if (height_channel >= 0) {
-    for (float v : m.maps.channel(height_channel)) max_height = std::max(max_height, v);
-  }
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const fitting::WardParams<double> p = fitting::GetParams(m.maps, x, y);
-      // OpenCV stores BGR.
-      diffuse.at<cv::Vec3b>(y, x) = {ToSrgb8(p.a_d.z()), ToSrgb8(p.a_d.y()), ToSrgb8(p.a_d.x())};
-      specular.at<cv::Vec3b>(y, x) = {ToSrgb8(p.a_s.z()), ToSrgb8(p.a_s.y()), ToSrgb8(p.a_s.x())};
-      const Eigen::Vector3d n = (p.n_s * 0.5 + Eigen::Vector3d::Constant(0.5)) * 255;
-      normal.at<cv::Vec3b>(y, x) = {static_cast<uint8_t>(n.z()), static_cast<uint8_t>(n.y()), static_cast<uint8_t>(n.x())};
-      sigma.at<cv::Vec3b>(y, x) = {0, static_cast<uint8_t>(255 * std::min(1.0, p.sigma_y)),
-                                   static_cast<uint8_t>(255 * std::min(1.0, p.sigma_x))};
-      cv::Vec3b hue;
-      const double t = (p.alpha + kPi / 2) / kPi;  // (−π/2, π/2] → (0, 1]
-      hue[2] = static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * t)));
-      hue[1] = static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * (t - 1.0 / 3))));
-      hue[0] = static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * (t - 2.0 / 3))));
-      alpha.at<cv::Vec3b>(y, x) = hue;
-      height.at<uint8_t>(y, x) =
-          height_channel < 0 ? 0 : static_cast<uint8_t>(255 * m.maps.at(height_channel, y, x) / max_height);
-    }
-  }
-  const std::pair<const char*, cv::Mat*> previews[] = {{"diffuse", &diffuse}, {"specular", &specular},
-                                                       {"normal", &normal},   {"sigma", &sigma},
-                                                       {"alpha", &alpha},     {"height", &height}};
-  for (const auto& [name, image] : previews) {
-    const fs::path path = dir / (std::string(name) + ".png");
-    if (!cv::imwrite(path.string(), *image)) return IoError(path.string(), "cannot write the preview");
-  }
-  return Status::Ok();
-}
-
 int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_mm, const fs::path& out) {
   Result<sim::Material> material = sim::MakeSample({kind, seed, size_px, pixel_mm});
   if (!material.ok()) return ReportFailure(material.status());
@@ -83,7 +34,7 @@ int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_m
   if (ec) return ReportFailure(IoError(out.string(), "cannot create: " + ec.message()));
   const fs::path maps = out / "svbrdf.exr";
   if (Status written = sim::WriteMaterial(*material, maps); !written.ok()) return ReportFailure(written);
-  if (Status previews = WritePreviews(*material, out); !previews.ok()) return ReportFailure(previews);
+  if (Status previews = fitting::WriteSvbrdfPreviews(material->maps, out); !previews.ok()) return ReportFailure(previews);
   std::cout << material->name << " (" << material->width() << "x" << material->height() << " px of "
             << material->pixel_mm << " mm): " << maps.string() << " and previews in " << out.string() << "\n";
   return kExitOk;
@@ -148,7 +99,8 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
 
 // One raw frame (and its radiance) of a simulated rig's camera, or the fast-path stack.
 // The fast-path stack of the observations a material plan with `preset` makes.
-int RenderStack(const LoadedRig& loaded, const std::string& preset_name, const fs::path& out) {
+int RenderStack(const LoadedRig& loaded, const std::string& preset_name, int size_px, const std::string& truth_path,
+                const fs::path& out) {
   const sim::Scene& scene = *loaded.world->scene;
   Result<acquisition::Preset> preset = acquisition::LoadPreset(ResolvePresetPath(preset_name));
   if (!preset.ok()) return ReportFailure(preset.status());
@@ -156,21 +108,29 @@ int RenderStack(const LoadedRig& loaded, const std::string& preset_name, const f
   if (!plan.ok()) return ReportFailure(plan.status());
   Result<std::vector<sim::Observation>> observations = PlanObservations(scene.rig(), *plan);
   if (!observations.ok()) return ReportFailure(observations.status());
-  const ObservationStack stack = sim::RenderStack(scene, *observations, {});
+  const sim::StackOptions options{.width_px = size_px, .height_px = size_px};
+  const ObservationStack stack = sim::RenderStack(scene, *observations, options);
   if (Status written = WriteObservationStack(out, stack); !written.ok()) return ReportFailure(written);
+  if (!truth_path.empty()) {
+    if (Status written = sim::WriteMaterial(sim::TruthOnStackGrid(scene, options), truth_path); !written.ok()) {
+      return ReportFailure(written);
+    }
+    std::cout << "wrote " << truth_path << ": the ground-truth maps on the stack's grid\n";
+  }
   std::cout << "wrote " << out.string() << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << observations->size() << " observations (preset " << preset->name << ")\n";
   return kExitOk;
 }
 
 int Render(const std::string& rig_path, const std::string& camera_name, const std::string& leds, double angle_deg,
-           double exposure_us, bool stack, const std::string& preset, const fs::path& out) {
+           double exposure_us, bool stack, const std::string& preset, int size_px, const std::string& truth_path,
+           const fs::path& out) {
   Result<LoadedRig> loaded = LoadRig(rig_path);
   if (!loaded.ok()) return ReportFailure(loaded.status());
   if (!loaded->world) {
     return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
   }
-  if (stack) return RenderStack(*loaded, preset, out);
+  if (stack) return RenderStack(*loaded, preset, size_px, truth_path, out);
   const sim::Scene& scene = *loaded->world->scene;
   int camera = -1;
   for (size_t i = 0; i < scene.rig().cameras.size(); ++i) {
@@ -230,6 +190,11 @@ int RunSim(int argc, char** argv) {
   render->add_option("--exposure-us", exposure_us, "Exposure of the raw frame");
   render->add_flag("--stack", stack, "Render the observation stack in the top-view frame instead");
   render->add_option("--preset", preset, "With --stack: the gloss preset whose material plan gives the observations");
+  int stack_size_px = 0;
+  std::string truth_path;
+  render->add_option("--size", stack_size_px, "With --stack: its size in pixels (square, centred; 0: the sample's)")
+      ->check(CLI::Range(0, 8192));
+  render->add_option("--truth", truth_path, "With --stack: also write the ground-truth maps on its grid (OpenEXR)");
   render->add_option("--out", out, "Output EXR")->required();
   int seeds = 200;
   std::string json_path;
@@ -239,7 +204,7 @@ int RunSim(int argc, char** argv) {
   stats->add_option("--json", json_path, "Also write the histograms as JSON");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (*stats) return Stats(seeds, size_px, json_path);
-  if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, preset, out);
+  if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, preset, stack_size_px, truth_path, out);
   return Material(kind, seed, size_px, pixel_mm, out);
 }
 

@@ -57,6 +57,8 @@ Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale,
   for (int i = 0; i < 3; ++i) {
     problem.SetParameterLowerBound(blocks.a_d, i, 0);
     problem.SetParameterLowerBound(blocks.a_s, i, 0);
+    problem.SetParameterUpperBound(blocks.a_d, i, kMaxAlbedo);
+    problem.SetParameterUpperBound(blocks.a_s, i, kMaxAlbedo);
   }
   for (int i = 0; i < 2; ++i) {
     problem.SetParameterLowerBound(blocks.sigma, i, kMinSigma);

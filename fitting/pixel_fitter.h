@@ -9,7 +9,9 @@
 //
 //   L = Σ_j E_j · (w·a_d / π + w·a_s · F(l_j·h) D(h)) · (n_s·l_j)
 //
-// Parameter blocks: n_s (unit, on ceres::SphereManifold<3>), a_d ≥ 0, a_s ≥ 0, (σx, σy) in
+// Parameter blocks: n_s (unit, on ceres::SphereManifold<3>), a_d and a_s in [0, kMaxAlbedo]
+// (unbounded above, a tiny σ lets a_s run off to thousands on a pixel whose highlight falls
+// between the observations), (σx, σy) in
 // [kMinSigma, kMaxSigma], α (free; wrapped to (−π/2, π/2] after), F0 ∈ [0, 1]. Residuals are
 // radiances relative to the pixel's mean observed radiance, under a Huber loss, so a shadowed or
 // mis-registered observation cannot drag the fit. Observations with NaN radiance are skipped.
@@ -24,6 +26,8 @@
 #include "fitting/model/ward_gd10.h"
 
 namespace loom::fitting {
+
+inline constexpr double kMaxAlbedo = 1.0;
 
 struct LightSample {
   Eigen::Vector3d l_local;   // unit, towards the light
@@ -80,5 +84,13 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
 // A neutral start from the observations alone: n_s = z, a_d from the mean radiance as if
 // Lambertian, a small grey a_s, σ = 0.2, α = 0, F0 = 1.
 WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& observations);
+
+// Starts chosen by search, the `count` best first: 13 normals (up to 20° tilt) × 28 lobe shapes (σ from 0.03 to 0.3,
+// isotropic and anisotropic at 4 angles), each scored with its least-squares non-negative
+// albedos (the model is linear in them), F0 = `f0`. About 360 shapes; for pixels and clusters
+// where a neighbour's parameters are no start: a narrow highlight far from the start's lobe
+// gives no gradient, and the fit falls into a_s = 0 (grid_start.cc).
+std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0,
+                                                  int count);
 
 }  // namespace loom::fitting

@@ -75,6 +75,35 @@ double RelativeRms(const WardParams<double>& params, const std::vector<PixelObse
   return std::sqrt(squares / observations.size()) / (sum / observations.size());
 }
 
+// The lowest-cost fit over several starts (costs compare: same observations, same scale).
+Result<PixelFitResult> FitFromStarts(const std::vector<PixelObservation>& observations,
+                                     const std::vector<WardParams<double>>& starts, const PixelFitOptions& options) {
+  Result<PixelFitResult> best = InternalError("pixel fit", "no start");
+  for (const WardParams<double>& start : starts) {
+    Result<PixelFitResult> fitted = FitPixel(observations, start, options);
+    if (!fitted.ok()) return fitted;
+    if (!best.ok() || fitted->cost < best->cost) best = std::move(fitted);
+  }
+  return best;
+}
+
+// A pixel from its cluster's parameters; when that leaves a poor fit (the pixel's highlight
+// is not where its cluster's is), again from grid-searched starts.
+Result<PixelFitResult> FitOnePixel(const std::vector<PixelObservation>& observations, const WardParams<double>& start,
+                                   const PixelFitOptions& fit, const StackFitOptions& options, bool* retried) {
+  Result<PixelFitResult> result = FitPixel(observations, start, fit);
+  *retried = false;
+  if (!result.ok() || RelativeRms(result->params, observations) <= options.retry_above_rms) return result;
+  *retried = true;
+  Result<PixelFitResult> again =
+      FitFromStarts(observations, GridInitialParams(observations, fit.fixed_f0.value_or(1.0), options.grid_starts), fit);
+  if (again.ok() && again->cost < result->cost) {
+    again->iterations += result->iterations;
+    return again;
+  }
+  return result;
+}
+
 // The cluster's start: its most typical pixels' observations pooled into one fit.
 Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters& clusters, int cluster,
                                   const StackFitOptions& options) {
@@ -91,8 +120,8 @@ Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters
     pooled.insert(pooled.end(), std::make_move_iterator(own.begin()), std::make_move_iterator(own.end()));
   }
   PixelFitOptions fit = options.cluster_fit;
-  fit.fixed_f0.reset();
-  return FitPixel(pooled, GenericInitialParams(pooled), fit);
+  fit.fixed_f0 = options.fixed_f0;
+  return FitFromStarts(pooled, GridInitialParams(pooled, options.fixed_f0.value_or(1.0), options.grid_starts), fit);
 }
 
 void FillChannels(Image& maps, const ObservationStack& stack) {
@@ -109,6 +138,9 @@ Status StackFitOptions::Check() const {
   std::vector<std::string> problems;
   if (clusters < 1) problems.push_back("clusters must be ≥ 1");
   if (pixels_per_cluster_fit < 1) problems.push_back("pixels_per_cluster_fit must be ≥ 1");
+  if (fixed_f0 && !(*fixed_f0 >= 0 && *fixed_f0 <= 1)) problems.push_back("fixed_f0 must be in [0, 1]");
+  if (grid_starts < 1) problems.push_back("grid_starts must be ≥ 1");
+  if (!(retry_above_rms > 0)) problems.push_back("retry_above_rms must be > 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());
@@ -166,7 +198,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     summary.cluster_params.push_back(cluster_fits[c]->params);
     f0s.push_back({cluster_fits[c]->params.f0, summary.cluster_sizes[c]});
   }
-  summary.f0 = Median(f0s);
+  summary.f0 = options.fixed_f0.value_or(Median(f0s));
   summary.cluster_seconds = SecondsSince(cluster_start);
 
   fit.maps = MakeSvbrdfImage(width, height, /*with_height=*/true);
@@ -175,9 +207,9 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   const int used_channel = *fit.maps.ChannelIndex(kFitObservationsChannel);
   const int rms_channel = *fit.maps.ChannelIndex(kFitRmsChannel);
   PixelFitOptions pixel_options = options.pixel_fit;
-  if (options.one_f0_per_material) pixel_options.fixed_f0 = summary.f0;
+  pixel_options.fixed_f0 = summary.f0;
   std::atomic<int64_t> iterations{0}, observations_used{0};
-  std::atomic<int> fitted{0};
+  std::atomic<int> fitted{0}, retries{0};
   const Clock::time_point pixel_start = Clock::now();
   ParallelFor(
       pixel_count, options.threads,
@@ -185,16 +217,19 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
         const int x = i % width, y = i / width;
         const std::vector<PixelObservation> observations = pixels.Observations(x, y);
         WardParams<double> start = summary.cluster_params[clusters.labels[i]];
-        if (options.one_f0_per_material && summary.f0 > 0) {
+        if (summary.f0 > 0) {
           start.a_s *= start.f0 / summary.f0;  // keeps a_s·F0, the observable product
           start.f0 = summary.f0;
         }
         WardParams<double> params = start;
-        if (Result<PixelFitResult> result = FitPixel(observations, start, pixel_options); result.ok()) {
+        bool retried = false;
+        if (Result<PixelFitResult> result = FitOnePixel(observations, start, pixel_options, options, &retried);
+            result.ok()) {
           params = result->params;
           iterations += result->iterations;
           ++fitted;
         }
+        if (retried) ++retries;
         observations_used += static_cast<int64_t>(observations.size());
         SetParams(fit.maps, x, y, params);
         fit.maps.at(cluster_channel, y, x) = static_cast<float>(clusters.labels[i]);
@@ -205,6 +240,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   summary.pixel_seconds = SecondsSince(pixel_start);
   summary.pixels_fitted = fitted.load();
   summary.pixels_kept_at_cluster = pixel_count - summary.pixels_fitted;
+  summary.pixels_retried = retries.load();
   summary.mean_iterations = summary.pixels_fitted ? static_cast<double>(iterations.load()) / summary.pixels_fitted : 0;
   summary.mean_observations = pixel_count ? static_cast<double>(observations_used.load()) / pixel_count : 0;
   return fit;

@@ -2,10 +2,12 @@
 // The Ceres fit of a whole observation stack, in the paper's reference pipeline's order:
 //  1. cluster the pixels by appearance (k-means on their log radiances, OpenCV);
 //  2. fit each cluster on the pooled observations of its most typical pixels — many more
-//     angular samples than one pixel has, from a generic start with the α multi-start;
-//  3. one F0 for the material (the clusters' median, weighted by size), as Pantora fits it:
-//     away from grazing angles only a_s·F0 is observable per pixel;
-//  4. fit every pixel from its cluster's parameters (a_s rescaled to keep a_s·F0), threaded.
+//     angular samples than one pixel has — from the best grid-searched starts;
+//  3. one F0 for the material: held fixed (default 1), or the clusters' size-weighted median,
+//     as Pantora fits it — away from grazing angles only a_s·F0 is observable per pixel;
+//  4. fit every pixel from its cluster's parameters (a_s rescaled to keep a_s·F0), threaded;
+//     a pixel left with a poor fit (its highlight is not where its cluster's is) is fitted again
+//     from grid-searched starts and keeps the better.
 // A pixel with too few usable observations keeps its cluster's parameters and is counted.
 //
 // Output maps: svbrdf_maps.h's 13 channels and `height` (the stack's pos.Z), then
@@ -13,6 +15,7 @@
 // mean radiance).
 
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "core/image.h"
@@ -31,9 +34,15 @@ struct StackFitProgress {
 struct StackFitOptions {
   int clusters = 8;                 // k-means clusters (1: one start for the whole material)
   int pixels_per_cluster_fit = 12;  // most typical pixels pooled into a cluster's fit
-  PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = true};
+  PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false};
   PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false};
-  bool one_f0_per_material = true;  // false: F0 free per pixel (then only a_s·F0 is meaningful)
+  int grid_starts = 4;              // best grid-searched starts tried (GridInitialParams)
+  double retry_above_rms = 0.1;     // a pixel fit worse than this (relative RMS) is redone from grid starts
+  // F0 of every pixel. Away from grazing angles only a_s·F0 is observable, and on tac7-mini's
+  // geometry the cluster fits scatter F0 over [0, 1] (measured: 0.01 and 1 for one fabric whose
+  // truth is 0.74), so by default it is held at 1 and a_s carries the product. nullopt: one F0
+  // per material, the size-weighted median of the cluster fits (F0 free there), as Pantora does.
+  std::optional<double> fixed_f0 = 1.0;
   StackPixelOptions pixels;
   int threads = 0;                  // 0: one per core
   uint64_t seed = 1;                // k-means initialisation
@@ -45,9 +54,10 @@ struct StackFitSummary {
   int pixels = 0;
   int pixels_fitted = 0;
   int pixels_kept_at_cluster = 0;   // too few usable observations
+  int pixels_retried = 0;           // redone from grid starts
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
-  double f0 = 0;                    // the material's (or the median over pixels)
+  double f0 = 0;                    // the material's
   double mean_iterations = 0;       // per pixel fit
   double mean_observations = 0;     // usable per pixel
   double cluster_seconds = 0;

@@ -138,4 +138,26 @@ ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>&
   return result;
 }
 
+Material TruthOnStackGrid(const Scene& scene, const StackOptions& options) {
+  const Material& material = scene.material();
+  Material truth;
+  truth.name = material.name;
+  truth.pixel_mm = options.pixel_mm > 0 ? options.pixel_mm : material.pixel_mm;
+  truth.provenance = material.provenance;
+  const int width = options.width_px > 0 ? options.width_px : material.width();
+  const int height = options.height_px > 0 ? options.height_px : material.height();
+  truth.maps = Image(width, height, material.maps.channel_names());
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const double px = (x + 0.5 - width / 2.0) * truth.pixel_mm;
+      const double py = (y + 0.5 - height / 2.0) * truth.pixel_mm;
+      const int mx = static_cast<int>(std::floor(px / material.pixel_mm + material.width() / 2.0));
+      const int my = static_cast<int>(std::floor(py / material.pixel_mm + material.height() / 2.0));
+      if (mx < 0 || my < 0 || mx >= material.width() || my >= material.height()) continue;
+      for (int c = 0; c < truth.maps.num_channels(); ++c) truth.maps.at(c, y, x) = material.maps.at(c, my, mx);
+    }
+  }
+  return truth;
+}
+
 }  // namespace loom::sim

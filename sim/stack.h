@@ -40,4 +40,9 @@ StackObservation DescribeObservation(const RigModel& rig, const Observation& obs
 
 ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options);
 
+// The ground truth on the grid RenderStack renders with `options`: the material's maps at each
+// stack pixel's centre (nearest map pixel; all zero where the grid leaves the material), so a
+// fit of the stack compares pixel for pixel. Same channels as the material.
+Material TruthOnStackGrid(const Scene& scene, const StackOptions& options);
+
 }  // namespace loom::sim

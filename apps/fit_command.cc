@@ -1,0 +1,125 @@
+// loom fit: an observation stack → SVBRDF maps (OpenEXR + PNG previews + fit.json).
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/command.h"
+#include "apps/progress.h"
+#include "core/exr_io.h"
+#include "core/file_io.h"
+#include "core/observation_stack.h"
+#include "core/version.h"
+#include "fitting/export.h"
+#include "fitting/stack_fitter.h"
+
+namespace loom::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FitArguments {
+  std::string stack;
+  std::string out;
+  std::string method = "ceres";
+  int clusters = 8;
+  int threads = 0;
+  std::string f0 = "1";
+  bool quiet = false;
+};
+
+std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args) {
+  nlohmann::json json = {{"method", args.method},
+                         {"stack", args.stack},
+                         {"pixels", s.pixels},
+                         {"pixels_fitted", s.pixels_fitted},
+                         {"pixels_kept_at_cluster", s.pixels_kept_at_cluster},
+                         {"pixels_retried", s.pixels_retried},
+                         {"clusters", s.cluster_sizes},
+                         {"f0", s.f0},
+                         {"f0_option", args.f0},
+                         {"mean_iterations", s.mean_iterations},
+                         {"mean_observations", s.mean_observations},
+                         {"cluster_seconds", s.cluster_seconds},
+                         {"pixel_seconds", s.pixel_seconds},
+                         {"threads", s.threads},
+                         {"ms_per_pixel_per_thread", s.ms_per_pixel_per_thread()},
+                         {"loom_version", std::string(VersionWithCommit())}};
+  return json.dump(2) + "\n";
+}
+
+Status Fit(const FitArguments& args) {
+  if (args.method != "ceres") {
+    return UnimplementedError("--method " + args.method, "only 'ceres' is built so far; the CNN ('cnn', 'cnn+ceres') "
+                                                         "is not (issue #7)");
+  }
+  LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
+  std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
+            << stack.observations.size() << " observations (" << stack.source << ")\n";
+  ProgressBar clusters("clusters", args.quiet);
+  ProgressBar pixels("pixels  ", args.quiet);
+  fitting::StackFitOptions options;
+  options.clusters = args.clusters;
+  options.threads = args.threads;
+  if (args.f0 == "material") {
+    options.fixed_f0.reset();
+  } else {
+    try {
+      options.fixed_f0 = std::stod(args.f0);
+    } catch (const std::exception&) {
+      return InvalidArgumentError("--f0 " + args.f0, "expected a number in [0, 1] or 'material'");
+    }
+  }
+  options.progress = [&](const fitting::StackFitProgress& p) {
+    (p.stage == "clusters" ? clusters : pixels).Update(p.done, p.total, p.stage);
+  };
+  LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
+  std::error_code ec;
+  fs::create_directories(args.out, ec);
+  if (ec) return IoError(args.out, "cannot create: " + ec.message());
+  const fs::path maps = fs::path(args.out) / "svbrdf.exr";
+  LOOM_RETURN_IF_ERROR(WriteExr(maps, fit.maps,
+                                {{"loom.kind", std::string("svbrdf maps")},
+                                 {"loom.method", args.method},
+                                 {"loom.stack", args.stack},
+                                 {"loom.rig", stack.rig},
+                                 {"loom.pixel_mm", stack.pixel_mm},
+                                 {"loom.units", std::string("albedos linear sRGB; sigma unitless; alpha rad; height mm")},
+                                 {"loom.version", std::string(VersionWithCommit())}}));
+  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(fit.maps, args.out));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", SummaryJson(fit.summary, args)));
+  const fitting::StackFitSummary& s = fit.summary;
+  std::cout << std::fixed << std::setprecision(2) << "fitted " << s.pixels_fitted << " of " << s.pixels << " px ("
+            << s.pixels_kept_at_cluster << " kept at their cluster's fit, " << s.pixels_retried
+            << " redone from grid starts) from " << s.cluster_sizes.size()
+            << " clusters; F0 " << s.f0 << "; " << s.mean_observations << " observations and " << s.mean_iterations
+            << " iterations per pixel\n"
+            << "time: clusters " << FormatDuration(s.cluster_seconds) << ", pixels " << FormatDuration(s.pixel_seconds)
+            << " (" << s.ms_per_pixel_per_thread() << " ms per pixel per thread, " << s.threads << " threads)\n"
+            << "wrote " << maps.string() << ", previews and fit.json in " << args.out << "\n";
+  return Status::Ok();
+}
+
+}  // namespace
+
+int RunFit(int argc, char** argv) {
+  CLI::App app("Fit SVBRDF maps (GD10 anisotropic Ward) to an observation stack", "loom fit");
+  AddCommonOptions(app);
+  FitArguments args;
+  app.add_option("stack", args.stack, "Observation stack (OpenEXR, from loom reconstruct or loom sim render --stack)")
+      ->required();
+  app.add_option("--out", args.out, "Output directory: svbrdf.exr, PNG previews, fit.json")->required();
+  app.add_option("--method", args.method, "ceres (clusters, then every pixel); cnn and cnn+ceres are not built yet");
+  app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")
+      ->check(CLI::Range(1, 1000));
+  app.add_option("--threads", args.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
+  app.add_option("--f0", args.f0, "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
+                                  "observations fix), or 'material': one F0 fitted per material");
+  app.add_flag("--quiet", args.quiet, "No progress output");
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (Status status = Fit(args); !status.ok()) return ReportFailure(status);
+  return kExitOk;
+}
+
+}  // namespace loom::apps

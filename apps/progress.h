@@ -1,0 +1,30 @@
+#pragma once
+// A progress line with ETA on stderr: redrawn in place on a terminal, every 10 % otherwise (so
+// logs of batch jobs stay short); silent when quiet. Not thread-safe: update from one thread.
+
+#include <chrono>
+#include <optional>
+#include <string>
+
+namespace loom::apps {
+
+class ProgressBar {
+ public:
+  ProgressBar(std::string label, bool quiet);
+  ~ProgressBar();  // ends the line on a terminal
+
+  // `detail` follows the counts ("672 frames"); the ETA is the caller's, or extrapolated from
+  // the time since construction.
+  void Update(int64_t done, int64_t total, const std::string& unit, const std::string& detail = "",
+              std::optional<double> eta_s = std::nullopt);
+
+ private:
+  std::string label_;
+  bool quiet_;
+  bool tty_;
+  int last_decile_ = -1;
+  bool drawn_ = false;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace loom::apps

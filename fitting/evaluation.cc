@@ -1,0 +1,149 @@
+#include "fitting/evaluation.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+
+#include "core/geometry.h"
+#include "core/parallel.h"
+#include "fitting/model/label.h"
+#include "fitting/model/svbrdf_maps.h"
+#include "fitting/stack_pixels.h"
+
+namespace loom::fitting {
+namespace {
+
+// (σx, σy, α) and (σy, σx, α + π/2) are the same lobe: compare with σx ≥ σy.
+WardParams<double> Canonical(WardParams<double> p) {
+  if (p.sigma_x < p.sigma_y) {
+    std::swap(p.sigma_x, p.sigma_y);
+    p.alpha += kPi / 2;
+  }
+  return p;
+}
+
+struct LabelGroup {
+  const char* name;
+  int first;
+  int count;
+  double range;
+};
+constexpr std::array<LabelGroup, 6> kLabelGroups = {{{"a_d", 0, 3, 1}, {"a_s", 3, 3, 1}, {"n_s", 6, 3, 2},
+                                                     {"sigma", 9, 2, 1}, {"alpha", 11, 2, 2}, {"F0", 13, 1, 1}}};
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  return values[static_cast<size_t>(q * (values.size() - 1))];
+}
+
+void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& evaluation) {
+  std::array<double, kLabelGroups.size()> squares{};
+  double product_squares = 0;
+  std::vector<double> normal_deg;
+  const int pixels = maps.width() * maps.height();
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      const WardParams<double> fit = Canonical(GetParams(maps, x, y));
+      const WardParams<double> truth = Canonical(GetParams(reference, x, y));
+      const Label a = EncodeLabel(fit);
+      const Label b = EncodeLabel(truth);
+      for (size_t g = 0; g < kLabelGroups.size(); ++g) {
+        for (int i = 0; i < kLabelGroups[g].count; ++i) {
+          const double d = a[kLabelGroups[g].first + i] - b[kLabelGroups[g].first + i];
+          squares[g] += d * d / kLabelGroups[g].count;
+        }
+      }
+      product_squares += (fit.a_s * fit.f0 - truth.a_s * truth.f0).squaredNorm() / 3;
+      normal_deg.push_back(RadToDeg(std::acos(std::clamp(fit.n_s.normalized().dot(truth.n_s.normalized()), -1.0, 1.0))));
+    }
+  }
+  for (size_t g = 0; g < kLabelGroups.size(); ++g) {
+    evaluation.parameters.push_back({kLabelGroups[g].name, std::sqrt(squares[g] / pixels) / kLabelGroups[g].range});
+  }
+  evaluation.parameters.push_back({"a_s*F0", std::sqrt(product_squares / pixels)});
+  evaluation.normal_median_deg = Percentile(normal_deg, 0.5);
+  evaluation.normal_p90_deg = Percentile(normal_deg, 0.9);
+}
+
+std::vector<RenderError> RenderErrors(const Image& maps, const ObservationStack& stack, const StackPixels& pixels) {
+  std::map<std::string, std::pair<double, double>> sums;  // group → (Σ|error|, Σ|measured|)
+  std::map<std::string, int64_t> counts;
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      const WardLobe<double> lobe(GetParams(maps, x, y));
+      for (const PixelObservation& o : pixels.Observations(x, y)) {
+        const std::string group(ObservationGroupName(stack.observations[o.source].group));
+        const double error = std::abs(PredictRadiance(lobe, o) - o.radiance);
+        for (const std::string& key : {group, std::string("all")}) {
+          sums[key].first += error;
+          sums[key].second += std::abs(o.radiance);
+          ++counts[key];
+        }
+      }
+    }
+  }
+  std::vector<RenderError> errors;
+  for (const auto& [group, sum] : sums) {
+    errors.push_back({group, counts[group], sum.second > 0 ? sum.first / sum.second : 0});
+  }
+  return errors;
+}
+
+double AllGroup(const std::vector<RenderError>& errors) {
+  for (const RenderError& e : errors) {
+    if (e.group == "all") return e.relative_l1;
+  }
+  return 0;
+}
+
+Status CheckGrid(const Image& maps, const ObservationStack& stack, const std::string& what) {
+  if (!HasSvbrdfLayout(maps)) return InvalidArgumentError(what, "is not an SVBRDF map image (n_s.X ... F0 first)");
+  if (maps.width() != stack.image.width() || maps.height() != stack.image.height()) {
+    return InvalidArgumentError(what, std::to_string(maps.width()) + "x" + std::to_string(maps.height()) +
+                                          " px does not match the stack's " + std::to_string(stack.image.width()) + "x" +
+                                          std::to_string(stack.image.height()));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+double Evaluation::FitL1() const { return AllGroup(fit_vs_measured); }
+double Evaluation::ReferenceL1() const { return AllGroup(reference_vs_measured); }
+
+Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& reference, const ObservationStack& stack) {
+  LOOM_RETURN_IF_ERROR(CheckGrid(maps, stack, "the fitted maps"));
+  if (reference) LOOM_RETURN_IF_ERROR(CheckGrid(*reference, stack, "the reference maps"));
+  const StackPixels pixels(stack);
+  Evaluation evaluation;
+  evaluation.fit_vs_measured = RenderErrors(maps, stack, pixels);
+  if (reference) {
+    AddParameterErrors(maps, *reference, evaluation);
+    evaluation.reference_vs_measured = RenderErrors(*reference, stack, pixels);
+  }
+  return evaluation;
+}
+
+Image RenderObservations(const Image& maps, const ObservationStack& stack, const std::vector<int>& observations) {
+  std::vector<std::string> names;
+  for (int k : observations) names.push_back(stack.image.channel_name(ObservationStack::ObservationChannel(k)));
+  Image rendered(maps.width(), maps.height(), names);
+  for (float& v : std::span<float>(rendered.data(), rendered.pixel_count() * names.size())) v = NAN;
+  const StackPixels pixels(stack);
+  ParallelFor(maps.height(), 0, [&](int y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      const WardLobe<double> lobe(GetParams(maps, x, y));
+      for (const PixelObservation& o : pixels.Observations(x, y)) {
+        const auto slot = std::find(observations.begin(), observations.end(), o.source);
+        if (slot != observations.end()) {
+          rendered.at(static_cast<int>(slot - observations.begin()), y, x) = static_cast<float>(PredictRadiance(lobe, o));
+        }
+      }
+    }
+  });
+  return rendered;
+}
+
+}  // namespace loom::fitting

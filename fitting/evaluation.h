@@ -1,0 +1,49 @@
+#pragma once
+// Evaluation of fitted SVBRDF maps, as the paper evaluates its network (§Evaluation):
+//  1. normalised RMS error of each parameter against a reference (the simulator's ground truth
+//     or another fit), computed on the 14-d label (model/label.h) so that α compares without
+//     wrap-around and small σ weigh as the network's loss weighs them; every label channel is
+//     normalised by its range (1 for albedos, σ', F0; 2 for n_s and cos/sin 2α). Also the
+//     shading normals' angle error and a_s·F0 (the product a fit can observe away from grazing);
+//  2. relative L1 between the model re-rendered under every stack observation and the measured
+//     value, per observation group (colour, monochrome, linear) — for the fit and for the
+//     reference — over the observations the fitter uses (seen, not cast-shadowed).
+// Both maps and the stack must share the grid (same width and height): an error otherwise.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/observation_stack.h"
+
+namespace loom::fitting {
+
+struct ParameterError {
+  std::string name;   // a_d, a_s, n_s, sigma, alpha, F0, a_s*F0
+  double nrmse = 0;
+};
+
+struct RenderError {
+  std::string group;  // colour, monochrome, linear, all
+  int64_t values = 0;
+  double relative_l1 = 0;  // Σ|rendered − measured| / Σ|measured|
+};
+
+struct Evaluation {
+  std::vector<ParameterError> parameters;  // empty without a reference
+  double normal_median_deg = 0;
+  double normal_p90_deg = 0;
+  std::vector<RenderError> fit_vs_measured;
+  std::vector<RenderError> reference_vs_measured;  // empty without a reference
+  double FitL1() const;                            // the "all" group
+  double ReferenceL1() const;
+};
+
+Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& reference, const ObservationStack& stack);
+
+// The model re-rendered for the given stack observations: one channel per observation, named
+// as in the stack; NaN where the stack has no usable value (unseen or cast-shadowed).
+Image RenderObservations(const Image& maps, const ObservationStack& stack, const std::vector<int>& observations);
+
+}  // namespace loom::fitting

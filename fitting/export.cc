@@ -1,0 +1,90 @@
+#include "fitting/export.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/geometry.h"
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+namespace {
+
+// OpenCV stores BGR.
+cv::Vec3b Bgr(double r, double g, double b) { return {ToSrgb8(b), ToSrgb8(g), ToSrgb8(r)}; }
+
+// α ∈ (−π/2, π/2] around a colour wheel (α and α + π are the same lobe, so half a turn is all).
+cv::Vec3b Hue(double alpha) {
+  const double t = (alpha + kPi / 2) / kPi;
+  const auto wave = [&](double phase) { return static_cast<uint8_t>(255 * (0.5 + 0.5 * std::cos(2 * kPi * (t - phase)))); };
+  return {wave(2.0 / 3), wave(1.0 / 3), wave(0)};
+}
+
+uint8_t Unit8(double v) { return static_cast<uint8_t>(std::lround(255 * std::clamp(v, 0.0, 1.0))); }
+
+Status Write(const std::filesystem::path& path, const cv::Mat& image) {
+  try {
+    if (cv::imwrite(path.string(), image)) return Status::Ok();
+  } catch (const cv::Exception& e) {
+    return IoError(path.string(), std::string("cannot write: ") + e.what());
+  }
+  return IoError(path.string(), "cannot write the PNG");
+}
+
+}  // namespace
+
+uint8_t ToSrgb8(double linear) {
+  const double v = std::clamp(linear, 0.0, 1.0);
+  const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
+  return static_cast<uint8_t>(std::lround(255 * encoded));
+}
+
+const std::vector<std::string>& SvbrdfPreviewNames() {
+  static const std::vector<std::string> names = {"diffuse", "specular", "normal", "sigma", "alpha", "height"};
+  return names;
+}
+
+Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, const std::string& prefix) {
+  const int w = maps.width();
+  const int h = maps.height();
+  cv::Mat diffuse(h, w, CV_8UC3), specular(h, w, CV_8UC3), normal(h, w, CV_8UC3), sigma(h, w, CV_8UC3),
+      alpha(h, w, CV_8UC3), height(h, w, CV_8UC1);
+  const std::optional<int> height_channel = maps.FindChannel(kHeightChannel);
+  float max_height = 1e-6f;
+  if (height_channel) {
+    for (float v : maps.channel(*height_channel)) max_height = std::max(max_height, v);
+  }
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const WardParams<double> p = GetParams(maps, x, y);
+      diffuse.at<cv::Vec3b>(y, x) = Bgr(p.a_d.x(), p.a_d.y(), p.a_d.z());
+      specular.at<cv::Vec3b>(y, x) = Bgr(p.a_s.x(), p.a_s.y(), p.a_s.z());
+      const Eigen::Vector3d n = p.n_s * 0.5 + Eigen::Vector3d::Constant(0.5);
+      normal.at<cv::Vec3b>(y, x) = {Unit8(n.z()), Unit8(n.y()), Unit8(n.x())};
+      sigma.at<cv::Vec3b>(y, x) = {0, Unit8(p.sigma_y), Unit8(p.sigma_x)};
+      alpha.at<cv::Vec3b>(y, x) = Hue(p.alpha);
+      height.at<uint8_t>(y, x) = height_channel ? Unit8(maps.at(*height_channel, y, x) / max_height) : 0;
+    }
+  }
+  const cv::Mat* images[] = {&diffuse, &specular, &normal, &sigma, &alpha, &height};
+  for (size_t i = 0; i < SvbrdfPreviewNames().size(); ++i) {
+    if (SvbrdfPreviewNames()[i] == "height" && !height_channel) continue;
+    LOOM_RETURN_IF_ERROR(Write(dir / (prefix + SvbrdfPreviewNames()[i] + ".png"), *images[i]));
+  }
+  return Status::Ok();
+}
+
+Status WriteRadiancePng(const std::filesystem::path& path, const Image& image, int channel, double white) {
+  cv::Mat png(image.height(), image.width(), CV_8UC3);
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      const float v = image.at(channel, y, x);
+      png.at<cv::Vec3b>(y, x) = std::isnan(v) ? cv::Vec3b(255, 0, 255) : Bgr(v / white, v / white, v / white);
+    }
+  }
+  return Write(path, png);
+}
+
+}  // namespace loom::fitting

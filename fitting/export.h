@@ -1,0 +1,29 @@
+#pragma once
+// Export of SVBRDF maps: linear OpenEXR (svbrdf_maps.h's channels, with provenance attributes)
+// and PNG previews a person can look at — albedos in sRGB, the shading normal as RGB, σx and σy
+// as red and green, α as a hue wheel, height as grey — plus tone-mapped radiance images for
+// reports. (The AxF-style HDF5 and renderer-ready exports are not built yet: issue #7.)
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/exr_io.h"
+#include "core/image.h"
+
+namespace loom::fitting {
+
+// The previews' file names, in the order WriteSvbrdfPreviews writes them (without ".png").
+const std::vector<std::string>& SvbrdfPreviewNames();
+
+// DIR/diffuse.png, specular.png, normal.png, sigma.png, alpha.png, height.png (when the maps
+// have a height channel). `prefix` goes before each name ("reference-"). Errors name the file.
+Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, const std::string& prefix = "");
+
+// One radiance channel as an 8-bit sRGB PNG: `white` maps to 255; NaN is drawn magenta.
+Status WriteRadiancePng(const std::filesystem::path& path, const Image& image, int channel, double white);
+
+// Linear sRGB [0, 1] → 8-bit sRGB.
+uint8_t ToSrgb8(double linear);
+
+}  // namespace loom::fitting

@@ -1,0 +1,155 @@
+#include "fitting/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/file_io.h"
+#include "core/version.h"
+#include "fitting/export.h"
+
+namespace loom::fitting {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '&': out += "&amp;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << v;
+  return out.str();
+}
+
+// Per group: the observation with the brightest mean (where highlights are) and a typical one.
+std::vector<int> ShowcaseObservations(const ObservationStack& stack) {
+  std::map<ObservationGroup, std::vector<std::pair<double, int>>> by_group;
+  for (size_t k = 0; k < stack.observations.size(); ++k) {
+    double sum = 0;
+    int n = 0;
+    for (float v : stack.image.channel(ObservationStack::ObservationChannel(static_cast<int>(k)))) {
+      if (std::isfinite(v)) sum += v, ++n;
+    }
+    by_group[stack.observations[k].group].push_back({n ? sum / n : 0, static_cast<int>(k)});
+  }
+  std::vector<int> chosen;
+  for (auto& [group, means] : by_group) {
+    std::sort(means.begin(), means.end());
+    chosen.push_back(means.back().second);
+    if (means.size() > 2) chosen.push_back(means[means.size() / 2].second);
+  }
+  return chosen;
+}
+
+// The 99th percentile of what was measured: white in both measured and rendered images.
+double White(const Image& image, int channel) {
+  std::vector<float> values;
+  for (float v : image.channel(channel)) {
+    if (std::isfinite(v)) values.push_back(v);
+  }
+  if (values.empty()) return 1;
+  std::sort(values.begin(), values.end());
+  return std::max(1e-12f, values[static_cast<size_t>(0.99 * (values.size() - 1))]);
+}
+
+std::string ErrorTable(const Evaluation& e) {
+  std::ostringstream html;
+  if (!e.parameters.empty()) {
+    html << "<h2>Parameters against the reference</h2>\n<table><tr><th>parameter</th><th>NRMSE</th></tr>\n";
+    for (const ParameterError& p : e.parameters) html << "<tr><td>" << p.name << "</td><td>" << Fixed(p.nrmse, 4) << "</td></tr>\n";
+    html << "<tr><td>shading normal angle</td><td>median " << Fixed(e.normal_median_deg, 2) << "°, p90 "
+         << Fixed(e.normal_p90_deg, 2) << "°</td></tr></table>\n";
+  }
+  html << "<h2>Re-rendered against measured (relative L1)</h2>\n<table><tr><th>group</th><th>values</th><th>fit</th>"
+       << (e.reference_vs_measured.empty() ? "" : "<th>reference</th>") << "</tr>\n";
+  for (size_t i = 0; i < e.fit_vs_measured.size(); ++i) {
+    const RenderError& f = e.fit_vs_measured[i];
+    html << "<tr><td>" << f.group << "</td><td>" << f.values << "</td><td>" << Fixed(f.relative_l1, 4) << "</td>";
+    if (i < e.reference_vs_measured.size()) html << "<td>" << Fixed(e.reference_vs_measured[i].relative_l1, 4) << "</td>";
+    html << "</tr>\n";
+  }
+  html << "</table>\n";
+  return html.str();
+}
+
+Status WriteMapSection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
+  LOOM_RETURN_IF_ERROR(WriteSvbrdfPreviews(*in.maps, dir, "fit-"));
+  if (in.reference) LOOM_RETURN_IF_ERROR(WriteSvbrdfPreviews(*in.reference, dir, "reference-"));
+  html << "<h2>Parameter maps</h2>\n<table><tr><th></th><th>fit</th>" << (in.reference ? "<th>reference</th>" : "") << "</tr>\n";
+  for (const std::string& name : SvbrdfPreviewNames()) {
+    if (!fs::exists(dir / ("fit-" + name + ".png"))) continue;
+    html << "<tr><td>" << name << "</td><td><img src=\"fit-" << name << ".png\"></td>";
+    if (in.reference) html << "<td><img src=\"reference-" << name << ".png\"></td>";
+    html << "</tr>\n";
+  }
+  html << "</table>\n";
+  return Status::Ok();
+}
+
+Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
+  const std::vector<int> shown = ShowcaseObservations(*in.stack);
+  const Image rendered = RenderObservations(*in.maps, *in.stack, shown);
+  html << "<h2>Measured and re-rendered</h2>\n<p>Same exposure in each pair (white = the measured 99th percentile); "
+          "magenta: not used (unseen or in a cast shadow).</p>\n<table><tr><th>observation</th><th>measured</th><th>fit</th></tr>\n";
+  for (size_t i = 0; i < shown.size(); ++i) {
+    const int channel = ObservationStack::ObservationChannel(shown[i]);
+    const std::string name = in.stack->image.channel_name(channel);
+    const double white = White(in.stack->image, channel);
+    LOOM_RETURN_IF_ERROR(WriteRadiancePng(dir / (name + "-measured.png"), in.stack->image, channel, white));
+    LOOM_RETURN_IF_ERROR(WriteRadiancePng(dir / (name + "-fit.png"), rendered, static_cast<int>(i), white));
+    const StackObservation& o = in.stack->observations[shown[i]];
+    html << "<tr><td>" << name << " (" << ObservationGroupName(o.group) << ")<br><small>" << Escape(o.description)
+         << "</small></td><td><img src=\"" << name << "-measured.png\"></td><td><img src=\"" << name
+         << "-fit.png\"></td></tr>\n";
+  }
+  html << "</table>\n";
+  return Status::Ok();
+}
+
+}  // namespace
+
+std::string EvaluationJson(const Evaluation& e) {
+  nlohmann::json json;
+  for (const ParameterError& p : e.parameters) json["parameter_nrmse"][p.name] = p.nrmse;
+  if (!e.parameters.empty()) json["normal_error_deg"] = {{"median", e.normal_median_deg}, {"p90", e.normal_p90_deg}};
+  for (const RenderError& r : e.fit_vs_measured) json["rerender_l1"]["fit"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};
+  for (const RenderError& r : e.reference_vs_measured) {
+    json["rerender_l1"]["reference"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};
+  }
+  json["loom_version"] = std::string(VersionWithCommit());
+  return json.dump(2) + "\n";
+}
+
+Status WriteReport(const fs::path& dir, const ReportInputs& in) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>loom: " << Escape(in.title) << "</title>\n"
+       << "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{padding:4px 10px;"
+          "border-bottom:1px solid #ccc;text-align:left;vertical-align:top}img{width:192px;image-rendering:pixelated}"
+          "</style></head><body>\n<h1>" << Escape(in.title) << "</h1>\n" << in.notes_html << ErrorTable(in.evaluation);
+  LOOM_RETURN_IF_ERROR(WriteMapSection(dir, in, html));
+  LOOM_RETURN_IF_ERROR(WriteRenderSection(dir, in, html));
+  html << "<p><small>" << Escape(std::string(VersionWithCommit())) << "</small></p></body></html>\n";
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "index.html", html.str()));
+  return WriteFileAtomically(dir / "summary.json", EvaluationJson(in.evaluation));
+}
+
+}  // namespace loom::fitting

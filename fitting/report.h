@@ -1,0 +1,31 @@
+#pragma once
+// The evaluation report people look at: DIR/index.html (self-contained but for its PNGs) with
+// the error tables, the fitted parameter maps beside the reference's, and measured beside
+// re-rendered images for a few observations of each group (the brightest — where highlights
+// are — and a typical one); DIR/summary.json with the same numbers for scripts.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "core/image.h"
+#include "core/observation_stack.h"
+#include "fitting/evaluation.h"
+
+namespace loom::fitting {
+
+struct ReportInputs {
+  std::string title;              // "fabric:1 on tac7-mini"
+  const Image* maps = nullptr;
+  const Image* reference = nullptr;  // optional
+  const ObservationStack* stack = nullptr;
+  Evaluation evaluation;
+  std::string notes_html;         // extra lines (timings, fit summary), already escaped
+};
+
+Status WriteReport(const std::filesystem::path& dir, const ReportInputs& inputs);
+
+// The evaluation as JSON (the report's summary.json).
+std::string EvaluationJson(const Evaluation& evaluation);
+
+}  // namespace loom::fitting
