@@ -65,9 +65,13 @@ Status Fit(const FitArguments& args) {
   if (args.f0 == "material") {
     options.fixed_f0.reset();
   } else {
+    size_t parsed = 0;
     try {
-      options.fixed_f0 = std::stod(args.f0);
+      options.fixed_f0 = std::stod(args.f0, &parsed);
     } catch (const std::exception&) {
+      parsed = 0;
+    }
+    if (parsed == 0 || parsed != args.f0.size()) {
       return InvalidArgumentError("--f0 " + args.f0, "expected a number in [0, 1] or 'material'");
     }
   }

@@ -79,9 +79,17 @@ TEST_F(FitCommandTest, TheCnnMethodsSayTheyAreNotBuiltYet) {
 }
 
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {
-  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + LOOM_SOURCE_DIR +
-                               "/fitting/testdata/missing.exr --stack " + (dir_ / "stack.exr").string() + " --out " +
-                               (dir_ / "r2").string());
+  const auto material = RunCommand(std::string(LOOM_BINARY) + " sim material --size 8 --out " + (dir_ / "m8").string());
+  ASSERT_EQ(material.exit_code, 0) << material.output;
+  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "m8/svbrdf.exr").string() + " --stack " +
+                               (dir_ / "stack.exr").string() + " --out " + (dir_ / "r2").string());
+  EXPECT_EQ(eval.exit_code, 1) << eval.output;
+  EXPECT_NE(eval.output.find("8x8 px does not match the stack's 12x12"), std::string::npos) << eval.output;
+}
+
+TEST_F(FitCommandTest, AMissingMapFileIsNamed) {
+  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "missing.exr").string() + " --stack " +
+                               (dir_ / "stack.exr").string() + " --out " + (dir_ / "r3").string());
   EXPECT_EQ(eval.exit_code, 1) << eval.output;
   EXPECT_NE(eval.output.find("missing.exr"), std::string::npos) << eval.output;
 }
