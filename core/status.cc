@@ -59,6 +59,13 @@ LOOM_DEFINE_STATUS_FACTORY(UnavailableError, kUnavailable)
 LOOM_DEFINE_STATUS_FACTORY(CancelledError, kCancelled)
 LOOM_DEFINE_STATUS_FACTORY(UnimplementedError, kUnimplemented)
 LOOM_DEFINE_STATUS_FACTORY(InternalError, kInternal)
+
+Status ProblemsStatus(std::string subject, const std::vector<std::string>& problems) {
+  if (problems.empty()) return Status::Ok();
+  std::string message;
+  for (const std::string& problem : problems) message += (message.empty() ? "" : "; ") + problem;
+  return InvalidArgumentError(std::move(subject), std::move(message));
+}
 #undef LOOM_DEFINE_STATUS_FACTORY
 
 namespace internal {

@@ -11,6 +11,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 #include <string_view>
 #include <utility>
 #include <variant>
@@ -74,6 +75,10 @@ Status UnavailableError(std::string subject, std::string message);
 Status CancelledError(std::string subject, std::string message);
 Status UnimplementedError(std::string subject, std::string message);
 Status InternalError(std::string subject, std::string message);
+
+// What an options struct's Check() returns: Ok without problems, else InvalidArgument naming
+// `subject` with every problem, joined by "; ".
+Status ProblemsStatus(std::string subject, const std::vector<std::string>& problems);
 
 // Result<T>: a value or a non-OK Status.
 template <typename T>

@@ -67,26 +67,39 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
   evaluation.normal_p90_deg = Percentile(normal_deg, 0.9);
 }
 
-std::vector<RenderError> RenderErrors(const Image& maps, const ObservationStack& stack, const StackPixels& pixels) {
-  std::map<std::string, std::pair<double, double>> sums;  // group → (Σ|error|, Σ|measured|)
-  std::map<std::string, int64_t> counts;
-  for (int y = 0; y < maps.height(); ++y) {
-    for (int x = 0; x < maps.width(); ++x) {
-      const WardLobe<double> lobe(GetParams(maps, x, y));
-      for (const PixelObservation& o : pixels.Observations(x, y)) {
-        const std::string group(ObservationGroupName(stack.observations[o.source].group));
-        const double error = std::abs(PredictRadiance(lobe, o) - o.radiance);
-        for (const std::string& key : {group, std::string("all")}) {
-          sums[key].first += error;
-          sums[key].second += std::abs(o.radiance);
-          ++counts[key];
+// Re-render errors of each of `maps` (fit, reference) in one pass: the observations of a pixel
+// (their shadow tests the costly part) are built once for all of them.
+std::vector<std::vector<RenderError>> RenderErrors(const std::vector<const Image*>& maps, const ObservationStack& stack,
+                                                  const StackPixels& pixels) {
+  struct Sums {
+    double error = 0;
+    double measured = 0;
+    int64_t values = 0;
+  };
+  std::vector<std::map<std::string, Sums>> sums(maps.size());  // per maps: group → sums
+  for (int y = 0; y < stack.image.height(); ++y) {
+    for (int x = 0; x < stack.image.width(); ++x) {
+      const std::vector<PixelObservation> observations = pixels.Observations(x, y);
+      for (size_t m = 0; m < maps.size(); ++m) {
+        const WardLobe<double> lobe(GetParams(*maps[m], x, y));
+        for (const PixelObservation& o : observations) {
+          const std::string group(ObservationGroupName(stack.observations[o.source].group));
+          const double error = std::abs(PredictRadiance(lobe, o) - o.radiance);
+          for (const std::string& key : {group, std::string("all")}) {
+            Sums& sum = sums[m][key];
+            sum.error += error;
+            sum.measured += std::abs(o.radiance);
+            ++sum.values;
+          }
         }
       }
     }
   }
-  std::vector<RenderError> errors;
-  for (const auto& [group, sum] : sums) {
-    errors.push_back({group, counts[group], sum.second > 0 ? sum.first / sum.second : 0});
+  std::vector<std::vector<RenderError>> errors(maps.size());
+  for (size_t m = 0; m < maps.size(); ++m) {
+    for (const auto& [group, sum] : sums[m]) {
+      errors[m].push_back({group, sum.values, sum.measured > 0 ? sum.error / sum.measured : 0});
+    }
   }
   return errors;
 }
@@ -118,11 +131,14 @@ Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& refer
   if (reference) LOOM_RETURN_IF_ERROR(CheckGrid(*reference, stack, "the reference maps"));
   const StackPixels pixels(stack);
   Evaluation evaluation;
-  evaluation.fit_vs_measured = RenderErrors(maps, stack, pixels);
+  std::vector<const Image*> rendered = {&maps};
   if (reference) {
     AddParameterErrors(maps, *reference, evaluation);
-    evaluation.reference_vs_measured = RenderErrors(*reference, stack, pixels);
+    rendered.push_back(&*reference);
   }
+  std::vector<std::vector<RenderError>> errors = RenderErrors(rendered, stack, pixels);
+  evaluation.fit_vs_measured = std::move(errors[0]);
+  if (reference) evaluation.reference_vs_measured = std::move(errors[1]);
   return evaluation;
 }
 

@@ -106,10 +106,7 @@ Status PixelFitOptions::Check() const {
   if (max_iterations < 1) problems.push_back("max_iterations must be ≥ 1");
   if (!(huber_scale > 0)) problems.push_back("huber_scale must be > 0");
   if (fixed_f0 && !(*fixed_f0 >= 0 && *fixed_f0 <= 1)) problems.push_back("fixed_f0 must be in [0, 1]");
-  if (problems.empty()) return Status::Ok();
-  std::string message;
-  for (const std::string& problem : problems) message += (message.empty() ? "" : "; ") + problem;
-  return InvalidArgumentError("PixelFitOptions", message);
+  return ProblemsStatus("PixelFitOptions", problems);
 }
 
 WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& observations) {

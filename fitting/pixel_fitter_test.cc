@@ -10,18 +10,12 @@
 
 #include <random>
 
-#include "core/config.h"
 #include "fitting/internal/pixel_cost.h"
+#include "fitting/testing/tac7_mini.h"
 #include "sim/spectra.h"
 
 namespace loom::fitting {
 namespace {
-
-RigModel TacMini() {
-  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  EXPECT_TRUE(doc.ok());
-  return ReadRigModel(doc->root().Child("geometry"));
-}
 
 LightSample PointLight(const Eigen::Vector3d& light_in_sample, double intensity) {
   return {light_in_sample.normalized(), intensity / light_in_sample.squaredNorm()};
@@ -81,7 +75,7 @@ WardParams<double> Truth() {
 }
 
 std::vector<PixelObservation> Observe(const WardParams<double>& truth, double relative_noise, uint32_t seed) {
-  std::vector<PixelObservation> observations = Geometry(TacMini());
+  std::vector<PixelObservation> observations = Geometry(testing::TacMiniGeometry());
   const WardLobe<double> lobe(truth);
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0, relative_noise);

@@ -144,10 +144,7 @@ Status StackFitOptions::Check() const {
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());
-  if (problems.empty()) return Status::Ok();
-  std::string message;
-  for (const std::string& problem : problems) message += (message.empty() ? "" : "; ") + problem;
-  return InvalidArgumentError("StackFitOptions", message);
+  return ProblemsStatus("StackFitOptions", problems);
 }
 
 PixelClusters ClusterPixels(const ObservationStack& stack, int clusters, uint64_t seed) {

@@ -7,31 +7,13 @@
 #include <algorithm>
 #include <random>
 
-#include "core/config.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"
 
 namespace loom::fitting {
 namespace {
-
-RigModel TacMini() {
-  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  EXPECT_TRUE(doc.ok());
-  return ReadRigModel(doc->root().Child("geometry"));
-}
-
-// tac7-mini's low preset: every LED at 3 angles, the filtered LEDs through 4 filters, the strip
-// at 16 positions.
-std::vector<sim::Observation> Observations(const RigModel& rig) {
-  std::vector<sim::Observation> observations = sim::DefaultObservations(rig, {0, 120, 240});
-  for (int k = 0; k < 16; ++k) {
-    for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
-      observations.push_back({camera, {.linear_light_on = true, .linear_light_mm = rig.linear_light->travel_mm * k / 15}});
-    }
-  }
-  return observations;
-}
 
 double Percentile(std::vector<double> values, double q) {
   std::sort(values.begin(), values.end());
@@ -40,8 +22,9 @@ double Percentile(std::vector<double> values, double q) {
 
 TEST(StackFitterTest, RecoversAFabricFromItsFastPathStack) {
   const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 20, .height_px = 20, .pixel_mm = 0.2});
-  const sim::Scene scene(TacMini(), fabric);
-  ObservationStack stack = sim::RenderStack(scene, Observations(scene.rig()), {});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  // tac7-mini's low preset, with the strip at 16 positions.
+  ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
   // 1 % noise: about what the HDR merge leaves on a well-exposed value.
   std::mt19937 random(5);
   std::normal_distribution<float> noise(0.0f, 0.01f);

@@ -6,34 +6,18 @@
 
 #include <gtest/gtest.h>
 
-#include "core/config.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"
 
 namespace loom::fitting {
 namespace {
 
-RigModel TacMini() {
-  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  EXPECT_TRUE(doc.ok());
-  return ReadRigModel(doc->root().Child("geometry"));
-}
-
-std::vector<sim::Observation> WithLinearLight(const RigModel& rig) {
-  std::vector<sim::Observation> observations = sim::DefaultObservations(rig, {0, 120, 240});
-  for (double position : {0.0, 100.0, 200.0, 300.0, 400.0}) {
-    for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
-      observations.push_back({camera, {.linear_light_on = true, .linear_light_mm = position}});
-    }
-  }
-  return observations;
-}
-
 TEST(StackPixelsTest, TheTableAndTrueParametersReproduceTheFastPathStack) {
   const sim::Material fabric = sim::GenerateFabric(7, {.width_px = 24, .height_px = 24, .pixel_mm = 0.2});
-  const sim::Scene scene(TacMini(), fabric);
-  const ObservationStack stack = sim::RenderStack(scene, WithLinearLight(scene.rig()), {});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 5), {});
   const StackPixels pixels(stack);
   int compared = 0;
   int shadowed = 0;
