@@ -2,6 +2,7 @@
 // useful size (a 12 × 12 px crop of fabric seed 1): the commands chain, write what they say,
 // recover the fabric, and fail clearly on bad input.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -18,7 +19,8 @@ using loom::testing::RunCommand;
 class FitCommandTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::path(::testing::TempDir()) / "fit_command_test";
+    // One directory per process: ctest runs these tests as parallel processes.
+    dir_ = fs::path(::testing::TempDir()) / ("fit_command_test_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     const auto render = RunCommand(std::string(LOOM_BINARY) + " sim render --rig " + LOOM_SOURCE_DIR +
@@ -26,6 +28,7 @@ class FitCommandTest : public ::testing::Test {
                                    " --out " + (dir_ / "stack.exr").string());
     ASSERT_EQ(render.exit_code, 0) << render.output;
   }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
   static fs::path dir_;
 };
 fs::path FitCommandTest::dir_;
