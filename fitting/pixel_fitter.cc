@@ -49,7 +49,8 @@ struct Start {
 Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
               const PixelFitOptions& options) {
   Blocks blocks(initial);
-  ceres::CostFunction* cost = internal::MakePixelCost(usable, inverse_scale);
+  ceres::CostFunction* cost = options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
+                                                            : internal::MakeAnalyticPixelCost(usable, inverse_scale);
   ceres::Problem problem;
   problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber_scale), blocks.n_s, blocks.a_d, blocks.a_s,
                            blocks.sigma, blocks.alpha, blocks.f0);

@@ -15,8 +15,9 @@
 // [kMinSigma, kMaxSigma], α (free; wrapped to (−π/2, π/2] after), F0 ∈ [0, 1]. Residuals are
 // radiances relative to the pixel's mean observed radiance, under a Huber loss, so a shadowed or
 // mis-registered observation cannot drag the fit. Observations with NaN radiance are skipped.
-// Derivatives: automatic (ceres::Jet), one dynamic residual block per pixel (the formulation
-// measured fastest in shared/docs/build-notes.md); checked by ceres::GradientChecker in tests.
+// Derivatives: hand-derived (fitting/pixel_cost.cc), one residual block per pixel (the
+// formulation measured fastest in shared/docs/build-notes.md); checked by ceres::GradientChecker
+// and against ceres::Jet in tests.
 // Reentrant: fit different pixels on different threads.
 
 #include <optional>
@@ -64,6 +65,9 @@ struct PixelFitOptions {
   // F0 held at this value instead of fitted. Away from grazing angles the observations fix
   // only a_s · F(l·h) ≈ a_s · F0, so Pantora fits one F0 per material; so can we.
   std::optional<double> fixed_f0;
+  // ceres::Jet derivatives instead of the hand-derived ones: same fit, slower; the baseline
+  // bench/fit_bench.cc measures the analytic Jacobians against.
+  bool automatic_derivatives = false;
   // Check(): every problem, each naming the field.
   Status Check() const;
 };

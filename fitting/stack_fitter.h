@@ -34,8 +34,8 @@ struct StackFitProgress {
 struct StackFitOptions {
   int clusters = 8;                 // k-means clusters (1: one start for the whole material)
   int pixels_per_cluster_fit = 12;  // most typical pixels pooled into a cluster's fit
-  PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false};
-  PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false};
+  PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false, .fixed_f0 = std::nullopt};
+  PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false, .fixed_f0 = std::nullopt};
   int grid_starts = 4;              // best grid-searched starts tried (GridInitialParams)
   double retry_above_rms = 0.1;     // a pixel fit worse than this (relative RMS) is redone from grid starts
   // F0 of every pixel. Away from grazing angles only a_s·F0 is observable, and on tac7-mini's

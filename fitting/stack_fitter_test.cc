@@ -31,7 +31,9 @@ TEST(StackFitterTest, RecoversAFabricFromItsFastPathStack) {
   for (int c = kStackGeometryChannels; c < stack.image.num_channels(); ++c) {
     for (float& v : stack.image.channel(c)) v *= 1 + noise(random);
   }
-  Result<StackFit> fit = FitStack(stack, {.clusters = 4});
+  StackFitOptions options;
+  options.clusters = 4;
+  Result<StackFit> fit = FitStack(stack, options);
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
   const StackFitSummary& s = fit->summary;
   std::vector<double> normal_deg, a_d, a_s_f0, rms;
@@ -67,7 +69,11 @@ TEST(StackFitterTest, RecoversAFabricFromItsFastPathStack) {
 }
 
 TEST(StackFitterTest, BadOptionsNameEveryField) {
-  const Status status = StackFitOptions{.clusters = 0, .pixels_per_cluster_fit = 0, .threads = -1}.Check();
+  StackFitOptions options;
+  options.clusters = 0;
+  options.pixels_per_cluster_fit = 0;
+  options.threads = -1;
+  const Status status = options.Check();
   ASSERT_FALSE(status.ok());
   for (const char* field : {"clusters", "pixels_per_cluster_fit", "threads"}) {
     EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();

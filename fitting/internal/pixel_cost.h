@@ -1,15 +1,26 @@
 #pragma once
-// The per-pixel cost of pixel_fitter.cc, exposed for ceres::GradientChecker in tests.
+// The per-pixel cost of pixel_fitter.cc, exposed for ceres::GradientChecker in tests and for
+// bench/fit_bench.cc. Two implementations of the same residuals:
+//  - analytic: hand-derived Jacobians of the GD10 lobe (pixel_cost.cc) — what the fitter uses;
+//  - autodiff: ceres::Jet through WardLobe — the reference the analytic one is tested against,
+//    and the baseline the bench measures it against.
+// Block order: n_s (3, ambient: the fitter puts it on a SphereManifold), a_d (3), a_s (3),
+// σ (2), α (1), F0 (1); one residual per observation: (predicted − measured) · inverse_scale.
+// None may have NaN radiance. The autodiff cost keeps a pointer: `observations` must outlive it.
+#include <ceres/cost_function.h>
 #include <ceres/dynamic_autodiff_cost_function.h>
 
 #include "fitting/pixel_fitter.h"
 
 namespace loom::fitting::internal {
 
+inline constexpr int kParameterBlockSizes[] = {3, 3, 3, 2, 1, 1};
+
+ceres::CostFunction* MakeAnalyticPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale);
+
 constexpr int kStride = 4;  // Jet derivatives per pass; 4 keeps the Jets in registers
 
-// Block order: n_s (3), a_d (3), a_s (3), σ (2), α (1), F0 (1).
-struct PixelResidual {
+struct AutodiffPixelResidual {
   const std::vector<PixelObservation>* observations;
   double inverse_scale;
 
@@ -32,11 +43,11 @@ struct PixelResidual {
   }
 };
 
-// Parameter blocks n_s (3), a_d (3), a_s (3), σ (2), α (1), F0 (1); one residual per
-// observation. `observations` must outlive the cost function.
-inline ceres::CostFunction* MakePixelCost(const std::vector<PixelObservation>& observations, double inverse_scale) {
-  auto* cost = new ceres::DynamicAutoDiffCostFunction<PixelResidual, kStride>(new PixelResidual{&observations, inverse_scale});
-  for (int size : {3, 3, 3, 2, 1, 1}) cost->AddParameterBlock(size);
+inline ceres::CostFunction* MakeAutodiffPixelCost(const std::vector<PixelObservation>& observations,
+                                                  double inverse_scale) {
+  auto* cost = new ceres::DynamicAutoDiffCostFunction<AutodiffPixelResidual, kStride>(
+      new AutodiffPixelResidual{&observations, inverse_scale});
+  for (int size : kParameterBlockSizes) cost->AddParameterBlock(size);
   cost->SetNumResiduals(static_cast<int>(observations.size()));
   return cost;
 }
