@@ -26,9 +26,7 @@ Eigen::Vector3d VectorFromJson(const Json& j, const std::string& key) {
 }
 
 ObservationGroup ParseGroup(const std::string& name) {
-  for (ObservationGroup group : {ObservationGroup::kColour, ObservationGroup::kMonochrome, ObservationGroup::kLinearLight}) {
-    if (ObservationGroupName(group) == name) return group;
-  }
+  if (std::optional<ObservationGroup> group = ObservationGroupFromName(name)) return *group;
   throw std::invalid_argument("group '" + name + "' is not colour, monochrome or linear");
 }
 
@@ -87,6 +85,13 @@ std::string_view ObservationGroupName(ObservationGroup group) {
     case ObservationGroup::kLinearLight: return "linear";
   }
   return "?";
+}
+
+std::optional<ObservationGroup> ObservationGroupFromName(std::string_view name) {
+  for (ObservationGroup group : {ObservationGroup::kColour, ObservationGroup::kMonochrome, ObservationGroup::kLinearLight}) {
+    if (ObservationGroupName(group) == name) return group;
+  }
+  return std::nullopt;
 }
 
 double PointEmitter::IntensityTowards(const Eigen::Vector3d& p_in_sample) const {

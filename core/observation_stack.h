@@ -23,6 +23,7 @@
 // One LED is one emitter; the linear light is one emitter per strip segment.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,8 @@ namespace loom {
 
 enum class ObservationGroup { kColour, kMonochrome, kLinearLight };
 std::string_view ObservationGroupName(ObservationGroup group);
+// The group a name (as ObservationGroupName writes it) stands for; nothing for another name.
+std::optional<ObservationGroup> ObservationGroupFromName(std::string_view name);
 
 struct PointEmitter {
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  // sample frame

@@ -1,0 +1,322 @@
+#include "fitting/cnn.h"
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "core/file_io.h"
+#include "fitting/internal/cnn_net.h"
+#include "fitting/model/label.h"
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+namespace internal {
+
+CnnNetImpl::CnnNetImpl(const CnnArchitecture& architecture) {
+  namespace nn = torch::nn;
+  const std::array<int, 4> w = architecture.HiddenWidths();
+  conv1_ = register_module("conv1", nn::Conv2d(nn::Conv2dOptions(architecture.input_channels, w[0], 1)));
+  conv2_ = register_module("conv2", nn::Conv2d(nn::Conv2dOptions(w[0], w[1], 1)));
+  conv3_ = register_module("conv3", nn::Conv2d(nn::Conv2dOptions(w[1], w[2], 3).stride(2)));
+  conv4_ = register_module("conv4", nn::Conv2d(nn::Conv2dOptions(w[2], w[3], 3).stride(2)));
+  fc_ = register_module("fc", nn::Linear(9 * w[3], kLabelSize));
+  dropout_ = register_module("dropout", nn::Dropout(architecture.dropout));
+  width4_ = w[3];
+}
+
+torch::Tensor CnnNetImpl::Leaky(const torch::Tensor& x) const {
+  return torch::leaky_relu(x, kLeakySlope);
+}
+
+torch::Tensor CnnNetImpl::ForwardPatches(const torch::Tensor& patches) {
+  torch::Tensor x = Leaky(conv1_->forward(patches));
+  x = Leaky(conv2_->forward(x));
+  x = Leaky(conv3_->forward(x));
+  x = Leaky(conv4_->forward(x));
+  return fc_->forward(dropout_->forward(x.flatten(1)));
+}
+
+torch::Tensor CnnNetImpl::ForwardDense(const torch::Tensor& input) {
+  namespace F = torch::nn::functional;
+  torch::Tensor x = Leaky(conv1_->forward(input));
+  x = Leaky(conv2_->forward(x));
+  // A stride-2 layer's outputs for every pixel: stride 1, and each later layer's taps spread by
+  // the strides before it (dilation 2 for conv4, 4 for fc).
+  x = Leaky(F::conv2d(x, conv3_->weight, F::Conv2dFuncOptions().bias(conv3_->bias)));
+  x = Leaky(F::conv2d(x, conv4_->weight, F::Conv2dFuncOptions().bias(conv4_->bias).dilation(2)));
+  // fc's inputs are conv4's 3 × 3 × w4 outputs flattened channel-major: the same weights
+  // as a 14 × w4 × 3 × 3 kernel.
+  const torch::Tensor kernel = fc_->weight.view({kLabelSize, width4_, 3, 3});
+  return F::conv2d(dropout_->forward(x), kernel, F::Conv2dFuncOptions().bias(fc_->bias).dilation(4));
+}
+
+torch::Tensor PaddedInput(const CnnTensor& input) {
+  const torch::Tensor t = torch::from_blob(const_cast<float*>(input.values.data()),
+                                           {1, input.channels, input.height, input.width}, torch::kFloat32);
+  namespace F = torch::nn::functional;
+  return F::pad(t, F::PadFuncOptions({kPatchHalo, kPatchHalo, kPatchHalo, kPatchHalo}).mode(torch::kReplicate));
+}
+
+}  // namespace internal
+
+namespace {
+
+using Json = nlohmann::json;
+constexpr const char* kInfoFile = "model.json";
+constexpr const char* kWeightsFile = "weights.pt";
+
+int Threads(int threads) {
+  return threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+CnnTensor FromTorch(const torch::Tensor& t) {
+  const torch::Tensor c = t.contiguous();
+  CnnTensor out;
+  out.channels = static_cast<int>(c.size(0));
+  out.height = static_cast<int>(c.size(1));
+  out.width = static_cast<int>(c.size(2));
+  out.values.assign(c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
+  return out;
+}
+
+Status CheckInput(const Cnn& cnn, const CnnTensor& input) {
+  if (input.channels != cnn.info().architecture.input_channels) {
+    return InvalidArgumentError("CNN input", std::to_string(input.channels) + " channels, the model takes " +
+                                                 std::to_string(cnn.info().architecture.input_channels));
+  }
+  if (input.values.size() != static_cast<size_t>(input.channels) * input.height * input.width || input.height < 1 ||
+      input.width < 1) {
+    return InvalidArgumentError("CNN input", "values do not match its " + std::to_string(input.channels) + " x " +
+                                                 std::to_string(input.height) + " x " + std::to_string(input.width) +
+                                                 " shape");
+  }
+  return {};
+}
+
+Json InfoToJson(const CnnModelInfo& info) {
+  Json groups = Json::array();
+  for (ObservationGroup g : info.observation_groups) groups.push_back(ObservationGroupName(g));
+  return {{"format", "loom-cnn-1"},
+          {"architecture",
+           {{"input_channels", info.architecture.input_channels},
+            {"width_divisor", info.architecture.width_divisor},
+            {"dropout", info.architecture.dropout}}},
+          {"radiance_scale", info.radiance_scale},
+          {"rig", info.rig},
+          {"observation_groups", groups},
+          {"training", info.training}};
+}
+
+CnnModelInfo InfoFromJson(const Json& j) {
+  if (j.value("format", "") != "loom-cnn-1") throw std::invalid_argument("format is not loom-cnn-1");
+  CnnModelInfo info;
+  const Json& a = j.at("architecture");
+  info.architecture.input_channels = a.at("input_channels").get<int>();
+  info.architecture.width_divisor = a.at("width_divisor").get<int>();
+  info.architecture.dropout = a.at("dropout").get<double>();
+  info.radiance_scale = j.at("radiance_scale").get<double>();
+  info.rig = j.at("rig").get<std::string>();
+  for (const Json& g : j.at("observation_groups")) {
+    const std::optional<ObservationGroup> group = ObservationGroupFromName(g.get<std::string>());
+    if (!group) throw std::invalid_argument("observation group '" + g.get<std::string>() + "' is unknown");
+    info.observation_groups.push_back(*group);
+  }
+  info.training = j.value("training", "");
+  return info;
+}
+
+}  // namespace
+
+std::array<int, 4> CnnArchitecture::HiddenWidths() const {
+  const int d = std::max(1, width_divisor);
+  return {512 / d, 256 / d, 512 / d, 1024 / d};
+}
+
+double CnnArchitecture::SlidingFlopsPerPixel() const {
+  const std::array<int, 4> w = HiddenWidths();
+  const double macs = 225.0 * input_channels * w[0] + 225.0 * w[0] * w[1] + 49.0 * 9 * w[1] * w[2] +
+                      9.0 * 9 * w[2] * w[3] + 9.0 * w[3] * kLabelSize;
+  return 2 * macs;
+}
+
+double CnnArchitecture::DenseFlopsPerPixel() const {
+  const std::array<int, 4> w = HiddenWidths();
+  const double macs = 1.0 * input_channels * w[0] + 1.0 * w[0] * w[1] + 9.0 * w[1] * w[2] + 9.0 * w[2] * w[3] +
+                      9.0 * w[3] * kLabelSize;
+  return 2 * macs;
+}
+
+Status CnnArchitecture::Check() const {
+  std::vector<std::string> problems;
+  if (input_channels < 1) problems.push_back("input_channels must be ≥ 1");
+  if (width_divisor < 1 || 256 % width_divisor != 0) problems.push_back("width_divisor must divide 256");
+  if (!(dropout >= 0 && dropout < 1)) problems.push_back("dropout must be in [0, 1)");
+  return ProblemsStatus("CnnArchitecture", problems);
+}
+
+Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnModelInfo& info) {
+  const int n = static_cast<int>(stack.observations.size());
+  bool same_layout = n == static_cast<int>(info.observation_groups.size());
+  for (int k = 0; same_layout && k < n; ++k) same_layout = stack.observations[k].group == info.observation_groups[k];
+  if (!same_layout || info.architecture.input_channels != kCnnGeometryChannels + n) {
+    return FailedPreconditionError(stack.source, "its " + std::to_string(n) +
+                                                     " observations are not the layout the model was trained on (" +
+                                                     std::to_string(info.observation_groups.size()) +
+                                                     " observations of rig '" + info.rig + "')");
+  }
+  const int width = stack.image.width(), height = stack.image.height();
+  const size_t plane = stack.image.pixel_count();
+  CnnTensor input{kCnnGeometryChannels + n, height, width, {}};
+  input.values.resize(plane * input.channels);
+  std::vector<float> heights(stack.image.channel(2).begin(), stack.image.channel(2).end());
+  std::nth_element(heights.begin(), heights.begin() + plane / 2, heights.end());
+  const float median_height = heights[plane / 2];
+  for (size_t i = 0; i < plane; ++i) input.values[i] = stack.image.channel(2)[i] - median_height;
+  for (int c = 0; c < 3; ++c) {
+    std::copy(stack.image.channel(3 + c).begin(), stack.image.channel(3 + c).end(), input.values.begin() + (1 + c) * plane);
+  }
+  const float inverse_scale = static_cast<float>(1 / info.radiance_scale);
+  for (int k = 0; k < n; ++k) {
+    const auto values = stack.image.channel(ObservationStack::ObservationChannel(k));
+    float* out = input.values.data() + (kCnnGeometryChannels + k) * plane;
+    for (size_t i = 0; i < plane; ++i) out[i] = std::isfinite(values[i]) ? std::log1p(std::max(0.0f, values[i]) * inverse_scale) : 0.0f;
+  }
+  return input;
+}
+
+CnnLabels CnnLabelsFromMaps(const Image& maps) {
+  const int width = maps.width(), height = maps.height();
+  CnnLabels out{{kLabelSize, height, width, std::vector<float>(static_cast<size_t>(kLabelSize) * width * height)},
+                std::vector<uint8_t>(static_cast<size_t>(width) * height)};
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const WardParams<double> params = GetParams(maps, x, y);
+      const size_t i = static_cast<size_t>(y) * width + x;
+      out.valid[i] = params.n_s.squaredNorm() > 0.5;
+      if (!out.valid[i]) continue;
+      const Label label = EncodeLabel(params);
+      for (int c = 0; c < kLabelSize; ++c) out.labels.values[c * width * height + i] = static_cast<float>(label[c]);
+    }
+  }
+  return out;
+}
+
+Image MapsFromLabels(const CnnTensor& labels) {
+  Image maps = MakeSvbrdfImage(labels.width, labels.height, /*with_height=*/false);
+  for (int y = 0; y < labels.height; ++y) {
+    for (int x = 0; x < labels.width; ++x) {
+      Label label;
+      for (int c = 0; c < kLabelSize; ++c) label[c] = labels.at(c, y, x);
+      SetParams(maps, x, y, DecodeLabel(label));
+    }
+  }
+  return maps;
+}
+
+Cnn::Cnn(CnnModelInfo info, std::shared_ptr<internal::CnnNetHolder> net) : info_(std::move(info)), net_(std::move(net)) {}
+
+Result<Cnn> Cnn::Create(const CnnModelInfo& info, uint64_t seed) {
+  LOOM_RETURN_IF_ERROR(info.architecture.Check());
+  torch::manual_seed(seed);
+  auto holder = std::make_shared<internal::CnnNetHolder>(internal::CnnNetHolder{internal::CnnNet(info.architecture)});
+  return Cnn(info, std::move(holder));
+}
+
+Result<Cnn> Cnn::Load(const std::filesystem::path& directory) {
+  const std::filesystem::path info_path = directory / kInfoFile;
+  Result<std::string> text = ReadFile(info_path);
+  if (!text.ok()) return text.status();
+  CnnModelInfo info;
+  try {
+    info = InfoFromJson(Json::parse(*text));
+  } catch (const std::exception& e) {
+    return InvalidArgumentError(info_path.string(), e.what());
+  }
+  Result<Cnn> cnn = Create(info, 0);
+  if (!cnn.ok()) return InvalidArgumentError(info_path.string(), cnn.status().ToString());
+  const std::filesystem::path weights = directory / kWeightsFile;
+  // torch::load takes whatever shapes the file has: compare them with model.json's architecture.
+  std::vector<std::vector<int64_t>> expected;
+  for (const torch::Tensor& p : cnn->net().net->parameters()) expected.push_back(p.sizes().vec());
+  try {
+    torch::load(cnn->net().net, weights.string());
+  } catch (const std::exception& e) {
+    return InvalidArgumentError(weights.string(), std::string("not weights of this architecture: ") + e.what());
+  }
+  const std::vector<torch::Tensor> loaded = cnn->net().net->parameters();
+  for (size_t i = 0; i < loaded.size(); ++i) {
+    if (loaded[i].sizes().vec() != expected[i]) {
+      return InvalidArgumentError(weights.string(), "its weights do not have the shapes of " + info_path.string() +
+                                                        "'s architecture (" +
+                                                        std::to_string(info.architecture.input_channels) +
+                                                        " input channels, width divisor " +
+                                                        std::to_string(info.architecture.width_divisor) + ")");
+    }
+  }
+  cnn->net().net->eval();
+  return cnn;
+}
+
+Status Cnn::Save(const std::filesystem::path& directory) const {
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error) return IoError(directory.string(), "cannot create: " + error.message());
+  // Weights first, to a temporary name: model.json names a complete model or none.
+  const std::filesystem::path weights = directory / kWeightsFile;
+  const std::filesystem::path partial = directory / (std::string(kWeightsFile) + ".partial");
+  try {
+    torch::save(net_->net, partial.string());
+  } catch (const std::exception& e) {
+    return IoError(partial.string(), e.what());
+  }
+  std::filesystem::rename(partial, weights, error);
+  if (error) return IoError(weights.string(), "cannot rename into place: " + error.message());
+  return WriteFileAtomically(directory / kInfoFile, InfoToJson(info_).dump(2) + "\n");
+}
+
+Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int tile, int threads) const {
+  LOOM_RETURN_IF_ERROR(CheckInput(*this, input));
+  if (tile < 1) return InvalidArgumentError("CNN tile", "must be ≥ 1");
+  torch::set_num_threads(Threads(threads));
+  c10::InferenceMode inference;
+  net_->net->eval();
+  const torch::Tensor padded = internal::PaddedInput(input);
+  torch::Tensor out = torch::empty({kLabelSize, input.height, input.width});
+  for (int y = 0; y < input.height; y += tile) {
+    for (int x = 0; x < input.width; x += tile) {
+      const int h = std::min(tile, input.height - y), w = std::min(tile, input.width - x);
+      const torch::Tensor window = padded.narrow(2, y, h + 2 * kPatchHalo).narrow(3, x, w + 2 * kPatchHalo);
+      out.narrow(1, y, h).narrow(2, x, w).copy_(net_->net->ForwardDense(window.contiguous())[0]);
+    }
+  }
+  return FromTorch(out);
+}
+
+Result<CnnTensor> Cnn::PredictSliding(const CnnTensor& input, int first, int count, int batch, int threads) const {
+  LOOM_RETURN_IF_ERROR(CheckInput(*this, input));
+  const int pixels = input.height * input.width;
+  if (first < 0 || count < 1 || first + count > pixels || batch < 1) {
+    return InvalidArgumentError("CNN sliding window", "pixels [" + std::to_string(first) + ", " +
+                                                          std::to_string(first + count) + ") of " +
+                                                          std::to_string(pixels) + ", batch " + std::to_string(batch));
+  }
+  torch::set_num_threads(Threads(threads));
+  c10::InferenceMode inference;
+  net_->net->eval();
+  const torch::Tensor padded = internal::PaddedInput(input)[0];
+  torch::Tensor out = torch::empty({kLabelSize, 1, count});
+  for (int begin = 0; begin < count; begin += batch) {
+    const int n = std::min(batch, count - begin);
+    std::vector<torch::Tensor> patches;
+    for (int i = begin; i < begin + n; ++i) {
+      const int y = (first + i) / input.width, x = (first + i) % input.width;
+      patches.push_back(padded.narrow(1, y, kPatchSize).narrow(2, x, kPatchSize));
+    }
+    out.narrow(2, begin, n).copy_(net_->net->ForwardPatches(torch::stack(patches)).t().unsqueeze(1));
+  }
+  return FromTorch(out);
+}
+
+}  // namespace loom::fitting

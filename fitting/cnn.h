@@ -1,0 +1,124 @@
+#pragma once
+// The paper's CNN (Merzbach et al. 2019): a 15 × 15 patch of a stack around a pixel → the
+// pixel's 14-d label (fitting/model/label.h). LibTorch behind this torch-free interface.
+//
+// | layer | kind                          | output (patch form)   | paper widths | width_divisor 8 |
+// |-------|-------------------------------|-----------------------|--------------|-----------------|
+// | conv1 | 1 × 1                         | 15 × 15 × w1          | 512          | 64              |
+// | conv2 | 1 × 1                         | 15 × 15 × w2          | 256          | 32              |
+// | conv3 | 3 × 3, stride 2               | 7 × 7 × w3            | 512          | 64              |
+// | conv4 | 3 × 3, stride 2               | 3 × 3 × w4            | 1024         | 128             |
+// | fc    | fully connected 9·w4 → 14     | 14                    |              |                 |
+// LeakyReLU (0.01) after every convolution, no batch normalisation (it would lose the input's
+// absolute intensity, which the albedos need), dropout before fc (training only).
+//
+// Two evaluations of the same weights:
+//  - sliding window: one patch per output pixel, as the paper infers (475 MFLOP per pixel at
+//    the paper's size; kept for the equivalence test and the benchmark);
+//  - dense: fully convolutional over a whole tile — conv3 and conv4 at stride 1 with dilation
+//    1 and 2, fc as a 3 × 3 convolution with dilation 4 — which computes every pixel's patch
+//    output while sharing the 1 × 1 layers between overlapping patches (~36× less work).
+// Both see the input padded by kPatchHalo pixels of edge replication, so every pixel has an
+// output; pixels within the halo of the edge see replicated neighbours.
+//
+// Input features (CnnInputFromStack): height above the stack's median (mm), the geometric
+// normal (3), then log(1 + L / radiance_scale) of every observation (unseen = 0). The stack's
+// x and y positions are left out: they say where on the holder a pixel is, which a stationary
+// material's reflectance does not depend on. So a stack of N observations needs
+// input_channels = 4 + N (the paper's 934-channel input had x, y, z).
+// Thread safety: a Cnn is not shared between threads (torch's own pool parallelises each call).
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/observation_stack.h"
+#include "core/status.h"
+
+namespace loom::fitting {
+
+inline constexpr int kPatchSize = 15;
+inline constexpr int kPatchHalo = 7;  // (kPatchSize − 1) / 2
+inline constexpr int kCnnGeometryChannels = 4;  // height, normal.XYZ
+
+struct CnnArchitecture {
+  int input_channels = 934;  // the paper's; 4 + observations for a loom stack
+  int width_divisor = 1;     // divides the hidden widths 512, 256, 512, 1024 (1: the paper's)
+  double dropout = 0.02;     // before fc, training only (the paper's text; its figure says 0.1)
+
+  std::array<int, 4> HiddenWidths() const;
+  // Multiply-adds per output pixel, ×2 = FLOPs: sliding window (each patch on its own) and dense.
+  double SlidingFlopsPerPixel() const;
+  double DenseFlopsPerPixel() const;
+  Status Check() const;  // every problem, naming the field
+};
+
+// What a trained model expects of its input and how it was made: written next to its weights.
+struct CnnModelInfo {
+  CnnArchitecture architecture;
+  double radiance_scale = 1;                     // L ↦ log(1 + L / radiance_scale)
+  std::string rig;                               // the stacks' rig, e.g. "tac7-mini"
+  std::vector<ObservationGroup> observation_groups;  // the stack layout it was trained on
+  std::string training;                          // free text: data, epochs, validation errors
+};
+
+// Planar C × H × W floats.
+struct CnnTensor {
+  int channels = 0;
+  int height = 0;
+  int width = 0;
+  std::vector<float> values;
+  float at(int c, int y, int x) const { return values[(static_cast<size_t>(c) * height + y) * width + x]; }
+};
+
+// The network input of a stack under `info`'s layout; an error naming the stack's source when
+// its observations are not the ones the model was trained on.
+Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnModelInfo& info);
+
+// The 14 label channels of SVBRDF maps (fitting/model/svbrdf_maps.h layout) and, per pixel,
+// whether it holds a material (a zero normal marks a pixel off the sample).
+struct CnnLabels {
+  CnnTensor labels;
+  std::vector<uint8_t> valid;
+};
+CnnLabels CnnLabelsFromMaps(const Image& maps);
+
+// SVBRDF maps (13 channels, no height) from a 14 × H × W label tensor, decoded by DecodeLabel.
+Image MapsFromLabels(const CnnTensor& labels);
+
+namespace internal {
+struct CnnNetHolder;  // the torch module (internal/cnn_net.h)
+}
+
+class Cnn {
+ public:
+  // Random weights (torch's default initialisation, seeded).
+  static Result<Cnn> Create(const CnnModelInfo& info, uint64_t seed);
+  // A model directory: model.json (CnnModelInfo) + weights.pt. Errors name the file.
+  static Result<Cnn> Load(const std::filesystem::path& directory);
+  Status Save(const std::filesystem::path& directory) const;
+
+  const CnnModelInfo& info() const { return info_; }
+  CnnModelInfo& mutable_info() { return info_; }
+
+  // Labels (14 × H × W) of every pixel of `input` (C × H × W), dense, in tiles of `tile` × `tile`
+  // output pixels (+ halo), `threads` torch threads (0: one per core).
+  Result<CnnTensor> PredictDense(const CnnTensor& input, int tile = 128, int threads = 0) const;
+  // The same outputs the sliding-window way, for pixels [first, first + count) in row-major
+  // order (14 × count, as a 14 × 1 × count tensor), `batch` patches per forward pass.
+  Result<CnnTensor> PredictSliding(const CnnTensor& input, int first, int count, int batch = 256,
+                                   int threads = 0) const;
+
+  internal::CnnNetHolder& net() const { return *net_; }
+
+ private:
+  Cnn(CnnModelInfo info, std::shared_ptr<internal::CnnNetHolder> net);
+  CnnModelInfo info_;
+  std::shared_ptr<internal::CnnNetHolder> net_;
+};
+
+}  // namespace loom::fitting

@@ -1,0 +1,184 @@
+#include "fitting/cnn.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "core/file_io.h"
+#include "fitting/model/label.h"
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+namespace {
+
+namespace fs = std::filesystem;
+
+CnnModelInfo SmallModel(int channels) {
+  CnnModelInfo info;
+  info.architecture = {.input_channels = channels, .width_divisor = 16, .dropout = 0.1};
+  info.rig = "test";
+  info.observation_groups.assign(channels - kCnnGeometryChannels, ObservationGroup::kMonochrome);
+  return info;
+}
+
+CnnTensor RandomInput(int channels, int height, int width, uint64_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  CnnTensor input{channels, height, width, std::vector<float>(static_cast<size_t>(channels) * height * width)};
+  for (float& v : input.values) v = unit(rng);
+  return input;
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("loom_cnn_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+TEST(CnnTest, DenseEvaluationEqualsTheSlidingWindow) {
+  Result<Cnn> cnn = Cnn::Create(SmallModel(12), 3);
+  ASSERT_TRUE(cnn.ok()) << cnn.status().ToString();
+  // 20 × 23 px in tiles of 8: tile seams and partial tiles at both edges, and the padded border.
+  const CnnTensor input = RandomInput(12, 20, 23, 5);
+  Result<CnnTensor> dense = cnn->PredictDense(input, 8, 1);
+  Result<CnnTensor> sliding = cnn->PredictSliding(input, 0, 20 * 23, 64, 1);
+  ASSERT_TRUE(dense.ok() && sliding.ok());
+  ASSERT_EQ(dense->channels, kLabelSize);
+  ASSERT_EQ(dense->values.size(), sliding->values.size());
+  double worst = 0, spread = 0;
+  for (size_t i = 0; i < dense->values.size(); ++i) {
+    worst = std::max(worst, static_cast<double>(std::abs(dense->values[i] - sliding->values[i])));
+    spread = std::max(spread, static_cast<double>(std::abs(dense->values[i] - dense->values[0])));
+  }
+  EXPECT_LE(worst, 1e-4);
+  EXPECT_GT(spread, 1e-3) << "outputs do not depend on the input: the comparison proves nothing";
+}
+
+TEST(CnnTest, TheDenseOutputOfAPixelDependsOnlyOnIts15x15Neighbourhood) {
+  Result<Cnn> cnn = Cnn::Create(SmallModel(6), 4);
+  ASSERT_TRUE(cnn.ok());
+  CnnTensor input = RandomInput(6, 31, 31, 1);
+  const CnnTensor before = *cnn->PredictDense(input, 128, 1);
+  // Change one input pixel: outputs within 7 px of it change, those further away do not.
+  for (int c = 0; c < 6; ++c) input.values[(static_cast<size_t>(c) * 31 + 15) * 31 + 15] += 1;
+  const CnnTensor after = *cnn->PredictDense(input, 128, 1);
+  for (int y = 0; y < 31; ++y) {
+    for (int x = 0; x < 31; ++x) {
+      const bool inside = std::abs(y - 15) <= kPatchHalo && std::abs(x - 15) <= kPatchHalo;
+      double change = 0;
+      for (int c = 0; c < kLabelSize; ++c) change = std::max(change, static_cast<double>(std::abs(after.at(c, y, x) - before.at(c, y, x))));
+      if (!inside) {
+        EXPECT_EQ(change, 0) << "pixel " << x << "," << y;
+      } else if (y == 15 && x == 15) {
+        EXPECT_GT(change, 0);
+      }
+    }
+  }
+}
+
+TEST(CnnTest, ThePaperArchitecturesWorkPerPixel) {
+  // shared/docs/build-notes.md: 475 MFLOP per pixel as patches, 13.3 dense (36× less).
+  const CnnArchitecture paper;
+  EXPECT_NEAR(paper.SlidingFlopsPerPixel() / 1e6, 475, 1);
+  EXPECT_NEAR(paper.DenseFlopsPerPixel() / 1e6, 13.3, 0.1);
+  EXPECT_EQ(paper.HiddenWidths(), (std::array<int, 4>{512, 256, 512, 1024}));
+  const CnnArchitecture small{.input_channels = 232, .width_divisor = 8};
+  EXPECT_EQ(small.HiddenWidths(), (std::array<int, 4>{64, 32, 64, 128}));
+  EXPECT_FALSE((CnnArchitecture{.input_channels = 0, .width_divisor = 3, .dropout = 1}).Check().ok());
+}
+
+TEST(CnnTest, ASavedModelLoadsWithTheSameWeights) {
+  const fs::path dir = TempDir("save");
+  Result<Cnn> cnn = Cnn::Create(SmallModel(8), 7);
+  ASSERT_TRUE(cnn.ok());
+  cnn->mutable_info().radiance_scale = 0.25;
+  ASSERT_TRUE(cnn->Save(dir).ok());
+  Result<Cnn> loaded = Cnn::Load(dir);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+  EXPECT_EQ(loaded->info().radiance_scale, 0.25);
+  EXPECT_EQ(loaded->info().observation_groups.size(), 4u);
+  const CnnTensor input = RandomInput(8, 9, 9, 2);
+  EXPECT_EQ(cnn->PredictDense(input, 128, 1)->values, loaded->PredictDense(input, 128, 1)->values);
+  fs::remove_all(dir);
+}
+
+TEST(CnnTest, ABrokenModelDirectoryIsAnErrorNamingTheFile) {
+  const fs::path dir = TempDir("broken");
+  Result<Cnn> cnn = Cnn::Create(SmallModel(8), 7);
+  ASSERT_TRUE(cnn.ok() && cnn->Save(dir).ok());
+  // Weights of another architecture under this model.json.
+  Result<Cnn> other = Cnn::Create(SmallModel(10), 7);
+  ASSERT_TRUE(other.ok() && other->Save(dir / "other").ok());
+  fs::copy_file(dir / "other" / "weights.pt", dir / "weights.pt", fs::copy_options::overwrite_existing);
+  Result<Cnn> mismatched = Cnn::Load(dir);
+  ASSERT_FALSE(mismatched.ok());
+  EXPECT_NE(mismatched.status().ToString().find("weights.pt"), std::string::npos) << mismatched.status().ToString();
+  // A model.json that is not one.
+  ASSERT_TRUE(WriteFileAtomically(dir / "model.json", "{\"format\": \"something else\"}").ok());
+  Result<Cnn> wrong = Cnn::Load(dir);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.status().ToString().find("model.json"), std::string::npos) << wrong.status().ToString();
+  fs::remove_all(dir);
+}
+
+ObservationStack TinyStack(int observations) {
+  std::vector<StackObservation> table(observations);
+  ObservationStack stack = MakeObservationStack(4, 3, 0.1, table);
+  stack.rig = "test";
+  stack.source = "cnn_test";
+  for (int y = 0; y < 3; ++y) {
+    for (int x = 0; x < 4; ++x) {
+      stack.image.at(2, y, x) = 0.1f * x;   // pos.Z
+      stack.image.at(5, y, x) = 1;          // normal.Z
+      for (int k = 0; k < observations; ++k) stack.image.at(ObservationStack::ObservationChannel(k), y, x) = 0.5f * k;
+    }
+  }
+  stack.image.at(ObservationStack::ObservationChannel(1), 0, 0) = std::numeric_limits<float>::quiet_NaN();
+  return stack;
+}
+
+TEST(CnnTest, TheInputIsRelativeHeightNormalAndCompressedRadiance) {
+  CnnModelInfo info = SmallModel(kCnnGeometryChannels + 3);
+  info.radiance_scale = 0.5;
+  const Result<CnnTensor> input = CnnInputFromStack(TinyStack(3), info);
+  ASSERT_TRUE(input.ok()) << input.status().ToString();
+  EXPECT_EQ(input->channels, 7);
+  EXPECT_FLOAT_EQ(input->at(0, 1, 3), 0.3f - 0.2f);  // the median height is 0.2 mm
+  EXPECT_FLOAT_EQ(input->at(3, 1, 3), 1.0f);
+  EXPECT_FLOAT_EQ(input->at(kCnnGeometryChannels + 2, 1, 1), std::log1p(1.0f / 0.5f));
+  EXPECT_EQ(input->at(kCnnGeometryChannels + 1, 0, 0), 0.0f);  // unseen
+}
+
+TEST(CnnTest, AStackOfAnotherLayoutIsRejectedNamingIt) {
+  const CnnModelInfo info = SmallModel(kCnnGeometryChannels + 5);
+  const Result<CnnTensor> input = CnnInputFromStack(TinyStack(3), info);
+  ASSERT_FALSE(input.ok());
+  EXPECT_NE(input.status().ToString().find("cnn_test"), std::string::npos) << input.status().ToString();
+  EXPECT_NE(input.status().ToString().find("'test'"), std::string::npos) << input.status().ToString();
+}
+
+TEST(CnnTest, LabelsOfMapsDecodeBackToTheMaps) {
+  Image maps = MakeSvbrdfImage(2, 1, false);
+  WardParams<double> p;
+  p.n_s = Eigen::Vector3d(0.1, -0.2, 1).normalized();
+  p.a_d = {0.5, 0.3, 0.1};
+  p.a_s = {0.2, 0.2, 0.25};
+  p.sigma_x = 0.05;
+  p.sigma_y = 0.2;
+  p.alpha = 0.7;
+  p.f0 = 0.6;
+  SetParams(maps, 0, 0, p);  // pixel 1 stays all zero: off the material
+  const CnnLabels labels = CnnLabelsFromMaps(maps);
+  EXPECT_EQ(labels.valid, (std::vector<uint8_t>{1, 0}));
+  const WardParams<double> back = GetParams(MapsFromLabels(labels.labels), 0, 0);
+  EXPECT_NEAR((back.n_s - p.n_s).norm(), 0, 1e-6);
+  EXPECT_NEAR((back.a_d - p.a_d).norm(), 0, 1e-6);
+  EXPECT_NEAR(back.sigma_x, p.sigma_x, 1e-5);
+  EXPECT_NEAR(back.alpha, p.alpha, 1e-5);
+  EXPECT_NEAR(back.f0, p.f0, 1e-6);
+}
+
+}  // namespace
+}  // namespace loom::fitting

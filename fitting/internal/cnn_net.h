@@ -1,0 +1,38 @@
+#pragma once
+// The torch module behind fitting/cnn.h (layer table there). Included by cnn.cc and
+// cnn_training.cc only: <torch/torch.h> costs ~16 s and ~1 GB per translation unit.
+#include <torch/torch.h>
+
+#include "fitting/cnn.h"
+
+namespace loom::fitting::internal {
+
+inline constexpr double kLeakySlope = 0.01;
+
+class CnnNetImpl : public torch::nn::Module {
+ public:
+  explicit CnnNetImpl(const CnnArchitecture& architecture);
+
+  // N × C × 15 × 15 patches → N × 14.
+  torch::Tensor ForwardPatches(const torch::Tensor& patches);
+  // N × C × (H + 14) × (W + 14) → N × 14 × H × W: the same weights, fully convolutional.
+  torch::Tensor ForwardDense(const torch::Tensor& input);
+
+ private:
+  torch::Tensor Leaky(const torch::Tensor& x) const;
+
+  torch::nn::Conv2d conv1_{nullptr}, conv2_{nullptr}, conv3_{nullptr}, conv4_{nullptr};
+  torch::nn::Linear fc_{nullptr};
+  torch::nn::Dropout dropout_{nullptr};
+  int width4_ = 0;
+};
+TORCH_MODULE(CnnNet);
+
+struct CnnNetHolder {
+  CnnNet net;
+};
+
+// Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated.
+torch::Tensor PaddedInput(const CnnTensor& input);
+
+}  // namespace loom::fitting::internal
