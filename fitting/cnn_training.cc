@@ -1,0 +1,287 @@
+#include "fitting/cnn_training.h"
+
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "core/file_io.h"
+#include "fitting/internal/cnn_net.h"
+#include "fitting/model/label.h"
+
+namespace loom::fitting {
+
+const std::array<const char*, 14> kLabelChannelNames = {"a_d.R", "a_d.G", "a_d.B", "a_s.R", "a_s.G", "a_s.B", "n_s.X",
+                                                        "n_s.Y", "n_s.Z", "sigma_x'", "sigma_y'", "cos2alpha",
+                                                        "sin2alpha", "F0"};
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace F = torch::nn::functional;
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// The checkpoint is written to next/ and then renamed to last/: a crash leaves one complete.
+constexpr const char* kLastCheckpoint = "last";
+constexpr const char* kNextCheckpoint = "next";
+
+torch::Tensor LabelWeights() {
+  std::array<float, kLabelSize> w;
+  w.fill(1);
+  for (int c = 0; c < 3; ++c) w[c] = 20, w[3 + c] = 10;  // the paper's w(a_d), w(a_s)
+  return torch::from_blob(w.data(), {1, kLabelSize, 1, 1}, torch::kFloat32).clone();
+}
+
+// Per-channel weighted Huber (δ = 1), summed over valid pixels (N × 1 × H × W of 0/1).
+torch::Tensor HuberSum(const torch::Tensor& predicted, const torch::Tensor& target, const torch::Tensor& valid) {
+  const torch::Tensor loss = F::huber_loss(predicted, target, F::HuberLossFuncOptions().reduction(torch::kNone).delta(1.0));
+  return (loss * LabelWeights() * valid).sum();
+}
+
+torch::Tensor AsTensor(const CnnTensor& t) {
+  return torch::from_blob(const_cast<float*>(t.values.data()), {1, t.channels, t.height, t.width}, torch::kFloat32);
+}
+
+torch::Tensor ValidTensor(const CnnLabels& labels) {
+  return torch::from_blob(const_cast<uint8_t*>(labels.valid.data()), {1, 1, labels.labels.height, labels.labels.width},
+                          torch::kUInt8)
+      .to(torch::kFloat32);
+}
+
+// One training material as tensors: the padded input, labels and validity.
+struct Material {
+  torch::Tensor input;   // 1 × C × (H + 14) × (W + 14)
+  torch::Tensor labels;  // 1 × 14 × H × W
+  torch::Tensor valid;   // 1 × 1 × H × W
+  int height, width;
+};
+
+struct Batch {
+  torch::Tensor input, labels, valid;
+};
+
+Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, std::mt19937_64& rng) {
+  std::vector<torch::Tensor> inputs, labels, valid;
+  for (int i = 0; i < count; ++i) {
+    const Material& m = materials[std::uniform_int_distribution<size_t>(0, materials.size() - 1)(rng)];
+    const int y = std::uniform_int_distribution<int>(0, m.height - tile)(rng);
+    const int x = std::uniform_int_distribution<int>(0, m.width - tile)(rng);
+    inputs.push_back(m.input.narrow(2, y, tile + 2 * kPatchHalo).narrow(3, x, tile + 2 * kPatchHalo));
+    labels.push_back(m.labels.narrow(2, y, tile).narrow(3, x, tile));
+    valid.push_back(m.valid.narrow(2, y, tile).narrow(3, x, tile));
+  }
+  return {torch::cat(inputs), torch::cat(labels), torch::cat(valid)};
+}
+
+double LearningRate(const CnnTrainingOptions& options, int epoch) {  // epoch 0-based
+  if (options.epochs <= 1) return options.learning_rate_start;
+  const double t = static_cast<double>(epoch) / (options.epochs - 1);
+  return options.learning_rate_start * std::pow(options.learning_rate_end / options.learning_rate_start, t);
+}
+
+Status CheckExamples(const Cnn& cnn, const std::vector<CnnExample>& examples, int min_size, const char* set) {
+  for (const CnnExample& e : examples) {
+    if (e.input.channels != cnn.info().architecture.input_channels) {
+      return InvalidArgumentError(e.name, std::string(set) + " example with " + std::to_string(e.input.channels) +
+                                              " input channels, the model takes " +
+                                              std::to_string(cnn.info().architecture.input_channels));
+    }
+    if (e.labels.labels.height != e.input.height || e.labels.labels.width != e.input.width) {
+      return InvalidArgumentError(e.name, std::string(set) + " example whose labels are not the input's size");
+    }
+    if (e.input.height < min_size || e.input.width < min_size) {
+      return InvalidArgumentError(e.name, std::string(set) + " example of " + std::to_string(e.input.width) + "x" +
+                                              std::to_string(e.input.height) + " px, smaller than a tile of " +
+                                              std::to_string(min_size));
+    }
+  }
+  return {};
+}
+
+Json EpochJson(const CnnEpoch& e) {
+  return {{"epoch", e.epoch},
+          {"learning_rate", e.learning_rate},
+          {"train_loss", e.train_loss},
+          {"validation_loss", e.validation_loss},
+          {"validation_rmse", e.validation_rmse},
+          {"seconds", e.seconds},
+          {"samples_per_second", e.samples_per_second}};
+}
+
+CnnEpoch EpochFromJson(const Json& j) {
+  CnnEpoch e;
+  e.epoch = j.at("epoch").get<int>();
+  e.learning_rate = j.at("learning_rate").get<double>();
+  e.train_loss = j.at("train_loss").get<double>();
+  e.validation_loss = j.at("validation_loss").get<double>();
+  e.validation_rmse = j.at("validation_rmse").get<std::array<double, 14>>();
+  e.seconds = j.at("seconds").get<double>();
+  e.samples_per_second = j.at("samples_per_second").get<double>();
+  return e;
+}
+
+Status SaveCheckpoint(const Cnn& cnn, torch::optim::Adam& optimizer, const std::vector<CnnEpoch>& history,
+                      const fs::path& dir) {
+  const fs::path next = dir / kNextCheckpoint, last = dir / kLastCheckpoint;
+  std::error_code error;
+  fs::remove_all(next, error);
+  LOOM_RETURN_IF_ERROR(cnn.Save(next / "model"));
+  try {
+    torch::save(optimizer, (next / "optimizer.pt").string());
+  } catch (const std::exception& e) {
+    return IoError((next / "optimizer.pt").string(), e.what());
+  }
+  Json epochs = Json::array();
+  for (const CnnEpoch& e : history) epochs.push_back(EpochJson(e));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(next / "history.json", epochs.dump(1) + "\n"));
+  fs::remove_all(last, error);
+  fs::rename(next, last, error);
+  if (error) return IoError(last.string(), "cannot move the checkpoint into place: " + error.message());
+  return {};
+}
+
+// The checkpoint to resume from: last/, or next/ when a crash came between removing last/ and
+// renaming next/ (next/ is complete once its history.json exists).
+Result<fs::path> CheckpointToResume(const fs::path& dir) {
+  for (const char* name : {kLastCheckpoint, kNextCheckpoint}) {
+    if (fs::exists(dir / name / "history.json")) return dir / name;
+  }
+  return NotFoundError(dir.string(), "no checkpoint to resume from (no last/history.json)");
+}
+
+// Replaces `cnn` and `optimizer` by the checkpoint's; returns the epochs it has done.
+Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::AdamOptions& adam, Cnn& cnn,
+                                     std::unique_ptr<torch::optim::Adam>& optimizer) {
+  Result<fs::path> checkpoint = CheckpointToResume(dir);
+  if (!checkpoint.ok()) return checkpoint.status();
+  Result<Cnn> loaded = Cnn::Load(*checkpoint / "model");
+  if (!loaded.ok()) return loaded.status();
+  if (loaded->info().architecture.input_channels != cnn.info().architecture.input_channels ||
+      loaded->info().architecture.width_divisor != cnn.info().architecture.width_divisor) {
+    return FailedPreconditionError((*checkpoint / "model").string(), "a checkpoint of another architecture");
+  }
+  cnn = std::move(*loaded);
+  optimizer = std::make_unique<torch::optim::Adam>(cnn.net().net->parameters(), adam);
+  const fs::path history_path = *checkpoint / "history.json";
+  std::vector<CnnEpoch> history;
+  try {
+    torch::load(*optimizer, (*checkpoint / "optimizer.pt").string());
+    Result<std::string> text = ReadFile(history_path);
+    if (!text.ok()) return text.status();
+    for (const Json& e : Json::parse(*text)) history.push_back(EpochFromJson(e));
+  } catch (const std::exception& e) {
+    return DataLossError(history_path.string(), std::string("unreadable checkpoint: ") + e.what());
+  }
+  return history;
+}
+
+}  // namespace
+
+Status CnnTrainingOptions::Check() const {
+  std::vector<std::string> problems;
+  if (epochs < 1) problems.push_back("epochs must be ≥ 1");
+  if (tile < 1) problems.push_back("tile must be ≥ 1");
+  if (tiles_per_step < 1) problems.push_back("tiles_per_step must be ≥ 1");
+  if (steps_per_epoch < 0) problems.push_back("steps_per_epoch must be ≥ 0");
+  if (!(learning_rate_start > 0) || !(learning_rate_end > 0)) problems.push_back("learning rates must be > 0");
+  if (!(weight_decay >= 0)) problems.push_back("weight_decay must be ≥ 0");
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  if (resume && checkpoint_dir.empty()) problems.push_back("resume needs a checkpoint_dir");
+  return ProblemsStatus("CnnTrainingOptions", problems);
+}
+
+Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) {
+  LOOM_RETURN_IF_ERROR(CheckExamples(cnn, examples, 1, "scored"));
+  CnnScore score;
+  double loss_sum = 0;
+  std::array<double, 14> squares{};
+  for (const CnnExample& e : examples) {
+    Result<CnnTensor> predicted = cnn.PredictDense(e.input, 128, threads);
+    if (!predicted.ok()) return predicted.status();
+    c10::InferenceMode inference;
+    const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
+    loss_sum += HuberSum(p, t, valid).item<double>();
+    const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
+    for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
+    score.pixels += static_cast<int64_t>(valid.sum().item<double>());
+  }
+  if (score.pixels == 0) return InvalidArgumentError("CNN score", "no valid pixels in the examples");
+  score.loss = loss_sum / (static_cast<double>(score.pixels) * kLabelSize);
+  for (int c = 0; c < kLabelSize; ++c) score.rmse[c] = std::sqrt(squares[c] / score.pixels);
+  return score;
+}
+
+Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
+                                       const std::vector<CnnExample>& validation, const CnnTrainingOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  if (train.empty() || validation.empty()) return InvalidArgumentError("CNN training", "needs training and validation examples");
+  LOOM_RETURN_IF_ERROR(CheckExamples(cnn, train, options.tile, "training"));
+  LOOM_RETURN_IF_ERROR(CheckExamples(cnn, validation, 1, "validation"));
+  const int threads = options.threads > 0 ? options.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  torch::set_num_threads(threads);
+
+  const torch::optim::AdamOptions adam =
+      torch::optim::AdamOptions(options.learning_rate_start).betas({0.9, 0.999}).eps(1e-8).weight_decay(options.weight_decay);
+  std::unique_ptr<torch::optim::Adam> optimizer;
+  std::vector<CnnEpoch> history;
+  if (options.resume) {
+    Result<std::vector<CnnEpoch>> resumed = Resume(options.checkpoint_dir, adam, cnn, optimizer);
+    if (!resumed.ok()) return resumed.status();
+    history = std::move(*resumed);
+  } else {
+    optimizer = std::make_unique<torch::optim::Adam>(cnn.net().net->parameters(), adam);
+  }
+
+  std::vector<Material> materials;
+  double valid_pixels = 0;
+  for (const CnnExample& e : train) {
+    materials.push_back({internal::PaddedInput(e.input), AsTensor(e.labels.labels), ValidTensor(e.labels),
+                         e.input.height, e.input.width});
+    valid_pixels += materials.back().valid.sum().item<double>();
+  }
+  const int tile_samples = options.tile * options.tile * options.tiles_per_step;
+  const int steps = options.steps_per_epoch > 0 ? options.steps_per_epoch
+                                                : std::max(1, static_cast<int>(std::ceil(valid_pixels / tile_samples)));
+  internal::CnnNet& net = cnn.net().net;
+  for (int epoch = static_cast<int>(history.size()); epoch < options.epochs; ++epoch) {
+    const Clock::time_point start = Clock::now();
+    CnnEpoch record;
+    record.epoch = epoch + 1;
+    record.learning_rate = LearningRate(options, epoch);
+    for (auto& group : optimizer->param_groups()) {
+      static_cast<torch::optim::AdamOptions&>(group.options()).lr(record.learning_rate);
+    }
+    std::mt19937_64 rng(options.seed * 1000003 + epoch);
+    torch::manual_seed(options.seed * 1000003 + epoch);
+    net->train();
+    double loss_sum = 0, samples = 0;
+    for (int step = 0; step < steps; ++step) {
+      const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
+      const torch::Tensor count = batch.valid.sum();
+      if (count.item<double>() == 0) continue;
+      optimizer->zero_grad();
+      const torch::Tensor loss = HuberSum(net->ForwardDense(batch.input), batch.labels, batch.valid) / (count * kLabelSize);
+      loss.backward();
+      optimizer->step();
+      loss_sum += loss.item<double>();
+      samples += count.item<double>();
+      if (options.progress) options.progress({epoch + 1, options.epochs, step + 1, steps, loss_sum / (step + 1)});
+    }
+    record.train_loss = loss_sum / steps;
+    record.samples_per_second = samples / std::chrono::duration<double>(Clock::now() - start).count();
+    Result<CnnScore> score = ScoreCnn(cnn, validation, threads);
+    if (!score.ok()) return score.status();
+    record.validation_loss = score->loss;
+    record.validation_rmse = score->rmse;
+    record.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    history.push_back(record);
+    if (!options.checkpoint_dir.empty()) LOOM_RETURN_IF_ERROR(SaveCheckpoint(cnn, *optimizer, history, options.checkpoint_dir));
+  }
+  net->eval();
+  return history;
+}
+
+}  // namespace loom::fitting

@@ -1,0 +1,86 @@
+#pragma once
+// Training the CNN (fitting/cnn.h) on materials with known parameters — simulated stacks with
+// their ground truth, or reconstructed stacks with a reference fit.
+//
+// Training is on dense tiles: the dense form computes each output pixel from its own 15 × 15
+// neighbourhood only, so a tile of T × T outputs is T² patch samples for the price of one
+// forward pass over (T + 14)². Loss: the paper's Huber (δ = 1) on the 14-d label with weights
+// 20 on a_d and 10 on a_s, averaged over the valid pixels (those on the material). Adam with
+// weight decay; the learning rate decays exponentially from `learning_rate_start` at the first
+// epoch to `learning_rate_end` at the last (the paper: 1e-5 → 1e-6). Dropout acts on the dense
+// feature maps, so one dropped activation reaches the neighbouring outputs of its tile too.
+//
+// Determinism: an epoch's tiles and dropout masks come from (seed, epoch), so training that is
+// interrupted and resumed from its checkpoint takes the same steps as one that is not (with
+// the same thread count).
+
+#include <array>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "fitting/cnn.h"
+
+namespace loom::fitting {
+
+struct CnnExample {
+  std::string name;   // for messages: the stack it came from
+  CnnTensor input;    // CnnInputFromStack
+  CnnLabels labels;   // CnnLabelsFromMaps of its reference maps, same height and width
+};
+
+struct CnnTrainingProgress {
+  int epoch = 0;      // 1-based
+  int epochs = 0;
+  int step = 0;       // within the epoch, 1-based
+  int steps = 0;
+  double loss = 0;    // the epoch's running mean
+};
+
+struct CnnTrainingOptions {
+  int epochs = 20;
+  int tile = 32;                      // output pixels per tile side (T² patch samples)
+  int tiles_per_step = 4;             // tiles in one Adam step
+  int steps_per_epoch = 0;            // 0: one tile's worth of steps per T² valid pixels of training data
+  double learning_rate_start = 1e-5;  // at the first epoch (the paper's)
+  double learning_rate_end = 1e-6;    // at the last
+  double weight_decay = 5e-4;
+  int threads = 0;                    // torch threads; 0: one per core
+  uint64_t seed = 1;
+  // Empty: no checkpoints. Else after every epoch: DIR/model (the weights so far, loadable by
+  // Cnn::Load), DIR/optimizer.pt and DIR/history.json, each replaced whole.
+  std::filesystem::path checkpoint_dir;
+  bool resume = false;                // continue after the last epoch in checkpoint_dir
+  std::function<void(const CnnTrainingProgress&)> progress;  // after every step
+  Status Check() const;               // every problem, naming the field
+};
+
+// The label's 14 channels in order, for reports: a_d.R … F0.
+extern const std::array<const char*, 14> kLabelChannelNames;
+
+struct CnnEpoch {
+  int epoch = 0;
+  double learning_rate = 0;
+  double train_loss = 0;                   // mean over the epoch's steps
+  double validation_loss = 0;              // over every valid pixel of the validation materials
+  std::array<double, 14> validation_rmse{};  // per label channel
+  double seconds = 0;                      // training and validation
+  double samples_per_second = 0;           // patch samples (valid tile outputs) trained per second
+};
+
+// Trains `cnn` in place and returns every epoch's record (with resume: from the first epoch,
+// the earlier ones read from the checkpoint). Every example must have the model's input
+// channels and be at least `tile` pixels on each side.
+Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
+                                       const std::vector<CnnExample>& validation, const CnnTrainingOptions& options);
+
+// Loss and per-channel RMSE of `cnn` on `examples` (dense, whole materials, no dropout).
+struct CnnScore {
+  double loss = 0;
+  std::array<double, 14> rmse{};
+  int64_t pixels = 0;
+};
+Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads = 0);
+
+}  // namespace loom::fitting

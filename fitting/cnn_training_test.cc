@@ -1,0 +1,139 @@
+#include "fitting/cnn_training.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+#include "fitting/model/label.h"
+
+namespace loom::fitting {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr int kChannels = 6;
+
+Cnn SmallCnn() {
+  CnnModelInfo info;
+  info.architecture = {.input_channels = kChannels, .width_divisor = 32, .dropout = 0.02};
+  info.observation_groups.assign(kChannels - kCnnGeometryChannels, ObservationGroup::kMonochrome);
+  Result<Cnn> cnn = Cnn::Create(info, 11);
+  EXPECT_TRUE(cnn.ok());
+  return std::move(*cnn);
+}
+
+// A learnable task: every label channel is an affine function of one input channel at the
+// same pixel; the last column is off the material.
+CnnExample Example(uint64_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const int size = 24;
+  CnnExample e;
+  e.name = "example " + std::to_string(seed);
+  e.input = {kChannels, size, size, std::vector<float>(kChannels * size * size)};
+  for (float& v : e.input.values) v = unit(rng);
+  e.labels.labels = {kLabelSize, size, size, std::vector<float>(kLabelSize * size * size)};
+  e.labels.valid.assign(size * size, 1);
+  for (int y = 0; y < size; ++y) {
+    e.labels.valid[y * size + size - 1] = 0;
+    for (int x = 0; x < size; ++x) {
+      for (int c = 0; c < kLabelSize; ++c) {
+        e.labels.labels.values[(c * size + y) * size + x] = 0.5f * e.input.at(c % kChannels, y, x) + 0.1f;
+      }
+    }
+  }
+  return e;
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("loom_cnn_training_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+CnnTrainingOptions FastOptions() {
+  CnnTrainingOptions options;
+  options.epochs = 3;
+  options.tile = 8;
+  options.tiles_per_step = 2;
+  options.steps_per_epoch = 25;
+  options.learning_rate_start = 1e-2;
+  options.learning_rate_end = 1e-3;
+  options.threads = 1;  // bit-identical runs for the resume test
+  return options;
+}
+
+TEST(CnnTrainingTest, TheValidationLossFallsOnALearnableTask) {
+  Cnn cnn = SmallCnn();
+  const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
+  const Result<CnnScore> before = ScoreCnn(cnn, validation, 1);
+  ASSERT_TRUE(before.ok());
+  EXPECT_EQ(before->pixels, 24 * 23);  // the invalid column is not scored
+  const Result<std::vector<CnnEpoch>> history = TrainCnn(cnn, train, validation, FastOptions());
+  ASSERT_TRUE(history.ok()) << history.status().ToString();
+  ASSERT_EQ(history->size(), 3u);
+  EXPECT_LT(history->back().validation_loss, 0.2 * before->loss);
+  EXPECT_NEAR(history->front().learning_rate, 1e-2, 1e-12);
+  EXPECT_NEAR(history->back().learning_rate, 1e-3, 1e-12);
+  EXPECT_GT(history->back().samples_per_second, 0);
+}
+
+TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
+  const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
+  CnnTrainingOptions options = FastOptions();
+  options.checkpoint_dir = TempDir("straight");
+  Cnn straight = SmallCnn();
+  ASSERT_TRUE(TrainCnn(straight, train, validation, options).ok());
+
+  options.checkpoint_dir = TempDir("interrupted");
+  options.epochs = 1;  // stops after the first epoch, as if interrupted
+  Cnn interrupted = SmallCnn();
+  ASSERT_TRUE(TrainCnn(interrupted, train, validation, options).ok());
+  options.epochs = 3;
+  options.resume = true;
+  Cnn resumed = SmallCnn();  // fresh weights: resume must replace them with the checkpoint's
+  const Result<std::vector<CnnEpoch>> history = TrainCnn(resumed, train, validation, options);
+  ASSERT_TRUE(history.ok()) << history.status().ToString();
+  ASSERT_EQ(history->size(), 3u);
+  // The first epoch was trained with 1 epoch planned: its learning rate was the start's.
+  EXPECT_EQ(history->front().epoch, 1);
+
+  const CnnTensor input = Example(4).input;
+  const std::vector<float> a = straight.PredictDense(input, 128, 1)->values;
+  const std::vector<float> b = resumed.PredictDense(input, 128, 1)->values;
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, static_cast<double>(std::abs(a[i] - b[i])));
+  EXPECT_LT(worst, 1e-5);
+  fs::remove_all(TempDir("straight"));
+  fs::remove_all(TempDir("interrupted"));
+}
+
+TEST(CnnTrainingTest, ResumingWithoutACheckpointIsAnErrorNamingTheDirectory) {
+  CnnTrainingOptions options = FastOptions();
+  options.checkpoint_dir = TempDir("none");
+  options.resume = true;
+  Cnn cnn = SmallCnn();
+  const Result<std::vector<CnnEpoch>> history = TrainCnn(cnn, {Example(1)}, {Example(2)}, options);
+  ASSERT_FALSE(history.ok());
+  EXPECT_NE(history.status().ToString().find(options.checkpoint_dir.string()), std::string::npos);
+}
+
+TEST(CnnTrainingTest, AnExampleOfTheWrongShapeIsNamed) {
+  CnnExample small = Example(1);
+  small.name = "tiny.stack.exr";
+  small.input.channels = kChannels;
+  CnnTrainingOptions options = FastOptions();
+  options.tile = 32;  // larger than the 24 px examples
+  Cnn cnn = SmallCnn();
+  const Result<std::vector<CnnEpoch>> history = TrainCnn(cnn, {small}, {Example(2)}, options);
+  ASSERT_FALSE(history.ok());
+  EXPECT_NE(history.status().ToString().find("tiny.stack.exr"), std::string::npos) << history.status().ToString();
+  CnnTrainingOptions bad;
+  bad.epochs = 0;
+  bad.tile = 0;
+  EXPECT_FALSE(bad.Check().ok());
+}
+
+}  // namespace
+}  // namespace loom::fitting
