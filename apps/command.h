@@ -49,6 +49,7 @@ int RunPlan(int argc, char** argv);
 int RunRig(int argc, char** argv);
 int RunScan(int argc, char** argv);
 int RunSim(int argc, char** argv);
+int RunTrain(int argc, char** argv);
 int RunVersion(int argc, char** argv);
 
 }  // namespace loom::apps

@@ -1,5 +1,7 @@
 // loom fit: an observation stack → SVBRDF maps (OpenEXR + PNG previews + fit.json).
+#include <chrono>
 #include <filesystem>
+#include <optional>
 #include <iomanip>
 #include <iostream>
 
@@ -11,6 +13,7 @@
 #include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "core/version.h"
+#include "fitting/cnn.h"
 #include "fitting/export.h"
 #include "fitting/stack_fitter.h"
 
@@ -23,14 +26,17 @@ struct FitArguments {
   std::string stack;
   std::string out;
   std::string method = "ceres";
+  std::string model;  // empty: configs/models/<the stack's rig>
   int clusters = 8;
   int threads = 0;
   std::string f0 = "1";
   bool quiet = false;
 };
 
-std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args) {
+std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, double cnn_seconds) {
   nlohmann::json json = {{"method", args.method},
+                         {"model", args.model},
+                         {"cnn_seconds", cnn_seconds},
                          {"stack", args.stack},
                          {"pixels", s.pixels},
                          {"pixels_fitted", s.pixels_fitted},
@@ -49,14 +55,64 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
   return json.dump(2) + "\n";
 }
 
-Status Fit(const FitArguments& args) {
-  if (args.method != "ceres") {
-    return UnimplementedError("--method " + args.method, "only 'ceres' is built so far; the CNN ('cnn', 'cnn+ceres') "
-                                                         "is not (issue #7)");
+// The CNN's maps of the stack, with the model of --model or the rig's shipped one.
+Result<Image> CnnMaps(FitArguments& args, const ObservationStack& stack) {
+  if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
+  if (!fs::exists(fs::path(args.model) / "model.json")) {
+    return NotFoundError(args.model, "no CNN model here (model.json) for rig '" + stack.rig +
+                                         "': train one with loom train, or pass --model");
+  }
+  LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(args.model));
+  std::cerr << "CNN " << args.model << " (" << cnn.info().architecture.input_channels << " input channels, width 1/"
+            << cnn.info().architecture.width_divisor << ")\n";
+  return cnn.PredictMaps(stack, args.threads);
+}
+
+Status WriteMaps(const FitArguments& args, const ObservationStack& stack, const Image& maps, const std::string& summary) {
+  std::error_code ec;
+  fs::create_directories(args.out, ec);
+  if (ec) return IoError(args.out, "cannot create: " + ec.message());
+  const fs::path path = fs::path(args.out) / "svbrdf.exr";
+  LOOM_RETURN_IF_ERROR(WriteExr(path, maps,
+                                {{"loom.kind", std::string("svbrdf maps")},
+                                 {"loom.method", args.method},
+                                 {"loom.stack", args.stack},
+                                 {"loom.rig", stack.rig},
+                                 {"loom.pixel_mm", stack.pixel_mm},
+                                 {"loom.units", std::string("albedos linear sRGB; sigma unitless; alpha rad; height mm")},
+                                 {"loom.version", std::string(VersionWithCommit())}}));
+  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(maps, args.out));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", summary));
+  std::cout << "wrote " << path.string() << ", previews and fit.json in " << args.out << "\n";
+  return Status::Ok();
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Status Fit(FitArguments args) {
+  if (args.method != "ceres" && args.method != "cnn" && args.method != "cnn+ceres") {
+    return InvalidArgumentError("--method " + args.method, "expected ceres, cnn or cnn+ceres");
   }
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << stack.observations.size() << " observations (" << stack.source << ")\n";
+  std::optional<Image> cnn_maps;
+  double cnn_seconds = 0;
+  if (args.method != "ceres") {
+    const auto start = std::chrono::steady_clock::now();
+    LOOM_ASSIGN_OR_RETURN(cnn_maps, CnnMaps(args, stack));
+    cnn_seconds = SecondsSince(start);
+    std::cout << "CNN: " << stack.image.width() << "x" << stack.image.height() << " px in " << FormatDuration(cnn_seconds)
+              << "\n";
+    if (args.method == "cnn") {
+      const nlohmann::json summary = {{"method", args.method}, {"model", args.model}, {"stack", args.stack},
+                                      {"pixels", stack.image.pixel_count()}, {"cnn_seconds", cnn_seconds},
+                                      {"loom_version", std::string(VersionWithCommit())}};
+      return WriteMaps(args, stack, *cnn_maps, summary.dump(2) + "\n");
+    }
+  }
   ProgressBar clusters("clusters", args.quiet);
   ProgressBar pixels("pixels  ", args.quiet);
   fitting::StackFitOptions options;
@@ -78,31 +134,17 @@ Status Fit(const FitArguments& args) {
   options.progress = [&](const fitting::StackFitProgress& p) {
     (p.stage == "clusters" ? clusters : pixels).Update(p.done, p.total, p.stage);
   };
+  if (cnn_maps) options.initial_maps = &*cnn_maps;
   LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
-  std::error_code ec;
-  fs::create_directories(args.out, ec);
-  if (ec) return IoError(args.out, "cannot create: " + ec.message());
-  const fs::path maps = fs::path(args.out) / "svbrdf.exr";
-  LOOM_RETURN_IF_ERROR(WriteExr(maps, fit.maps,
-                                {{"loom.kind", std::string("svbrdf maps")},
-                                 {"loom.method", args.method},
-                                 {"loom.stack", args.stack},
-                                 {"loom.rig", stack.rig},
-                                 {"loom.pixel_mm", stack.pixel_mm},
-                                 {"loom.units", std::string("albedos linear sRGB; sigma unitless; alpha rad; height mm")},
-                                 {"loom.version", std::string(VersionWithCommit())}}));
-  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(fit.maps, args.out));
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", SummaryJson(fit.summary, args)));
   const fitting::StackFitSummary& s = fit.summary;
   std::cout << std::fixed << std::setprecision(2) << "fitted " << s.pixels_fitted << " of " << s.pixels << " px ("
-            << s.pixels_kept_at_cluster << " kept at their cluster's fit, " << s.pixels_retried
-            << " redone from grid starts) from " << s.cluster_sizes.size()
-            << " clusters; F0 " << s.f0 << "; " << s.mean_observations << " observations and " << s.mean_iterations
+            << s.pixels_kept_at_cluster << " kept at their start, " << s.pixels_retried
+            << " redone from grid starts) from " << (cnn_maps ? "the CNN's maps" : std::to_string(s.cluster_sizes.size()) + " clusters")
+            << "; F0 " << s.f0 << "; " << s.mean_observations << " observations and " << s.mean_iterations
             << " iterations per pixel\n"
             << "time: clusters " << FormatDuration(s.cluster_seconds) << ", pixels " << FormatDuration(s.pixel_seconds)
-            << " (" << s.ms_per_pixel_per_thread() << " ms per pixel per thread, " << s.threads << " threads)\n"
-            << "wrote " << maps.string() << ", previews and fit.json in " << args.out << "\n";
-  return Status::Ok();
+            << " (" << s.ms_per_pixel_per_thread() << " ms per pixel per thread, " << s.threads << " threads)\n";
+  return WriteMaps(args, stack, fit.maps, SummaryJson(s, args, cnn_seconds));
 }
 
 }  // namespace
@@ -114,7 +156,10 @@ int RunFit(int argc, char** argv) {
   app.add_option("stack", args.stack, "Observation stack (OpenEXR, from loom reconstruct or loom sim render --stack)")
       ->required();
   app.add_option("--out", args.out, "Output directory: svbrdf.exr, PNG previews, fit.json")->required();
-  app.add_option("--method", args.method, "ceres (clusters, then every pixel); cnn and cnn+ceres are not built yet");
+  app.add_option("--method", args.method,
+                 "ceres (clusters, then every pixel), cnn (the network alone) or cnn+ceres (the CNN's maps start "
+                 "every pixel's Ceres fit)");
+  app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
   app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", args.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));

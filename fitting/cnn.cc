@@ -294,6 +294,21 @@ Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int tile, int thread
   return FromTorch(out);
 }
 
+Result<Image> Cnn::PredictMaps(const ObservationStack& stack, int threads) const {
+  Result<CnnTensor> input = CnnInputFromStack(stack, info_);
+  if (!input.ok()) return input.status();
+  Result<CnnTensor> labels = PredictDense(*input, 128, threads);
+  if (!labels.ok()) return labels.status();
+  const Image decoded = MapsFromLabels(*labels);
+  Image maps = MakeSvbrdfImage(decoded.width(), decoded.height(), /*with_height=*/true);
+  for (int c = 0; c < decoded.num_channels(); ++c) {
+    std::copy(decoded.channel(c).begin(), decoded.channel(c).end(), maps.channel(*maps.ChannelIndex(decoded.channel_name(c))).begin());
+  }
+  const auto height = stack.image.channel(2);  // pos.Z
+  std::copy(height.begin(), height.end(), maps.channel(*maps.ChannelIndex(kHeightChannel)).begin());
+  return maps;
+}
+
 Result<CnnTensor> Cnn::PredictSliding(const CnnTensor& input, int first, int count, int batch, int threads) const {
   LOOM_RETURN_IF_ERROR(CheckInput(*this, input));
   const int pixels = input.height * input.width;

@@ -113,6 +113,10 @@ class Cnn {
   Result<CnnTensor> PredictSliding(const CnnTensor& input, int first, int count, int batch = 256,
                                    int threads = 0) const;
 
+  // SVBRDF maps of a whole stack (svbrdf_maps.h layout with the stack's height): input, dense
+  // prediction, decoded labels.
+  Result<Image> PredictMaps(const ObservationStack& stack, int threads = 0) const;
+
   internal::CnnNetHolder& net() const { return *net_; }
 
  private:

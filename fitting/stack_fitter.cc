@@ -124,6 +124,28 @@ Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters
   return FitFromStarts(pooled, GridInitialParams(pooled, options.fixed_f0.value_or(1.0), options.grid_starts), fit);
 }
 
+// Steps 1–3: every cluster's fit, and the material's F0.
+template <typename Report>
+Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, const StackFitOptions& options,
+                   const Report& report, StackFitSummary& summary) {
+  std::vector<Result<PixelFitResult>> cluster_fits(clusters.count, InternalError("cluster", "not fitted"));
+  ParallelFor(
+      clusters.count, options.threads, [&](int c) { cluster_fits[c] = FitCluster(pixels, clusters, c, options); },
+      [&](int done) { report("clusters", done, clusters.count); });
+  summary.cluster_sizes.assign(clusters.count, 0);
+  for (int label : clusters.labels) ++summary.cluster_sizes[label];
+  std::vector<std::pair<double, int>> f0s;
+  for (int c = 0; c < clusters.count; ++c) {
+    if (!cluster_fits[c].ok()) {
+      return FailedPreconditionError("cluster " + std::to_string(c) + " of the stack", cluster_fits[c].status().ToString());
+    }
+    summary.cluster_params.push_back(cluster_fits[c]->params);
+    f0s.push_back({cluster_fits[c]->params.f0, summary.cluster_sizes[c]});
+  }
+  summary.f0 = options.fixed_f0.value_or(Median(f0s));
+  return {};
+}
+
 void FillChannels(Image& maps, const ObservationStack& stack) {
   const int height = *maps.ChannelIndex(kHeightChannel);
   std::copy(stack.image.channel(2).begin(), stack.image.channel(2).end(), maps.channel(height).begin());
@@ -180,22 +202,22 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   };
 
   const Clock::time_point cluster_start = Clock::now();
-  const PixelClusters clusters = ClusterPixels(stack, options.clusters, options.seed);
-  std::vector<Result<PixelFitResult>> cluster_fits(clusters.count, InternalError("cluster", "not fitted"));
-  ParallelFor(
-      clusters.count, options.threads, [&](int c) { cluster_fits[c] = FitCluster(pixels, clusters, c, options); },
-      [&](int done) { report("clusters", done, clusters.count); });
-  summary.cluster_sizes.assign(clusters.count, 0);
-  for (int label : clusters.labels) ++summary.cluster_sizes[label];
-  std::vector<std::pair<double, int>> f0s;
-  for (int c = 0; c < clusters.count; ++c) {
-    if (!cluster_fits[c].ok()) {
-      return FailedPreconditionError("cluster " + std::to_string(c) + " of the stack", cluster_fits[c].status().ToString());
+  PixelClusters clusters;
+  if (options.initial_maps) {
+    const Image& initial = *options.initial_maps;
+    if (initial.width() != width || initial.height() != height || !HasSvbrdfLayout(initial)) {
+      return InvalidArgumentError("initial maps", std::to_string(initial.width()) + "x" + std::to_string(initial.height()) +
+                                                      " px, not SVBRDF maps of the stack's " + std::to_string(width) +
+                                                      "x" + std::to_string(height));
     }
-    summary.cluster_params.push_back(cluster_fits[c]->params);
-    f0s.push_back({cluster_fits[c]->params.f0, summary.cluster_sizes[c]});
+    clusters.labels.assign(pixel_count, -1);
+    std::vector<std::pair<double, int>> f0s;
+    for (int i = 0; i < pixel_count; ++i) f0s.push_back({GetParams(initial, i % width, i / width).f0, 1});
+    summary.f0 = options.fixed_f0.value_or(Median(f0s));
+  } else {
+    clusters = ClusterPixels(stack, options.clusters, options.seed);
+    LOOM_RETURN_IF_ERROR(FitClusters(pixels, clusters, options, report, summary));
   }
-  summary.f0 = options.fixed_f0.value_or(Median(f0s));
   summary.cluster_seconds = SecondsSince(cluster_start);
 
   fit.maps = MakeSvbrdfImage(width, height, /*with_height=*/true);
@@ -213,7 +235,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
       [&](int i) {
         const int x = i % width, y = i / width;
         const std::vector<PixelObservation> observations = pixels.Observations(x, y);
-        WardParams<double> start = summary.cluster_params[clusters.labels[i]];
+        WardParams<double> start = options.initial_maps ? GetParams(*options.initial_maps, x, y)
+                                                        : summary.cluster_params[clusters.labels[i]];
         if (summary.f0 > 0) {
           start.a_s *= start.f0 / summary.f0;  // keeps a_s·F0, the observable product
           start.f0 = summary.f0;

@@ -9,9 +9,10 @@
 //     a pixel left with a poor fit (its highlight is not where its cluster's is) is fitted again
 //     from grid-searched starts and keeps the better.
 // A pixel with too few usable observations keeps its cluster's parameters and is counted.
+// With initial maps (e.g. the CNN's), steps 1–3 are skipped: every pixel starts from its map.
 //
 // Output maps: svbrdf_maps.h's 13 channels and `height` (the stack's pos.Z), then
-// fit.cluster (index), fit.observations (used), fit.rms (RMS residual relative to the pixel's
+// fit.cluster (index; −1 when started from initial maps), fit.observations (used), fit.rms (RMS residual relative to the pixel's
 // mean radiance).
 
 #include <functional>
@@ -44,6 +45,10 @@ struct StackFitOptions {
   // per material, the size-weighted median of the cluster fits (F0 free there), as Pantora does.
   std::optional<double> fixed_f0 = 1.0;
   StackPixelOptions pixels;
+  // Starts of the per-pixel fits, when given: SVBRDF maps on the stack's grid (the CNN's, for
+  // cnn+ceres). No clusters are formed; with fixed_f0 unset the material's F0 is the maps'
+  // median. Not owned; must outlive FitStack.
+  const Image* initial_maps = nullptr;
   int threads = 0;                  // 0: one per core
   uint64_t seed = 1;                // k-means initialisation
   std::function<void(const StackFitProgress&)> progress;  // on the calling thread
