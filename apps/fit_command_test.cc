@@ -74,11 +74,66 @@ TEST_F(FitCommandTest, ACorruptStackIsAnErrorNamingTheFile) {
   EXPECT_FALSE(fs::exists(dir_ / "bad" / "svbrdf.exr"));
 }
 
-TEST_F(FitCommandTest, TheCnnMethodsSayTheyAreNotBuiltYet) {
+// Fits with `method` (the shipped tac7-mini model for the CNN) and evaluates against the truth.
+nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method) {
+  const fs::path out = dir / method;
+  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir / "stack.exr").string() + " --method " + method +
+                              " --out " + out.string() + " --quiet");
+  EXPECT_EQ(fit.exit_code, 0) << fit.output;
+  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (out / "svbrdf.exr").string() + " --stack " +
+                               (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() +
+                               " --out " + (out / "report").string());
+  EXPECT_EQ(eval.exit_code, 0) << eval.output;
+  std::ifstream summary(out / "report/summary.json");
+  return nlohmann::json::parse(summary);
+}
+
+TEST_F(FitCommandTest, TheShippedCnnAloneRecoversTheFabricRoughly) {
+  const nlohmann::json json = FitAndEvaluate(dir_, "cnn");
+  // Measured (2026-11-22) with the shipped model: normal median 18.6°, a_d NRMSE 0.195,
+  // re-render L1 0.76 — the small model, trained for 5 minutes on a CPU, has not learnt the
+  // shading normals (see configs/models/tac7-mini/README.md); its maps are a start for Ceres
+  // (next test), not a result. Bounds ~1.5× those: they catch a broken chain or model, no more.
+  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 28.0) << json.dump(2);
+  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.3) << json.dump(2);
+  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 1.2) << json.dump(2);
+}
+
+TEST_F(FitCommandTest, CnnPlusCeresRecoversTheFabric) {
+  const nlohmann::json json = FitAndEvaluate(dir_, "cnn+ceres");
+  // Measured (2026-11-22): normal median 0.01° (p90 3.3°), a_d NRMSE 0.0087, re-render L1
+  // 0.0075. Bounds as for the Ceres fit above.
+  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
+  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
+  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
+}
+
+TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
+  const std::string model = (dir_ / "no-such-model").string();
   const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                              " --method cnn --out " + (dir_ / "cnn").string());
+                              " --method cnn --model " + model + " --out " + (dir_ / "missing").string());
   EXPECT_EQ(fit.exit_code, 1) << fit.output;
-  EXPECT_NE(fit.output.find("not"), std::string::npos) << fit.output;
+  EXPECT_NE(fit.output.find(model), std::string::npos) << fit.output;
+  EXPECT_FALSE(fs::exists(dir_ / "missing" / "svbrdf.exr"));
+}
+
+// loom train end to end at toy size: renders its dataset, trains, and loom fit takes the model.
+TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
+  const fs::path model = dir_ / "model";
+  const auto train = RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR +
+                                "/configs/rig/tac7-mini.yaml --out " + model.string() +
+                                " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --quiet");
+  ASSERT_EQ(train.exit_code, 0) << train.output;
+  for (const char* file : {"model.json", "weights.pt", "training.json", "data/fabric-1000.stack.exr",
+                           "checkpoints/last/history.json"}) {
+    EXPECT_TRUE(fs::exists(model / file)) << file;
+  }
+  std::ifstream training(model / "training.json");
+  EXPECT_EQ(nlohmann::json::parse(training)["epochs"].size(), 2u);
+  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                              " --method cnn --model " + model.string() + " --out " + (dir_ / "toy").string());
+  EXPECT_EQ(fit.exit_code, 0) << fit.output;
+  EXPECT_TRUE(fs::exists(dir_ / "toy" / "svbrdf.exr"));
 }
 
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {

@@ -192,20 +192,28 @@ Status Train(TrainArguments args) {
               << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0)
               << e.samples_per_second << " samples/s)" << std::defaultfloat << "\n";
   }
+  // The model is the epoch with the lowest validation loss: later ones may have overfitted.
+  LOOM_ASSIGN_OR_RETURN(cnn, fitting::Cnn::Load(args.training.checkpoint_dir / "best"));
+  const auto best = std::min_element(history.begin(), history.end(), [](const auto& a, const auto& b) {
+    return a.validation_loss < b.validation_loss;
+  });
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnScore test, fitting::ScoreCnn(cnn, sets[2], args.training.threads));
   std::ostringstream training;
-  training << history.size() << " epochs on " << sets[0].size() << " simulated fabrics (" << args.size_px << " px, seeds "
+  training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of "
+           << history.size() << " epochs on " << sets[0].size() << " simulated fabrics (" << args.size_px << " px, seeds "
            << args.first_seed << "…), preset " << args.preset << "; test loss " << test.loss << " on " << sets[2].size()
            << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   const nlohmann::json report = {{"epochs", EpochsJson(history)},
+                                 {"kept_epoch", best->epoch},
                                  {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
                                  {"label_channels", fitting::kLabelChannelNames},
                                  {"materials", {{"train", sets[0].size()}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
                                  {"loom_version", std::string(VersionWithCommit())}};
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out / "training.json", report.dump(2) + "\n"));
-  std::cout << "test loss " << test.loss << "; RMSE per label channel:\n  " << RmseLine(test.rmse) << "\n"
+  std::cout << "kept epoch " << best->epoch << " (lowest validation loss " << best->validation_loss << ")\n"
+            << "test loss " << test.loss << "; RMSE per label channel:\n  " << RmseLine(test.rmse) << "\n"
             << "wrote " << out.string() << "/model.json, weights.pt and training.json\n";
   return Status::Ok();
 }

@@ -1,5 +1,6 @@
 #include "fitting/cnn_training.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -27,6 +28,7 @@ using Clock = std::chrono::steady_clock;
 // The checkpoint is written to next/ and then renamed to last/: a crash leaves one complete.
 constexpr const char* kLastCheckpoint = "last";
 constexpr const char* kNextCheckpoint = "next";
+constexpr const char* kBestModel = "best";
 
 torch::Tensor LabelWeights() {
   std::array<float, kLabelSize> w;
@@ -277,8 +279,12 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
     record.validation_loss = score->loss;
     record.validation_rmse = score->rmse;
     record.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    const bool best = std::all_of(history.begin(), history.end(),
+                                  [&](const CnnEpoch& e) { return record.validation_loss < e.validation_loss; });
     history.push_back(record);
-    if (!options.checkpoint_dir.empty()) LOOM_RETURN_IF_ERROR(SaveCheckpoint(cnn, *optimizer, history, options.checkpoint_dir));
+    if (options.checkpoint_dir.empty()) continue;
+    if (best) LOOM_RETURN_IF_ERROR(cnn.Save(options.checkpoint_dir / kBestModel));
+    LOOM_RETURN_IF_ERROR(SaveCheckpoint(cnn, *optimizer, history, options.checkpoint_dir));
   }
   net->eval();
   return history;

@@ -48,8 +48,9 @@ struct CnnTrainingOptions {
   double weight_decay = 5e-4;
   int threads = 0;                    // torch threads; 0: one per core
   uint64_t seed = 1;
-  // Empty: no checkpoints. Else after every epoch: DIR/model (the weights so far, loadable by
-  // Cnn::Load), DIR/optimizer.pt and DIR/history.json, each replaced whole.
+  // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
+  // loadable by Cnn::Load), optimizer.pt and history.json, replaced whole; and DIR/best/, the
+  // model of the epoch with the lowest validation loss so far.
   std::filesystem::path checkpoint_dir;
   bool resume = false;                // continue after the last epoch in checkpoint_dir
   std::function<void(const CnnTrainingProgress&)> progress;  // after every step

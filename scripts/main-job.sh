@@ -5,8 +5,9 @@
 #   2. the simulator's fast-path stack of the same fabric and plan (what calibration +
 #      reconstruction of that scan will produce, once they exist: issue #6) → Ceres fit →
 #      evaluation against the ground truth → build/demo/report/index.html.
-# The fit covers the central 32 × 32 px of the sample: at ~100-200 ms per pixel per core the
-# whole 128 × 128 would take half an hour on 2 cores (analytic derivatives are issue #7's).
+# The stack covers the whole 128 × 128 px sample. It is fitted three ways and each is evaluated:
+# the CNN shipped for tac7-mini (configs/models/tac7-mini), the CNN refined by Ceres (the main
+# result), and Ceres alone from appearance clusters (the baseline the CNN is measured against).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -23,10 +24,13 @@ stage "plan"
 stage "scan"
 "$loom" scan --rig "$rig" --preset low --object fabric:1 --out "$demo/scan"
 stage "fast-path stack (stands in for calibrate + reconstruct)"
-"$loom" sim render --rig "$rig" --stack --preset low --size 32 --truth "$demo/truth.exr" --out "$demo/stack.exr"
-stage "fit (Ceres)"
-"$loom" fit "$demo/stack.exr" --out "$demo/fit"
-stage "evaluate against the ground truth"
-"$loom" eval "$demo/fit/svbrdf.exr" --stack "$demo/stack.exr" --reference "$demo/truth.exr" --out "$demo/report" \
-  --title "fabric:1 on tac7-mini (fast-path stack, Ceres fit)"
+"$loom" sim render --rig "$rig" --stack --preset low --truth "$demo/truth.exr" --out "$demo/stack.exr"
+for method in cnn cnn+ceres ceres; do
+  stage "fit: $method"
+  "$loom" fit "$demo/stack.exr" --method "$method" --out "$demo/fit-$method"
+  stage "evaluate $method against the ground truth"
+  "$loom" eval "$demo/fit-$method/svbrdf.exr" --stack "$demo/stack.exr" --reference "$demo/truth.exr" \
+    --out "$demo/report-$method" --title "fabric:1 on tac7-mini (fast-path stack, $method)"
+done
 stage "done"
+echo "reports: $demo/report-cnn+ceres/index.html (main result), $demo/report-cnn/index.html, $demo/report-ceres/index.html"
