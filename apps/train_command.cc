@@ -129,20 +129,6 @@ std::string RmseLine(const std::array<double, 14>& rmse) {
   return line.str();
 }
 
-nlohmann::json EpochsJson(const std::vector<fitting::CnnEpoch>& history) {
-  nlohmann::json epochs = nlohmann::json::array();
-  for (const fitting::CnnEpoch& e : history) {
-    epochs.push_back({{"epoch", e.epoch},
-                      {"learning_rate", e.learning_rate},
-                      {"train_loss", e.train_loss},
-                      {"validation_loss", e.validation_loss},
-                      {"validation_rmse", e.validation_rmse},
-                      {"seconds", e.seconds},
-                      {"samples_per_second", e.samples_per_second}});
-  }
-  return epochs;
-}
-
 Status Train(TrainArguments args) {
   const fs::path out(args.out);
   const fs::path data = args.data.empty() ? out / "data" : fs::path(args.data);
@@ -205,7 +191,7 @@ Status Train(TrainArguments args) {
            << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
-  const nlohmann::json report = {{"epochs", EpochsJson(history)},
+  const nlohmann::json report = {{"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
                                  {"kept_epoch", best->epoch},
                                  {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
                                  {"label_channels", fitting::kLabelChannelNames},

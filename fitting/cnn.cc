@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "core/file_io.h"
+#include "core/parallel.h"
 #include "fitting/internal/cnn_net.h"
 #include "fitting/model/label.h"
 #include "fitting/model/svbrdf_maps.h"
@@ -66,10 +66,6 @@ namespace {
 using Json = nlohmann::json;
 constexpr const char* kInfoFile = "model.json";
 constexpr const char* kWeightsFile = "weights.pt";
-
-int Threads(int threads) {
-  return threads > 0 ? threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-}
 
 CnnTensor FromTorch(const torch::Tensor& t) {
   const torch::Tensor c = t.contiguous();
@@ -279,7 +275,7 @@ Status Cnn::Save(const std::filesystem::path& directory) const {
 Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int tile, int threads) const {
   LOOM_RETURN_IF_ERROR(CheckInput(*this, input));
   if (tile < 1) return InvalidArgumentError("CNN tile", "must be ≥ 1");
-  torch::set_num_threads(Threads(threads));
+  torch::set_num_threads(ThreadCount(threads));
   c10::InferenceMode inference;
   net_->net->eval();
   const torch::Tensor padded = internal::PaddedInput(input);
@@ -317,7 +313,7 @@ Result<CnnTensor> Cnn::PredictSliding(const CnnTensor& input, int first, int cou
                                                           std::to_string(first + count) + ") of " +
                                                           std::to_string(pixels) + ", batch " + std::to_string(batch));
   }
-  torch::set_num_threads(Threads(threads));
+  torch::set_num_threads(ThreadCount(threads));
   c10::InferenceMode inference;
   net_->net->eval();
   const torch::Tensor padded = internal::PaddedInput(input)[0];

@@ -4,11 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <random>
-#include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "core/file_io.h"
+#include "core/parallel.h"
 #include "fitting/internal/cnn_net.h"
 #include "fitting/model/label.h"
 
@@ -125,6 +125,16 @@ CnnEpoch EpochFromJson(const Json& j) {
   return e;
 }
 
+}  // namespace
+
+std::string CnnHistoryJson(const std::vector<CnnEpoch>& history) {
+  Json epochs = Json::array();
+  for (const CnnEpoch& e : history) epochs.push_back(EpochJson(e));
+  return epochs.dump(1);
+}
+
+namespace {
+
 Status SaveCheckpoint(const Cnn& cnn, torch::optim::Adam& optimizer, const std::vector<CnnEpoch>& history,
                       const fs::path& dir) {
   const fs::path next = dir / kNextCheckpoint, last = dir / kLastCheckpoint;
@@ -136,9 +146,7 @@ Status SaveCheckpoint(const Cnn& cnn, torch::optim::Adam& optimizer, const std::
   } catch (const std::exception& e) {
     return IoError((next / "optimizer.pt").string(), e.what());
   }
-  Json epochs = Json::array();
-  for (const CnnEpoch& e : history) epochs.push_back(EpochJson(e));
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(next / "history.json", epochs.dump(1) + "\n"));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(next / "history.json", CnnHistoryJson(history) + "\n"));
   fs::remove_all(last, error);
   fs::rename(next, last, error);
   if (error) return IoError(last.string(), "cannot move the checkpoint into place: " + error.message());
@@ -222,7 +230,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
   if (train.empty() || validation.empty()) return InvalidArgumentError("CNN training", "needs training and validation examples");
   LOOM_RETURN_IF_ERROR(CheckExamples(cnn, train, options.tile, "training"));
   LOOM_RETURN_IF_ERROR(CheckExamples(cnn, validation, 1, "validation"));
-  const int threads = options.threads > 0 ? options.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
 
   const torch::optim::AdamOptions adam =

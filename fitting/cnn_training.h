@@ -76,6 +76,9 @@ struct CnnEpoch {
 Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
                                        const std::vector<CnnExample>& validation, const CnnTrainingOptions& options);
 
+// The epochs as a JSON array (what checkpoints keep in history.json).
+std::string CnnHistoryJson(const std::vector<CnnEpoch>& history);
+
 // Loss and per-channel RMSE of `cnn` on `examples` (dense, whole materials, no dropout).
 struct CnnScore {
   double loss = 0;
