@@ -52,8 +52,9 @@ class PeerScanTest : public ::testing::Test {
       endpoints_.push_back("tcp://" + line->substr(14));
       peers_.push_back(std::move(*sim));
     }
+    // 11 slots, as tac7.yaml's wheels have: 10 band-pass filters and the open slot.
     for (int w = 0; w < 5; ++w) {
-      wheels_.push_back(std::make_unique<hal::testing::EmulatedFilterWheel>(testbed_, w + 2, "W" + std::to_string(w), 10, 2));
+      wheels_.push_back(std::make_unique<hal::testing::EmulatedFilterWheel>(testbed_, w + 2, "W" + std::to_string(w), 11, 2));
     }
   }
   void TearDown() override {

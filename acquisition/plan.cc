@@ -38,6 +38,19 @@ std::vector<std::string> ColourCameras(const RigModel& rig, const std::vector<do
   return names;
 }
 
+// Every LED lights monochrome steps, so a wheel in front of one needs an open slot: through a
+// band-pass filter the "monochrome" image would be coloured.
+Status CheckOpenSlots(const RigModel& rig) {
+  for (const FilterWheelModel& wheel : rig.filter_wheels) {
+    if (!wheel.OpenSlot()) {
+      return FailedPreconditionError("rig '" + rig.name + "', filter wheel '" + wheel.name + "'",
+                                     "has no open slot for LED " + std::to_string(wheel.led) +
+                                         "'s monochrome steps: add {open: true} to its filters");
+    }
+  }
+  return {};
+}
+
 class PlanBuilder {
  public:
   PlanBuilder(const RigModel& rig, const Preset& preset, std::string purpose) : rig_(rig), preset_(preset) {
@@ -69,6 +82,7 @@ class PlanBuilder {
   void Filtered(StepKind kind, const std::vector<std::string>& cameras, const std::string& object) {
     for (const FilterWheelModel& wheel : rig_.filter_wheels) {
       for (int slot = 0; slot < static_cast<int>(wheel.filters.size()); ++slot) {
+        if (wheel.filters[slot].open) continue;
         Step& step = Add(kind, cameras, 0, object);
         step.leds = {{wheel.led, preset_.led_current_ma}};
         step.filter = FilterSetting{wheel.name, slot, wheel.filters[slot].center_nm};
@@ -76,9 +90,13 @@ class PlanBuilder {
     }
   }
 
+  // An LED behind a filter wheel shines through the wheel's open slot (MakeMaterialPlan and
+  // MakeCalibrationPlan check that there is one).
   void EveryLed(StepKind kind, double angle, const std::string& object) {
     for (int led = 0; led < static_cast<int>(rig_.leds.size()); ++led) {
-      Add(kind, AllCameras(rig_), angle, object).leds = {{led, preset_.led_current_ma}};
+      Step& step = Add(kind, AllCameras(rig_), angle, object);
+      step.leds = {{led, preset_.led_current_ma}};
+      if (const FilterWheelModel* wheel = rig_.WheelOfLed(led)) step.filter = FilterSetting{wheel->name, *wheel->OpenSlot(), 0};
     }
   }
 
@@ -176,6 +194,7 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
   if (rig.cameras.empty() || rig.leds.empty()) {
     return FailedPreconditionError("rig '" + rig.name + "'", "a material scan needs cameras and LEDs");
   }
+  LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));
   if (preset.linear_light_positions > 0 && !rig.linear_light) {
     return FailedPreconditionError("rig '" + rig.name + "'", "preset '" + preset.name + "' needs a linear light (" +
                                                                  std::to_string(preset.linear_light_positions) +
@@ -196,6 +215,7 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
 
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   if (rig.cameras.empty()) return FailedPreconditionError("rig '" + rig.name + "'", "calibration needs cameras");
+  LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));
   PlanBuilder builder(rig, preset, "calibration");
   builder.Add(StepKind::kDark, AllCameras(rig), 0, "nothing (lights off)");
   // The target at 8 turntable angles, lit evenly by every LED at a quarter of the current.

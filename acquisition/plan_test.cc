@@ -86,6 +86,23 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   EXPECT_GT(EstimateSeconds(*MakeMaterialPlan(rig, LoadShippedPreset("high"))), EstimateSeconds(plan));
 }
 
+TEST(PlanTest, LedsBehindAWheelLightMonochromeStepsThroughItsOpenSlot) {
+  const RigModel rig = LoadRigModel("tac7-mini");
+  const Plan plan = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
+  for (const Step& step : plan.steps) {
+    if (step.kind != StepKind::kMonochrome || step.leds.front().led != rig.filter_wheels[0].led) continue;
+    ASSERT_TRUE(step.filter.has_value()) << step.index;
+    EXPECT_EQ(step.filter->wheel, "wheel0");
+    EXPECT_EQ(step.filter->slot, 0);
+  }
+  RigModel closed = rig;
+  closed.filter_wheels[1].filters.erase(closed.filter_wheels[1].filters.begin());
+  const Result<Plan> refused = MakeMaterialPlan(closed, LoadShippedPreset("low"));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("filter wheel 'wheel1'"), std::string::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().ToString().find("no open slot"), std::string::npos) << refused.status().ToString();
+}
+
 TEST(PlanTest, ARigWithoutALinearLightCannotScanWithIt) {
   RigModel rig = LoadRigModel("tac7-mini");
   rig.linear_light.reset();

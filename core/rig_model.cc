@@ -102,6 +102,13 @@ Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
   return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));
 }
 
+std::optional<int> FilterWheelModel::OpenSlot() const {
+  for (size_t slot = 0; slot < filters.size(); ++slot) {
+    if (filters[slot].open) return static_cast<int>(slot);
+  }
+  return std::nullopt;
+}
+
 const CameraModel* RigModel::FindCamera(const std::string& camera_name) const {
   for (const CameraModel& camera : cameras) {
     if (camera.name == camera_name) return &camera;
@@ -202,6 +209,11 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     }
     for (const ConfigNode& filter_node : node.Sequence("filters")) {
       FilterModel filter;
+      filter_node.Optional("open", &filter.open);
+      if (filter.open) {
+        wheel.filters.push_back(filter);
+        continue;
+      }
       filter_node.Required("center_nm", &filter.center_nm);
       filter_node.Optional("fwhm_nm", &filter.fwhm_nm);
       filter_node.Optional("peak_transmission", &filter.peak_transmission);

@@ -57,7 +57,10 @@ struct LedModel {
   double IntensityTowards(const Eigen::Vector3d& point_in_rig, double current_ma) const;
 };
 
+// A slot of a filter wheel: a band-pass filter, or the open position (no filter) through which
+// the LED behind the wheel lights monochrome steps.
 struct FilterModel {
+  bool open = false;
   double center_nm = 550;
   double fwhm_nm = 30;
   double peak_transmission = 0.9;
@@ -67,6 +70,8 @@ struct FilterWheelModel {
   std::string name;
   int led = 0;  // the LED it sits in front of
   std::vector<FilterModel> filters;
+  // The first open slot, if the wheel has one.
+  std::optional<int> OpenSlot() const;
 };
 
 // The linear light: an LED strip on an arm that sweeps over the sample. The arm turns about

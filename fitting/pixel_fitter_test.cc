@@ -12,7 +12,7 @@
 
 #include "fitting/internal/pixel_cost.h"
 #include "fitting/testing/tac7_mini.h"
-#include "sim/spectra.h"
+#include "core/spectra.h"
 
 namespace loom::fitting {
 namespace {
@@ -30,14 +30,15 @@ std::vector<PixelObservation> Geometry(const RigModel& rig) {
     for (const CameraModel& camera : rig.cameras) {
       const Eigen::Vector3d v = (sample_from_rig * camera.CentreInRig()).normalized();
       for (const LedModel& led : rig.leds) {
-        observations.push_back({0, v, sim::PanchromaticWeights(),
+        observations.push_back({0, v, PanchromaticWeights(),
                                 {PointLight(sample_from_rig * led.position_mm, led.IntensityTowards(origin_in_rig, 1000))}});
       }
       if (angle == 0) {
         for (const FilterWheelModel& wheel : rig.filter_wheels) {
           const LedModel& led = rig.leds[wheel.led];
           for (const FilterModel& filter : wheel.filters) {
-            observations.push_back({0, v, sim::FilterWeights(filter),
+            if (filter.open) continue;
+            observations.push_back({0, v, FilterWeights(filter),
                                     {PointLight(sample_from_rig * led.position_mm, led.IntensityTowards(origin_in_rig, 1000))}});
           }
         }
@@ -45,7 +46,7 @@ std::vector<PixelObservation> Geometry(const RigModel& rig) {
       const LinearLightModel& strip = *rig.linear_light;
       for (int k = 0; k < 16; ++k) {
         const double position = strip.travel_mm * k / 15;
-        PixelObservation o{0, v, sim::PanchromaticWeights(), {}};
+        PixelObservation o{0, v, PanchromaticWeights(), {}};
         const double segment_mm = strip.strip_length_mm / strip.segments;
         for (int s = 0; s < strip.segments; ++s) {
           const Eigen::Vector3d source = strip.StripCentre(position) +
@@ -207,7 +208,7 @@ TEST(PixelFitterTest, ShadowedObservationsAreOutliersTheFitSurvives) {
   // observations are left alone: each filter is seen twice only, so a shadowed one could not
   // be told from a colour.)
   for (size_t k = 0; k < observations.size(); k += 10) {
-    if (observations[k].rgb_weights == sim::PanchromaticWeights()) observations[k].radiance = 0;
+    if (observations[k].rgb_weights == PanchromaticWeights()) observations[k].radiance = 0;
   }
   PixelFitOptions options;
   options.fixed_f0 = truth.f0;
@@ -217,7 +218,7 @@ TEST(PixelFitterTest, ShadowedObservationsAreOutliersTheFitSurvives) {
   // The brightness of the diffuse albedo survives; its colour (fixed by 16 filtered
   // observations only) does not yet: blue comes out at its bound 0 here. Clustering pixels to
   // pool colour observations (the paper's initialisation) is the planned remedy.
-  const Eigen::Vector3d w = sim::PanchromaticWeights();
+  const Eigen::Vector3d w = PanchromaticWeights();
   EXPECT_NEAR(w.dot(fit->params.a_d), w.dot(truth.a_d), 0.02) << fit->params.a_d.transpose();
 }
 

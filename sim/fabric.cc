@@ -5,7 +5,7 @@
 #include <random>
 
 #include "fitting/model/svbrdf_maps.h"
-#include "sim/heightfield.h"
+#include "core/heightfield.h"
 #include "sim/internal/noise.h"
 
 namespace loom::sim {

@@ -5,9 +5,9 @@
 #include <thread>
 
 #include "fitting/model/svbrdf_maps.h"
-#include "sim/heightfield.h"
+#include "core/heightfield.h"
 #include "sim/internal/noise.h"
-#include "sim/spectra.h"
+#include "core/spectra.h"
 
 namespace loom::sim {
 namespace {

@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include "fitting/model/svbrdf_maps.h"
-#include "sim/spectra.h"
 #include "sim/test_materials.h"
 
 namespace loom::sim {
@@ -158,18 +157,6 @@ TEST(RendererTest, LensDistortionRoundTrips) {
     ASSERT_TRUE(camera.Project(camera.Unproject(pixel) * 10, &back));
     EXPECT_NEAR((back - pixel).norm(), 0.0, 1e-6) << pixel.transpose();
   }
-}
-
-TEST(RendererTest, FiltersSeeColour) {
-  const Eigen::Vector3d pan = PanchromaticWeights();
-  EXPECT_NEAR(pan.sum(), 1.0, 1e-12);
-  const Eigen::Vector3d red(0.7, 0.05, 0.05);
-  const Eigen::Vector3d blue(0.05, 0.05, 0.7);
-  const FilterModel long_pass{650, 30, 0.9};
-  const FilterModel short_pass{450, 30, 0.9};
-  EXPECT_GT(FilterWeights(long_pass).dot(red), 5 * FilterWeights(long_pass).dot(blue));
-  EXPECT_GT(FilterWeights(short_pass).dot(blue), 5 * FilterWeights(short_pass).dot(red));
-  EXPECT_LT(FilterWeights(long_pass).sum(), 0.3);  // a band-pass filter lets a fraction through
 }
 
 LinearLightModel Strip(double length_mm, int segments) {

@@ -6,7 +6,7 @@
 #include <thread>
 
 #include "core/check.h"
-#include "sim/spectra.h"
+#include "core/spectra.h"
 
 namespace loom::sim {
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg) {
@@ -20,6 +20,7 @@ std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vec
   }
   for (int wheel = 0; wheel < static_cast<int>(rig.filter_wheels.size()); ++wheel) {
     for (int slot = 0; slot < static_cast<int>(rig.filter_wheels[wheel].filters.size()); ++slot) {
+      if (rig.filter_wheels[wheel].filters[slot].open) continue;
       for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
         observations.push_back({camera, {.leds = {{rig.filter_wheels[wheel].led, 1000}}, .filter_slots = {{wheel, slot}}}});
       }
@@ -48,8 +49,13 @@ std::string Describe(const RigModel& rig, const Observation& o) {
   out << rig.cameras.at(o.camera).name << ", turntable " << o.state.turntable_deg << " deg";
   for (const LitLed& led : o.state.leds) out << ", led " << led.led << " at " << led.current_ma << " mA";
   for (const auto& [wheel, slot] : o.state.filter_slots) {
-    out << ", " << rig.filter_wheels.at(wheel).name << " slot " << slot << " ("
-        << rig.filter_wheels.at(wheel).filters.at(slot).center_nm << " nm)";
+    const FilterModel& filter = rig.filter_wheels.at(wheel).filters.at(slot);
+    out << ", " << rig.filter_wheels.at(wheel).name << " slot " << slot << " (";
+    if (filter.open) {
+      out << "open)";
+    } else {
+      out << filter.center_nm << " nm)";
+    }
   }
   if (o.state.linear_light_on) out << ", linear light at " << o.state.linear_light_mm << " mm";
   return out.str();
@@ -76,7 +82,7 @@ StackObservation DescribeObservation(const RigModel& rig, const Observation& obs
     o.emitters.push_back({sample_from_rig * led.position_mm, sample_from_rig.linear() * led.axis,
                           led.intensity * lit.current_ma / 1000.0, led.falloff_exponent});
   }
-  o.group = state.filter_slots.empty() ? ObservationGroup::kMonochrome : ObservationGroup::kColour;
+  o.group = o.rgb_weights == PanchromaticWeights() ? ObservationGroup::kMonochrome : ObservationGroup::kColour;
   if (rig.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
     LOOM_CHECK(!weights_set || o.rgb_weights == PanchromaticWeights()) << "linear light with a filtered LED: " << o.description;
     o.group = ObservationGroup::kLinearLight;

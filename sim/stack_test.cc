@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "sim/spectra.h"
+#include "core/spectra.h"
 #include "sim/test_materials.h"
 
 namespace loom::sim {
@@ -94,7 +94,7 @@ TEST(StackTest, PointsTheCameraCannotSeeAreNaN) {
 
 TEST(StackTest, DefaultObservationsCoverCamerasLightsAnglesAndFilters) {
   RigModel rig = TwoCameraRig();
-  rig.filter_wheels.push_back({"wheel0", 1, {{450, 30, 0.9}, {550, 30, 0.9}, {650, 30, 0.9}}});
+  rig.filter_wheels.push_back({"wheel0", 1, {{true}, {false, 450, 30, 0.9}, {false, 550, 30, 0.9}, {false, 650, 30, 0.9}}});
   const std::vector<Observation> observations = DefaultObservations(rig, {0, 120, 240});
   EXPECT_EQ(observations.size(), 2u * 2u * 3u + 3u * 2u);
   const StackObservation side = DescribeObservation(rig, observations[3]);  // angle 0, side camera, LED 1
@@ -105,8 +105,13 @@ TEST(StackTest, DefaultObservationsCoverCamerasLightsAnglesAndFilters) {
   EXPECT_LT((side.emitters[0].position_mm - rig.leds[1].position_mm).norm(), 1e-9);
   const StackObservation filtered = DescribeObservation(rig, observations[12 + 2]);
   EXPECT_EQ(filtered.group, ObservationGroup::kColour);
-  EXPECT_NE(filtered.description.find("wheel0 slot 1 (550 nm)"), std::string::npos) << filtered.description;
-  EXPECT_EQ(filtered.rgb_weights, FilterWeights(rig.filter_wheels[0].filters[1]));
+  EXPECT_NE(filtered.description.find("wheel0 slot 2 (550 nm)"), std::string::npos) << filtered.description;
+  EXPECT_EQ(filtered.rgb_weights, FilterWeights(rig.filter_wheels[0].filters[2]));
+  // Through the open slot the LED behind the wheel lights a monochrome observation.
+  const StackObservation open = DescribeObservation(rig, {0, {.leds = {{1, 1000}}, .filter_slots = {{0, 0}}}});
+  EXPECT_EQ(open.group, ObservationGroup::kMonochrome);
+  EXPECT_EQ(open.rgb_weights, PanchromaticWeights());
+  EXPECT_NE(open.description.find("wheel0 slot 0 (open)"), std::string::npos) << open.description;
 }
 
 TEST(StackTest, TheTurntableAngleMovesLightsAndCamerasIntoTheSampleFrame) {

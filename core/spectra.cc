@@ -1,8 +1,8 @@
-#include "sim/spectra.h"
+#include "core/spectra.h"
 
 #include <cmath>
 
-namespace loom::sim {
+namespace loom {
 namespace {
 
 double Gaussian(double x, double mean, double sigma) {
@@ -43,9 +43,10 @@ double Normaliser() {
 Eigen::Vector3d PanchromaticWeights() { return Integrate([](double) { return 1.0; }) / Normaliser(); }
 
 Eigen::Vector3d FilterWeights(const FilterModel& filter) {
+  if (filter.open) return PanchromaticWeights();
   const double sigma = filter.fwhm_nm / (2 * std::sqrt(2 * std::log(2.0)));
   return Integrate([&](double nm) { return filter.peak_transmission * Gaussian(nm, filter.center_nm, sigma); }) /
          Normaliser();
 }
 
-}  // namespace loom::sim
+}  // namespace loom

@@ -1,12 +1,13 @@
 #pragma once
-// Heightmap helpers shared by the material generator and the renderer, so that both use the
-// same geometric normals (the heightmap blurred to what structured light resolves).
+// Heightmap helpers shared by the simulator's material generator and renderer and by
+// reconstruction, so that all use the same geometric normals (the heightmap blurred to what
+// structured light resolves).
 
 #include <vector>
 
 #include <Eigen/Core>
 
-namespace loom::sim {
+namespace loom {
 
 // Separable Gaussian blur (σ in pixels) with clamped edges; row-major width × height.
 std::vector<double> BlurHeights(const std::vector<double>& heights, int width, int height, double sigma_px);
@@ -19,4 +20,4 @@ Eigen::Vector3d HeightfieldNormal(const std::vector<double>& heights, int width,
 std::vector<Eigen::Vector3d> GeometricNormals(const std::vector<double>& heights, int width, int height,
                                               double pixel_mm, double blur_mm);
 
-}  // namespace loom::sim
+}  // namespace loom

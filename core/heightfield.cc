@@ -1,9 +1,9 @@
-#include "sim/heightfield.h"
+#include "core/heightfield.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace loom::sim {
+namespace loom {
 
 std::vector<double> BlurHeights(const std::vector<double>& in, int width, int height, double sigma_px) {
   if (sigma_px <= 0) return in;
@@ -47,4 +47,4 @@ std::vector<Eigen::Vector3d> GeometricNormals(const std::vector<double>& heights
   return normals;
 }
 
-}  // namespace loom::sim
+}  // namespace loom
