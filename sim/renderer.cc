@@ -57,6 +57,23 @@ struct Scene::Surface {
   Eigen::Matrix3d world_from_local = Eigen::Matrix3d::Identity();
 };
 
+namespace {
+
+// The pattern's grey level (0..1) at subpixel (u, v), bilinear between pixel centres; u, v
+// within [0, width − 1] × [0, height − 1].
+double ProjectedLevel(const ProjectedImage& image, double u, double v) {
+  const int u0 = std::min(static_cast<int>(u), std::max(0, image.width - 2));
+  const int v0 = std::min(static_cast<int>(v), std::max(0, image.height - 2));
+  const int u1 = std::min(u0 + 1, image.width - 1);
+  const int v1 = std::min(v0 + 1, image.height - 1);
+  const double fu = u - u0;
+  const double fv = v - v0;
+  const auto at = [&](int x, int y) { return image.pixels[static_cast<size_t>(y) * image.width + x] / 255.0; };
+  return (1 - fv) * ((1 - fu) * at(u0, v0) + fu * at(u1, v0)) + fv * ((1 - fu) * at(u0, v1) + fu * at(u1, v1));
+}
+
+}  // namespace
+
 Scene::Scene(RigModel rig, Material material) : rig_(std::move(rig)), material_(std::move(material)) {
   const int w = material_.width();
   const int h = material_.height();
@@ -192,16 +209,18 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
     }
   }
   if (rig_.projector && state.projector_image) {
-    // The projector pixel that lights p, and its grey level.
+    // The grey level the projector throws on p. Its lens is slightly out of focus, as real
+    // structured-light projectors are set up: the pattern blends linearly between pixel centres
+    // (in focus, a phase pattern would be a staircase of whole pixels).
     const ProjectorModel& projector = *rig_.projector;
     const ProjectedImage& image = *state.projector_image;
     const Eigen::Vector3d p_in_projector = projector.proj_from_rig * p_in_rig;
     if (p_in_projector.z() > 0) {
       const Eigen::Vector3d uv = projector.K * (p_in_projector / p_in_projector.z());
-      const int u = static_cast<int>(std::floor(uv.x() + 0.5));
-      const int v = static_cast<int>(std::floor(uv.y() + 0.5));
-      if (u >= 0 && v >= 0 && u < image.width && v < image.height && u < projector.width && v < projector.height) {
-        const double level = image.pixels[static_cast<size_t>(v) * image.width + u] / 255.0;
+      const int columns = std::min(image.width, projector.width);
+      const int rows = std::min(image.height, projector.height);
+      if (uv.x() > -0.5 && uv.y() > -0.5 && uv.x() < columns - 0.5 && uv.y() < rows - 0.5) {
+        const double level = ProjectedLevel(image, std::clamp(uv.x(), 0.0, columns - 1.0), std::clamp(uv.y(), 0.0, rows - 1.0));
         radiance += PointSourceRadiance(p, sample_from_rig * projector.proj_from_rig.inverse().translation(),
                                         projector.max_intensity * level, panchromatic_, lobe, local_from_world,
                                         v_local, shadows);

@@ -2,11 +2,10 @@
 
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <thread>
 
 #include "core/check.h"
-#include "core/spectra.h"
+#include "core/rig_observation.h"
 
 namespace loom::sim {
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg) {
@@ -29,74 +28,18 @@ std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vec
   return observations;
 }
 
-namespace {
-
-// The colour weights of a lit LED: through its wheel's filter if one is in, else panchromatic.
-Eigen::Vector3d LedWeights(const RigModel& rig, const SceneState& state, int led) {
-  for (size_t w = 0; w < rig.filter_wheels.size(); ++w) {
-    const auto slot = state.filter_slots.find(static_cast<int>(w));
-    const FilterWheelModel& wheel = rig.filter_wheels[w];
-    if (wheel.led == led && slot != state.filter_slots.end() && slot->second >= 0 &&
-        slot->second < static_cast<int>(wheel.filters.size())) {
-      return FilterWeights(wheel.filters[slot->second]);
-    }
-  }
-  return PanchromaticWeights();
-}
-
-std::string Describe(const RigModel& rig, const Observation& o) {
-  std::ostringstream out;
-  out << rig.cameras.at(o.camera).name << ", turntable " << o.state.turntable_deg << " deg";
-  for (const LitLed& led : o.state.leds) out << ", led " << led.led << " at " << led.current_ma << " mA";
-  for (const auto& [wheel, slot] : o.state.filter_slots) {
-    const FilterModel& filter = rig.filter_wheels.at(wheel).filters.at(slot);
-    out << ", " << rig.filter_wheels.at(wheel).name << " slot " << slot << " (";
-    if (filter.open) {
-      out << "open)";
-    } else {
-      out << filter.center_nm << " nm)";
-    }
-  }
-  if (o.state.linear_light_on) out << ", linear light at " << o.state.linear_light_mm << " mm";
-  return out.str();
-}
-
-}  // namespace
-
 StackObservation DescribeObservation(const RigModel& rig, const Observation& observation) {
   const SceneState& state = observation.state;
-  const Rigid3d sample_from_rig = rig.turntable.RigFromSample(state.turntable_deg).inverse();
-  StackObservation o;
-  o.camera = rig.cameras.at(observation.camera).name;
-  o.camera_mm = sample_from_rig * rig.cameras.at(observation.camera).CentreInRig();
-  o.turntable_deg = state.turntable_deg;
-  o.rgb_weights = PanchromaticWeights();
-  o.description = Describe(rig, observation);
-  bool weights_set = false;
-  for (const LitLed& lit : state.leds) {
-    const LedModel& led = rig.leds.at(lit.led);
-    const Eigen::Vector3d weights = LedWeights(rig, state, lit.led);
-    LOOM_CHECK(!weights_set || weights == o.rgb_weights) << "observation mixes LEDs of different colour: " << o.description;
-    o.rgb_weights = weights;
-    weights_set = true;
-    o.emitters.push_back({sample_from_rig * led.position_mm, sample_from_rig.linear() * led.axis,
-                          led.intensity * lit.current_ma / 1000.0, led.falloff_exponent});
-  }
-  o.group = o.rgb_weights == PanchromaticWeights() ? ObservationGroup::kMonochrome : ObservationGroup::kColour;
-  if (rig.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
-    LOOM_CHECK(!weights_set || o.rgb_weights == PanchromaticWeights()) << "linear light with a filtered LED: " << o.description;
-    o.group = ObservationGroup::kLinearLight;
-    const LinearLightModel& strip = *rig.linear_light;
-    const Eigen::Vector3d centre = strip.StripCentre(state.linear_light_mm);
-    const Eigen::Vector3d normal = sample_from_rig.linear() * strip.StripNormal(state.linear_light_mm);
-    const double segment_mm = strip.strip_length_mm / strip.segments;
-    for (int k = 0; k < strip.segments; ++k) {
-      const Eigen::Vector3d source = centre + strip.sweep_axis * ((k + 0.5) * segment_mm - strip.strip_length_mm / 2);
-      o.emitters.push_back({sample_from_rig * source, normal,
-                            strip.intensity_per_mm * segment_mm * state.linear_light_intensity, strip.falloff_exponent});
-    }
-  }
-  return o;
+  LightingState lighting;
+  for (const LitLed& lit : state.leds) lighting.leds.emplace_back(lit.led, lit.current_ma);
+  lighting.filter_slots = state.filter_slots;
+  lighting.turntable_deg = state.turntable_deg;
+  lighting.linear_light_on = state.linear_light_on;
+  lighting.linear_light_mm = state.linear_light_mm;
+  lighting.linear_light_intensity = state.linear_light_intensity;
+  Result<StackObservation> described = DescribeRigObservation(rig, observation.camera, lighting);
+  LOOM_CHECK(described.ok()) << described.status().ToString();
+  return *std::move(described);
 }
 
 ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options) {

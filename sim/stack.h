@@ -32,10 +32,8 @@ struct StackOptions {
 // each filter for every camera at angle 0: a plan-free default until acquisition's plans exist.
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg);
 
-// The table entry of an observation: group (colour if a band-pass filter is in front of a lit LED, linear
-// if the strip is on, else monochrome), camera centre, colour weights and point emitters — one
-// per lit LED, one per strip segment — in the sample frame at the observation's turntable angle.
-// An observation that mixes filtered and unfiltered LEDs has no single colour weight: CHECKed.
+// The table entry of an observation (core/rig_observation.h: DescribeRigObservation); an
+// observation it cannot describe (lights of different colour at once) is CHECKed.
 StackObservation DescribeObservation(const RigModel& rig, const Observation& observation);
 
 ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options);
