@@ -90,7 +90,7 @@ TEST(CliTest, SimulatedRigsLoadAndSnap) {
   const LoomRun snap = RunLoom("rig snap --rig " + std::string(LOOM_SOURCE_DIR) +
                                "/configs/rig/tac7-mini.yaml --camera cam1 --leds 3:1000 --out " + out);
   EXPECT_EQ(snap.exit_code, 0) << snap.output;
-  EXPECT_TRUE(Contains(snap.output, "96x96 Mono12")) << snap.output;
+  EXPECT_TRUE(Contains(snap.output, "160x160 Mono12")) << snap.output;
 }
 
 TEST(CliTest, PlanShowsCountsAndDuration) {

@@ -14,6 +14,7 @@ const std::vector<Command>& Commands() {
       {"plan", "Show the measurement plan of a rig and a gloss preset, with its duration", RunPlan},
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
       {"scan", "Run a measurement plan into a crash-safe scan directory, or resume one", RunScan},
+      {"reconstruct", "Reconstruct a scan: heightmap and calibrated HDR observation stack in the top view", RunReconstruct},
       {"fit", "Fit SVBRDF maps to an observation stack (Ceres, the CNN, or the CNN refined by Ceres)", RunFit},
       {"train", "Train the SVBRDF CNN for a rig and preset on simulated materials", RunTrain},
       {"eval", "Evaluate fitted maps: re-render error, parameter error, an HTML report", RunEval},

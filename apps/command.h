@@ -46,6 +46,7 @@ int RunEval(int argc, char** argv);
 int RunFit(int argc, char** argv);
 int RunHelp(int argc, char** argv);
 int RunPlan(int argc, char** argv);
+int RunReconstruct(int argc, char** argv);
 int RunRig(int argc, char** argv);
 int RunScan(int argc, char** argv);
 int RunSim(int argc, char** argv);

@@ -64,19 +64,32 @@ std::filesystem::path ResolvePresetPath(const std::string& preset) {
   return fs::path(LOOM_CONFIGS_DIR) / "plans" / (preset + ".yaml");
 }
 
-Result<RigModel> LoadRigModel(const std::filesystem::path& path) {
-  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
+namespace {
+
+Result<RigModel> RigModelOf(const ConfigDocument& doc, const std::string& source) {
   const ConfigNode root = doc.root();
   std::string name;
   root.Required("name", &name);
   if (!root.Has("geometry")) {
-    return InvalidArgumentError(path.string(), "has no 'geometry:' section: planning needs the rig's description");
+    return InvalidArgumentError(source, "has no 'geometry:' section: planning and reconstruction need the rig's description");
   }
   RigModel model = ReadRigModel(root.Child("geometry"));
   model.name = name;
   for (const char* other : {"devices", "sample", "seed"}) root.Ignore(other);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   return model;
+}
+
+}  // namespace
+
+Result<RigModel> LoadRigModel(const std::filesystem::path& path) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
+  return RigModelOf(doc, path.string());
+}
+
+Result<RigModel> LoadRigModelFromText(const std::string& text, const std::string& source) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadString(text, source, kRigSchemaVersion));
+  return RigModelOf(doc, source);
 }
 
 }  // namespace loom::apps

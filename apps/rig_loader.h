@@ -31,5 +31,7 @@ std::filesystem::path ResolvePresetPath(const std::string& preset);
 
 // Only the rig's description (its `geometry:`), for commands that plan rather than drive.
 Result<RigModel> LoadRigModel(const std::filesystem::path& path);
+// The same from the text of a rig file (a scan's snapshot); `source` names it in messages.
+Result<RigModel> LoadRigModelFromText(const std::string& text, const std::string& source);
 
 }  // namespace loom::apps

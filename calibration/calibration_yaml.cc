@@ -129,4 +129,25 @@ Result<CameraCalibration> ReadCameraCalibration(const std::filesystem::path& pat
   return calibration;
 }
 
+Result<std::vector<std::string>> ApplyCameraCalibrations(const std::filesystem::path& directory, RigModel* rig) {
+  if (!std::filesystem::is_directory(directory)) return NotFoundError(directory.string(), "no such calibration directory");
+  std::vector<std::string> applied;
+  for (CameraModel& camera : rig->cameras) {
+    const std::filesystem::path path = directory / (camera.name + ".yaml");
+    if (!std::filesystem::exists(path)) continue;
+    LOOM_ASSIGN_OR_RETURN(const CameraCalibration calibration, ReadCameraCalibration(path));
+    const Intrinsics& intrinsics = calibration.intrinsics;
+    if (intrinsics.width != camera.width || intrinsics.height != camera.height) {
+      return InvalidArgumentError(path.string(), "is for " + std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height) +
+                                                     " px images, camera '" + camera.name + "' of rig '" + rig->name + "' has " +
+                                                     std::to_string(camera.width) + "x" + std::to_string(camera.height));
+    }
+    camera.K = intrinsics.K;
+    camera.distortion = intrinsics.distortion;
+    if (calibration.cam_from_rig) camera.cam_from_rig = *calibration.cam_from_rig;
+    applied.push_back(camera.name);
+  }
+  return applied;
+}
+
 }  // namespace loom::calibration

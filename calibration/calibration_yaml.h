@@ -36,4 +36,9 @@ struct CameraCalibration {
 Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCalibration& calibration);
 Result<CameraCalibration> ReadCameraCalibration(const std::filesystem::path& path);
 
+// A calibration directory over a rig's nominal description: every camera of `rig` with a file
+// DIR/<camera>.yaml gets its intrinsics, and its extrinsics when the file has them. Returns the
+// cameras replaced. A file of another image size than the camera's is an error naming it.
+Result<std::vector<std::string>> ApplyCameraCalibrations(const std::filesystem::path& directory, RigModel* rig);
+
 }  // namespace loom::calibration

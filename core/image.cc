@@ -1,5 +1,7 @@
 #include "core/image.h"
 
+#include <algorithm>
+#include <limits>
 #include <unordered_set>
 
 #include "core/check.h"
@@ -62,6 +64,18 @@ std::span<float> Image::channel(int c) {
 std::span<const float> Image::channel(int c) const {
   LOOM_CHECK(c >= 0 && c < num_channels()) << "channel " << c << " of " << num_channels();
   return {data_.data() + static_cast<size_t>(c) * pixel_count(), pixel_count()};
+}
+
+float SampleBilinear(const Image& image, int c, double x, double y) {
+  if (!(x >= 0 && y >= 0 && x <= image.width() - 1 && y <= image.height() - 1)) return std::numeric_limits<float>::quiet_NaN();
+  const int x0 = std::min(static_cast<int>(x), std::max(0, image.width() - 2));
+  const int y0 = std::min(static_cast<int>(y), std::max(0, image.height() - 2));
+  const int x1 = std::min(x0 + 1, image.width() - 1);
+  const int y1 = std::min(y0 + 1, image.height() - 1);
+  const double fx = x - x0;
+  const double fy = y - y0;
+  return static_cast<float>((1 - fy) * ((1 - fx) * image.at(c, y0, x0) + fx * image.at(c, y0, x1)) +
+                            fy * ((1 - fx) * image.at(c, y1, x0) + fx * image.at(c, y1, x1)));
 }
 
 }  // namespace loom

@@ -62,4 +62,8 @@ class Image {
   std::vector<float> data_;
 };
 
+// Channel `c` at subpixel (x, y), bilinear between pixel centres (integers); NaN off the image
+// (beyond the outer pixel centres) or where a neighbour is NaN.
+float SampleBilinear(const Image& image, int c, double x, double y);
+
 }  // namespace loom

@@ -1,5 +1,8 @@
 #include "core/image.h"
 
+#include <cmath>
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "core/check.h"
@@ -42,6 +45,19 @@ TEST(ImageTest, DuplicateNamesAreABug) {
   Image image(1, 1, {"R"});
   EXPECT_THROW(image.AddChannel("R"), CheckError);
   EXPECT_THROW(static_cast<void>(image.channel(1)), CheckError);
+}
+
+TEST(ImageTest, SampleBilinearInterpolatesBetweenCentresAndIsNaNOffTheImage) {
+  Image image(3, 2, {"v"});
+  for (int y = 0; y < 2; ++y) {
+    for (int x = 0; x < 3; ++x) image.at(0, y, x) = static_cast<float>(10 * y + x);
+  }
+  EXPECT_FLOAT_EQ(SampleBilinear(image, 0, 1.25, 0.5), 6.25f);
+  EXPECT_FLOAT_EQ(SampleBilinear(image, 0, 2, 1), 12.0f);  // the last centre is inside
+  EXPECT_TRUE(std::isnan(SampleBilinear(image, 0, 2.01, 0)));
+  EXPECT_TRUE(std::isnan(SampleBilinear(image, 0, -0.01, 0)));
+  image.at(0, 0, 1) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_TRUE(std::isnan(SampleBilinear(image, 0, 0.5, 0.5)));
 }
 
 }  // namespace

@@ -102,6 +102,13 @@ Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
   return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));
 }
 
+double SensorModel::RelativeResponse(double x, double y, int width, int height) const {
+  const double corner2 = 0.25 * (static_cast<double>(width) * width + static_cast<double>(height) * height);
+  const double dx = x - (width - 1) / 2.0;
+  const double dy = y - (height - 1) / 2.0;
+  return 1 - vignetting * (dx * dx + dy * dy) / corner2;
+}
+
 std::optional<int> FilterWheelModel::OpenSlot() const {
   for (size_t slot = 0; slot < filters.size(); ++slot) {
     if (filters[slot].open) return static_cast<int>(slot);

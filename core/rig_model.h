@@ -29,6 +29,8 @@ struct SensorModel {
   double vignetting = 0.25;        // relative loss at the image corner: 1 − v (r / r_corner)²
   // Electrons per DN at unit gain: the ADC range spans the full well above the dark offset.
   double ElectronsPerDn() const { return full_well_e / ((1 << adc_bits) - 1 - dark_offset_dn); }
+  // Vignetting: the response at pixel (x, y) of a width × height image relative to the centre's.
+  double RelativeResponse(double x, double y, int width, int height) const;
 };
 
 struct CameraModel {

@@ -262,14 +262,11 @@ std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& senso
   const double max_dn = (1 << sensor.adc_bits) - 1;
   const double gain = std::pow(10.0, settings.gain_db / 20);
   const double dn_per_electron = gain / sensor.ElectronsPerDn();
-  const double corner2 = 0.25 * (static_cast<double>(w) * w + static_cast<double>(h) * h);
   std::vector<uint16_t> raw(static_cast<size_t>(w) * h);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const uint64_t index = static_cast<uint64_t>(y) * w + x;
-      const double dx = x - (w - 1) / 2.0;
-      const double dy = y - (h - 1) / 2.0;
-      const double vignetting = 1 - sensor.vignetting * (dx * dx + dy * dy) / corner2;
+      const double vignetting = sensor.RelativeResponse(x, y, w, h);
       const double mean_e = std::max(0.0, radiance.at(0, y, x) * sensor.sensitivity * settings.exposure_us * 1e-6 * vignetting);
       double electrons = noise ? ShotNoise(mean_e, noise_seed, index) : mean_e;
       if (electrons >= sensor.full_well_e) {  // a full well reads as the ADC's top, noise-free

@@ -1,0 +1,113 @@
+// loom reconstruct: a scan → the calibrated observation stack (stack.exr) + reconstruction.json.
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/command.h"
+#include "apps/progress.h"
+#include "apps/rig_loader.h"
+#include "calibration/calibration_yaml.h"
+#include "core/file_io.h"
+#include "core/version.h"
+#include "reconstruction/reconstruct.h"
+
+namespace loom::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReconstructArguments {
+  std::string scan;
+  std::string out;
+  std::string calib;
+  reconstruction::ReconstructOptions options;
+  bool quiet = false;
+};
+
+std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args,
+                        const std::vector<std::string>& calibrated, double seconds) {
+  const nlohmann::json json = {{"scan", args.scan},
+                               {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
+                               {"calibrated_cameras", calibrated},
+                               {"width_px", args.options.width_px},
+                               {"height_px", args.options.height_px},
+                               {"pixel_mm", args.options.pixel_mm},
+                               {"observations", r.stack.observations.size()},
+                               {"heightmap_camera", r.heightmap_camera},
+                               {"heightmap_filled_pixels", r.heightmap_filled},
+                               {"saturated_pixels", r.saturated_pixels},
+                               {"unseen_fraction", r.unseen_fraction},
+                               {"seconds", seconds},
+                               {"loom_version", std::string(VersionWithCommit())}};
+  return json.dump(2) + "\n";
+}
+
+Status Reconstruct(const ReconstructArguments& args) {
+  const auto start = std::chrono::steady_clock::now();
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, acquisition::CaptureStore::Open(args.scan));
+  LOOM_ASSIGN_OR_RETURN(RigModel rig, LoadRigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
+  std::vector<std::string> calibrated;
+  if (!args.calib.empty()) {
+    LOOM_ASSIGN_OR_RETURN(calibrated, calibration::ApplyCameraCalibrations(args.calib, &rig));
+  } else {
+    std::cerr << "note: no --calib: reconstructing with the rig YAML's nominal geometry and sensor model\n";
+  }
+  if (store.info().plan.purpose != "material") {
+    return InvalidArgumentError(args.scan, "is a " + store.info().plan.purpose + " scan; loom reconstruct takes material scans");
+  }
+  std::unique_ptr<ProgressBar> bar;
+  std::string stage;
+  const auto progress = [&](const reconstruction::ReconstructProgress& p) {
+    if (p.stage != stage) {
+      bar = std::make_unique<ProgressBar>("reconstruct: " + p.stage, args.quiet);
+      stage = p.stage;
+    }
+    bar->Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
+  };
+  LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result, reconstruction::Reconstruct(store, rig, args.options, progress));
+  bar.reset();
+  std::error_code error;
+  fs::create_directories(args.out, error);
+  if (error) return IoError(args.out, "cannot create the directory: " + error.message());
+  const fs::path stack_path = fs::path(args.out) / "stack.exr";
+  LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, result.stack));
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "reconstruction.json", SummaryJson(result, args, calibrated, seconds)));
+  std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height() << " px at "
+            << args.options.pixel_mm << " mm, " << result.stack.observations.size() << " observations; heightmap from "
+            << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "
+            << 100 * result.unseen_fraction << " % of samples unseen, " << FormatDuration(seconds) << "\n";
+  return {};
+}
+
+}  // namespace
+
+int RunReconstruct(int argc, char** argv) {
+  CLI::App app("Reconstruct a material scan: structured-light heightmap, every HDR image projected onto it in the "
+               "top-view frame → the observation stack that loom fit reads",
+               "loom reconstruct");
+  AddCommonOptions(app);
+  ReconstructArguments args;
+  app.add_option("scan", args.scan, "Scan directory (from loom scan)")->required();
+  app.add_option("--out", args.out, "Output directory: stack.exr, reconstruction.json")->required();
+  app.add_option("--calib", args.calib, "Calibration directory (CAMERA.yaml files, from loom calibrate); default: the "
+                                        "scan's rig YAML, nominal");
+  app.add_option("--size", args.options.width_px, "Stack size in pixels (square, centred on the turntable axis)")
+      ->check(CLI::Range(1, 16384));
+  app.add_option("--pixel-mm", args.options.pixel_mm, "Stack pixel size (mm)")->check(CLI::PositiveNumber);
+  app.add_option("--normal-blur-mm", args.options.normal_blur_mm, "Blur of the heightmap for the geometric normals (mm)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--heightmap-camera", args.options.heightmap_camera, "Camera that decodes the structured light "
+                                                                       "(default: the one looking most nearly down)");
+  app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
+  app.add_flag("--quiet", args.quiet, "No progress output");
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  args.options.height_px = args.options.width_px;
+  if (Status status = Reconstruct(args); !status.ok()) return ReportFailure(status);
+  return kExitOk;
+}
+
+}  // namespace loom::apps

@@ -1,0 +1,163 @@
+// loom scan → loom reconstruct on the simulated tac7-mini (a short plan: one turntable angle,
+// 4 strip positions), scored against the simulator's ground truth: the heightmap
+// against the fabric's, the reconstructed stack against the fast-path stack of the same plan —
+// what an ideal reconstruction would give. Also: bad scans fail naming what is wrong.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include "core/exr_io.h"
+#include "core/observation_stack.h"
+#include "core/testing/subprocess.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using loom::testing::RunCommand;
+
+std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
+
+// Scans, reconstructs and renders the fast path into `dir`.
+void ScanAndReconstruct(const fs::path& dir) {
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "short.yaml") << "schema_version: 1\npreset: short\nturntable_deg: [0]\n"
+                                        "linear_light_positions: 4\nmax_exposures: 3\n";
+  const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml";
+  const std::string preset = (dir / "short.yaml").string();
+  const auto scan = RunCommand(Loom("scan --rig " + rig + " --preset " + preset + " --object fabric:1 --out " +
+                                    (dir / "scan").string() + " --quiet"));
+  ASSERT_EQ(scan.exit_code, 0) << scan.output;
+  const auto reconstruct = RunCommand(Loom("reconstruct " + (dir / "scan").string() + " --out " + (dir / "rec").string() + " --quiet"));
+  ASSERT_EQ(reconstruct.exit_code, 0) << reconstruct.output;
+  const auto render = RunCommand(Loom("sim render --rig " + rig + " --stack --preset " + preset + " --truth " +
+                                      (dir / "truth.exr").string() + " --out " + (dir / "fast.exr").string()));
+  ASSERT_EQ(render.exit_code, 0) << render.output;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return NAN;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+void TheHeightmapMatchesTheFabrics(const fs::path& dir) {
+  const auto stack = loom::ReadObservationStack(dir / "rec/stack.exr");
+  ASSERT_TRUE(stack.ok()) << stack.status().ToString();
+  const auto truth = loom::ReadExr(dir / "truth.exr");
+  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+  const int height = *truth->image.ChannelIndex("height");
+  double sum2 = 0;
+  double truth_sum2 = 0;
+  const int w = stack->image.width();
+  const int h = stack->image.height();
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const double error = stack->image.at(2, y, x) - truth->image.at(height, y, x);
+      sum2 += error * error;
+      truth_sum2 += truth->image.at(height, y, x) * truth->image.at(height, y, x);
+    }
+  }
+  const double rms = std::sqrt(sum2 / (w * h));
+  ::testing::Test::RecordProperty("height_rms_mm", std::to_string(rms));
+  std::cout << "height RMS error " << rms << " mm (the fabric's RMS height " << std::sqrt(truth_sum2 / (w * h)) << " mm)\n";
+  // Measured (2026-11-22): 0.028 mm against a fabric of 0.19 mm RMS relief; the bound is the
+  // issue's goal for tac7 (≤ 0.05 mm), which this smaller rig meets too.
+  EXPECT_LT(rms, 0.05);
+}
+
+void TheStackMatchesTheFastPathOutsideShadows(const fs::path& dir) {
+  const auto stack = loom::ReadObservationStack(dir / "rec/stack.exr");
+  ASSERT_TRUE(stack.ok()) << stack.status().ToString();
+  const auto fast = loom::ReadObservationStack(dir / "fast.exr");
+  ASSERT_TRUE(fast.ok()) << fast.status().ToString();
+  ASSERT_EQ(stack->observations.size(), fast->observations.size());
+  std::vector<double> relative;
+  for (size_t k = 0; k < fast->observations.size(); ++k) {
+    EXPECT_EQ(stack->observations[k].group, fast->observations[k].group) << k;
+    EXPECT_EQ(stack->observations[k].camera, fast->observations[k].camera) << k;
+    EXPECT_LT((stack->observations[k].rgb_weights - fast->observations[k].rgb_weights).norm(), 1e-12) << k;
+    const int c = loom::ObservationStack::ObservationChannel(static_cast<int>(k));
+    const auto reconstructed = stack->image.channel(c);
+    const auto ideal = fast->image.channel(c);
+    std::vector<double> lit;
+    for (float v : ideal) {
+      if (std::isfinite(v)) lit.push_back(v);
+    }
+    const double typical = Median(lit);
+    for (size_t i = 0; i < ideal.size(); ++i) {
+      // Outside shadows: where the ideal value is at least a tenth of the observation's median.
+      if (!std::isfinite(ideal[i]) || !std::isfinite(reconstructed[i]) || ideal[i] < 0.1 * typical) continue;
+      relative.push_back(std::abs(reconstructed[i] - ideal[i]) / ideal[i]);
+    }
+  }
+  const double median = Median(relative);
+  std::cout << "median relative error against the fast path " << 100 * median << " % over " << relative.size() << " samples\n";
+  // Measured (2026-11-22): 4.0 % median (5.6 % with a second turntable angle); per observation
+  // the median ratio is 0.93-1.02, so no
+  // radiometric bias: the spread is the camera's pixels integrating the fabric's 0.2 mm
+  // texture and highlights (the fast path samples points) plus shot noise (~1 % at mid range).
+  // The goal, 2 %, is not met at this camera resolution. Bound: 8 %.
+  EXPECT_LT(median, 0.08);
+}
+
+void AMissingFrameIsAnErrorNamingItAndNothingIsWritten(const fs::path& dir) {
+  const fs::path copy = dir / "scan-missing";
+  fs::copy(dir / "scan", copy, fs::copy_options::recursive);
+  fs::path victim;
+  for (const auto& entry : fs::directory_iterator(copy / "frames")) {
+    if (entry.path().filename().string().starts_with("s00030_")) victim = entry.path();
+  }
+  ASSERT_FALSE(victim.empty());
+  fs::remove(victim);
+  const auto run = RunCommand(Loom("reconstruct " + copy.string() + " --out " + (dir / "rec-missing").string() + " --quiet"));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find(victim.filename().string()), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir / "rec-missing/stack.exr"));
+}
+
+void ACameraCalibrationOfAnotherSizeIsAnErrorNamingTheFile(const fs::path& dir) {
+  const fs::path calib = dir / "calib";
+  fs::create_directories(calib);
+  std::ofstream(calib / "cam0.yaml") << "schema_version: 1\ndevice: camera\nname: cam0\n"
+                                        "model: pinhole + OpenCV 5-term distortion (k1 k2 p1 p2 k3); pixel centres at integers\n"
+                                        "image_size_px: [640, 480]\nK_px: [[500, 0, 320], [0, 500, 240], [0, 0, 1]]\n"
+                                        "distortion: [0, 0, 0, 0, 0]\nquality: {rms_px: 0.2, views: [], skipped: []}\n"
+                                        "source: {from: test, board: 'chessboard:9x6:25'}\n";
+  const auto run = RunCommand(Loom("reconstruct " + (dir / "scan").string() + " --calib " + calib.string() + " --out " +
+                                   (dir / "rec-calib").string() + " --quiet"));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("cam0.yaml"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("640x480"), std::string::npos) << run.output;
+}
+
+// One test, one scan: the scan is what takes the time (ctest runs each TEST as a process).
+TEST(ReconstructCommandTest, ScanReconstructScoreAndRefuseBadInput) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("reconstruct_command_test_" + std::to_string(::getpid()));
+  ScanAndReconstruct(dir);
+  if (HasFatalFailure()) return;
+  {
+    SCOPED_TRACE("the heightmap matches the fabric's");
+    TheHeightmapMatchesTheFabrics(dir);
+  }
+  {
+    SCOPED_TRACE("the stack matches the fast path outside shadows");
+    TheStackMatchesTheFastPathOutsideShadows(dir);
+  }
+  {
+    SCOPED_TRACE("a missing frame is an error naming it; nothing is written");
+    AMissingFrameIsAnErrorNamingItAndNothingIsWritten(dir);
+  }
+  {
+    SCOPED_TRACE("a camera calibration of another size is an error naming the file");
+    ACameraCalibrationOfAnotherSizeIsAnErrorNamingTheFile(dir);
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace

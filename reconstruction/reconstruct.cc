@@ -1,0 +1,192 @@
+#include "reconstruction/reconstruct.h"
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+
+#include "core/heightfield.h"
+#include "core/heightmap.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/rig_observation.h"
+#include "reconstruction/scan_radiance.h"
+#include "reconstruction/structured_light.h"
+
+namespace loom::reconstruction {
+namespace {
+
+using acquisition::Step;
+using acquisition::StepKind;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+const CameraModel* TopCamera(const RigModel& rig) {
+  const CameraModel* best = nullptr;
+  double best_down = -2;
+  for (const CameraModel& camera : rig.cameras) {
+    // The optical axis (camera z) in the rig frame; straight down is −z.
+    const double down = -(camera.cam_from_rig.linear().transpose() * Eigen::Vector3d::UnitZ()).z();
+    if (down > best_down) {
+      best_down = down;
+      best = &camera;
+    }
+  }
+  return best;
+}
+
+struct ViewRef {
+  int step = 0;
+  std::string camera;
+};
+
+std::vector<ViewRef> FittingViews(const acquisition::Plan& plan) {
+  std::vector<ViewRef> views;
+  for (const Step& step : plan.steps) {
+    if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;
+    for (const std::string& camera : step.cameras) views.push_back({step.index, camera});
+  }
+  return views;
+}
+
+// The lights of a view as the rig model names them; only the wheels in front of lit LEDs count.
+Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where) {
+  LightingState lighting;
+  lighting.turntable_deg = state.turntable_deg;
+  for (const hal::LedDrive& led : state.leds_on) {
+    lighting.leds.emplace_back(led.led, led.current_ma);
+    for (size_t w = 0; w < rig.filter_wheels.size(); ++w) {
+      const FilterWheelModel& wheel = rig.filter_wheels[w];
+      if (wheel.led != led.led) continue;
+      const auto slot = state.filter_slots.find(wheel.name);
+      if (slot == state.filter_slots.end()) {
+        return NotFoundError(where, "LED " + std::to_string(led.led) + " is lit but the position of its filter wheel '" +
+                                        wheel.name + "' was not recorded");
+      }
+      lighting.filter_slots[static_cast<int>(w)] = slot->second;
+    }
+  }
+  lighting.linear_light_on = state.linear_light_on;
+  lighting.linear_light_mm = state.linear_light_mm;
+  lighting.linear_light_intensity = state.linear_light_intensity;
+  return lighting;
+}
+
+Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& camera, const ReconstructOptions& options,
+                                   int* filled) {
+  const RigModel& rig = scan.rig();
+  std::map<std::string, Image> patterns;
+  std::optional<double> angle;
+  for (const Step& step : scan.plan().steps) {
+    if (step.kind != StepKind::kStructuredLight) continue;
+    if (angle && *angle != step.turntable_deg) {
+      return InvalidArgumentError("structured-light step " + std::to_string(step.index), "turntable angles differ within the sequence");
+    }
+    angle = step.turntable_deg;
+    LOOM_ASSIGN_OR_RETURN(RadianceView view, scan.View(step.index, camera.name));
+    patterns[step.projector_pattern] = std::move(view.radiance);
+  }
+  const size_t pixels = static_cast<size_t>(options.width_px) * options.height_px;
+  if (!angle) {
+    LOOM_LOG(Warning) << "the scan has no structured-light steps: the sample is taken as flat (height 0)";
+    return std::vector<float>(pixels, 0.0f);
+  }
+  if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
+  DecodeOptions decode;
+  decode.projector_width = rig.projector->width;
+  decode.phase_steps = 0;
+  while (patterns.contains("phase_x_" + std::to_string(decode.phase_steps))) ++decode.phase_steps;
+  if (decode.phase_steps < 3) return NotFoundError("structured light", "needs at least 3 phase_x patterns, the scan has " + std::to_string(decode.phase_steps));
+  LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeProjectorColumns(patterns, decode));
+  const HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm, options.max_height_mm};
+  LOOM_ASSIGN_OR_RETURN(TriangulatedHeights heights, TriangulateHeights(columns, camera, *rig.projector, rig.turntable, *angle, grid));
+  *filled = heights.filled;
+  return std::move(heights.heights_mm);
+}
+
+}  // namespace
+
+Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
+                                   const std::function<void(const ReconstructProgress&)>& progress) {
+  if (options.width_px <= 0 || options.height_px <= 0 || options.pixel_mm <= 0) {
+    return InvalidArgumentError("reconstruction grid", "needs a positive size and pixel size");
+  }
+  LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));
+  const CameraModel* camera = options.heightmap_camera.empty() ? TopCamera(rig) : rig.FindCamera(options.heightmap_camera);
+  if (camera == nullptr) return NotFoundError("camera '" + options.heightmap_camera + "'", "not in rig '" + rig.name + "'");
+  Reconstruction result;
+  result.heightmap_camera = camera->name;
+  if (progress) progress({"heightmap", 0, 1});
+  LOOM_ASSIGN_OR_RETURN(const std::vector<float> heights, Heights(scan, *camera, options, &result.heightmap_filled));
+  if (progress) progress({"heightmap", 1, 1});
+
+  const int w = options.width_px;
+  const int h = options.height_px;
+  const std::vector<double> heights_d(heights.begin(), heights.end());
+  const std::vector<Eigen::Vector3d> normals = GeometricNormals(heights_d, w, h, options.pixel_mm, options.normal_blur_mm);
+  const Heightmap heightmap(heights, w, h, options.pixel_mm);
+
+  const std::vector<ViewRef> views = FittingViews(scan.plan());
+  std::vector<StackObservation> table(views.size());
+  result.stack = MakeObservationStack(w, h, options.pixel_mm, std::vector<StackObservation>(views.size()));
+  result.stack.rig = rig.name;
+  result.stack.source = "reconstruction of " + store.directory().string();
+  Image& stack = result.stack.image;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      stack.at(0, y, x) = static_cast<float>((x + 0.5 - w / 2.0) * options.pixel_mm);
+      stack.at(1, y, x) = static_cast<float>((y + 0.5 - h / 2.0) * options.pixel_mm);
+      stack.at(2, y, x) = heights[y * w + x];
+      for (int i = 0; i < 3; ++i) stack.at(3 + i, y, x) = static_cast<float>(normals[y * w + x][i]);
+    }
+  }
+  std::mutex mutex;
+  Status failure;
+  std::atomic<int> saturated = 0;
+  std::atomic<long long> unseen = 0;
+  ParallelFor(
+      static_cast<int>(views.size()), ThreadCount(options.threads),
+      [&](int k) {
+        const std::string where = "scan " + store.directory().string() + ", step " + std::to_string(views[k].step) +
+                                  ", camera '" + views[k].camera + "'";
+        Result<RadianceView> view = scan.View(views[k].step, views[k].camera);
+        Result<LightingState> lighting = view.ok() ? LightingOf(rig, view->state, where) : Result<LightingState>(view.status());
+        Result<StackObservation> described =
+            lighting.ok() ? DescribeRigObservation(rig, view->camera, *lighting) : Result<StackObservation>(lighting.status());
+        if (!described.ok()) {
+          std::lock_guard lock(mutex);
+          if (failure.ok()) failure = described.status();
+          return;
+        }
+        table[k] = *std::move(described);
+        saturated += view->saturated_pixels;
+        const CameraModel& cam = rig.cameras[view->camera];
+        const Rigid3d cam_from_sample = cam.cam_from_rig * rig.turntable.RigFromSample(table[k].turntable_deg);
+        const int channel = ObservationStack::ObservationChannel(k);
+        long long hidden = 0;
+        for (int y = 0; y < h; ++y) {
+          for (int x = 0; x < w; ++x) {
+            const Eigen::Vector3d p = result.stack.Position(x, y);
+            Eigen::Vector2d pixel;
+            float value = kNaN;
+            if (!heightmap.Shadowed(p, table[k].camera_mm) && cam.Project(cam_from_sample * p, &pixel)) {
+              value = SampleBilinear(view->radiance, 0, pixel.x(), pixel.y());
+            }
+            if (std::isnan(value)) ++hidden;
+            stack.at(channel, y, x) = value;
+          }
+        }
+        unseen += hidden;
+      },
+      [&](int done) {
+        if (progress) progress({"observations", done, static_cast<int>(views.size())});
+      });
+  LOOM_RETURN_IF_ERROR(failure);
+  result.stack.observations = std::move(table);
+  result.saturated_pixels = saturated;
+  result.unseen_fraction = views.empty() ? 0.0 : static_cast<double>(unseen) / (static_cast<double>(views.size()) * w * h);
+  return result;
+}
+
+}  // namespace loom::reconstruction

@@ -1,0 +1,55 @@
+#pragma once
+// A scan → the calibrated observation stack (core/observation_stack.h) that fitting reads.
+//
+// 1. Heightmap: the structured-light steps, decoded in one camera (the one nearest the top view
+//    unless chosen) and triangulated on the stack's grid (structured_light.h).
+// 2. Geometry channels: pos = (x, y, height) in the top-view frame (the sample frame at
+//    turntable angle 0); the geometric normal of the heightmap blurred to `normal_blur_mm`
+//    (core/heightfield.h, as the simulator's materials define it).
+// 3. Observations: for every colour, monochrome and linear-light step of the plan and every
+//    camera of it (in plan order — the order the simulator's fast path and the CNN use), the
+//    HDR radiance (scan_radiance.h) at each grid point: the point is turned to the step's
+//    turntable angle, projected through the camera's lens model and sampled bilinearly; NaN
+//    where the relief hides the point from the camera. The table entry comes from what the
+//    devices recorded doing (frame metadata), not from what the plan asked.
+// Geometry and light model come from `rig`: the rig YAML's nominal description, or a
+// calibrated one.
+
+#include <functional>
+#include <string>
+
+#include "acquisition/capture_store.h"
+#include "core/observation_stack.h"
+#include "core/rig_model.h"
+
+namespace loom::reconstruction {
+
+struct ReconstructOptions {
+  int width_px = 128;
+  int height_px = 128;
+  double pixel_mm = 0.2;
+  double normal_blur_mm = 1.0;
+  double min_height_mm = -5;
+  double max_height_mm = 5;
+  std::string heightmap_camera;  // empty: the camera looking most nearly straight down
+  int threads = 0;               // 0: one per core
+};
+
+struct ReconstructProgress {
+  std::string stage;  // "heightmap", "observations"
+  int done = 0;
+  int total = 0;
+};
+
+struct Reconstruction {
+  ObservationStack stack;
+  std::string heightmap_camera;
+  int heightmap_filled = 0;     // grid pixels without a triangulated height (filled from neighbours)
+  int saturated_pixels = 0;     // camera pixels saturated in every exposure, over all views
+  double unseen_fraction = 0;   // of observation samples: NaN (hidden or off the camera's image)
+};
+
+Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
+                                   const std::function<void(const ReconstructProgress&)>& progress = nullptr);
+
+}  // namespace loom::reconstruction

@@ -1,0 +1,49 @@
+#pragma once
+// The radiance a scan recorded: for one step and camera, the step's bracket of raw frames merged
+// into linear DN/µs (calibration/hdr_merge.h) above the camera's black level — measured on the
+// scan's dark step — and turned into radiance units with the camera's radiometric model:
+//   radiance = L · electrons_per_dn / (gain · sensitivity · 1e-6 · vignetting(x, y))
+// (core/rig_model.h's SensorModel: nominal from the rig YAML, as radiometric calibration will
+// refine it). Frames are read one step at a time, so a full-size scan never sits in memory.
+// A scan must be complete: a step not done, or a camera's bracket missing from it, is an error
+// naming the step, the camera and the scan.
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "acquisition/capture_store.h"
+#include "acquisition/sequencer.h"
+#include "core/image.h"
+#include "core/rig_model.h"
+
+namespace loom::reconstruction {
+
+struct RadianceView {
+  int camera = 0;           // index into the rig's cameras
+  hal::RigState state;      // what the devices did (the first frame's record)
+  Image radiance;           // channel "L"; NaN where every exposure saturated
+  int saturated_pixels = 0;
+};
+
+class ScanRadiance {
+ public:
+  // `store` and `rig` must outlive the reader. Every camera of the plan must be in `rig`.
+  static Result<ScanRadiance> Open(const acquisition::CaptureStore& store, const RigModel& rig);
+
+  const acquisition::Plan& plan() const { return store_->info().plan; }
+  const RigModel& rig() const { return *rig_; }
+  Result<RadianceView> View(int step, const std::string& camera) const;
+
+ private:
+  ScanRadiance(const acquisition::CaptureStore& store, const RigModel& rig) : store_(&store), rig_(&rig) {}
+  std::string Where(int step, const std::string& camera) const;
+
+  const acquisition::CaptureStore* store_;
+  const RigModel* rig_;
+  std::map<std::string, acquisition::DarkLevel> dark_;                      // by camera
+  std::map<std::pair<int, std::string>, std::vector<const acquisition::FrameRecord*>> brackets_;  // (step, camera)
+};
+
+}  // namespace loom::reconstruction
