@@ -99,9 +99,9 @@ void TheStackMatchesTheFastPathOutsideShadows(const fs::path& dir) {
   const double median = Median(relative);
   std::cout << "median relative error against the fast path " << 100 * median << " % over " << relative.size() << " samples\n";
   // Measured (2026-11-22): 4.0 % median (5.6 % with a second turntable angle); per observation
-  // the median ratio is 0.93-1.02, so no
-  // radiometric bias: the spread is the camera's pixels integrating the fabric's 0.2 mm
-  // texture and highlights (the fast path samples points) plus shot noise (~1 % at mid range).
+  // the median ratio is 0.93-1.02, so no radiometric bias: the spread is the camera's pixels
+  // integrating the fabric's 0.2 mm texture and highlights (the fast path samples points) plus
+  // shot noise (~1 % at mid range).
   // The goal, 2 %, is not met at this camera resolution. Bound: 8 %.
   EXPECT_LT(median, 0.08);
 }
