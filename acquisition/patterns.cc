@@ -1,8 +1,15 @@
 #include "acquisition/patterns.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace loom::acquisition {
+
+int GrayCodeBits(int projector_width) { return static_cast<int>(std::ceil(std::log2(std::max(2, projector_width)))); }
+
+std::string GrayPatternName(int bit, bool inverse) {
+  return "gray_x_" + std::string(bit < 10 ? "0" : "") + std::to_string(bit) + (inverse ? "_inv" : "");
+}
 
 Result<hal::Pattern> MakePattern(const std::string& name, int width, int height, int phase_steps) {
   hal::Pattern pattern{name, width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height)};
@@ -16,7 +23,7 @@ Result<hal::Pattern> MakePattern(const std::string& name, int width, int height,
     return pattern;
   }
   if (name.starts_with("gray_x_")) {
-    const int bits = static_cast<int>(std::ceil(std::log2(std::max(2, width))));
+    const int bits = GrayCodeBits(width);
     const int bit = std::stoi(name.substr(7, 2));
     const bool inverse = name.ends_with("_inv");
     if (bit < 0 || bit >= bits) return InvalidArgumentError("pattern '" + name + "'", "no such Gray-code bit");

@@ -13,6 +13,11 @@ namespace loom::acquisition {
 
 inline constexpr int kPhasePeriodColumns = 16;
 
+// Bits of the Gray code that numbers every column of a projector this wide.
+int GrayCodeBits(int projector_width);
+// "gray_x_BB", or "gray_x_BB_inv" for the inverse.
+std::string GrayPatternName(int bit, bool inverse);
+
 // `phase_steps` is the number of phase_x patterns in the sequence.
 Result<hal::Pattern> MakePattern(const std::string& name, int width, int height, int phase_steps);
 

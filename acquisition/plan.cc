@@ -5,6 +5,7 @@
 #include <map>
 #include <set>
 
+#include "acquisition/patterns.h"
 #include "core/config.h"
 
 namespace loom::acquisition {
@@ -179,12 +180,11 @@ int Plan::Images() const {
 
 std::vector<std::string> StructuredLightPatterns(int projector_width, int gray_bits, int phase_steps) {
   int bits = gray_bits;
-  if (bits <= 0) bits = static_cast<int>(std::ceil(std::log2(std::max(2, projector_width))));
+  if (bits <= 0) bits = GrayCodeBits(projector_width);
   std::vector<std::string> patterns = {"white", "black"};
   for (int b = 0; b < bits; ++b) {
-    const std::string name = "gray_x_" + std::string(b < 10 ? "0" : "") + std::to_string(b);
-    patterns.push_back(name);
-    patterns.push_back(name + "_inv");
+    patterns.push_back(GrayPatternName(b, false));
+    patterns.push_back(GrayPatternName(b, true));
   }
   for (int k = 0; k < phase_steps; ++k) patterns.push_back("phase_x_" + std::to_string(k));
   return patterns;

@@ -13,12 +13,6 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-int GrayBits(int projector_width) { return static_cast<int>(std::ceil(std::log2(std::max(2, projector_width)))); }
-
-std::string GrayName(int bit, bool inverse) {
-  return "gray_x_" + std::string(bit < 10 ? "0" : "") + std::to_string(bit) + (inverse ? "_inv" : "");
-}
-
 Result<const Image*> Pattern(const std::map<std::string, Image>& patterns, const std::string& name, const Image* like) {
   const auto it = patterns.find(name);
   if (it == patterns.end()) return NotFoundError("structured-light pattern '" + name + "'", "no image of it in the scan");
@@ -72,11 +66,11 @@ int FillHoles(std::vector<float>& heights, int width, int height) {
 Result<Image> DecodeProjectorColumns(const std::map<std::string, Image>& patterns, const DecodeOptions& options) {
   LOOM_ASSIGN_OR_RETURN(const Image* white, Pattern(patterns, "white", nullptr));
   LOOM_ASSIGN_OR_RETURN(const Image* black, Pattern(patterns, "black", white));
-  const int bits = GrayBits(options.projector_width);
+  const int bits = acquisition::GrayCodeBits(options.projector_width);
   std::vector<std::pair<const Image*, const Image*>> gray;
   for (int b = 0; b < bits; ++b) {
-    LOOM_ASSIGN_OR_RETURN(const Image* on, Pattern(patterns, GrayName(b, false), white));
-    LOOM_ASSIGN_OR_RETURN(const Image* off, Pattern(patterns, GrayName(b, true), white));
+    LOOM_ASSIGN_OR_RETURN(const Image* on, Pattern(patterns, acquisition::GrayPatternName(b, false), white));
+    LOOM_ASSIGN_OR_RETURN(const Image* off, Pattern(patterns, acquisition::GrayPatternName(b, true), white));
     gray.emplace_back(on, off);
   }
   std::vector<const Image*> phase;
