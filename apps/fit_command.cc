@@ -42,6 +42,7 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"pixels_fitted", s.pixels_fitted},
                          {"pixels_kept_at_cluster", s.pixels_kept_at_cluster},
                          {"pixels_retried", s.pixels_retried},
+                         {"retry_threshold_rms", s.retry_threshold_rms},
                          {"clusters", s.cluster_sizes},
                          {"f0", s.f0},
                          {"f0_option", args.f0},
@@ -115,6 +116,7 @@ Status Fit(FitArguments args) {
   }
   ProgressBar clusters("clusters", args.quiet);
   ProgressBar pixels("pixels  ", args.quiet);
+  ProgressBar retries("retries ", args.quiet);
   fitting::StackFitOptions options;
   options.clusters = args.clusters;
   options.threads = args.threads;
@@ -132,14 +134,14 @@ Status Fit(FitArguments args) {
     }
   }
   options.progress = [&](const fitting::StackFitProgress& p) {
-    (p.stage == "clusters" ? clusters : pixels).Update(p.done, p.total, p.stage);
+    (p.stage == "clusters" ? clusters : p.stage == "pixels" ? pixels : retries).Update(p.done, p.total, p.stage);
   };
   if (cnn_maps) options.initial_maps = &*cnn_maps;
   LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
   const fitting::StackFitSummary& s = fit.summary;
   std::cout << std::fixed << std::setprecision(2) << "fitted " << s.pixels_fitted << " of " << s.pixels << " px ("
             << s.pixels_kept_at_cluster << " kept at their start, " << s.pixels_retried
-            << " redone from grid starts) from " << (cnn_maps ? "the CNN's maps" : std::to_string(s.cluster_sizes.size()) + " clusters")
+            << " redone from grid starts, relative RMS above " << s.retry_threshold_rms << ") from " << (cnn_maps ? "the CNN's maps" : std::to_string(s.cluster_sizes.size()) + " clusters")
             << "; F0 " << s.f0 << "; " << s.mean_observations << " observations and " << s.mean_iterations
             << " iterations per pixel\n"
             << "time: clusters " << FormatDuration(s.cluster_seconds) << ", pixels " << FormatDuration(s.pixel_seconds)

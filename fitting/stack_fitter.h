@@ -6,8 +6,8 @@
 //  3. one F0 for the material: held fixed (default 1), or the clusters' size-weighted median,
 //     as Pantora fits it — away from grazing angles only a_s·F0 is observable per pixel;
 //  4. fit every pixel from its cluster's parameters (a_s rescaled to keep a_s·F0), threaded;
-//     a pixel left with a poor fit (its highlight is not where its cluster's is) is fitted again
-//     from grid-searched starts and keeps the better.
+//  5. a pixel left with a poor fit (its highlight is not where its start put it) is fitted
+//     again from grid-searched starts and keeps the better.
 // A pixel with too few usable observations keeps its cluster's parameters and is counted.
 // With initial maps (e.g. the CNN's), steps 1–3 are skipped: every pixel starts from its map.
 //
@@ -37,8 +37,12 @@ struct StackFitOptions {
   int pixels_per_cluster_fit = 12;  // most typical pixels pooled into a cluster's fit
   PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false, .fixed_f0 = std::nullopt};
   PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false, .fixed_f0 = std::nullopt};
-  int grid_starts = 4;              // best grid-searched starts tried (GridInitialParams)
-  double retry_above_rms = 0.1;     // a pixel fit worse than this (relative RMS) is redone from grid starts
+  int grid_starts = 4;              // best grid-searched starts of a cluster's fit (GridInitialParams)
+  // Step 5: a fit is poor above both a floor and a multiple of the stack's noise level (the
+  // relative RMS of the best-fitted tenth of its pixels).
+  double retry_above_rms = 0.1;        // floor: decides on noise-free stacks
+  double retry_above_noise_rms = 2.5;  // multiple of the noise level
+  int retry_grid_starts = 2;           // best grid-searched starts of a retry
   // F0 of every pixel. Away from grazing angles only a_s·F0 is observable, and on tac7-mini's
   // geometry the cluster fits scatter F0 over [0, 1] (measured: 0.01 and 1 for one fabric whose
   // truth is 0.74), so by default it is held at 1 and a_s carries the product. nullopt: one F0
@@ -60,6 +64,7 @@ struct StackFitSummary {
   int pixels_fitted = 0;
   int pixels_kept_at_cluster = 0;   // too few usable observations
   int pixels_retried = 0;           // redone from grid starts
+  double retry_threshold_rms = 0;   // relative RMS above which they were
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
   double f0 = 0;                    // the material's
