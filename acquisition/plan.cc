@@ -217,7 +217,7 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   if (rig.cameras.empty()) return FailedPreconditionError("rig '" + rig.name + "'", "calibration needs cameras");
   LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));
   PlanBuilder builder(rig, preset, "calibration");
-  builder.Add(StepKind::kDark, AllCameras(rig), 0, "nothing (lights off)");
+  builder.Add(StepKind::kDark, AllCameras(rig), 0, std::string(kNoObject));
   // The target at 8 turntable angles, lit evenly by every LED at a quarter of the current.
   for (int k = 0; k < 8; ++k) {
     Step& step = builder.Add(StepKind::kTarget, AllCameras(rig), 45.0 * k, "target");

@@ -45,6 +45,9 @@ struct FilterSetting {
   bool operator==(const FilterSetting&) const = default;
 };
 
+// The object of a step that needs none on the turntable (a dark frame).
+inline constexpr std::string_view kNoObject = "nothing (lights off)";
+
 struct Step {
   int index = 0;
   StepKind kind = StepKind::kMonochrome;

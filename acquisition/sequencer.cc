@@ -226,6 +226,17 @@ Status Sequencer::CaptureStep(const Step& step) {
   return store_.MarkStepDone(step.index);
 }
 
+Status Sequencer::PlaceObject(const Step& step) {
+  if (step.object == kNoObject || step.object == object_placed_) return Status::Ok();
+  if (options_.place_object) {
+    if (Status placed = options_.place_object(step.object); !placed.ok()) {
+      return placed.WithContext("step " + std::to_string(step.index));
+    }
+  }
+  object_placed_ = step.object;
+  return Status::Ok();
+}
+
 Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) {
   LOOM_RETURN_IF_ERROR(rig_.OpenAndConfigure());
   LOOM_RETURN_IF_ERROR(rig_.StartAll());
@@ -239,6 +250,7 @@ Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) 
       continue;
     }
     if (InterruptRequested()) return CancelledError("scan", "interrupted before step " + std::to_string(step.index));
+    LOOM_RETURN_IF_ERROR(PlaceObject(step));
     LOOM_RETURN_IF_ERROR(CaptureStep(step));
     ++done_now;
     if (progress) {

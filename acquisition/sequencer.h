@@ -31,6 +31,10 @@ struct SequencerOptions {
   double saturation_margin_dn = 1;  // within this of the top a reading is saturated
   double exposure_factor = 4;       // between bracket exposures
   int phase_steps = 4;              // of the structured-light phase patterns
+  // Called before the first step run and whenever a step needs another object on the turntable
+  // than the one before (steps needing none, kNoObject, do not count): an operator is asked to
+  // place it, a simulated rig swaps its scene. An error stops the scan before that step.
+  std::function<Status(const std::string& object)> place_object;
 };
 
 struct ScanProgress {
@@ -57,6 +61,7 @@ class Sequencer {
   const std::map<std::string, DarkLevel>& dark_levels() const { return dark_; }
 
  private:
+  Status PlaceObject(const Step& step);
   Status ApplyStep(const Step& step);
   Status CaptureStep(const Step& step);
   // A dark step's one exposure (no bracket), captured or read back from the store: sets the
@@ -77,6 +82,7 @@ class Sequencer {
   std::map<std::string, DarkLevel> dark_;  // by camera
   bool strip_on_ = false;
   bool projector_showing_ = false;
+  std::string object_placed_;
 };
 
 }  // namespace loom::acquisition

@@ -1,14 +1,23 @@
 // loom calibrate: turn calibration captures into calibration files (calibration/).
 //   intrinsics  one camera from a folder of photos of a chessboard (recalibration in the field)
+//   geometry    every camera's intrinsics and pose in the turntable's frame from a calibration scan
 #include <glob.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 
+#include <nlohmann/json.hpp>
+
+#include "acquisition/capture_store.h"
 #include "apps/command.h"
+#include "apps/rig_loader.h"
 #include "calibration/calibration_yaml.h"
+#include "calibration/geometry.h"
 #include "calibration/intrinsics.h"
+#include "core/file_io.h"
+#include "core/version.h"
 
 namespace loom::apps {
 namespace {
@@ -46,6 +55,76 @@ Status CalibrateFromPhotos(const std::string& images, const std::string& board_t
   return Status::Ok();
 }
 
+namespace fs = std::filesystem;
+
+std::string TargetText(const CalibrationTargetModel& t) {
+  std::ostringstream text;
+  text << "chessboard:" << t.inner_cols << "x" << t.inner_rows << ":" << t.square_mm << " on a " << t.tilt_deg
+       << " deg wedge, centre " << t.centre_height_mm << " mm high";
+  return text.str();
+}
+
+// How far a calibrated camera is from the rig YAML's nominal one.
+nlohmann::json AgainstNominal(const CameraModel& nominal, const calibration::CameraGeometry& camera) {
+  const Eigen::AngleAxisd rotation(camera.cam_from_rig.rotation() * nominal.cam_from_rig.rotation().transpose());
+  return {{"rotation_deg", RadToDeg(rotation.angle())},
+          {"centre_mm", (camera.cam_from_rig.inverse().translation() - nominal.CentreInRig()).norm()},
+          {"focal_percent", 100 * (camera.intrinsics.K(0, 0) / nominal.K(0, 0) - 1)}};
+}
+
+Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
+  if (store.info().plan.purpose != "calibration") {
+    return InvalidArgumentError(scan_dir, "is a " + store.info().plan.purpose + " scan, not a calibration scan (loom scan --calibration)");
+  }
+  LOOM_ASSIGN_OR_RETURN(const RigModel nominal, LoadRigModelFromText(store.info().rig_yaml, scan_dir + "/scan.yaml (rig)"));
+  if (!nominal.calibration_target) {
+    return InvalidArgumentError(scan_dir + "/scan.yaml (rig)", "geometry has no calibration_target: what the scan's target is");
+  }
+  const CalibrationTargetModel& target = *nominal.calibration_target;
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, nominal));
+  LOOM_ASSIGN_OR_RETURN(const calibration::DetectedTargetViews detected, calibration::DetectTargetViews(scan, target));
+  std::cerr << "target found in " << detected.views.size() << " of " << detected.views.size() + detected.skipped.size()
+            << " views\n";
+  LOOM_ASSIGN_OR_RETURN(const calibration::RigGeometry geometry,
+                        calibration::CalibrateRigGeometry(nominal, target, detected.views));
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return IoError(out, "cannot create: " + ec.message());
+  nlohmann::json summary = {{"scan", scan_dir}, {"target", TargetText(target)}, {"rms_px", geometry.rms_px},
+                            {"target_offset_mm", {geometry.target_offset_mm.x(), geometry.target_offset_mm.y()}},
+                            {"skipped", detected.skipped}, {"loom_version", std::string(VersionWithCommit())}};
+  std::cout << std::fixed << std::setprecision(3);
+  for (size_t c = 0; c < geometry.cameras.size(); ++c) {
+    const calibration::CameraGeometry& camera = geometry.cameras[c];
+    std::vector<std::string> skipped;
+    for (const std::string& view : detected.skipped) {
+      if (view.ends_with(" " + camera.name)) skipped.push_back(view);
+    }
+    const calibration::CameraCalibration file{camera.name, camera.intrinsics, camera.cam_from_rig, camera.view_sources,
+                                              skipped, scan_dir, TargetText(target)};
+    LOOM_RETURN_IF_ERROR(calibration::WriteCameraCalibration(fs::path(out) / (camera.name + ".yaml"), file));
+    const nlohmann::json nominal_delta = AgainstNominal(nominal.cameras[c], camera);
+    // The turntable axis (the rig's z through its origin) in the camera's frame.
+    const Eigen::Vector3d axis_point = camera.cam_from_rig.translation();
+    const Eigen::Vector3d axis_direction = camera.cam_from_rig.rotation().col(2);
+    summary["cameras"][camera.name] = {{"views", camera.view_sources.size()}, {"rms_px", camera.intrinsics.rms_px},
+                                       {"turntable_axis_in_camera", {{"point_mm", {axis_point.x(), axis_point.y(), axis_point.z()}},
+                                                                     {"direction", {axis_direction.x(), axis_direction.y(), axis_direction.z()}}}},
+                                       {"against_nominal", nominal_delta}};
+    std::cout << camera.name << ": " << camera.view_sources.size() << " views, RMS " << camera.intrinsics.rms_px
+              << " px; fx " << camera.intrinsics.K(0, 0) << " k1 " << camera.intrinsics.distortion[0]
+              << "; against the rig YAML: rotation " << nominal_delta["rotation_deg"].get<double>() << " deg, centre "
+              << nominal_delta["centre_mm"].get<double>() << " mm, focal " << nominal_delta["focal_percent"].get<double>()
+              << " %\n";
+  }
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(out) / "geometry.json", summary.dump(2) + "\n"));
+  std::cout << "RMS reprojection error " << geometry.rms_px << " px over every camera; target placed at ("
+            << geometry.target_offset_mm.x() << ", " << geometry.target_offset_mm.y() << ") mm from the axis\n"
+            << "written: " << out << " (one YAML per camera, geometry.json)\n";
+  return Status::Ok();
+}
+
 }  // namespace
 
 int RunCalibrate(int argc, char** argv) {
@@ -59,9 +138,15 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--board", board, "chessboard:COLSxROWS:SQUARE_MM, inner corners (default chessboard:9x6:25)");
   intrinsics->add_option("--name", name, "The camera's name in the rig (default: camera)");
   intrinsics->add_option("--out", out, "Calibration YAML to write")->required();
+  std::string scan;
+  CLI::App* geometry = app.add_subcommand(
+      "geometry", "Every camera's intrinsics and pose in the turntable's frame, from a calibration scan's target views");
+  geometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
+  geometry->add_option("--out", out, "Calibration directory to write: CAMERA.yaml files and geometry.json")->required();
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   Status done;
   if (*intrinsics) done = CalibrateFromPhotos(images, board, name, out);
+  if (*geometry) done = CalibrateGeometry(scan, out);
   return done.ok() ? kExitOk : ReportFailure(done);
 }
 

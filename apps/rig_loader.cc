@@ -1,12 +1,41 @@
 #include "apps/rig_loader.h"
 
+#include <algorithm>
+
 #include "apps/backends.h"
 #include "core/rig_model.h"
-#include "sim/sample.h"
 
 namespace loom::apps {
 
 namespace {
+
+// A simulated rig's `as_built:` — how the simulated hardware differs from its `geometry:`, the
+// nominal description loom is given — so that calibration has something to find:
+//   as_built: {cameras: [{name: cam1, move_mm: [1, -2, 0.5], rotate_deg: [0.3, 0, -0.2]}]}
+// move_mm shifts the camera's centre (rig frame); rotate_deg turns it about its own x, y, z.
+RigModel AsBuilt(const ConfigNode& root, RigModel model) {
+  const std::optional<ConfigNode> as_built = root.OptionalChild("as_built");
+  if (!as_built) return model;
+  for (const ConfigNode& node : as_built->Sequence("cameras")) {
+    std::string name;
+    Eigen::Vector3d move = Eigen::Vector3d::Zero(), rotate_deg = Eigen::Vector3d::Zero();
+    node.Required("name", &name);
+    node.Optional("move_mm", &move);
+    node.Optional("rotate_deg", &rotate_deg);
+    const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(), [&](const CameraModel& c) { return c.name == name; });
+    if (camera == model.cameras.end()) {
+      node.AddError("name", "no camera '" + name + "' in the geometry");
+      continue;
+    }
+    const Eigen::Matrix3d turn = (Eigen::AngleAxisd(DegToRad(rotate_deg.z()), Eigen::Vector3d::UnitZ()) *
+                                  Eigen::AngleAxisd(DegToRad(rotate_deg.y()), Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(DegToRad(rotate_deg.x()), Eigen::Vector3d::UnitX())).toRotationMatrix();
+    const Eigen::Vector3d centre = camera->CentreInRig() + move;
+    const Eigen::Matrix3d rotation = turn * camera->cam_from_rig.rotation();
+    camera->cam_from_rig = MakeRigid(rotation, -rotation * centre);
+  }
+  return model;
+}
 
 Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& source, const std::string& object) {
   const ConfigNode root = doc.root();
@@ -29,11 +58,13 @@ Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& 
         return InvalidArgumentError("object '" + object + "'", "expected KIND or fabric:SEED");
       }
     }
+    sample.target = model.calibration_target;
+    loaded.sample = sample;
     int seed = 0;
     root.Optional("seed", &seed);
     Result<sim::Material> material = sim::MakeSample(sample);
     if (!material.ok()) return material.status().WithContext(source);
-    loaded.world = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(std::move(model), std::move(*material)),
+    loaded.world = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(AsBuilt(root, model), std::move(*material)),
                                                    static_cast<uint64_t>(seed));
     hal::RegisterSimBackends(registry, loaded.world);
   }
@@ -45,6 +76,24 @@ Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& 
 }
 
 }  // namespace
+
+Status PlaceSimObject(const LoadedRig& loaded, const std::string& object) {
+  if (!loaded.world) return FailedPreconditionError("rig '" + loaded.rig->name() + "'", "is not simulated");
+  sim::SampleSpec spec = loaded.sample;
+  if (object == "target") {
+    spec.kind = "target";
+  } else if (object == "white tile") {
+    spec.kind = "white-tile";
+  } else if (object == "colour chart") {
+    spec.kind = "colour-chart";
+  } else if (object != "sample") {
+    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, colour chart");
+  }
+  LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
+  const std::shared_ptr<const sim::Scene> current = loaded.world->scene();
+  loaded.world->set_scene(std::make_shared<sim::Scene>(current->rig(), std::move(material)));
+  return Status::Ok();
+}
 
 Result<LoadedRig> LoadRig(const std::filesystem::path& path, const std::string& object) {
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
@@ -75,7 +124,7 @@ Result<RigModel> RigModelOf(const ConfigDocument& doc, const std::string& source
   }
   RigModel model = ReadRigModel(root.Child("geometry"));
   model.name = name;
-  for (const char* other : {"devices", "sample", "seed"}) root.Ignore(other);
+  for (const char* other : {"devices", "sample", "seed", "as_built"}) root.Ignore(other);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   return model;
 }

@@ -9,6 +9,7 @@
 #include "core/rig_model.h"
 #include "hal/rig.h"
 #include "hal/sim/sim_backends.h"
+#include "sim/sample.h"
 
 namespace loom::apps {
 
@@ -18,7 +19,13 @@ struct LoadedRig {
   std::unique_ptr<hal::Rig> rig;
   std::optional<RigModel> model;         // from `geometry:`, when the file has one
   std::shared_ptr<hal::SimWorld> world;  // null for a rig of real devices
+  sim::SampleSpec sample;                // what a simulated rig's "sample" is
 };
+
+// Puts what a plan step names on a simulated rig's turntable: "sample" (the rig's `sample:` or
+// the object asked for), "target" (the geometry's calibration_target), "white tile", "colour
+// chart". Another name is an error.
+Status PlaceSimObject(const LoadedRig& loaded, const std::string& object);
 
 // `object` replaces a simulated rig's `sample:` ("fabric:SEED", "white-tile", "chessboard",
 // "colour-chart"); empty keeps it.

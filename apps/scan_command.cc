@@ -22,9 +22,31 @@ Result<acquisition::Plan> MakePlan(const LoadedRig& loaded, const std::string& p
                                   : acquisition::MakeMaterialPlan(*loaded.model, preset);
 }
 
+// A real rig's operator places each object: the first before the scan starts (it is named),
+// the others when the scan asks, confirmed with Enter.
+Status AskOperator(const std::string& object, bool* first) {
+  if (*first) {
+    *first = false;
+    std::cerr << "the scan starts with the " << object << " on the turntable\n";
+    return Status::Ok();
+  }
+  std::cerr << "place the " << object << " on the turntable, then press Enter: " << std::flush;
+  std::string line;
+  if (!std::getline(std::cin, line)) {
+    return FailedPreconditionError("the " + object, "must be placed on the turntable, but stdin is closed: run loom scan "
+                                                    "interactively (or --resume the scan once it is placed)");
+  }
+  return Status::Ok();
+}
+
 Status RunScan(LoadedRig& loaded, const acquisition::Plan& plan, acquisition::CaptureStore& store, bool quiet) {
   hal::SafeStateGuard guard(*loaded.rig);
-  acquisition::Sequencer sequencer(*loaded.rig, plan, store);
+  acquisition::SequencerOptions options;
+  bool first_object = true;
+  options.place_object = [&](const std::string& object) {
+    return loaded.world ? PlaceSimObject(loaded, object) : AskOperator(object, &first_object);
+  };
+  acquisition::Sequencer sequencer(*loaded.rig, plan, store, options);
   ProgressBar bar("scan", quiet);
   LOOM_RETURN_IF_ERROR(sequencer.Run([&](const acquisition::ScanProgress& p) {
     bar.Update(p.steps_done, p.steps_total, "steps", std::to_string(p.frames_stored) + " frames", p.eta_s);

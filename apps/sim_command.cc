@@ -27,7 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_mm, const fs::path& out) {
-  Result<sim::Material> material = sim::MakeSample({kind, seed, size_px, pixel_mm});
+  Result<sim::Material> material = sim::MakeSample({kind, seed, size_px, pixel_mm, std::nullopt});
   if (!material.ok()) return ReportFailure(material.status());
   std::error_code ec;
   fs::create_directories(out, ec);
@@ -101,7 +101,8 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
 // The fast-path stack of the observations a material plan with `preset` makes.
 int RenderStack(const LoadedRig& loaded, const std::string& preset_name, int size_px, const std::string& truth_path,
                 const fs::path& out) {
-  const sim::Scene& scene = *loaded.world->scene;
+  const std::shared_ptr<const sim::Scene> scene_owner = loaded.world->scene();
+  const sim::Scene& scene = *scene_owner;
   Result<acquisition::Preset> preset = acquisition::LoadPreset(ResolvePresetPath(preset_name));
   if (!preset.ok()) return ReportFailure(preset.status());
   Result<acquisition::Plan> plan = acquisition::MakeMaterialPlan(scene.rig(), *preset);
@@ -131,7 +132,8 @@ int Render(const std::string& rig_path, const std::string& camera_name, const st
     return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
   }
   if (stack) return RenderStack(*loaded, preset, size_px, truth_path, out);
-  const sim::Scene& scene = *loaded->world->scene;
+  const std::shared_ptr<const sim::Scene> scene_owner = loaded->world->scene();
+  const sim::Scene& scene = *scene_owner;
   int camera = -1;
   for (size_t i = 0; i < scene.rig().cameras.size(); ++i) {
     if (scene.rig().cameras[i].name == camera_name) camera = static_cast<int>(i);

@@ -63,7 +63,8 @@ Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::pat
   Result<LoadedRig> loaded = LoadRig(args.rig);
   if (!loaded.ok()) return loaded.status();
   if (!loaded->world) return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
-  const sim::Scene& rig_scene = *loaded->world->scene;
+  const std::shared_ptr<const sim::Scene> rig_scene_owner = loaded->world->scene();
+  const sim::Scene& rig_scene = *rig_scene_owner;
   LOOM_ASSIGN_OR_RETURN(const acquisition::Preset preset, acquisition::LoadPreset(ResolvePresetPath(args.preset)));
   LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, acquisition::MakeMaterialPlan(rig_scene.rig(), preset));
   LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, PlanObservations(rig_scene.rig(), plan));
@@ -77,7 +78,7 @@ Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::pat
     const fs::path stack_path = dir / (name + ".stack.exr"), truth_path = dir / (name + ".truth.exr");
     if (!fs::exists(stack_path) || !fs::exists(truth_path)) {
       LOOM_ASSIGN_OR_RETURN(sim::Material material,
-                            sim::MakeSample({"fabric", seed, args.size_px, rig_scene.material().pixel_mm}));
+                            sim::MakeSample({"fabric", seed, args.size_px, rig_scene.material().pixel_mm, std::nullopt}));
       const sim::Scene scene(rig_scene.rig(), std::move(material));
       const ObservationStack stack = sim::RenderStack(scene, observations, {});
       LOOM_RETURN_IF_ERROR(sim::WriteMaterial(sim::TruthOnStackGrid(scene, {}), truth_path));

@@ -102,6 +102,21 @@ Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
   return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));
 }
 
+Rigid3d CalibrationTargetModel::SampleFromBoard() const {
+  return MakeRigid(Eigen::AngleAxisd(DegToRad(tilt_deg), Eigen::Vector3d::UnitX()).toRotationMatrix(),
+                   Eigen::Vector3d(0, 0, centre_height_mm));
+}
+
+std::vector<Eigen::Vector3d> CalibrationTargetModel::CornersInBoard() const {
+  std::vector<Eigen::Vector3d> corners;
+  for (int r = 0; r < inner_rows; ++r) {
+    for (int c = 0; c < inner_cols; ++c) {
+      corners.emplace_back((c - (inner_cols - 1) / 2.0) * square_mm, (r - (inner_rows - 1) / 2.0) * square_mm, 0);
+    }
+  }
+  return corners;
+}
+
 double SensorModel::RelativeResponse(double x, double y, int width, int height) const {
   const double corner2 = 0.25 * (static_cast<double>(width) * width + static_cast<double>(height) * height);
   const double dx = x - (width - 1) / 2.0;
@@ -206,6 +221,23 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     ReadPinhole(*node, &projector.width, &projector.height, &projector.K, &projector.proj_from_rig);
     node->Optional("max_intensity", &projector.max_intensity);
     rig.projector = projector;
+  }
+  if (std::optional<ConfigNode> node = geometry.OptionalChild("calibration_target")) {
+    CalibrationTargetModel target;
+    std::vector<int> inner;
+    node->Required("inner_corners", &inner);
+    node->Required("square_mm", &target.square_mm);
+    node->Required("tilt_deg", &target.tilt_deg);
+    node->Required("centre_height_mm", &target.centre_height_mm);
+    if (inner.size() == 2 && inner[0] >= 2 && inner[1] >= 2) {
+      target.inner_cols = inner[0];
+      target.inner_rows = inner[1];
+    } else {
+      node->AddError("inner_corners", "expected [COLS, ROWS], each ≥ 2");
+    }
+    if (!(target.square_mm > 0)) node->AddError("square_mm", "must be > 0");
+    if (!(target.tilt_deg >= 0 && target.tilt_deg < 80)) node->AddError("tilt_deg", "must be in [0, 80)");
+    rig.calibration_target = target;
   }
   for (const ConfigNode& node : geometry.OptionalSequence("filter_wheels")) {
     FilterWheelModel wheel;

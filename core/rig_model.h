@@ -112,6 +112,22 @@ struct TurntableModel {
   Rigid3d RigFromSample(double angle_deg) const;
 };
 
+// The geometric calibration target: a chessboard on a wedge, placed on the turntable with its
+// centre on the axis and its rows along the sample frame's x. The tilt makes the views at
+// several turntable angles differ in orientation (a flat board turned about its own normal
+// constrains no focal length). Board frame: origin at the board's centre, x along its rows,
+// y up the slope, z out of the board.
+struct CalibrationTargetModel {
+  int inner_cols = 7;       // inner corners along a row
+  int inner_rows = 5;
+  double square_mm = 2.5;
+  double tilt_deg = 23.07;  // of the board against the turntable, rising towards +y
+  double centre_height_mm = 8;
+  Rigid3d SampleFromBoard() const;
+  // Inner corner (c, r) in the board frame, row-major.
+  std::vector<Eigen::Vector3d> CornersInBoard() const;
+};
+
 struct RigModel {
   std::string name;
   double sample_holder_diameter_mm = 140;
@@ -121,6 +137,7 @@ struct RigModel {
   TurntableModel turntable;
   std::optional<LinearLightModel> linear_light;
   std::optional<ProjectorModel> projector;
+  std::optional<CalibrationTargetModel> calibration_target;
 
   const CameraModel* FindCamera(const std::string& name) const;
   // The wheel in front of `led`, or nullptr.

@@ -11,10 +11,14 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/rig_observation.h"
-#include "reconstruction/scan_radiance.h"
+#include "calibration/scan_radiance.h"
 #include "reconstruction/structured_light.h"
 
 namespace loom::reconstruction {
+
+using calibration::RadianceView;
+using calibration::ScanRadiance;
+
 namespace {
 
 using acquisition::Step;

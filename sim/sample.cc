@@ -30,8 +30,12 @@ Result<Material> MakeSample(const SampleSpec& spec) {
   if (spec.kind == "white-tile") return WhiteTile(grid);
   if (spec.kind == "chessboard") return Chessboard(9, 6, side_mm / 14, grid);
   if (spec.kind == "colour-chart") return ColourChart(side_mm / 8, grid);
+  if (spec.kind == "target") {
+    if (!spec.target) return InvalidArgumentError("sample kind 'target'", "the rig's geometry has no calibration_target");
+    return CalibrationTarget(*spec.target);
+  }
   return InvalidArgumentError("sample kind '" + spec.kind + "'",
-                              "unknown (expected fabric, white-tile, chessboard, colour-chart)");
+                              "unknown (expected fabric, white-tile, chessboard, colour-chart, target)");
 }
 
 }  // namespace loom::sim

@@ -4,12 +4,14 @@
 //
 //   sample: {kind: fabric, seed: 1, size_px: 256, pixel_mm: 0.1}
 //
-// kinds: fabric (procedural, by seed), white-tile, chessboard, colour-chart.
+// kinds: fabric (procedural, by seed), white-tile, chessboard, colour-chart, and target (the
+// rig's calibration target, its size its own).
 
 #include <cstdint>
 #include <string>
 
 #include "core/config.h"
+#include "core/rig_model.h"
 #include "sim/material.h"
 
 namespace loom::sim {
@@ -19,6 +21,7 @@ struct SampleSpec {
   uint64_t seed = 0;
   int size_px = 256;
   double pixel_mm = 0.1;
+  std::optional<CalibrationTargetModel> target;  // the rig's, for kind "target"
 };
 
 SampleSpec ReadSampleSpec(const ConfigNode& node);

@@ -76,6 +76,32 @@ Material Chessboard(int inner_cols, int inner_rows, double square_mm, const Grid
   return m;
 }
 
+Material CalibrationTarget(const CalibrationTargetModel& target) {
+  constexpr double kPixelMm = 0.1;
+  const double cos_tilt = std::cos(DegToRad(target.tilt_deg));
+  const double half_u = (target.inner_cols + 1) * target.square_mm / 2;
+  const double half_v = (target.inner_rows + 1) * target.square_mm / 2;
+  // The board and a white margin of one square, in the sample frame's x and y.
+  const double half_x = half_u + target.square_mm, half_y = (half_v + target.square_mm) * cos_tilt;
+  const int size = 2 * static_cast<int>(std::ceil(std::max(half_x, half_y) / kPixelMm));
+  const GridOptions grid{size, size, kPixelMm};
+  Material m = FlatLambertian("calibration target", grid, [&](double x, double y) -> Eigen::Vector3d {
+    const double u = x, v = y / cos_tilt;  // board coordinates of the point
+    if (std::abs(u) >= half_u || std::abs(v) >= half_v) return Eigen::Vector3d::Constant(0.85);
+    const int col = static_cast<int>(std::floor((u + half_u) / target.square_mm));
+    const int row = static_cast<int>(std::floor((v + half_v) / target.square_mm));
+    return Eigen::Vector3d::Constant((col + row) % 2 == 0 ? 0.04 : 0.85);
+  });
+  const int height_channel = *m.maps.ChannelIndex(fitting::kHeightChannel);
+  const double slope = std::tan(DegToRad(target.tilt_deg));
+  for (int y = 0; y < size; ++y) {
+    const double cy = (y + 0.5 - size / 2.0) * kPixelMm;
+    for (int x = 0; x < size; ++x) m.maps.at(height_channel, y, x) = static_cast<float>(target.centre_height_mm + cy * slope);
+  }
+  m.provenance["loom.geometric_blur_mm"] = 0.2;  // a plane: the blur only rounds its edges
+  return m;
+}
+
 Eigen::Vector3d ColourChartAlbedo(int patch) {
   const auto& srgb = kChartSrgb.at(patch);
   return {SrgbToLinear(srgb[0] / 255.0), SrgbToLinear(srgb[1] / 255.0), SrgbToLinear(srgb[2] / 255.0)};

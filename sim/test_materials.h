@@ -8,9 +8,11 @@
 // | WhiteTile        | Lambertian a_d = 0.95 (a Spectralon-like tile)    | flat field, LED intensities  |
 // | Chessboard       | black/white squares, flat, Lambertian             | geometric calibration        |
 // | ColourChart      | the 24 patches of a ColorChecker, Lambertian      | the filter → sRGB matrix     |
+// | CalibrationTarget| a chessboard on a wedge (the rig's target model)  | loom calibrate geometry      |
 //
-// All flat (height 0, n_s = z), centred on the sample like every material.
+// All but the target flat (height 0, n_s = z), centred on the sample like every material.
 
+#include "core/rig_model.h"
 #include "fitting/model/ward_gd10.h"
 #include "sim/material.h"
 
@@ -31,5 +33,9 @@ Material Chessboard(int inner_cols, int inner_rows, double square_mm, const Grid
 // a_d (row-major from the top left, dark skin first).
 Material ColourChart(double patch_mm, const GridOptions& grid);
 Eigen::Vector3d ColourChartAlbedo(int patch);
+// The rig's target on white, its wedge as heights. Map pixels of 0.1 mm: with tac7-mini's
+// target (2.5 mm squares, an even number of them each way, tilt with cos = 0.92) every square
+// edge falls on a pixel edge, so the printed corners are exact in the rendered images.
+Material CalibrationTarget(const CalibrationTargetModel& target);
 
 }  // namespace loom::sim

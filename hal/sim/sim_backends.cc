@@ -38,7 +38,7 @@ class SimCamera : public Camera {
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
-    const auto& cameras = world_->scene->rig().cameras;
+    const auto& cameras = world_->scene()->rig().cameras;
     for (size_t i = 0; i < cameras.size(); ++i) {
       if (cameras[i].name == model_) index_ = static_cast<int>(i);
     }
@@ -96,7 +96,8 @@ class SimCamera : public Camera {
       std::lock_guard lock(world_->mutex);
       state = world_->state;
     }
-    const sim::Scene& scene = *world_->scene;
+    const std::shared_ptr<const sim::Scene> shown = world_->scene();
+    const sim::Scene& scene = *shown;
     const CameraModel& model = scene.rig().cameras[index_];
     const Image radiance = scene.RenderRadiance(index_, state, {.supersampling = supersampling_});
     const CameraSettings& s = settings();
@@ -141,7 +142,7 @@ class SimLedArray : public LedArray {
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
-    set_limits(static_cast<int>(world_->scene->rig().leds.size()), 1000);
+    set_limits(static_cast<int>(world_->scene()->rig().leds.size()), 1000);
     return DeviceIdentity{"loom", "simulated LED controller", "SIM-LEDS", ""};
   }
   Status DoConfigure(const LedArraySettings&) override { return Status::Ok(); }
@@ -181,7 +182,7 @@ class SimFilterWheel : public FilterWheel {
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
-    const auto& wheels = world_->scene->rig().filter_wheels;
+    const auto& wheels = world_->scene()->rig().filter_wheels;
     for (size_t i = 0; i < wheels.size(); ++i) {
       if (wheels[i].name == model_) index_ = static_cast<int>(i);
     }
@@ -333,13 +334,13 @@ void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> wo
     return std::unique_ptr<Turntable>(std::make_unique<SimTurntable>(config, world));
   });
   registry.Register<LinearLight>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<LinearLight>> {
-    const auto& geometry = world->scene->rig().linear_light;
+    const auto& geometry = world->scene()->rig().linear_light;
     double travel_mm = geometry ? geometry->travel_mm : 400;
     config.node.Optional("travel_mm", &travel_mm);
     return std::unique_ptr<LinearLight>(std::make_unique<SimLinearLight>(config, world, travel_mm));
   });
   registry.Register<Projector>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Projector>> {
-    const auto& geometry = world->scene->rig().projector;
+    const auto& geometry = world->scene()->rig().projector;
     int width = geometry ? geometry->width : 1280;
     int height = geometry ? geometry->height : 800;
     config.node.Optional("native_width", &width);

@@ -22,11 +22,25 @@
 namespace loom::hal {
 
 struct SimWorld {
-  SimWorld(std::shared_ptr<const sim::Scene> scene, uint64_t seed) : scene(std::move(scene)), seed(seed) {}
+  SimWorld(std::shared_ptr<const sim::Scene> scene, uint64_t seed) : scene_(std::move(scene)), seed(seed) {}
 
-  std::shared_ptr<const sim::Scene> scene;
+  // What lies on the turntable can change between steps (a calibration scan's target, tile and
+  // chart); the rig stays the same.
+  std::shared_ptr<const sim::Scene> scene() const {
+    std::lock_guard lock(mutex);
+    return scene_;
+  }
+  void set_scene(std::shared_ptr<const sim::Scene> scene) {
+    std::lock_guard lock(mutex);
+    scene_ = std::move(scene);
+  }
+
+ private:
+  std::shared_ptr<const sim::Scene> scene_;
+
+ public:
   uint64_t seed;
-  std::mutex mutex;  // guards everything below; sim devices may run on different threads
+  mutable std::mutex mutex;  // guards the scene and everything below; sim devices may run on different threads
   sim::SceneState state;
   // Fault injection for tests of what uses the rig: camera name → frames that fail as if the
   // camera had dropped out (−1: all of them from now on).

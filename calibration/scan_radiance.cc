@@ -1,11 +1,11 @@
-#include "reconstruction/scan_radiance.h"
+#include "calibration/scan_radiance.h"
 
 #include <cmath>
 #include <limits>
 
 #include "calibration/hdr_merge.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
 
 using acquisition::FrameRecord;
 using acquisition::Step;
@@ -84,4 +84,4 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
   return view;
 }
 
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration

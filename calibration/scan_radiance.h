@@ -18,7 +18,7 @@
 #include "core/image.h"
 #include "core/rig_model.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
 
 struct RadianceView {
   int camera = 0;           // index into the rig's cameras
@@ -46,4 +46,4 @@ class ScanRadiance {
   std::map<std::pair<int, std::string>, std::vector<const acquisition::FrameRecord*>> brackets_;  // (step, camera)
 };
 
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration

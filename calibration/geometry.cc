@@ -1,0 +1,303 @@
+#include "calibration/geometry.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "calibration/board.h"
+#include "core/log.h"
+
+namespace loom::calibration {
+namespace {
+
+constexpr int kIntrinsicParams = 8;  // fx fy cx cy k1 k2 p1 p2
+
+Eigen::Matrix3d Rz(double deg) { return Eigen::AngleAxisd(DegToRad(deg), Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
+
+// The target corner in the sample frame (before the operator's offset) and the turntable's
+// rotation of that view: the rig-frame point is Rz · (corner + offset).
+struct CornerResidual {
+  Eigen::Vector3d corner_in_sample;
+  Eigen::Matrix3d rig_from_sample;
+  Eigen::Vector2d observed;
+
+  template <typename T>
+  bool operator()(const T* pose, const T* intrinsics, const T* offset, T* residual) const {
+    const T in_sample[3] = {T(corner_in_sample.x()) + offset[0], T(corner_in_sample.y()) + offset[1],
+                            T(corner_in_sample.z())};
+    T in_rig[3];
+    for (int i = 0; i < 3; ++i) {
+      in_rig[i] = T(rig_from_sample(i, 0)) * in_sample[0] + T(rig_from_sample(i, 1)) * in_sample[1] +
+                  T(rig_from_sample(i, 2)) * in_sample[2];
+    }
+    T in_cam[3];
+    ceres::AngleAxisRotatePoint(pose, in_rig, in_cam);
+    for (int i = 0; i < 3; ++i) in_cam[i] += pose[3 + i];
+    // OpenCV's pinhole + distortion (k1 k2 p1 p2), pixel centres at integers.
+    const T x = in_cam[0] / in_cam[2], y = in_cam[1] / in_cam[2];
+    const T r2 = x * x + y * y;
+    const T radial = T(1) + intrinsics[4] * r2 + intrinsics[5] * r2 * r2;
+    const T xd = x * radial + T(2) * intrinsics[6] * x * y + intrinsics[7] * (r2 + T(2) * x * x);
+    const T yd = y * radial + intrinsics[6] * (r2 + T(2) * y * y) + T(2) * intrinsics[7] * x * y;
+    residual[0] = intrinsics[0] * xd + intrinsics[2] - T(observed.x());
+    residual[1] = intrinsics[1] * yd + intrinsics[3] - T(observed.y());
+    return true;
+  }
+};
+
+struct CameraBlock {
+  double pose[6];                        // angle-axis, translation (mm)
+  double intrinsics[kIntrinsicParams];
+};
+
+CameraBlock ToBlock(const Rigid3d& cam_from_rig, const Eigen::Matrix3d& K, const Eigen::Matrix<double, 5, 1>& d) {
+  CameraBlock block;
+  const Eigen::AngleAxisd rotation(cam_from_rig.rotation());
+  const Eigen::Vector3d aa = rotation.angle() * rotation.axis();
+  for (int i = 0; i < 3; ++i) block.pose[i] = aa[i], block.pose[3 + i] = cam_from_rig.translation()[i];
+  const double intrinsics[kIntrinsicParams] = {K(0, 0), K(1, 1), K(0, 2), K(1, 2), d[0], d[1], d[2], d[3]};
+  std::copy(intrinsics, intrinsics + kIntrinsicParams, block.intrinsics);
+  return block;
+}
+
+Rigid3d PoseOf(const CameraBlock& block) {
+  const Eigen::Vector3d aa(block.pose[0], block.pose[1], block.pose[2]);
+  const Eigen::Matrix3d rotation =
+      aa.norm() > 0 ? Eigen::AngleAxisd(aa.norm(), aa.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  return MakeRigid(rotation, Eigen::Vector3d(block.pose[3], block.pose[4], block.pose[5]));
+}
+
+// Step 1 for one view: OpenCV's poses of the board from the camera's prior intrinsics. A
+// planar board seen nearly orthographically has two poses that explain it about equally
+// (mirrored tilts): both are returned.
+std::vector<Rigid3d> CamFromBoardCandidates(const CameraModel& camera, const CalibrationTargetModel& target,
+                                            const TargetView& view) {
+  std::vector<cv::Point3d> object;
+  for (const Eigen::Vector3d& p : target.CornersInBoard()) object.emplace_back(p.x(), p.y(), p.z());
+  std::vector<cv::Point2d> image;
+  for (const Eigen::Vector2d& c : view.corners) image.emplace_back(c.x(), c.y());
+  cv::Mat K, distortion;
+  cv::eigen2cv(camera.K, K);
+  cv::eigen2cv(Eigen::Matrix<double, 5, 1>(camera.distortion), distortion);
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::solvePnPGeneric(object, image, K, distortion, rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
+  std::vector<Rigid3d> poses;
+  for (size_t i = 0; i < rvecs.size(); ++i) {
+    cv::Mat R;
+    cv::Rodrigues(rvecs[i], R);
+    Eigen::Matrix3d rotation;
+    Eigen::Vector3d translation;
+    cv::cv2eigen(R, rotation);
+    cv::cv2eigen(tvecs[i], translation);
+    poses.push_back(MakeRigid(rotation, translation));
+  }
+  return poses;
+}
+
+CornerResidual ResidualOf(const TargetView& view, const Eigen::Vector3d& corner_in_sample, int corner) {
+  return {corner_in_sample, Rz(view.turntable_deg), view.corners[corner]};
+}
+
+// Radiance → 8-bit grey, the 99th percentile of the finite values at 240.
+cv::Mat ToGrey(const Image& radiance) {
+  std::vector<float> finite;
+  for (float v : radiance.channel(0)) {
+    if (std::isfinite(v)) finite.push_back(v);
+  }
+  float top = 1;
+  if (!finite.empty()) {
+    const auto at = finite.begin() + static_cast<long>(0.99 * (finite.size() - 1));
+    std::nth_element(finite.begin(), at, finite.end());
+    top = std::max(*at, 1e-12f);
+  }
+  cv::Mat grey(radiance.height(), radiance.width(), CV_8U);
+  for (int y = 0; y < radiance.height(); ++y) {
+    for (int x = 0; x < radiance.width(); ++x) {
+      const float v = radiance.at(0, y, x);
+      grey.at<uint8_t>(y, x) = static_cast<uint8_t>(std::clamp(std::isfinite(v) ? 240.0f * v / top : 255.0f, 0.0f, 255.0f));
+    }
+  }
+  return grey;
+}
+
+// The detected corners in the order (of the four a rows × cols grid can be read in without
+// changing which corners neighbour which) nearest `expected`.
+std::vector<Eigen::Vector2d> OrderLike(const std::vector<Eigen::Vector2d>& found, const std::vector<Eigen::Vector2d>& expected,
+                                       int cols, int rows) {
+  std::vector<Eigen::Vector2d> best;
+  double best_distance = INFINITY;
+  for (int flip = 0; flip < 4; ++flip) {
+    std::vector<Eigen::Vector2d> ordered(found.size());
+    for (int r = 0; r < rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        const int rr = (flip & 1) ? rows - 1 - r : r, cc = (flip & 2) ? cols - 1 - c : c;
+        ordered[r * cols + c] = found[rr * cols + cc];
+      }
+    }
+    double distance = 0;
+    for (size_t k = 0; k < found.size(); ++k) distance += (ordered[k] - expected[k]).norm();
+    if (distance < best_distance) best_distance = distance, best = std::move(ordered);
+  }
+  return best;
+}
+
+// Step 1: of the cam_from_rig that every view's board poses imply, the one that explains all
+// the camera's views best.
+CameraBlock InitialBlock(const CameraModel& camera, const CalibrationTargetModel& target,
+                         const std::vector<Eigen::Vector3d>& in_sample, const std::vector<const TargetView*>& views) {
+  const double no_offset[2] = {0, 0};
+  CameraBlock best = ToBlock(camera.cam_from_rig, camera.K, camera.distortion);
+  double best_cost = INFINITY;
+  for (const TargetView* view : views) {
+    const Rigid3d rig_from_board = MakeRigid(Rz(view->turntable_deg), Eigen::Vector3d::Zero()) * target.SampleFromBoard();
+    for (const Rigid3d& cam_from_board : CamFromBoardCandidates(camera, target, *view)) {
+      const CameraBlock candidate = ToBlock(cam_from_board * rig_from_board.inverse(), camera.K, camera.distortion);
+      double cost = 0;
+      for (const TargetView* other : views) {
+        for (size_t k = 0; k < in_sample.size(); ++k) {
+          double r[2];
+          ResidualOf(*other, in_sample[k], static_cast<int>(k))(candidate.pose, candidate.intrinsics, no_offset, r);
+          cost += r[0] * r[0] + r[1] * r[1];
+        }
+      }
+      if (cost < best_cost) best_cost = cost, best = candidate;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target) {
+  const BoardSpec board{"chessboard", target.inner_cols, target.inner_rows, target.square_mm};
+  const RigModel& rig = scan.rig();
+  DetectedTargetViews detected;
+  for (const acquisition::Step& step : scan.plan().steps) {
+    if (step.kind != acquisition::StepKind::kTarget) continue;
+    for (const std::string& camera_name : step.cameras) {
+      LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera_name));
+      const std::string source = "step " + std::to_string(step.index) + " " + camera_name;
+      std::optional<std::vector<Eigen::Vector2d>> corners = FindBoardCorners(ToGrey(view.radiance), board);
+      if (!corners) {
+        LOOM_LOG(Warning) << source << ": target not found, view skipped";
+        detected.skipped.push_back(source);
+        continue;
+      }
+      const CameraModel& camera = rig.cameras[view.camera];
+      const Rigid3d cam_from_board =
+          camera.cam_from_rig * rig.turntable.RigFromSample(view.state.turntable_deg) * target.SampleFromBoard();
+      std::vector<Eigen::Vector2d> expected;
+      for (const Eigen::Vector3d& p : target.CornersInBoard()) {
+        Eigen::Vector2d pixel(0, 0);
+        camera.Project(cam_from_board * p, &pixel);
+        expected.push_back(pixel);
+      }
+      detected.views.push_back({view.camera, view.state.turntable_deg, source,
+                                OrderLike(*corners, expected, target.inner_cols, target.inner_rows)});
+    }
+  }
+  return detected;
+}
+
+Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const CalibrationTargetModel& target,
+                                         const std::vector<TargetView>& views, const GeometryOptions& options) {
+  const std::vector<Eigen::Vector3d> board = target.CornersInBoard();
+  std::vector<Eigen::Vector3d> in_sample;
+  for (const Eigen::Vector3d& p : board) in_sample.push_back(target.SampleFromBoard() * p);
+  const int cameras = static_cast<int>(nominal.cameras.size());
+  std::vector<std::vector<const TargetView*>> by_camera(cameras);
+  for (const TargetView& view : views) {
+    if (view.camera < 0 || view.camera >= cameras || view.corners.size() != board.size()) {
+      return InvalidArgumentError("target view " + view.source, "not a view of the rig's target by one of its cameras");
+    }
+    by_camera[view.camera].push_back(&view);
+  }
+  RigGeometry geometry;
+  std::vector<CameraBlock> blocks;
+  for (int c = 0; c < cameras; ++c) {
+    const CameraModel& camera = nominal.cameras[c];
+    if (static_cast<int>(by_camera[c].size()) < options.min_views_per_camera) {
+      return FailedPreconditionError("camera " + camera.name, "saw the target in " + std::to_string(by_camera[c].size()) +
+                                                                  " views; calibration needs at least " +
+                                                                  std::to_string(options.min_views_per_camera));
+    }
+    blocks.push_back(InitialBlock(camera, target, in_sample, by_camera[c]));
+  }
+
+  double offset[2] = {0, 0};
+  ceres::Problem problem;
+  for (const TargetView& view : views) {
+    for (size_t k = 0; k < board.size(); ++k) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 6, kIntrinsicParams, 2>(
+                                   new CornerResidual(ResidualOf(view, in_sample[k], static_cast<int>(k)))),
+                               nullptr, blocks[view.camera].pose, blocks[view.camera].intrinsics, offset);
+    }
+  }
+  if (!options.fit_intrinsics) {
+    for (CameraBlock& block : blocks) problem.SetParameterBlockConstant(block.intrinsics);
+  }
+  ceres::Solver::Options solver;
+  solver.max_num_iterations = 200;
+  solver.function_tolerance = 1e-12;
+  solver.parameter_tolerance = 1e-12;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return InternalError("bundle adjustment", summary.BriefReport());
+
+  geometry.target_offset_mm = Eigen::Vector2d(offset[0], offset[1]);
+  double squares = 0;
+  int corners = 0;
+  for (int c = 0; c < cameras; ++c) {
+    CameraGeometry& result = geometry.cameras.emplace_back();
+    const CameraBlock& block = blocks[c];
+    result.name = nominal.cameras[c].name;
+    result.cam_from_rig = PoseOf(block);
+    Intrinsics& intrinsics = result.intrinsics;
+    intrinsics.width = nominal.cameras[c].width;
+    intrinsics.height = nominal.cameras[c].height;
+    intrinsics.K << block.intrinsics[0], 0, block.intrinsics[2], 0, block.intrinsics[1], block.intrinsics[3], 0, 0, 1;
+    intrinsics.distortion << block.intrinsics[4], block.intrinsics[5], block.intrinsics[6], block.intrinsics[7], 0;
+    double camera_squares = 0;
+    for (const TargetView* view : by_camera[c]) {
+      double view_squares = 0;
+      for (size_t k = 0; k < board.size(); ++k) {
+        double r[2];
+        ResidualOf(*view, in_sample[k], static_cast<int>(k))(block.pose, block.intrinsics, offset, r);
+        view_squares += r[0] * r[0] + r[1] * r[1];
+      }
+      intrinsics.per_view_rms_px.push_back(std::sqrt(view_squares / board.size()));
+      result.view_sources.push_back(view->source);
+      camera_squares += view_squares;
+    }
+    intrinsics.rms_px = std::sqrt(camera_squares / (board.size() * by_camera[c].size()));
+    squares += camera_squares;
+    corners += static_cast<int>(board.size() * by_camera[c].size());
+  }
+  geometry.rms_px = std::sqrt(squares / corners);
+  return geometry;
+}
+
+double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const Eigen::Vector2d& target_offset_mm,
+                       const std::vector<TargetView>& views) {
+  const std::vector<Eigen::Vector3d> board = target.CornersInBoard();
+  double squares = 0;
+  int count = 0;
+  for (const TargetView& view : views) {
+    const CameraModel& camera = rig.cameras.at(view.camera);
+    const Rigid3d cam_from_sample = camera.cam_from_rig * rig.turntable.RigFromSample(view.turntable_deg);
+    for (size_t k = 0; k < board.size(); ++k) {
+      const Eigen::Vector3d p = target.SampleFromBoard() * board[k] + Eigen::Vector3d(target_offset_mm.x(), target_offset_mm.y(), 0);
+      Eigen::Vector2d pixel;
+      if (!camera.Project(cam_from_sample * p, &pixel)) continue;
+      squares += (pixel - view.corners[k]).squaredNorm();
+      ++count;
+    }
+  }
+  return count ? std::sqrt(squares / count) : 0;
+}
+
+}  // namespace loom::calibration

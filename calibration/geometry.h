@@ -1,0 +1,75 @@
+#pragma once
+// Geometric calibration of the rig's cameras from views of its calibration target (a chessboard
+// on a wedge, core/rig_model.h's CalibrationTargetModel) on the turntable at several angles.
+//
+// The rig frame is the turntable's: z along its axis, the origin where the axis meets the
+// turntable, x along the target's rows at turntable angle 0. So every view k of camera c obeys
+//   cam_from_board(c, k) = cam_from_rig(c) · Rz(θ_k) · Translate(offset) · sample_from_board
+// with θ_k the recorded turntable angle, sample_from_board the wedge (tilt, centre height) and
+// `offset` where the operator put the target on the table (mm, in the turntable plane).
+//  1. each camera's cam_from_rig starts from its first view's board pose (cv::solvePnP with the
+//     camera's prior intrinsics: the rig YAML's, or loom calibrate intrinsics');
+//  2. one Ceres bundle adjustment over every corner of every view refines every camera's
+//     cam_from_rig and the target's offset together — and with fit_intrinsics the intrinsics
+//     (fx fy cx cy k1 k2 p1 p2) too. That needs a target filling much of a wide field: with
+//     tac7-mini's 3° field, focal length trades against distance (measured: focal 69 % off,
+//     centre 400 mm off, same 0.2 px RMS) and distortion is unobservable, so by default the
+//     intrinsics are held at their prior, calibrated from close-up photos.
+// The turntable axis in a camera's frame is cam_from_rig's image of the rig's z axis.
+
+#include <string>
+#include <vector>
+
+#include "calibration/intrinsics.h"
+#include "calibration/scan_radiance.h"
+#include "core/rig_model.h"
+#include "core/status.h"
+
+namespace loom::calibration {
+
+struct TargetView {
+  int camera = 0;               // index into the rig's cameras
+  double turntable_deg = 0;     // as recorded with the frame
+  std::string source;           // the scan step and camera, for messages and reports
+  std::vector<Eigen::Vector2d> corners;  // in CalibrationTargetModel::CornersInBoard order
+};
+
+struct CameraGeometry {
+  std::string name;
+  Intrinsics intrinsics;        // K, distortion; rms and per-view residuals after the adjustment
+  Rigid3d cam_from_rig = Rigid3d::Identity();
+  std::vector<std::string> view_sources;  // in per_view_rms_px order
+};
+
+struct RigGeometry {
+  std::vector<CameraGeometry> cameras;  // in the rig's camera order
+  Eigen::Vector2d target_offset_mm = Eigen::Vector2d::Zero();
+  double rms_px = 0;                    // over every corner of every camera
+};
+
+struct GeometryOptions {
+  int min_views_per_camera = 3;
+  bool fit_intrinsics = false;
+};
+
+// `nominal` gives the cameras (names, sizes, starting intrinsics). A camera with fewer than
+// min_views_per_camera views is an error naming it and the count.
+Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const CalibrationTargetModel& target,
+                                         const std::vector<TargetView>& views, const GeometryOptions& options = {});
+
+// The target in a calibration scan: every target step's merged radiance per camera, scaled to
+// 8 bits and searched for the board. A symmetric board is found in either order (and the
+// detector may mirror it), so the order that lies nearest where `nominal` puts the board is
+// kept. A view without the whole board is skipped, named in `skipped` with a warning.
+struct DetectedTargetViews {
+  std::vector<TargetView> views;
+  std::vector<std::string> skipped;
+};
+Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target);
+
+// The RMS distance (px) between the corners of `views` and where `rig`'s cameras and turntable
+// put the target (at `target_offset_mm`): how well a stored calibration explains new views.
+double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const Eigen::Vector2d& target_offset_mm,
+                       const std::vector<TargetView>& views);
+
+}  // namespace loom::calibration
