@@ -93,13 +93,15 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
   if (ec) return IoError(out, "cannot create: " + ec.message());
   nlohmann::json summary = {{"scan", scan_dir}, {"target", TargetText(target)}, {"rms_px", geometry.rms_px},
                             {"target_offset_mm", {geometry.target_offset_mm.x(), geometry.target_offset_mm.y()}},
-                            {"skipped", detected.skipped}, {"loom_version", std::string(VersionWithCommit())}};
+                            {"skipped", detected.skipped}, {"rejected", geometry.rejected}, {"loom_version", std::string(VersionWithCommit())}};
   std::cout << std::fixed << std::setprecision(3);
   for (size_t c = 0; c < geometry.cameras.size(); ++c) {
     const calibration::CameraGeometry& camera = geometry.cameras[c];
     std::vector<std::string> skipped;
-    for (const std::string& view : detected.skipped) {
-      if (view.ends_with(" " + camera.name)) skipped.push_back(view);
+    for (const std::vector<std::string>* list : {&detected.skipped, &geometry.rejected}) {
+      for (const std::string& view : *list) {
+        if (view.ends_with(" " + camera.name)) skipped.push_back(view);
+      }
     }
     const calibration::CameraCalibration file{camera.name, camera.intrinsics, camera.cam_from_rig, camera.view_sources,
                                               skipped, scan_dir, TargetText(target)};

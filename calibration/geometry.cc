@@ -124,10 +124,18 @@ cv::Mat ToGrey(const Image& radiance) {
   return grey;
 }
 
-// The detected corners in the order (of the four a rows × cols grid can be read in without
-// changing which corners neighbour which) nearest `expected`.
+Eigen::Vector2d Centroid(const std::vector<Eigen::Vector2d>& points) {
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& p : points) sum += p;
+  return sum / static_cast<double>(points.size());
+}
+
+// The detected corners in the order (of the four a rows × cols grid can be read in) whose
+// shape matches `expected` best. Shape, not position: a camera a few mm from its nominal
+// place sees the whole board shifted by tens of pixels.
 std::vector<Eigen::Vector2d> OrderLike(const std::vector<Eigen::Vector2d>& found, const std::vector<Eigen::Vector2d>& expected,
                                        int cols, int rows) {
+  const Eigen::Vector2d shift = Centroid(expected) - Centroid(found);
   std::vector<Eigen::Vector2d> best;
   double best_distance = INFINITY;
   for (int flip = 0; flip < 4; ++flip) {
@@ -139,7 +147,7 @@ std::vector<Eigen::Vector2d> OrderLike(const std::vector<Eigen::Vector2d>& found
       }
     }
     double distance = 0;
-    for (size_t k = 0; k < found.size(); ++k) distance += (ordered[k] - expected[k]).norm();
+    for (size_t k = 0; k < found.size(); ++k) distance += (ordered[k] + shift - expected[k]).norm();
     if (distance < best_distance) best_distance = distance, best = std::move(ordered);
   }
   return best;
@@ -203,8 +211,11 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
   return detected;
 }
 
-Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const CalibrationTargetModel& target,
-                                         const std::vector<TargetView>& views, const GeometryOptions& options) {
+namespace {
+
+// Step 2 on the views given.
+Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel& target,
+                           const std::vector<TargetView>& views, const GeometryOptions& options) {
   const std::vector<Eigen::Vector3d> board = target.CornersInBoard();
   std::vector<Eigen::Vector3d> in_sample;
   for (const Eigen::Vector3d& p : board) in_sample.push_back(target.SampleFromBoard() * p);
@@ -279,6 +290,44 @@ Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const Calibrat
   }
   geometry.rms_px = std::sqrt(squares / corners);
   return geometry;
+}
+
+}  // namespace
+
+RigModel ApplyGeometry(const RigModel& nominal, const RigGeometry& geometry) {
+  RigModel rig = nominal;
+  for (size_t c = 0; c < rig.cameras.size() && c < geometry.cameras.size(); ++c) {
+    rig.cameras[c].K = geometry.cameras[c].intrinsics.K;
+    rig.cameras[c].distortion = geometry.cameras[c].intrinsics.distortion;
+    rig.cameras[c].cam_from_rig = geometry.cameras[c].cam_from_rig;
+  }
+  rig.turntable = TurntableModel{};  // the rig frame is the turntable's
+  return rig;
+}
+
+Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const CalibrationTargetModel& target,
+                                         const std::vector<TargetView>& views, const GeometryOptions& options) {
+  std::vector<TargetView> kept = views;
+  std::vector<std::string> rejected;
+  for (;;) {
+    LOOM_ASSIGN_OR_RETURN(RigGeometry geometry, Adjust(nominal, target, kept, options));
+    // The worst view alone: one misdetection drags the others' residuals up with it.
+    const RigModel rig = ApplyGeometry(nominal, geometry);
+    size_t worst = 0;
+    double worst_rms = -1;
+    for (size_t v = 0; v < kept.size(); ++v) {
+      const double rms = ReprojectionRms(rig, target, geometry.target_offset_mm, {kept[v]});
+      if (rms > worst_rms) worst_rms = rms, worst = v;
+    }
+    if (worst_rms <= options.reject_view_above_px) {
+      geometry.rejected = rejected;
+      return geometry;
+    }
+    LOOM_LOG(Warning) << kept[worst].source << ": target " << worst_rms
+                      << " px RMS from where the calibration puts it, view rejected";
+    rejected.push_back(kept[worst].source);
+    kept.erase(kept.begin() + static_cast<long>(worst));
+  }
 }
 
 double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const Eigen::Vector2d& target_offset_mm,

@@ -45,11 +45,15 @@ struct RigGeometry {
   std::vector<CameraGeometry> cameras;  // in the rig's camera order
   Eigen::Vector2d target_offset_mm = Eigen::Vector2d::Zero();
   double rms_px = 0;                    // over every corner of every camera
+  std::vector<std::string> rejected;    // views the adjustment could not explain (misdetected)
 };
 
 struct GeometryOptions {
   int min_views_per_camera = 3;
   bool fit_intrinsics = false;
+  // A view further than this (RMS px) from where the adjusted rig puts the target is a
+  // misdetection (seen at grazing angles): rejected, and the rest adjusted again.
+  double reject_view_above_px = 2;
 };
 
 // `nominal` gives the cameras (names, sizes, starting intrinsics). A camera with fewer than
@@ -66,6 +70,9 @@ struct DetectedTargetViews {
   std::vector<std::string> skipped;
 };
 Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target);
+
+// `nominal` with the calibrated cameras, in the turntable's frame.
+RigModel ApplyGeometry(const RigModel& nominal, const RigGeometry& geometry);
 
 // The RMS distance (px) between the corners of `views` and where `rig`'s cameras and turntable
 // put the target (at `target_offset_mm`): how well a stored calibration explains new views.
