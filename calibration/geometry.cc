@@ -9,6 +9,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "calibration/board.h"
+#include "calibration/opencv_pose.h"
 #include "core/log.h"
 
 namespace loom::calibration {
@@ -86,15 +87,7 @@ std::vector<Rigid3d> CamFromBoardCandidates(const CameraModel& camera, const Cal
   std::vector<cv::Mat> rvecs, tvecs;
   cv::solvePnPGeneric(object, image, K, distortion, rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
   std::vector<Rigid3d> poses;
-  for (size_t i = 0; i < rvecs.size(); ++i) {
-    cv::Mat R;
-    cv::Rodrigues(rvecs[i], R);
-    Eigen::Matrix3d rotation;
-    Eigen::Vector3d translation;
-    cv::cv2eigen(R, rotation);
-    cv::cv2eigen(tvecs[i], translation);
-    poses.push_back(MakeRigid(rotation, translation));
-  }
+  for (size_t i = 0; i < rvecs.size(); ++i) poses.push_back(RigidFromOpenCv(rvecs[i], tvecs[i]));
   return poses;
 }
 

@@ -4,6 +4,7 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calibration/opencv_pose.h"
 #include "core/log.h"
 
 namespace loom::calibration {
@@ -34,15 +35,7 @@ Result<Intrinsics> CalibrateIntrinsics(const BoardSpec& board, const std::vector
   for (int i = 0; i < 5; ++i) result.distortion[i] = distortion.at<double>(i);
   result.rms_px = rms;
   for (int i = 0; i < per_view.rows; ++i) result.per_view_rms_px.push_back(per_view.at<double>(i));
-  for (size_t i = 0; i < views.size(); ++i) {
-    cv::Mat R;
-    cv::Rodrigues(rvecs[i], R);
-    Eigen::Matrix3d rotation;
-    Eigen::Vector3d translation;
-    cv::cv2eigen(R, rotation);
-    cv::cv2eigen(tvecs[i], translation);
-    result.cam_from_board.push_back(MakeRigid(rotation, translation));
-  }
+  for (size_t i = 0; i < views.size(); ++i) result.cam_from_board.push_back(RigidFromOpenCv(rvecs[i], tvecs[i]));
   return result;
 }
 
