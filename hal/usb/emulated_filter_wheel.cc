@@ -147,9 +147,16 @@ bool EmulatedFilterWheel::HandleIoctl(UMockdevIoctlClient* client) {
   const gulong request = umockdev_ioctl_client_get_request(client);
   UMockdevIoctlData* arg = umockdev_ioctl_client_get_arg(client);
   std::lock_guard lock(mutex_);
+  const bool reap = request == USBDEVFS_REAPURB || request == USBDEVFS_REAPURBNDELAY;
   if (unplugged_) {
-    umockdev_ioctl_client_complete(client, -1, ENODEV);
-    return true;
+    // As usbfs does after a disconnect (USBDEVFS_CAP_REAP_AFTER_DISCONNECT): URBs in flight
+    // are still reaped, failed with ENODEV; then every call fails. Refusing to reap them left
+    // libusb waiting forever on a transfer submitted just before the unplug.
+    for (PendingUrb& pending : completed_) pending.status = -ENODEV, pending.in_data.clear();
+    if (!reap || completed_.empty()) {
+      umockdev_ioctl_client_complete(client, -1, ENODEV);
+      return true;
+    }
   }
   switch (request) {
     case USBDEVFS_GET_CAPABILITIES: {
