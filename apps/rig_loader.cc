@@ -79,6 +79,7 @@ Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& 
 
 Status PlaceSimObject(const LoadedRig& loaded, const std::string& object) {
   if (!loaded.world) return FailedPreconditionError("rig '" + loaded.rig->name() + "'", "is not simulated");
+  if (loaded.world->object() == object) return Status::Ok();  // e.g. a scan's first step: the sample is there
   sim::SampleSpec spec = loaded.sample;
   if (object == "target") {
     spec.kind = "target";
@@ -91,7 +92,7 @@ Status PlaceSimObject(const LoadedRig& loaded, const std::string& object) {
   }
   LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
   const std::shared_ptr<const sim::Scene> current = loaded.world->scene();
-  loaded.world->set_scene(std::make_shared<sim::Scene>(current->rig(), std::move(material)));
+  loaded.world->set_scene(std::make_shared<sim::Scene>(current->rig(), std::move(material)), object);
   return Status::Ok();
 }
 

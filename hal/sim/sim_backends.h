@@ -25,18 +25,24 @@ struct SimWorld {
   SimWorld(std::shared_ptr<const sim::Scene> scene, uint64_t seed) : scene_(std::move(scene)), seed(seed) {}
 
   // What lies on the turntable can change between steps (a calibration scan's target, tile and
-  // chart); the rig stays the same.
+  // chart); the rig stays the same. `object` names it as a plan does ("sample" at first).
   std::shared_ptr<const sim::Scene> scene() const {
     std::lock_guard lock(mutex);
     return scene_;
   }
-  void set_scene(std::shared_ptr<const sim::Scene> scene) {
+  std::string object() const {
+    std::lock_guard lock(mutex);
+    return object_;
+  }
+  void set_scene(std::shared_ptr<const sim::Scene> scene, std::string object) {
     std::lock_guard lock(mutex);
     scene_ = std::move(scene);
+    object_ = std::move(object);
   }
 
  private:
   std::shared_ptr<const sim::Scene> scene_;
+  std::string object_ = "sample";
 
  public:
   uint64_t seed;
