@@ -1,6 +1,7 @@
 // loom calibrate: turn calibration captures into calibration files (calibration/).
 //   intrinsics  one camera from a folder of photos of a chessboard (recalibration in the field)
 //   geometry    every camera's intrinsics and pose in the turntable's frame from a calibration scan
+//   check       how far a fresh calibration scan has drifted from a stored calibration
 #include <glob.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include "apps/command.h"
 #include "apps/rig_loader.h"
 #include "calibration/calibration_yaml.h"
+#include "calibration/drift.h"
 #include "calibration/geometry.h"
 #include "calibration/intrinsics.h"
 #include "core/file_io.h"
@@ -21,6 +23,9 @@
 
 namespace loom::apps {
 namespace {
+
+// `loom calibrate check`: the stored calibration no longer explains the rig.
+constexpr int kExitRecalibrate = 3;
 
 Result<std::vector<std::string>> ExpandGlob(const std::string& pattern) {
   glob_t matches{};
@@ -72,27 +77,45 @@ nlohmann::json AgainstNominal(const CameraModel& nominal, const calibration::Cam
           {"focal_percent", 100 * (camera.intrinsics.K(0, 0) / nominal.K(0, 0) - 1)}};
 }
 
-Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
+// A calibration scan's rig (its snapshot) and the target views in it.
+struct CalibrationScan {
+  RigModel nominal;
+  CalibrationTargetModel target;
+  calibration::DetectedTargetViews detected;
+  std::string rig_yaml;
+};
+
+Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
   LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
   if (store.info().plan.purpose != "calibration") {
     return InvalidArgumentError(scan_dir, "is a " + store.info().plan.purpose + " scan, not a calibration scan (loom scan --calibration)");
   }
-  LOOM_ASSIGN_OR_RETURN(const RigModel nominal, LoadRigModelFromText(store.info().rig_yaml, scan_dir + "/scan.yaml (rig)"));
-  if (!nominal.calibration_target) {
+  CalibrationScan result;
+  result.rig_yaml = store.info().rig_yaml;
+  LOOM_ASSIGN_OR_RETURN(result.nominal, LoadRigModelFromText(result.rig_yaml, scan_dir + "/scan.yaml (rig)"));
+  if (!result.nominal.calibration_target) {
     return InvalidArgumentError(scan_dir + "/scan.yaml (rig)", "geometry has no calibration_target: what the scan's target is");
   }
-  const CalibrationTargetModel& target = *nominal.calibration_target;
-  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, nominal));
-  LOOM_ASSIGN_OR_RETURN(const calibration::DetectedTargetViews detected, calibration::DetectTargetViews(scan, target));
-  std::cerr << "target found in " << detected.views.size() << " of " << detected.views.size() + detected.skipped.size()
-            << " views\n";
+  result.target = *result.nominal.calibration_target;
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, result.nominal));
+  LOOM_ASSIGN_OR_RETURN(result.detected, calibration::DetectTargetViews(scan, result.target));
+  std::cerr << "target found in " << result.detected.views.size() << " of "
+            << result.detected.views.size() + result.detected.skipped.size() << " views\n";
+  return result;
+}
+
+Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
+  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(scan_dir));
+  const RigModel& nominal = opened.nominal;
+  const CalibrationTargetModel& target = opened.target;
+  const calibration::DetectedTargetViews& detected = opened.detected;
   LOOM_ASSIGN_OR_RETURN(const calibration::RigGeometry geometry,
                         calibration::CalibrateRigGeometry(nominal, target, detected.views));
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) return IoError(out, "cannot create: " + ec.message());
   nlohmann::json summary = {{"scan", scan_dir}, {"target", TargetText(target)}, {"rms_px", geometry.rms_px},
-                            {"target_offset_mm", {geometry.target_offset_mm.x(), geometry.target_offset_mm.y()}},
+                            {"target_offset_mm", {geometry.target.offset_mm.x(), geometry.target.offset_mm.y()}},
                             {"skipped", detected.skipped}, {"rejected", geometry.rejected}, {"loom_version", std::string(VersionWithCommit())}};
   std::cout << std::fixed << std::setprecision(3);
   for (size_t c = 0; c < geometry.cameras.size(); ++c) {
@@ -122,9 +145,91 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
   }
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(out) / "geometry.json", summary.dump(2) + "\n"));
   std::cout << "RMS reprojection error " << geometry.rms_px << " px over every camera; target placed at ("
-            << geometry.target_offset_mm.x() << ", " << geometry.target_offset_mm.y() << ") mm from the axis\n"
+            << geometry.target.offset_mm.x() << ", " << geometry.target.offset_mm.y() << ") mm from the axis\n"
             << "written: " << out << " (one YAML per camera, geometry.json)\n";
   return Status::Ok();
+}
+
+// The rig YAML's `recalibration:` thresholds (defaults where it has none).
+Result<calibration::DriftThresholds> DriftThresholdsOf(const std::string& rig_yaml, const std::string& source) {
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadString(rig_yaml, source, kRigSchemaVersion));
+  calibration::DriftThresholds thresholds;
+  for (const std::string& key : doc.root().Keys()) {
+    if (key == "recalibration") {
+      thresholds = calibration::ReadDriftThresholds(doc.root().Child(key));
+    } else {
+      doc.root().Ignore(key);
+    }
+  }
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  return thresholds;
+}
+
+// The stored calibration over the scan's rig: every camera needs its pose.
+Result<RigModel> StoredRig(const RigModel& nominal, const std::string& calib) {
+  RigModel stored = nominal;
+  LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> applied, calibration::ApplyCameraCalibrations(calib, &stored));
+  for (const CameraModel& camera : nominal.cameras) {
+    if (std::find(applied.begin(), applied.end(), camera.name) == applied.end()) {
+      return NotFoundError((fs::path(calib) / (camera.name + ".yaml")).string(),
+                           "no such file: the check compares every camera's stored calibration");
+    }
+  }
+  return stored;
+}
+
+nlohmann::json DriftJson(const calibration::DriftReport& report, const calibration::DriftThresholds& thresholds,
+                         const std::string& scan, const std::string& calib) {
+  nlohmann::json json = {{"scan", scan}, {"calibration", calib}, {"recalibrate", report.recalibrate},
+                         {"stored_rms_px", report.stored_rms_px}, {"fresh_rms_px", report.fresh_rms_px},
+                         {"target_placement", {{"offset_mm", {report.placement.offset_mm.x(), report.placement.offset_mm.y()}},
+                                               {"yaw_deg", report.placement.yaw_deg}}},
+                         {"rejected", report.rejected},
+                         {"thresholds", {{"reprojection_px", thresholds.reprojection_px},
+                                         {"turntable_axis_deg", thresholds.turntable_axis_deg},
+                                         {"turntable_axis_mm", thresholds.turntable_axis_mm}}},
+                         {"led_intensity", "not measured: radiometric calibration is not built yet"},
+                         {"loom_version", std::string(VersionWithCommit())}};
+  for (const calibration::CameraDrift& c : report.cameras) {
+    json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
+                               {"drift_px", c.drift_px}, {"rotation_deg", c.rotation_deg}, {"centre_mm", c.centre_mm},
+                               {"turntable_axis_tilt_deg", c.axis_tilt_deg}, {"turntable_axis_shift_mm", c.axis_shift_mm},
+                               {"exceeded", c.exceeded}};
+  }
+  return json;
+}
+
+void PrintDrift(const calibration::DriftReport& report) {
+  std::cout << std::fixed << std::setprecision(3) << "target placed at (" << report.placement.offset_mm.x() << ", "
+            << report.placement.offset_mm.y() << ") mm, turned " << report.placement.yaw_deg << " deg\n"
+            << "camera   views  stored px  fresh px  drift px  rotation deg  centre mm  axis tilt deg  axis shift mm\n";
+  for (const calibration::CameraDrift& c : report.cameras) {
+    std::cout << std::left << std::setw(8) << c.name << std::right << std::setw(6) << c.views << std::setw(11) << c.stored_rms_px
+              << std::setw(10) << c.fresh_rms_px << std::setw(10) << c.drift_px << std::setw(14) << c.rotation_deg
+              << std::setw(11) << c.centre_mm << std::setw(15) << c.axis_tilt_deg << std::setw(15) << c.axis_shift_mm << "\n";
+  }
+  std::cout << "LED intensities: not compared (radiometric calibration is not built yet)\n";
+  for (const calibration::CameraDrift& c : report.cameras) {
+    for (const std::string& exceeded : c.exceeded) std::cout << c.name << ": " << exceeded << "\n";
+  }
+  std::cout << (report.recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n"
+                                   : "calibration holds\n");
+}
+
+// Returns whether to recalibrate.
+Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path) {
+  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const calibration::DriftThresholds thresholds,
+                        DriftThresholdsOf(opened.rig_yaml, scan_dir + "/scan.yaml (rig)"));
+  LOOM_ASSIGN_OR_RETURN(const RigModel stored, StoredRig(opened.nominal, calib));
+  LOOM_ASSIGN_OR_RETURN(const calibration::DriftReport report,
+                        calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
+  PrintDrift(report);
+  if (!json_path.empty()) {
+    LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, DriftJson(report, thresholds, scan_dir, calib).dump(2) + "\n"));
+    std::cout << "written: " << json_path << "\n";
+  }
+  return report.recalibrate;
 }
 
 }  // namespace
@@ -145,10 +250,22 @@ int RunCalibrate(int argc, char** argv) {
       "geometry", "Every camera's intrinsics and pose in the turntable's frame, from a calibration scan's target views");
   geometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
   geometry->add_option("--out", out, "Calibration directory to write: CAMERA.yaml files and geometry.json")->required();
+  std::string calib, json;
+  CLI::App* check = app.add_subcommand(
+      "check", "How far a fresh calibration scan has drifted from a stored calibration; exit status " +
+                   std::to_string(kExitRecalibrate) + " when it is time to recalibrate (thresholds: the rig YAML's recalibration:)");
+  check->add_option("scan", scan, "Fresh calibration scan directory (loom scan --calibration)")->required();
+  check->add_option("--calib", calib, "The stored calibration directory (loom calibrate geometry --out)")->required();
+  check->add_option("--json", json, "Also write the measurements to this JSON file");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   Status done;
   if (*intrinsics) done = CalibrateFromPhotos(images, board, name, out);
   if (*geometry) done = CalibrateGeometry(scan, out);
+  if (*check) {
+    const Result<bool> recalibrate = CheckCalibration(scan, calib, json);
+    if (recalibrate.ok()) return *recalibrate ? kExitRecalibrate : kExitOk;
+    done = recalibrate.status();
+  }
   return done.ok() ? kExitOk : ReportFailure(done);
 }
 

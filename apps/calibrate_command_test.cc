@@ -1,6 +1,9 @@
 // loom scan --calibration → loom calibrate geometry on the simulated tac7-mini whose side camera
 // is built 2 mm and 0.5° away from its rig YAML (as_built:): the calibration starts from the
-// YAML and must find the camera where the simulator put it. Also: a missing frame is named.
+// YAML and must find the camera where the simulator put it. Then loom calibrate check on the
+// same scan: the fresh calibration holds, while one stored before the side camera was knocked
+// (the YAML's poses) is named for recalibration. Also: a missing frame is named.
+// One test: the calibration scan takes about 80 s.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -36,6 +39,52 @@ loom::RigModel Truth(const fs::path& rig_path) {
   const Eigen::Matrix3d rotation = turn * cam1.cam_from_rig.rotation();
   cam1.cam_from_rig = loom::MakeRigid(rotation, -rotation * centre);
   return rig;
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream file(path);
+  return nlohmann::json::parse(file);
+}
+
+// A calibration of cam0 and cam1 at the rig YAML's poses: what was stored before the side
+// camera was knocked to its as-built place.
+void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
+  fs::create_directories(stale);
+  const auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
+  const loom::RigModel nominal = loom::ReadRigModel(doc->root().Child("geometry"));
+  for (const loom::CameraModel& camera : nominal.cameras) {
+    auto file = loom::calibration::ReadCameraCalibration(calib / (camera.name + ".yaml"));
+    ASSERT_TRUE(file.ok()) << file.status().ToString();
+    file->cam_from_rig = camera.cam_from_rig;
+    ASSERT_TRUE(loom::calibration::WriteCameraCalibration(stale / (camera.name + ".yaml"), *file).ok());
+  }
+}
+
+void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
+  const auto holds = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "calib").string() +
+                                     " --json " + (dir / "holds.json").string()));
+  std::cout << holds.output;
+  EXPECT_EQ(holds.exit_code, 0) << holds.output;
+  EXPECT_NE(holds.output.find("calibration holds"), std::string::npos) << holds.output;
+  const nlohmann::json held = ReadJson(dir / "holds.json");
+  for (const char* camera : {"cam0", "cam1"}) EXPECT_LT(held["cameras"][camera]["drift_px"].get<double>(), 0.25) << held.dump(2);
+
+  WriteStaleCalibration(dir / "calib", dir / "stale");
+  const auto stale = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "stale").string() +
+                                     " --json " + (dir / "stale.json").string()));
+  std::cout << stale.output;
+  EXPECT_EQ(stale.exit_code, 3) << stale.output;
+  EXPECT_NE(stale.output.find("cam1: reprojection drift"), std::string::npos) << stale.output;
+  EXPECT_EQ(stale.output.find("cam0: reprojection drift"), std::string::npos) << stale.output;
+  const nlohmann::json drifted = ReadJson(dir / "stale.json");
+  EXPECT_TRUE(drifted["recalibrate"].get<bool>());
+  EXPECT_NEAR(drifted["cameras"]["cam1"]["rotation_deg"].get<double>(), 0.43, 0.15) << drifted.dump(2);
+
+  // A stored calibration missing a camera is named.
+  fs::remove(dir / "stale" / "cam1.yaml");
+  const auto missing = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "stale").string()));
+  EXPECT_EQ(missing.exit_code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("stale/cam1.yaml"), std::string::npos) << missing.output;
 }
 
 TEST(CalibrateCommandTest, FindsTheAsBuiltCamerasFromACalibrationScan) {
@@ -85,6 +134,8 @@ TEST(CalibrateCommandTest, FindsTheAsBuiltCamerasFromACalibrationScan) {
   std::ifstream summary_file(dir / "calib" / "geometry.json");
   const nlohmann::json summary = nlohmann::json::parse(summary_file);
   EXPECT_LT(summary["rms_px"].get<double>(), 0.5) << summary.dump(2);
+
+  ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(dir);
 
   // A target frame gone from the scan: an error naming it, and no calibration written.
   fs::remove(dir / "scan/frames/s00001_cam0_e00.exr");

@@ -70,6 +70,7 @@ Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& 
   }
   Result<std::unique_ptr<hal::Rig>> rig = hal::Rig::Create(root.Child("devices"), registry, name);
   if (!rig.ok()) return rig.status().WithContext(source);
+  root.Ignore("recalibration");  // loom calibrate check's thresholds
   LOOM_RETURN_IF_ERROR(doc.Finish());
   loaded.rig = std::move(*rig);
   return loaded;
@@ -125,7 +126,7 @@ Result<RigModel> RigModelOf(const ConfigDocument& doc, const std::string& source
   }
   RigModel model = ReadRigModel(root.Child("geometry"));
   model.name = name;
-  for (const char* other : {"devices", "sample", "seed", "as_built"}) root.Ignore(other);
+  for (const char* other : {"devices", "sample", "seed", "as_built", "recalibration"}) root.Ignore(other);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   return model;
 }

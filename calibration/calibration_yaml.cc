@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <ctime>
 
 #include "core/config.h"
@@ -131,7 +132,7 @@ Result<CameraCalibration> ReadCameraCalibration(const std::filesystem::path& pat
 
 Result<std::vector<std::string>> ApplyCameraCalibrations(const std::filesystem::path& directory, RigModel* rig) {
   if (!std::filesystem::is_directory(directory)) return NotFoundError(directory.string(), "no such calibration directory");
-  std::vector<std::string> applied;
+  std::vector<std::string> applied, with_pose;
   for (CameraModel& camera : rig->cameras) {
     const std::filesystem::path path = directory / (camera.name + ".yaml");
     if (!std::filesystem::exists(path)) continue;
@@ -144,9 +145,22 @@ Result<std::vector<std::string>> ApplyCameraCalibrations(const std::filesystem::
     }
     camera.K = intrinsics.K;
     camera.distortion = intrinsics.distortion;
-    if (calibration.cam_from_rig) camera.cam_from_rig = *calibration.cam_from_rig;
+    if (calibration.cam_from_rig) {
+      camera.cam_from_rig = *calibration.cam_from_rig;
+      with_pose.push_back(camera.name);
+    }
     applied.push_back(camera.name);
   }
+  if (with_pose.empty()) return applied;
+  // Calibrated poses are in the turntable's frame: every camera needs one, or they disagree.
+  for (const CameraModel& camera : rig->cameras) {
+    if (std::find(with_pose.begin(), with_pose.end(), camera.name) == with_pose.end()) {
+      return FailedPreconditionError((directory / (camera.name + ".yaml")).string(),
+                                     "has no cam_from_rig while " + with_pose.front() +
+                                         ".yaml has: calibrate every camera's pose together (loom calibrate geometry)");
+    }
+  }
+  rig->turntable = TurntableModel{};
   return applied;
 }
 

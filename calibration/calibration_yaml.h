@@ -39,6 +39,8 @@ Result<CameraCalibration> ReadCameraCalibration(const std::filesystem::path& pat
 // A calibration directory over a rig's nominal description: every camera of `rig` with a file
 // DIR/<camera>.yaml gets its intrinsics, and its extrinsics when the file has them. Returns the
 // cameras replaced. A file of another image size than the camera's is an error naming it.
+// Calibrated poses are in the turntable's frame, which then becomes the rig's: when one file has
+// cam_from_rig, every camera needs one (an error names the first without).
 Result<std::vector<std::string>> ApplyCameraCalibrations(const std::filesystem::path& directory, RigModel* rig);
 
 }  // namespace loom::calibration

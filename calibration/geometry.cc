@@ -19,17 +19,20 @@ constexpr int kIntrinsicParams = 8;  // fx fy cx cy k1 k2 p1 p2
 
 Eigen::Matrix3d Rz(double deg) { return Eigen::AngleAxisd(DegToRad(deg), Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
 
-// The target corner in the sample frame (before the operator's offset) and the turntable's
-// rotation of that view: the rig-frame point is Rz · (corner + offset).
+// The target corner in the sample frame (before the operator's placement) and the turntable's
+// rotation of that view: the rig-frame point is Rz(θ) · (Rz(yaw) · corner + offset).
 struct CornerResidual {
   Eigen::Vector3d corner_in_sample;
   Eigen::Matrix3d rig_from_sample;
   Eigen::Vector2d observed;
 
+  // placement: offset x, y (mm), yaw (rad).
   template <typename T>
-  bool operator()(const T* pose, const T* intrinsics, const T* offset, T* residual) const {
-    const T in_sample[3] = {T(corner_in_sample.x()) + offset[0], T(corner_in_sample.y()) + offset[1],
-                            T(corner_in_sample.z())};
+  bool operator()(const T* pose, const T* intrinsics, const T* placement, T* residual) const {
+    using std::cos, std::sin;
+    const T c = cos(placement[2]), s = sin(placement[2]);
+    const T in_sample[3] = {c * corner_in_sample.x() - s * corner_in_sample.y() + placement[0],
+                            s * corner_in_sample.x() + c * corner_in_sample.y() + placement[1], T(corner_in_sample.z())};
     T in_rig[3];
     for (int i = 0; i < 3; ++i) {
       in_rig[i] = T(rig_from_sample(i, 0)) * in_sample[0] + T(rig_from_sample(i, 1)) * in_sample[1] +
@@ -95,6 +98,40 @@ CornerResidual ResidualOf(const TargetView& view, const Eigen::Vector3d& corner_
   return {corner_in_sample, Rz(view.turntable_deg), view.corners[corner]};
 }
 
+// The target's corners in the sample frame, in CornersInBoard order.
+std::vector<Eigen::Vector3d> InSample(const CalibrationTargetModel& target) {
+  std::vector<Eigen::Vector3d> in_sample;
+  for (const Eigen::Vector3d& p : target.CornersInBoard()) in_sample.push_back(target.SampleFromBoard() * p);
+  return in_sample;
+}
+
+// One residual per corner of every view, on its camera's block and the shared placement.
+// `loss_scale_px` > 0: a Cauchy loss of that scale on each.
+void AddCornerResiduals(const std::vector<TargetView>& views, const std::vector<Eigen::Vector3d>& in_sample,
+                        std::vector<CameraBlock>* blocks, double* placement, ceres::Problem* problem,
+                        double loss_scale_px = 0) {
+  for (const TargetView& view : views) {
+    CameraBlock& block = blocks->at(view.camera);
+    for (size_t k = 0; k < in_sample.size(); ++k) {
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 6, kIntrinsicParams, 3>(
+                                    new CornerResidual(ResidualOf(view, in_sample[k], static_cast<int>(k)))),
+                                loss_scale_px > 0 ? new ceres::CauchyLoss(loss_scale_px) : nullptr, block.pose,
+                                block.intrinsics, placement);
+    }
+  }
+}
+
+Status Solve(const std::string& what, ceres::Problem* problem) {
+  ceres::Solver::Options options;
+  options.max_num_iterations = 200;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, problem, &summary);
+  if (!summary.IsSolutionUsable()) return InternalError(what, summary.BriefReport());
+  return Status::Ok();
+}
+
 // Radiance → 8-bit grey, the 99th percentile of the finite values at 240.
 cv::Mat ToGrey(const Image& radiance) {
   std::vector<float> finite;
@@ -150,7 +187,7 @@ std::vector<Eigen::Vector2d> OrderLike(const std::vector<Eigen::Vector2d>& found
 // the camera's views best.
 CameraBlock InitialBlock(const CameraModel& camera, const CalibrationTargetModel& target,
                          const std::vector<Eigen::Vector3d>& in_sample, const std::vector<const TargetView*>& views) {
-  const double no_offset[2] = {0, 0};
+  const double no_placement[3] = {0, 0, 0};
   CameraBlock best = ToBlock(camera.cam_from_rig, camera.K, camera.distortion);
   double best_cost = INFINITY;
   for (const TargetView* view : views) {
@@ -161,7 +198,7 @@ CameraBlock InitialBlock(const CameraModel& camera, const CalibrationTargetModel
       for (const TargetView* other : views) {
         for (size_t k = 0; k < in_sample.size(); ++k) {
           double r[2];
-          ResidualOf(*other, in_sample[k], static_cast<int>(k))(candidate.pose, candidate.intrinsics, no_offset, r);
+          ResidualOf(*other, in_sample[k], static_cast<int>(k))(candidate.pose, candidate.intrinsics, no_placement, r);
           cost += r[0] * r[0] + r[1] * r[1];
         }
       }
@@ -210,8 +247,7 @@ namespace {
 Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel& target,
                            const std::vector<TargetView>& views, const GeometryOptions& options) {
   const std::vector<Eigen::Vector3d> board = target.CornersInBoard();
-  std::vector<Eigen::Vector3d> in_sample;
-  for (const Eigen::Vector3d& p : board) in_sample.push_back(target.SampleFromBoard() * p);
+  const std::vector<Eigen::Vector3d> in_sample = InSample(target);
   const int cameras = static_cast<int>(nominal.cameras.size());
   std::vector<std::vector<const TargetView*>> by_camera(cameras);
   for (const TargetView& view : views) {
@@ -232,27 +268,17 @@ Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel
     blocks.push_back(InitialBlock(camera, target, in_sample, by_camera[c]));
   }
 
-  double offset[2] = {0, 0};
+  double placement[3] = {0, 0, 0};
   ceres::Problem problem;
-  for (const TargetView& view : views) {
-    for (size_t k = 0; k < board.size(); ++k) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 6, kIntrinsicParams, 2>(
-                                   new CornerResidual(ResidualOf(view, in_sample[k], static_cast<int>(k)))),
-                               nullptr, blocks[view.camera].pose, blocks[view.camera].intrinsics, offset);
-    }
-  }
+  AddCornerResiduals(views, in_sample, &blocks, placement, &problem);
+  // The target's yaw is the rig frame's: held at 0, it makes the target's rows the rig's x.
+  problem.SetManifold(placement, new ceres::SubsetManifold(3, {2}));
   if (!options.fit_intrinsics) {
     for (CameraBlock& block : blocks) problem.SetParameterBlockConstant(block.intrinsics);
   }
-  ceres::Solver::Options solver;
-  solver.max_num_iterations = 200;
-  solver.function_tolerance = 1e-12;
-  solver.parameter_tolerance = 1e-12;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver, &problem, &summary);
-  if (!summary.IsSolutionUsable()) return InternalError("bundle adjustment", summary.BriefReport());
+  LOOM_RETURN_IF_ERROR(Solve("bundle adjustment", &problem));
 
-  geometry.target_offset_mm = Eigen::Vector2d(offset[0], offset[1]);
+  geometry.target.offset_mm = Eigen::Vector2d(placement[0], placement[1]);
   double squares = 0;
   int corners = 0;
   for (int c = 0; c < cameras; ++c) {
@@ -270,7 +296,7 @@ Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel
       double view_squares = 0;
       for (size_t k = 0; k < board.size(); ++k) {
         double r[2];
-        ResidualOf(*view, in_sample[k], static_cast<int>(k))(block.pose, block.intrinsics, offset, r);
+        ResidualOf(*view, in_sample[k], static_cast<int>(k))(block.pose, block.intrinsics, placement, r);
         view_squares += r[0] * r[0] + r[1] * r[1];
       }
       intrinsics.per_view_rms_px.push_back(std::sqrt(view_squares / board.size()));
@@ -309,7 +335,7 @@ Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const Calibrat
     size_t worst = 0;
     double worst_rms = -1;
     for (size_t v = 0; v < kept.size(); ++v) {
-      const double rms = ReprojectionRms(rig, target, geometry.target_offset_mm, {kept[v]});
+      const double rms = ReprojectionRms(rig, target, geometry.target, {kept[v]});
       if (rms > worst_rms) worst_rms = rms, worst = v;
     }
     if (worst_rms <= options.reject_view_above_px) {
@@ -323,16 +349,18 @@ Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const Calibrat
   }
 }
 
-double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const Eigen::Vector2d& target_offset_mm,
+double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const TargetPlacement& placement,
                        const std::vector<TargetView>& views) {
   const std::vector<Eigen::Vector3d> board = target.CornersInBoard();
+  const Eigen::Matrix3d yaw = Rz(placement.yaw_deg);
+  const Eigen::Vector3d offset(placement.offset_mm.x(), placement.offset_mm.y(), 0);
   double squares = 0;
   int count = 0;
   for (const TargetView& view : views) {
     const CameraModel& camera = rig.cameras.at(view.camera);
     const Rigid3d cam_from_sample = camera.cam_from_rig * rig.turntable.RigFromSample(view.turntable_deg);
     for (size_t k = 0; k < board.size(); ++k) {
-      const Eigen::Vector3d p = target.SampleFromBoard() * board[k] + Eigen::Vector3d(target_offset_mm.x(), target_offset_mm.y(), 0);
+      const Eigen::Vector3d p = yaw * (target.SampleFromBoard() * board[k]) + offset;
       Eigen::Vector2d pixel;
       if (!camera.Project(cam_from_sample * p, &pixel)) continue;
       squares += (pixel - view.corners[k]).squaredNorm();
@@ -340,6 +368,29 @@ double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target
     }
   }
   return count ? std::sqrt(squares / count) : 0;
+}
+
+Result<TargetPlacement> FitTargetPlacement(const RigModel& rig, const CalibrationTargetModel& target,
+                                           const std::vector<TargetView>& views) {
+  if (views.empty()) return InvalidArgumentError("target views", "none to place the target from");
+  std::vector<CameraBlock> blocks;
+  for (const CameraModel& camera : rig.cameras) blocks.push_back(ToBlock(camera.cam_from_rig, camera.K, camera.distortion));
+  double placement[3] = {0, 0, 0};
+  // Least squares first, then robustly from there: a camera that moved since `rig` was
+  // calibrated is far off wherever the target lies, and must not drag the placement that the
+  // cameras still in place agree on.
+  for (const double loss_scale_px : {0.0, 1.0}) {
+    ceres::Problem problem;
+    AddCornerResiduals(views, InSample(target), &blocks, placement, &problem, loss_scale_px);
+    for (CameraBlock& block : blocks) {
+      if (problem.HasParameterBlock(block.pose)) {
+        problem.SetParameterBlockConstant(block.pose);
+        problem.SetParameterBlockConstant(block.intrinsics);
+      }
+    }
+    LOOM_RETURN_IF_ERROR(Solve("target placement", &problem));
+  }
+  return TargetPlacement{Eigen::Vector2d(placement[0], placement[1]), RadToDeg(placement[2])};
 }
 
 }  // namespace loom::calibration

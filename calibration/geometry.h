@@ -4,11 +4,12 @@
 //
 // The rig frame is the turntable's: z along its axis, the origin where the axis meets the
 // turntable, x along the target's rows at turntable angle 0. So every view k of camera c obeys
-//   cam_from_board(c, k) = cam_from_rig(c) · Rz(θ_k) · Translate(offset) · sample_from_board
+//   cam_from_board(c, k) = cam_from_rig(c) · Rz(θ_k) · Translate(offset) · Rz(yaw) · sample_from_board
 // with θ_k the recorded turntable angle, sample_from_board the wedge (tilt, centre height) and
-// `offset` where the operator put the target on the table (mm, in the turntable plane).
-//  1. each camera's cam_from_rig starts from its first view's board pose (cv::solvePnP with the
-//     camera's prior intrinsics: the rig YAML's, or loom calibrate intrinsics');
+// offset and yaw where the operator put the target on the table (TargetPlacement; a
+// calibration holds yaw at 0, which defines the rig's x).
+//  1. each camera's cam_from_rig starts from the best of its views' board poses (OpenCV's IPPE
+//     with the camera's prior intrinsics: the rig YAML's, or loom calibrate intrinsics');
 //  2. one Ceres bundle adjustment over every corner of every view refines every camera's
 //     cam_from_rig and the target's offset together — and with fit_intrinsics the intrinsics
 //     (fx fy cx cy k1 k2 p1 p2) too. That needs a target filling much of a wide field: with
@@ -41,9 +42,18 @@ struct CameraGeometry {
   std::vector<std::string> view_sources;  // in per_view_rms_px order
 };
 
+// Where the operator put the target on the turntable: shifted in the turntable's plane and
+// turned about its axis. A calibration defines the rig's x axis by the target (yaw 0); checking
+// a stored calibration against a new capture fits the yaw too, as nobody places a target twice
+// the same way.
+struct TargetPlacement {
+  Eigen::Vector2d offset_mm = Eigen::Vector2d::Zero();
+  double yaw_deg = 0;
+};
+
 struct RigGeometry {
   std::vector<CameraGeometry> cameras;  // in the rig's camera order
-  Eigen::Vector2d target_offset_mm = Eigen::Vector2d::Zero();
+  TargetPlacement target;               // yaw 0: the target's rows define the rig's x
   double rms_px = 0;                    // over every corner of every camera
   std::vector<std::string> rejected;    // views the adjustment could not explain (misdetected)
 };
@@ -75,8 +85,14 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
 RigModel ApplyGeometry(const RigModel& nominal, const RigGeometry& geometry);
 
 // The RMS distance (px) between the corners of `views` and where `rig`'s cameras and turntable
-// put the target (at `target_offset_mm`): how well a stored calibration explains new views.
-double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const Eigen::Vector2d& target_offset_mm,
+// put the target (placed as `placement`): how well a calibration explains views.
+double ReprojectionRms(const RigModel& rig, const CalibrationTargetModel& target, const TargetPlacement& placement,
                        const std::vector<TargetView>& views);
+
+// Where `rig`'s cameras, held as they are, see the target of `views` lie: the placement that
+// explains the views best — robustly (Cauchy, 1 px), so that a camera that has moved since
+// `rig` was calibrated does not drag it away from what the others agree on.
+Result<TargetPlacement> FitTargetPlacement(const RigModel& rig, const CalibrationTargetModel& target,
+                                           const std::vector<TargetView>& views);
 
 }  // namespace loom::calibration

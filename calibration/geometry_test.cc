@@ -4,65 +4,29 @@
 
 #include <gtest/gtest.h>
 
-#include <random>
+#include "calibration/testing/synthetic_views.h"
 
 namespace loom::calibration {
 namespace {
 
-CameraModel Camera(const std::string& name, const Eigen::Vector3d& centre) {
-  CameraModel camera;
-  camera.name = name;
-  camera.width = camera.height = 160;
-  camera.K << 3000, 0, 79.5, 0, 3000, 79.5, 0, 0, 1;
-  const Eigen::Vector3d z = -centre.normalized();
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
-  Eigen::Matrix3d rotation;
-  rotation << x.transpose(), z.cross(x).transpose(), z.transpose();
-  camera.cam_from_rig = MakeRigid(rotation, -rotation * centre);
-  return camera;
-}
+using testing::SyntheticNominalRig;
+using testing::SyntheticViews;
+using testing::WithSideCameraNudged;
 
-RigModel Nominal() {
-  RigModel rig;
-  rig.cameras = {Camera("top", {0, 0, 600}), Camera("side", {-424.26, 0, 424.26})};
-  return rig;
-}
-
-// The views the as-built rig sees at 8 turntable angles, target offset by (0.4, -0.3) mm.
-std::vector<TargetView> Views(const RigModel& as_built, const CalibrationTargetModel& target, double noise_px) {
-  std::mt19937 random(3);
-  std::normal_distribution<double> noise(0, noise_px);
-  std::vector<TargetView> views;
-  for (int c = 0; c < 2; ++c) {
-    for (int k = 0; k < 8; ++k) {
-      TargetView view{c, 45.0 * k, "view " + std::to_string(k), {}};
-      const Rigid3d cam_from_sample = as_built.cameras[c].cam_from_rig * as_built.turntable.RigFromSample(view.turntable_deg);
-      for (const Eigen::Vector3d& p : target.CornersInBoard()) {
-        Eigen::Vector2d pixel;
-        as_built.cameras[c].Project(cam_from_sample * (target.SampleFromBoard() * p + Eigen::Vector3d(0.4, -0.3, 0)), &pixel);
-        view.corners.push_back(pixel + Eigen::Vector2d(noise(random), noise(random)));
-      }
-      views.push_back(std::move(view));
-    }
-  }
-  return views;
-}
+// The target as the operator put it: 0.4 mm and -0.3 mm off the axis.
+const TargetPlacement kPlacement{Eigen::Vector2d(0.4, -0.3), 0};
 
 TEST(GeometryTest, FindsTheAsBuiltCamerasFromTheNominalOnes) {
-  const RigModel nominal = Nominal();
-  RigModel as_built = nominal;
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(DegToRad(0.5), Eigen::Vector3d(1, -1, 0.5).normalized()).toRotationMatrix();
-  Rigid3d& side = as_built.cameras[1].cam_from_rig;
-  const Eigen::Vector3d centre = side.inverse().translation() + Eigen::Vector3d(2, -1.5, 1);
-  side = MakeRigid(turn * side.rotation(), -(turn * side.rotation()) * centre);
+  const RigModel nominal = SyntheticNominalRig();
+  const RigModel as_built = WithSideCameraNudged(nominal);
   const CalibrationTargetModel target;
   // 0.25 px: what the sector-based detector leaves on the simulated target (measured).
-  const Result<RigGeometry> geometry = CalibrateRigGeometry(nominal, target, Views(as_built, target, 0.25));
+  const Result<RigGeometry> geometry = CalibrateRigGeometry(nominal, target, SyntheticViews(as_built, target, kPlacement, 0.25));
   ASSERT_TRUE(geometry.ok()) << geometry.status().ToString();
   // rms_px is per corner (x and y): √2 × the noise.
   EXPECT_NEAR(geometry->rms_px, std::sqrt(2.0) * 0.25, 0.03);
-  EXPECT_NEAR(geometry->target_offset_mm.x(), 0.4, 0.1);
-  EXPECT_NEAR(geometry->target_offset_mm.y(), -0.3, 0.1);
+  EXPECT_NEAR(geometry->target.offset_mm.x(), 0.4, 0.1);
+  EXPECT_NEAR(geometry->target.offset_mm.y(), -0.3, 0.1);
   for (int c = 0; c < 2; ++c) {
     const CameraModel& truth = as_built.cameras[c];
     CameraModel found = truth;
@@ -92,9 +56,9 @@ TEST(GeometryTest, FindsTheAsBuiltCamerasFromTheNominalOnes) {
 }
 
 TEST(GeometryTest, ACameraWithTooFewViewsIsNamed) {
-  const RigModel nominal = Nominal();
+  const RigModel nominal = SyntheticNominalRig();
   const CalibrationTargetModel target;
-  std::vector<TargetView> views = Views(nominal, target, 0);
+  std::vector<TargetView> views = SyntheticViews(nominal, target, kPlacement, 0);
   views.erase(views.begin() + 10, views.end());  // the side camera keeps 2 views
   const Result<RigGeometry> geometry = CalibrateRigGeometry(nominal, target, views);
   ASSERT_FALSE(geometry.ok());

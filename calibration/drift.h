@@ -1,0 +1,63 @@
+#pragma once
+// Has the rig drifted from its stored calibration? From a fresh calibration scan's target views:
+//  - the stored cameras, held as they are, must explain the new views: only the target's
+//    placement (offset and yaw, geometry.h's TargetPlacement) is fitted. A fresh calibration
+//    of the same views (CalibrateRigGeometry, starting from the stored one) shows the capture's
+//    own noise; what the stored model leaves beyond it, √(stored² − fresh²) per camera, is the
+//    drift in pixels. That is what reconstruction depends on, and it is decisive;
+//  - the fresh calibration also says what moved: each camera's rotation and centre against the
+//    stored pose, and the turntable's axis as each camera sees it (tilt, and shift across the
+//    camera's view). At narrow fields these carry the calibration's own uncertainty: a nearly
+//    orthographic camera can turn and shift across its view together (geometry.h). Measured on
+//    a tac7-mini-like rig with 0.25 px corner noise: up to 0.25° of axis tilt in the top camera
+//    from noise alone, hence the default tilt threshold of 0.5°.
+// LED intensities are not compared yet: radiometric calibration is not built (issue #6).
+//
+// Thresholds live in the rig YAML, as its optional top-level section
+//   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0}
+
+#include <string>
+#include <vector>
+
+#include "calibration/geometry.h"
+#include "core/config.h"
+
+namespace loom::calibration {
+
+struct DriftThresholds {
+  double reprojection_px = 0.25;  // drift: the stored model's RMS beyond the capture's noise
+  double turntable_axis_deg = 0.5;
+  double turntable_axis_mm = 1.0;
+};
+
+// Reads a `recalibration:` section (strict keys; absent keys keep their defaults).
+DriftThresholds ReadDriftThresholds(const ConfigNode& node);
+
+struct CameraDrift {
+  std::string name;
+  int views = 0;
+  double stored_rms_px = 0;   // the stored calibration on the new views
+  double fresh_rms_px = 0;    // a fresh calibration on the same views: the capture's own noise
+  double drift_px = 0;        // √(stored² − fresh²), 0 when the stored model does as well
+  double rotation_deg = 0;    // fresh pose against stored, with the target's yaw taken out
+  double centre_mm = 0;
+  double axis_tilt_deg = 0;   // the turntable axis in this camera's frame, fresh against stored
+  double axis_shift_mm = 0;   // its origin, across the camera's view
+  std::vector<std::string> exceeded;  // what crossed its threshold, with the values
+};
+
+struct DriftReport {
+  TargetPlacement placement;  // where the stored calibration sees the new target
+  double stored_rms_px = 0;   // over every camera
+  double fresh_rms_px = 0;
+  std::vector<CameraDrift> cameras;
+  std::vector<std::string> rejected;  // misdetected views, judged by neither
+  bool recalibrate = false;   // some camera exceeded a threshold
+};
+
+// `stored`: the rig with the stored calibration applied (ApplyCameraCalibrations), in the
+// turntable's frame. An error when a camera saw too few views (named, as in geometry.h).
+Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTargetModel& target,
+                                 const std::vector<TargetView>& views, const DriftThresholds& thresholds);
+
+}  // namespace loom::calibration
