@@ -10,7 +10,8 @@ namespace loom::apps {
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
       {"help", "Show the commands, or one command's options: loom help <command>", RunHelp},
-      {"calibrate", "Calibrate cameras (intrinsics from photos) from calibration captures", RunCalibrate},
+      {"demo", "The main job on a simulated rig: calibrate, scan, reconstruct, fit, evaluate, summarise", RunDemo},
+      {"calibrate", "Calibrate cameras from calibration captures, or check a stored calibration for drift", RunCalibrate},
       {"plan", "Show the measurement plan of a rig and a gloss preset, with its duration", RunPlan},
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
       {"scan", "Run a measurement plan into a crash-safe scan directory, or resume one", RunScan},

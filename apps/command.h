@@ -42,6 +42,7 @@ int ReportFailure(const Status& status);
 
 // The commands.
 int RunCalibrate(int argc, char** argv);
+int RunDemo(int argc, char** argv);
 int RunEval(int argc, char** argv);
 int RunFit(int argc, char** argv);
 int RunHelp(int argc, char** argv);

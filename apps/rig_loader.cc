@@ -107,13 +107,22 @@ Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& so
   return LoadRigDocument(doc, source, object);
 }
 
-std::filesystem::path ResolvePresetPath(const std::string& preset) {
+namespace {
+
+// A file by path, or by NAME in configs/<folder>/NAME.yaml, here or in loom's source tree.
+std::filesystem::path ResolveConfigPath(const std::string& folder, const std::string& name) {
   namespace fs = std::filesystem;
-  if (fs::exists(preset)) return preset;
-  const fs::path local = fs::path("configs/plans") / (preset + ".yaml");
+  if (fs::exists(name)) return name;
+  const fs::path local = fs::path("configs") / folder / (name + ".yaml");
   if (fs::exists(local)) return local;
-  return fs::path(LOOM_CONFIGS_DIR) / "plans" / (preset + ".yaml");
+  return fs::path(LOOM_CONFIGS_DIR) / folder / (name + ".yaml");
 }
+
+}  // namespace
+
+std::filesystem::path ResolvePresetPath(const std::string& preset) { return ResolveConfigPath("plans", preset); }
+
+std::filesystem::path ResolveRigPath(const std::string& rig) { return ResolveConfigPath("rig", rig); }
 
 namespace {
 

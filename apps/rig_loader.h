@@ -35,6 +35,8 @@ Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& so
 
 // A gloss preset by name (configs/plans/NAME.yaml, from here or loom's source tree) or path.
 std::filesystem::path ResolvePresetPath(const std::string& preset);
+// A rig by name (configs/rig/NAME.yaml, from here or loom's source tree) or path.
+std::filesystem::path ResolveRigPath(const std::string& rig);
 
 // Only the rig's description (its `geometry:`), for commands that plan rather than drive.
 Result<RigModel> LoadRigModel(const std::filesystem::path& path);

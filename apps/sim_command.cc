@@ -123,10 +123,10 @@ int RenderStack(const LoadedRig& loaded, const std::string& preset_name, int siz
   return kExitOk;
 }
 
-int Render(const std::string& rig_path, const std::string& camera_name, const std::string& leds, double angle_deg,
-           double exposure_us, bool stack, const std::string& preset, int size_px, const std::string& truth_path,
-           const fs::path& out) {
-  Result<LoadedRig> loaded = LoadRig(rig_path);
+int Render(const std::string& rig_path, const std::string& object, const std::string& camera_name, const std::string& leds,
+           double angle_deg, double exposure_us, bool stack, const std::string& preset, int size_px,
+           const std::string& truth_path, const fs::path& out) {
+  Result<LoadedRig> loaded = LoadRig(rig_path, object);
   if (!loaded.ok()) return ReportFailure(loaded.status());
   if (!loaded->world) {
     return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
@@ -186,6 +186,9 @@ int RunSim(int argc, char** argv) {
   CLI::App* render = app.add_subcommand("render", "Render one camera frame (radiance + raw DN) or, with --stack, "
                                                   "the fast-path observation stack");
   render->add_option("--rig", rig_path, "Simulated rig YAML (with geometry:)")->required();
+  std::string object;
+  render->add_option("--object", object, "What lies on the turntable instead of the rig's sample: fabric:SEED, white-tile, "
+                                         "chessboard, colour-chart");
   render->add_option("--camera", camera, "Camera of the rig geometry");
   render->add_option("--leds", leds, "LED:MILLIAMPS[,...] lit for the frame");
   render->add_option("--turntable-deg", angle_deg, "Turntable angle");
@@ -206,7 +209,7 @@ int RunSim(int argc, char** argv) {
   stats->add_option("--json", json_path, "Also write the histograms as JSON");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (*stats) return Stats(seeds, size_px, json_path);
-  if (*render) return Render(rig_path, camera, leds, angle_deg, exposure_us, stack, preset, stack_size_px, truth_path, out);
+  if (*render) return Render(rig_path, object, camera, leds, angle_deg, exposure_us, stack, preset, stack_size_px, truth_path, out);
   return Material(kind, seed, size_px, pixel_mm, out);
 }
 

@@ -26,6 +26,7 @@ namespace loom::sim {
 struct LitLed {
   int led = 0;
   double current_ma = 0;
+  bool operator==(const LitLed&) const = default;
 };
 
 // An 8-bit grey image the projector shows.
@@ -44,6 +45,8 @@ struct SceneState {
   double linear_light_mm = 0;       // carriage position
   double linear_light_intensity = 1;
   std::shared_ptr<const ProjectedImage> projector_image = nullptr;  // null: projector dark
+  // The same image is the same pointer: a pattern shown anew compares unequal (conservative).
+  bool operator==(const SceneState&) const = default;
 };
 
 struct CaptureSettings {

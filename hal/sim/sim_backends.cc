@@ -97,9 +97,8 @@ class SimCamera : public Camera {
       state = world_->state;
     }
     const std::shared_ptr<const sim::Scene> shown = world_->scene();
-    const sim::Scene& scene = *shown;
-    const CameraModel& model = scene.rig().cameras[index_];
-    const Image radiance = scene.RenderRadiance(index_, state, {.supersampling = supersampling_});
+    const CameraModel& model = shown->rig().cameras[index_];
+    const Image& radiance = RadianceOf(shown, state);
     const CameraSettings& s = settings();
     const std::vector<uint16_t> full =
         sim::CaptureRaw(radiance, model.sensor, {s.exposure_us, s.gain}, FrameSeed(world_->seed, index_, state, s));
@@ -127,12 +126,26 @@ class SimCamera : public Camera {
     return frame;
   }
 
+  // The radiance of the last frame is kept: an HDR bracket exposes the same scene several
+  // times, and rendering, not exposing, is what costs (2-3 frames per rendering in a scan).
+  const Image& RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state) {
+    if (scene != rendered_scene_ || !(state == rendered_state_)) {
+      rendered_ = scene->RenderRadiance(index_, state, {.supersampling = supersampling_});
+      rendered_scene_ = scene;
+      rendered_state_ = state;
+    }
+    return rendered_;
+  }
+
   std::shared_ptr<SimWorld> world_;
   std::string model_;
   int supersampling_;
   int index_ = -1;
   uint64_t frames_ = 0;
   std::deque<RawFrame> queue_;
+  std::shared_ptr<const sim::Scene> rendered_scene_;
+  sim::SceneState rendered_state_;
+  Image rendered_;
 };
 
 class SimLedArray : public LedArray {

@@ -1,0 +1,207 @@
+// loom demo: the main job on a simulated rig, end to end — calibration scan → loom calibrate
+// geometry → material scan of a procedural fabric → loom reconstruct with that calibration →
+// loom fit (each method asked for) → loom eval against the simulator's ground truth — then a
+// one-screen summary and summary.json. Every stage is the loom command of the same name, run in
+// this process with the arguments it prints, so what the demo does a user can repeat by hand.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/command.h"
+#include "apps/rig_loader.h"
+#include "core/file_io.h"
+#include "core/version.h"
+
+namespace loom::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct DemoArguments {
+  std::string rig = "tac7-mini";
+  std::string object = "fabric:1";
+  std::string preset = "low";
+  std::string out = "loom-demo";
+  std::vector<std::string> methods = {"cnn", "cnn+ceres"};
+  int size_px = 0;  // 0: the reconstruction's default
+  bool quiet = false;
+};
+
+struct StageTime {
+  std::string name;
+  double seconds = 0;
+};
+
+// Runs loom commands in this process, one stage each, and keeps how long each took.
+class Stages {
+ public:
+  explicit Stages(bool quiet) : quiet_(quiet) {}
+
+  Status Run(const std::string& name, int (*command)(int, char**), std::vector<std::string> arguments) {
+    if (quiet_ && (arguments[0] == "scan" || arguments[0] == "reconstruct" || arguments[0] == "fit")) {
+      arguments.push_back("--quiet");
+    }
+    std::cout << "\n== " << name << ": loom";
+    for (const std::string& argument : arguments) std::cout << " " << argument;
+    std::cout << std::endl;
+    std::vector<char*> argv;
+    for (std::string& argument : arguments) argv.push_back(argument.data());
+    const auto start = std::chrono::steady_clock::now();
+    const int exit = command(static_cast<int>(argv.size()), argv.data());
+    times_.push_back({name, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
+    std::cout.flush();
+    if (exit != kExitOk) return InternalError("demo stage '" + name + "'", "failed (exit " + std::to_string(exit) + "; its message is above)");
+    return Status::Ok();
+  }
+
+  const std::vector<StageTime>& times() const { return times_; }
+
+ private:
+  bool quiet_;
+  std::vector<StageTime> times_;
+};
+
+std::vector<std::string> WithSize(std::vector<std::string> arguments, int size_px) {
+  if (size_px > 0) arguments.insert(arguments.end(), {"--size", std::to_string(size_px)});
+  return arguments;
+}
+
+Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
+  const fs::path out(args.out);
+  LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan,
+                                   {"scan", "--rig", rig, "--calibration", "--out", (out / "calibration-scan").string()}));
+  LOOM_RETURN_IF_ERROR(stages->Run("calibrate", RunCalibrate,
+                                   {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
+  LOOM_RETURN_IF_ERROR(stages->Run("material scan", RunScan,
+                                   {"scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out",
+                                    (out / "scan").string()}));
+  return stages->Run("reconstruct", RunReconstruct,
+                     WithSize({"reconstruct", (out / "scan").string(), "--calib", (out / "calib").string(), "--out",
+                               (out / "reconstruction").string()}, args.size_px));
+}
+
+Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages* stages) {
+  const fs::path out(args.out);
+  const std::string stack = (out / "reconstruction" / "stack.exr").string();
+  LOOM_RETURN_IF_ERROR(stages->Run("ground truth", RunSim,
+                                   WithSize({"sim", "render", "--rig", rig, "--object", args.object, "--stack", "--preset",
+                                             args.preset, "--truth", (out / "truth.exr").string(), "--out",
+                                             (out / "fast-path-stack.exr").string()}, args.size_px)));
+  for (const std::string& method : args.methods) {
+    const std::string fit = (out / ("fit-" + method)).string();
+    LOOM_RETURN_IF_ERROR(stages->Run("fit " + method, RunFit, {"fit", stack, "--method", method, "--out", fit}));
+    LOOM_RETURN_IF_ERROR(stages->Run("evaluate " + method, RunEval,
+                                     {"eval", fit + "/svbrdf.exr", "--stack", stack, "--reference", (out / "truth.exr").string(),
+                                      "--out", (out / ("report-" + method)).string(), "--title",
+                                      args.object + " on " + rig + " (scan → calibrate → reconstruct → " + method + ")"}));
+  }
+  return Status::Ok();
+}
+
+Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {
+  std::ifstream file(path);
+  if (!file) return NotFoundError(path.string(), "cannot be read");
+  try {
+    return nlohmann::ordered_json::parse(file);
+  } catch (const nlohmann::ordered_json::exception& e) {
+    return InvalidArgumentError(path.string(), std::string("not JSON: ") + e.what());
+  }
+}
+
+// The evaluations and stage times as one document.
+Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::string& rig, const Stages& stages) {
+  const fs::path out(args.out);
+  nlohmann::ordered_json summary = {{"rig", rig}, {"object", args.object}, {"preset", args.preset},
+                            {"loom_version", std::string(VersionWithCommit())}};
+  LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json geometry, ReadJson(out / "calib" / "geometry.json"));
+  summary["calibration_rms_px"] = geometry["rms_px"];
+  for (const StageTime& stage : stages.times()) summary["stage_seconds"][stage.name] = stage.seconds;
+  for (const std::string& method : args.methods) {
+    LOOM_ASSIGN_OR_RETURN(nlohmann::ordered_json evaluation, ReadJson(out / ("report-" + method) / "summary.json"));
+    evaluation["report"] = (out / ("report-" + method) / "index.html").string();
+    summary["methods"][method] = std::move(evaluation);
+  }
+  return summary;
+}
+
+void PrintMethod(const std::string& method, const nlohmann::ordered_json& e) {
+  std::cout << std::left << std::setw(11) << method << std::right << std::fixed << std::setprecision(1) << std::setw(7)
+            << e["normal_error_deg"]["median"].get<double>() << std::setw(7) << e["normal_error_deg"]["p90"].get<double>()
+            << std::setprecision(3);
+  for (const auto& [name, nrmse] : e["parameter_nrmse"].items()) {
+    if (name.rfind("n_s", 0) != 0) std::cout << std::setw(9) << nrmse.get<double>();
+  }
+  std::cout << "  |";
+  for (const auto& [group, l1] : e["rerender_l1"]["fit"].items()) std::cout << std::setw(8) << l1["relative_l1"].get<double>();
+  std::cout << "\n";
+}
+
+void PrintSummary(const nlohmann::ordered_json& summary, const std::vector<std::string>& methods) {
+  std::cout << "\n== summary: " << summary["object"].get<std::string>() << " on " << summary["rig"].get<std::string>()
+            << ", preset " << summary["preset"].get<std::string>() << "; camera calibration RMS " << std::fixed
+            << std::setprecision(3) << summary["calibration_rms_px"].get<double>() << " px\n";
+  const nlohmann::ordered_json& first = summary["methods"][methods.front()];
+  std::cout << "           normal error  parameter NRMSE against the ground truth" << std::string(20, ' ')
+            << "| re-render relative L1\n" << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°"
+            << std::setw(7) << "p90°";
+  for (const auto& [name, nrmse] : first["parameter_nrmse"].items()) {
+    if (name.rfind("n_s", 0) != 0) std::cout << std::setw(9) << name;
+  }
+  std::cout << "  |";
+  for (const auto& [group, l1] : first["rerender_l1"]["fit"].items()) std::cout << std::setw(8) << group.substr(0, 7);
+  std::cout << "\n";
+  for (const std::string& method : methods) PrintMethod(method, summary["methods"][method]);
+  std::cout << "\ntime per stage:";
+  double total = 0;
+  for (const auto& [stage, seconds] : summary["stage_seconds"].items()) total += seconds.get<double>();
+  for (const auto& [stage, seconds] : summary["stage_seconds"].items()) {
+    std::cout << "\n  " << std::left << std::setw(22) << stage << std::right << FormatDuration(seconds.get<double>());
+  }
+  std::cout << "\n  " << std::left << std::setw(22) << "total" << std::right << FormatDuration(total) << "\n";
+}
+
+Status Demo(const DemoArguments& args) {
+  const std::string rig = ResolveRigPath(args.rig).string();
+  if (!fs::exists(rig)) return NotFoundError("--rig " + args.rig, "no such file, nor configs/rig/" + args.rig + ".yaml");
+  if (fs::exists(args.out) && !fs::is_empty(args.out)) {
+    return AlreadyExistsError(args.out, "is not empty: the demo writes a fresh directory (remove it, or pick another --out)");
+  }
+  Stages stages(args.quiet);
+  LOOM_RETURN_IF_ERROR(CalibrateAndScan(args, rig, &stages));
+  LOOM_RETURN_IF_ERROR(FitAndEvaluate(args, rig, &stages));
+  LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json summary, Summarise(args, rig, stages));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "summary.json", summary.dump(2) + "\n"));
+  PrintSummary(summary, args.methods);
+  std::cout << "\nsummary: " << (fs::path(args.out) / "summary.json").string() << "\nreport:  "
+            << summary["methods"][args.methods.back()]["report"].get<std::string>() << "\n";
+  return Status::Ok();
+}
+
+}  // namespace
+
+int RunDemo(int argc, char** argv) {
+  CLI::App app("The main job on a simulated rig: calibration scan, calibrate, scan a procedural fabric, reconstruct, "
+               "fit, evaluate against the ground truth, summarise",
+               "loom demo");
+  AddCommonOptions(app);
+  DemoArguments args;
+  app.add_option("--rig", args.rig, "Simulated rig: a name in configs/rig/ or a YAML file (default tac7-mini)");
+  app.add_option("--object", args.object, "The material: fabric:SEED (default fabric:1)");
+  app.add_option("--preset", args.preset, "Gloss preset of the material scan (default low)");
+  app.add_option("--methods", args.methods, "Fit methods, in order, the last being the main result (default cnn cnn+ceres)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"ceres", "cnn", "cnn+ceres"}));
+  app.add_option("--size", args.size_px, "Stack size in pixels (square, centred; default: reconstruct's)")->check(CLI::Range(8, 8192));
+  app.add_option("--out", args.out, "Directory to write, new or empty (default loom-demo)");
+  app.add_flag("--quiet", args.quiet, "No progress bars");
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  const Status done = Demo(args);
+  return done.ok() ? kExitOk : ReportFailure(done);
+}
+
+}  // namespace loom::apps

@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Fit a database of stored scans on a SLURM cluster, one scan per array task:
+# reconstruct (with the rig's calibration) → fit → evaluate (re-render error, HTML report).
+#
+#   ls -d /data/scans/*/ > scans.txt
+#   sbatch --array=1-$(wc -l < scans.txt)%50 scripts/slurm-fit-array.sh scans.txt /data/calib /data/results
+#
+# Task N takes line N of SCANS (a scan directory) and writes RESULTS/<scan name>/{reconstruction,
+# fit,report}. A task whose fit.json already exists is skipped, so resubmitting the same array
+# after failures redoes only what failed. LOOM (default: loom on PATH) and LOOM_FIT_METHOD
+# (default cnn+ceres) can be set in the environment; the model is the rig's default
+# (configs/models/<rig>) unless LOOM_MODEL names one.
+#SBATCH --job-name=loom-fit
+#SBATCH --cpus-per-task=8
+#SBATCH --mem=16G
+#SBATCH --time=04:00:00
+#SBATCH --output=loom-fit-%A_%a.log
+set -euo pipefail
+
+if [[ $# -ne 3 ]]; then
+  echo "usage: sbatch --array=1-N $0 SCANS.txt CALIB_DIR RESULTS_DIR" >&2
+  exit 2
+fi
+scans=$1 calib=$2 results=$3
+task=${SLURM_ARRAY_TASK_ID:?"not an array task: submit with sbatch --array=1-N"}
+loom=${LOOM:-loom}
+method=${LOOM_FIT_METHOD:-cnn+ceres}
+threads=${SLURM_CPUS_PER_TASK:-0}
+
+scan=$(sed -n "${task}p" "$scans")
+if [[ -z "$scan" ]]; then
+  echo "error: $scans has no line $task" >&2
+  exit 1
+fi
+name=$(basename "${scan%/}")
+out="$results/$name"
+if [[ -f "$out/fit/fit.json" ]]; then
+  echo "$name: already fitted ($out/fit/fit.json), skipped"
+  exit 0
+fi
+mkdir -p "$out"
+echo "$name: task $task on $(hostname), $threads threads, method $method"
+"$loom" reconstruct "$scan" --calib "$calib" --out "$out/reconstruction" --threads "$threads" --quiet
+model_option=()
+if [[ -n "${LOOM_MODEL:-}" ]]; then model_option=(--model "$LOOM_MODEL"); fi
+# The fit goes to a temporary directory and is renamed when complete: fit.json marks a finished task.
+rm -rf "$out/fit.partial"
+"$loom" fit "$out/reconstruction/stack.exr" --method "$method" "${model_option[@]}" --threads "$threads" \
+  --out "$out/fit.partial" --quiet
+rm -rf "$out/fit" && mv "$out/fit.partial" "$out/fit"
+"$loom" eval "$out/fit/svbrdf.exr" --stack "$out/reconstruction/stack.exr" --out "$out/report" --title "$name ($method)"
+echo "$name: done → $out/report/index.html"
