@@ -19,6 +19,7 @@ const std::vector<Command>& Commands() {
       {"fit", "Fit SVBRDF maps to an observation stack (Ceres, the CNN, or the CNN refined by Ceres)", RunFit},
       {"train", "Train the SVBRDF CNN for a rig and preset on simulated materials", RunTrain},
       {"eval", "Evaluate fitted maps: re-render error, parameter error, an HTML report", RunEval},
+      {"export", "Export fitted maps for renderers (glTF with anisotropy)", RunExport},
       {"sim", "The simulator: procedural materials, frames and observation stacks", RunSim},
       {"version", "Print loom's version and the libraries it runs with", RunVersion},
   };

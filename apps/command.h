@@ -44,6 +44,7 @@ int ReportFailure(const Status& status);
 int RunCalibrate(int argc, char** argv);
 int RunDemo(int argc, char** argv);
 int RunEval(int argc, char** argv);
+int RunExport(int argc, char** argv);
 int RunFit(int argc, char** argv);
 int RunHelp(int argc, char** argv);
 int RunPlan(int argc, char** argv);

@@ -1,8 +1,9 @@
 // loom demo: the main job on a simulated rig, end to end — calibration scan → loom calibrate
 // geometry → material scan of a procedural fabric → loom reconstruct with that calibration →
-// loom fit (each method asked for) → loom eval against the simulator's ground truth — then a
-// one-screen summary and summary.json. Every stage is the loom command of the same name, run in
-// this process with the arguments it prints, so what the demo does a user can repeat by hand.
+// loom fit (each method asked for) → loom eval against the simulator's ground truth → loom export
+// of the main result as glTF — then a one-screen summary and summary.json. Every stage is the
+// loom command of the same name, run in this process with the arguments it prints, so what the
+// demo does a user can repeat by hand.
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -100,7 +101,8 @@ Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages*
                                       "--out", (out / ("report-" + method)).string(), "--title",
                                       args.object + " on " + rig + " (scan → calibrate → reconstruct → " + method + ")"}));
   }
-  return Status::Ok();
+  return stages->Run("export glTF", RunExport,
+                     {"export", (out / ("fit-" + args.methods.back()) / "svbrdf.exr").string(), "--gltf", (out / "gltf").string()});
 }
 
 Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {
@@ -178,7 +180,8 @@ Status Demo(const DemoArguments& args) {
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "summary.json", summary.dump(2) + "\n"));
   PrintSummary(summary, args.methods);
   std::cout << "\nsummary: " << (fs::path(args.out) / "summary.json").string() << "\nreport:  "
-            << summary["methods"][args.methods.back()]["report"].get<std::string>() << "\n";
+            << summary["methods"][args.methods.back()]["report"].get<std::string>()
+            << "\nglTF:    " << (fs::path(args.out) / "gltf" / "material.gltf").string() << "\n";
   return Status::Ok();
 }
 

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/geometry.h"
+#include "fitting/internal/png.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -22,9 +23,15 @@ cv::Vec3b Hue(double alpha) {
   return {wave(2.0 / 3), wave(1.0 / 3), wave(0)};
 }
 
+using internal::Unit8;
+
+}  // namespace
+
+namespace internal {
+
 uint8_t Unit8(double v) { return static_cast<uint8_t>(std::lround(255 * std::clamp(v, 0.0, 1.0))); }
 
-Status Write(const std::filesystem::path& path, const cv::Mat& image) {
+Status WritePng(const std::filesystem::path& path, const cv::Mat& image) {
   try {
     if (cv::imwrite(path.string(), image)) return Status::Ok();
   } catch (const cv::Exception& e) {
@@ -33,7 +40,7 @@ Status Write(const std::filesystem::path& path, const cv::Mat& image) {
   return IoError(path.string(), "cannot write the PNG");
 }
 
-}  // namespace
+}  // namespace internal
 
 uint8_t ToSrgb8(double linear) {
   const double v = std::clamp(linear, 0.0, 1.0);
@@ -71,7 +78,7 @@ Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, 
   const cv::Mat* images[] = {&diffuse, &specular, &normal, &sigma, &alpha, &height};
   for (size_t i = 0; i < SvbrdfPreviewNames().size(); ++i) {
     if (SvbrdfPreviewNames()[i] == "height" && !height_channel) continue;
-    LOOM_RETURN_IF_ERROR(Write(dir / (prefix + SvbrdfPreviewNames()[i] + ".png"), *images[i]));
+    LOOM_RETURN_IF_ERROR(internal::WritePng(dir / (prefix + SvbrdfPreviewNames()[i] + ".png"), *images[i]));
   }
   return Status::Ok();
 }
@@ -84,7 +91,7 @@ Status WriteRadiancePng(const std::filesystem::path& path, const Image& image, i
       png.at<cv::Vec3b>(y, x) = std::isnan(v) ? cv::Vec3b(255, 0, 255) : Bgr(v / white, v / white, v / white);
     }
   }
-  return Write(path, png);
+  return internal::WritePng(path, png);
 }
 
 }  // namespace loom::fitting

@@ -2,7 +2,8 @@
 // Export of SVBRDF maps: linear OpenEXR (svbrdf_maps.h's channels, with provenance attributes)
 // and PNG previews a person can look at — albedos in sRGB, the shading normal as RGB, σx and σy
 // as red and green, α as a hue wheel, height as grey — plus tone-mapped radiance images for
-// reports. (The AxF-style HDF5 and renderer-ready exports are not built yet: issue #7.)
+// reports. The renderer-ready glTF export is gltf_export.h; the AxF-style HDF5 export is not
+// built yet (issue #7).
 
 #include <filesystem>
 #include <string>

@@ -1,0 +1,197 @@
+#include "fitting/gltf_export.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "core/file_io.h"
+#include "core/version.h"
+#include "fitting/export.h"
+#include "fitting/internal/png.h"
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+namespace {
+
+using internal::Unit8;
+
+// glTF's dielectric F0 (ior 1.5), which KHR_materials_specular's colour scales.
+constexpr double kDielectricF0 = 0.04;
+
+// Tangent space on the quad: T = the sample's +x (+u), B = the sample's −y (up the image, as
+// glTF's normal textures have it: rows run along +y), N = +z. Hence TANGENT.w = −1.
+Eigen::Vector3d ToTangentSpace(const Eigen::Vector3d& in_sample) { return {in_sample.x(), -in_sample.y(), in_sample.z()}; }
+
+// The geometric frame of a pixel (svbrdf_maps.h): z the heightmap's normal, x the sample's x
+// made orthogonal to it. Identity without a height channel.
+Eigen::Matrix3d SampleFromLocal(const Image& maps, int x, int y, double pixel_mm) {
+  const std::optional<int> height = maps.FindChannel(kHeightChannel);
+  if (!height) return Eigen::Matrix3d::Identity();
+  // Central differences, one-sided at the borders; 0 across a map one pixel thin.
+  const auto slope = [&](int i0, int j0, int i1, int j1, int span) {
+    return span > 0 ? (maps.at(*height, j1, i1) - maps.at(*height, j0, i0)) / (span * pixel_mm) : 0.0;
+  };
+  const int x0 = std::max(x - 1, 0), x1 = std::min(x + 1, maps.width() - 1);
+  const int y0 = std::max(y - 1, 0), y1 = std::min(y + 1, maps.height() - 1);
+  const double dx = slope(x0, y, x1, y, x1 - x0);
+  const double dy = slope(x, y0, x, y1, y1 - y0);
+  const Eigen::Vector3d n = Eigen::Vector3d(-dx, -dy, 1).normalized();
+  const Eigen::Vector3d t = (Eigen::Vector3d::UnitX() - n.x() * n).normalized();
+  Eigen::Matrix3d frame;
+  frame << t, n.cross(t), n;
+  return frame;
+}
+
+cv::Vec3b UnitVectorRgb(const Eigen::Vector3d& v) {  // OpenCV's BGR order
+  return {Unit8((v.z() + 1) / 2), Unit8((v.y() + 1) / 2), Unit8((v.x() + 1) / 2)};
+}
+
+struct Textures {
+  cv::Mat base_color, specular_color, metallic_roughness, normal, anisotropy;
+  double specular_color_factor = 1;  // over kDielectricF0
+};
+
+double MaxSpecularF0(const Image& maps) {
+  double max_f0 = 0;
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      const WardParams<double> p = GetParams(maps, x, y);
+      max_f0 = std::max(max_f0, p.a_s.maxCoeff() * p.f0);
+    }
+  }
+  return max_f0;
+}
+
+void FillPixel(const Image& maps, int x, int y, double pixel_mm, double specular_scale, Textures* t) {
+  const WardParams<double> p = GetParams(maps, x, y);
+  t->base_color.at<cv::Vec3b>(y, x) = {ToSrgb8(p.a_d.z()), ToSrgb8(p.a_d.y()), ToSrgb8(p.a_d.x())};
+  const Eigen::Vector3d f0 = p.a_s * p.f0 / specular_scale;
+  t->specular_color.at<cv::Vec3b>(y, x) = {ToSrgb8(f0.z()), ToSrgb8(f0.y()), ToSrgb8(f0.x())};
+  const GltfRoughness roughness = GltfRoughnessOf(p.sigma_x, p.sigma_y);
+  t->metallic_roughness.at<cv::Vec3b>(y, x) = {0, Unit8(roughness.roughness), 0};  // B metallic, G roughness
+  const Eigen::Matrix3d sample_from_local = SampleFromLocal(maps, x, y, pixel_mm);
+  t->normal.at<cv::Vec3b>(y, x) = UnitVectorRgb(ToTangentSpace(sample_from_local * p.n_s));
+  const AnisotropyFrame<double> frame = MakeAnisotropyFrame(p.n_s, p.alpha);
+  const Eigen::Vector3d axis = ToTangentSpace(sample_from_local * (roughness.along_b ? frame.b : frame.t));
+  const Eigen::Vector2d direction = Eigen::Vector2d(axis.x(), axis.y()).normalized();
+  t->anisotropy.at<cv::Vec3b>(y, x) = {Unit8(roughness.anisotropy_strength), Unit8((direction.y() + 1) / 2),
+                                       Unit8((direction.x() + 1) / 2)};
+}
+
+Textures MakeTextures(const Image& maps, double pixel_mm) {
+  const int w = maps.width(), h = maps.height();
+  Textures t{cv::Mat(h, w, CV_8UC3), cv::Mat(h, w, CV_8UC3), cv::Mat(h, w, CV_8UC3), cv::Mat(h, w, CV_8UC3),
+             cv::Mat(h, w, CV_8UC3)};
+  const double max_f0 = MaxSpecularF0(maps);
+  t.specular_color_factor = max_f0 > 0 ? max_f0 / kDielectricF0 : 1;
+  const double specular_scale = max_f0 > 0 ? max_f0 : 1;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) FillPixel(maps, x, y, pixel_mm, specular_scale, &t);
+  }
+  return t;
+}
+
+// The quad: 4 vertices (position, normal, tangent, uv) and 2 triangles, in glTF's frame
+// (+y up: the sample's z), metres. Pixel rows run along the sample's +y, which is glTF's −z.
+std::vector<uint8_t> QuadBuffer(double half_width_m, double half_height_m) {
+  const float hx = static_cast<float>(half_width_m), hy = static_cast<float>(half_height_m);
+  const float positions[] = {-hx, 0, hy, hx, 0, hy, hx, 0, -hy, -hx, 0, -hy};  // sample y = −H/2 first
+  const float normals[] = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
+  const float tangents[] = {1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1};
+  const float uvs[] = {0, 0, 1, 0, 1, 1, 0, 1};
+  const uint16_t indices[] = {0, 1, 2, 0, 2, 3};  // counter-clockwise seen from above (+y)
+  std::vector<uint8_t> buffer;
+  for (const auto& [data, bytes] : std::initializer_list<std::pair<const void*, size_t>>{
+           {positions, sizeof positions}, {normals, sizeof normals}, {tangents, sizeof tangents}, {uvs, sizeof uvs},
+           {indices, sizeof indices}}) {
+    const size_t at = buffer.size();
+    buffer.resize(at + bytes);
+    std::memcpy(buffer.data() + at, data, bytes);
+  }
+  return buffer;
+}
+
+nlohmann::json Accessor(int view, int component_type, const char* type) {
+  return {{"bufferView", view}, {"componentType", component_type}, {"count", view == 4 ? 6 : 4}, {"type", type}};
+}
+
+nlohmann::json GltfDocument(double half_width_m, double half_height_m, double specular_color_factor, size_t buffer_bytes) {
+  constexpr int kFloat = 5126, kUnsignedShort = 5123, kArrayBuffer = 34962, kElementArrayBuffer = 34963;
+  nlohmann::json views = nlohmann::json::array();
+  const size_t sizes[] = {48, 48, 64, 32, 12};
+  size_t offset = 0;
+  for (int v = 0; v < 5; ++v) {
+    views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", sizes[v]},
+                     {"target", v == 4 ? kElementArrayBuffer : kArrayBuffer}});
+    offset += sizes[v];
+  }
+  nlohmann::json position = Accessor(0, kFloat, "VEC3");
+  position["min"] = {-half_width_m, 0.0, -half_height_m};
+  position["max"] = {half_width_m, 0.0, half_height_m};
+  nlohmann::json textures = nlohmann::json::array(), images = nlohmann::json::array();
+  for (const char* name : {"base_color", "metallic_roughness", "normal", "specular_color", "anisotropy"}) {
+    textures.push_back({{"source", images.size()}, {"sampler", 0}});
+    images.push_back({{"uri", std::string(name) + ".png"}});
+  }
+  const double f = specular_color_factor;
+  return {
+      {"asset", {{"version", "2.0"}, {"generator", "loom " + std::string(VersionWithCommit())}}},
+      {"extensionsUsed", {"KHR_materials_anisotropy", "KHR_materials_specular"}},
+      {"scene", 0},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes", {{{"mesh", 0}, {"name", "sample"}}}},
+      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TANGENT", 2}, {"TEXCOORD_0", 3}}},
+                                    {"indices", 4}, {"material", 0}}}}}}},
+      {"materials",
+       {{{"name", "loom SVBRDF (GD10-Ward approximated: see loom's fitting/gltf_export.h)"},
+         {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicRoughnessTexture", {{"index", 1}}},
+                                   {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
+         {"normalTexture", {{"index", 2}}},
+         {"extensions", {{"KHR_materials_specular", {{"specularFactor", 1.0}, {"specularColorFactor", {f, f, f}},
+                                                     {"specularColorTexture", {{"index", 3}}}}},
+                         {"KHR_materials_anisotropy", {{"anisotropyStrength", 1.0}, {"anisotropyRotation", 0.0},
+                                                       {"anisotropyTexture", {{"index", 4}}}}}}}}}},
+      {"textures", textures},
+      {"images", images},
+      {"samplers", {{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}}},
+      {"buffers", {{{"uri", "material.bin"}, {"byteLength", buffer_bytes}}}},
+      {"bufferViews", views},
+      {"accessors", {position, Accessor(1, kFloat, "VEC3"), Accessor(2, kFloat, "VEC4"), Accessor(3, kFloat, "VEC2"),
+                     Accessor(4, kUnsignedShort, "SCALAR")}},
+  };
+}
+
+}  // namespace
+
+GltfRoughness GltfRoughnessOf(double sigma_x, double sigma_y) {
+  const auto ggx_alpha = [](double sigma) { return std::clamp(std::sqrt(2.0) * sigma, 1e-4, 1.0); };
+  const double alpha_t = ggx_alpha(std::max(sigma_x, sigma_y));
+  const double alpha_b = ggx_alpha(std::min(sigma_x, sigma_y));
+  const double strength = alpha_b < 1 ? std::sqrt((alpha_t - alpha_b) / (1 - alpha_b)) : 0;
+  return {std::sqrt(alpha_b), strength, sigma_y > sigma_x};
+}
+
+Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir) {
+  if (!HasSvbrdfLayout(maps)) return InvalidArgumentError("glTF export", "the maps are not in the SVBRDF layout");
+  if (!(pixel_mm > 0)) return InvalidArgumentError("glTF export", "needs the maps' pixel size (loom.pixel_mm)");
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) return IoError(dir.string(), "cannot create: " + error.message());
+  const Textures t = MakeTextures(maps, pixel_mm);
+  for (const auto& [name, image] : {std::pair{"base_color", &t.base_color}, {"specular_color", &t.specular_color},
+                                    {"metallic_roughness", &t.metallic_roughness}, {"normal", &t.normal},
+                                    {"anisotropy", &t.anisotropy}}) {
+    LOOM_RETURN_IF_ERROR(internal::WritePng(dir / (std::string(name) + ".png"), *image));
+  }
+  const double half_width_m = maps.width() * pixel_mm / 2000, half_height_m = maps.height() * pixel_mm / 2000;
+  const std::vector<uint8_t> buffer = QuadBuffer(half_width_m, half_height_m);
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "material.bin", std::string(buffer.begin(), buffer.end())));
+  const nlohmann::json document = GltfDocument(half_width_m, half_height_m, t.specular_color_factor, buffer.size());
+  return WriteFileAtomically(dir / "material.gltf", document.dump(2) + "\n");
+}
+
+}  // namespace loom::fitting
