@@ -224,6 +224,7 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
     for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
   }
   builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
+  if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, "white tile").linear_light_mm = rig.linear_light->travel_mm / 2;
   builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), "colour chart");
   return builder.Finish();
 }

@@ -11,7 +11,8 @@
 // | monochrome  | each LED × each turntable angle, all cameras              | 29 × 3 × 4 = 348  |
 // | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
 // A calibration scan: dark frames, the calibration target at several turntable angles, the
-// white reference under every LED, the colour chart through every filter.
+// white reference under every LED and under the linear light (mid-travel), the colour chart
+// through every filter.
 //
 // Steps come in capture order, grouped to keep slow moves few: one turntable angle at a time,
 // wheel slots in order, the strip swept in one direction. Every step carries an HDR bracket

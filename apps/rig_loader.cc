@@ -11,28 +11,67 @@ namespace {
 
 // A simulated rig's `as_built:` — how the simulated hardware differs from its `geometry:`, the
 // nominal description loom is given — so that calibration has something to find:
-//   as_built: {cameras: [{name: cam1, move_mm: [1, -2, 0.5], rotate_deg: [0.3, 0, -0.2]}]}
-// move_mm shifts the camera's centre (rig frame); rotate_deg turns it about its own x, y, z.
+//   as_built:
+//     cameras: [{name: cam1, move_mm: [1, -2, 0.5], rotate_deg: [0.3, 0, -0.2], sensitivity_scale: 0.9, vignetting: 0.2}]
+//     leds: [{index: 3, intensity_scale: 0.85}]
+//     filter_wheels: [{name: wheel0, slot: 2, shift_nm: 8}]
+// move_mm shifts the camera's centre (rig frame); rotate_deg turns it about its own x, y, z;
+// the scales multiply the nominal sensitivity and intensity; shift_nm moves a filter's band.
+void MoveCamera(const ConfigNode& node, CameraModel* camera) {
+  Eigen::Vector3d move = Eigen::Vector3d::Zero(), rotate_deg = Eigen::Vector3d::Zero();
+  node.Optional("move_mm", &move);
+  node.Optional("rotate_deg", &rotate_deg);
+  const Eigen::Matrix3d turn = (Eigen::AngleAxisd(DegToRad(rotate_deg.z()), Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(DegToRad(rotate_deg.y()), Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(DegToRad(rotate_deg.x()), Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Vector3d centre = camera->CentreInRig() + move;
+  const Eigen::Matrix3d rotation = turn * camera->cam_from_rig.rotation();
+  camera->cam_from_rig = MakeRigid(rotation, -rotation * centre);
+  double sensitivity_scale = 1;
+  node.Optional("sensitivity_scale", &sensitivity_scale);
+  camera->sensor.sensitivity *= sensitivity_scale;
+  node.Optional("vignetting", &camera->sensor.vignetting);
+}
+
+template <typename Device>
+Device* FindByName(std::vector<Device>& devices, const ConfigNode& node, const char* what) {
+  std::string name;
+  node.Required("name", &name);
+  const auto found = std::find_if(devices.begin(), devices.end(), [&](const Device& d) { return d.name == name; });
+  if (found != devices.end()) return &*found;
+  node.AddError("name", std::string("no ") + what + " '" + name + "' in the geometry");
+  return nullptr;
+}
+
 RigModel AsBuilt(const ConfigNode& root, RigModel model) {
   const std::optional<ConfigNode> as_built = root.OptionalChild("as_built");
   if (!as_built) return model;
-  for (const ConfigNode& node : as_built->Sequence("cameras")) {
-    std::string name;
-    Eigen::Vector3d move = Eigen::Vector3d::Zero(), rotate_deg = Eigen::Vector3d::Zero();
-    node.Required("name", &name);
-    node.Optional("move_mm", &move);
-    node.Optional("rotate_deg", &rotate_deg);
-    const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(), [&](const CameraModel& c) { return c.name == name; });
-    if (camera == model.cameras.end()) {
-      node.AddError("name", "no camera '" + name + "' in the geometry");
+  for (const ConfigNode& node : as_built->OptionalSequence("cameras")) {
+    if (CameraModel* camera = FindByName(model.cameras, node, "camera")) MoveCamera(node, camera);
+  }
+  for (const ConfigNode& node : as_built->OptionalSequence("leds")) {
+    int index = -1;
+    double scale = 1;
+    node.Required("index", &index);
+    node.Required("intensity_scale", &scale);
+    if (index < 0 || index >= static_cast<int>(model.leds.size())) {
+      node.AddError("index", "no LED " + std::to_string(index) + " in the geometry");
       continue;
     }
-    const Eigen::Matrix3d turn = (Eigen::AngleAxisd(DegToRad(rotate_deg.z()), Eigen::Vector3d::UnitZ()) *
-                                  Eigen::AngleAxisd(DegToRad(rotate_deg.y()), Eigen::Vector3d::UnitY()) *
-                                  Eigen::AngleAxisd(DegToRad(rotate_deg.x()), Eigen::Vector3d::UnitX())).toRotationMatrix();
-    const Eigen::Vector3d centre = camera->CentreInRig() + move;
-    const Eigen::Matrix3d rotation = turn * camera->cam_from_rig.rotation();
-    camera->cam_from_rig = MakeRigid(rotation, -rotation * centre);
+    model.leds[index].intensity *= scale;
+  }
+  for (const ConfigNode& node : as_built->OptionalSequence("filter_wheels")) {
+    FilterWheelModel* wheel = FindByName(model.filter_wheels, node, "filter wheel");
+    int slot = -1;
+    double shift_nm = 0;
+    node.Required("slot", &slot);
+    node.Required("shift_nm", &shift_nm);
+    if (wheel == nullptr) continue;
+    if (slot < 0 || slot >= static_cast<int>(wheel->filters.size())) {
+      node.AddError("slot", "no slot " + std::to_string(slot) + " on " + wheel->name);
+      continue;
+    }
+    wheel->filters[slot].center_nm += shift_nm;
   }
   return model;
 }
@@ -59,6 +98,8 @@ Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& 
       }
     }
     sample.target = model.calibration_target;
+    sample.chart = model.colour_chart;
+    sample.white = model.white_reference;
     loaded.sample = sample;
     int seed = 0;
     root.Optional("seed", &seed);

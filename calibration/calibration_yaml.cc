@@ -3,11 +3,10 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <ctime>
 
+#include "calibration/internal/provenance.h"
 #include "core/config.h"
 #include "core/file_io.h"
-#include "core/version.h"
 
 namespace loom::calibration {
 namespace {
@@ -19,15 +18,6 @@ void EmitMatrix(YAML::Emitter& out, const Eigen::Matrix3d& m) {
   out << YAML::BeginSeq;
   for (int r = 0; r < 3; ++r) out << YAML::Flow << std::vector<double>{m(r, 0), m(r, 1), m(r, 2)};
   out << YAML::EndSeq;
-}
-
-std::string NowUtc() {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
 }
 
 }  // namespace
@@ -67,8 +57,7 @@ Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCal
   out << YAML::Key << "source" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "from" << YAML::Value << calibration.from;
   out << YAML::Key << "board" << YAML::Value << calibration.board;
-  out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
-  out << YAML::Key << "created" << YAML::Value << NowUtc();
+  internal::EmitVersionAndTime(out);
   out << YAML::EndMap << YAML::EndMap;
   return WriteFileAtomically(path, std::string(out.c_str()) + "\n");
 }

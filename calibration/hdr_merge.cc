@@ -1,5 +1,6 @@
 #include "calibration/hdr_merge.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -90,6 +91,37 @@ Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const S
     }
   }
   return hdr;
+}
+
+Result<Linearity> MeasureLinearity(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor,
+                                   const std::vector<uint8_t>& mask) {
+  LOOM_RETURN_IF_ERROR(CheckBracket(bracket));
+  const double low = 10 * sensor.floor_sigmas * sensor.read_noise_dn;
+  const double high = 0.95 * (sensor.saturation_dn - sensor.black_dn);
+  std::vector<const hal::RawFrame*> frames;
+  for (const hal::RawFrame& frame : bracket) frames.push_back(&frame);
+  std::sort(frames.begin(), frames.end(), [](auto* a, auto* b) { return a->metadata.exposure_us < b->metadata.exposure_us; });
+  Linearity linearity;
+  for (size_t i = 0; i + 1 < frames.size(); ++i) {
+    const hal::RawFrame& shorter = *frames[i];
+    const hal::RawFrame& longer = *frames[i + 1];
+    double sum_short = 0, sum_long = 0;
+    int pixels = 0;
+    for (size_t p = 0; p < shorter.pixels.size(); ++p) {
+      if (!mask.empty() && mask[p] == 0) continue;
+      const double a = shorter.pixels[p] - sensor.black_dn, b = longer.pixels[p] - sensor.black_dn;
+      if (a < low || b < low || a > high || b > high) continue;
+      sum_short += a;
+      sum_long += b;
+      ++pixels;
+    }
+    if (pixels == 0) continue;
+    const double ratio = (sum_long / longer.metadata.exposure_us) / (sum_short / shorter.metadata.exposure_us);
+    linearity.deviation = std::max(linearity.deviation, std::abs(ratio - 1));
+    linearity.max_dn = std::max(linearity.max_dn, sum_long / pixels);
+    ++linearity.pairs;
+  }
+  return linearity;
 }
 
 }  // namespace loom::calibration

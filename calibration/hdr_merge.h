@@ -41,4 +41,17 @@ struct HdrImage {
 // bracket, mixed sizes or a non-positive exposure time are errors naming the frame.
 Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor);
 
+// Camera linearity from a bracket of a steady scene: for each pair of exposures, the mean
+// count rate (reading above black over exposure time) of the pixels both read well — above 10 ×
+// the noise floor, below 95 % of full scale — should agree. `deviation` is the worst
+// |rate ratio − 1| over the pairs; `pairs` = 0 when no pair shares such pixels (not measured).
+struct Linearity {
+  double deviation = 0;
+  double max_dn = 0;  // the highest mean reading (above black) a pair was compared at
+  int pairs = 0;
+};
+// `mask`: the pixels to use (row-major, nonzero = use), or empty for all.
+Result<Linearity> MeasureLinearity(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor,
+                                   const std::vector<uint8_t>& mask = {});
+
 }  // namespace loom::calibration

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/renderer.h"
@@ -99,6 +100,33 @@ TEST(HdrMergeTest, ABadBracketIsAnErrorNamingTheFrame) {
   bracket[1].width = 2;
   bracket[1].height = 8;
   EXPECT_EQ(MergeBracket(bracket, NoiseOf(sensor)).status().code(), StatusCode::kInvalidArgument);
+}
+
+// A steady grey field over a 4× bracket: the simulator's linear sensor agrees with itself to
+// the noise; a sensor whose response sags 6 % towards full scale is caught.
+TEST(HdrMergeTest, LinearityOfASteadyScene) {
+  const SensorModel sensor = TestSensor();
+  Image radiance(64, 64, {"L"});
+  const double reading_at_longest = 3000;  // DN above black at 4000 µs
+  const auto grey = radiance.channel(0);
+  std::fill(grey.begin(), grey.end(), static_cast<float>(reading_at_longest * sensor.ElectronsPerDn() / (sensor.sensitivity * 4000e-6)));
+  std::vector<hal::RawFrame> bracket = Bracket(radiance, sensor, {250, 1000, 4000});
+  const Result<Linearity> linear = MeasureLinearity(bracket, NoiseOf(sensor));
+  ASSERT_TRUE(linear.ok()) << linear.status().ToString();
+  EXPECT_EQ(linear->pairs, 2);
+  EXPECT_NEAR(linear->max_dn, reading_at_longest, 100);
+  EXPECT_LT(linear->deviation, 0.005);
+  for (hal::RawFrame& frame : bracket) {
+    for (uint16_t& v : frame.pixels) {
+      const double s = v - sensor.dark_offset_dn;
+      v = static_cast<uint16_t>(std::lround(sensor.dark_offset_dn + s * (1 - 0.06 * s / 4031)));
+    }
+  }
+  const Result<Linearity> sagging = MeasureLinearity(bracket, NoiseOf(sensor));
+  ASSERT_TRUE(sagging.ok());
+  EXPECT_GT(sagging->deviation, 0.03);
+  // Nothing read well: not measured.
+  EXPECT_EQ(MeasureLinearity(bracket, NoiseOf(sensor), std::vector<uint8_t>(64 * 64, 0))->pairs, 0);
 }
 
 }  // namespace

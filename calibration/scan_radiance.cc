@@ -3,7 +3,6 @@
 #include <cmath>
 #include <limits>
 
-#include "calibration/hdr_merge.h"
 
 namespace loom::calibration {
 
@@ -40,7 +39,7 @@ std::string ScanRadiance::Where(int step, const std::string& camera) const {
   return "scan " + store_->directory().string() + ", step " + std::to_string(step) + ", camera '" + camera + "'";
 }
 
-Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name) const {
+Result<std::vector<hal::RawFrame>> ScanRadiance::Bracket(int step, const std::string& camera_name) const {
   if (!store_->StepDone(step)) {
     return FailedPreconditionError(Where(step, camera_name), "the step was not captured to the end (resume the scan: loom scan --resume)");
   }
@@ -57,15 +56,26 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
     }
     frames.push_back(std::move(frame));
   }
-  const SensorModel& sensor = camera.sensor;
-  const double gain = std::pow(10.0, frames.front().metadata.gain / 20);
-  calibration::SensorNoise noise;
+  return frames;
+}
+
+SensorNoise ScanRadiance::NoiseOf(const std::string& camera_name, double gain_db) const {
+  const SensorModel& sensor = rig_->FindCamera(camera_name)->sensor;
+  SensorNoise noise;
   const auto dark = dark_.find(camera_name);
   noise.black_dn = dark != dark_.end() ? dark->second.black_dn : sensor.dark_offset_dn;
   noise.read_noise_dn = dark != dark_.end() ? dark->second.noise_dn : sensor.read_noise_e / sensor.ElectronsPerDn();
-  noise.electrons_per_dn = sensor.ElectronsPerDn() / gain;
+  noise.electrons_per_dn = sensor.ElectronsPerDn() / std::pow(10.0, gain_db / 20);
   noise.saturation_dn = (1 << sensor.adc_bits) - 1;
-  Result<calibration::HdrImage> merged = calibration::MergeBracket(frames, noise);
+  return noise;
+}
+
+Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name) const {
+  LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> frames, Bracket(step, camera_name));
+  const CameraModel& camera = *rig_->FindCamera(camera_name);
+  const SensorModel& sensor = camera.sensor;
+  const SensorNoise noise = NoiseOf(camera_name, frames.front().metadata.gain);
+  Result<HdrImage> merged = MergeBracket(frames, noise);
   if (!merged.ok()) {
     return Status(merged.status().code(), Where(step, camera_name), merged.status().subject() + ": " + merged.status().message());
   }
@@ -82,6 +92,29 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
     }
   }
   return view;
+}
+
+// The lights of a view as the rig model names them; only the wheels in front of lit LEDs count.
+Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where) {
+  LightingState lighting;
+  lighting.turntable_deg = state.turntable_deg;
+  for (const hal::LedDrive& led : state.leds_on) {
+    lighting.leds.emplace_back(led.led, led.current_ma);
+    for (size_t w = 0; w < rig.filter_wheels.size(); ++w) {
+      const FilterWheelModel& wheel = rig.filter_wheels[w];
+      if (wheel.led != led.led) continue;
+      const auto slot = state.filter_slots.find(wheel.name);
+      if (slot == state.filter_slots.end()) {
+        return NotFoundError(where, "LED " + std::to_string(led.led) + " is lit but the position of its filter wheel '" +
+                                        wheel.name + "' was not recorded");
+      }
+      lighting.filter_slots[static_cast<int>(w)] = slot->second;
+    }
+  }
+  lighting.linear_light_on = state.linear_light_on;
+  lighting.linear_light_mm = state.linear_light_mm;
+  lighting.linear_light_intensity = state.linear_light_intensity;
+  return lighting;
 }
 
 }  // namespace loom::calibration

@@ -15,7 +15,9 @@
 
 #include "acquisition/capture_store.h"
 #include "acquisition/sequencer.h"
+#include "calibration/hdr_merge.h"
 #include "core/image.h"
+#include "core/rig_observation.h"
 #include "core/rig_model.h"
 
 namespace loom::calibration {
@@ -27,6 +29,10 @@ struct RadianceView {
   int saturated_pixels = 0;
 };
 
+// The lights of a view as the rig model names them (only the wheels in front of lit LEDs
+// count); a lit LED whose wheel position was not recorded is an error naming `where`.
+Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where);
+
 class ScanRadiance {
  public:
   // `store` and `rig` must outlive the reader. Every camera of the plan must be in `rig`.
@@ -35,6 +41,10 @@ class ScanRadiance {
   const acquisition::Plan& plan() const { return store_->info().plan; }
   const RigModel& rig() const { return *rig_; }
   Result<RadianceView> View(int step, const std::string& camera) const;
+  // The step's raw bracket for one camera, and what the HDR merge knows of that camera at the
+  // bracket's gain: what View merges, for measurements on the raw readings (linearity).
+  Result<std::vector<hal::RawFrame>> Bracket(int step, const std::string& camera) const;
+  SensorNoise NoiseOf(const std::string& camera, double gain_db) const;
 
  private:
   ScanRadiance(const acquisition::CaptureStore& store, const RigModel& rig) : store_(&store), rig_(&rig) {}

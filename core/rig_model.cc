@@ -239,6 +239,14 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     if (!(target.tilt_deg >= 0 && target.tilt_deg < 80)) node->AddError("tilt_deg", "must be in [0, 80)");
     rig.calibration_target = target;
   }
+  if (std::optional<ConfigNode> node = geometry.OptionalChild("white_reference")) {
+    node->Required("albedo", &rig.white_reference.albedo);
+    if (!(rig.white_reference.albedo > 0 && rig.white_reference.albedo <= 1)) node->AddError("albedo", "must be in (0, 1]");
+  }
+  if (std::optional<ConfigNode> node = geometry.OptionalChild("colour_chart")) {
+    node->Required("patch_mm", &rig.colour_chart.patch_mm);
+    if (!(rig.colour_chart.patch_mm > 0)) node->AddError("patch_mm", "must be > 0");
+  }
   for (const ConfigNode& node : geometry.OptionalSequence("filter_wheels")) {
     FilterWheelModel wheel;
     node.Required("name", &wheel.name);

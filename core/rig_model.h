@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/colour_chart.h"
 #include "core/config.h"
 #include "core/geometry.h"
 
@@ -66,6 +67,9 @@ struct FilterModel {
   double center_nm = 550;
   double fwhm_nm = 30;
   double peak_transmission = 0.9;
+  // What a camera records of an RGB albedo through this slot, as radiometric calibration
+  // measured it on the colour chart (calibration/radiometry.h); unset: the spectral model's.
+  std::optional<Eigen::Vector3d> measured_weights;
 };
 
 struct FilterWheelModel {
@@ -138,6 +142,8 @@ struct RigModel {
   std::optional<LinearLightModel> linear_light;
   std::optional<ProjectorModel> projector;
   std::optional<CalibrationTargetModel> calibration_target;
+  WhiteReferenceModel white_reference;
+  ColourChartModel colour_chart;
 
   const CameraModel* FindCamera(const std::string& name) const;
   // The wheel in front of `led`, or nullptr.

@@ -44,6 +44,7 @@ Eigen::Vector3d PanchromaticWeights() { return Integrate([](double) { return 1.0
 
 Eigen::Vector3d FilterWeights(const FilterModel& filter) {
   if (filter.open) return PanchromaticWeights();
+  if (filter.measured_weights) return *filter.measured_weights;
   const double sigma = filter.fwhm_nm / (2 * std::sqrt(2 * std::log(2.0)));
   return Integrate([&](double nm) { return filter.peak_transmission * Gaussian(nm, filter.center_nm, sigma); }) /
          Normaliser();

@@ -16,7 +16,9 @@ namespace loom {
 // Weights of (R, G, B) albedo seen without a filter: they sum to 1.
 Eigen::Vector3d PanchromaticWeights();
 // Weights seen through a band-pass filter (Gaussian transmission): small, they sum to the
-// filter's share of the panchromatic signal. An open slot sees the panchromatic weights.
+// filter's share of the panchromatic signal. An open slot sees the panchromatic weights (the
+// white reference defines them); a band-pass slot with measured weights (radiometric
+// calibration) sees those.
 Eigen::Vector3d FilterWeights(const FilterModel& filter);
 
 }  // namespace loom

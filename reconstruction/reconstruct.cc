@@ -16,6 +16,7 @@
 
 namespace loom::reconstruction {
 
+using calibration::LightingOf;
 using calibration::RadianceView;
 using calibration::ScanRadiance;
 
@@ -52,29 +53,6 @@ std::vector<ViewRef> FittingViews(const acquisition::Plan& plan) {
     for (const std::string& camera : step.cameras) views.push_back({step.index, camera});
   }
   return views;
-}
-
-// The lights of a view as the rig model names them; only the wheels in front of lit LEDs count.
-Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where) {
-  LightingState lighting;
-  lighting.turntable_deg = state.turntable_deg;
-  for (const hal::LedDrive& led : state.leds_on) {
-    lighting.leds.emplace_back(led.led, led.current_ma);
-    for (size_t w = 0; w < rig.filter_wheels.size(); ++w) {
-      const FilterWheelModel& wheel = rig.filter_wheels[w];
-      if (wheel.led != led.led) continue;
-      const auto slot = state.filter_slots.find(wheel.name);
-      if (slot == state.filter_slots.end()) {
-        return NotFoundError(where, "LED " + std::to_string(led.led) + " is lit but the position of its filter wheel '" +
-                                        wheel.name + "' was not recorded");
-      }
-      lighting.filter_slots[static_cast<int>(w)] = slot->second;
-    }
-  }
-  lighting.linear_light_on = state.linear_light_on;
-  lighting.linear_light_mm = state.linear_light_mm;
-  lighting.linear_light_intensity = state.linear_light_intensity;
-  return lighting;
 }
 
 Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& camera, const ReconstructOptions& options,

@@ -27,9 +27,9 @@ Result<Material> MakeSample(const SampleSpec& spec) {
     options.pixel_mm = spec.pixel_mm;
     return GenerateFabric(spec.seed, options);
   }
-  if (spec.kind == "white-tile") return WhiteTile(grid);
+  if (spec.kind == "white-tile") return WhiteTile(grid, spec.white.albedo);
   if (spec.kind == "chessboard") return Chessboard(9, 6, side_mm / 14, grid);
-  if (spec.kind == "colour-chart") return ColourChart(side_mm / 8, grid);
+  if (spec.kind == "colour-chart") return ColourChart(spec.chart, grid);
   if (spec.kind == "target") {
     if (!spec.target) return InvalidArgumentError("sample kind 'target'", "the rig's geometry has no calibration_target");
     return CalibrationTarget(*spec.target);

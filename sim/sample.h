@@ -22,6 +22,8 @@ struct SampleSpec {
   int size_px = 256;
   double pixel_mm = 0.1;
   std::optional<CalibrationTargetModel> target;  // the rig's, for kind "target"
+  ColourChartModel chart;                        // the rig's, for kind "colour-chart"
+  WhiteReferenceModel white;                     // the rig's, for kind "white-tile"
 };
 
 SampleSpec ReadSampleSpec(const ConfigNode& node);

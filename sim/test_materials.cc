@@ -1,22 +1,11 @@
 #include "sim/test_materials.h"
 
-#include <array>
 #include <cmath>
 
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::sim {
 namespace {
-
-// The ColorChecker Classic in 8-bit sRGB (published averages), row-major, dark skin first.
-constexpr std::array<std::array<int, 3>, 24> kChartSrgb = {{
-    {115, 82, 68},   {194, 150, 130}, {98, 122, 157},  {87, 108, 67},   {133, 128, 177}, {103, 189, 170},
-    {214, 126, 44},  {80, 91, 166},   {193, 90, 99},   {94, 60, 108},   {157, 188, 64},  {224, 163, 46},
-    {56, 61, 150},   {70, 148, 73},   {175, 54, 60},   {231, 199, 31},  {187, 86, 149},  {8, 133, 161},
-    {243, 243, 242}, {200, 200, 200}, {160, 160, 160}, {122, 122, 121}, {85, 85, 85},    {52, 52, 52},
-}};
-
-double SrgbToLinear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
 
 fitting::WardParams<double> Lambertian(const Eigen::Vector3d& albedo) {
   fitting::WardParams<double> p;
@@ -58,8 +47,8 @@ Material UniformMaterial(const std::string& name, const fitting::WardParams<doub
   return m;
 }
 
-Material WhiteTile(const GridOptions& grid) {
-  return FlatLambertian("white tile", grid, [](double, double) -> Eigen::Vector3d { return Eigen::Vector3d::Constant(0.95); });
+Material WhiteTile(const GridOptions& grid, double albedo) {
+  return FlatLambertian("white tile", grid, [&](double, double) -> Eigen::Vector3d { return Eigen::Vector3d::Constant(albedo); });
 }
 
 Material Chessboard(int inner_cols, int inner_rows, double square_mm, const GridOptions& grid) {
@@ -102,21 +91,10 @@ Material CalibrationTarget(const CalibrationTargetModel& target) {
   return m;
 }
 
-Eigen::Vector3d ColourChartAlbedo(int patch) {
-  const auto& srgb = kChartSrgb.at(patch);
-  return {SrgbToLinear(srgb[0] / 255.0), SrgbToLinear(srgb[1] / 255.0), SrgbToLinear(srgb[2] / 255.0)};
-}
-
-Material ColourChart(double patch_mm, const GridOptions& grid) {
-  const double cell = patch_mm * 1.2;
+Material ColourChart(const ColourChartModel& chart, const GridOptions& grid) {
   return FlatLambertian("colour chart", grid, [&](double x, double y) -> Eigen::Vector3d {
-    const double gx = x / cell + 3;  // 6 columns
-    const double gy = y / cell + 2;  // 4 rows
-    const int col = static_cast<int>(std::floor(gx));
-    const int row = static_cast<int>(std::floor(gy));
-    const bool inside_patch = std::abs(gx - col - 0.5) < 0.5 / 1.2 && std::abs(gy - row - 0.5) < 0.5 / 1.2;
-    if (col < 0 || col >= 6 || row < 0 || row >= 4 || !inside_patch) return Eigen::Vector3d::Constant(0.02);
-    return ColourChartAlbedo(row * 6 + col);
+    const int patch = chart.PatchAt(x, y);
+    return patch < 0 ? Eigen::Vector3d::Constant(ColourChartModel::kGapAlbedo) : ColourChartModel::Albedo(patch);
   });
 }
 

@@ -5,9 +5,9 @@
 // |------------------|---------------------------------------------------|------------------------------|
 // | Uniform          | one WardParams everywhere, flat                   | renderer tests (white        |
 // |                  |                                                   | Lambertian, uniform glossy)  |
-// | WhiteTile        | Lambertian a_d = 0.95 (a Spectralon-like tile)    | flat field, LED intensities  |
+// | WhiteTile        | Lambertian, grey (0.95: a Spectralon-like tile)   | flat field, LED intensities  |
 // | Chessboard       | black/white squares, flat, Lambertian             | geometric calibration        |
-// | ColourChart      | the 24 patches of a ColorChecker, Lambertian      | the filter → sRGB matrix     |
+// | ColourChart      | the 24 patches of a ColorChecker, Lambertian      | the filters' colour weights  |
 // | CalibrationTarget| a chessboard on a wedge (the rig's target model)  | loom calibrate geometry      |
 //
 // All but the target flat (height 0, n_s = z), centred on the sample like every material.
@@ -26,13 +26,11 @@ struct GridOptions {
 
 Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params,
                          const GridOptions& grid);
-Material WhiteTile(const GridOptions& grid);
+Material WhiteTile(const GridOptions& grid, double albedo = WhiteReferenceModel{}.albedo);
 // A board of (inner_cols + 1) × (inner_rows + 1) squares of square_mm, centred, on white.
 Material Chessboard(int inner_cols, int inner_rows, double square_mm, const GridOptions& grid);
-// 6 × 4 patches of patch_mm with 20 % gaps, centred, on black; PatchAlbedo(i) gives patch i's
-// a_d (row-major from the top left, dark skin first).
-Material ColourChart(double patch_mm, const GridOptions& grid);
-Eigen::Vector3d ColourChartAlbedo(int patch);
+// The chart of core/colour_chart.h (its albedos and layout), centred.
+Material ColourChart(const ColourChartModel& chart, const GridOptions& grid);
 // The rig's target on white, its wedge as heights. Map pixels of 0.1 mm: with tac7-mini's
 // target (2.5 mm squares, an even number of them each way, tilt with cos = 0.92) every square
 // edge falls on a pixel edge, so the printed corners are exact in the rendered images.

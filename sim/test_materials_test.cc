@@ -25,17 +25,17 @@ TEST(TestMaterialsTest, ChessboardSquaresWhereTheBoardSaysSo) {
 }
 
 TEST(TestMaterialsTest, ColourChartPatchesHaveTheChartsAlbedos) {
-  const Material chart = ColourChart(20.0, {.width_px = 320, .height_px = 240, .pixel_mm = 0.5});
+  const Material chart = ColourChart(ColourChartModel{.patch_mm = 20.0}, {.width_px = 320, .height_px = 240, .pixel_mm = 0.5});
   const double cell = 24.0;
   for (int patch : {0, 5, 14, 18, 23}) {
     const int row = patch / 6;
     const int col = patch % 6;
     const double x = (col - 3 + 0.5) * cell;
     const double y = (row - 2 + 0.5) * cell;
-    EXPECT_TRUE(At(chart, x, y).a_d.isApprox(ColourChartAlbedo(patch), 1e-6)) << patch;
+    EXPECT_TRUE(At(chart, x, y).a_d.isApprox(ColourChartModel::Albedo(patch), 1e-6)) << patch;
   }
-  EXPECT_NEAR(ColourChartAlbedo(18).x(), 0.896, 0.005);  // white patch, linear
-  EXPECT_NEAR(ColourChartAlbedo(14).x(), 0.429, 0.005);  // red patch's red
+  EXPECT_NEAR(ColourChartModel::Albedo(18).x(), 0.896, 0.005);  // white patch, linear
+  EXPECT_NEAR(ColourChartModel::Albedo(14).x(), 0.429, 0.005);  // red patch's red
 }
 
 TEST(TestMaterialsTest, WhiteTileAndUniformAreFlat) {

@@ -52,7 +52,7 @@ class SimBackendsTest : public ::testing::Test {
  protected:
   void SetUp() override {
     world_ = std::make_shared<SimWorld>(
-        std::make_shared<sim::Scene>(SmallRig(), sim::ColourChart(4.0, {64, 64, 0.5})), 3);
+        std::make_shared<sim::Scene>(SmallRig(), sim::ColourChart(ColourChartModel{.patch_mm = 4.0}, {64, 64, 0.5})), 3);
     BackendRegistry registry;
     RegisterSimBackends(registry, world_);
     // The devices section at the top level of the document.

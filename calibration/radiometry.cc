@@ -1,0 +1,466 @@
+#include "calibration/radiometry.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numbers>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+#include "core/spectra.h"
+
+namespace loom::calibration {
+namespace {
+
+using acquisition::StepKind;
+
+// Where a camera pixel looks on the turntable's plane (z = 0 in the sample frame at the view's
+// angle), if it looks down at it.
+std::optional<Eigen::Vector3d> PointOnTurntable(const RigModel& rig, const CameraModel& camera, double turntable_deg, int x, int y) {
+  const Rigid3d sample_from_cam = rig.turntable.RigFromSample(turntable_deg).inverse() * camera.cam_from_rig.inverse();
+  const Eigen::Vector3d origin = sample_from_cam.translation();
+  const Eigen::Vector3d direction = sample_from_cam.linear() * camera.Unproject(Eigen::Vector2d(x, y));
+  if (direction.z() >= 0) return std::nullopt;
+  return origin + direction * (-origin.z() / direction.z());
+}
+
+// Radiance of a flat grey Lambertian surface of albedo 1 at `p` under the view's emitters.
+double UnitAlbedoRadiance(const StackObservation& observation, const Eigen::Vector3d& p) {
+  double irradiance = 0;
+  for (const PointEmitter& emitter : observation.emitters) {
+    const Eigen::Vector3d to_light = emitter.position_mm - p;
+    const double d2 = to_light.squaredNorm();
+    const double cos_incidence = to_light.z() / std::sqrt(d2);
+    if (cos_incidence > 0) irradiance += emitter.IntensityTowards(p) * cos_incidence / d2;
+  }
+  return irradiance / std::numbers::pi;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto middle = values.begin() + values.size() / 2;
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+double Percentile(std::vector<double> values, double fraction) {
+  const auto at = values.begin() + static_cast<long>(fraction * (values.size() - 1));
+  std::nth_element(values.begin(), at, values.end());
+  return *at;
+}
+
+// (r / r_corner)² at a pixel: the vignetting model's variable.
+double CornerRadius2(const CameraModel& camera, int x, int y) {
+  SensorModel unit = camera.sensor;
+  unit.vignetting = 1;
+  return 1 - unit.RelativeResponse(x, y, camera.width, camera.height);
+}
+
+// The light of a white-reference view: an LED index, or −1 for the linear light.
+Result<int> LightOf(const LitView& view) {
+  const LightingState& lighting = view.lighting;
+  if (lighting.leds.size() == 1 && !lighting.linear_light_on) return lighting.leds.front().first;
+  if (lighting.leds.empty() && lighting.linear_light_on) return -1;
+  return InvalidArgumentError(view.source, "a white-reference view must be lit by one LED or the linear light alone");
+}
+
+std::string LightName(int led) { return led < 0 ? "linear light" : "led " + std::to_string(led); }
+
+// One white-reference view on the tile: pixels well inside it, with the recorded radiance over
+// the rig model's prediction.
+struct TileView {
+  int camera = 0;
+  int led = 0;  // −1: the linear light
+  std::vector<int> pixels;  // y · width + x
+  std::vector<double> ratio;
+  double median = 0;
+};
+
+Result<TileView> OnTile(const RigModel& rig, const LitView& view, double albedo, int edge_px) {
+  const CameraModel& camera = rig.cameras.at(view.camera);
+  LOOM_ASSIGN_OR_RETURN(const int led, LightOf(view));
+  LOOM_ASSIGN_OR_RETURN(const StackObservation observation, DescribeRigObservation(rig, view.camera, view.lighting));
+  const double weight = observation.rgb_weights.sum();
+  cv::Mat ratio(camera.height, camera.width, CV_64F, cv::Scalar(0));
+  std::vector<double> valid;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const double measured = view.radiance.at(0, y, x);
+      const std::optional<Eigen::Vector3d> p = PointOnTurntable(rig, camera, view.lighting.turntable_deg, x, y);
+      if (!p || !std::isfinite(measured)) continue;
+      const double predicted = albedo * weight * UnitAlbedoRadiance(observation, *p);
+      if (!(predicted > 0)) continue;
+      ratio.at<double>(y, x) = measured / predicted;
+      valid.push_back(measured / predicted);
+    }
+  }
+  if (valid.empty()) return FailedPreconditionError(view.source, "no pixel looks at the turntable");
+  // The tile is what reads near the prediction; the holder around it is dark. Its edge mixes both.
+  cv::Mat on_tile = ratio > 0.4 * Percentile(valid, 0.9);
+  cv::erode(on_tile, on_tile, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * edge_px + 1, 2 * edge_px + 1)));
+  TileView tile{view.camera, led, {}, {}, 0};
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      if (on_tile.at<uint8_t>(y, x) == 0) continue;
+      tile.pixels.push_back(y * camera.width + x);
+      tile.ratio.push_back(ratio.at<double>(y, x));
+    }
+  }
+  tile.median = Median(tile.ratio);
+  return tile;
+}
+
+struct FlatField {
+  double vignetting = 0;
+  double residual = 0;
+};
+
+// The vignetting model through the camera's ratio images: S · R_rig = k (1 − v q), linear in (k, k·v).
+Result<FlatField> FitFlatField(const CameraModel& camera, const std::vector<const TileView*>& views) {
+  std::map<int, std::pair<double, int>> shape;  // pixel → (Σ ratio / median, views)
+  for (const TileView* view : views) {
+    for (size_t i = 0; i < view->pixels.size(); ++i) {
+      auto& [sum, count] = shape[view->pixels[i]];
+      sum += view->ratio[i] / view->median;
+      ++count;
+    }
+  }
+  if (shape.size() < 100) {
+    return FailedPreconditionError("camera '" + camera.name + "'", "sees the white reference in " + std::to_string(shape.size()) +
+                                                                       " pixels: too few for its flat field (at least 100)");
+  }
+  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+  std::vector<std::array<double, 2>> samples;  // (q, y)
+  for (const auto& [pixel, sum_count] : shape) {
+    const int x = pixel % camera.width, y = pixel / camera.width;
+    const double q = CornerRadius2(camera, x, y);
+    const double value = sum_count.first / sum_count.second * camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
+    const Eigen::Vector2d row(1, -q);
+    normal += row * row.transpose();
+    rhs += row * value;
+    samples.push_back({q, value});
+  }
+  const Eigen::Vector2d solution = normal.ldlt().solve(rhs);  // (k, k·v)
+  FlatField flat{solution[1] / solution[0], 0};
+  double sum2 = 0;
+  for (const auto& [q, value] : samples) {
+    const double model = solution[0] * (1 - flat.vignetting * q);
+    sum2 += (value - model) * (value - model) / (model * model);
+  }
+  flat.residual = std::sqrt(sum2 / samples.size());
+  return flat;
+}
+
+// The view's scale once the camera's flat field is taken out.
+double ScaleOf(const CameraModel& camera, const TileView& view, double vignetting) {
+  std::vector<double> scaled;
+  for (size_t i = 0; i < view.pixels.size(); ++i) {
+    const int x = view.pixels[i] % camera.width, y = view.pixels[i] / camera.width;
+    const double flat = (1 - vignetting * CornerRadius2(camera, x, y)) / camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
+    scaled.push_back(view.ratio[i] / flat);
+  }
+  return Median(scaled);
+}
+
+int ReferenceCamera(const RigModel& rig, const std::string& name) {
+  if (!name.empty()) {
+    const CameraModel* camera = rig.FindCamera(name);
+    return camera ? static_cast<int>(camera - rig.cameras.data()) : -1;
+  }
+  int best = 0;
+  for (int c = 1; c < static_cast<int>(rig.cameras.size()); ++c) {
+    // The camera's optical axis in the rig frame: its z row; most nearly −z looks straight down.
+    if (rig.cameras[c].cam_from_rig.rotation().row(2).z() < rig.cameras[best].cam_from_rig.rotation().row(2).z()) best = c;
+  }
+  return best;
+}
+
+// The widest angle the tile spans from a light, seen over the reference camera's views.
+double TileSubtendsDeg(const RigModel& rig, const std::vector<TileView>& tiles, const std::vector<LitView>& white, int reference) {
+  double widest = 0;
+  for (size_t v = 0; v < tiles.size(); ++v) {
+    if (tiles[v].camera != reference || tiles[v].led < 0) continue;
+    const LedModel& led = rig.leds[tiles[v].led];
+    const CameraModel& camera = rig.cameras[reference];
+    double low = 180, high = 0;
+    for (int pixel : tiles[v].pixels) {
+      const auto p = PointOnTurntable(rig, camera, white[v].lighting.turntable_deg, pixel % camera.width, pixel / camera.width);
+      const Eigen::Vector3d p_rig = rig.turntable.RigFromSample(white[v].lighting.turntable_deg) * *p;
+      const double angle = RadToDeg(std::acos(std::clamp(led.axis.dot((p_rig - led.position_mm).normalized()), -1.0, 1.0)));
+      low = std::min(low, angle);
+      high = std::max(high, angle);
+    }
+    widest = std::max(widest, high - low);
+  }
+  return widest;
+}
+
+Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white, const RadiometryOptions& options,
+                         Radiometry* radiometry, std::vector<TileView>* tiles) {
+  for (const LitView& view : white) {
+    LOOM_ASSIGN_OR_RETURN(TileView tile, OnTile(rig, view, rig.white_reference.albedo, options.edge_px));
+    tiles->push_back(std::move(tile));
+  }
+  const int reference = ReferenceCamera(rig, options.reference_camera);
+  if (reference < 0) return NotFoundError("reference camera '" + options.reference_camera + "'", "not in rig '" + rig.name + "'");
+  radiometry->reference_camera = rig.cameras[reference].name;
+  // scale[(camera, light)] once each camera's flat field is out.
+  std::map<std::pair<int, int>, double> scale;
+  std::vector<FlatField> flats;
+  for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+    std::vector<const TileView*> views;
+    for (const TileView& tile : *tiles) {
+      if (tile.camera == c) views.push_back(&tile);
+    }
+    LOOM_ASSIGN_OR_RETURN(const FlatField flat, FitFlatField(rig.cameras[c], views));
+    flats.push_back(flat);
+    for (const TileView* view : views) scale[{c, view->led}] = ScaleOf(rig.cameras[c], *view, flat.vignetting);
+  }
+  std::vector<int> lights;
+  for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) lights.push_back(led);
+  if (rig.linear_light) lights.push_back(-1);
+  std::map<int, double> light_scale;
+  for (int light : lights) {
+    const auto seen = scale.find({reference, light});
+    if (seen == scale.end()) {
+      return NotFoundError(LightName(light), "has no white-reference view from the reference camera '" +
+                                                 rig.cameras[reference].name + "'");
+    }
+    light_scale[light] = seen->second;
+  }
+  for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+    std::vector<double> ratios;
+    for (int light : lights) {
+      if (scale.contains({c, light})) ratios.push_back(scale[{c, light}] / light_scale[light]);
+    }
+    const CameraModel& camera = rig.cameras[c];
+    CameraRadiometry result;
+    result.name = camera.name;
+    result.sensitivity_change = c == reference ? 1.0 : Median(ratios);
+    result.sensitivity = camera.sensor.sensitivity * result.sensitivity_change;
+    result.vignetting = flats[c].vignetting;
+    result.flat_field_residual = flats[c].residual;
+    for (const TileView& tile : *tiles) {
+      if (tile.camera == c) result.tile_pixels = std::max(result.tile_pixels, static_cast<int>(tile.pixels.size()));
+    }
+    radiometry->cameras.push_back(result);
+  }
+  for (int light : lights) {
+    LightRadiometry result;
+    result.name = LightName(light);
+    result.led = light;
+    result.change = light_scale[light];
+    const double nominal = light < 0 ? rig.linear_light->intensity_per_mm : rig.leds[light].intensity;
+    result.intensity = nominal * result.change;
+    double sum2 = 0;
+    int cameras = 0;
+    for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+      if (!scale.contains({c, light})) continue;
+      const double relative = scale[{c, light}] / (light_scale[light] * radiometry->cameras[c].sensitivity_change) - 1;
+      sum2 += relative * relative;
+      ++cameras;
+    }
+    result.camera_spread = std::sqrt(sum2 / cameras);
+    radiometry->lights.push_back(result);
+  }
+  radiometry->tile_subtends_deg = TileSubtendsDeg(rig, *tiles, white, reference);
+  return Status::Ok();
+}
+
+// Per patch, the chart's radiance over the white reference's at the same pixels (inner 60 % of
+// each patch, where both are valid).
+Result<std::vector<double>> PatchRatios(const RigModel& rig, const LitView& chart, const LitView& white, const TileView& tile) {
+  const CameraModel& camera = rig.cameras[chart.camera];
+  const ColourChartModel& model = rig.colour_chart;
+  std::vector<double> chart_sum(ColourChartModel::kPatches, 0), white_sum(ColourChartModel::kPatches, 0);
+  for (int pixel : tile.pixels) {
+    const int x = pixel % camera.width, y = pixel / camera.width;
+    const auto p = PointOnTurntable(rig, camera, chart.lighting.turntable_deg, x, y);
+    const int patch = model.PatchAt(p->x(), p->y());
+    if (patch < 0) continue;
+    const Eigen::Vector2d offset = p->head<2>() - model.PatchCentre(patch);
+    if (offset.cwiseAbs().maxCoeff() > 0.3 * model.patch_mm) continue;
+    const double c = chart.radiance.at(0, y, x), w = white.radiance.at(0, y, x);
+    if (!std::isfinite(c) || !std::isfinite(w)) continue;
+    chart_sum[patch] += c;
+    white_sum[patch] += w;
+  }
+  std::vector<double> ratios;
+  for (int patch = 0; patch < ColourChartModel::kPatches; ++patch) {
+    if (!(white_sum[patch] > 0)) {
+      return FailedPreconditionError(chart.source, "patch " + std::to_string(patch) + " of the colour chart is not seen on the white reference");
+    }
+    ratios.push_back(chart_sum[patch] / white_sum[patch]);
+  }
+  return ratios;
+}
+
+// The wheel and slot in front of a chart view's LED.
+Result<std::pair<int, int>> FilterOf(const RigModel& rig, const LitView& view) {
+  if (view.lighting.leds.size() == 1) {
+    for (const auto& [wheel, slot] : view.lighting.filter_slots) {
+      if (rig.filter_wheels[wheel].led == view.lighting.leds.front().first && !rig.filter_wheels[wheel].filters[slot].open) {
+        return std::pair{wheel, slot};
+      }
+    }
+  }
+  return InvalidArgumentError(view.source, "a colour-chart view must be lit by one LED through a band-pass filter");
+}
+
+Status FitColour(const RigModel& rig, const std::vector<LitView>& white, const std::vector<TileView>& tiles,
+                 const std::vector<LitView>& chart, Radiometry* radiometry) {
+  const double albedo = rig.white_reference.albedo;
+  // (wheel, slot) → per camera view, the readings (albedo units) of the 24 patches.
+  std::map<std::pair<int, int>, std::vector<std::vector<double>>> readings;
+  for (const LitView& view : chart) {
+    LOOM_ASSIGN_OR_RETURN(const auto filter, FilterOf(rig, view));
+    const int led = view.lighting.leds.front().first;
+    size_t w = 0;
+    while (w < white.size() && !(tiles[w].camera == view.camera && tiles[w].led == led)) ++w;
+    if (w == white.size()) {
+      return NotFoundError(view.source, "has no white-reference view of the same camera and LED to compare with");
+    }
+    LOOM_ASSIGN_OR_RETURN(std::vector<double> ratios, PatchRatios(rig, view, white[w], tiles[w]));
+    for (double& r : ratios) r *= albedo;
+    readings[filter].push_back(std::move(ratios));
+  }
+  for (const auto& [filter, views] : readings) {
+    const auto [wheel, slot] = filter;
+    Eigen::MatrixXd a(views.size() * ColourChartModel::kPatches, 3);
+    Eigen::VectorXd b(a.rows());
+    for (size_t v = 0; v < views.size(); ++v) {
+      for (int p = 0; p < ColourChartModel::kPatches; ++p) {
+        a.row(v * ColourChartModel::kPatches + p) = ColourChartModel::Albedo(p).transpose();
+        b(v * ColourChartModel::kPatches + p) = views[v][p];
+      }
+    }
+    FilterRadiometry result;
+    result.wheel = rig.filter_wheels[wheel].name;
+    result.slot = slot;
+    FilterModel nominal = rig.filter_wheels[wheel].filters[slot];
+    result.center_nm = nominal.center_nm;
+    nominal.measured_weights.reset();
+    result.nominal_weights = FilterWeights(nominal);
+    result.weights = a.colPivHouseholderQr().solve(b);
+    result.fit_residual = std::sqrt(((a * result.weights - b).array() / b.array()).square().mean());
+    radiometry->filters.push_back(result);
+  }
+  // Each wheel's colour matrix, checked on the chart with the readings averaged over cameras.
+  for (int w = 0; w < static_cast<int>(rig.filter_wheels.size()); ++w) {
+    WheelColour colour;
+    colour.wheel = rig.filter_wheels[w].name;
+    std::vector<Eigen::Vector3d> weights;
+    for (const FilterRadiometry& f : radiometry->filters) {
+      if (f.wheel == colour.wheel) {
+        colour.slots.push_back(f.slot);
+        weights.push_back(f.weights);
+      }
+    }
+    if (weights.size() < 3) continue;  // fewer than three bands cannot give three colours
+    Eigen::MatrixXd bands(weights.size(), 3);
+    for (size_t k = 0; k < weights.size(); ++k) bands.row(k) = weights[k].transpose();
+    colour.colour_matrix = bands.completeOrthogonalDecomposition().pseudoInverse();
+    double sum2 = 0;
+    for (int p = 0; p < ColourChartModel::kPatches; ++p) {
+      Eigen::VectorXd reading(weights.size());
+      for (size_t k = 0; k < weights.size(); ++k) {
+        const auto& views = readings[{w, colour.slots[k]}];
+        double sum = 0;
+        for (const auto& v : views) sum += v[p];
+        reading(k) = sum / views.size();
+      }
+      const Eigen::Vector3d error = colour.colour_matrix * reading - ColourChartModel::Albedo(p);
+      sum2 += error.squaredNorm();
+      colour.chart_max = std::max(colour.chart_max, error.cwiseAbs().maxCoeff());
+    }
+    colour.chart_rms = std::sqrt(sum2 / (3 * ColourChartModel::kPatches));
+    radiometry->wheels.push_back(colour);
+  }
+  return Status::Ok();
+}
+
+// A rough tile mask for the linearity check: the view's bright pixels.
+std::vector<uint8_t> BrightPixels(const Image& radiance) {
+  std::vector<double> finite;
+  for (float v : radiance.channel(0)) {
+    if (std::isfinite(v)) finite.push_back(v);
+  }
+  std::vector<uint8_t> mask(radiance.pixel_count(), 0);
+  if (finite.empty()) return mask;
+  const double threshold = 0.4 * Percentile(finite, 0.9);
+  for (size_t i = 0; i < mask.size(); ++i) mask[i] = radiance.channel(0)[i] > threshold;
+  return mask;
+}
+
+}  // namespace
+
+Result<Radiometry> FitRadiometry(const RigModel& rig, const std::vector<LitView>& white, const std::vector<LitView>& chart,
+                                 const RadiometryOptions& options) {
+  Radiometry radiometry;
+  radiometry.white_albedo = rig.white_reference.albedo;
+  std::vector<TileView> tiles;
+  LOOM_RETURN_IF_ERROR(FitWhiteReference(rig, white, options, &radiometry, &tiles));
+  LOOM_RETURN_IF_ERROR(FitColour(rig, white, tiles, chart, &radiometry));
+  return radiometry;
+}
+
+Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const RadiometryOptions& options) {
+  const RigModel& rig = scan.rig();
+  std::vector<LitView> white, chart;
+  std::map<std::string, Linearity> linearity;
+  for (const acquisition::Step& step : scan.plan().steps) {
+    if (step.kind != StepKind::kWhiteReference && step.kind != StepKind::kColourChart) continue;
+    for (const std::string& camera : step.cameras) {
+      LOOM_ASSIGN_OR_RETURN(RadianceView view, scan.View(step.index, camera));
+      const std::string source = "step " + std::to_string(step.index) + " (" + std::string(StepKindName(step.kind)) + "), camera '" + camera + "'";
+      LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(rig, view.state, source));
+      if (step.kind == StepKind::kWhiteReference) {
+        LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(step.index, camera));
+        LOOM_ASSIGN_OR_RETURN(const Linearity measured,
+                              MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain), BrightPixels(view.radiance)));
+        Linearity& worst = linearity[camera];
+        worst.deviation = std::max(worst.deviation, measured.deviation);
+        worst.max_dn = std::max(worst.max_dn, measured.max_dn);
+        worst.pairs += measured.pairs;
+      }
+      (step.kind == StepKind::kWhiteReference ? white : chart).push_back({view.camera, std::move(lighting), std::move(view.radiance), source});
+    }
+  }
+  LOOM_ASSIGN_OR_RETURN(Radiometry radiometry, FitRadiometry(rig, white, chart, options));
+  for (CameraRadiometry& camera : radiometry.cameras) {
+    const SensorNoise dark = scan.NoiseOf(camera.name, 0);
+    camera.black_dn = dark.black_dn;
+    camera.read_noise_dn = dark.read_noise_dn;
+    const Linearity& measured = linearity[camera.name];
+    camera.linearity_deviation = measured.pairs > 0 ? measured.deviation : std::numeric_limits<double>::quiet_NaN();
+    camera.linearity_max_dn = measured.max_dn;
+  }
+  return radiometry;
+}
+
+void ApplyRadiometry(const Radiometry& radiometry, RigModel* rig) {
+  for (const CameraRadiometry& calibrated : radiometry.cameras) {
+    for (CameraModel& camera : rig->cameras) {
+      if (camera.name != calibrated.name) continue;
+      camera.sensor.sensitivity = calibrated.sensitivity;
+      camera.sensor.vignetting = calibrated.vignetting;
+    }
+  }
+  for (const LightRadiometry& light : radiometry.lights) {
+    if (light.led >= 0 && light.led < static_cast<int>(rig->leds.size())) rig->leds[light.led].intensity = light.intensity;
+    if (light.led < 0 && rig->linear_light) rig->linear_light->intensity_per_mm = light.intensity;
+  }
+  for (const FilterRadiometry& filter : radiometry.filters) {
+    for (FilterWheelModel& wheel : rig->filter_wheels) {
+      if (wheel.name == filter.wheel && filter.slot < static_cast<int>(wheel.filters.size())) {
+        wheel.filters[filter.slot].measured_weights = filter.weights;
+      }
+    }
+  }
+}
+
+}  // namespace loom::calibration
