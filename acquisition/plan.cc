@@ -52,6 +52,9 @@ Status CheckOpenSlots(const RigModel& rig) {
   return {};
 }
 
+// Exposures of a linearity series: from 90 % of full scale down to 1/64 of that (~60 DN at 12 bits).
+constexpr int kLinearitySeries = 7;
+
 class PlanBuilder {
  public:
   PlanBuilder(const RigModel& rig, const Preset& preset, std::string purpose) : rig_(rig), preset_(preset) {
@@ -107,6 +110,18 @@ class PlanBuilder {
     for (int k = 0; k < n; ++k) {
       Add(StepKind::kLinearLight, AllCameras(rig_), angle, "sample").linear_light_mm = n == 1 ? travel / 2 : travel * k / (n - 1);
     }
+  }
+
+  // The white reference under the LED nearest the zenith also takes a linearity series.
+  void LinearitySeries() {
+    Step* highest = nullptr;
+    for (Step& step : plan_.steps) {
+      if (step.kind != StepKind::kWhiteReference || step.leds.size() != 1) continue;
+      if (highest == nullptr || rig_.leds[step.leds[0].led].position_mm.normalized().z() > rig_.leds[highest->leds[0].led].position_mm.normalized().z()) {
+        highest = &step;
+      }
+    }
+    if (highest != nullptr) highest->exposure.linearity_series = kLinearitySeries;
   }
 
   Plan Finish() { return std::move(plan_); }
@@ -224,6 +239,7 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
     for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
   }
   builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
+  builder.LinearitySeries();
   if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, "white tile").linear_light_mm = rig.linear_light->travel_mm / 2;
   builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), "colour chart");
   return builder.Finish();

@@ -36,6 +36,9 @@ std::optional<StepKind> ParseStepKind(std::string_view name);
 struct ExposureBracket {
   double probe_us = 10000;  // the first exposure; the sequencer brackets around it
   int max_exposures = 5;
+  // After the bracket, this many more exposures for the cameras' linearity: the first brings the
+  // brightest pixels to 90 % of full scale, each next one is half as long.
+  int linearity_series = 0;
   bool operator==(const ExposureBracket&) const = default;
 };
 

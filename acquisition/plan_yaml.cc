@@ -36,6 +36,7 @@ void EmitStep(YAML::Emitter& out, const Step& step) {
   out << YAML::Key << "object" << YAML::Value << step.object;
   out << YAML::Key << "probe_exposure_us" << YAML::Value << step.exposure.probe_us;
   out << YAML::Key << "max_exposures" << YAML::Value << step.exposure.max_exposures;
+  if (step.exposure.linearity_series > 0) out << YAML::Key << "linearity_series" << YAML::Value << step.exposure.linearity_series;
   out << YAML::EndMap;
 }
 
@@ -74,6 +75,7 @@ Step ReadStep(const ConfigNode& node, int expected_index) {
   node.Required("object", &step.object);
   node.Required("probe_exposure_us", &step.exposure.probe_us);
   node.Required("max_exposures", &step.exposure.max_exposures);
+  node.Optional("linearity_series", &step.exposure.linearity_series);
   return step;
 }
 

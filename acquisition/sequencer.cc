@@ -223,7 +223,32 @@ Status Sequencer::CaptureStep(const Step& step) {
     LOOM_ASSIGN_OR_RETURN(std::vector<hal::RawFrame> more, CaptureExposure(step, next, index));
     frames.push_back(std::move(more));
   }
+  const auto shortest = std::min_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
+  LOOM_RETURN_IF_ERROR(CaptureLinearitySeries(step, shortest->us, frames[shortest->index], static_cast<int>(exposures.size()), min_us, max_us));
   return store_.MarkStepDone(step.index);
+}
+
+Status Sequencer::CaptureLinearitySeries(const Step& step, double shortest_us, const std::vector<hal::RawFrame>& shortest,
+                                         int next_index, double min_us, double max_us) {
+  if (step.exposure.linearity_series <= 0) return Status::Ok();
+  // The brightest pixels (99.9th percentile: a hot pixel does not count) of any camera.
+  double peak = 0, full_scale = 0;
+  for (const hal::RawFrame& frame : shortest) {
+    std::vector<uint16_t> values = frame.pixels;
+    const auto at = values.begin() + static_cast<long>(0.999 * (values.size() - 1));
+    std::nth_element(values.begin(), at, values.end());
+    const double black = BlackAndFloor(frame.metadata.camera).first;
+    if (*at - black > peak) {
+      peak = *at - black;
+      full_scale = (1 << hal::BitDepth(frame.metadata.pixel_format)) - 1 - black;
+    }
+  }
+  if (peak <= 0) return Status::Ok();  // nothing lit: nothing to measure
+  double exposure_us = std::clamp(shortest_us * 0.9 * full_scale / peak, min_us, max_us);
+  for (int k = 0; k < step.exposure.linearity_series && exposure_us >= min_us; ++k, exposure_us /= 2) {
+    LOOM_RETURN_IF_ERROR(CaptureExposure(step, exposure_us, next_index + k).status());
+  }
+  return Status::Ok();
 }
 
 Status Sequencer::PlaceObject(const Step& step) {

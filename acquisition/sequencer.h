@@ -71,6 +71,10 @@ class Sequencer {
   std::pair<double, double> BlackAndFloor(const std::string& camera) const;
   // One frame of every camera of `step` at `exposure_us`: read back when stored, else captured.
   Result<std::vector<hal::RawFrame>> CaptureExposure(const Step& step, double exposure_us, int exposure_index);
+  // The step's linearity series (plan.h), after its bracket: `shortest` is the bracket's
+  // shortest exposure and its frames; series frames take indices from `next_index` on.
+  Status CaptureLinearitySeries(const Step& step, double shortest_us, const std::vector<hal::RawFrame>& shortest,
+                                int next_index, double min_us, double max_us);
   Result<hal::RawFrame> CaptureWithRetries(hal::Camera& camera, const Step& step);
   Status SetExposure(hal::Camera& camera, double exposure_us);
   Result<hal::Camera*> FindCamera(const std::string& name) const;

@@ -1,6 +1,7 @@
 // loom calibrate: turn calibration captures into calibration files (calibration/).
 //   intrinsics  one camera from a folder of photos of a chessboard (recalibration in the field)
 //   geometry    every camera's intrinsics and pose in the turntable's frame from a calibration scan
+//   radiometry  light intensities, camera sensitivity and flat field, filter colours from a calibration scan
 //   check       how far a fresh calibration scan has drifted from a stored calibration
 #include <glob.h>
 
@@ -18,6 +19,8 @@
 #include "calibration/drift.h"
 #include "calibration/geometry.h"
 #include "calibration/intrinsics.h"
+#include "calibration/radiometry.h"
+#include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
 #include "core/version.h"
 
@@ -85,11 +88,16 @@ struct CalibrationScan {
   std::string rig_yaml;
 };
 
-Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
+Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_dir) {
+  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
   if (store.info().plan.purpose != "calibration") {
     return InvalidArgumentError(scan_dir, "is a " + store.info().plan.purpose + " scan, not a calibration scan (loom scan --calibration)");
   }
+  return store;
+}
+
+Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
   CalibrationScan result;
   result.rig_yaml = store.info().rig_yaml;
   LOOM_ASSIGN_OR_RETURN(result.nominal, LoadRigModelFromText(result.rig_yaml, scan_dir + "/scan.yaml (rig)"));
@@ -150,6 +158,58 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
   return Status::Ok();
 }
 
+void PrintRadiometry(const calibration::Radiometry& r) {
+  std::cout << std::defaultfloat << std::setprecision(4)
+            << "camera  sensitivity  change     vignetting  flat residual  black DN  read noise DN  linearity\n";
+  for (const calibration::CameraRadiometry& c : r.cameras) {
+    std::cout << std::left << std::setw(8) << c.name << std::setw(13) << c.sensitivity << std::setw(11)
+              << (c.name == r.reference_camera ? std::string("reference") : std::to_string(c.sensitivity_change)) << std::setw(12)
+              << c.vignetting << std::setw(15) << c.flat_field_residual << std::setw(10) << c.black_dn << std::setw(15)
+              << c.read_noise_dn;
+    if (std::isnan(c.linearity_deviation)) {
+      std::cout << "not measured\n";
+    } else {
+      std::cout << 100 * c.linearity_deviation << " % up to " << c.linearity_max_dn << " DN\n";
+    }
+  }
+  std::cout << "light          intensity   change    spread between cameras\n";
+  for (const calibration::LightRadiometry& l : r.lights) {
+    std::cout << std::left << std::setw(15) << l.name << std::setw(12) << l.intensity << std::setw(10) << l.change
+              << 100 * l.camera_spread << " %\n";
+  }
+  std::cout << "LED falloff: kept nominal (the white reference subtends " << r.tile_subtends_deg << " deg from an LED)\n";
+  for (const calibration::FilterRadiometry& f : r.filters) {
+    std::cout << f.wheel << " slot " << f.slot << " (" << f.center_nm << " nm): weights " << f.weights.transpose()
+              << " (spectral model " << f.nominal_weights.transpose() << "), fit residual " << 100 * f.fit_residual << " %\n";
+  }
+  for (const calibration::WheelColour& w : r.wheels) {
+    std::cout << w.wheel << " colour matrix: chart albedos recovered to " << w.chart_rms << " RMS, worst " << w.chart_max << "\n";
+  }
+  std::cout << std::right;
+}
+
+// The scan's rig with the cameras CALIB holds: radiometry needs where each pixel looks.
+Result<RigModel> WithStoredCameras(const RigModel& nominal, const std::string& calib) {
+  RigModel rig = nominal;
+  LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> applied, calibration::ApplyCameraCalibrations(calib, &rig));
+  if (applied.empty()) std::cerr << "warning: " << calib << " holds no camera calibration: using the rig YAML's cameras\n";
+  return rig;
+}
+
+Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib, const std::string& reference_camera) {
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const RigModel nominal, LoadRigModelFromText(store.info().rig_yaml, scan_dir + "/scan.yaml (rig)"));
+  LOOM_ASSIGN_OR_RETURN(const RigModel rig, WithStoredCameras(nominal, calib));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
+  calibration::RadiometryOptions options;
+  options.reference_camera = reference_camera;
+  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry radiometry, calibration::CalibrateRadiometry(scan, options));
+  LOOM_RETURN_IF_ERROR(calibration::WriteRadiometry(calib, radiometry, scan_dir));
+  PrintRadiometry(radiometry);
+  std::cout << "written: " << (fs::path(calib) / "radiometry").string() << " (one YAML per camera, leds, linear_light, wheel)\n";
+  return Status::Ok();
+}
+
 // The rig YAML's `recalibration:` thresholds (defaults where it has none).
 Result<calibration::DriftThresholds> DriftThresholdsOf(const std::string& rig_yaml, const std::string& source) {
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadString(rig_yaml, source, kRigSchemaVersion));
@@ -187,8 +247,8 @@ nlohmann::json DriftJson(const calibration::DriftReport& report, const calibrati
                          {"rejected", report.rejected},
                          {"thresholds", {{"reprojection_px", thresholds.reprojection_px},
                                          {"turntable_axis_deg", thresholds.turntable_axis_deg},
-                                         {"turntable_axis_mm", thresholds.turntable_axis_mm}}},
-                         {"led_intensity", "not measured: radiometric calibration is not built yet"},
+                                         {"turntable_axis_mm", thresholds.turntable_axis_mm},
+                                         {"intensity_percent", thresholds.intensity_percent}}},
                          {"loom_version", std::string(VersionWithCommit())}};
   for (const calibration::CameraDrift& c : report.cameras) {
     json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
@@ -208,12 +268,35 @@ void PrintDrift(const calibration::DriftReport& report) {
               << std::setw(10) << c.fresh_rms_px << std::setw(10) << c.drift_px << std::setw(14) << c.rotation_deg
               << std::setw(11) << c.centre_mm << std::setw(15) << c.axis_tilt_deg << std::setw(15) << c.axis_shift_mm << "\n";
   }
-  std::cout << "LED intensities: not compared (radiometric calibration is not built yet)\n";
   for (const calibration::CameraDrift& c : report.cameras) {
     for (const std::string& exceeded : c.exceeded) std::cout << c.name << ": " << exceeded << "\n";
   }
-  std::cout << (report.recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n"
-                                   : "calibration holds\n");
+}
+
+// The stored radiometry against a fresh one of the scan's white reference, when CALIB has one;
+// on the fresh geometry, so that a camera that moved does not read as a light that changed.
+Result<std::optional<calibration::RadiometricDrift>> CheckRadiometry(const std::string& scan_dir, const RigModel& stored_rig,
+                                                                     const calibration::RigGeometry& fresh_geometry,
+                                                                     const std::string& calib,
+                                                                     const calibration::DriftThresholds& thresholds) {
+  RigModel stored = calibration::ApplyGeometry(stored_rig, fresh_geometry);
+  LOOM_ASSIGN_OR_RETURN(const bool has_radiometry, calibration::ApplyRadiometryCalibration(calib, &stored));
+  if (!has_radiometry) {
+    std::cout << "light intensities: not compared (" << calib << " holds no radiometric calibration: loom calibrate radiometry)\n";
+    return std::optional<calibration::RadiometricDrift>();
+  }
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, stored));
+  calibration::RadiometryOptions options;
+  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry stored_radiometry, calibration::ReadRadiometry(calib, stored));
+  options.reference_camera = stored_radiometry.reference_camera;
+  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry fresh, calibration::CalibrateRadiometry(scan, options));
+  calibration::RadiometricDrift drift = calibration::MeasureRadiometricDrift(fresh, thresholds);
+  std::cout << "against the stored radiometry (reference camera " << fresh.reference_camera << "):";
+  for (const auto& [what, percent] : drift.change_percent) std::cout << " " << what << " " << std::showpos << percent << std::noshowpos << " %;";
+  std::cout << "\n";
+  for (const std::string& exceeded : drift.exceeded) std::cout << exceeded << "\n";
+  return std::optional<calibration::RadiometricDrift>(std::move(drift));
 }
 
 // Returns whether to recalibrate.
@@ -225,11 +308,23 @@ Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& ca
   LOOM_ASSIGN_OR_RETURN(const calibration::DriftReport report,
                         calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
   PrintDrift(report);
+  LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::RadiometricDrift> radiometric,
+                        CheckRadiometry(scan_dir, stored, report.fresh, calib, thresholds));
+  const bool recalibrate = report.recalibrate || (radiometric && !radiometric->exceeded.empty());
+  std::cout << (recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n" : "calibration holds\n");
   if (!json_path.empty()) {
-    LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, DriftJson(report, thresholds, scan_dir, calib).dump(2) + "\n"));
+    nlohmann::json json = DriftJson(report, thresholds, scan_dir, calib);
+    json["recalibrate"] = recalibrate;
+    if (radiometric) {
+      for (const auto& [what, percent] : radiometric->change_percent) json["radiometry"]["change_percent"][what] = percent;
+      json["radiometry"]["exceeded"] = radiometric->exceeded;
+    } else {
+      json["radiometry"] = "not compared: the calibration holds no radiometry (loom calibrate radiometry)";
+    }
+    LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, json.dump(2) + "\n"));
     std::cout << "written: " << json_path << "\n";
   }
-  return report.recalibrate;
+  return recalibrate;
 }
 
 }  // namespace
@@ -250,7 +345,15 @@ int RunCalibrate(int argc, char** argv) {
       "geometry", "Every camera's intrinsics and pose in the turntable's frame, from a calibration scan's target views");
   geometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
   geometry->add_option("--out", out, "Calibration directory to write: CAMERA.yaml files and geometry.json")->required();
-  std::string calib, json;
+  std::string calib, json, reference_camera;
+  CLI::App* radiometry = app.add_subcommand(
+      "radiometry", "Light intensities, camera sensitivity and flat field, filter colour weights and camera linearity from a "
+                    "calibration scan's white reference and colour chart");
+  radiometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
+  radiometry->add_option("--calib", calib, "Calibration directory with the cameras (loom calibrate geometry); radiometry/ is written into it")
+      ->required();
+  radiometry->add_option("--reference-camera", reference_camera,
+                         "The camera that keeps its sensitivity and anchors the scale (default: the one looking most nearly straight down)");
   CLI::App* check = app.add_subcommand(
       "check", "How far a fresh calibration scan has drifted from a stored calibration; exit status " +
                    std::to_string(kExitRecalibrate) + " when it is time to recalibrate (thresholds: the rig YAML's recalibration:)");
@@ -261,6 +364,7 @@ int RunCalibrate(int argc, char** argv) {
   Status done;
   if (*intrinsics) done = CalibrateFromPhotos(images, board, name, out);
   if (*geometry) done = CalibrateGeometry(scan, out);
+  if (*radiometry) done = CalibrateRadiometry(scan, calib, reference_camera);
   if (*check) {
     const Result<bool> recalibrate = CheckCalibration(scan, calib, json);
     if (recalibrate.ok()) return *recalibrate ? kExitRecalibrate : kExitOk;

@@ -1,9 +1,10 @@
-// loom scan --calibration → loom calibrate geometry on the simulated tac7-mini whose side camera
-// is built 2 mm and 0.5° away from its rig YAML (as_built:): the calibration starts from the
-// YAML and must find the camera where the simulator put it. Then loom calibrate check on the
-// same scan: the fresh calibration holds, while one stored before the side camera was knocked
-// (the YAML's poses) is named for recalibration. Also: a missing frame is named.
-// One test: the calibration scan takes about 80 s.
+// loom scan --calibration → loom calibrate geometry → loom calibrate radiometry on the simulated
+// tac7-mini built otherwise than its rig YAML says (as_built:): the side camera 2 mm and 0.5°
+// away, 8 % less sensitive and vignetting more; LED 3 15 % dimmer, LED 7 10 % brighter; one
+// filter's band 12 nm off. Calibration starts from the YAML and must find the rig as built. Then
+// loom calibrate check on the same scan: the fresh calibration holds, while one stored before
+// the side camera was knocked and LED 3 dimmed is named for recalibration. Also: a missing frame
+// is named. One test: the calibration scan takes about 45 s.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -14,8 +15,10 @@
 #include <nlohmann/json.hpp>
 
 #include "calibration/calibration_yaml.h"
+#include "calibration/radiometry_yaml.h"
 #include "core/config.h"
 #include "core/rig_model.h"
+#include "core/spectra.h"
 #include "core/testing/subprocess.h"
 
 namespace {
@@ -25,7 +28,11 @@ using loom::testing::RunCommand;
 
 std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
 
-constexpr char kAsBuilt[] = "as_built: {cameras: [{name: cam1, move_mm: [2, -1.5, 1], rotate_deg: [0.3, -0.3, 0.2]}]}\n";
+constexpr char kAsBuilt[] = R"(as_built:
+  cameras: [{name: cam1, move_mm: [2, -1.5, 1], rotate_deg: [0.3, -0.3, 0.2], sensitivity_scale: 0.92, vignetting: 0.18}]
+  leds: [{index: 3, intensity_scale: 0.85}, {index: 7, intensity_scale: 1.1}]
+  filter_wheels: [{name: wheel0, slot: 2, shift_nm: 12}]
+)";
 
 // cam1 as the simulator built it (the same construction as apps/rig_loader.cc's as_built).
 loom::RigModel Truth(const fs::path& rig_path) {
@@ -46,18 +53,55 @@ nlohmann::json ReadJson(const fs::path& path) {
   return nlohmann::json::parse(file);
 }
 
-// A calibration of cam0 and cam1 at the rig YAML's poses: what was stored before the side
-// camera was knocked to its as-built place.
+loom::RigModel NominalRig() {
+  const auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
+  loom::RigModel rig = loom::ReadRigModel(doc->root().Child("geometry"));
+  rig.name = "tac7-mini";
+  return rig;
+}
+
+// A calibration of cam0 and cam1 at the rig YAML's poses, with LED 3 as bright as the YAML
+// says: what was stored before the side camera was knocked and the LED dimmed.
 void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   fs::create_directories(stale);
-  const auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  const loom::RigModel nominal = loom::ReadRigModel(doc->root().Child("geometry"));
+  const loom::RigModel nominal = NominalRig();
   for (const loom::CameraModel& camera : nominal.cameras) {
     auto file = loom::calibration::ReadCameraCalibration(calib / (camera.name + ".yaml"));
     ASSERT_TRUE(file.ok()) << file.status().ToString();
     file->cam_from_rig = camera.cam_from_rig;
     ASSERT_TRUE(loom::calibration::WriteCameraCalibration(stale / (camera.name + ".yaml"), *file).ok());
   }
+  auto radiometry = loom::calibration::ReadRadiometry(calib, nominal);
+  ASSERT_TRUE(radiometry.ok()) << radiometry.status().ToString();
+  radiometry->lights[3].intensity = nominal.leds[3].intensity;
+  ASSERT_TRUE(loom::calibration::WriteRadiometry(stale, *radiometry, "before LED 3 dimmed").ok());
+}
+
+void ExpectRadiometryFindsTheRigAsBuilt(const fs::path& dir) {
+  const auto radiometry = RunCommand(Loom("calibrate radiometry " + (dir / "scan").string() + " --calib " + (dir / "calib").string()));
+  std::cout << radiometry.output;
+  ASSERT_EQ(radiometry.exit_code, 0) << radiometry.output;
+  const loom::RigModel nominal = NominalRig();
+  const auto found = loom::calibration::ReadRadiometry(dir / "calib", nominal);
+  ASSERT_TRUE(found.ok()) << found.status().ToString();
+  // Measured (2026-11-22): LEDs within 0.03 % of the truth, cam1 0.9199, vignetting 0.1006 and
+  // 0.1803, linearity 0.05 % and 0.18 %, chart albedos to 0.0009 RMS.
+  for (const loom::calibration::LightRadiometry& light : found->lights) {
+    const double truth = light.led == 3 ? 0.85 : light.led == 7 ? 1.1 : 1.0;
+    EXPECT_NEAR(light.change, truth, 0.01) << light.name;
+  }
+  ASSERT_EQ(found->cameras.size(), 2u);
+  EXPECT_EQ(found->reference_camera, "cam0");
+  EXPECT_NEAR(found->cameras[1].sensitivity_change, 0.92, 0.01);
+  EXPECT_NEAR(found->cameras[0].vignetting, 0.1, 0.01);
+  EXPECT_NEAR(found->cameras[1].vignetting, 0.18, 0.01);
+  loom::FilterModel shifted = nominal.filter_wheels[0].filters[2];
+  shifted.center_nm += 12;
+  for (const loom::calibration::FilterRadiometry& filter : found->filters) {
+    if (filter.wheel != "wheel0" || filter.slot != 2) continue;
+    EXPECT_LT((filter.weights - loom::FilterWeights(shifted)).norm(), 0.02 * filter.weights.norm()) << filter.weights.transpose();
+  }
+  EXPECT_NE(radiometry.output.find("% up to"), std::string::npos) << "linearity not measured: " << radiometry.output;
 }
 
 void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
@@ -68,6 +112,7 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   EXPECT_NE(holds.output.find("calibration holds"), std::string::npos) << holds.output;
   const nlohmann::json held = ReadJson(dir / "holds.json");
   for (const char* camera : {"cam0", "cam1"}) EXPECT_LT(held["cameras"][camera]["drift_px"].get<double>(), 0.25) << held.dump(2);
+  EXPECT_TRUE(held["radiometry"]["exceeded"].empty()) << held.dump(2);
 
   WriteStaleCalibration(dir / "calib", dir / "stale");
   const auto stale = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "stale").string() +
@@ -76,8 +121,11 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   EXPECT_EQ(stale.exit_code, 3) << stale.output;
   EXPECT_NE(stale.output.find("cam1: reprojection drift"), std::string::npos) << stale.output;
   EXPECT_EQ(stale.output.find("cam0: reprojection drift"), std::string::npos) << stale.output;
+  EXPECT_NE(stale.output.find("led 3 changed -15"), std::string::npos) << stale.output;
   const nlohmann::json drifted = ReadJson(dir / "stale.json");
   EXPECT_TRUE(drifted["recalibrate"].get<bool>());
+  ASSERT_EQ(drifted["radiometry"]["exceeded"].size(), 1u) << drifted.dump(2);  // LED 3 only
+  EXPECT_NEAR(drifted["radiometry"]["change_percent"]["led 3"].get<double>(), -15, 1) << drifted.dump(2);
   EXPECT_NEAR(drifted["cameras"]["cam1"]["rotation_deg"].get<double>(), 0.43, 0.15) << drifted.dump(2);
 
   // A stored calibration missing a camera is named.
@@ -135,6 +183,7 @@ TEST(CalibrateCommandTest, FindsTheAsBuiltCamerasFromACalibrationScan) {
   const nlohmann::json summary = nlohmann::json::parse(summary_file);
   EXPECT_LT(summary["rms_px"].get<double>(), 0.5) << summary.dump(2);
 
+  ExpectRadiometryFindsTheRigAsBuilt(dir);
   ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(dir);
 
   // A target frame gone from the scan: an error naming it, and no calibration written.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 namespace loom::calibration {
@@ -66,6 +67,7 @@ DriftThresholds ReadDriftThresholds(const ConfigNode& node) {
   node.Optional("reprojection_px", &thresholds.reprojection_px);
   node.Optional("turntable_axis_deg", &thresholds.turntable_axis_deg);
   node.Optional("turntable_axis_mm", &thresholds.turntable_axis_mm);
+  node.Optional("intensity_percent", &thresholds.intensity_percent);
   return thresholds;
 }
 
@@ -76,6 +78,7 @@ Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTarget
   const std::vector<TargetView> views = Without(all_views, fresh.rejected);
   DriftReport report;
   report.rejected = fresh.rejected;
+  report.fresh = fresh;
   LOOM_ASSIGN_OR_RETURN(report.placement, FitTargetPlacement(stored, target, views));
   report.stored_rms_px = ReprojectionRms(stored, target, report.placement, views);
   report.fresh_rms_px = fresh.rms_px;
@@ -92,6 +95,24 @@ Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTarget
     report.recalibrate = report.recalibrate || !drift.exceeded.empty();
   }
   return report;
+}
+
+RadiometricDrift MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds) {
+  RadiometricDrift drift;
+  const auto judge = [&](const std::string& what, double change) {
+    const double percent = 100 * (change - 1);
+    drift.change_percent.emplace_back(what, percent);
+    if (std::abs(percent) > thresholds.intensity_percent) {
+      std::ostringstream text;
+      text << std::fixed << std::setprecision(1) << what << " changed " << percent << " % (threshold " << thresholds.intensity_percent << " %)";
+      drift.exceeded.push_back(text.str());
+    }
+  };
+  for (const LightRadiometry& light : fresh.lights) judge(light.name, light.change);
+  for (const CameraRadiometry& camera : fresh.cameras) {
+    if (camera.name != fresh.reference_camera) judge(camera.name + " sensitivity", camera.sensitivity_change);
+  }
+  return drift;
 }
 
 }  // namespace loom::calibration

@@ -11,15 +11,21 @@
 //    orthographic camera can turn and shift across its view together (geometry.h). Measured on
 //    a tac7-mini-like rig with 0.25 px corner noise: up to 0.25° of axis tilt in the top camera
 //    from noise alone, hence the default tilt threshold of 0.5°.
-// LED intensities are not compared yet: radiometric calibration is not built (issue #6).
+// Radiometry: a fresh radiometric calibration (radiometry.h) of the new scan's white reference,
+// over a rig that carries the stored one (ApplyRadiometry), gives each light's and each
+// camera's change directly. It is made with the fresh geometry, so that a camera that moved
+// does not read as a light that changed. The reference camera anchors the scale, so a change of its own
+// sensitivity shows as every light changing alike.
 //
 // Thresholds live in the rig YAML, as its optional top-level section
-//   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0}
+//   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0,
+//                   intensity_percent: 3}
 
 #include <string>
 #include <vector>
 
 #include "calibration/geometry.h"
+#include "calibration/radiometry.h"
 #include "core/config.h"
 
 namespace loom::calibration {
@@ -28,6 +34,7 @@ struct DriftThresholds {
   double reprojection_px = 0.25;  // drift: the stored model's RMS beyond the capture's noise
   double turntable_axis_deg = 0.5;
   double turntable_axis_mm = 1.0;
+  double intensity_percent = 3;   // a light's intensity or a camera's sensitivity, against the stored
 };
 
 // Reads a `recalibration:` section (strict keys; absent keys keep their defaults).
@@ -53,11 +60,20 @@ struct DriftReport {
   std::vector<CameraDrift> cameras;
   std::vector<std::string> rejected;  // misdetected views, judged by neither
   bool recalibrate = false;   // some camera exceeded a threshold
+  RigGeometry fresh;          // the fresh calibration of the new views (ApplyGeometry)
 };
 
 // `stored`: the rig with the stored calibration applied (ApplyCameraCalibrations), in the
 // turntable's frame. An error when a camera saw too few views (named, as in geometry.h).
 Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTargetModel& target,
                                  const std::vector<TargetView>& views, const DriftThresholds& thresholds);
+
+struct RadiometricDrift {
+  std::vector<std::pair<std::string, double>> change_percent;  // "led 3", "cam1 sensitivity" → %
+  std::vector<std::string> exceeded;                           // what crossed the threshold, with the values
+};
+
+// `fresh`: CalibrateRadiometry of the new scan over the rig with the stored radiometry applied.
+RadiometricDrift MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds);
 
 }  // namespace loom::calibration

@@ -93,11 +93,37 @@ Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const S
   return hdr;
 }
 
+namespace {
+
+// Each pixel's reading averaged with its neighbours (5 × 5, clipped at the edges): what the
+// linearity check selects pixels by. Selecting on a pixel's own readings would keep those whose
+// noise went one way: near saturation, a bias of tenths of a percent.
+std::vector<double> LocalMean(const hal::RawFrame& frame, double black) {
+  constexpr int kRadius = 2;
+  std::vector<double> mean(frame.pixels.size());
+  for (int y = 0; y < frame.height; ++y) {
+    for (int x = 0; x < frame.width; ++x) {
+      double sum = 0;
+      int count = 0;
+      for (int v = std::max(0, y - kRadius); v <= std::min(frame.height - 1, y + kRadius); ++v) {
+        for (int u = std::max(0, x - kRadius); u <= std::min(frame.width - 1, x + kRadius); ++u) {
+          sum += frame.at(v, u) - black;
+          ++count;
+        }
+      }
+      mean[static_cast<size_t>(y) * frame.width + x] = sum / count;
+    }
+  }
+  return mean;
+}
+
+}  // namespace
+
 Result<Linearity> MeasureLinearity(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor,
                                    const std::vector<uint8_t>& mask) {
   LOOM_RETURN_IF_ERROR(CheckBracket(bracket));
   const double low = 10 * sensor.floor_sigmas * sensor.read_noise_dn;
-  const double high = 0.95 * (sensor.saturation_dn - sensor.black_dn);
+  const double high = 0.9 * (sensor.saturation_dn - sensor.black_dn);
   std::vector<const hal::RawFrame*> frames;
   for (const hal::RawFrame& frame : bracket) frames.push_back(&frame);
   std::sort(frames.begin(), frames.end(), [](auto* a, auto* b) { return a->metadata.exposure_us < b->metadata.exposure_us; });
@@ -105,14 +131,15 @@ Result<Linearity> MeasureLinearity(const std::vector<hal::RawFrame>& bracket, co
   for (size_t i = 0; i + 1 < frames.size(); ++i) {
     const hal::RawFrame& shorter = *frames[i];
     const hal::RawFrame& longer = *frames[i + 1];
+    const double gain = longer.metadata.exposure_us / shorter.metadata.exposure_us;
+    const std::vector<double> expected = LocalMean(shorter, sensor.black_dn);
     double sum_short = 0, sum_long = 0;
     int pixels = 0;
     for (size_t p = 0; p < shorter.pixels.size(); ++p) {
-      if (!mask.empty() && mask[p] == 0) continue;
-      const double a = shorter.pixels[p] - sensor.black_dn, b = longer.pixels[p] - sensor.black_dn;
-      if (a < low || b < low || a > high || b > high) continue;
-      sum_short += a;
-      sum_long += b;
+      if ((!mask.empty() && mask[p] == 0) || expected[p] < low || expected[p] * gain > high) continue;
+      if (longer.pixels[p] >= sensor.saturation_dn) continue;  // clipped: where the neighbourhood misleads (an edge)
+      sum_short += shorter.pixels[p] - sensor.black_dn;
+      sum_long += longer.pixels[p] - sensor.black_dn;
       ++pixels;
     }
     if (pixels == 0) continue;

@@ -41,9 +41,10 @@ struct HdrImage {
 // bracket, mixed sizes or a non-positive exposure time are errors naming the frame.
 Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor);
 
-// Camera linearity from a bracket of a steady scene: for each pair of exposures, the mean
-// count rate (reading above black over exposure time) of the pixels both read well — above 10 ×
-// the noise floor, below 95 % of full scale — should agree. `deviation` is the worst
+// Camera linearity from a bracket of a steady scene: for each pair of consecutive exposures, the
+// mean count rate (reading above black over exposure time) of the pixels both read well — above
+// 10 × the noise floor, below 90 % of full scale, judged on the shorter exposure's local mean —
+// should agree. `deviation` is the worst
 // |rate ratio − 1| over the pairs; `pairs` = 0 when no pair shares such pixels (not measured).
 struct Linearity {
   double deviation = 0;

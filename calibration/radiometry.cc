@@ -383,8 +383,8 @@ Status FitColour(const RigModel& rig, const std::vector<LitView>& white, const s
   return Status::Ok();
 }
 
-// A rough tile mask for the linearity check: the view's bright pixels.
-std::vector<uint8_t> BrightPixels(const Image& radiance) {
+// The tile for the linearity check: the view's bright pixels, away from the tile's edge.
+std::vector<uint8_t> BrightPixels(const Image& radiance, int edge_px) {
   std::vector<double> finite;
   for (float v : radiance.channel(0)) {
     if (std::isfinite(v)) finite.push_back(v);
@@ -392,7 +392,9 @@ std::vector<uint8_t> BrightPixels(const Image& radiance) {
   std::vector<uint8_t> mask(radiance.pixel_count(), 0);
   if (finite.empty()) return mask;
   const double threshold = 0.4 * Percentile(finite, 0.9);
+  cv::Mat bright(radiance.height(), radiance.width(), CV_8U, mask.data());
   for (size_t i = 0; i < mask.size(); ++i) mask[i] = radiance.channel(0)[i] > threshold;
+  cv::erode(bright, bright, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * edge_px + 1, 2 * edge_px + 1)));
   return mask;
 }
 
@@ -421,7 +423,7 @@ Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const Radiometr
       if (step.kind == StepKind::kWhiteReference) {
         LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(step.index, camera));
         LOOM_ASSIGN_OR_RETURN(const Linearity measured,
-                              MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain), BrightPixels(view.radiance)));
+                              MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain), BrightPixels(view.radiance, options.edge_px)));
         Linearity& worst = linearity[camera];
         worst.deviation = std::max(worst.deviation, measured.deviation);
         worst.max_dn = std::max(worst.max_dn, measured.max_dn);
