@@ -1,5 +1,5 @@
 // loom demo: the main job on a simulated rig, end to end — calibration scan → loom calibrate
-// geometry → material scan of a procedural fabric → loom reconstruct with that calibration →
+// geometry and radiometry → material scan of a procedural fabric → loom reconstruct with that calibration →
 // loom fit (each method asked for) → loom eval against the simulator's ground truth → loom export
 // of the main result as glTF — then a one-screen summary and summary.json. Every stage is the
 // loom command of the same name, run in this process with the arguments it prints, so what the
@@ -76,8 +76,10 @@ Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stage
   const fs::path out(args.out);
   LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan,
                                    {"scan", "--rig", rig, "--calibration", "--out", (out / "calibration-scan").string()}));
-  LOOM_RETURN_IF_ERROR(stages->Run("calibrate", RunCalibrate,
+  LOOM_RETURN_IF_ERROR(stages->Run("calibrate geometry", RunCalibrate,
                                    {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
+  LOOM_RETURN_IF_ERROR(stages->Run("calibrate radiometry", RunCalibrate,
+                                   {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()}));
   LOOM_RETURN_IF_ERROR(stages->Run("material scan", RunScan,
                                    {"scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out",
                                     (out / "scan").string()}));

@@ -1,7 +1,7 @@
 // The main job end to end at its smallest settings: loom demo on the simulated tac7-mini —
-// calibration scan, calibrate, scan of fabric:1, reconstruct with the calibration, the shipped
-// CNN refined by Ceres on a 24 × 24 px stack, evaluation against the ground truth — scored on
-// what a user of the maps would look at. One test: the two scans take most of its minutes.
+// calibration scan, calibrate geometry and radiometry, scan of fabric:1, reconstruct with the
+// calibration, the shipped CNN refined by Ceres on a 24 × 24 px stack, evaluation against the
+// ground truth — scored on what a user of the maps would look at. One test: the two scans take most of its minutes.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -38,8 +38,8 @@ TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   EXPECT_LT(fit["normal_error_deg"]["median"].get<double>(), 7.0) << fit.dump(2);
   EXPECT_LT(fit["parameter_nrmse"]["a_d"].get<double>(), 0.12) << fit.dump(2);
   EXPECT_LT(fit["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.16) << fit.dump(2);
-  for (const char* stage : {"calibration scan", "calibrate", "material scan", "reconstruct", "ground truth",
-                            "fit cnn+ceres", "evaluate cnn+ceres", "export glTF"}) {
+  for (const char* stage : {"calibration scan", "calibrate geometry", "calibrate radiometry", "material scan", "reconstruct",
+                            "ground truth", "fit cnn+ceres", "evaluate cnn+ceres", "export glTF"}) {
     EXPECT_TRUE(summary["stage_seconds"].contains(stage)) << stage;
   }
   EXPECT_TRUE(fs::exists(dir / "report-cnn+ceres" / "index.html"));
