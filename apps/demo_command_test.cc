@@ -39,11 +39,12 @@ TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   EXPECT_LT(fit["parameter_nrmse"]["a_d"].get<double>(), 0.12) << fit.dump(2);
   EXPECT_LT(fit["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.16) << fit.dump(2);
   for (const char* stage : {"calibration scan", "calibrate geometry", "calibrate radiometry", "material scan", "reconstruct",
-                            "ground truth", "fit cnn+ceres", "evaluate cnn+ceres", "export glTF"}) {
+                            "ground truth", "fit cnn+ceres", "evaluate cnn+ceres", "export"}) {
     EXPECT_TRUE(summary["stage_seconds"].contains(stage)) << stage;
   }
   EXPECT_TRUE(fs::exists(dir / "report-cnn+ceres" / "index.html"));
   EXPECT_TRUE(fs::exists(dir / "gltf" / "material.gltf"));
+  EXPECT_TRUE(fs::exists(dir / "material.h5"));
 
   // The demo never writes over a previous run.
   const auto again = RunCommand(Loom("demo --rig " + rig + " --out " + dir.string()));

@@ -11,12 +11,14 @@
 #include "core/file_io.h"
 #include "core/version.h"
 #include "fitting/export.h"
+#include "fitting/internal/geometric_frame.h"
 #include "fitting/internal/png.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
 namespace {
 
+using internal::SampleFromLocal;
 using internal::Unit8;
 
 // glTF's dielectric F0 (ior 1.5), which KHR_materials_specular's colour scales.
@@ -25,26 +27,6 @@ constexpr double kDielectricF0 = 0.04;
 // Tangent space on the quad: T = the sample's +x (+u), B = the sample's −y (up the image, as
 // glTF's normal textures have it: rows run along +y), N = +z. Hence TANGENT.w = −1.
 Eigen::Vector3d ToTangentSpace(const Eigen::Vector3d& in_sample) { return {in_sample.x(), -in_sample.y(), in_sample.z()}; }
-
-// The geometric frame of a pixel (svbrdf_maps.h): z the heightmap's normal, x the sample's x
-// made orthogonal to it. Identity without a height channel.
-Eigen::Matrix3d SampleFromLocal(const Image& maps, int x, int y, double pixel_mm) {
-  const std::optional<int> height = maps.FindChannel(kHeightChannel);
-  if (!height) return Eigen::Matrix3d::Identity();
-  // Central differences, one-sided at the borders; 0 across a map one pixel thin.
-  const auto slope = [&](int i0, int j0, int i1, int j1, int span) {
-    return span > 0 ? (maps.at(*height, j1, i1) - maps.at(*height, j0, i0)) / (span * pixel_mm) : 0.0;
-  };
-  const int x0 = std::max(x - 1, 0), x1 = std::min(x + 1, maps.width() - 1);
-  const int y0 = std::max(y - 1, 0), y1 = std::min(y + 1, maps.height() - 1);
-  const double dx = slope(x0, y, x1, y, x1 - x0);
-  const double dy = slope(x, y0, x, y1, y1 - y0);
-  const Eigen::Vector3d n = Eigen::Vector3d(-dx, -dy, 1).normalized();
-  const Eigen::Vector3d t = (Eigen::Vector3d::UnitX() - n.x() * n).normalized();
-  Eigen::Matrix3d frame;
-  frame << t, n.cross(t), n;
-  return frame;
-}
 
 cv::Vec3b UnitVectorRgb(const Eigen::Vector3d& v) {  // OpenCV's BGR order
   return {Unit8((v.z() + 1) / 2), Unit8((v.y() + 1) / 2), Unit8((v.x() + 1) / 2)};
