@@ -138,6 +138,7 @@ std::string_view StepKindName(StepKind kind) {
   switch (kind) {
     case StepKind::kDark: return "dark";
     case StepKind::kTarget: return "target";
+    case StepKind::kLightProbe: return "light probe";
     case StepKind::kWhiteReference: return "white reference";
     case StepKind::kColourChart: return "colour chart";
     case StepKind::kStructuredLight: return "structured light";
@@ -149,7 +150,7 @@ std::string_view StepKindName(StepKind kind) {
 }
 
 std::optional<StepKind> ParseStepKind(std::string_view name) {
-  for (StepKind kind : {StepKind::kDark, StepKind::kTarget, StepKind::kWhiteReference, StepKind::kColourChart,
+  for (StepKind kind : {StepKind::kDark, StepKind::kTarget, StepKind::kLightProbe, StepKind::kWhiteReference, StepKind::kColourChart,
                         StepKind::kStructuredLight, StepKind::kColour, StepKind::kMonochrome, StepKind::kLinearLight}) {
     if (StepKindName(kind) == name) return kind;
   }
@@ -238,6 +239,7 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
     Step& step = builder.Add(StepKind::kTarget, AllCameras(rig), 45.0 * k, "target");
     for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
   }
+  if (rig.light_probe) builder.EveryLed(StepKind::kLightProbe, 0, "chrome sphere");
   builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
   builder.LinearitySeries();
   if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, "white tile").linear_light_mm = rig.linear_light->travel_mm / 2;

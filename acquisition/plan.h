@@ -11,7 +11,7 @@
 // | monochrome  | each LED × each turntable angle, all cameras              | 29 × 3 × 4 = 348  |
 // | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
 // A calibration scan: dark frames, the calibration target at several turntable angles, the
-// white reference under every LED and under the linear light (mid-travel), the colour chart
+// light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear light (mid-travel), the colour chart
 // through every filter.
 //
 // Steps come in capture order, grouped to keep slow moves few: one turntable angle at a time,
@@ -29,7 +29,7 @@
 
 namespace loom::acquisition {
 
-enum class StepKind { kDark, kTarget, kWhiteReference, kColourChart, kStructuredLight, kColour, kMonochrome, kLinearLight };
+enum class StepKind { kDark, kTarget, kLightProbe, kWhiteReference, kColourChart, kStructuredLight, kColour, kMonochrome, kLinearLight };
 std::string_view StepKindName(StepKind kind);
 std::optional<StepKind> ParseStepKind(std::string_view name);
 

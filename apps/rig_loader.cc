@@ -13,10 +13,11 @@ namespace {
 // nominal description loom is given — so that calibration has something to find:
 //   as_built:
 //     cameras: [{name: cam1, move_mm: [1, -2, 0.5], rotate_deg: [0.3, 0, -0.2], sensitivity_scale: 0.9, vignetting: 0.2}]
-//     leds: [{index: 3, intensity_scale: 0.85}]
+//     leds: [{index: 3, intensity_scale: 0.85, move_mm: [5, -3, 2]}]
 //     filter_wheels: [{name: wheel0, slot: 2, shift_nm: 8}]
 // move_mm shifts the camera's centre (rig frame); rotate_deg turns it about its own x, y, z;
-// the scales multiply the nominal sensitivity and intensity; shift_nm moves a filter's band.
+// the scales multiply the nominal sensitivity and intensity; an LED's move_mm shifts it (rig
+// frame); shift_nm moves a filter's band.
 void MoveCamera(const ConfigNode& node, CameraModel* camera) {
   Eigen::Vector3d move = Eigen::Vector3d::Zero(), rotate_deg = Eigen::Vector3d::Zero();
   node.Optional("move_mm", &move);
@@ -52,13 +53,16 @@ RigModel AsBuilt(const ConfigNode& root, RigModel model) {
   for (const ConfigNode& node : as_built->OptionalSequence("leds")) {
     int index = -1;
     double scale = 1;
+    Eigen::Vector3d move = Eigen::Vector3d::Zero();
     node.Required("index", &index);
-    node.Required("intensity_scale", &scale);
+    node.Optional("intensity_scale", &scale);
+    node.Optional("move_mm", &move);
     if (index < 0 || index >= static_cast<int>(model.leds.size())) {
       node.AddError("index", "no LED " + std::to_string(index) + " in the geometry");
       continue;
     }
     model.leds[index].intensity *= scale;
+    model.leds[index].position_mm += move;
   }
   for (const ConfigNode& node : as_built->OptionalSequence("filter_wheels")) {
     FilterWheelModel* wheel = FindByName(model.filter_wheels, node, "filter wheel");
@@ -100,6 +104,7 @@ Result<LoadedRig> LoadRigDocument(const ConfigDocument& doc, const std::string& 
     sample.target = model.calibration_target;
     sample.chart = model.colour_chart;
     sample.white = model.white_reference;
+    if (model.light_probe) sample.probe = *model.light_probe;
     loaded.sample = sample;
     int seed = 0;
     root.Optional("seed", &seed);
@@ -129,8 +134,10 @@ Status PlaceSimObject(const LoadedRig& loaded, const std::string& object) {
     spec.kind = "white-tile";
   } else if (object == "colour chart") {
     spec.kind = "colour-chart";
+  } else if (object == "chrome sphere") {
+    spec.kind = "chrome-sphere";
   } else if (object != "sample") {
-    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, colour chart");
+    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, colour chart, chrome sphere");
   }
   LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
   const std::shared_ptr<const sim::Scene> current = loaded.world->scene();

@@ -410,29 +410,36 @@ Result<Radiometry> FitRadiometry(const RigModel& rig, const std::vector<LitView>
   return radiometry;
 }
 
-Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const RadiometryOptions& options) {
-  const RigModel& rig = scan.rig();
-  std::vector<LitView> white, chart;
+namespace {
+
+using LinearityByCamera = std::map<std::string, Linearity>;
+
+// Each camera's worst linearity over the white-reference brackets.
+Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const RadiometryOptions& options) {
   std::map<std::string, Linearity> linearity;
   for (const acquisition::Step& step : scan.plan().steps) {
-    if (step.kind != StepKind::kWhiteReference && step.kind != StepKind::kColourChart) continue;
+    if (step.kind != StepKind::kWhiteReference) continue;
     for (const std::string& camera : step.cameras) {
-      LOOM_ASSIGN_OR_RETURN(RadianceView view, scan.View(step.index, camera));
-      const std::string source = "step " + std::to_string(step.index) + " (" + std::string(StepKindName(step.kind)) + "), camera '" + camera + "'";
-      LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(rig, view.state, source));
-      if (step.kind == StepKind::kWhiteReference) {
-        LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(step.index, camera));
-        LOOM_ASSIGN_OR_RETURN(const Linearity measured,
-                              MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain), BrightPixels(view.radiance, options.edge_px)));
-        Linearity& worst = linearity[camera];
-        worst.deviation = std::max(worst.deviation, measured.deviation);
-        worst.max_dn = std::max(worst.max_dn, measured.max_dn);
-        worst.pairs += measured.pairs;
-      }
-      (step.kind == StepKind::kWhiteReference ? white : chart).push_back({view.camera, std::move(lighting), std::move(view.radiance), source});
+      LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera));
+      LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(step.index, camera));
+      LOOM_ASSIGN_OR_RETURN(const Linearity measured, MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain),
+                                                                       BrightPixels(view.radiance, options.edge_px)));
+      Linearity& worst = linearity[camera];
+      worst.deviation = std::max(worst.deviation, measured.deviation);
+      worst.max_dn = std::max(worst.max_dn, measured.max_dn);
+      worst.pairs += measured.pairs;
     }
   }
-  LOOM_ASSIGN_OR_RETURN(Radiometry radiometry, FitRadiometry(rig, white, chart, options));
+  return linearity;
+}
+
+}  // namespace
+
+Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const RadiometryOptions& options) {
+  LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> white, scan.LitViews(StepKind::kWhiteReference));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> chart, scan.LitViews(StepKind::kColourChart));
+  LOOM_ASSIGN_OR_RETURN(Radiometry radiometry, FitRadiometry(scan.rig(), white, chart, options));
+  LOOM_ASSIGN_OR_RETURN(LinearityByCamera linearity, MeasureCameraLinearity(scan, options));
   for (CameraRadiometry& camera : radiometry.cameras) {
     const SensorNoise dark = scan.NoiseOf(camera.name, 0);
     camera.black_dn = dark.black_dn;

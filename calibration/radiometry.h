@@ -93,14 +93,6 @@ struct Radiometry {
   std::vector<WheelColour> wheels;
 };
 
-// One view's radiance and what lit it: ScanRadiance's views, or rendered ones in tests.
-struct LitView {
-  int camera = 0;
-  LightingState lighting;
-  Image radiance;  // channel "L", converted with rig's sensor model
-  std::string source;
-};
-
 // The core: white-reference and colour-chart views of `rig` (its geometry calibrated) → the
 // radiometry. Every light and camera needs a white-reference view; a camera that sees too little
 // of the tile, or a filter without chart views, is an error naming it.

@@ -94,6 +94,20 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
   return view;
 }
 
+Result<std::vector<LitView>> ScanRadiance::LitViews(StepKind kind) const {
+  std::vector<LitView> views;
+  for (const Step& step : plan().steps) {
+    if (step.kind != kind) continue;
+    for (const std::string& camera : step.cameras) {
+      LOOM_ASSIGN_OR_RETURN(RadianceView view, View(step.index, camera));
+      const std::string source = Where(step.index, camera) + " (" + std::string(StepKindName(kind)) + ")";
+      LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(*rig_, view.state, source));
+      views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source});
+    }
+  }
+  return views;
+}
+
 // The lights of a view as the rig model names them; only the wheels in front of lit LEDs count.
 Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where) {
   LightingState lighting;

@@ -33,6 +33,14 @@ struct RadianceView {
 // count); a lit LED whose wheel position was not recorded is an error naming `where`.
 Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where);
 
+// One view's radiance and what lit it: ScanRadiance's views, or rendered ones in tests.
+struct LitView {
+  int camera = 0;
+  LightingState lighting;
+  Image radiance;  // channel "L", converted with rig's sensor model
+  std::string source;
+};
+
 class ScanRadiance {
  public:
   // `store` and `rig` must outlive the reader. Every camera of the plan must be in `rig`.
@@ -45,6 +53,8 @@ class ScanRadiance {
   // bracket's gain: what View merges, for measurements on the raw readings (linearity).
   Result<std::vector<hal::RawFrame>> Bracket(int step, const std::string& camera) const;
   SensorNoise NoiseOf(const std::string& camera, double gain_db) const;
+  // Every view of every step of `kind`, with its lighting.
+  Result<std::vector<LitView>> LitViews(acquisition::StepKind kind) const;
 
  private:
   ScanRadiance(const acquisition::CaptureStore& store, const RigModel& rig) : store_(&store), rig_(&rig) {}

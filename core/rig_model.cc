@@ -247,6 +247,12 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     node->Required("patch_mm", &rig.colour_chart.patch_mm);
     if (!(rig.colour_chart.patch_mm > 0)) node->AddError("patch_mm", "must be > 0");
   }
+  if (std::optional<ConfigNode> node = geometry.OptionalChild("light_probe")) {
+    LightProbeModel probe;
+    node->Required("radius_mm", &probe.radius_mm);
+    if (!(probe.radius_mm > 0)) node->AddError("radius_mm", "must be > 0");
+    rig.light_probe = probe;
+  }
   for (const ConfigNode& node : geometry.OptionalSequence("filter_wheels")) {
     FilterWheelModel wheel;
     node.Required("name", &wheel.name);

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "core/colour_chart.h"
+#include "core/reference_objects.h"
 #include "core/config.h"
 #include "core/geometry.h"
 
@@ -144,6 +144,7 @@ struct RigModel {
   std::optional<CalibrationTargetModel> calibration_target;
   WhiteReferenceModel white_reference;
   ColourChartModel colour_chart;
+  std::optional<LightProbeModel> light_probe;  // without one, a calibration scan cannot find the lights
 
   const CameraModel* FindCamera(const std::string& name) const;
   // The wheel in front of `led`, or nullptr.

@@ -34,8 +34,9 @@ Result<Material> MakeSample(const SampleSpec& spec) {
     if (!spec.target) return InvalidArgumentError("sample kind 'target'", "the rig's geometry has no calibration_target");
     return CalibrationTarget(*spec.target);
   }
+  if (spec.kind == "chrome-sphere") return ChromeSphere(spec.probe);
   return InvalidArgumentError("sample kind '" + spec.kind + "'",
-                              "unknown (expected fabric, white-tile, chessboard, colour-chart, target)");
+                              "unknown (expected fabric, white-tile, chessboard, colour-chart, target, chrome-sphere)");
 }
 
 }  // namespace loom::sim

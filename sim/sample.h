@@ -4,8 +4,8 @@
 //
 //   sample: {kind: fabric, seed: 1, size_px: 256, pixel_mm: 0.1}
 //
-// kinds: fabric (procedural, by seed), white-tile, chessboard, colour-chart, and target (the
-// rig's calibration target, its size its own).
+// kinds: fabric (procedural, by seed), white-tile, chessboard, colour-chart, and target and
+// chrome-sphere (the rig's calibration target and light probe, their sizes their own).
 
 #include <cstdint>
 #include <string>
@@ -24,6 +24,7 @@ struct SampleSpec {
   std::optional<CalibrationTargetModel> target;  // the rig's, for kind "target"
   ColourChartModel chart;                        // the rig's, for kind "colour-chart"
   WhiteReferenceModel white;                     // the rig's, for kind "white-tile"
+  LightProbeModel probe;                         // the rig's, for kind "chrome-sphere"
 };
 
 SampleSpec ReadSampleSpec(const ConfigNode& node);

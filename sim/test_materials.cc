@@ -91,6 +91,31 @@ Material CalibrationTarget(const CalibrationTargetModel& target) {
   return m;
 }
 
+Material ChromeSphere(const LightProbeModel& probe) {
+  constexpr double kPixelMm = 0.05;
+  const double r = probe.radius_mm;
+  const int size = 2 * static_cast<int>(std::ceil(r / kPixelMm)) + 4;
+  fitting::WardParams<double> chrome;
+  chrome.a_d = Eigen::Vector3d::Constant(0.005);
+  chrome.a_s = Eigen::Vector3d::Constant(0.9);
+  chrome.sigma_x = chrome.sigma_y = 0.05;
+  chrome.f0 = 1;
+  const GridOptions grid{size, size, kPixelMm};
+  Material m = FlatLambertian("chrome sphere", grid, [](double, double) -> Eigen::Vector3d { return Eigen::Vector3d::Constant(0.02); });
+  const int height_channel = *m.maps.ChannelIndex(fitting::kHeightChannel);
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const double cx = (x + 0.5 - size / 2.0) * kPixelMm, cy = (y + 0.5 - size / 2.0) * kPixelMm;
+      const double rho2 = cx * cx + cy * cy;
+      if (rho2 >= r * r) continue;
+      fitting::SetParams(m.maps, x, y, chrome);
+      m.maps.at(height_channel, y, x) = static_cast<float>(r + std::sqrt(r * r - rho2));
+    }
+  }
+  m.provenance["loom.geometric_blur_mm"] = kPixelMm;  // the sphere's own normals
+  return m;
+}
+
 Material ColourChart(const ColourChartModel& chart, const GridOptions& grid) {
   return FlatLambertian("colour chart", grid, [&](double x, double y) -> Eigen::Vector3d {
     const int patch = chart.PatchAt(x, y);

@@ -9,8 +9,9 @@
 // | Chessboard       | black/white squares, flat, Lambertian             | geometric calibration        |
 // | ColourChart      | the 24 patches of a ColorChecker, Lambertian      | the filters' colour weights  |
 // | CalibrationTarget| a chessboard on a wedge (the rig's target model)  | loom calibrate geometry      |
+// | ChromeSphere     | a mirror-like sphere resting on the table         | the lights' directions       |
 //
-// All but the target flat (height 0, n_s = z), centred on the sample like every material.
+// All but the target and the sphere flat (height 0, n_s = z), centred on the sample like every material.
 
 #include "core/rig_model.h"
 #include "fitting/model/ward_gd10.h"
@@ -29,11 +30,14 @@ Material UniformMaterial(const std::string& name, const fitting::WardParams<doub
 Material WhiteTile(const GridOptions& grid, double albedo = WhiteReferenceModel{}.albedo);
 // A board of (inner_cols + 1) × (inner_rows + 1) squares of square_mm, centred, on white.
 Material Chessboard(int inner_cols, int inner_rows, double square_mm, const GridOptions& grid);
-// The chart of core/colour_chart.h (its albedos and layout), centred.
+// The chart of core/reference_objects.h (its albedos and layout), centred.
 Material ColourChart(const ColourChartModel& chart, const GridOptions& grid);
 // The rig's target on white, its wedge as heights. Map pixels of 0.1 mm: with tac7-mini's
 // target (2.5 mm squares, an even number of them each way, tilt with cos = 0.92) every square
 // edge falls on a pixel edge, so the printed corners are exact in the rendered images.
 Material CalibrationTarget(const CalibrationTargetModel& target);
+// The rig's light probe on a black holder, its upper half as heights (0.05 mm map pixels):
+// specular albedo 0.9 with σ 0.05, so an LED's highlight spans a few camera pixels.
+Material ChromeSphere(const LightProbeModel& probe);
 
 }  // namespace loom::sim

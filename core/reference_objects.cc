@@ -1,4 +1,4 @@
-#include "core/colour_chart.h"
+#include "core/reference_objects.h"
 
 #include <array>
 #include <cmath>

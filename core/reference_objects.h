@@ -1,10 +1,13 @@
 #pragma once
-// The radiometric references of a calibration scan, as the rig YAML's `geometry:` describes them:
+// The reference objects of a calibration scan (besides the geometric target), as the rig YAML's
+// `geometry:` describes them:
 //
 //   white_reference: {albedo: 0.95}   # a diffuse tile (Spectralon-like), its certified albedo
 //   colour_chart: {patch_mm: 3.2}     # a ColorChecker Classic of 6 × 4 patches, centred
+//   light_probe: {radius_mm: 10}      # a chrome sphere (for the lights' directions)
 //
-// Both lie flat on the turntable, centred on its axis. The chart's patches are squares of
+// The tile and the chart lie flat on the turntable, centred on its axis; the sphere rests on the
+// turntable, its centre on the axis at radius_mm above the table. The chart's patches are squares of
 // patch_mm on a pitch of 1.2 × patch_mm (20 % gaps, on black), row-major from the top left
 // (−x, −y in the sample frame), dark skin first; their albedos are the chart's published
 // sRGB averages, linearised.
@@ -15,6 +18,11 @@ namespace loom {
 
 struct WhiteReferenceModel {
   double albedo = 0.95;
+};
+
+struct LightProbeModel {
+  double radius_mm = 10;
+  Eigen::Vector3d CentreInSample() const { return {0, 0, radius_mm}; }
 };
 
 struct ColourChartModel {

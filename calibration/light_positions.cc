@@ -1,0 +1,194 @@
+#include "calibration/light_positions.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "calibration/internal/provenance.h"
+#include "core/config.h"
+#include "core/file_io.h"
+
+namespace loom::calibration {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kSchemaVersion = 1;
+constexpr char kModel[] = "LED positions in the rig frame (mm) from a chrome sphere's highlights; distances kept nominal";
+constexpr int kWindowPx = 6;
+
+// The highlight's centroid: pixels within kWindowPx of the brightest, weighted by how far they
+// rise above a tenth of it.
+Result<Eigen::Vector2d> Highlight(const LitView& view) {
+  const Image& radiance = view.radiance;
+  int best_x = -1, best_y = -1;
+  float best = 0;
+  for (int y = 0; y < radiance.height(); ++y) {
+    for (int x = 0; x < radiance.width(); ++x) {
+      const float v = radiance.at(0, y, x);
+      if (std::isnan(v)) return FailedPreconditionError(view.source, "the highlight saturated in every exposure");
+      if (v > best) {
+        best = v;
+        best_x = x;
+        best_y = y;
+      }
+    }
+  }
+  if (best_x < 0) return FailedPreconditionError(view.source, "no highlight: the view is dark");
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  double weights = 0;
+  for (int y = std::max(0, best_y - kWindowPx); y <= std::min(radiance.height() - 1, best_y + kWindowPx); ++y) {
+    for (int x = std::max(0, best_x - kWindowPx); x <= std::min(radiance.width() - 1, best_x + kWindowPx); ++x) {
+      const double w = radiance.at(0, y, x) - 0.1 * best;
+      if (w <= 0) continue;
+      sum += w * Eigen::Vector2d(x, y);
+      weights += w;
+    }
+  }
+  return Eigen::Vector2d(sum / weights);
+}
+
+struct LedRay {
+  Eigen::Vector3d origin;     // on the sphere, rig frame
+  Eigen::Vector3d direction;  // unit, towards the LED
+};
+
+// The camera's ray through the highlight, mirrored on the sphere.
+Result<LedRay> MirroredRay(const RigModel& rig, const LightProbeModel& probe, const LitView& view, const Eigen::Vector2d& pixel) {
+  const CameraModel& camera = rig.cameras[view.camera];
+  const Rigid3d rig_from_sample = rig.turntable.RigFromSample(view.lighting.turntable_deg);
+  const Rigid3d rig_from_cam = camera.cam_from_rig.inverse();
+  const Eigen::Vector3d eye = rig_from_cam.translation();
+  const Eigen::Vector3d ray = (rig_from_cam.linear() * camera.Unproject(pixel)).normalized();
+  const Eigen::Vector3d centre = rig_from_sample * probe.CentreInSample();
+  // |eye + t·ray − centre| = r, the nearer root.
+  const Eigen::Vector3d to_eye = eye - centre;
+  const double b = ray.dot(to_eye);
+  const double discriminant = b * b - (to_eye.squaredNorm() - probe.radius_mm * probe.radius_mm);
+  if (discriminant < 0) return FailedPreconditionError(view.source, "the highlight is not on the light probe's sphere");
+  const Eigen::Vector3d hit = eye + (-b - std::sqrt(discriminant)) * ray;
+  const Eigen::Vector3d normal = (hit - centre).normalized();
+  const Eigen::Vector3d to_viewer = -ray;
+  return LedRay{hit, (2 * normal.dot(to_viewer) * normal - to_viewer).normalized()};
+}
+
+// Where a ray from near the sphere reaches `distance` from its centre.
+Eigen::Vector3d AtDistance(const LedRay& ray, const Eigen::Vector3d& centre, double distance) {
+  const Eigen::Vector3d from_centre = ray.origin - centre;
+  const double b = ray.direction.dot(from_centre);
+  const double s = -b + std::sqrt(std::max(0.0, b * b - (from_centre.squaredNorm() - distance * distance)));
+  return ray.origin + s * ray.direction;
+}
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return RadToDeg(std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)));
+}
+
+LightPosition Triangulate(const RigModel& rig, int led, const std::vector<LedRay>& rays) {
+  const Eigen::Vector3d centre = rig.turntable.RigFromSample(0) * rig.light_probe->CentreInSample();
+  const Eigen::Vector3d nominal = rig.leds[led].position_mm;
+  LightPosition result;
+  result.led = led;
+  result.views = static_cast<int>(rays.size());
+  for (const LedRay& ray : rays) result.position_mm += AtDistance(ray, centre, (nominal - centre).norm()) / rays.size();
+  for (const LedRay& ray : rays) result.residual_deg = std::max(result.residual_deg, AngleDeg(ray.direction, result.position_mm - ray.origin));
+  result.change_deg = AngleDeg(result.position_mm - centre, nominal - centre);
+  result.change_mm = (result.position_mm - nominal).norm();
+  return result;
+}
+
+}  // namespace
+
+Result<LightPositions> CalibrateLightPositions(const RigModel& rig, const std::vector<LitView>& views) {
+  if (!rig.light_probe) return FailedPreconditionError("rig '" + rig.name + "'", "has no light_probe: what the chrome sphere is");
+  std::map<int, std::vector<LedRay>> rays;
+  for (const LitView& view : views) {
+    if (view.lighting.leds.size() != 1 || view.lighting.linear_light_on) {
+      return InvalidArgumentError(view.source, "a light-probe view must be lit by one LED alone");
+    }
+    LOOM_ASSIGN_OR_RETURN(const Eigen::Vector2d pixel, Highlight(view));
+    LOOM_ASSIGN_OR_RETURN(const LedRay ray, MirroredRay(rig, *rig.light_probe, view, pixel));
+    rays[view.lighting.leds.front().first].push_back(ray);
+  }
+  LightPositions positions;
+  positions.probe_radius_mm = rig.light_probe->radius_mm;
+  for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) {
+    if (!rays.contains(led)) return NotFoundError("led " + std::to_string(led), "has no light-probe view");
+    positions.leds.push_back(Triangulate(rig, led, rays[led]));
+  }
+  return positions;
+}
+
+void ApplyLightPositions(const LightPositions& positions, RigModel* rig) {
+  for (const LightPosition& led : positions.leds) {
+    if (led.led >= 0 && led.led < static_cast<int>(rig->leds.size())) rig->leds[led.led].position_mm = led.position_mm;
+  }
+}
+
+Status WriteLightPositions(const fs::path& directory, const LightPositions& positions, const std::string& from) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);  // doubles round-trip exactly
+  out << YAML::BeginMap;
+  out << YAML::Key << "schema_version" << YAML::Value << kSchemaVersion;
+  out << YAML::Key << "device" << YAML::Value << "leds";
+  out << YAML::Key << "name" << YAML::Value << "leds";
+  out << YAML::Key << "model" << YAML::Value << kModel;
+  out << YAML::Key << "probe_radius_mm" << YAML::Value << positions.probe_radius_mm;
+  out << YAML::Key << "leds" << YAML::Value << YAML::BeginSeq;
+  for (const LightPosition& led : positions.leds) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "index" << YAML::Value << led.led << YAML::Key << "position_mm" << YAML::Value
+        << YAML::Flow << std::vector<double>{led.position_mm.x(), led.position_mm.y(), led.position_mm.z()} << YAML::Key
+        << "change_deg" << YAML::Value << led.change_deg << YAML::Key << "change_mm" << YAML::Value << led.change_mm << YAML::Key
+        << "residual_deg" << YAML::Value << led.residual_deg << YAML::Key << "views" << YAML::Value << led.views << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "from" << YAML::Value << from;
+  internal::EmitVersionAndTime(out);
+  out << YAML::EndMap << YAML::EndMap;
+  return WriteFileAtomically(directory / "light_positions.yaml", std::string(out.c_str()) + "\n");
+}
+
+Result<bool> ApplyLightPositionCalibration(const fs::path& directory, RigModel* rig) {
+  const fs::path path = directory / "light_positions.yaml";
+  if (!fs::exists(path)) return false;
+  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kSchemaVersion));
+  const ConfigNode root = doc.root();
+  std::string device, name, model, from;
+  root.Required("device", &device);
+  root.Required("name", &name);
+  root.Required("model", &model);
+  if (device != "leds") root.AddError("device", "is '" + device + "', expected leds");
+  if (model != kModel) root.AddError("model", "unknown model '" + model + "'");
+  LightPositions positions;
+  root.Required("probe_radius_mm", &positions.probe_radius_mm);
+  const std::vector<ConfigNode> leds = root.Sequence("leds");
+  for (const ConfigNode& node : leds) {
+    LightPosition led;
+    node.Required("index", &led.led);
+    node.Required("position_mm", &led.position_mm);
+    node.Required("change_deg", &led.change_deg);
+    node.Required("change_mm", &led.change_mm);
+    node.Required("residual_deg", &led.residual_deg);
+    node.Required("views", &led.views);
+    if (led.led < 0 || led.led >= static_cast<int>(rig->leds.size())) {
+      node.AddError("index", "rig '" + rig->name + "' has no LED " + std::to_string(led.led));
+    }
+    positions.leds.push_back(led);
+  }
+  const ConfigNode source = root.Child("source");
+  source.Required("from", &from);
+  source.Ignore("loom_version");
+  source.Ignore("created");
+  LOOM_RETURN_IF_ERROR(doc.Finish());
+  if (leds.size() != rig->leds.size()) {
+    return InvalidArgumentError(path.string(), "has " + std::to_string(leds.size()) + " LEDs, rig '" + rig->name + "' has " +
+                                                   std::to_string(rig->leds.size()));
+  }
+  ApplyLightPositions(positions, rig);
+  return true;
+}
+
+}  // namespace loom::calibration

@@ -1,0 +1,50 @@
+#pragma once
+// Where the LEDs are, from a chrome sphere (the rig YAML's light_probe: its radius; it rests on
+// the turntable, centred on the axis) lit by one LED at a time, seen by every camera:
+//  1. the highlight: the radiance-weighted centroid of the pixels near the brightest one, above
+//     a tenth of its value;
+//  2. the camera's ray through it meets the sphere at P, normal N; the view direction mirrored
+//     about N points at the LED: the LED lies on the ray P + s·L;
+//  3. one sphere fixes directions, not distances: the rays of all cameras start millimetres
+//     apart and point at an LED half a metre away. Each ray is followed to the rig's nominal
+//     distance of that LED from the sphere's centre and the points are averaged; how far a
+//     camera's ray misses the average (as an angle from its origin) is the residual. Distance errors change irradiance
+//     as 1/d², which radiometric calibration, measured with these positions, takes up.
+// The linear light's position is not calibrated (its reflection on a sphere is a streak).
+
+#include <string>
+#include <vector>
+
+#include "calibration/scan_radiance.h"
+#include "core/rig_model.h"
+
+namespace loom::calibration {
+
+struct LightPosition {
+  int led = 0;
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  // rig frame
+  double change_deg = 0;   // the direction from the sphere against the rig's
+  double change_mm = 0;    // the position against the rig's
+  double residual_deg = 0; // the largest angle between a camera's ray and the position found
+  int views = 0;
+};
+
+struct LightPositions {
+  double probe_radius_mm = 0;
+  std::vector<LightPosition> leds;
+};
+
+// `views`: light-probe views (one LED lit each) of `rig`, its cameras calibrated. Every LED needs
+// a view; a view whose highlight is missing or saturated is an error naming it.
+Result<LightPositions> CalibrateLightPositions(const RigModel& rig, const std::vector<LitView>& views);
+
+// The LEDs moved to the calibrated positions, keeping their axes.
+void ApplyLightPositions(const LightPositions& positions, RigModel* rig);
+
+// CALIB/light_positions.yaml (device: leds): written atomically, read strictly.
+Status WriteLightPositions(const std::filesystem::path& directory, const LightPositions& positions, const std::string& from);
+// Applies CALIB/light_positions.yaml when there is one; returns whether. A file for another
+// number of LEDs names the file.
+Result<bool> ApplyLightPositionCalibration(const std::filesystem::path& directory, RigModel* rig);
+
+}  // namespace loom::calibration
