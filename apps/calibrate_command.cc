@@ -19,6 +19,7 @@
 #include "calibration/drift.h"
 #include "calibration/geometry.h"
 #include "calibration/intrinsics.h"
+#include "calibration/light_positions.h"
 #include "calibration/radiometry.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
@@ -112,6 +113,28 @@ Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
   return result;
 }
 
+// The LEDs' positions from the scan's light-probe views, with the cameras just calibrated.
+Status CalibrateLights(const std::string& scan_dir, const RigModel& calibrated, const std::string& out) {
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(acquisition::StepKind::kLightProbe));
+  if (views.empty()) {
+    std::cout << "LED positions: not calibrated (the scan has no light-probe views: the rig YAML needs geometry: light_probe:)\n";
+    return Status::Ok();
+  }
+  LOOM_ASSIGN_OR_RETURN(const calibration::LightPositions positions, calibration::CalibrateLightPositions(calibrated, views));
+  LOOM_RETURN_IF_ERROR(calibration::WriteLightPositions(out, positions, scan_dir));
+  double worst_change = 0, worst_residual = 0;
+  for (const calibration::LightPosition& led : positions.leds) {
+    worst_residual = std::max(worst_residual, led.residual_deg);
+    worst_change = std::max(worst_change, led.change_mm);
+    if (led.change_mm > 2) std::cout << "led " << led.led << ": " << led.change_mm << " mm (" << led.change_deg << " deg) from the rig YAML\n";
+  }
+  std::cout << "LED positions from the chrome sphere: " << positions.leds.size() << " LEDs, at most " << worst_change
+            << " mm from the rig YAML, rays within " << worst_residual << " deg (light_positions.yaml)\n";
+  return Status::Ok();
+}
+
 Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(scan_dir));
   const RigModel& nominal = opened.nominal;
@@ -152,6 +175,7 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
               << " %\n";
   }
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(out) / "geometry.json", summary.dump(2) + "\n"));
+  LOOM_RETURN_IF_ERROR(CalibrateLights(scan_dir, calibration::ApplyGeometry(nominal, geometry), out));
   std::cout << "RMS reprojection error " << geometry.rms_px << " px over every camera; target placed at ("
             << geometry.target.offset_mm.x() << ", " << geometry.target.offset_mm.y() << ") mm from the axis\n"
             << "written: " << out << " (one YAML per camera, geometry.json)\n";
@@ -188,11 +212,14 @@ void PrintRadiometry(const calibration::Radiometry& r) {
   std::cout << std::right;
 }
 
-// The scan's rig with the cameras CALIB holds: radiometry needs where each pixel looks.
+// The scan's rig with the cameras and LED positions CALIB holds: radiometry needs where each
+// pixel looks and where each light shines from.
 Result<RigModel> WithStoredCameras(const RigModel& nominal, const std::string& calib) {
   RigModel rig = nominal;
   LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> applied, calibration::ApplyCameraCalibrations(calib, &rig));
   if (applied.empty()) std::cerr << "warning: " << calib << " holds no camera calibration: using the rig YAML's cameras\n";
+  LOOM_ASSIGN_OR_RETURN(const bool lights, calibration::ApplyLightPositionCalibration(calib, &rig));
+  if (!lights) std::cerr << "note: " << calib << " holds no LED positions: using the rig YAML's\n";
   return rig;
 }
 

@@ -10,6 +10,7 @@
 #include "apps/progress.h"
 #include "apps/rig_loader.h"
 #include "calibration/calibration_yaml.h"
+#include "calibration/light_positions.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
 #include "core/version.h"
@@ -28,12 +29,20 @@ struct ReconstructArguments {
   bool quiet = false;
 };
 
-std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args,
-                        const std::vector<std::string>& calibrated, bool radiometry, double seconds) {
+// What of a calibration directory the reconstruction used.
+struct Applied {
+  std::vector<std::string> cameras;
+  bool led_positions = false;
+  bool radiometry = false;
+};
+
+std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args, const Applied& applied,
+                        double seconds) {
   const nlohmann::json json = {{"scan", args.scan},
                                {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
-                               {"calibrated_cameras", calibrated},
-                               {"radiometry", radiometry ? "calibrated" : "nominal (the scan's rig YAML)"},
+                               {"calibrated_cameras", applied.cameras},
+                               {"led_positions", applied.led_positions ? "calibrated" : "nominal (the scan's rig YAML)"},
+                               {"radiometry", applied.radiometry ? "calibrated" : "nominal (the scan's rig YAML)"},
                                {"width_px", args.options.width_px},
                                {"height_px", args.options.height_px},
                                {"pixel_mm", args.options.pixel_mm},
@@ -51,12 +60,12 @@ Status Reconstruct(const ReconstructArguments& args) {
   const auto start = std::chrono::steady_clock::now();
   LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, acquisition::CaptureStore::Open(args.scan));
   LOOM_ASSIGN_OR_RETURN(RigModel rig, LoadRigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
-  std::vector<std::string> calibrated;
-  bool radiometry = false;
+  Applied applied;
   if (!args.calib.empty()) {
-    LOOM_ASSIGN_OR_RETURN(calibrated, calibration::ApplyCameraCalibrations(args.calib, &rig));
-    LOOM_ASSIGN_OR_RETURN(radiometry, calibration::ApplyRadiometryCalibration(args.calib, &rig));
-    if (!radiometry) {
+    LOOM_ASSIGN_OR_RETURN(applied.cameras, calibration::ApplyCameraCalibrations(args.calib, &rig));
+    LOOM_ASSIGN_OR_RETURN(applied.led_positions, calibration::ApplyLightPositionCalibration(args.calib, &rig));
+    LOOM_ASSIGN_OR_RETURN(applied.radiometry, calibration::ApplyRadiometryCalibration(args.calib, &rig));
+    if (!applied.radiometry) {
       std::cerr << "note: " << args.calib << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";
     }
   } else {
@@ -82,7 +91,7 @@ Status Reconstruct(const ReconstructArguments& args) {
   const fs::path stack_path = fs::path(args.out) / "stack.exr";
   LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, result.stack));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "reconstruction.json", SummaryJson(result, args, calibrated, radiometry, seconds)));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "reconstruction.json", SummaryJson(result, args, applied, seconds)));
   std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height() << " px at "
             << args.options.pixel_mm << " mm, " << result.stack.observations.size() << " observations; heightmap from "
             << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "
