@@ -5,17 +5,12 @@
 #include <fstream>
 
 #include "core/config.h"
+#include "core/testing/shipped_rig.h"
 
 namespace loom::acquisition {
 namespace {
 
-RigModel LoadRigModel(const std::string& name) {
-  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml", 1);
-  EXPECT_TRUE(doc.ok()) << doc.status().ToString();
-  RigModel rig = ReadRigModel(doc->root().Child("geometry"));
-  rig.name = name;
-  return rig;
-}
+using loom::testing::ShippedRigModel;
 
 Preset LoadShippedPreset(const std::string& name) {
   Result<Preset> preset = LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/" + name + ".yaml");
@@ -24,7 +19,7 @@ Preset LoadShippedPreset(const std::string& name) {
 }
 
 TEST(PlanTest, Tac7PresetsHaveThePapersCounts) {
-  const RigModel rig = LoadRigModel("tac7");
+  const RigModel rig = ShippedRigModel("tac7");
   const std::pair<const char*, int> presets[] = {{"low", 280}, {"medium", 560}, {"high", 3300}};
   for (const auto& [name, linear] : presets) {
     const Result<Plan> plan = MakeMaterialPlan(rig, LoadShippedPreset(name));
@@ -37,7 +32,7 @@ TEST(PlanTest, Tac7PresetsHaveThePapersCounts) {
 }
 
 TEST(PlanTest, ColourComesFromTheTopAndThe45DegreeCameras) {
-  const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset("low"));
+  const Plan plan = *MakeMaterialPlan(ShippedRigModel("tac7"), LoadShippedPreset("low"));
   for (const Step& step : plan.steps) {
     if (step.kind != StepKind::kColour) continue;
     EXPECT_EQ(step.cameras, (std::vector<std::string>{"cam0", "cam2"}));
@@ -47,7 +42,7 @@ TEST(PlanTest, ColourComesFromTheTopAndThe45DegreeCameras) {
 }
 
 TEST(PlanTest, StepsKeepSlowMovesFew) {
-  const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset("medium"));
+  const Plan plan = *MakeMaterialPlan(ShippedRigModel("tac7"), LoadShippedPreset("medium"));
   int turntable_moves = 0;
   double strip = -1;
   for (size_t i = 1; i < plan.steps.size(); ++i) {
@@ -71,7 +66,7 @@ TEST(PlanTest, StructuredLightPatternsCoverTheProjectorWidth) {
 }
 
 TEST(PlanTest, MiniRigAndCalibrationPlan) {
-  const RigModel rig = LoadRigModel("tac7-mini");
+  const RigModel rig = ShippedRigModel("tac7-mini");
   const Plan plan = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
   EXPECT_EQ(plan.Images(StepKind::kMonochrome), 12 * 2 * 3);
   EXPECT_EQ(plan.Images(StepKind::kColour), 2 * 4 * 2);
@@ -87,7 +82,7 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
 }
 
 TEST(PlanTest, LedsBehindAWheelLightMonochromeStepsThroughItsOpenSlot) {
-  const RigModel rig = LoadRigModel("tac7-mini");
+  const RigModel rig = ShippedRigModel("tac7-mini");
   const Plan plan = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
   for (const Step& step : plan.steps) {
     if (step.kind != StepKind::kMonochrome || step.leds.front().led != rig.filter_wheels[0].led) continue;
@@ -104,7 +99,7 @@ TEST(PlanTest, LedsBehindAWheelLightMonochromeStepsThroughItsOpenSlot) {
 }
 
 TEST(PlanTest, ARigWithoutALinearLightCannotScanWithIt) {
-  RigModel rig = LoadRigModel("tac7-mini");
+  RigModel rig = ShippedRigModel("tac7-mini");
   rig.linear_light.reset();
   const Result<Plan> plan = MakeMaterialPlan(rig, LoadShippedPreset("low"));
   ASSERT_FALSE(plan.ok());
@@ -123,12 +118,12 @@ TEST(PlanTest, PresetTyposAreErrors) {
 
 TEST(PlanTest, TheExpandedPlanRoundTripsThroughYaml) {
   for (const char* preset : {"low", "high"}) {
-    const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset(preset));
+    const Plan plan = *MakeMaterialPlan(ShippedRigModel("tac7"), LoadShippedPreset(preset));
     const Result<Plan> back = ParsePlanYaml(PlanToYaml(plan), "plan.yaml");
     ASSERT_TRUE(back.ok()) << back.status().ToString();
     EXPECT_EQ(*back, plan) << preset;
   }
-  const Plan calibration = *MakeCalibrationPlan(LoadRigModel("tac7-mini"), LoadShippedPreset("low"));
+  const Plan calibration = *MakeCalibrationPlan(ShippedRigModel("tac7-mini"), LoadShippedPreset("low"));
   EXPECT_EQ(*ParsePlanYaml(PlanToYaml(calibration), "plan.yaml"), calibration);
 }
 
@@ -145,7 +140,7 @@ TEST(PlanTest, ABadPlanFileNamesTheStepAndKey) {
 }
 
 TEST(PlanTest, AMaterialScanStartsWithDarkFrames) {
-  const Plan plan = *MakeMaterialPlan(LoadRigModel("tac7"), LoadShippedPreset("low"));
+  const Plan plan = *MakeMaterialPlan(ShippedRigModel("tac7"), LoadShippedPreset("low"));
   EXPECT_EQ(plan.steps.front().kind, StepKind::kDark);
   EXPECT_TRUE(plan.steps.front().leds.empty());
   EXPECT_EQ(plan.Images(StepKind::kDark), 4);

@@ -275,7 +275,8 @@ nlohmann::json DriftJson(const calibration::DriftReport& report, const calibrati
                          {"thresholds", {{"reprojection_px", thresholds.reprojection_px},
                                          {"turntable_axis_deg", thresholds.turntable_axis_deg},
                                          {"turntable_axis_mm", thresholds.turntable_axis_mm},
-                                         {"intensity_percent", thresholds.intensity_percent}}},
+                                         {"intensity_percent", thresholds.intensity_percent},
+                                         {"led_position_mm", thresholds.led_position_mm}}},
                          {"loom_version", std::string(VersionWithCommit())}};
   for (const calibration::CameraDrift& c : report.cameras) {
     json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
@@ -300,30 +301,57 @@ void PrintDrift(const calibration::DriftReport& report) {
   }
 }
 
-// The stored radiometry against a fresh one of the scan's white reference, when CALIB has one;
-// on the fresh geometry, so that a camera that moved does not read as a light that changed.
-Result<std::optional<calibration::RadiometricDrift>> CheckRadiometry(const std::string& scan_dir, const RigModel& stored_rig,
-                                                                     const calibration::RigGeometry& fresh_geometry,
-                                                                     const std::string& calib,
-                                                                     const calibration::DriftThresholds& thresholds) {
-  RigModel stored = calibration::ApplyGeometry(stored_rig, fresh_geometry);
-  LOOM_ASSIGN_OR_RETURN(const bool has_radiometry, calibration::ApplyRadiometryCalibration(calib, &stored));
+void PrintChanges(const std::string& title, const calibration::Changes& changes) {
+  std::cout << title << ":" << std::fixed << std::setprecision(2);
+  for (const auto& [what, change] : changes.change) std::cout << " " << what << " " << std::showpos << change << std::noshowpos << " " << changes.unit << ";";
+  std::cout << "\n";
+  for (const std::string& exceeded : changes.exceeded) std::cout << exceeded << "\n";
+}
+
+// The lights against the stored calibration: fresh LED positions from the light probe, then a
+// fresh radiometry with them; both on the fresh geometry, so that a camera or an LED that moved
+// does not read as a light that changed. Nothing where CALIB holds no such calibration.
+struct LightChecks {
+  std::optional<calibration::Changes> positions;
+  std::optional<calibration::Changes> radiometry;
+};
+
+Result<LightChecks> CheckLights(const std::string& scan_dir, const RigModel& stored_rig, const calibration::RigGeometry& fresh_geometry,
+                                const std::string& calib, const calibration::DriftThresholds& thresholds) {
+  LightChecks checks;
+  RigModel rig = calibration::ApplyGeometry(stored_rig, fresh_geometry);
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const bool has_positions, calibration::ApplyLightPositionCalibration(calib, &rig));
+  if (has_positions) {
+    LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
+    LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(acquisition::StepKind::kLightProbe));
+    LOOM_ASSIGN_OR_RETURN(const calibration::LightPositions fresh, calibration::CalibrateLightPositions(rig, views));
+    checks.positions = calibration::MeasureLightPositionDrift(fresh, thresholds);
+    PrintChanges("LED positions against the stored ones", *checks.positions);
+    calibration::ApplyLightPositions(fresh, &rig);
+  } else {
+    std::cout << "LED positions: not compared (" << calib << " holds none: loom calibrate geometry with a light_probe)\n";
+  }
+  LOOM_ASSIGN_OR_RETURN(const bool has_radiometry, calibration::ApplyRadiometryCalibration(calib, &rig));
   if (!has_radiometry) {
     std::cout << "light intensities: not compared (" << calib << " holds no radiometric calibration: loom calibrate radiometry)\n";
-    return std::optional<calibration::RadiometricDrift>();
+    return checks;
   }
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
-  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, stored));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
+  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry stored_radiometry, calibration::ReadRadiometry(calib, rig));
   calibration::RadiometryOptions options;
-  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry stored_radiometry, calibration::ReadRadiometry(calib, stored));
   options.reference_camera = stored_radiometry.reference_camera;
   LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry fresh, calibration::CalibrateRadiometry(scan, options));
-  calibration::RadiometricDrift drift = calibration::MeasureRadiometricDrift(fresh, thresholds);
-  std::cout << "against the stored radiometry (reference camera " << fresh.reference_camera << "):";
-  for (const auto& [what, percent] : drift.change_percent) std::cout << " " << what << " " << std::showpos << percent << std::noshowpos << " %;";
-  std::cout << "\n";
-  for (const std::string& exceeded : drift.exceeded) std::cout << exceeded << "\n";
-  return std::optional<calibration::RadiometricDrift>(std::move(drift));
+  checks.radiometry = calibration::MeasureRadiometricDrift(fresh, thresholds);
+  PrintChanges("against the stored radiometry (reference camera " + fresh.reference_camera + ")", *checks.radiometry);
+  return checks;
+}
+
+nlohmann::json ChangesJson(const std::optional<calibration::Changes>& changes, const std::string& missing) {
+  if (!changes) return "not compared: " + missing;
+  nlohmann::json json = {{"unit", changes->unit}, {"exceeded", changes->exceeded}};
+  for (const auto& [what, change] : changes->change) json["change"][what] = change;
+  return json;
 }
 
 // Returns whether to recalibrate.
@@ -335,19 +363,15 @@ Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& ca
   LOOM_ASSIGN_OR_RETURN(const calibration::DriftReport report,
                         calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
   PrintDrift(report);
-  LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::RadiometricDrift> radiometric,
-                        CheckRadiometry(scan_dir, stored, report.fresh, calib, thresholds));
-  const bool recalibrate = report.recalibrate || (radiometric && !radiometric->exceeded.empty());
+  LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(scan_dir, stored, report.fresh, calib, thresholds));
+  const auto exceeded = [](const std::optional<calibration::Changes>& c) { return c && !c->exceeded.empty(); };
+  const bool recalibrate = report.recalibrate || exceeded(lights.positions) || exceeded(lights.radiometry);
   std::cout << (recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n" : "calibration holds\n");
   if (!json_path.empty()) {
     nlohmann::json json = DriftJson(report, thresholds, scan_dir, calib);
     json["recalibrate"] = recalibrate;
-    if (radiometric) {
-      for (const auto& [what, percent] : radiometric->change_percent) json["radiometry"]["change_percent"][what] = percent;
-      json["radiometry"]["exceeded"] = radiometric->exceeded;
-    } else {
-      json["radiometry"] = "not compared: the calibration holds no radiometry (loom calibrate radiometry)";
-    }
+    json["led_positions"] = ChangesJson(lights.positions, "the calibration holds no LED positions (loom calibrate geometry)");
+    json["radiometry"] = ChangesJson(lights.radiometry, "the calibration holds no radiometry (loom calibrate radiometry)");
     LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, json.dump(2) + "\n"));
     std::cout << "written: " << json_path << "\n";
   }

@@ -3,7 +3,7 @@
 // side camera 2 mm and 0.5° away, 8 % less sensitive and vignetting more; LED 3 15 % dimmer,
 // LED 7 10 % brighter, LED 4 20 mm aside; one filter's band 12 nm off. Calibration starts from
 // the YAML and must find the rig as built. Then loom calibrate check on the same scan: the fresh calibration holds, while one stored before
-// the side camera was knocked and LED 3 dimmed is named for recalibration. Also: a missing frame
+// the side camera was knocked, LED 3 dimmed and LED 4 moved is named for recalibration. Also: a missing frame
 // is named. One test: the calibration scan takes about 45 s.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -18,6 +18,7 @@
 #include "calibration/light_positions.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/config.h"
+#include "core/testing/shipped_rig.h"
 #include "core/rig_model.h"
 #include "core/spectra.h"
 #include "core/testing/subprocess.h"
@@ -54,15 +55,10 @@ nlohmann::json ReadJson(const fs::path& path) {
   return nlohmann::json::parse(file);
 }
 
-loom::RigModel NominalRig() {
-  const auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  loom::RigModel rig = loom::ReadRigModel(doc->root().Child("geometry"));
-  rig.name = "tac7-mini";
-  return rig;
-}
+loom::RigModel NominalRig() { return loom::testing::ShippedRigModel("tac7-mini"); }
 
-// A calibration of cam0 and cam1 at the rig YAML's poses, with LED 3 as bright as the YAML
-// says: what was stored before the side camera was knocked and the LED dimmed.
+// A calibration of cam0 and cam1 at the rig YAML's poses, with LED 3 as bright and LED 4 where
+// the YAML says: what was stored before the side camera was knocked, LED 3 dimmed and LED 4 moved.
 void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   fs::create_directories(stale);
   const loom::RigModel nominal = NominalRig();
@@ -76,6 +72,9 @@ void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   ASSERT_TRUE(radiometry.ok()) << radiometry.status().ToString();
   radiometry->lights[3].intensity = nominal.leds[3].intensity;
   ASSERT_TRUE(loom::calibration::WriteRadiometry(stale, *radiometry, "before LED 3 dimmed").ok());
+  loom::calibration::LightPositions positions;
+  for (size_t l = 0; l < nominal.leds.size(); ++l) positions.leds.push_back({static_cast<int>(l), nominal.leds[l].position_mm, 0, 0, 0, 2});
+  ASSERT_TRUE(loom::calibration::WriteLightPositions(stale, positions, "before LED 4 moved").ok());
 }
 
 void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
@@ -145,6 +144,7 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   const nlohmann::json held = ReadJson(dir / "holds.json");
   for (const char* camera : {"cam0", "cam1"}) EXPECT_LT(held["cameras"][camera]["drift_px"].get<double>(), 0.25) << held.dump(2);
   EXPECT_TRUE(held["radiometry"]["exceeded"].empty()) << held.dump(2);
+  EXPECT_TRUE(held["led_positions"]["exceeded"].empty()) << held.dump(2);
 
   WriteStaleCalibration(dir / "calib", dir / "stale");
   const auto stale = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "stale").string() +
@@ -157,7 +157,9 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   const nlohmann::json drifted = ReadJson(dir / "stale.json");
   EXPECT_TRUE(drifted["recalibrate"].get<bool>());
   ASSERT_EQ(drifted["radiometry"]["exceeded"].size(), 1u) << drifted.dump(2);  // LED 3 only
-  EXPECT_NEAR(drifted["radiometry"]["change_percent"]["led 3"].get<double>(), -15, 1) << drifted.dump(2);
+  EXPECT_NEAR(drifted["radiometry"]["change"]["led 3"].get<double>(), -15, 1) << drifted.dump(2);
+  EXPECT_NE(stale.output.find("led 4 moved 19"), std::string::npos) << stale.output;
+  ASSERT_EQ(drifted["led_positions"]["exceeded"].size(), 1u) << drifted.dump(2);  // LED 4 only
   EXPECT_NEAR(drifted["cameras"]["cam1"]["rotation_deg"].get<double>(), 0.43, 0.15) << drifted.dump(2);
 
   // A stored calibration missing a camera is named.

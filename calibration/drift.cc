@@ -68,6 +68,7 @@ DriftThresholds ReadDriftThresholds(const ConfigNode& node) {
   node.Optional("turntable_axis_deg", &thresholds.turntable_axis_deg);
   node.Optional("turntable_axis_mm", &thresholds.turntable_axis_mm);
   node.Optional("intensity_percent", &thresholds.intensity_percent);
+  node.Optional("led_position_mm", &thresholds.led_position_mm);
   return thresholds;
 }
 
@@ -97,22 +98,33 @@ Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTarget
   return report;
 }
 
-RadiometricDrift MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds) {
-  RadiometricDrift drift;
-  const auto judge = [&](const std::string& what, double change) {
-    const double percent = 100 * (change - 1);
-    drift.change_percent.emplace_back(what, percent);
-    if (std::abs(percent) > thresholds.intensity_percent) {
-      std::ostringstream text;
-      text << std::fixed << std::setprecision(1) << what << " changed " << percent << " % (threshold " << thresholds.intensity_percent << " %)";
-      drift.exceeded.push_back(text.str());
-    }
-  };
-  for (const LightRadiometry& light : fresh.lights) judge(light.name, light.change);
+namespace {
+
+void Judge(const std::string& what, double change, double threshold, const char* verb, Changes* changes) {
+  changes->change.emplace_back(what, change);
+  if (std::abs(change) <= threshold) return;
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(1) << what << " " << verb << " " << change << " " << changes->unit << " (threshold "
+       << threshold << " " << changes->unit << ")";
+  changes->exceeded.push_back(text.str());
+}
+
+}  // namespace
+
+Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds) {
+  Changes changes{"%", {}, {}};
+  for (const LightRadiometry& light : fresh.lights) Judge(light.name, 100 * (light.change - 1), thresholds.intensity_percent, "changed", &changes);
   for (const CameraRadiometry& camera : fresh.cameras) {
-    if (camera.name != fresh.reference_camera) judge(camera.name + " sensitivity", camera.sensitivity_change);
+    if (camera.name == fresh.reference_camera) continue;
+    Judge(camera.name + " sensitivity", 100 * (camera.sensitivity_change - 1), thresholds.intensity_percent, "changed", &changes);
   }
-  return drift;
+  return changes;
+}
+
+Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds) {
+  Changes changes{"mm", {}, {}};
+  for (const LightPosition& led : fresh.leds) Judge("led " + std::to_string(led.led), led.change_mm, thresholds.led_position_mm, "moved", &changes);
+  return changes;
 }
 
 }  // namespace loom::calibration

@@ -13,18 +13,20 @@
 //    from noise alone, hence the default tilt threshold of 0.5°.
 // Radiometry: a fresh radiometric calibration (radiometry.h) of the new scan's white reference,
 // over a rig that carries the stored one (ApplyRadiometry), gives each light's and each
-// camera's change directly. It is made with the fresh geometry, so that a camera that moved
-// does not read as a light that changed. The reference camera anchors the scale, so a change of its own
+// camera's change directly. LED positions likewise, from the light probe. Both are measured on
+// the fresh geometry (and the radiometry on the fresh LED positions), so that a camera or an LED
+// that moved does not read as a light that changed. The reference camera anchors the scale, so a change of its own
 // sensitivity shows as every light changing alike.
 //
 // Thresholds live in the rig YAML, as its optional top-level section
 //   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0,
-//                   intensity_percent: 3}
+//                   intensity_percent: 3, led_position_mm: 5}
 
 #include <string>
 #include <vector>
 
 #include "calibration/geometry.h"
+#include "calibration/light_positions.h"
 #include "calibration/radiometry.h"
 #include "core/config.h"
 
@@ -35,6 +37,7 @@ struct DriftThresholds {
   double turntable_axis_deg = 0.5;
   double turntable_axis_mm = 1.0;
   double intensity_percent = 3;   // a light's intensity or a camera's sensitivity, against the stored
+  double led_position_mm = 5;     // an LED's position (camera poses alone move it ~3 mm: light_positions.h)
 };
 
 // Reads a `recalibration:` section (strict keys; absent keys keep their defaults).
@@ -68,12 +71,16 @@ struct DriftReport {
 Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTargetModel& target,
                                  const std::vector<TargetView>& views, const DriftThresholds& thresholds);
 
-struct RadiometricDrift {
-  std::vector<std::pair<std::string, double>> change_percent;  // "led 3", "cam1 sensitivity" → %
-  std::vector<std::string> exceeded;                           // what crossed the threshold, with the values
+// What changed against a stored calibration, item by item, and what crossed its threshold.
+struct Changes {
+  std::string unit;                                    // "%", "mm"
+  std::vector<std::pair<std::string, double>> change;  // "led 3", "cam1 sensitivity" → in `unit`
+  std::vector<std::string> exceeded;                   // with the values, for people
 };
 
 // `fresh`: CalibrateRadiometry of the new scan over the rig with the stored radiometry applied.
-RadiometricDrift MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds);
+Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds);
+// `fresh`: CalibrateLightPositions of the new scan over the rig with the stored positions applied.
+Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds);
 
 }  // namespace loom::calibration

@@ -94,7 +94,7 @@ TEST(DriftTest, ThresholdsComeFromTheRecalibrationSection) {
 
 // A fresh radiometric calibration over the stored one: what changed past the threshold is named,
 // the reference camera is not judged (it anchors the scale).
-TEST(DriftTest, RadiometricDriftNamesWhatChanged) {
+TEST(DriftTest, RadiometricAndLightDriftNameWhatChanged) {
   Radiometry fresh;
   fresh.reference_camera = "top";
   fresh.lights = {{"led 0", 0, 1e6, 1.01, 0}, {"led 1", 1, 1e6, 0.95, 0}, {"linear light", -1, 4000, 1.0, 0}};
@@ -103,12 +103,18 @@ TEST(DriftTest, RadiometricDriftNamesWhatChanged) {
   side.name = "side";
   side.sensitivity_change = 1.04;
   fresh.cameras = {top, side};
-  const RadiometricDrift drift = MeasureRadiometricDrift(fresh, DriftThresholds{});
-  ASSERT_EQ(drift.change_percent.size(), 4u);
-  EXPECT_NEAR(drift.change_percent[1].second, -5, 1e-9);
+  const Changes drift = MeasureRadiometricDrift(fresh, DriftThresholds{});
+  ASSERT_EQ(drift.change.size(), 4u);
+  EXPECT_NEAR(drift.change[1].second, -5, 1e-9);
   ASSERT_EQ(drift.exceeded.size(), 2u);
   EXPECT_EQ(drift.exceeded[0], "led 1 changed -5.0 % (threshold 3.0 %)");
   EXPECT_EQ(drift.exceeded[1], "side sensitivity changed 4.0 % (threshold 3.0 %)");
+
+  LightPositions positions;
+  positions.leds = {{0, Eigen::Vector3d::Zero(), 0.1, 1.5, 0.01, 2}, {1, Eigen::Vector3d::Zero(), 1.0, 12.0, 0.01, 2}};
+  const Changes moved = MeasureLightPositionDrift(positions, DriftThresholds{});
+  ASSERT_EQ(moved.exceeded.size(), 1u);
+  EXPECT_EQ(moved.exceeded[0], "led 1 moved 12.0 mm (threshold 5.0 mm)");
 }
 
 }  // namespace

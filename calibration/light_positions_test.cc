@@ -11,18 +11,14 @@
 #include <iostream>
 
 #include "core/config.h"
+#include "core/testing/shipped_rig.h"
 #include "sim/renderer.h"
 #include "sim/test_materials.h"
 
 namespace loom::calibration {
 namespace {
 
-RigModel Nominal() {
-  const auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  RigModel rig = ReadRigModel(doc->root().Child("geometry"));
-  rig.name = "tac7-mini";
-  return rig;
-}
+RigModel Nominal() { return loom::testing::ShippedRigModel("tac7-mini"); }
 
 constexpr int kMovedLed = 4;
 

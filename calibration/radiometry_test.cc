@@ -16,6 +16,7 @@
 
 #include "calibration/radiometry_yaml.h"
 #include "core/config.h"
+#include "core/testing/shipped_rig.h"
 #include "core/spectra.h"
 #include "sim/renderer.h"
 #include "sim/test_materials.h"
@@ -23,12 +24,7 @@
 namespace loom::calibration {
 namespace {
 
-RigModel Nominal() {
-  const auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  RigModel rig = ReadRigModel(doc->root().Child("geometry"));
-  rig.name = "tac7-mini";
-  return rig;
-}
+RigModel Nominal() { return loom::testing::ShippedRigModel("tac7-mini"); }
 
 constexpr double kLed3 = 0.85, kLed7 = 1.1, kStrip = 0.9, kCam1Sensitivity = 0.92, kShiftNm = 12;
 constexpr double kVignetting[] = {0.15, 0.18};
