@@ -20,7 +20,7 @@
 //
 // Thresholds live in the rig YAML, as its optional top-level section
 //   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0,
-//                   intensity_percent: 3, led_position_mm: 5}
+//                   intensity_percent: 3, led_position_mm: 8}
 
 #include <string>
 #include <vector>
@@ -37,7 +37,7 @@ struct DriftThresholds {
   double turntable_axis_deg = 0.5;
   double turntable_axis_mm = 1.0;
   double intensity_percent = 3;   // a light's intensity or a camera's sensitivity, against the stored
-  double led_position_mm = 5;     // an LED's position (camera poses alone move it ~3 mm: light_positions.h)
+  double led_position_mm = 8;     // an LED's position: camera pose errors alone move it up to ~5 mm (light_positions.h)
 };
 
 // Reads a `recalibration:` section (strict keys; absent keys keep their defaults).

@@ -114,7 +114,7 @@ TEST(DriftTest, RadiometricAndLightDriftNameWhatChanged) {
   positions.leds = {{0, Eigen::Vector3d::Zero(), 0.1, 1.5, 0.01, 2}, {1, Eigen::Vector3d::Zero(), 1.0, 12.0, 0.01, 2}};
   const Changes moved = MeasureLightPositionDrift(positions, DriftThresholds{});
   ASSERT_EQ(moved.exceeded.size(), 1u);
-  EXPECT_EQ(moved.exceeded[0], "led 1 moved 12.0 mm (threshold 5.0 mm)");
+  EXPECT_EQ(moved.exceeded[0], "led 1 moved 12.0 mm (threshold 8.0 mm)");
 }
 
 }  // namespace

@@ -10,6 +10,9 @@
 //     distance of that LED from the sphere's centre and the points are averaged; how far a
 //     camera's ray misses the average (as an angle from its origin) is the residual. Distance errors change irradiance
 //     as 1/d², which radiometric calibration, measured with these positions, takes up.
+// Measured on the simulated tac7-mini: within 1.3 mm (0.11°) of the truth with exact cameras;
+// 3.4-4.6 mm (0.3-0.4°) after loom calibrate geometry, whose camera poses carry 1-2 mm and
+// 0.05-0.13° of their own error (geometry.h).
 // The linear light's position is not calibrated (its reflection on a sphere is a streak).
 
 #include <string>

@@ -438,6 +438,10 @@ Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const
 Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const RadiometryOptions& options) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> white, scan.LitViews(StepKind::kWhiteReference));
   LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> chart, scan.LitViews(StepKind::kColourChart));
+  if (white.empty()) {
+    return FailedPreconditionError("scan " + scan.directory().string(),
+                                   "has no white-reference steps: radiometry needs a calibration scan (loom scan --calibration)");
+  }
   LOOM_ASSIGN_OR_RETURN(Radiometry radiometry, FitRadiometry(scan.rig(), white, chart, options));
   LOOM_ASSIGN_OR_RETURN(LinearityByCamera linearity, MeasureCameraLinearity(scan, options));
   for (CameraRadiometry& camera : radiometry.cameras) {

@@ -48,6 +48,7 @@ class ScanRadiance {
 
   const acquisition::Plan& plan() const { return store_->info().plan; }
   const RigModel& rig() const { return *rig_; }
+  const std::filesystem::path& directory() const { return store_->directory(); }
   Result<RadianceView> View(int step, const std::string& camera) const;
   // The step's raw bracket for one camera, and what the HDR merge knows of that camera at the
   // bracket's gain: what View merges, for measurements on the raw readings (linearity).
