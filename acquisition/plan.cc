@@ -75,10 +75,10 @@ class PlanBuilder {
     return plan_.steps.back();
   }
 
-  void StructuredLight(double angle) {
+  void StructuredLight(double angle, const std::string& object) {
     if (!rig_.projector) return;
     for (const std::string& pattern : StructuredLightPatterns(rig_.projector->width, preset_.gray_bits, preset_.phase_steps)) {
-      Add(StepKind::kStructuredLight, AllCameras(rig_), angle, "sample").projector_pattern = pattern;
+      Add(StepKind::kStructuredLight, AllCameras(rig_), angle, object).projector_pattern = pattern;
     }
   }
 
@@ -221,7 +221,7 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
   const double first = preset.turntable_deg.front();
   // Lights off first: the sequencer takes each camera's black level and noise from it.
   builder.Add(StepKind::kDark, AllCameras(rig), first, "sample");
-  builder.StructuredLight(first);
+  builder.StructuredLight(first, "sample");
   builder.Filtered(StepKind::kColour, ColourCameras(rig, preset.colour_views_deg), "sample");
   builder.EveryLed(StepKind::kMonochrome, first, "sample");
   if (preset.linear_light_positions > 0) builder.LinearLight(first);
@@ -234,10 +234,12 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));
   PlanBuilder builder(rig, preset, "calibration");
   builder.Add(StepKind::kDark, AllCameras(rig), 0, std::string(kNoObject));
-  // The target at 8 turntable angles, lit evenly by every LED at a quarter of the current.
+  // The target at 8 turntable angles, lit evenly by every LED at a quarter of the current; at
+  // three of them the projector's patterns on it, for the projector's calibration.
   for (int k = 0; k < 8; ++k) {
     Step& step = builder.Add(StepKind::kTarget, AllCameras(rig), 45.0 * k, "target");
     for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
+    if (k % 3 == 0) builder.StructuredLight(45.0 * k, "target");
   }
   if (rig.light_probe) builder.EveryLed(StepKind::kLightProbe, 0, "chrome sphere");
   builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");

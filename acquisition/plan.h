@@ -10,7 +10,8 @@
 // | colour      | each filtered LED × each filter, colour-view cameras      | 5 × 10 × 2 = 100  |
 // | monochrome  | each LED × each turntable angle, all cameras              | 29 × 3 × 4 = 348  |
 // | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
-// A calibration scan: dark frames, the calibration target at several turntable angles, the
+// A calibration scan: dark frames, the calibration target at several turntable angles (at three
+// of them with the structured-light patterns on it), the
 // light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear light (mid-travel), the colour chart
 // through every filter.
 //

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
 #include "core/config.h"
@@ -59,6 +60,38 @@ class SequencerTest : public ::testing::Test {
   std::unique_ptr<hal::Rig> rig_;
   Plan plan_;
 };
+
+// A step with a linearity series (plan.h): after its bracket, exposures halving from the one
+// that brings the brightest pixels to 90 % of full scale.
+TEST_F(SequencerTest, ALinearitySeriesFollowsTheBracket) {
+  Plan plan = plan_;
+  const auto lit = std::find_if(plan.steps.begin(), plan.steps.end(), [](const Step& s) { return s.kind == StepKind::kMonochrome; });
+  ASSERT_NE(lit, plan.steps.end());
+  Step series = *lit;
+  series.index = 1;
+  series.exposure.linearity_series = 4;
+  plan.steps = {plan.steps.front(), series};  // the dark step, then the lit one
+  CaptureStore store = std::move(*CaptureStore::Create(dir_, {"rig", "white tile", plan}));
+  Sequencer sequencer(*rig_, plan, store);
+  const Status done = sequencer.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  std::vector<const FrameRecord*> frames;
+  for (const FrameRecord& record : store.records()) {
+    if (record.key.step == 1 && record.key.camera == "cam0") frames.push_back(&record);
+  }
+  ASSERT_GE(frames.size(), 5u);
+  const size_t first = frames.size() - 4;
+  for (size_t i = first + 1; i < frames.size(); ++i) {
+    EXPECT_DOUBLE_EQ(frames[i]->metadata.exposure_us, frames[i - 1]->metadata.exposure_us / 2) << i;
+  }
+  // The series' first frame: its brightest pixels near 90 % of the 12-bit range above black.
+  const Result<hal::RawFrame> top = store.ReadFrame(*frames[first]);
+  ASSERT_TRUE(top.ok()) << top.status().ToString();
+  std::vector<uint16_t> values = top->pixels;
+  std::nth_element(values.begin(), values.begin() + static_cast<long>(0.999 * (values.size() - 1)), values.end());
+  const double peak = values[static_cast<size_t>(0.999 * (values.size() - 1))] - 64.0;
+  EXPECT_NEAR(peak / (4095 - 64), 0.9, 0.05);
+}
 
 TEST_F(SequencerTest, ACameraThatDropsOutBrieflyIsRetried) {
   world_->camera_failures["cam1"] = 2;

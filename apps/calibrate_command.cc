@@ -2,7 +2,7 @@
 //   intrinsics  one camera from a folder of photos of a chessboard (recalibration in the field)
 //   geometry    every camera's intrinsics and pose in the turntable's frame from a calibration scan
 //   radiometry  light intensities, camera sensitivity and flat field, filter colours from a calibration scan
-//   check       how far a fresh calibration scan has drifted from a stored calibration
+//   check       how far a fresh calibration scan has drifted from a stored calibration (calibrate_check.cc)
 #include <glob.h>
 
 #include <algorithm>
@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "acquisition/capture_store.h"
+#include "apps/calibrate_scan.h"
 #include "apps/command.h"
 #include "apps/rig_loader.h"
 #include "calibration/calibration_yaml.h"
@@ -20,16 +21,15 @@
 #include "calibration/geometry.h"
 #include "calibration/intrinsics.h"
 #include "calibration/light_positions.h"
+#include "calibration/projector.h"
 #include "calibration/radiometry.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
+#include "reconstruction/projector_columns.h"
 #include "core/version.h"
 
 namespace loom::apps {
 namespace {
-
-// `loom calibrate check`: the stored calibration no longer explains the rig.
-constexpr int kExitRecalibrate = 3;
 
 Result<std::vector<std::string>> ExpandGlob(const std::string& pattern) {
   glob_t matches{};
@@ -81,38 +81,6 @@ nlohmann::json AgainstNominal(const CameraModel& nominal, const calibration::Cam
           {"focal_percent", 100 * (camera.intrinsics.K(0, 0) / nominal.K(0, 0) - 1)}};
 }
 
-// A calibration scan's rig (its snapshot) and the target views in it.
-struct CalibrationScan {
-  RigModel nominal;
-  CalibrationTargetModel target;
-  calibration::DetectedTargetViews detected;
-  std::string rig_yaml;
-};
-
-Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_dir) {
-  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
-  if (store.info().plan.purpose != "calibration") {
-    return InvalidArgumentError(scan_dir, "is a " + store.info().plan.purpose + " scan, not a calibration scan (loom scan --calibration)");
-  }
-  return store;
-}
-
-Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
-  CalibrationScan result;
-  result.rig_yaml = store.info().rig_yaml;
-  LOOM_ASSIGN_OR_RETURN(result.nominal, LoadRigModelFromText(result.rig_yaml, scan_dir + "/scan.yaml (rig)"));
-  if (!result.nominal.calibration_target) {
-    return InvalidArgumentError(scan_dir + "/scan.yaml (rig)", "geometry has no calibration_target: what the scan's target is");
-  }
-  result.target = *result.nominal.calibration_target;
-  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, result.nominal));
-  LOOM_ASSIGN_OR_RETURN(result.detected, calibration::DetectTargetViews(scan, result.target));
-  std::cerr << "target found in " << result.detected.views.size() << " of "
-            << result.detected.views.size() + result.detected.skipped.size() << " views\n";
-  return result;
-}
-
 // The LEDs' positions from the scan's light-probe views, with the cameras just calibrated.
 Status CalibrateLights(const std::string& scan_dir, const RigModel& calibrated, const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
@@ -132,6 +100,25 @@ Status CalibrateLights(const std::string& scan_dir, const RigModel& calibrated, 
   }
   std::cout << "LED positions from the chrome sphere: " << positions.leds.size() << " LEDs, at most " << worst_change
             << " mm from the rig YAML, rays within " << worst_residual << " deg (light_positions.yaml)\n";
+  return Status::Ok();
+}
+
+// The projector's pose from its columns at the target's corners, with the cameras just calibrated.
+Status CalibrateProjectorPose(const std::string& scan_dir, const RigModel& calibrated, const CalibrationTargetModel& target,
+                              const calibration::TargetPlacement& placement, const std::string& out) {
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  if (!calibrated.projector || reconstruction::StructuredLightAngles(store.info().plan).empty()) {
+    std::cout << "projector: not calibrated (the scan has no structured light on the target)\n";
+    return Status::Ok();
+  }
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
+                        reconstruction::TargetCornerColumns(scan, target, placement));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, corners));
+  LOOM_RETURN_IF_ERROR(calibration::WriteProjectorCalibration(out, projector, scan_dir));
+  std::cout << "projector: " << projector.correspondences << " target corners decoded, RMS " << projector.rms_columns
+            << " columns; against the rig YAML: rotation " << projector.rotation_change_deg << " deg, centre "
+            << projector.centre_change_mm << " mm (projector.yaml)\n";
   return Status::Ok();
 }
 
@@ -175,10 +162,12 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
               << " %\n";
   }
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(out) / "geometry.json", summary.dump(2) + "\n"));
-  LOOM_RETURN_IF_ERROR(CalibrateLights(scan_dir, calibration::ApplyGeometry(nominal, geometry), out));
+  const RigModel calibrated = calibration::ApplyGeometry(nominal, geometry);
+  LOOM_RETURN_IF_ERROR(CalibrateLights(scan_dir, calibrated, out));
+  LOOM_RETURN_IF_ERROR(CalibrateProjectorPose(scan_dir, calibrated, target, geometry.target, out));
   std::cout << "RMS reprojection error " << geometry.rms_px << " px over every camera; target placed at ("
             << geometry.target.offset_mm.x() << ", " << geometry.target.offset_mm.y() << ") mm from the axis\n"
-            << "written: " << out << " (one YAML per camera, geometry.json)\n";
+            << "written: " << out << " (one YAML per camera, geometry.json; light_positions.yaml, projector.yaml when the scan has what they need)\n";
   return Status::Ok();
 }
 
@@ -237,148 +226,31 @@ Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib
   return Status::Ok();
 }
 
-// The rig YAML's `recalibration:` thresholds (defaults where it has none).
-Result<calibration::DriftThresholds> DriftThresholdsOf(const std::string& rig_yaml, const std::string& source) {
-  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadString(rig_yaml, source, kRigSchemaVersion));
-  calibration::DriftThresholds thresholds;
-  for (const std::string& key : doc.root().Keys()) {
-    if (key == "recalibration") {
-      thresholds = calibration::ReadDriftThresholds(doc.root().Child(key));
-    } else {
-      doc.root().Ignore(key);
-    }
-  }
-  LOOM_RETURN_IF_ERROR(doc.Finish());
-  return thresholds;
-}
-
-// The stored calibration over the scan's rig: every camera needs its pose.
-Result<RigModel> StoredRig(const RigModel& nominal, const std::string& calib) {
-  RigModel stored = nominal;
-  LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> applied, calibration::ApplyCameraCalibrations(calib, &stored));
-  for (const CameraModel& camera : nominal.cameras) {
-    if (std::find(applied.begin(), applied.end(), camera.name) == applied.end()) {
-      return NotFoundError((fs::path(calib) / (camera.name + ".yaml")).string(),
-                           "no such file: the check compares every camera's stored calibration");
-    }
-  }
-  return stored;
-}
-
-nlohmann::json DriftJson(const calibration::DriftReport& report, const calibration::DriftThresholds& thresholds,
-                         const std::string& scan, const std::string& calib) {
-  nlohmann::json json = {{"scan", scan}, {"calibration", calib}, {"recalibrate", report.recalibrate},
-                         {"stored_rms_px", report.stored_rms_px}, {"fresh_rms_px", report.fresh_rms_px},
-                         {"target_placement", {{"offset_mm", {report.placement.offset_mm.x(), report.placement.offset_mm.y()}},
-                                               {"yaw_deg", report.placement.yaw_deg}}},
-                         {"rejected", report.rejected},
-                         {"thresholds", {{"reprojection_px", thresholds.reprojection_px},
-                                         {"turntable_axis_deg", thresholds.turntable_axis_deg},
-                                         {"turntable_axis_mm", thresholds.turntable_axis_mm},
-                                         {"intensity_percent", thresholds.intensity_percent},
-                                         {"led_position_mm", thresholds.led_position_mm}}},
-                         {"loom_version", std::string(VersionWithCommit())}};
-  for (const calibration::CameraDrift& c : report.cameras) {
-    json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
-                               {"drift_px", c.drift_px}, {"rotation_deg", c.rotation_deg}, {"centre_mm", c.centre_mm},
-                               {"turntable_axis_tilt_deg", c.axis_tilt_deg}, {"turntable_axis_shift_mm", c.axis_shift_mm},
-                               {"exceeded", c.exceeded}};
-  }
-  return json;
-}
-
-void PrintDrift(const calibration::DriftReport& report) {
-  std::cout << std::fixed << std::setprecision(3) << "target placed at (" << report.placement.offset_mm.x() << ", "
-            << report.placement.offset_mm.y() << ") mm, turned " << report.placement.yaw_deg << " deg\n"
-            << "camera   views  stored px  fresh px  drift px  rotation deg  centre mm  axis tilt deg  axis shift mm\n";
-  for (const calibration::CameraDrift& c : report.cameras) {
-    std::cout << std::left << std::setw(8) << c.name << std::right << std::setw(6) << c.views << std::setw(11) << c.stored_rms_px
-              << std::setw(10) << c.fresh_rms_px << std::setw(10) << c.drift_px << std::setw(14) << c.rotation_deg
-              << std::setw(11) << c.centre_mm << std::setw(15) << c.axis_tilt_deg << std::setw(15) << c.axis_shift_mm << "\n";
-  }
-  for (const calibration::CameraDrift& c : report.cameras) {
-    for (const std::string& exceeded : c.exceeded) std::cout << c.name << ": " << exceeded << "\n";
-  }
-}
-
-void PrintChanges(const std::string& title, const calibration::Changes& changes) {
-  std::cout << title << ":" << std::fixed << std::setprecision(2);
-  for (const auto& [what, change] : changes.change) std::cout << " " << what << " " << std::showpos << change << std::noshowpos << " " << changes.unit << ";";
-  std::cout << "\n";
-  for (const std::string& exceeded : changes.exceeded) std::cout << exceeded << "\n";
-}
-
-// The lights against the stored calibration: fresh LED positions from the light probe, then a
-// fresh radiometry with them; both on the fresh geometry, so that a camera or an LED that moved
-// does not read as a light that changed. Nothing where CALIB holds no such calibration.
-struct LightChecks {
-  std::optional<calibration::Changes> positions;
-  std::optional<calibration::Changes> radiometry;
-};
-
-Result<LightChecks> CheckLights(const std::string& scan_dir, const RigModel& stored_rig, const calibration::RigGeometry& fresh_geometry,
-                                const std::string& calib, const calibration::DriftThresholds& thresholds) {
-  LightChecks checks;
-  RigModel rig = calibration::ApplyGeometry(stored_rig, fresh_geometry);
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
-  LOOM_ASSIGN_OR_RETURN(const bool has_positions, calibration::ApplyLightPositionCalibration(calib, &rig));
-  if (has_positions) {
-    LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
-    LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(acquisition::StepKind::kLightProbe));
-    LOOM_ASSIGN_OR_RETURN(const calibration::LightPositions fresh, calibration::CalibrateLightPositions(rig, views));
-    checks.positions = calibration::MeasureLightPositionDrift(fresh, thresholds);
-    PrintChanges("LED positions against the stored ones", *checks.positions);
-    calibration::ApplyLightPositions(fresh, &rig);
-  } else {
-    std::cout << "LED positions: not compared (" << calib << " holds none: loom calibrate geometry with a light_probe)\n";
-  }
-  LOOM_ASSIGN_OR_RETURN(const bool has_radiometry, calibration::ApplyRadiometryCalibration(calib, &rig));
-  if (!has_radiometry) {
-    std::cout << "light intensities: not compared (" << calib << " holds no radiometric calibration: loom calibrate radiometry)\n";
-    return checks;
-  }
-  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
-  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry stored_radiometry, calibration::ReadRadiometry(calib, rig));
-  calibration::RadiometryOptions options;
-  options.reference_camera = stored_radiometry.reference_camera;
-  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry fresh, calibration::CalibrateRadiometry(scan, options));
-  checks.radiometry = calibration::MeasureRadiometricDrift(fresh, thresholds);
-  PrintChanges("against the stored radiometry (reference camera " + fresh.reference_camera + ")", *checks.radiometry);
-  return checks;
-}
-
-nlohmann::json ChangesJson(const std::optional<calibration::Changes>& changes, const std::string& missing) {
-  if (!changes) return "not compared: " + missing;
-  nlohmann::json json = {{"unit", changes->unit}, {"exceeded", changes->exceeded}};
-  for (const auto& [what, change] : changes->change) json["change"][what] = change;
-  return json;
-}
-
-// Returns whether to recalibrate.
-Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path) {
-  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(scan_dir));
-  LOOM_ASSIGN_OR_RETURN(const calibration::DriftThresholds thresholds,
-                        DriftThresholdsOf(opened.rig_yaml, scan_dir + "/scan.yaml (rig)"));
-  LOOM_ASSIGN_OR_RETURN(const RigModel stored, StoredRig(opened.nominal, calib));
-  LOOM_ASSIGN_OR_RETURN(const calibration::DriftReport report,
-                        calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
-  PrintDrift(report);
-  LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(scan_dir, stored, report.fresh, calib, thresholds));
-  const auto exceeded = [](const std::optional<calibration::Changes>& c) { return c && !c->exceeded.empty(); };
-  const bool recalibrate = report.recalibrate || exceeded(lights.positions) || exceeded(lights.radiometry);
-  std::cout << (recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n" : "calibration holds\n");
-  if (!json_path.empty()) {
-    nlohmann::json json = DriftJson(report, thresholds, scan_dir, calib);
-    json["recalibrate"] = recalibrate;
-    json["led_positions"] = ChangesJson(lights.positions, "the calibration holds no LED positions (loom calibrate geometry)");
-    json["radiometry"] = ChangesJson(lights.radiometry, "the calibration holds no radiometry (loom calibrate radiometry)");
-    LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, json.dump(2) + "\n"));
-    std::cout << "written: " << json_path << "\n";
-  }
-  return recalibrate;
-}
-
 }  // namespace
+
+Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_dir) {
+  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
+  if (store.info().plan.purpose != "calibration") {
+    return InvalidArgumentError(scan_dir, "is a " + store.info().plan.purpose + " scan, not a calibration scan (loom scan --calibration)");
+  }
+  return store;
+}
+
+Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  CalibrationScan result;
+  result.rig_yaml = store.info().rig_yaml;
+  LOOM_ASSIGN_OR_RETURN(result.nominal, LoadRigModelFromText(result.rig_yaml, scan_dir + "/scan.yaml (rig)"));
+  if (!result.nominal.calibration_target) {
+    return InvalidArgumentError(scan_dir + "/scan.yaml (rig)", "geometry has no calibration_target: what the scan's target is");
+  }
+  result.target = *result.nominal.calibration_target;
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, result.nominal));
+  LOOM_ASSIGN_OR_RETURN(result.detected, calibration::DetectTargetViews(scan, result.target));
+  std::cerr << "target found in " << result.detected.views.size() << " of "
+            << result.detected.views.size() + result.detected.skipped.size() << " views\n";
+  return result;
+}
 
 int RunCalibrate(int argc, char** argv) {
   CLI::App app("Calibrate cameras, lights and radiometry from calibration captures", "loom calibrate");

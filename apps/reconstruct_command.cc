@@ -11,6 +11,7 @@
 #include "apps/rig_loader.h"
 #include "calibration/calibration_yaml.h"
 #include "calibration/light_positions.h"
+#include "calibration/projector.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
 #include "core/version.h"
@@ -33,6 +34,7 @@ struct ReconstructArguments {
 struct Applied {
   std::vector<std::string> cameras;
   bool led_positions = false;
+  bool projector = false;
   bool radiometry = false;
 };
 
@@ -42,6 +44,7 @@ std::string SummaryJson(const reconstruction::Reconstruction& r, const Reconstru
                                {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
                                {"calibrated_cameras", applied.cameras},
                                {"led_positions", applied.led_positions ? "calibrated" : "nominal (the scan's rig YAML)"},
+                               {"projector", applied.projector ? "calibrated" : "nominal (the scan's rig YAML)"},
                                {"radiometry", applied.radiometry ? "calibrated" : "nominal (the scan's rig YAML)"},
                                {"width_px", args.options.width_px},
                                {"height_px", args.options.height_px},
@@ -64,6 +67,7 @@ Status Reconstruct(const ReconstructArguments& args) {
   if (!args.calib.empty()) {
     LOOM_ASSIGN_OR_RETURN(applied.cameras, calibration::ApplyCameraCalibrations(args.calib, &rig));
     LOOM_ASSIGN_OR_RETURN(applied.led_positions, calibration::ApplyLightPositionCalibration(args.calib, &rig));
+    LOOM_ASSIGN_OR_RETURN(applied.projector, calibration::ApplyProjectorCalibration(args.calib, &rig));
     LOOM_ASSIGN_OR_RETURN(applied.radiometry, calibration::ApplyRadiometryCalibration(args.calib, &rig));
     if (!applied.radiometry) {
       std::cerr << "note: " << args.calib << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";

@@ -15,19 +15,27 @@ namespace {
 //     cameras: [{name: cam1, move_mm: [1, -2, 0.5], rotate_deg: [0.3, 0, -0.2], sensitivity_scale: 0.9, vignetting: 0.2}]
 //     leds: [{index: 3, intensity_scale: 0.85, move_mm: [5, -3, 2]}]
 //     filter_wheels: [{name: wheel0, slot: 2, shift_nm: 8}]
-// move_mm shifts the camera's centre (rig frame); rotate_deg turns it about its own x, y, z;
-// the scales multiply the nominal sensitivity and intensity; an LED's move_mm shifts it (rig
-// frame); shift_nm moves a filter's band.
-void MoveCamera(const ConfigNode& node, CameraModel* camera) {
+//     projector: {move_mm: [2, 0, -1], rotate_deg: [0.5, 0, 0]}
+// move_mm shifts a camera's, the projector's or an LED's centre (rig frame); rotate_deg turns a
+// camera or the projector about its own x, y, z; the scales multiply the nominal sensitivity and
+// intensity; shift_nm moves a filter's band.
+
+// A device's pose moved by `move_mm` (its centre, rig frame) and turned by `rotate_deg` (about
+// its own x, y, z).
+Rigid3d Moved(const ConfigNode& node, const Rigid3d& from_rig) {
   Eigen::Vector3d move = Eigen::Vector3d::Zero(), rotate_deg = Eigen::Vector3d::Zero();
   node.Optional("move_mm", &move);
   node.Optional("rotate_deg", &rotate_deg);
   const Eigen::Matrix3d turn = (Eigen::AngleAxisd(DegToRad(rotate_deg.z()), Eigen::Vector3d::UnitZ()) *
                                 Eigen::AngleAxisd(DegToRad(rotate_deg.y()), Eigen::Vector3d::UnitY()) *
                                 Eigen::AngleAxisd(DegToRad(rotate_deg.x()), Eigen::Vector3d::UnitX())).toRotationMatrix();
-  const Eigen::Vector3d centre = camera->CentreInRig() + move;
-  const Eigen::Matrix3d rotation = turn * camera->cam_from_rig.rotation();
-  camera->cam_from_rig = MakeRigid(rotation, -rotation * centre);
+  const Eigen::Vector3d centre = from_rig.inverse().translation() + move;
+  const Eigen::Matrix3d rotation = turn * from_rig.rotation();
+  return MakeRigid(rotation, -rotation * centre);
+}
+
+void MoveCamera(const ConfigNode& node, CameraModel* camera) {
+  camera->cam_from_rig = Moved(node, camera->cam_from_rig);
   double sensitivity_scale = 1;
   node.Optional("sensitivity_scale", &sensitivity_scale);
   camera->sensor.sensitivity *= sensitivity_scale;
@@ -76,6 +84,13 @@ RigModel AsBuilt(const ConfigNode& root, RigModel model) {
       continue;
     }
     wheel->filters[slot].center_nm += shift_nm;
+  }
+  if (const std::optional<ConfigNode> node = as_built->OptionalChild("projector")) {
+    if (model.projector) {
+      model.projector->proj_from_rig = Moved(*node, model.projector->proj_from_rig);
+    } else {
+      node->AddError("move_mm", "the geometry has no projector");
+    }
   }
   return model;
 }

@@ -12,6 +12,7 @@
 #include "core/parallel.h"
 #include "core/rig_observation.h"
 #include "calibration/scan_radiance.h"
+#include "reconstruction/projector_columns.h"
 #include "reconstruction/structured_light.h"
 
 namespace loom::reconstruction {
@@ -58,31 +59,16 @@ std::vector<ViewRef> FittingViews(const acquisition::Plan& plan) {
 Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& camera, const ReconstructOptions& options,
                                    int* filled) {
   const RigModel& rig = scan.rig();
-  std::map<std::string, Image> patterns;
-  std::optional<double> angle;
-  for (const Step& step : scan.plan().steps) {
-    if (step.kind != StepKind::kStructuredLight) continue;
-    if (angle && *angle != step.turntable_deg) {
-      return InvalidArgumentError("structured-light step " + std::to_string(step.index), "turntable angles differ within the sequence");
-    }
-    angle = step.turntable_deg;
-    LOOM_ASSIGN_OR_RETURN(RadianceView view, scan.View(step.index, camera.name));
-    patterns[step.projector_pattern] = std::move(view.radiance);
-  }
+  const std::vector<double> angles = StructuredLightAngles(scan.plan());
   const size_t pixels = static_cast<size_t>(options.width_px) * options.height_px;
-  if (!angle) {
+  if (angles.empty()) {
     LOOM_LOG(Warning) << "the scan has no structured-light steps: the sample is taken as flat (height 0)";
     return std::vector<float>(pixels, 0.0f);
   }
-  if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
-  DecodeOptions decode;
-  decode.projector_width = rig.projector->width;
-  decode.phase_steps = 0;
-  while (patterns.contains("phase_x_" + std::to_string(decode.phase_steps))) ++decode.phase_steps;
-  if (decode.phase_steps < 3) return NotFoundError("structured light", "needs at least 3 phase_x patterns, the scan has " + std::to_string(decode.phase_steps));
-  LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeProjectorColumns(patterns, decode));
+  if (angles.size() > 1) return InvalidArgumentError("structured-light steps", "turntable angles differ within the sequence");
+  LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, angles.front()));
   const HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm, options.max_height_mm};
-  LOOM_ASSIGN_OR_RETURN(TriangulatedHeights heights, TriangulateHeights(columns, camera, *rig.projector, rig.turntable, *angle, grid));
+  LOOM_ASSIGN_OR_RETURN(TriangulatedHeights heights, TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
   *filled = heights.filled;
   return std::move(heights.heights_mm);
 }

@@ -1,0 +1,95 @@
+#include "reconstruction/projector_columns.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "reconstruction/structured_light.h"
+
+namespace loom::reconstruction {
+namespace {
+
+using acquisition::Step;
+using acquisition::StepKind;
+
+constexpr int kCornerRadiusPx = 4;
+constexpr int kMinDecodedAround = 8;
+
+// The column at a subpixel position from a plane through the decodable pixels around it.
+std::optional<double> ColumnAt(const Image& columns, const Eigen::Vector2d& pixel) {
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int count = 0;
+  const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
+  for (int y = std::max(0, cy - kCornerRadiusPx); y <= std::min(columns.height() - 1, cy + kCornerRadiusPx); ++y) {
+    for (int x = std::max(0, cx - kCornerRadiusPx); x <= std::min(columns.width() - 1, cx + kCornerRadiusPx); ++x) {
+      const float value = columns.at(0, y, x);
+      if (std::isnan(value)) continue;
+      const Eigen::Vector3d row(1, x - pixel.x(), y - pixel.y());
+      normal += row * row.transpose();
+      rhs += row * value;
+      ++count;
+    }
+  }
+  if (count < kMinDecodedAround) return std::nullopt;
+  const Eigen::Vector3d plane = normal.ldlt().solve(rhs);
+  return std::isfinite(plane[0]) ? std::optional<double>(plane[0]) : std::nullopt;
+}
+
+}  // namespace
+
+std::vector<double> StructuredLightAngles(const acquisition::Plan& plan) {
+  std::vector<double> angles;
+  for (const Step& step : plan.steps) {
+    if (step.kind == StepKind::kStructuredLight && std::find(angles.begin(), angles.end(), step.turntable_deg) == angles.end()) {
+      angles.push_back(step.turntable_deg);
+    }
+  }
+  return angles;
+}
+
+Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, double turntable_deg) {
+  const RigModel& rig = scan.rig();
+  if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
+  std::map<std::string, Image> patterns;
+  for (const Step& step : scan.plan().steps) {
+    if (step.kind != StepKind::kStructuredLight || step.turntable_deg != turntable_deg) continue;
+    LOOM_ASSIGN_OR_RETURN(calibration::RadianceView view, scan.View(step.index, camera.name));
+    patterns[step.projector_pattern] = std::move(view.radiance);
+  }
+  DecodeOptions decode;
+  decode.projector_width = rig.projector->width;
+  decode.phase_steps = 0;
+  while (patterns.contains("phase_x_" + std::to_string(decode.phase_steps))) ++decode.phase_steps;
+  if (decode.phase_steps < 3) {
+    return NotFoundError("structured light", "needs at least 3 phase_x patterns, the scan has " + std::to_string(decode.phase_steps));
+  }
+  return DecodeProjectorColumns(patterns, decode);
+}
+
+Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(const calibration::ScanRadiance& scan,
+                                                                              const CalibrationTargetModel& target,
+                                                                              const calibration::TargetPlacement& placement) {
+  const RigModel& rig = scan.rig();
+  const Eigen::Matrix3d yaw = Eigen::AngleAxisd(DegToRad(placement.yaw_deg), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d offset(placement.offset_mm.x(), placement.offset_mm.y(), 0);
+  std::vector<calibration::ProjectorCorrespondence> correspondences;
+  for (double angle : StructuredLightAngles(scan.plan())) {
+    const Rigid3d rig_from_sample = rig.turntable.RigFromSample(angle);
+    for (const CameraModel& camera : rig.cameras) {
+      LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, angle));
+      for (const Eigen::Vector3d& corner : target.CornersInBoard()) {
+        const Eigen::Vector3d in_rig = rig_from_sample * (yaw * (target.SampleFromBoard() * corner) + offset);
+        Eigen::Vector2d pixel;
+        if (!camera.Project(camera.cam_from_rig * in_rig, &pixel)) continue;
+        if (const std::optional<double> column = ColumnAt(columns, pixel)) correspondences.push_back({in_rig, *column});
+      }
+    }
+  }
+  return correspondences;
+}
+
+}  // namespace loom::reconstruction
