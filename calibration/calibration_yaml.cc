@@ -14,11 +14,6 @@ namespace {
 constexpr int kCalibrationSchemaVersion = 1;
 constexpr char kCameraModel[] = "pinhole + OpenCV 5-term distortion (k1 k2 p1 p2 k3); pixel centres at integers";
 
-void EmitMatrix(YAML::Emitter& out, const Eigen::Matrix3d& m) {
-  out << YAML::BeginSeq;
-  for (int r = 0; r < 3; ++r) out << YAML::Flow << std::vector<double>{m(r, 0), m(r, 1), m(r, 2)};
-  out << YAML::EndSeq;
-}
 
 }  // namespace
 
@@ -33,12 +28,12 @@ Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCal
   out << YAML::Key << "model" << YAML::Value << kCameraModel;
   out << YAML::Key << "image_size_px" << YAML::Value << YAML::Flow << std::vector<int>{in.width, in.height};
   out << YAML::Key << "K_px" << YAML::Value;
-  EmitMatrix(out, in.K);
+  internal::EmitMatrix(out, in.K);
   out << YAML::Key << "distortion" << YAML::Value << YAML::Flow
       << std::vector<double>(in.distortion.data(), in.distortion.data() + 5);
   if (calibration.cam_from_rig) {
     out << YAML::Key << "cam_from_rig" << YAML::Value << YAML::BeginMap << YAML::Key << "rotation" << YAML::Value;
-    EmitMatrix(out, calibration.cam_from_rig->linear());
+    internal::EmitMatrix(out, calibration.cam_from_rig->linear());
     const Eigen::Vector3d t = calibration.cam_from_rig->translation();
     out << YAML::Key << "translation_mm" << YAML::Value << YAML::Flow << std::vector<double>{t.x(), t.y(), t.z()};
     out << YAML::EndMap;

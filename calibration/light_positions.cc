@@ -145,9 +145,8 @@ Status WriteLightPositions(const fs::path& directory, const LightPositions& posi
         << "residual_deg" << YAML::Value << led.residual_deg << YAML::Key << "views" << YAML::Value << led.views << YAML::EndMap;
   }
   out << YAML::EndSeq;
-  out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "from" << YAML::Value << from;
-  internal::EmitVersionAndTime(out);
-  out << YAML::EndMap << YAML::EndMap;
+  internal::EmitSource(out, from);
+  out << YAML::EndMap;
   return WriteFileAtomically(directory / "light_positions.yaml", std::string(out.c_str()) + "\n");
 }
 

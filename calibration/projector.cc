@@ -67,11 +67,6 @@ void RigidToPose(const Rigid3d& rigid, double* pose) {
   for (int i = 0; i < 3; ++i) pose[3 + i] = rigid.translation()[i];
 }
 
-void EmitMatrix(YAML::Emitter& out, const Eigen::Matrix3d& m) {
-  out << YAML::BeginSeq;
-  for (int r = 0; r < 3; ++r) out << YAML::Flow << std::vector<double>{m(r, 0), m(r, 1), m(r, 2)};
-  out << YAML::EndSeq;
-}
 
 }  // namespace
 
@@ -127,18 +122,17 @@ Status WriteProjectorCalibration(const fs::path& directory, const ProjectorCalib
   out << YAML::Key << "model" << YAML::Value << kModel;
   out << YAML::Key << "image_size_px" << YAML::Value << YAML::Flow << std::vector<int>{p.width, p.height};
   out << YAML::Key << "K_px" << YAML::Value;
-  EmitMatrix(out, p.K);
+  internal::EmitMatrix(out, p.K);
   out << YAML::Key << "proj_from_rig" << YAML::Value << YAML::BeginMap << YAML::Key << "rotation" << YAML::Value;
-  EmitMatrix(out, p.proj_from_rig.linear());
+  internal::EmitMatrix(out, p.proj_from_rig.linear());
   const Eigen::Vector3d t = p.proj_from_rig.translation();
   out << YAML::Key << "translation_mm" << YAML::Value << YAML::Flow << std::vector<double>{t.x(), t.y(), t.z()} << YAML::EndMap;
   out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap << YAML::Key << "rms_columns" << YAML::Value
       << calibration.rms_columns << YAML::Key << "correspondences" << YAML::Value << calibration.correspondences << YAML::Key
       << "rotation_change_deg" << YAML::Value << calibration.rotation_change_deg << YAML::Key << "centre_change_mm"
       << YAML::Value << calibration.centre_change_mm << YAML::EndMap;
-  out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "from" << YAML::Value << from;
-  internal::EmitVersionAndTime(out);
-  out << YAML::EndMap << YAML::EndMap;
+  internal::EmitSource(out, from);
+  out << YAML::EndMap;
   return WriteFileAtomically(directory / "projector.yaml", std::string(out.c_str()) + "\n");
 }
 

@@ -36,9 +36,8 @@ void BeginFile(YAML::Emitter& out, const std::string& device, const std::string&
 }
 
 Status EndFile(YAML::Emitter& out, const std::string& from, const fs::path& path) {
-  out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "from" << YAML::Value << from;
-  internal::EmitVersionAndTime(out);
-  out << YAML::EndMap << YAML::EndMap;
+  internal::EmitSource(out, from);
+  out << YAML::EndMap;
   return WriteFileAtomically(path, std::string(out.c_str()) + "\n");
 }
 

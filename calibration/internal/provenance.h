@@ -1,10 +1,13 @@
 #pragma once
-// What every calibration file records of where it came from.
+// What every calibration file writes alike: where it came from, and 3 × 3 matrices.
 
 #include <yaml-cpp/yaml.h>
 
 #include <ctime>
 #include <string>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "core/version.h"
 
@@ -23,6 +26,20 @@ inline std::string NowUtc() {
 inline void EmitVersionAndTime(YAML::Emitter& out) {
   out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
   out << YAML::Key << "created" << YAML::Value << NowUtc();
+}
+
+// The closing `source: {from, loom_version, created}` mapping of a file.
+inline void EmitSource(YAML::Emitter& out, const std::string& from) {
+  out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "from" << YAML::Value << from;
+  EmitVersionAndTime(out);
+  out << YAML::EndMap;
+}
+
+// Three rows of three.
+inline void EmitMatrix(YAML::Emitter& out, const Eigen::Matrix3d& m) {
+  out << YAML::BeginSeq;
+  for (int r = 0; r < 3; ++r) out << YAML::Flow << std::vector<double>{m(r, 0), m(r, 1), m(r, 2)};
+  out << YAML::EndSeq;
 }
 
 }  // namespace loom::calibration::internal
