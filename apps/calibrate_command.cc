@@ -117,8 +117,7 @@ Status CalibrateProjectorPose(const std::string& scan_dir, const RigModel& calib
   LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, corners));
   LOOM_RETURN_IF_ERROR(calibration::WriteProjectorCalibration(out, projector, scan_dir));
   std::cout << "projector: " << projector.correspondences << " target corners decoded, RMS " << projector.rms_columns
-            << " columns; against the rig YAML: rotation " << projector.rotation_change_deg << " deg, centre "
-            << projector.centre_change_mm << " mm (projector.yaml)\n";
+            << " columns; the rig YAML's columns there off by up to " << projector.column_change_px << " px (projector.yaml)\n";
   return Status::Ok();
 }
 

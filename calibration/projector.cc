@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include <ceres/ceres.h>
@@ -98,11 +99,15 @@ Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, con
   result.projector = prior;
   result.projector.proj_from_rig = PoseToRigid(pose);
   result.correspondences = static_cast<int>(points.size());
+  const auto column_of = [](const ProjectorModel& projector, const Eigen::Vector3d& p) {
+    const Eigen::Vector3d q = projector.proj_from_rig * p;
+    return projector.K(0, 0) * q.x() / q.z() + projector.K(0, 2);
+  };
   double sum2 = 0;
   for (const ProjectorCorrespondence& p : points) {
-    const Eigen::Vector3d q = result.projector.proj_from_rig * p.point_mm;
-    const double error = prior.K(0, 0) * q.x() / q.z() + prior.K(0, 2) - p.column;
+    const double error = column_of(result.projector, p.point_mm) - p.column;
     sum2 += error * error;
+    result.column_change_px = std::max(result.column_change_px, std::abs(column_of(result.projector, p.point_mm) - column_of(prior, p.point_mm)));
   }
   result.rms_columns = std::sqrt(sum2 / points.size());
   result.rotation_change_deg =
@@ -127,10 +132,12 @@ Status WriteProjectorCalibration(const fs::path& directory, const ProjectorCalib
   internal::EmitMatrix(out, p.proj_from_rig.linear());
   const Eigen::Vector3d t = p.proj_from_rig.translation();
   out << YAML::Key << "translation_mm" << YAML::Value << YAML::Flow << std::vector<double>{t.x(), t.y(), t.z()} << YAML::EndMap;
-  out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap << YAML::Key << "rms_columns" << YAML::Value
-      << calibration.rms_columns << YAML::Key << "correspondences" << YAML::Value << calibration.correspondences << YAML::Key
-      << "rotation_change_deg" << YAML::Value << calibration.rotation_change_deg << YAML::Key << "centre_change_mm"
-      << YAML::Value << calibration.centre_change_mm << YAML::EndMap;
+  out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "rms_columns" << YAML::Value << calibration.rms_columns;
+  out << YAML::Key << "correspondences" << YAML::Value << calibration.correspondences;
+  out << YAML::Key << "column_change_px" << YAML::Value << calibration.column_change_px;
+  out << YAML::Key << "rotation_change_deg" << YAML::Value << calibration.rotation_change_deg;
+  out << YAML::Key << "centre_change_mm" << YAML::Value << calibration.centre_change_mm << YAML::EndMap;
   internal::EmitSource(out, from);
   out << YAML::EndMap;
   return WriteFileAtomically(directory / "projector.yaml", std::string(out.c_str()) + "\n");

@@ -7,7 +7,12 @@
 // with the intrinsics held at their prior, as the cameras' are (geometry.h).
 // Columns are planes through the projector's centre that all share its y axis: moving the
 // centre along that axis changes no column, so that one direction is held at its prior (a
-// weak residual) — structured light cannot see it either.
+// weak residual) — structured light cannot see it either. Over a sample a few centimetres wide
+// other combinations are nearly as blind (a turn about the y axis against a shift along x): on
+// the simulated tac7-mini, exact as built, the fitted pose came out 1.2° and 1.4 mm from the
+// truth while fitting the decoded columns to 0.009 px RMS (and, built 4 mm and 0.5° away, its
+// columns over the sample volume came within 0.074 px of the truth). The columns are what
+// triangulation uses, so they are what is reported (column_change_px) and tested.
 
 #include <filesystem>
 #include <string>
@@ -27,7 +32,8 @@ struct ProjectorCalibration {
   ProjectorModel projector;
   double rms_columns = 0;        // of the fit
   int correspondences = 0;
-  double rotation_change_deg = 0;  // against the prior
+  double column_change_px = 0;     // largest change of a corner's column against the prior
+  double rotation_change_deg = 0;  // against the prior (loosely determined, see above)
   double centre_change_mm = 0;
 };
 
