@@ -101,11 +101,11 @@ struct LightChecks {
   std::optional<calibration::Changes> radiometry;
 };
 
-Result<LightChecks> CheckLights(const std::string& scan_dir, const RigModel& stored_rig, const calibration::RigGeometry& fresh_geometry,
-                                const std::string& calib, const calibration::DriftThresholds& thresholds) {
+Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const RigModel& stored_rig,
+                                const calibration::RigGeometry& fresh_geometry, const std::string& calib,
+                                const calibration::DriftThresholds& thresholds) {
   LightChecks checks;
   RigModel rig = calibration::ApplyGeometry(stored_rig, fresh_geometry);
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
   LOOM_ASSIGN_OR_RETURN(const bool has_positions, calibration::ApplyLightPositionCalibration(calib, &rig));
   if (has_positions) {
     LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
@@ -117,15 +117,15 @@ Result<LightChecks> CheckLights(const std::string& scan_dir, const RigModel& sto
   } else {
     std::cout << "LED positions: not compared (" << calib << " holds none: loom calibrate geometry with a light_probe)\n";
   }
-  LOOM_ASSIGN_OR_RETURN(const bool has_radiometry, calibration::ApplyRadiometryCalibration(calib, &rig));
-  if (!has_radiometry) {
+  LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::Radiometry> stored_radiometry,
+                        calibration::ApplyRadiometryCalibration(calib, &rig));
+  if (!stored_radiometry) {
     std::cout << "light intensities: not compared (" << calib << " holds no radiometric calibration: loom calibrate radiometry)\n";
     return checks;
   }
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
-  LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry stored_radiometry, calibration::ReadRadiometry(calib, rig));
   calibration::RadiometryOptions options;
-  options.reference_camera = stored_radiometry.reference_camera;
+  options.reference_camera = stored_radiometry->reference_camera;
   LOOM_ASSIGN_OR_RETURN(const calibration::Radiometry fresh, calibration::CalibrateRadiometry(scan, options));
   checks.radiometry = calibration::MeasureRadiometricDrift(fresh, thresholds);
   PrintChanges("against the stored radiometry (reference camera " + fresh.reference_camera + ")", *checks.radiometry);
@@ -142,14 +142,15 @@ nlohmann::json ChangesJson(const std::optional<calibration::Changes>& changes, c
 }  // namespace
 
 Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path) {
-  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(store));
   LOOM_ASSIGN_OR_RETURN(const calibration::DriftThresholds thresholds,
                         DriftThresholdsOf(opened.rig_yaml, scan_dir + "/scan.yaml (rig)"));
   LOOM_ASSIGN_OR_RETURN(const RigModel stored, StoredRig(opened.nominal, calib));
   LOOM_ASSIGN_OR_RETURN(const calibration::DriftReport report,
                         calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
   PrintDrift(report);
-  LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(scan_dir, stored, report.fresh, calib, thresholds));
+  LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(store, stored, report.fresh, calib, thresholds));
   const auto exceeded = [](const std::optional<calibration::Changes>& c) { return c && !c->exceeded.empty(); };
   const bool recalibrate = report.recalibrate || exceeded(lights.positions) || exceeded(lights.radiometry);
   std::cout << (recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n" : "calibration holds\n");
@@ -163,6 +164,4 @@ Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& ca
   }
   return recalibrate;
 }
-
-
 }  // namespace loom::apps

@@ -82,8 +82,8 @@ nlohmann::json AgainstNominal(const CameraModel& nominal, const calibration::Cam
 }
 
 // The LEDs' positions from the scan's light-probe views, with the cameras just calibrated.
-Status CalibrateLights(const std::string& scan_dir, const RigModel& calibrated, const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+Status CalibrateLights(const acquisition::CaptureStore& store, const RigModel& calibrated, const std::string& out) {
+  const std::string scan_dir = store.directory().string();
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
   LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(acquisition::StepKind::kLightProbe));
   if (views.empty()) {
@@ -104,9 +104,9 @@ Status CalibrateLights(const std::string& scan_dir, const RigModel& calibrated, 
 }
 
 // The projector's pose from its columns at the target's corners, with the cameras just calibrated.
-Status CalibrateProjectorPose(const std::string& scan_dir, const RigModel& calibrated, const CalibrationTargetModel& target,
+Status CalibrateProjectorPose(const acquisition::CaptureStore& store, const RigModel& calibrated, const CalibrationTargetModel& target,
                               const calibration::TargetPlacement& placement, const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  const std::string scan_dir = store.directory().string();
   if (!calibrated.projector || reconstruction::StructuredLightAngles(store.info().plan).empty()) {
     std::cout << "projector: not calibrated (the scan has no structured light on the target)\n";
     return Status::Ok();
@@ -122,7 +122,8 @@ Status CalibrateProjectorPose(const std::string& scan_dir, const RigModel& calib
 }
 
 Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(store));
   const RigModel& nominal = opened.nominal;
   const CalibrationTargetModel& target = opened.target;
   const calibration::DetectedTargetViews& detected = opened.detected;
@@ -162,8 +163,8 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
   }
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(out) / "geometry.json", summary.dump(2) + "\n"));
   const RigModel calibrated = calibration::ApplyGeometry(nominal, geometry);
-  LOOM_RETURN_IF_ERROR(CalibrateLights(scan_dir, calibrated, out));
-  LOOM_RETURN_IF_ERROR(CalibrateProjectorPose(scan_dir, calibrated, target, geometry.target, out));
+  LOOM_RETURN_IF_ERROR(CalibrateLights(store, calibrated, out));
+  LOOM_RETURN_IF_ERROR(CalibrateProjectorPose(store, calibrated, target, geometry.target, out));
   std::cout << "RMS reprojection error " << geometry.rms_px << " px over every camera; target placed at ("
             << geometry.target.offset_mm.x() << ", " << geometry.target.offset_mm.y() << ") mm from the axis\n"
             << "written: " << out << " (one YAML per camera, geometry.json; light_positions.yaml, projector.yaml when the scan has what they need)\n";
@@ -202,7 +203,7 @@ void PrintRadiometry(const calibration::Radiometry& r) {
 
 // The scan's rig with the cameras and LED positions CALIB holds: radiometry needs where each
 // pixel looks and where each light shines from.
-Result<RigModel> WithStoredCameras(const RigModel& nominal, const std::string& calib) {
+Result<RigModel> WithStoredGeometry(const RigModel& nominal, const std::string& calib) {
   RigModel rig = nominal;
   LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> applied, calibration::ApplyCameraCalibrations(calib, &rig));
   if (applied.empty()) std::cerr << "warning: " << calib << " holds no camera calibration: using the rig YAML's cameras\n";
@@ -214,7 +215,7 @@ Result<RigModel> WithStoredCameras(const RigModel& nominal, const std::string& c
 Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib, const std::string& reference_camera) {
   LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
   LOOM_ASSIGN_OR_RETURN(const RigModel nominal, LoadRigModelFromText(store.info().rig_yaml, scan_dir + "/scan.yaml (rig)"));
-  LOOM_ASSIGN_OR_RETURN(const RigModel rig, WithStoredCameras(nominal, calib));
+  LOOM_ASSIGN_OR_RETURN(const RigModel rig, WithStoredGeometry(nominal, calib));
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
   calibration::RadiometryOptions options;
   options.reference_camera = reference_camera;
@@ -235,8 +236,8 @@ Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_d
   return store;
 }
 
-Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+Result<CalibrationScan> OpenCalibrationScan(const acquisition::CaptureStore& store) {
+  const std::string scan_dir = store.directory().string();
   CalibrationScan result;
   result.rig_yaml = store.info().rig_yaml;
   LOOM_ASSIGN_OR_RETURN(result.nominal, LoadRigModelFromText(result.rig_yaml, scan_dir + "/scan.yaml (rig)"));

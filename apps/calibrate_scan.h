@@ -23,8 +23,8 @@ struct CalibrationScan {
 
 // A scan directory that must hold a calibration scan (an error names it otherwise).
 Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_dir);
-// Its rig snapshot and the target views detected in it.
-Result<CalibrationScan> OpenCalibrationScan(const std::string& scan_dir);
+// Its rig snapshot and the target views detected in it (`store`: OpenCalibrationStore's).
+Result<CalibrationScan> OpenCalibrationScan(const acquisition::CaptureStore& store);
 
 // loom calibrate check: prints the comparison, writes it to `json_path` when given; returns
 // whether to recalibrate.

@@ -68,7 +68,9 @@ Status Reconstruct(const ReconstructArguments& args) {
     LOOM_ASSIGN_OR_RETURN(applied.cameras, calibration::ApplyCameraCalibrations(args.calib, &rig));
     LOOM_ASSIGN_OR_RETURN(applied.led_positions, calibration::ApplyLightPositionCalibration(args.calib, &rig));
     LOOM_ASSIGN_OR_RETURN(applied.projector, calibration::ApplyProjectorCalibration(args.calib, &rig));
-    LOOM_ASSIGN_OR_RETURN(applied.radiometry, calibration::ApplyRadiometryCalibration(args.calib, &rig));
+    LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::Radiometry> radiometry,
+                          calibration::ApplyRadiometryCalibration(args.calib, &rig));
+    applied.radiometry = radiometry.has_value();
     if (!applied.radiometry) {
       std::cerr << "note: " << args.calib << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";
     }

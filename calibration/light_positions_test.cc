@@ -38,7 +38,7 @@ std::vector<LitView> ProbeViews(const RigModel& built) {
       LightingState lighting;
       lighting.leds = {{led, 1000}};
       views.push_back({c, lighting, scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
-                       "cam" + std::to_string(c) + " led " + std::to_string(led)});
+                       "cam" + std::to_string(c) + " led " + std::to_string(led), -1});
     }
   }
   return views;
@@ -79,7 +79,9 @@ TEST_F(LightPositionsTest, FindsTheLedThatIsNotWhereTheYamlSays) {
   EXPECT_LT(worst_mm, 2.0);
   EXPECT_NEAR(found->leds[kMovedLed].change_mm, 20, 5);
   for (const LightPosition& led : found->leds) {
-    if (led.led != kMovedLed) EXPECT_LT(led.change_mm, 5.0) << led.led;
+    if (led.led != kMovedLed) {
+      EXPECT_LT(led.change_mm, 5.0) << led.led;
+    }
   }
 
   RigModel calibrated = nominal;

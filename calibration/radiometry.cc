@@ -414,21 +414,20 @@ namespace {
 
 using LinearityByCamera = std::map<std::string, Linearity>;
 
-// Each camera's worst linearity over the white-reference brackets.
-Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const RadiometryOptions& options) {
-  std::map<std::string, Linearity> linearity;
-  for (const acquisition::Step& step : scan.plan().steps) {
-    if (step.kind != StepKind::kWhiteReference) continue;
-    for (const std::string& camera : step.cameras) {
-      LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera));
-      LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(step.index, camera));
-      LOOM_ASSIGN_OR_RETURN(const Linearity measured, MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain),
-                                                                       BrightPixels(view.radiance, options.edge_px)));
-      Linearity& worst = linearity[camera];
-      worst.deviation = std::max(worst.deviation, measured.deviation);
-      worst.max_dn = std::max(worst.max_dn, measured.max_dn);
-      worst.pairs += measured.pairs;
-    }
+// Each camera's worst linearity over the white-reference brackets (their raw frames; the
+// merged views say where the tile is).
+Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const std::vector<LitView>& white,
+                                                 const RadiometryOptions& options) {
+  LinearityByCamera linearity;
+  for (const LitView& view : white) {
+    const std::string& camera = scan.rig().cameras[view.camera].name;
+    LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(view.step, camera));
+    LOOM_ASSIGN_OR_RETURN(const Linearity measured, MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain),
+                                                                     BrightPixels(view.radiance, options.edge_px)));
+    Linearity& worst = linearity[camera];
+    worst.deviation = std::max(worst.deviation, measured.deviation);
+    worst.max_dn = std::max(worst.max_dn, measured.max_dn);
+    worst.pairs += measured.pairs;
   }
   return linearity;
 }
@@ -443,7 +442,7 @@ Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const Radiometr
                                    "has no white-reference steps: radiometry needs a calibration scan (loom scan --calibration)");
   }
   LOOM_ASSIGN_OR_RETURN(Radiometry radiometry, FitRadiometry(scan.rig(), white, chart, options));
-  LOOM_ASSIGN_OR_RETURN(LinearityByCamera linearity, MeasureCameraLinearity(scan, options));
+  LOOM_ASSIGN_OR_RETURN(LinearityByCamera linearity, MeasureCameraLinearity(scan, white, options));
   for (CameraRadiometry& camera : radiometry.cameras) {
     const SensorNoise dark = scan.NoiseOf(camera.name, 0);
     camera.black_dn = dark.black_dn;

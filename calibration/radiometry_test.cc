@@ -62,7 +62,7 @@ class Views {
         radiance.at(0, y, x) = static_cast<float>(radiance.at(0, y, x) * response * noise(rng_));
       }
     }
-    return {camera, lighting, std::move(radiance), "view " + std::to_string(count_++)};
+    return {camera, lighting, std::move(radiance), "view " + std::to_string(count_++), -1};
   }
 
  private:
@@ -182,9 +182,9 @@ TEST_F(RadiometryTest, FilesRoundTripAndBadOnesAreNamed) {
   ASSERT_TRUE(WriteRadiometry(dir, *found, "scan/").ok());
   RigModel direct = *nominal_, from_files = *nominal_;
   ApplyRadiometry(*found, &direct);
-  const Result<bool> applied = ApplyRadiometryCalibration(dir, &from_files);
+  const Result<std::optional<Radiometry>> applied = ApplyRadiometryCalibration(dir, &from_files);
   ASSERT_TRUE(applied.ok()) << applied.status().ToString();
-  EXPECT_TRUE(*applied);
+  EXPECT_TRUE(applied->has_value());
   for (size_t l = 0; l < direct.leds.size(); ++l) EXPECT_DOUBLE_EQ(from_files.leds[l].intensity, direct.leds[l].intensity);
   EXPECT_DOUBLE_EQ(from_files.linear_light->intensity_per_mm, direct.linear_light->intensity_per_mm);
   for (size_t c = 0; c < direct.cameras.size(); ++c) {
@@ -194,7 +194,7 @@ TEST_F(RadiometryTest, FilesRoundTripAndBadOnesAreNamed) {
   EXPECT_EQ(*from_files.filter_wheels[0].filters[2].measured_weights, *direct.filter_wheels[0].filters[2].measured_weights);
   // No radiometry/ folder: nothing applied, no error.
   RigModel untouched = *nominal_;
-  EXPECT_FALSE(*ApplyRadiometryCalibration(dir / "elsewhere", &untouched));
+  EXPECT_FALSE(ApplyRadiometryCalibration(dir / "elsewhere", &untouched)->has_value());
 
   RigModel more_leds = *nominal_;
   more_leds.leds.push_back(more_leds.leds.back());

@@ -247,11 +247,11 @@ Result<Radiometry> ReadRadiometry(const fs::path& directory, const RigModel& rig
   return radiometry;
 }
 
-Result<bool> ApplyRadiometryCalibration(const fs::path& directory, RigModel* rig) {
-  if (!fs::is_directory(Folder(directory))) return false;
-  LOOM_ASSIGN_OR_RETURN(const Radiometry radiometry, ReadRadiometry(directory, *rig));
+Result<std::optional<Radiometry>> ApplyRadiometryCalibration(const fs::path& directory, RigModel* rig) {
+  if (!fs::is_directory(Folder(directory))) return std::optional<Radiometry>();
+  LOOM_ASSIGN_OR_RETURN(Radiometry radiometry, ReadRadiometry(directory, *rig));
   ApplyRadiometry(radiometry, rig);
-  return true;
+  return std::optional<Radiometry>(std::move(radiometry));
 }
 
 }  // namespace loom::calibration

@@ -16,6 +16,7 @@
 // or a device the rig does not have, names the file).
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "calibration/radiometry.h"
@@ -26,7 +27,8 @@ namespace loom::calibration {
 Status WriteRadiometry(const std::filesystem::path& directory, const Radiometry& radiometry, const std::string& from);
 // Reads DIR/radiometry/ for `rig` (the device names and counts it must match).
 Result<Radiometry> ReadRadiometry(const std::filesystem::path& directory, const RigModel& rig);
-// Applies DIR/radiometry/ over `rig` when the calibration directory has one; returns whether.
-Result<bool> ApplyRadiometryCalibration(const std::filesystem::path& directory, RigModel* rig);
+// Applies DIR/radiometry/ over `rig` when the calibration directory has one; returns what it
+// applied (nothing without one).
+Result<std::optional<Radiometry>> ApplyRadiometryCalibration(const std::filesystem::path& directory, RigModel* rig);
 
 }  // namespace loom::calibration

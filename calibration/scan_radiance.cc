@@ -102,7 +102,7 @@ Result<std::vector<LitView>> ScanRadiance::LitViews(StepKind kind) const {
       LOOM_ASSIGN_OR_RETURN(RadianceView view, View(step.index, camera));
       const std::string source = Where(step.index, camera) + " (" + std::string(StepKindName(kind)) + ")";
       LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(*rig_, view.state, source));
-      views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source});
+      views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source, step.index});
     }
   }
   return views;

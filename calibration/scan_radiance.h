@@ -39,6 +39,7 @@ struct LitView {
   LightingState lighting;
   Image radiance;  // channel "L", converted with rig's sensor model
   std::string source;
+  int step = -1;   // the scan's step it came from; −1 for a rendered one
 };
 
 class ScanRadiance {
