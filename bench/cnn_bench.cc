@@ -1,6 +1,6 @@
 // The paper's CNN (fitting/cnn.h) on this CPU, random weights, fp32:
 //  - inference of a paper-size material (630 × 630 px × 934 channels; --benchmark_filter=/126
-//    for a quicker 126 × 126) dense and fully convolutional, in 128 × 128 tiles + halo;
+//    for a quicker 126 × 126) dense and fully convolutional, in equal tiles of at most 256² + halo (3 × 3 of 210² at 630);
 //  - the sliding window, one 15 × 15 patch per pixel as the paper infers, on 512 pixels of the
 //    same input (a whole 630² would take half an hour): the dense_vs_sliding ratio compares
 //    pixels per second of the two;
@@ -60,7 +60,7 @@ void BM_PaperDense(benchmark::State& state) {
   const int size = static_cast<int>(state.range(0));
   const Cnn cnn = MakeCnn(934, 1);
   const CnnTensor input = RandomInput(934, size);
-  for (auto _ : state) benchmark::DoNotOptimize(cnn.PredictDense(input, 128, kThreads));
+  for (auto _ : state) benchmark::DoNotOptimize(cnn.PredictDense(input, loom::fitting::kDenseTile, kThreads));
   SetCounters(state, static_cast<double>(state.iterations()) * size * size, cnn.info().architecture.DenseFlopsPerPixel());
 }
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -54,6 +55,32 @@ TEST(CnnTest, DenseEvaluationEqualsTheSlidingWindow) {
   }
   EXPECT_LE(worst, 1e-4);
   EXPECT_GT(spread, 1e-3) << "outputs do not depend on the input: the comparison proves nothing";
+}
+
+TEST(CnnTest, PixelsNearTheEdgeSeeTheEdgeReplicated) {
+  Result<Cnn> cnn = Cnn::Create(SmallModel(5), 6);
+  ASSERT_TRUE(cnn.ok());
+  const int size = 4, padded_size = size + 2 * kPatchHalo;
+  const CnnTensor input = RandomInput(5, size, size, 2);
+  // The same image with its border written out: each pixel takes its nearest image pixel.
+  CnnTensor padded{5, padded_size, padded_size, std::vector<float>(5 * padded_size * padded_size)};
+  for (int c = 0; c < 5; ++c) {
+    for (int y = 0; y < padded_size; ++y) {
+      for (int x = 0; x < padded_size; ++x) {
+        const int source_y = std::clamp(y - kPatchHalo, 0, size - 1), source_x = std::clamp(x - kPatchHalo, 0, size - 1);
+        padded.values[(static_cast<size_t>(c) * padded_size + y) * padded_size + x] = input.at(c, source_y, source_x);
+      }
+    }
+  }
+  const CnnTensor outputs = *cnn->PredictDense(input, 128, 1);
+  const CnnTensor padded_outputs = *cnn->PredictDense(padded, 128, 1);
+  for (int c = 0; c < kLabelSize; ++c) {
+    for (int y = 0; y < size; ++y) {
+      for (int x = 0; x < size; ++x) {
+        EXPECT_NEAR(outputs.at(c, y, x), padded_outputs.at(c, y + kPatchHalo, x + kPatchHalo), 1e-5) << c << " " << x << "," << y;
+      }
+    }
+  }
 }
 
 TEST(CnnTest, TheDenseOutputOfAPixelDependsOnlyOnIts15x15Neighbourhood) {

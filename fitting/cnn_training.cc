@@ -209,7 +209,7 @@ Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& example
   double loss_sum = 0;
   std::array<double, 14> squares{};
   for (const CnnExample& e : examples) {
-    Result<CnnTensor> predicted = cnn.PredictDense(e.input, 128, threads);
+    Result<CnnTensor> predicted = cnn.PredictDense(e.input, kDenseTile, threads);
     if (!predicted.ok()) return predicted.status();
     c10::InferenceMode inference;
     const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
@@ -232,6 +232,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
   LOOM_RETURN_IF_ERROR(CheckExamples(cnn, validation, 1, "validation"));
   const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
+  internal::KeepFreedMemoryForReuse();
 
   const torch::optim::AdamOptions adam =
       torch::optim::AdamOptions(options.learning_rate_start).betas({0.9, 0.999}).eps(1e-8).weight_decay(options.weight_decay);

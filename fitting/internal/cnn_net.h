@@ -32,6 +32,13 @@ struct CnnNetHolder {
   CnnNet net;
 };
 
+// Sets glibc's malloc, once per process, to keep freed memory for reuse instead of returning it
+// to the system. torch frees and re-allocates its activations (~100 MB each at the paper's
+// widths) at every layer; glibc serves blocks that large from fresh mmaps, and their first-touch
+// page faults cost this machine more than the convolutions (a 630² paper-size inference: 50 s →
+// 23 s, bench/cnn_bench.cc). The price: the process keeps its peak heap until it exits.
+void KeepFreedMemoryForReuse();
+
 // Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated.
 torch::Tensor PaddedInput(const CnnTensor& input);
 
