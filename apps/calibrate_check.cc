@@ -1,5 +1,6 @@
 // loom calibrate check: a fresh calibration scan against a stored calibration — cameras
-// (calibration/drift.h), LED positions and radiometry — with the rig YAML's thresholds.
+// (calibration/drift.h), LED positions, radiometry and the projector — with the rig YAML's
+// thresholds.
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -12,10 +13,12 @@
 #include "calibration/calibration_yaml.h"
 #include "calibration/drift.h"
 #include "calibration/light_positions.h"
+#include "calibration/projector.h"
 #include "calibration/radiometry.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
 #include "core/version.h"
+#include "reconstruction/projector_columns.h"
 
 namespace loom::apps {
 namespace {
@@ -61,7 +64,8 @@ nlohmann::json DriftJson(const calibration::DriftReport& report, const calibrati
                                          {"turntable_axis_deg", thresholds.turntable_axis_deg},
                                          {"turntable_axis_mm", thresholds.turntable_axis_mm},
                                          {"intensity_percent", thresholds.intensity_percent},
-                                         {"led_position_mm", thresholds.led_position_mm}}},
+                                         {"led_position_mm", thresholds.led_position_mm},
+                                         {"projector_column_px", thresholds.projector_column_px}}},
                          {"loom_version", std::string(VersionWithCommit())}};
   for (const calibration::CameraDrift& c : report.cameras) {
     json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
@@ -132,6 +136,32 @@ Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const Ri
   return checks;
 }
 
+// The projector against the stored one: a fresh calibration of its columns at the target's
+// corners, seen by the fresh cameras, starting from the stored projector. Nothing where CALIB
+// holds no projector.yaml or the scan showed no structured light on the target.
+Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::CaptureStore& store, const RigModel& stored_rig,
+                                                           const calibration::RigGeometry& fresh_geometry,
+                                                           const CalibrationTargetModel& target, const std::string& calib,
+                                                           const calibration::DriftThresholds& thresholds) {
+  RigModel rig = calibration::ApplyGeometry(stored_rig, fresh_geometry);
+  LOOM_ASSIGN_OR_RETURN(const bool has_projector, calibration::ApplyProjectorCalibration(calib, &rig));
+  if (!has_projector) {
+    std::cout << "projector: not compared (" << calib << " holds no projector.yaml: loom calibrate geometry)\n";
+    return std::optional<calibration::Changes>();
+  }
+  if (reconstruction::StructuredLightAngles(store.info().plan).empty()) {
+    std::cout << "projector: not compared (the scan has no structured light on the target)\n";
+    return std::optional<calibration::Changes>();
+  }
+  LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
+                        reconstruction::TargetCornerColumns(scan, target, fresh_geometry.target));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration fresh, calibration::CalibrateProjector(*rig.projector, corners));
+  const calibration::Changes changes = calibration::MeasureProjectorDrift(fresh, thresholds);
+  PrintChanges("against the stored projector (" + std::to_string(fresh.correspondences) + " target corners decoded)", changes);
+  return std::optional<calibration::Changes>(changes);
+}
+
 nlohmann::json ChangesJson(const std::optional<calibration::Changes>& changes, const std::string& missing) {
   if (!changes) return "not compared: " + missing;
   nlohmann::json json = {{"unit", changes->unit}, {"exceeded", changes->exceeded}};
@@ -151,14 +181,18 @@ Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& ca
                         calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
   PrintDrift(report);
   LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(store, stored, report.fresh, calib, thresholds));
+  LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::Changes> projector,
+                        CheckProjector(store, stored, report.fresh, opened.target, calib, thresholds));
   const auto exceeded = [](const std::optional<calibration::Changes>& c) { return c && !c->exceeded.empty(); };
-  const bool recalibrate = report.recalibrate || exceeded(lights.positions) || exceeded(lights.radiometry);
+  const bool recalibrate =
+      report.recalibrate || exceeded(lights.positions) || exceeded(lights.radiometry) || exceeded(projector);
   std::cout << (recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n" : "calibration holds\n");
   if (!json_path.empty()) {
     nlohmann::json json = DriftJson(report, thresholds, scan_dir, calib);
     json["recalibrate"] = recalibrate;
     json["led_positions"] = ChangesJson(lights.positions, "the calibration holds no LED positions (loom calibrate geometry)");
     json["radiometry"] = ChangesJson(lights.radiometry, "the calibration holds no radiometry (loom calibrate radiometry)");
+    json["projector"] = ChangesJson(projector, "no projector.yaml in the calibration, or no structured light in the scan");
     LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, json.dump(2) + "\n"));
     std::cout << "written: " << json_path << "\n";
   }

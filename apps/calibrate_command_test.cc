@@ -4,7 +4,7 @@
 // LED 7 10 % brighter, LED 4 20 mm aside; one filter's band 12 nm off; the projector 4 mm and
 // 0.5° away. Calibration starts from
 // the YAML and must find the rig as built. Then loom calibrate check on the same scan: the fresh calibration holds, while one stored before
-// the side camera was knocked, LED 3 dimmed and LED 4 moved is named for recalibration. Also: a missing frame
+// the side camera was knocked, LED 3 dimmed, LED 4 moved and the projector turned is named for recalibration. Also: a missing frame
 // is named. One test: the calibration scan takes about 45 s.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -60,8 +60,9 @@ nlohmann::json ReadJson(const fs::path& path) {
 
 loom::RigModel NominalRig() { return loom::testing::ShippedRigModel("tac7-mini"); }
 
-// A calibration of cam0 and cam1 at the rig YAML's poses, with LED 3 as bright and LED 4 where
-// the YAML says: what was stored before the side camera was knocked, LED 3 dimmed and LED 4 moved.
+// A calibration of cam0 and cam1 at the rig YAML's poses, with LED 3 as bright and LED 4 and the
+// projector where the YAML says: what was stored before the side camera was knocked, LED 3
+// dimmed, LED 4 moved and the projector turned.
 void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   fs::create_directories(stale);
   const loom::RigModel nominal = NominalRig();
@@ -78,6 +79,9 @@ void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   loom::calibration::LightPositions positions;
   for (size_t l = 0; l < nominal.leds.size(); ++l) positions.leds.push_back({static_cast<int>(l), nominal.leds[l].position_mm, 0, 0, 0, 2});
   ASSERT_TRUE(loom::calibration::WriteLightPositions(stale, positions, "before LED 4 moved").ok());
+  loom::calibration::ProjectorCalibration projector;
+  projector.projector = *nominal.projector;
+  ASSERT_TRUE(loom::calibration::WriteProjectorCalibration(stale, projector, "before the projector turned").ok());
 }
 
 // The projector as built (the same construction as apps/rig_loader.cc's as_built).
@@ -189,6 +193,7 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   for (const char* camera : {"cam0", "cam1"}) EXPECT_LT(held["cameras"][camera]["drift_px"].get<double>(), 0.25) << held.dump(2);
   EXPECT_TRUE(held["radiometry"]["exceeded"].empty()) << held.dump(2);
   EXPECT_TRUE(held["led_positions"]["exceeded"].empty()) << held.dump(2);
+  EXPECT_TRUE(held["projector"]["exceeded"].empty()) << held.dump(2);
 
   WriteStaleCalibration(dir / "calib", dir / "stale");
   const auto stale = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "stale").string() +
@@ -205,6 +210,10 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   EXPECT_NE(stale.output.find("led 4 moved 19"), std::string::npos) << stale.output;
   ASSERT_EQ(drifted["led_positions"]["exceeded"].size(), 1u) << drifted.dump(2);  // LED 4 only
   EXPECT_NEAR(drifted["cameras"]["cam1"]["rotation_deg"].get<double>(), 0.43, 0.15) << drifted.dump(2);
+  EXPECT_NE(stale.output.find("projector columns moved up to"), std::string::npos) << stale.output;
+  ASSERT_EQ(drifted["projector"]["exceeded"].size(), 1u) << drifted.dump(2);
+  // The rig YAML's projector is 7.7 px off in the sample volume (ExpectTheProjectorAsBuilt).
+  EXPECT_GT(drifted["projector"]["change"]["projector columns"].get<double>(), 2) << drifted.dump(2);
 
   // A stored calibration missing a camera is named.
   fs::remove(dir / "stale" / "cam1.yaml");

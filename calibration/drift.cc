@@ -69,6 +69,7 @@ DriftThresholds ReadDriftThresholds(const ConfigNode& node) {
   node.Optional("turntable_axis_mm", &thresholds.turntable_axis_mm);
   node.Optional("intensity_percent", &thresholds.intensity_percent);
   node.Optional("led_position_mm", &thresholds.led_position_mm);
+  node.Optional("projector_column_px", &thresholds.projector_column_px);
   return thresholds;
 }
 
@@ -104,7 +105,8 @@ void Judge(const std::string& what, double change, double threshold, const char*
   changes->change.emplace_back(what, change);
   if (std::abs(change) <= threshold) return;
   std::ostringstream text;
-  text << std::fixed << std::setprecision(1) << what << " " << verb << " " << change << " " << changes->unit << " (threshold "
+  const int decimals = changes->unit == "px" ? 2 : 1;  // pixel thresholds are sub-pixel
+  text << std::fixed << std::setprecision(decimals) << what << " " << verb << " " << change << " " << changes->unit << " (threshold "
        << threshold << " " << changes->unit << ")";
   changes->exceeded.push_back(text.str());
 }
@@ -124,6 +126,12 @@ Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& 
 Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds) {
   Changes changes{"mm", {}, {}};
   for (const LightPosition& led : fresh.leds) Judge("led " + std::to_string(led.led), led.change_mm, thresholds.led_position_mm, "moved", &changes);
+  return changes;
+}
+
+Changes MeasureProjectorDrift(const ProjectorCalibration& fresh, const DriftThresholds& thresholds) {
+  Changes changes{"px", {}, {}};
+  Judge("projector columns", fresh.column_change_px, thresholds.projector_column_px, "moved up to", &changes);
   return changes;
 }
 

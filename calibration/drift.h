@@ -18,15 +18,19 @@
 // that moved does not read as a light that changed. The reference camera anchors the scale, so a change of its own
 // sensitivity shows as every light changing alike.
 //
+// The projector likewise: a fresh calibration of its columns at the new target views, starting
+// from the stored one, says how far its columns moved (projector.h's column_change_px).
+//
 // Thresholds live in the rig YAML, as its optional top-level section
 //   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0,
-//                   intensity_percent: 3, led_position_mm: 8}
+//                   intensity_percent: 3, led_position_mm: 8, projector_column_px: 0.15}
 
 #include <string>
 #include <vector>
 
 #include "calibration/geometry.h"
 #include "calibration/light_positions.h"
+#include "calibration/projector.h"
 #include "calibration/radiometry.h"
 #include "core/config.h"
 
@@ -38,6 +42,10 @@ struct DriftThresholds {
   double turntable_axis_mm = 1.0;
   double intensity_percent = 3;   // a light's intensity or a camera's sensitivity, against the stored
   double led_position_mm = 8;     // an LED's position: camera pose errors alone move it up to ~5 mm (light_positions.h)
+  // The projector's columns at the target's corners, fresh against stored: twice what separates
+  // a calibration from the truth in the sample volume (0.074 px, projector.h). On tac7-mini a
+  // column is ~1.5 mm of height (0.66 mm per column at the sample, planes tilted 24°).
+  double projector_column_px = 0.15;
 };
 
 // Reads a `recalibration:` section (strict keys; absent keys keep their defaults).
@@ -82,5 +90,7 @@ struct Changes {
 Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds);
 // `fresh`: CalibrateLightPositions of the new scan over the rig with the stored positions applied.
 Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds);
+// `fresh`: CalibrateProjector of the new scan's target columns with the stored projector as prior.
+Changes MeasureProjectorDrift(const ProjectorCalibration& fresh, const DriftThresholds& thresholds);
 
 }  // namespace loom::calibration

@@ -115,6 +115,14 @@ TEST(DriftTest, RadiometricAndLightDriftNameWhatChanged) {
   const Changes moved = MeasureLightPositionDrift(positions, DriftThresholds{});
   ASSERT_EQ(moved.exceeded.size(), 1u);
   EXPECT_EQ(moved.exceeded[0], "led 1 moved 12.0 mm (threshold 8.0 mm)");
+
+  ProjectorCalibration projector;
+  projector.column_change_px = 0.05;
+  EXPECT_TRUE(MeasureProjectorDrift(projector, DriftThresholds{}).exceeded.empty());
+  projector.column_change_px = 0.4;
+  const Changes shifted = MeasureProjectorDrift(projector, DriftThresholds{});
+  ASSERT_EQ(shifted.exceeded.size(), 1u);
+  EXPECT_EQ(shifted.exceeded[0], "projector columns moved up to 0.40 px (threshold 0.15 px)");
 }
 
 }  // namespace
