@@ -27,7 +27,12 @@ namespace {
 namespace fs = std::filesystem;
 
 int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_mm, const fs::path& out) {
-  Result<sim::Material> material = sim::MakeSample({kind, seed, size_px, pixel_mm, std::nullopt});
+  sim::SampleSpec spec;
+  spec.kind = kind;
+  spec.seed = seed;
+  spec.size_px = size_px;
+  spec.pixel_mm = pixel_mm;
+  Result<sim::Material> material = sim::MakeSample(spec);
   if (!material.ok()) return ReportFailure(material.status());
   std::error_code ec;
   fs::create_directories(out, ec);

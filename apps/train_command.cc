@@ -77,8 +77,11 @@ Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::pat
     const std::string name = "fabric-" + std::to_string(seed);
     const fs::path stack_path = dir / (name + ".stack.exr"), truth_path = dir / (name + ".truth.exr");
     if (!fs::exists(stack_path) || !fs::exists(truth_path)) {
-      LOOM_ASSIGN_OR_RETURN(sim::Material material,
-                            sim::MakeSample({"fabric", seed, args.size_px, rig_scene.material().pixel_mm, std::nullopt}));
+      sim::SampleSpec spec;
+      spec.seed = seed;
+      spec.size_px = args.size_px;
+      spec.pixel_mm = rig_scene.material().pixel_mm;
+      LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
       const sim::Scene scene(rig_scene.rig(), std::move(material));
       const ObservationStack stack = sim::RenderStack(scene, observations, {});
       LOOM_RETURN_IF_ERROR(sim::WriteMaterial(sim::TruthOnStackGrid(scene, {}), truth_path));
