@@ -54,6 +54,8 @@ Status CheckOpenSlots(const RigModel& rig) {
 
 // Exposures of a linearity series: from 90 % of full scale down to 1/64 of that (~60 DN at 12 bits).
 constexpr int kLinearitySeries = 7;
+// Carriage positions at which the chrome sphere is seen under the linear light.
+constexpr int kProbeStripPositions = 5;
 
 class PlanBuilder {
  public:
@@ -109,6 +111,17 @@ class PlanBuilder {
     const double travel = rig_.linear_light->travel_mm;
     for (int k = 0; k < n; ++k) {
       Add(StepKind::kLinearLight, AllCameras(rig_), angle, "sample").linear_light_mm = n == 1 ? travel / 2 : travel * k / (n - 1);
+    }
+  }
+
+  // The chrome sphere under the linear light alone at kProbeStripPositions carriage positions,
+  // spread over the travel but short of its ends, where the strip's streak nears the sphere's
+  // rim in some camera: for the sweep's angles (calibration/light_positions.h).
+  void StripOverProbe() {
+    const double travel = rig_.linear_light->travel_mm;
+    for (int k = 0; k < kProbeStripPositions; ++k) {
+      const double fraction = 0.1 + 0.8 * k / (kProbeStripPositions - 1);
+      Add(StepKind::kLightProbe, AllCameras(rig_), 0, "chrome sphere").linear_light_mm = travel * fraction;
     }
   }
 
@@ -241,7 +254,10 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
     for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
     if (k % 3 == 0) builder.StructuredLight(45.0 * k, "target");
   }
-  if (rig.light_probe) builder.EveryLed(StepKind::kLightProbe, 0, "chrome sphere");
+  if (rig.light_probe) {
+    builder.EveryLed(StepKind::kLightProbe, 0, "chrome sphere");
+    if (rig.linear_light) builder.StripOverProbe();
+  }
   builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
   builder.LinearitySeries();
   if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, "white tile").linear_light_mm = rig.linear_light->travel_mm / 2;

@@ -65,7 +65,8 @@ nlohmann::json DriftJson(const calibration::DriftReport& report, const calibrati
                                          {"turntable_axis_mm", thresholds.turntable_axis_mm},
                                          {"intensity_percent", thresholds.intensity_percent},
                                          {"led_position_mm", thresholds.led_position_mm},
-                                         {"projector_column_px", thresholds.projector_column_px}}},
+                                         {"projector_column_px", thresholds.projector_column_px},
+                                         {"linear_light_deg", thresholds.linear_light_deg}}},
                          {"loom_version", std::string(VersionWithCommit())}};
   for (const calibration::CameraDrift& c : report.cameras) {
     json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
@@ -102,6 +103,7 @@ void PrintChanges(const std::string& title, const calibration::Changes& changes)
 // does not read as a light that changed. Nothing where CALIB holds no such calibration.
 struct LightChecks {
   std::optional<calibration::Changes> positions;
+  std::optional<calibration::Changes> linear_light;
   std::optional<calibration::Changes> radiometry;
 };
 
@@ -117,6 +119,8 @@ Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const Ri
     LOOM_ASSIGN_OR_RETURN(const calibration::LightPositions fresh, calibration::CalibrateLightPositions(rig, views));
     checks.positions = calibration::MeasureLightPositionDrift(fresh, thresholds);
     PrintChanges("LED positions against the stored ones", *checks.positions);
+    checks.linear_light = calibration::MeasureLinearLightDrift(fresh, thresholds);
+    if (checks.linear_light) PrintChanges("the linear light's sweep against the stored one", *checks.linear_light);
     calibration::ApplyLightPositions(fresh, &rig);
   } else {
     std::cout << "LED positions: not compared (" << calib << " holds none: loom calibrate geometry with a light_probe)\n";
@@ -184,13 +188,14 @@ Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& ca
   LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::Changes> projector,
                         CheckProjector(store, stored, report.fresh, opened.target, calib, thresholds));
   const auto exceeded = [](const std::optional<calibration::Changes>& c) { return c && !c->exceeded.empty(); };
-  const bool recalibrate =
-      report.recalibrate || exceeded(lights.positions) || exceeded(lights.radiometry) || exceeded(projector);
+  const bool recalibrate = report.recalibrate || exceeded(lights.positions) || exceeded(lights.linear_light) ||
+                           exceeded(lights.radiometry) || exceeded(projector);
   std::cout << (recalibrate ? "RECALIBRATE: the stored calibration no longer explains the rig\n" : "calibration holds\n");
   if (!json_path.empty()) {
     nlohmann::json json = DriftJson(report, thresholds, scan_dir, calib);
     json["recalibrate"] = recalibrate;
     json["led_positions"] = ChangesJson(lights.positions, "the calibration holds no LED positions (loom calibrate geometry)");
+    json["linear_light"] = ChangesJson(lights.linear_light, "the scan has no view of the light probe under the linear light");
     json["radiometry"] = ChangesJson(lights.radiometry, "the calibration holds no radiometry (loom calibrate radiometry)");
     json["projector"] = ChangesJson(projector, "no projector.yaml in the calibration, or no structured light in the scan");
     LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, json.dump(2) + "\n"));

@@ -100,6 +100,11 @@ Status CalibrateLights(const acquisition::CaptureStore& store, const RigModel& c
   }
   std::cout << "LED positions from the chrome sphere: " << positions.leds.size() << " LEDs, at most " << worst_change
             << " mm from the rig YAML, rays within " << worst_residual << " deg (light_positions.yaml)\n";
+  if (const std::optional<calibration::LinearLightSweep>& sweep = positions.linear_light) {
+    std::cout << "linear light from the chrome sphere: arm at " << sweep->start_deg << " to " << sweep->end_deg
+              << " deg over its travel, " << sweep->change_deg << " deg from the rig YAML, " << sweep->views
+              << " views within " << sweep->residual_deg << " deg (light_positions.yaml)\n";
+  }
   return Status::Ok();
 }
 

@@ -2,9 +2,9 @@
 // radiometry on the simulated tac7-mini built otherwise than its rig YAML says (as_built:): the
 // side camera 2 mm and 0.5° away, 8 % less sensitive and vignetting more; LED 3 15 % dimmer,
 // LED 7 10 % brighter, LED 4 20 mm aside; one filter's band 12 nm off; the projector 4 mm and
-// 0.5° away. Calibration starts from
+// 0.5° away; the linear light's arm turned 1.5°. Calibration starts from
 // the YAML and must find the rig as built. Then loom calibrate check on the same scan: the fresh calibration holds, while one stored before
-// the side camera was knocked, LED 3 dimmed, LED 4 moved and the projector turned is named for recalibration. Also: a missing frame
+// the side camera was knocked, LED 3 dimmed, LED 4 moved, the projector and the linear light turned is named for recalibration. Also: a missing frame
 // is named. One test: the calibration scan takes about 45 s.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -37,6 +37,7 @@ constexpr char kAsBuilt[] = R"(as_built:
   leds: [{index: 3, intensity_scale: 0.85}, {index: 7, intensity_scale: 1.1}, {index: 4, move_mm: [-17.3, 10, 0]}]
   filter_wheels: [{name: wheel0, slot: 2, shift_nm: 12}]
   projector: {move_mm: [3, -2, 2], rotate_deg: [0.4, -0.3, 0.2]}
+  linear_light: {turn_deg: 1.5}
 )";
 
 // cam1 as the simulator built it (the same construction as apps/rig_loader.cc's as_built).
@@ -138,6 +139,9 @@ void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
     const Eigen::Vector3d truth = nominal.leds[l].position_mm + (l == 4 ? Eigen::Vector3d(-17.3, 10, 0) : Eigen::Vector3d::Zero());
     EXPECT_LT((found.leds[l].position_mm - truth).norm(), 5.0) << "led " << l;
   }
+  // The linear light's arm, built 1.5° turned. Measured (2026-11-22): see the note below.
+  EXPECT_NEAR(found.linear_light->start_deg, nominal.linear_light->start_deg + 1.5, 0.3);
+  EXPECT_NEAR(found.linear_light->end_deg, nominal.linear_light->end_deg + 1.5, 0.3);
 }
 
 void ExpectRadiometryFindsTheRigAsBuilt(const fs::path& dir) {
@@ -194,6 +198,7 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   EXPECT_TRUE(held["radiometry"]["exceeded"].empty()) << held.dump(2);
   EXPECT_TRUE(held["led_positions"]["exceeded"].empty()) << held.dump(2);
   EXPECT_TRUE(held["projector"]["exceeded"].empty()) << held.dump(2);
+  EXPECT_TRUE(held["linear_light"]["exceeded"].empty()) << held.dump(2);
 
   WriteStaleCalibration(dir / "calib", dir / "stale");
   const auto stale = RunCommand(Loom("calibrate check " + (dir / "scan").string() + " --calib " + (dir / "stale").string() +
@@ -214,6 +219,8 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   ASSERT_EQ(drifted["projector"]["exceeded"].size(), 1u) << drifted.dump(2);
   // The rig YAML's projector is 7.7 px off in the sample volume (ExpectTheProjectorAsBuilt).
   EXPECT_GT(drifted["projector"]["change"]["projector columns"].get<double>(), 2) << drifted.dump(2);
+  EXPECT_NE(stale.output.find("linear light turned 1."), std::string::npos) << stale.output;
+  ASSERT_EQ(drifted["linear_light"]["exceeded"].size(), 1u) << drifted.dump(2);
 
   // A stored calibration missing a camera is named.
   fs::remove(dir / "stale" / "cam1.yaml");

@@ -16,9 +16,11 @@ namespace {
 //     leds: [{index: 3, intensity_scale: 0.85, move_mm: [5, -3, 2]}]
 //     filter_wheels: [{name: wheel0, slot: 2, shift_nm: 8}]
 //     projector: {move_mm: [2, 0, -1], rotate_deg: [0.5, 0, 0]}
+//     linear_light: {turn_deg: 1.5}
 // move_mm shifts a camera's, the projector's or an LED's centre (rig frame); rotate_deg turns a
 // camera or the projector about its own x, y, z; the scales multiply the nominal sensitivity and
-// intensity; shift_nm moves a filter's band.
+// intensity; shift_nm moves a filter's band; turn_deg turns the linear light's arm about its
+// sweep axis at every carriage position (an offset of its start and end angles).
 
 // A device's pose moved by `move_mm` (its centre, rig frame) and turned by `rotate_deg` (about
 // its own x, y, z).
@@ -84,6 +86,16 @@ RigModel AsBuilt(const ConfigNode& root, RigModel model) {
       continue;
     }
     wheel->filters[slot].center_nm += shift_nm;
+  }
+  if (const std::optional<ConfigNode> node = as_built->OptionalChild("linear_light")) {
+    double turn_deg = 0;
+    node->Required("turn_deg", &turn_deg);
+    if (model.linear_light) {
+      model.linear_light->start_deg += turn_deg;
+      model.linear_light->end_deg += turn_deg;
+    } else {
+      node->AddError("turn_deg", "the geometry has no linear light");
+    }
   }
   if (const std::optional<ConfigNode> node = as_built->OptionalChild("projector")) {
     if (model.projector) {

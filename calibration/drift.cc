@@ -70,6 +70,7 @@ DriftThresholds ReadDriftThresholds(const ConfigNode& node) {
   node.Optional("intensity_percent", &thresholds.intensity_percent);
   node.Optional("led_position_mm", &thresholds.led_position_mm);
   node.Optional("projector_column_px", &thresholds.projector_column_px);
+  node.Optional("linear_light_deg", &thresholds.linear_light_deg);
   return thresholds;
 }
 
@@ -126,6 +127,13 @@ Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& 
 Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds) {
   Changes changes{"mm", {}, {}};
   for (const LightPosition& led : fresh.leds) Judge("led " + std::to_string(led.led), led.change_mm, thresholds.led_position_mm, "moved", &changes);
+  return changes;
+}
+
+std::optional<Changes> MeasureLinearLightDrift(const LightPositions& fresh, const DriftThresholds& thresholds) {
+  if (!fresh.linear_light) return std::nullopt;
+  Changes changes{"deg", {}, {}};
+  Judge("linear light", fresh.linear_light->change_deg, thresholds.linear_light_deg, "turned", &changes);
   return changes;
 }
 

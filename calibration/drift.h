@@ -23,8 +23,10 @@
 //
 // Thresholds live in the rig YAML, as its optional top-level section
 //   recalibration: {reprojection_px: 0.25, turntable_axis_deg: 0.5, turntable_axis_mm: 1.0,
-//                   intensity_percent: 3, led_position_mm: 8, projector_column_px: 0.15}
+//                   intensity_percent: 3, led_position_mm: 8, projector_column_px: 0.15,
+//                   linear_light_deg: 0.5}
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,6 +48,9 @@ struct DriftThresholds {
   // a calibration from the truth in the sample volume (0.074 px, projector.h). On tac7-mini a
   // column is ~1.5 mm of height (0.66 mm per column at the sample, planes tilted 24°).
   double projector_column_px = 0.15;
+  // The linear light's arm angle (start or end of its sweep): the sphere measures it to ~0.05°
+  // (light_positions.h); 0.5° moves the strip 4 mm at tac7-mini's 450 mm arm.
+  double linear_light_deg = 0.5;
 };
 
 // Reads a `recalibration:` section (strict keys; absent keys keep their defaults).
@@ -90,6 +95,8 @@ struct Changes {
 Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds);
 // `fresh`: CalibrateLightPositions of the new scan over the rig with the stored positions applied.
 Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds);
+// The linear light's sweep in `fresh` (as above) against the stored one: empty when not measured.
+std::optional<Changes> MeasureLinearLightDrift(const LightPositions& fresh, const DriftThresholds& thresholds);
 // `fresh`: CalibrateProjector of the new scan's target columns with the stored projector as prior.
 Changes MeasureProjectorDrift(const ProjectorCalibration& fresh, const DriftThresholds& thresholds);
 

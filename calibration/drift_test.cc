@@ -115,6 +115,12 @@ TEST(DriftTest, RadiometricAndLightDriftNameWhatChanged) {
   const Changes moved = MeasureLightPositionDrift(positions, DriftThresholds{});
   ASSERT_EQ(moved.exceeded.size(), 1u);
   EXPECT_EQ(moved.exceeded[0], "led 1 moved 12.0 mm (threshold 8.0 mm)");
+  EXPECT_FALSE(MeasureLinearLightDrift(positions, DriftThresholds{}).has_value());
+  positions.linear_light = LinearLightSweep{-68.5, 71.5, 1.5, 0.1, 10};
+  const std::optional<Changes> turned = MeasureLinearLightDrift(positions, DriftThresholds{});
+  ASSERT_TRUE(turned.has_value());
+  ASSERT_EQ(turned->exceeded.size(), 1u);
+  EXPECT_EQ(turned->exceeded[0], "linear light turned 1.5 deg (threshold 0.5 deg)");
 
   ProjectorCalibration projector;
   projector.column_change_px = 0.05;

@@ -17,7 +17,9 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kSchemaVersion = 1;
-constexpr char kModel[] = "LED positions in the rig frame (mm) from a chrome sphere's highlights; distances kept nominal";
+constexpr char kModel[] =
+    "LED positions in the rig frame (mm) and the linear light's sweep angles (deg) from a chrome sphere's highlights; "
+    "distances and the arm's radius kept nominal";
 constexpr int kWindowPx = 6;
 
 // The highlight's centroid: pixels within kWindowPx of the brightest, weighted by how far they
@@ -100,14 +102,92 @@ LightPosition Triangulate(const RigModel& rig, int led, const std::vector<LedRay
   return result;
 }
 
+// The arm's angle about the sweep axis where a ray from near the sphere meets the cylinder the
+// strip moves on (the arm's radius about the axis through the rig's origin, the arm's pivot).
+double ArmAngleDeg(const LinearLightModel& strip, const LedRay& ray) {
+  const Eigen::Vector3d axis = strip.sweep_axis.normalized();
+  const auto across = [&](const Eigen::Vector3d& v) -> Eigen::Vector3d { return v - axis.dot(v) * axis; };
+  const Eigen::Vector3d origin = across(ray.origin), direction = across(ray.direction);
+  // |origin + s·direction| = radius, the far root.
+  const double a = direction.squaredNorm(), b = origin.dot(direction);
+  const double c = origin.squaredNorm() - strip.arm_radius_mm * strip.arm_radius_mm;
+  const Eigen::Vector3d point = origin + (-b + std::sqrt(std::max(0.0, b * b - a * c))) / a * direction;
+  const Eigen::Vector3d zenith = across(Eigen::Vector3d::UnitZ()).normalized();  // the arm at 0°
+  return RadToDeg(std::atan2(point.dot(axis.cross(zenith)), point.dot(zenith)));
+}
+
+// The arm's angle seen in a view of the sphere under the strip. Every point of the strip has the
+// same angle, so every pixel of its streak measures it: the mean over the pixels above a third
+// of the brightest, weighted by how far they rise above that. (A centroid would fall inside the
+// curved streak, off the strip's reflection: 0.4-0.7° of error here.)
+Result<double> StripArmAngleDeg(const RigModel& rig, const LitView& view) {
+  const Image& radiance = view.radiance;
+  float brightest = 0;
+  for (int y = 0; y < radiance.height(); ++y) {
+    for (int x = 0; x < radiance.width(); ++x) {
+      const float v = radiance.at(0, y, x);
+      if (std::isnan(v)) return FailedPreconditionError(view.source, "the strip's reflection saturated in every exposure");
+      brightest = std::max(brightest, v);
+    }
+  }
+  if (brightest <= 0) return FailedPreconditionError(view.source, "no reflection of the strip: the view is dark");
+  double sum = 0, weights = 0;
+  for (int y = 0; y < radiance.height(); ++y) {
+    for (int x = 0; x < radiance.width(); ++x) {
+      const double w = radiance.at(0, y, x) - brightest / 3.0;
+      if (w <= 0) continue;
+      const Result<LedRay> ray = MirroredRay(rig, *rig.light_probe, view, Eigen::Vector2d(x, y));
+      if (!ray.ok()) continue;  // a pixel of the streak's blur beside the sphere's rim
+      sum += w * ArmAngleDeg(*rig.linear_light, *ray);
+      weights += w;
+    }
+  }
+  if (weights <= 0) return FailedPreconditionError(view.source, "the strip's reflection is not on the light probe's sphere");
+  return sum / weights;
+}
+
+struct StripAngle {
+  double carriage_mm;
+  double angle_deg;
+};
+
+// angle = start + (end − start)·carriage/travel through the views' arm angles, least squares.
+Result<LinearLightSweep> FitSweep(const LinearLightModel& strip, const std::vector<StripAngle>& measured) {
+  Eigen::MatrixXd design(measured.size(), 2);
+  Eigen::VectorXd angles(measured.size());
+  for (size_t i = 0; i < measured.size(); ++i) {
+    const double t = measured[i].carriage_mm / strip.travel_mm;
+    design.row(i) << 1 - t, t;
+    angles[i] = measured[i].angle_deg;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(design, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  if (svd.rank() < 2) {
+    return FailedPreconditionError("linear light", "light-probe views at one carriage position: the sweep needs two or more");
+  }
+  const Eigen::Vector2d ends = svd.solve(angles);
+  LinearLightSweep sweep;
+  sweep.start_deg = ends[0];
+  sweep.end_deg = ends[1];
+  sweep.change_deg = std::max(std::abs(ends[0] - strip.start_deg), std::abs(ends[1] - strip.end_deg));
+  sweep.residual_deg = (design * ends - angles).cwiseAbs().maxCoeff();
+  sweep.views = static_cast<int>(measured.size());
+  return sweep;
+}
+
 }  // namespace
 
 Result<LightPositions> CalibrateLightPositions(const RigModel& rig, const std::vector<LitView>& views) {
   if (!rig.light_probe) return FailedPreconditionError("rig '" + rig.name + "'", "has no light_probe: what the chrome sphere is");
   std::map<int, std::vector<LedRay>> rays;
+  std::vector<StripAngle> strip_angles;
   for (const LitView& view : views) {
+    if (view.lighting.linear_light_on && view.lighting.leds.empty() && rig.linear_light) {
+      LOOM_ASSIGN_OR_RETURN(const double angle_deg, StripArmAngleDeg(rig, view));
+      strip_angles.push_back({view.lighting.linear_light_mm, angle_deg});
+      continue;
+    }
     if (view.lighting.leds.size() != 1 || view.lighting.linear_light_on) {
-      return InvalidArgumentError(view.source, "a light-probe view must be lit by one LED alone");
+      return InvalidArgumentError(view.source, "a light-probe view must be lit by one LED or the linear light alone");
     }
     LOOM_ASSIGN_OR_RETURN(const Eigen::Vector2d pixel, Highlight(view));
     LOOM_ASSIGN_OR_RETURN(const LedRay ray, MirroredRay(rig, *rig.light_probe, view, pixel));
@@ -119,12 +199,19 @@ Result<LightPositions> CalibrateLightPositions(const RigModel& rig, const std::v
     if (!rays.contains(led)) return NotFoundError("led " + std::to_string(led), "has no light-probe view");
     positions.leds.push_back(Triangulate(rig, led, rays[led]));
   }
+  if (!strip_angles.empty()) {
+    LOOM_ASSIGN_OR_RETURN(positions.linear_light, FitSweep(*rig.linear_light, strip_angles));
+  }
   return positions;
 }
 
 void ApplyLightPositions(const LightPositions& positions, RigModel* rig) {
   for (const LightPosition& led : positions.leds) {
     if (led.led >= 0 && led.led < static_cast<int>(rig->leds.size())) rig->leds[led.led].position_mm = led.position_mm;
+  }
+  if (positions.linear_light && rig->linear_light) {
+    rig->linear_light->start_deg = positions.linear_light->start_deg;
+    rig->linear_light->end_deg = positions.linear_light->end_deg;
   }
 }
 
@@ -133,8 +220,8 @@ Status WriteLightPositions(const fs::path& directory, const LightPositions& posi
   out.SetDoublePrecision(17);  // doubles round-trip exactly
   out << YAML::BeginMap;
   out << YAML::Key << "schema_version" << YAML::Value << kSchemaVersion;
-  out << YAML::Key << "device" << YAML::Value << "leds";
-  out << YAML::Key << "name" << YAML::Value << "leds";
+  out << YAML::Key << "device" << YAML::Value << "lights";
+  out << YAML::Key << "name" << YAML::Value << "lights";
   out << YAML::Key << "model" << YAML::Value << kModel;
   out << YAML::Key << "probe_radius_mm" << YAML::Value << positions.probe_radius_mm;
   out << YAML::Key << "leds" << YAML::Value << YAML::BeginSeq;
@@ -145,6 +232,12 @@ Status WriteLightPositions(const fs::path& directory, const LightPositions& posi
         << "residual_deg" << YAML::Value << led.residual_deg << YAML::Key << "views" << YAML::Value << led.views << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  if (const std::optional<LinearLightSweep>& sweep = positions.linear_light) {
+    out << YAML::Key << "linear_light" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "start_deg" << YAML::Value
+        << sweep->start_deg << YAML::Key << "end_deg" << YAML::Value << sweep->end_deg << YAML::Key << "change_deg"
+        << YAML::Value << sweep->change_deg << YAML::Key << "residual_deg" << YAML::Value << sweep->residual_deg << YAML::Key
+        << "views" << YAML::Value << sweep->views << YAML::EndMap;
+  }
   internal::EmitSource(out, from);
   out << YAML::EndMap;
   return WriteFileAtomically(directory / "light_positions.yaml", std::string(out.c_str()) + "\n");
@@ -159,7 +252,7 @@ Result<bool> ApplyLightPositionCalibration(const fs::path& directory, RigModel* 
   root.Required("device", &device);
   root.Required("name", &name);
   root.Required("model", &model);
-  if (device != "leds") root.AddError("device", "is '" + device + "', expected leds");
+  if (device != "lights") root.AddError("device", "is '" + device + "', expected lights");
   if (model != kModel) root.AddError("model", "unknown model '" + model + "'");
   LightPositions positions;
   root.Required("probe_radius_mm", &positions.probe_radius_mm);
@@ -176,6 +269,16 @@ Result<bool> ApplyLightPositionCalibration(const fs::path& directory, RigModel* 
       node.AddError("index", "rig '" + rig->name + "' has no LED " + std::to_string(led.led));
     }
     positions.leds.push_back(led);
+  }
+  if (const std::optional<ConfigNode> node = root.OptionalChild("linear_light")) {
+    LinearLightSweep sweep;
+    node->Required("start_deg", &sweep.start_deg);
+    node->Required("end_deg", &sweep.end_deg);
+    node->Required("change_deg", &sweep.change_deg);
+    node->Required("residual_deg", &sweep.residual_deg);
+    node->Required("views", &sweep.views);
+    if (!rig->linear_light) node->AddError("start_deg", "rig '" + rig->name + "' has no linear light");
+    positions.linear_light = sweep;
   }
   const ConfigNode source = root.Child("source");
   source.Required("from", &from);

@@ -13,8 +13,14 @@
 // Measured on the simulated tac7-mini: within 1.3 mm (0.11°) of the truth with exact cameras;
 // 3.4-4.6 mm (0.3-0.4°) after loom calibrate geometry, whose camera poses carry 1-2 mm and
 // 0.05-0.13° of their own error (geometry.h).
-// The linear light's position is not calibrated (its reflection on a sphere is a streak).
+// The linear light, from the same sphere under the strip at several carriage positions: every
+// point of the strip lies on the cylinder of the arm's radius about the sweep axis, at the arm's
+// angle. Each view's mirrored ray (through the centroid of a piece of the strip's streak) is
+// followed to that cylinder, which gives the arm's angle at that carriage position; a line
+// through the angles gives the sweep's start and end angles. The arm's radius stays nominal,
+// as the LEDs' distances do.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,19 +38,32 @@ struct LightPosition {
   int views = 0;
 };
 
+// The linear light's arm angle (about its sweep axis, 0 = zenith) is start_deg at carriage 0 and
+// end_deg at travel_mm, linear in between.
+struct LinearLightSweep {
+  double start_deg = 0;
+  double end_deg = 0;
+  double change_deg = 0;    // the larger change of the two against the rig's
+  double residual_deg = 0;  // the largest angle of a view from the fitted line
+  int views = 0;
+};
+
 struct LightPositions {
   double probe_radius_mm = 0;
   std::vector<LightPosition> leds;
+  std::optional<LinearLightSweep> linear_light;  // where the scan lit the sphere with the strip
 };
 
-// `views`: light-probe views (one LED lit each) of `rig`, its cameras calibrated. Every LED needs
-// a view; a view whose highlight is missing or saturated is an error naming it.
+// `views`: light-probe views of `rig` (its cameras calibrated), each lit by one LED or by the
+// linear light alone. Every LED needs a view; the strip's views, at two carriage positions or
+// more, give the sweep. A view whose highlight is missing or saturated is an error naming it.
 Result<LightPositions> CalibrateLightPositions(const RigModel& rig, const std::vector<LitView>& views);
 
-// The LEDs moved to the calibrated positions, keeping their axes.
+// The LEDs moved to the calibrated positions, keeping their axes; the linear light's sweep
+// angles where they were measured.
 void ApplyLightPositions(const LightPositions& positions, RigModel* rig);
 
-// CALIB/light_positions.yaml (device: leds): written atomically, read strictly.
+// CALIB/light_positions.yaml (device: lights): written atomically, read strictly.
 Status WriteLightPositions(const std::filesystem::path& directory, const LightPositions& positions, const std::string& from);
 // Applies CALIB/light_positions.yaml when there is one; returns whether. A file for another
 // number of LEDs names the file.

@@ -1,6 +1,7 @@
-// LED positions from the chrome sphere, on views the simulator renders of tac7-mini with one LED
-// built 20 mm from where its rig YAML says (across its line of sight, so its distance from the
-// sphere is the YAML's): calibration must find it and leave the others where they are.
+// LED positions and the linear light's sweep from the chrome sphere, on views the simulator
+// renders of tac7-mini with one LED built 20 mm from where its rig YAML says (across its line of
+// sight, so its distance from the sphere is the YAML's) and the linear light's arm turned 1.5°:
+// calibration must find both and leave the other LEDs where they are.
 #include "calibration/light_positions.h"
 
 #include <gtest/gtest.h>
@@ -21,6 +22,7 @@ namespace {
 RigModel Nominal() { return loom::testing::ShippedRigModel("tac7-mini"); }
 
 constexpr int kMovedLed = 4;
+constexpr double kStripTurnDeg = 1.5;
 
 // 20 mm across the LED's line of sight from the sphere: its distance stays the YAML's.
 Eigen::Vector3d Move(const RigModel& rig) {
@@ -40,6 +42,16 @@ std::vector<LitView> ProbeViews(const RigModel& built) {
       views.push_back({c, lighting, scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
                        "cam" + std::to_string(c) + " led " + std::to_string(led), -1});
     }
+    for (double carriage_mm : {40.0, 120.0, 200.0, 280.0, 360.0}) {
+      sim::SceneState state;
+      state.linear_light_on = true;
+      state.linear_light_mm = carriage_mm;
+      LightingState lighting;
+      lighting.linear_light_on = true;
+      lighting.linear_light_mm = carriage_mm;
+      views.push_back({c, lighting, scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
+                       "cam" + std::to_string(c) + " strip at " + std::to_string(carriage_mm) + " mm", -1});
+    }
   }
   return views;
 }
@@ -47,10 +59,12 @@ std::vector<LitView> ProbeViews(const RigModel& built) {
 RigModel Built(const RigModel& nominal) {
   RigModel built = nominal;
   built.leds[kMovedLed].position_mm += Move(nominal);
+  built.linear_light->start_deg += kStripTurnDeg;
+  built.linear_light->end_deg += kStripTurnDeg;
   return built;
 }
 
-// Rendering the sphere 24 times takes seconds: once for the suite.
+// Rendering the sphere 34 times takes seconds: once for the suite.
 class LightPositionsTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() { views_ = new std::vector<LitView>(ProbeViews(Built(Nominal()))); }
@@ -89,6 +103,35 @@ TEST_F(LightPositionsTest, FindsTheLedThatIsNotWhereTheYamlSays) {
   EXPECT_LT((calibrated.leds[kMovedLed].position_mm - built.leds[kMovedLed].position_mm).norm(), 5.0);
 }
 
+TEST_F(LightPositionsTest, FindsTheLinearLightsArmTurned) {
+  const RigModel nominal = Nominal();
+  ASSERT_TRUE(nominal.linear_light.has_value());
+  const Result<LightPositions> found = CalibrateLightPositions(nominal, *views_);
+  ASSERT_TRUE(found.ok()) << found.status().ToString();
+  ASSERT_TRUE(found->linear_light.has_value());
+  const LinearLightSweep& sweep = *found->linear_light;
+  const LinearLightModel built = *Built(nominal).linear_light;
+  std::cout << "sweep: start " << sweep.start_deg << " deg (truth " << built.start_deg << "), end " << sweep.end_deg
+            << " deg (truth " << built.end_deg << "), residual " << sweep.residual_deg << " deg over " << sweep.views << " views\n";
+  EXPECT_EQ(sweep.views, 10);
+  EXPECT_NEAR(sweep.start_deg, built.start_deg, 0.2);
+  EXPECT_NEAR(sweep.end_deg, built.end_deg, 0.2);
+  EXPECT_NEAR(sweep.change_deg, kStripTurnDeg, 0.2);
+  EXPECT_LT(sweep.residual_deg, 0.3);
+  RigModel calibrated = nominal;
+  ApplyLightPositions(*found, &calibrated);
+  EXPECT_LT((calibrated.linear_light->StripCentre(200) - built.StripCentre(200)).norm(), 2.0);
+
+  // One carriage position cannot give a sweep: named.
+  std::vector<LitView> one_position;
+  for (const LitView& view : *views_) {
+    if (view.lighting.leds.size() == 1 || view.lighting.linear_light_mm == 200) one_position.push_back(view);
+  }
+  const Result<LightPositions> unfitted = CalibrateLightPositions(nominal, one_position);
+  ASSERT_FALSE(unfitted.ok());
+  EXPECT_EQ(unfitted.status().subject(), "linear light");
+}
+
 TEST_F(LightPositionsTest, FilesRoundTripAndMissingViewsAreNamed) {
   const RigModel nominal = Nominal();
   std::vector<LitView> views = *views_;
@@ -103,6 +146,8 @@ TEST_F(LightPositionsTest, FilesRoundTripAndMissingViewsAreNamed) {
   ASSERT_TRUE(applied.ok()) << applied.status().ToString();
   EXPECT_TRUE(*applied);
   for (size_t l = 0; l < direct.leds.size(); ++l) EXPECT_EQ(from_file.leds[l].position_mm, direct.leds[l].position_mm);
+  EXPECT_EQ(from_file.linear_light->start_deg, direct.linear_light->start_deg);
+  EXPECT_EQ(from_file.linear_light->end_deg, direct.linear_light->end_deg);
   RigModel fewer = nominal;
   fewer.leds.pop_back();
   const Result<bool> other_rig = ApplyLightPositionCalibration(dir, &fewer);
@@ -110,7 +155,8 @@ TEST_F(LightPositionsTest, FilesRoundTripAndMissingViewsAreNamed) {
   EXPECT_NE(other_rig.status().ToString().find("light_positions.yaml"), std::string::npos) << other_rig.status().ToString();
   std::filesystem::remove_all(dir);
 
-  views.erase(std::remove_if(views.begin(), views.end(), [](const LitView& v) { return v.lighting.leds.front().first == 7; }),
+  views.erase(std::remove_if(views.begin(), views.end(),
+                             [](const LitView& v) { return v.lighting.leds.size() == 1 && v.lighting.leds.front().first == 7; }),
               views.end());
   const Result<LightPositions> missing = CalibrateLightPositions(nominal, views);
   ASSERT_FALSE(missing.ok());
