@@ -139,7 +139,8 @@ void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
     const Eigen::Vector3d truth = nominal.leds[l].position_mm + (l == 4 ? Eigen::Vector3d(-17.3, 10, 0) : Eigen::Vector3d::Zero());
     EXPECT_LT((found.leds[l].position_mm - truth).norm(), 5.0) << "led " << l;
   }
-  // The linear light's arm, built 1.5° turned. Measured (2026-11-22): see the note below.
+  // The linear light's arm, built 1.5° turned. Measured (2026-11-22): -68.41° to 71.28° against
+  // -68.5° to 71.5° (0.04° with exact cameras: the camera poses' error moves the rays).
   EXPECT_NEAR(found.linear_light->start_deg, nominal.linear_light->start_deg + 1.5, 0.3);
   EXPECT_NEAR(found.linear_light->end_deg, nominal.linear_light->end_deg + 1.5, 0.3);
 }

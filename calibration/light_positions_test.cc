@@ -114,6 +114,8 @@ TEST_F(LightPositionsTest, FindsTheLinearLightsArmTurned) {
   std::cout << "sweep: start " << sweep.start_deg << " deg (truth " << built.start_deg << "), end " << sweep.end_deg
             << " deg (truth " << built.end_deg << "), residual " << sweep.residual_deg << " deg over " << sweep.views << " views\n";
   EXPECT_EQ(sweep.views, 10);
+  // Measured (2026-11-22): start -68.506° (truth -68.5), end 71.534° (71.5), residual 0.10°; a
+  // centroid per view instead of every pixel of the streak was 0.4-0.7° off.
   EXPECT_NEAR(sweep.start_deg, built.start_deg, 0.2);
   EXPECT_NEAR(sweep.end_deg, built.end_deg, 0.2);
   EXPECT_NEAR(sweep.change_deg, kStripTurnDeg, 0.2);
