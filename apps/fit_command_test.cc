@@ -90,19 +90,19 @@ nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method) {
 
 TEST_F(FitCommandTest, TheShippedCnnAloneRecoversTheFabricRoughly) {
   const nlohmann::json json = FitAndEvaluate(dir_, "cnn");
-  // Measured (2026-11-22) with the shipped model: normal median 18.6°, a_d NRMSE 0.195,
-  // re-render L1 0.76 — the small model, trained for 5 minutes on a CPU, has not learnt the
-  // shading normals (see configs/models/tac7-mini/README.md); its maps are a start for Ceres
-  // (next test), not a result. Bounds ~1.5× those: they catch a broken chain or model, no more.
-  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 28.0) << json.dump(2);
-  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.3) << json.dump(2);
-  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 1.2) << json.dump(2);
+  // Measured (2026-11-22) with the shipped model: normal median 6.4° (p90 14.6°), a_d NRMSE
+  // 0.045, re-render L1 0.38 (the model before it, trained for too few steps: 18.6°, 0.195,
+  // 0.76; configs/models/tac7-mini/README.md). Its maps are a start for Ceres (next test), not
+  // a result. Bounds ~1.5× those: they catch a broken chain or model, no more.
+  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 10.0) << json.dump(2);
+  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.07) << json.dump(2);
+  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.6) << json.dump(2);
 }
 
 TEST_F(FitCommandTest, CnnPlusCeresRecoversTheFabric) {
   const nlohmann::json json = FitAndEvaluate(dir_, "cnn+ceres");
-  // Measured (2026-11-22): normal median 0.01° (p90 3.3°), a_d NRMSE 0.0087, re-render L1
-  // 0.0075. Bounds as for the Ceres fit above.
+  // Measured (2026-11-22): normal median 0.00° (p90 3.4°), a_d NRMSE 0.0103, re-render L1
+  // 0.0072. Bounds as for the Ceres fit above.
   EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
   EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
   EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
