@@ -55,7 +55,7 @@ Status CheckOpenSlots(const RigModel& rig) {
 // Exposures of a linearity series: from 90 % of full scale down to 1/64 of that (~60 DN at 12 bits).
 constexpr int kLinearitySeries = 7;
 // Carriage positions at which the chrome sphere is seen under the linear light.
-constexpr int kProbeStripPositions = 5;
+constexpr int kProbeStripPositions = 3;
 
 class PlanBuilder {
  public:

@@ -76,7 +76,7 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   EXPECT_EQ(calibration.Images(StepKind::kWhiteReference), (12 + 1) * 2);  // every LED and the linear light
   EXPECT_EQ(calibration.Images(StepKind::kTarget), 8 * 2);
   EXPECT_EQ(calibration.Images(StepKind::kDark), 2);
-  EXPECT_EQ(calibration.Images(StepKind::kLightProbe), (12 + 5) * 2);  // every LED and the strip at 5 positions
+  EXPECT_EQ(calibration.Images(StepKind::kLightProbe), (12 + 3) * 2);  // every LED and the strip at 3 positions
   // The projector's patterns on the target at 3 angles (2 references, 9 Gray bits and their
   // inverses, 4 phases for 320 columns).
   EXPECT_EQ(calibration.Images(StepKind::kStructuredLight), 3 * 24 * 2);
