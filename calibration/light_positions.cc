@@ -248,12 +248,7 @@ Result<bool> ApplyLightPositionCalibration(const fs::path& directory, RigModel* 
   if (!fs::exists(path)) return false;
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kSchemaVersion));
   const ConfigNode root = doc.root();
-  std::string device, name, model, from;
-  root.Required("device", &device);
-  root.Required("name", &name);
-  root.Required("model", &model);
-  if (device != "lights") root.AddError("device", "is '" + device + "', expected lights");
-  if (model != kModel) root.AddError("model", "unknown model '" + model + "'");
+  internal::ReadHeader(root, "lights", kModel);
   LightPositions positions;
   root.Required("probe_radius_mm", &positions.probe_radius_mm);
   const std::vector<ConfigNode> leds = root.Sequence("leds");
@@ -280,10 +275,7 @@ Result<bool> ApplyLightPositionCalibration(const fs::path& directory, RigModel* 
     if (!rig->linear_light) node->AddError("start_deg", "rig '" + rig->name + "' has no linear light");
     positions.linear_light = sweep;
   }
-  const ConfigNode source = root.Child("source");
-  source.Required("from", &from);
-  source.Ignore("loom_version");
-  source.Ignore("created");
+  internal::ReadSource(root);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   if (leds.size() != rig->leds.size()) {
     return InvalidArgumentError(path.string(), "has " + std::to_string(leds.size()) + " LEDs, rig '" + rig->name + "' has " +

@@ -149,25 +149,17 @@ Result<bool> ApplyProjectorCalibration(const fs::path& directory, RigModel* rig)
   if (!rig->projector) return InvalidArgumentError(path.string(), "rig '" + rig->name + "' has no projector");
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kSchemaVersion));
   const ConfigNode root = doc.root();
-  std::string device, name, model, from;
+  internal::ReadHeader(root, "projector", kModel);
   std::vector<int> size;
   Eigen::Matrix3d k, rotation;
   Eigen::Vector3d translation;
-  root.Required("device", &device);
-  root.Required("name", &name);
-  root.Required("model", &model);
   root.Required("image_size_px", &size);
   root.Required("K_px", &k);
   const ConfigNode pose = root.Child("proj_from_rig");
   pose.Required("rotation", &rotation);
   pose.Required("translation_mm", &translation);
   root.Ignore("quality");  // how well it fitted: for people
-  const ConfigNode source = root.Child("source");
-  source.Required("from", &from);
-  source.Ignore("loom_version");
-  source.Ignore("created");
-  if (device != "projector") root.AddError("device", "is '" + device + "', expected projector");
-  if (model != kModel) root.AddError("model", "unknown model '" + model + "'");
+  internal::ReadSource(root);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   if (size.size() != 2 || size[0] != rig->projector->width || size[1] != rig->projector->height) {
     return InvalidArgumentError(path.string(), "is for another projector resolution than rig '" + rig->name + "''s " +

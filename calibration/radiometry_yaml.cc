@@ -129,19 +129,10 @@ Result<OpenedFile> Open(const fs::path& path, const std::string& device, const s
   if (!fs::exists(path)) return NotFoundError(path.string(), "no such file: the radiometric calibration needs every device's");
   LOOM_ASSIGN_OR_RETURN(ConfigDocument doc, ConfigDocument::LoadFile(path, kSchemaVersion));
   const ConfigNode root = doc.root();
-  std::string found_device, found_name, found_model;
-  root.Required("device", &found_device);
-  root.Required("name", &found_name);
-  root.Required("model", &found_model);
-  if (found_device != device) root.AddError("device", "is '" + found_device + "', expected " + device);
-  if (found_name != name) root.AddError("name", "is '" + found_name + "', expected " + name);
-  if (found_model != model) root.AddError("model", "unknown model '" + found_model + "'");
+  internal::ReadHeader(root, device, model, name);
   root.Required("reference_camera", &r->reference_camera);
   root.Required("white_albedo", &r->white_albedo);
-  const ConfigNode source = root.Child("source");
-  source.Required("from", &found_name);
-  source.Ignore("loom_version");
-  source.Ignore("created");
+  internal::ReadSource(root);
   return OpenedFile{std::move(doc), root};
 }
 

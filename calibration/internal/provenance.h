@@ -1,5 +1,6 @@
 #pragma once
-// What every calibration file writes alike: where it came from, and 3 × 3 matrices.
+// What every calibration file writes and reads alike: its header, where it came from, and 3 × 3
+// matrices.
 
 #include <yaml-cpp/yaml.h>
 
@@ -9,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "core/config.h"
 #include "core/version.h"
 
 namespace loom::calibration::internal {
@@ -33,6 +35,28 @@ inline void EmitSource(YAML::Emitter& out, const std::string& from) {
   out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "from" << YAML::Value << from;
   EmitVersionAndTime(out);
   out << YAML::EndMap;
+}
+
+// The opening `device`, `name` and `model` keys: device and model must be these, and the name
+// too when one is given; a mismatch is an error on the key.
+inline void ReadHeader(const ConfigNode& root, const std::string& device, const std::string& model,
+                       const std::string& name = "") {
+  std::string found_device, found_name, found_model;
+  root.Required("device", &found_device);
+  root.Required("name", &found_name);
+  root.Required("model", &found_model);
+  if (found_device != device) root.AddError("device", "is '" + found_device + "', expected " + device);
+  if (!name.empty() && found_name != name) root.AddError("name", "is '" + found_name + "', expected " + name);
+  if (found_model != model) root.AddError("model", "unknown model '" + found_model + "'");
+}
+
+// The closing `source:` mapping: required, and for people (nothing in it is applied).
+inline void ReadSource(const ConfigNode& root) {
+  const ConfigNode source = root.Child("source");
+  std::string from;
+  source.Required("from", &from);
+  source.Ignore("loom_version");
+  source.Ignore("created");
 }
 
 // Three rows of three.
