@@ -107,11 +107,11 @@ struct LightChecks {
   std::optional<calibration::Changes> radiometry;
 };
 
-Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const RigModel& stored_rig,
-                                const calibration::RigGeometry& fresh_geometry, const std::string& calib,
+// `fresh_cameras`: the stored calibration with the fresh scan's camera geometry applied.
+Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const RigModel& fresh_cameras, const std::string& calib,
                                 const calibration::DriftThresholds& thresholds) {
   LightChecks checks;
-  RigModel rig = calibration::ApplyGeometry(stored_rig, fresh_geometry);
+  RigModel rig = fresh_cameras;
   LOOM_ASSIGN_OR_RETURN(const bool has_positions, calibration::ApplyLightPositionCalibration(calib, &rig));
   if (has_positions) {
     LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
@@ -143,11 +143,11 @@ Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const Ri
 // The projector against the stored one: a fresh calibration of its columns at the target's
 // corners, seen by the fresh cameras, starting from the stored projector. Nothing where CALIB
 // holds no projector.yaml or the scan showed no structured light on the target.
-Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::CaptureStore& store, const RigModel& stored_rig,
-                                                           const calibration::RigGeometry& fresh_geometry,
-                                                           const CalibrationTargetModel& target, const std::string& calib,
+Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::CaptureStore& store, const RigModel& fresh_cameras,
+                                                           const CalibrationTargetModel& target,
+                                                           const calibration::TargetPlacement& placement, const std::string& calib,
                                                            const calibration::DriftThresholds& thresholds) {
-  RigModel rig = calibration::ApplyGeometry(stored_rig, fresh_geometry);
+  RigModel rig = fresh_cameras;
   LOOM_ASSIGN_OR_RETURN(const bool has_projector, calibration::ApplyProjectorCalibration(calib, &rig));
   if (!has_projector) {
     std::cout << "projector: not compared (" << calib << " holds no projector.yaml: loom calibrate geometry)\n";
@@ -159,7 +159,7 @@ Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::Ca
   }
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
   LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
-                        reconstruction::TargetCornerColumns(scan, target, fresh_geometry.target));
+                        reconstruction::TargetCornerColumns(scan, target, placement));
   LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration fresh, calibration::CalibrateProjector(*rig.projector, corners));
   const calibration::Changes changes = calibration::MeasureProjectorDrift(fresh, thresholds);
   PrintChanges("against the stored projector (" + std::to_string(fresh.correspondences) + " target corners decoded)", changes);
@@ -184,9 +184,10 @@ Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& ca
   LOOM_ASSIGN_OR_RETURN(const calibration::DriftReport report,
                         calibration::MeasureDrift(stored, opened.target, opened.detected.views, thresholds));
   PrintDrift(report);
-  LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(store, stored, report.fresh, calib, thresholds));
+  const RigModel fresh_cameras = calibration::ApplyGeometry(stored, report.fresh);
+  LOOM_ASSIGN_OR_RETURN(const LightChecks lights, CheckLights(store, fresh_cameras, calib, thresholds));
   LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::Changes> projector,
-                        CheckProjector(store, stored, report.fresh, opened.target, calib, thresholds));
+                        CheckProjector(store, fresh_cameras, opened.target, report.fresh.target, calib, thresholds));
   const auto exceeded = [](const std::optional<calibration::Changes>& c) { return c && !c->exceeded.empty(); };
   const bool recalibrate = report.recalibrate || exceeded(lights.positions) || exceeded(lights.linear_light) ||
                            exceeded(lights.radiometry) || exceeded(projector);
