@@ -1,7 +1,8 @@
-// loom scan → loom reconstruct on the simulated tac7-mini (a short plan: one turntable angle,
-// 4 strip positions), scored against the simulator's ground truth: the heightmap
-// against the fabric's, the reconstructed stack against the fast-path stack of the same plan —
-// what an ideal reconstruction would give. Also: bad scans fail naming what is wrong.
+// loom scan → loom reconstruct on the simulated tac7-mini with finer cameras (a short plan: the
+// paper's three turntable angles, 4 strip positions), scored against the simulator's ground
+// truth: the heightmap against the fabric's, the reconstructed stack against the fast-path stack
+// of the same plan — what an ideal reconstruction would give. Also: bad scans fail naming what
+// is wrong.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -9,6 +10,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "core/exr_io.h"
@@ -22,18 +25,44 @@ using loom::testing::RunCommand;
 
 std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
 
+// Replaces every `from` in `text`; returns how many there were.
+int ReplaceAll(std::string& text, const std::string& from, const std::string& to) {
+  int count = 0;
+  for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()), ++count) {
+    text.replace(at, from.size(), to);
+  }
+  return count;
+}
+
+// tac7-mini's cameras see the sample at the stacks' 0.2 mm; tac7's, like a real scanner's, at
+// 0.073 mm, and the stack is resampled from finer images. This rig is tac7-mini with cameras at
+// 0.08 mm (2.5 times finer than the stack) and, to keep the scan short, a 64 px (12.8 mm) sample.
+void WriteFineCameraRig(const fs::path& path) {
+  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string rig = text.str();
+  ASSERT_EQ(ReplaceAll(rig, "resolution: [160, 160]", "resolution: [240, 240]"), 2);
+  ASSERT_EQ(ReplaceAll(rig, "focal_px: [3000, 3000]", "focal_px: [7500, 7500]"), 2);
+  ASSERT_EQ(ReplaceAll(rig, "size_px: 128", "size_px: 64"), 1);
+  std::ofstream(path) << rig;
+}
+
 // Scans, reconstructs and renders the fast path into `dir`.
 void ScanAndReconstruct(const fs::path& dir) {
   fs::remove_all(dir);
   fs::create_directories(dir);
-  std::ofstream(dir / "short.yaml") << "schema_version: 1\npreset: short\nturntable_deg: [0]\n"
+  std::ofstream(dir / "short.yaml") << "schema_version: 1\npreset: short\nturntable_deg: [0, 120, 240]\n"
                                         "linear_light_positions: 4\nmax_exposures: 3\n";
-  const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml";
+  const std::string rig = (dir / "fine-cameras.yaml").string();
+  WriteFineCameraRig(rig);
+  if (::testing::Test::HasFatalFailure()) return;
   const std::string preset = (dir / "short.yaml").string();
   const auto scan = RunCommand(Loom("scan --rig " + rig + " --preset " + preset + " --object fabric:1 --out " +
                                     (dir / "scan").string() + " --quiet"));
   ASSERT_EQ(scan.exit_code, 0) << scan.output;
-  const auto reconstruct = RunCommand(Loom("reconstruct " + (dir / "scan").string() + " --out " + (dir / "rec").string() + " --quiet"));
+  const auto reconstruct =
+      RunCommand(Loom("reconstruct " + (dir / "scan").string() + " --size 64 --out " + (dir / "rec").string() + " --quiet"));
   ASSERT_EQ(reconstruct.exit_code, 0) << reconstruct.output;
   const auto render = RunCommand(Loom("sim render --rig " + rig + " --stack --preset " + preset + " --truth " +
                                       (dir / "truth.exr").string() + " --out " + (dir / "fast.exr").string()));
@@ -66,8 +95,8 @@ void TheHeightmapMatchesTheFabrics(const fs::path& dir) {
   const double rms = std::sqrt(sum2 / (w * h));
   ::testing::Test::RecordProperty("height_rms_mm", std::to_string(rms));
   std::cout << "height RMS error " << rms << " mm (the fabric's RMS height " << std::sqrt(truth_sum2 / (w * h)) << " mm)\n";
-  // Measured (2026-11-22): 0.028 mm against a fabric of 0.19 mm RMS relief; the bound is the
-  // issue's goal for tac7 (≤ 0.05 mm), which this smaller rig meets too.
+  // Measured (2026-11-22): 0.019 mm against a fabric of 0.19 mm RMS relief (0.028 mm with
+  // tac7-mini's own cameras); the bound is the goal for tac7 (≤ 0.05 mm).
   EXPECT_LT(rms, 0.05);
 }
 
@@ -98,12 +127,13 @@ void TheStackMatchesTheFastPathOutsideShadows(const fs::path& dir) {
   }
   const double median = Median(relative);
   std::cout << "median relative error against the fast path " << 100 * median << " % over " << relative.size() << " samples\n";
-  // Measured (2026-11-22): 4.0 % median (5.6 % with a second turntable angle); per observation
-  // the median ratio is 0.93-1.02, so no radiometric bias: the spread is the camera's pixels
-  // integrating the fabric's 0.2 mm texture and highlights (the fast path samples points) plus
-  // shot noise (~1 % at mid range).
-  // The goal, 2 %, is not met at this camera resolution. Bound: 8 %.
-  EXPECT_LT(median, 0.08);
+  // Measured (2026-11-22): 1.51 % median; per observation the median ratio is 0.98-1.00, so no
+  // radiometric bias. The rest is sampling: the fast path samples points, a camera pixel
+  // integrates the fabric's 0.2 mm texture and highlights over its footprint and bilinear
+  // resampling spreads that further. The same scan with cameras 2 times finer than the stack
+  // gives 2.0 %, with tac7-mini's own (as coarse as the stack) 6.3 % (ratios 0.89-1.12).
+  // Bound: the goal, 2 %.
+  EXPECT_LT(median, 0.02);
 }
 
 void AMissingFrameIsAnErrorNamingItAndNothingIsWritten(const fs::path& dir) {
