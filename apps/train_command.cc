@@ -197,6 +197,15 @@ Status Train(TrainArguments args) {
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   const nlohmann::json report = {{"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
                                  {"kept_epoch", best->epoch},
+                                 {"options", {{"width_divisor", args.width_divisor}, {"dropout", args.dropout},
+                                              {"epochs", args.training.epochs}, {"tile", args.training.tile},
+                                              {"tiles_per_step", args.training.tiles_per_step},
+                                              {"steps_per_epoch", args.training.steps_per_epoch},
+                                              {"lr_start", args.training.learning_rate_start},
+                                              {"lr_end", args.training.learning_rate_end},
+                                              {"weight_decay", args.training.weight_decay},
+                                              {"radiance_noise", args.training.radiance_noise},
+                                              {"seed", args.training.seed}}},
                                  {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
                                  {"label_channels", fitting::kLabelChannelNames},
                                  {"materials", {{"train", sets[0].size()}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
@@ -238,6 +247,9 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--lr-start", t.learning_rate_start, "Learning rate at the first epoch")->check(CLI::PositiveNumber);
   app.add_option("--lr-end", t.learning_rate_end, "Learning rate at the last epoch (exponential decay)")->check(CLI::PositiveNumber);
   app.add_option("--weight-decay", t.weight_decay, "Adam weight decay")->check(CLI::NonNegativeNumber);
+  app.add_option("--radiance-noise", t.radiance_noise,
+                 "Relative noise multiplied into the training tiles' radiance, as reconstructed stacks carry (0: none)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--threads", t.threads, "Torch threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_option("--seed", t.seed, "Seed of the weights, tiles and dropout");
   app.add_flag("--resume", t.resume, "Go on from OUT/checkpoints (same options as the interrupted run)");

@@ -53,6 +53,15 @@ torch::Tensor ValidTensor(const CnnLabels& labels) {
       .to(torch::kFloat32);
 }
 
+// N × C × H × W features with radiance noise (WithRadianceNoise).
+torch::Tensor NoisyRadiance(const torch::Tensor& input, double relative_sigma, at::Generator& generator) {
+  const torch::Tensor geometry = input.narrow(1, 0, kCnnGeometryChannels);
+  const torch::Tensor features = input.narrow(1, kCnnGeometryChannels, input.size(1) - kCnnGeometryChannels);
+  // The features are log(1 + L / scale): the noise multiplies L / scale = expm1(feature).
+  const torch::Tensor factor = 1 + relative_sigma * torch::randn(features.sizes(), generator, features.options());
+  return torch::cat({geometry, torch::log1p(torch::clamp_min(torch::expm1(features) * factor, 0))}, 1);
+}
+
 // One training material as tensors: the padded input, labels and validity.
 struct Material {
   torch::Tensor input;   // 1 × C × (H + 14) × (W + 14)
@@ -198,9 +207,17 @@ Status CnnTrainingOptions::Check() const {
   if (steps_per_epoch < 0) problems.push_back("steps_per_epoch must be ≥ 0");
   if (!(learning_rate_start > 0) || !(learning_rate_end > 0)) problems.push_back("learning rates must be > 0");
   if (!(weight_decay >= 0)) problems.push_back("weight_decay must be ≥ 0");
+  if (!(radiance_noise >= 0)) problems.push_back("radiance_noise must be ≥ 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (resume && checkpoint_dir.empty()) problems.push_back("resume needs a checkpoint_dir");
   return ProblemsStatus("CnnTrainingOptions", problems);
+}
+
+CnnTensor WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed) {
+  at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(seed);
+  const torch::Tensor noisy = NoisyRadiance(AsTensor(input), relative_sigma, generator).contiguous();
+  return {input.channels, input.height, input.width,
+          std::vector<float>(noisy.data_ptr<float>(), noisy.data_ptr<float>() + noisy.numel())};
 }
 
 Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) {
@@ -267,6 +284,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
     }
     std::mt19937_64 rng(options.seed * 1000003 + epoch);
     torch::manual_seed(options.seed * 1000003 + epoch);
+    at::Generator noise = at::make_generator<at::CPUGeneratorImpl>(options.seed * 1000003 + epoch);
     net->train();
     double loss_sum = 0, samples = 0;
     for (int step = 0; step < steps; ++step) {
@@ -274,7 +292,9 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
       const torch::Tensor count = batch.valid.sum();
       if (count.item<double>() == 0) continue;
       optimizer->zero_grad();
-      const torch::Tensor loss = HuberSum(net->ForwardDense(batch.input), batch.labels, batch.valid) / (count * kLabelSize);
+      const torch::Tensor input =
+          options.radiance_noise > 0 ? NoisyRadiance(batch.input, options.radiance_noise, noise) : batch.input;
+      const torch::Tensor loss = HuberSum(net->ForwardDense(input), batch.labels, batch.valid) / (count * kLabelSize);
       loss.backward();
       optimizer->step();
       loss_sum += loss.item<double>();

@@ -46,6 +46,10 @@ struct CnnTrainingOptions {
   double learning_rate_start = 1e-5;  // at the first epoch (the paper's)
   double learning_rate_end = 1e-6;    // at the last
   double weight_decay = 5e-4;
+  // Training tiles' observations are multiplied by 1 + radiance_noise · N(0, 1), drawn anew
+  // each step, so that the network sees inputs as noisy as reconstructed stacks (sampling and
+  // shot noise) and not only the simulator's exact ones. 0: none.
+  double radiance_noise = 0;
   int threads = 0;                    // torch threads; 0: one per core
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
@@ -78,6 +82,11 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
 
 // The epochs as a JSON array (what checkpoints keep in history.json).
 std::string CnnHistoryJson(const std::vector<CnnEpoch>& history);
+
+// The augmentation of CnnTrainingOptions::radiance_noise on one input (CnnInputFromStack's
+// features): every observation's radiance multiplied by its own 1 + relative_sigma · N(0, 1)
+// (clamped at 0); the geometry channels and unseen observations (0) as they were.
+CnnTensor WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed);
 
 // Loss and per-channel RMSE of `cnn` on `examples` (dense, whole materials, no dropout).
 struct CnnScore {

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <random>
 
@@ -76,6 +78,40 @@ TEST(CnnTrainingTest, TheValidationLossFallsOnALearnableTask) {
   EXPECT_NEAR(history->front().learning_rate, 1e-2, 1e-12);
   EXPECT_NEAR(history->back().learning_rate, 1e-3, 1e-12);
   EXPECT_GT(history->back().samples_per_second, 0);
+}
+
+TEST(CnnTrainingTest, RadianceNoiseMultipliesTheObservationsAndLeavesTheGeometry) {
+  CnnTensor input = Example(1).input;
+  const int first_radiance = kCnnGeometryChannels * input.height * input.width;
+  std::fill_n(input.values.begin() + first_radiance, input.width, 0.0f);  // its first row unseen
+  const CnnTensor noisy = WithRadianceNoise(input, 0.1, 7);
+  ASSERT_EQ(noisy.values.size(), input.values.size());
+  double sum = 0, sum2 = 0;
+  int count = 0;
+  for (int c = 0; c < kChannels; ++c) {
+    for (int y = 0; y < input.height; ++y) {
+      for (int x = 0; x < input.width; ++x) {
+        const float before = input.at(c, y, x), after = noisy.at(c, y, x);
+        if (c < kCnnGeometryChannels || before == 0) {
+          EXPECT_EQ(after, before) << c << " " << x << "," << y;
+          continue;
+        }
+        // The features are log(1 + L / scale).
+        const double factor = std::expm1(after) / std::expm1(before);
+        sum += factor;
+        sum2 += factor * factor;
+        ++count;
+      }
+    }
+  }
+  const double mean = sum / count, sigma = std::sqrt(sum2 / count - mean * mean);
+  EXPECT_NEAR(mean, 1, 0.02) << count;    // 1128 factors: the mean's own spread is 0.003
+  EXPECT_NEAR(sigma, 0.1, 0.01) << count;
+  EXPECT_NE(WithRadianceNoise(input, 0.1, 8).values, noisy.values);  // the seed draws anew
+
+  CnnTrainingOptions negative = FastOptions();
+  negative.radiance_noise = -0.1;
+  EXPECT_NE(negative.Check().ToString().find("radiance_noise"), std::string::npos) << negative.Check().ToString();
 }
 
 TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
