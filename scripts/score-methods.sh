@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# Scores the fitting methods on held-out simulated fabrics, as issue #7's targets ask: for each
+# seed, the simulator's noise-free fast-path stack of a preset's plan (`loom sim render --stack
+# --truth`), fitted by every method (`loom fit`) and evaluated against the ground truth (`loom
+# eval`); then per method the mean re-render L1 against the measured values and its ratio to
+# Ceres alone's, the mean shading-normal error and the mean a_d NRMSE.
+#
+#   scripts/score-methods.sh OUT [SEEDS...]      (default seeds: 1984-1999, the test split of
+#                                                 the shipped tac7-mini model's training data)
+#
+# LOOM (default build/apps/loom), RIG (configs/rig/tac7-mini.yaml), PRESET (low), MODEL (the
+# rig's default), SIZE (32 px), METHODS (ceres cnn cnn+ceres; ceres must be among them) can be
+# set in the environment. OUT/<seed>/<method>/ keeps every fit and report; OUT/scores.tsv has
+# one line per seed and method.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if [[ $# -lt 1 ]]; then
+  echo "usage: $0 OUT [SEEDS...]" >&2
+  exit 2
+fi
+out=$1
+shift
+seeds=("$@")
+if [[ ${#seeds[@]} -eq 0 ]]; then seeds=($(seq 1984 1999)); fi
+loom=${LOOM:-build/apps/loom}
+rig=${RIG:-configs/rig/tac7-mini.yaml}
+preset=${PRESET:-low}
+size=${SIZE:-32}
+read -r -a methods <<< "${METHODS:-ceres cnn cnn+ceres}"
+model_option=()
+if [[ -n "${MODEL:-}" ]]; then model_option=(--model "$MODEL"); fi
+
+mkdir -p "$out"
+scores="$out/scores.tsv"
+printf "seed\tmethod\trerender_l1\tnormal_median_deg\ta_d_nrmse\n" > "$scores"
+for seed in "${seeds[@]}"; do
+  dir="$out/$seed"
+  mkdir -p "$dir"
+  "$loom" sim render --rig "$rig" --stack --preset "$preset" --object "fabric:$seed" --size "$size" \
+    --truth "$dir/truth.exr" --out "$dir/stack.exr" > /dev/null
+  for method in "${methods[@]}"; do
+    "$loom" fit "$dir/stack.exr" --method "$method" "${model_option[@]}" --out "$dir/$method/fit" --quiet > /dev/null
+    report=$("$loom" eval "$dir/$method/fit/svbrdf.exr" --stack "$dir/stack.exr" --reference "$dir/truth.exr" \
+      --out "$dir/$method/report")
+    # eval prints "… a_d 0.0024 …", "shading normal error: median 0.23 deg, …" and "… all 0.0038 / …".
+    l1=$(sed -n 's/.*against the measured values.*:  all \([0-9.]*\).*/\1/p' <<< "$report")
+    normal=$(sed -n 's/^shading normal error: median \([0-9.]*\) deg.*/\1/p' <<< "$report")
+    a_d=$(sed -n 's/.*NRMSE against the reference:  a_d \([0-9.]*\).*/\1/p' <<< "$report")
+    if [[ -z "$l1" || -z "$normal" || -z "$a_d" ]]; then
+      echo "error: could not read the scores of fabric:$seed ($method) from loom eval's output:" >&2
+      echo "$report" >&2
+      exit 1
+    fi
+    printf "%s\t%s\t%s\t%s\t%s\n" "$seed" "$method" "$l1" "$normal" "$a_d" | tee -a "$scores"
+  done
+done
+
+echo
+echo "over ${#seeds[@]} fabrics (${size} px, preset $preset): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE"
+awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5 }
+  END {
+    if (!("ceres" in n)) { print "error: METHODS has no ceres to compare with" > "/dev/stderr"; exit 1 }
+    for (m in n) printf "%-10s L1 %.5f (%.3fx)  normal %.2f  a_d %.4f\n", m, l1[m] / n[m], l1[m] / l1["ceres"],
+                        normal[m] / n[m], ad[m] / n[m]
+  }' "$scores" | sort
