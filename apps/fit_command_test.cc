@@ -122,14 +122,17 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   const fs::path model = dir_ / "model";
   const auto train = RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR +
                                 "/configs/rig/tac7-mini.yaml --out " + model.string() +
-                                " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --quiet");
+                                " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --radiance-noise 0.05 --quiet");
   ASSERT_EQ(train.exit_code, 0) << train.output;
   for (const char* file : {"model.json", "weights.pt", "training.json", "data/fabric-1000.stack.exr",
                            "checkpoints/last/history.json"}) {
     EXPECT_TRUE(fs::exists(model / file)) << file;
   }
-  std::ifstream training(model / "training.json");
-  EXPECT_EQ(nlohmann::json::parse(training)["epochs"].size(), 2u);
+  std::ifstream training_file(model / "training.json");
+  const nlohmann::json training = nlohmann::json::parse(training_file);
+  EXPECT_EQ(training["epochs"].size(), 2u);
+  EXPECT_EQ(training["options"]["radiance_noise"], 0.05);  // what it was trained with, for whoever reuses it
+  EXPECT_EQ(training["options"]["size_px"], 16);
   const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
                               " --method cnn --model " + model.string() + " --out " + (dir_ / "toy").string());
   EXPECT_EQ(fit.exit_code, 0) << fit.output;

@@ -11,7 +11,7 @@
 // 2. Training (fitting/cnn_training.h) with checkpoints in MODEL/checkpoints; --resume goes on
 //    from the last one.
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
-//    epoch, the test set's loss and per-channel RMSE.
+//    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
 #include <algorithm>
 #include <filesystem>
 #include <iomanip>
@@ -197,7 +197,8 @@ Status Train(TrainArguments args) {
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   const nlohmann::json report = {{"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
                                  {"kept_epoch", best->epoch},
-                                 {"options", {{"width_divisor", args.width_divisor}, {"dropout", args.dropout},
+                                 {"options", {{"first_seed", args.first_seed}, {"size_px", args.size_px},
+                                              {"width_divisor", args.width_divisor}, {"dropout", args.dropout},
                                               {"epochs", args.training.epochs}, {"tile", args.training.tile},
                                               {"tiles_per_step", args.training.tiles_per_step},
                                               {"steps_per_epoch", args.training.steps_per_epoch},

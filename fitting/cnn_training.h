@@ -47,8 +47,9 @@ struct CnnTrainingOptions {
   double learning_rate_end = 1e-6;    // at the last
   double weight_decay = 5e-4;
   // Training tiles' observations are multiplied by 1 + radiance_noise · N(0, 1), drawn anew
-  // each step, so that the network sees inputs as noisy as reconstructed stacks (sampling and
-  // shot noise) and not only the simulator's exact ones. 0: none.
+  // each step, so that the network sees inputs as noisy as reconstructed stacks and not only
+  // the simulator's exact ones. 0: none. (For tac7-mini, 0.07 made no better model:
+  // configs/models/tac7-mini/README.md.)
   double radiance_noise = 0;
   int threads = 0;                    // torch threads; 0: one per core
   uint64_t seed = 1;
