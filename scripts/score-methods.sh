@@ -5,8 +5,11 @@
 # eval`); then per method the mean re-render L1 against the measured values and its ratio to
 # Ceres alone's, the mean shading-normal error and the mean a_d NRMSE.
 #
-#   scripts/score-methods.sh OUT [SEEDS...]      (default seeds: 1984-1999, the test split of
-#                                                 the shipped tac7-mini model's training data)
+#   scripts/score-methods.sh OUT [SEEDS...]      (default seeds: 1984-1999, those the shipped
+#                                                 tac7-mini model held out as its test set)
+#
+# Each stack is the centre SIZE × SIZE px of the rig's sample made of that fabric (`sim render
+# --stack --size`), not the training dataset's SIZE px material of the same seed.
 #
 # LOOM (default build/apps/loom), RIG (configs/rig/tac7-mini.yaml), PRESET (low), MODEL (the
 # rig's default), SIZE (32 px), METHODS (ceres cnn cnn+ceres; ceres must be among them) can be
