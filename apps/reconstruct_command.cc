@@ -1,8 +1,11 @@
 // loom reconstruct: a scan → the calibrated observation stack (stack.exr) + reconstruction.json.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <memory>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -38,6 +41,28 @@ struct Applied {
   bool radiometry = false;
 };
 
+nlohmann::json SamplingJson(const std::vector<reconstruction::CameraSampling>& sampling) {
+  nlohmann::json json = nlohmann::json::object();
+  for (const reconstruction::CameraSampling& s : sampling) json[s.camera] = s.camera_px_per_stack_px;
+  return json;
+}
+
+// A note when a camera samples the stack coarsely: the stack is then blurred, not wrong.
+void NoteCoarseSampling(const std::vector<reconstruction::CameraSampling>& sampling, double pixel_mm) {
+  const bool coarse = std::any_of(sampling.begin(), sampling.end(), [](const reconstruction::CameraSampling& s) {
+    return s.camera_px_per_stack_px < reconstruction::kFineSampling;
+  });
+  if (!coarse) return;
+  std::cerr << "note: the stack's " << pixel_mm << " mm pixels span";
+  for (size_t i = 0; i < sampling.size(); ++i) {
+    std::cerr << (i == 0 ? " " : ", ") << std::fixed << std::setprecision(2) << sampling[i].camera_px_per_stack_px << " ("
+              << sampling[i].camera << ")";
+  }
+  std::cerr << std::defaultfloat << " camera pixels at the coarsest; below " << reconstruction::kFineSampling
+            << " the observations are blurred over neighbouring stack pixels: a larger --pixel-mm or finer cameras "
+               "sharpen them (reconstruction/README.md)\n";
+}
+
 std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args, const Applied& applied,
                         double seconds) {
   const nlohmann::json json = {{"scan", args.scan},
@@ -50,6 +75,7 @@ std::string SummaryJson(const reconstruction::Reconstruction& r, const Reconstru
                                {"height_px", args.options.height_px},
                                {"pixel_mm", args.options.pixel_mm},
                                {"observations", r.stack.observations.size()},
+                               {"camera_px_per_stack_px", SamplingJson(r.sampling)},
                                {"heightmap_camera", r.heightmap_camera},
                                {"heightmap_filled_pixels", r.heightmap_filled},
                                {"saturated_pixels", r.saturated_pixels},
@@ -91,6 +117,7 @@ Status Reconstruct(const ReconstructArguments& args) {
   };
   LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result, reconstruction::Reconstruct(store, rig, args.options, progress));
   bar.reset();
+  NoteCoarseSampling(result.sampling, args.options.pixel_mm);
   std::error_code error;
   fs::create_directories(args.out, error);
   if (error) return IoError(args.out, "cannot create the directory: " + error.message());

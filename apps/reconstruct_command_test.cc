@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/exr_io.h"
 #include "core/observation_stack.h"
 #include "core/testing/subprocess.h"
@@ -64,6 +66,9 @@ void ScanAndReconstruct(const fs::path& dir) {
   const auto reconstruct =
       RunCommand(Loom("reconstruct " + (dir / "scan").string() + " --size 64 --out " + (dir / "rec").string() + " --quiet"));
   ASSERT_EQ(reconstruct.exit_code, 0) << reconstruct.output;
+  // cam1, 45° from the normal, sees the sample foreshortened: 2.5 · cos 45° camera pixels per
+  // stack pixel, below 2, which the note says.
+  EXPECT_NE(reconstruct.output.find("span 2.50 (cam0), 1.77 (cam1) camera pixels"), std::string::npos) << reconstruct.output;
   const auto render = RunCommand(Loom("sim render --rig " + rig + " --stack --preset " + preset + " --truth " +
                                       (dir / "truth.exr").string() + " --out " + (dir / "fast.exr").string()));
   ASSERT_EQ(render.exit_code, 0) << render.output;
@@ -98,6 +103,14 @@ void TheHeightmapMatchesTheFabrics(const fs::path& dir) {
   // Measured (2026-11-22): 0.019 mm against a fabric of 0.19 mm RMS relief (0.028 mm with
   // tac7-mini's own cameras); the bound is the goal for tac7 (≤ 0.05 mm).
   EXPECT_LT(rms, 0.05);
+}
+
+void TheSamplingIsRecorded(const fs::path& dir) {
+  std::ifstream file(dir / "rec/reconstruction.json");
+  const nlohmann::json summary = nlohmann::json::parse(file, nullptr, false);
+  ASSERT_FALSE(summary.is_discarded());
+  EXPECT_NEAR(summary["camera_px_per_stack_px"]["cam0"].get<double>(), 2.5, 0.01);   // 0.2 mm / 0.08 mm
+  EXPECT_NEAR(summary["camera_px_per_stack_px"]["cam1"].get<double>(), 1.768, 0.01);  // · cos 45°
 }
 
 void TheStackMatchesTheFastPathOutsideShadows(const fs::path& dir) {
@@ -174,6 +187,10 @@ TEST(ReconstructCommandTest, ScanReconstructScoreAndRefuseBadInput) {
   {
     SCOPED_TRACE("the heightmap matches the fabric's");
     TheHeightmapMatchesTheFabrics(dir);
+  }
+  {
+    SCOPED_TRACE("how finely each camera samples the stack is recorded");
+    TheSamplingIsRecorded(dir);
   }
   {
     SCOPED_TRACE("the stack matches the fast path outside shadows");

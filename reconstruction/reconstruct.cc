@@ -6,6 +6,8 @@
 #include <map>
 #include <mutex>
 
+#include <Eigen/SVD>
+
 #include "core/heightfield.h"
 #include "core/heightmap.h"
 #include "core/log.h"
@@ -75,6 +77,28 @@ Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& 
 
 }  // namespace
 
+std::vector<CameraSampling> StackSampling(const RigModel& rig, double pixel_mm) {
+  std::vector<CameraSampling> sampling;
+  const Rigid3d rig_from_sample = rig.turntable.RigFromSample(0);
+  for (const CameraModel& camera : rig.cameras) {
+    // The projection's 2 × 2 Jacobian on the sample plane, by central differences of a stack
+    // pixel; its smaller singular value is the coarsest direction's pixels per stack pixel.
+    Eigen::Matrix2d jacobian;
+    bool seen = true;
+    for (int axis = 0; axis < 2; ++axis) {
+      Eigen::Vector3d step = Eigen::Vector3d::Zero();
+      step[axis] = pixel_mm / 2;
+      Eigen::Vector2d plus, minus;
+      seen = seen && camera.Project(camera.cam_from_rig * (rig_from_sample * step), &plus) &&
+             camera.Project(camera.cam_from_rig * (rig_from_sample * Eigen::Vector3d(-step)), &minus);
+      jacobian.col(axis) = plus - minus;
+    }
+    const double coarsest = seen ? Eigen::JacobiSVD<Eigen::Matrix2d>(jacobian).singularValues()[1] : 0.0;
+    sampling.push_back({camera.name, coarsest});
+  }
+  return sampling;
+}
+
 Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
                                    const std::function<void(const ReconstructProgress&)>& progress) {
   if (options.width_px <= 0 || options.height_px <= 0 || options.pixel_mm <= 0) {
@@ -84,6 +108,7 @@ Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const
   const CameraModel* camera = options.heightmap_camera.empty() ? TopCamera(rig) : rig.FindCamera(options.heightmap_camera);
   if (camera == nullptr) return NotFoundError("camera '" + options.heightmap_camera + "'", "not in rig '" + rig.name + "'");
   Reconstruction result;
+  result.sampling = StackSampling(rig, options.pixel_mm);
   result.heightmap_camera = camera->name;
   if (progress) progress({"heightmap", 0, 1});
   LOOM_ASSIGN_OR_RETURN(const std::vector<float> heights, Heights(scan, *camera, options, &result.heightmap_filled));

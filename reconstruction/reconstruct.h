@@ -17,6 +17,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "acquisition/capture_store.h"
 #include "core/observation_stack.h"
@@ -41,8 +42,20 @@ struct ReconstructProgress {
   int total = 0;
 };
 
+// How finely a camera samples the stack: camera pixels per stack pixel at the turntable's
+// centre, along the direction in the sample plane that the camera sees most coarsely (a side
+// camera foreshortens one by the cosine of its angle from the normal). Below ~2 every
+// observation is noticeably blurred over neighbouring stack pixels (reconstruction/README.md).
+struct CameraSampling {
+  std::string camera;
+  double camera_px_per_stack_px = 0;
+};
+std::vector<CameraSampling> StackSampling(const RigModel& rig, double pixel_mm);
+inline constexpr double kFineSampling = 2.0;  // camera pixels per stack pixel
+
 struct Reconstruction {
   ObservationStack stack;
+  std::vector<CameraSampling> sampling;  // every camera of the rig, StackSampling
   std::string heightmap_camera;
   int heightmap_filled = 0;     // grid pixels without a triangulated height (filled from neighbours)
   int saturated_pixels = 0;     // camera pixels saturated in every exposure, over all views
