@@ -48,7 +48,7 @@ struct ReconstructProgress {
 // observation is noticeably blurred over neighbouring stack pixels (reconstruction/README.md).
 struct CameraSampling {
   std::string camera;
-  double camera_px_per_stack_px = 0;
+  double camera_px_per_stack_px = 0;  // 0: the camera does not see the turntable's centre
 };
 std::vector<CameraSampling> StackSampling(const RigModel& rig, double pixel_mm);
 inline constexpr double kFineSampling = 2.0;  // camera pixels per stack pixel
