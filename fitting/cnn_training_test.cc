@@ -114,6 +114,19 @@ TEST(CnnTrainingTest, RadianceNoiseMultipliesTheObservationsAndLeavesTheGeometry
   EXPECT_NE(negative.Check().ToString().find("radiance_noise"), std::string::npos) << negative.Check().ToString();
 }
 
+TEST(CnnTrainingTest, TrainingFeedsTheNetworkNoisyRadianceWhenAsked) {
+  const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
+  CnnTrainingOptions options = FastOptions();
+  options.epochs = 1;
+  Cnn exact = SmallCnn(), noisy = SmallCnn();
+  const Result<std::vector<CnnEpoch>> exact_history = TrainCnn(exact, train, validation, options);
+  options.radiance_noise = 0.3;
+  const Result<std::vector<CnnEpoch>> noisy_history = TrainCnn(noisy, train, validation, options);
+  ASSERT_TRUE(exact_history.ok() && noisy_history.ok());
+  // Same weights, tiles and dropout: only the noise can tell the two runs apart.
+  EXPECT_NE(exact_history->front().train_loss, noisy_history->front().train_loss);
+}
+
 TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
   const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
   CnnTrainingOptions options = FastOptions();
