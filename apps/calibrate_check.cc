@@ -160,7 +160,7 @@ Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::Ca
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
   LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
                         reconstruction::TargetCornerColumns(scan, target, placement));
-  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration fresh, calibration::CalibrateProjector(*rig.projector, corners));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration fresh, calibration::CalibrateProjector(*rig.projector, {corners, {}}));
   const calibration::Changes changes = calibration::MeasureProjectorDrift(fresh, thresholds);
   PrintChanges("against the stored projector (" + std::to_string(fresh.correspondences) + " target corners decoded)", changes);
   return std::optional<calibration::Changes>(changes);

@@ -119,7 +119,7 @@ Status CalibrateProjectorPose(const acquisition::CaptureStore& store, const RigM
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
   LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
                         reconstruction::TargetCornerColumns(scan, target, placement));
-  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, corners));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, {corners, {}}));
   LOOM_RETURN_IF_ERROR(calibration::WriteProjectorCalibration(out, projector, scan_dir));
   std::cout << "projector: " << projector.correspondences << " target corners decoded, RMS " << projector.rms_columns
             << " columns; the rig YAML's columns there off by up to " << projector.column_change_px << " px (projector.yaml)\n";

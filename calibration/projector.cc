@@ -3,7 +3,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -20,20 +22,57 @@ namespace fs = std::filesystem;
 constexpr int kSchemaVersion = 1;
 constexpr char kModel[] = "pinhole projector, no distortion; column = fx * X/Z + cx in proj_from_rig's frame";
 constexpr int kMinCorrespondences = 12;
+constexpr double kMinBoardSeparationMm = 5;
+constexpr int kMinBoardRaysPerCamera = 200;
+// A board ray further than this from the first fit's plane and projector (in robust standard
+// deviations) saw something else: the board's edge or side, or a shadow.
+constexpr double kBoardOutlierSigmas = 4;
+constexpr double kMinBoardOutlierPx = 0.2;
+// The boards' fx and cx replace the prior's only when they pin them down this well (1σ). A
+// board seen over a small part of the projector's field cannot: on tac7-mini (cameras seeing
+// 32 mm of the projector's 210 mm field) σ is 1 % and 6 px; on tac7 (150 mm) 0.01 % and 0.2 px.
+constexpr double kMaxFocalSigmaPercent = 0.1;
+constexpr double kMaxCxSigmaPx = 0.5;
 
-// pose: angle-axis, translation (mm) of proj_from_rig.
-struct ColumnResidual {
+// pose: angle-axis, translation (mm) of proj_from_rig; intrinsics: fx, cx.
+template <typename T>
+T ColumnOf(const T* pose, const T* intrinsics, const T* in_rig) {
+  T in_projector[3];
+  ceres::AngleAxisRotatePoint(pose, in_rig, in_projector);
+  for (int i = 0; i < 3; ++i) in_projector[i] += pose[3 + i];
+  return intrinsics[0] * in_projector[0] / in_projector[2] + intrinsics[1];
+}
+
+struct CornerResidual {
   Eigen::Vector3d point;
   double column;
-  double fx, cx;
 
   template <typename T>
-  bool operator()(const T* pose, T* residual) const {
+  bool operator()(const T* pose, const T* intrinsics, T* residual) const {
     const T in_rig[3] = {T(point.x()), T(point.y()), T(point.z())};
-    T in_projector[3];
-    ceres::AngleAxisRotatePoint(pose, in_rig, in_projector);
-    for (int i = 0; i < 3; ++i) in_projector[i] += pose[3 + i];
-    residual[0] = T(fx) * in_projector[0] / in_projector[2] + T(cx) - T(column);
+    residual[0] = ColumnOf(pose, intrinsics, in_rig) - T(column);
+    return true;
+  }
+};
+
+// plane: height, slope x, slope y of z = height + slope · (x, y).
+template <typename T>
+void OnPlane(const FlatBoardRay& ray, const T* plane, T* point) {
+  const Eigen::Vector3d& o = ray.origin_mm;
+  const Eigen::Vector3d& d = ray.direction;
+  const T t = (plane[0] + plane[1] * T(o.x()) + plane[2] * T(o.y()) - T(o.z())) /
+              (T(d.z()) - plane[1] * T(d.x()) - plane[2] * T(d.y()));
+  for (int i = 0; i < 3; ++i) point[i] = T(o[i]) + t * T(d[i]);
+}
+
+struct BoardResidual {
+  FlatBoardRay ray;
+
+  template <typename T>
+  bool operator()(const T* pose, const T* intrinsics, const T* plane, T* residual) const {
+    T point[3];
+    OnPlane(ray, plane, point);
+    residual[0] = ColumnOf(pose, intrinsics, point) - T(ray.column);
     return true;
   }
 };
@@ -68,51 +107,186 @@ void RigidToPose(const Rigid3d& rigid, double* pose) {
   for (int i = 0; i < 3; ++i) pose[3 + i] = rigid.translation()[i];
 }
 
-
-}  // namespace
-
-Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, const std::vector<ProjectorCorrespondence>& points) {
-  if (static_cast<int>(points.size()) < kMinCorrespondences) {
-    return FailedPreconditionError("projector", "decoded at " + std::to_string(points.size()) + " target corners: at least " +
-                                                    std::to_string(kMinCorrespondences) + " are needed");
+Status CheckBoards(const std::vector<FlatBoardView>& boards) {
+  if (boards.empty()) return Status::Ok();
+  double lowest = boards.front().nominal_height_mm, highest = lowest;
+  for (const FlatBoardView& board : boards) {
+    lowest = std::min(lowest, board.nominal_height_mm);
+    highest = std::max(highest, board.nominal_height_mm);
+    std::map<int, int> rays_per_camera;
+    for (const FlatBoardRay& ray : board.rays) ++rays_per_camera[ray.camera];
+    int cameras = 0;
+    for (const auto& [camera, rays] : rays_per_camera) cameras += rays >= kMinBoardRaysPerCamera;
+    if (cameras < 2) {
+      return FailedPreconditionError("projector board '" + board.name + "'",
+                                     "decoded in " + std::to_string(cameras) + " camera(s) at " + std::to_string(kMinBoardRaysPerCamera) +
+                                         " pixels or more: two must see it to place its plane");
+    }
   }
+  if (highest - lowest < kMinBoardSeparationMm) {
+    return FailedPreconditionError("projector boards", "their heights span " + std::to_string(highest - lowest) + " mm: at least " +
+                                                           std::to_string(kMinBoardSeparationMm) + " mm are needed to separate focal length from distance");
+  }
+  return Status::Ok();
+}
+
+// The fit's parameters: Ceres optimises them in place.
+struct ProjectorParameters {
   double pose[6];
-  RigidToPose(prior.proj_from_rig, pose);
+  double intrinsics[2];
+  std::vector<std::array<double, 3>> planes;
+
+  double Column(const Eigen::Vector3d& in_rig) const { return ColumnOf(pose, intrinsics, in_rig.data()); }
+  double Column(const FlatBoardRay& ray, int board) const {
+    double point[3];
+    OnPlane(ray, planes[board].data(), point);
+    return ColumnOf(pose, intrinsics, point);
+  }
+};
+
+// The standard deviations of fx and cx after a fit, from the Jacobian at the solution scaled by
+// the board columns' residual variance.
+Result<Eigen::Vector2d> IntrinsicsSigma(ceres::Problem* problem, double* intrinsics, double residual_rms) {
+  ceres::Covariance::Options options;
+  options.algorithm_type = ceres::DENSE_SVD;
+  options.null_space_rank = -1;  // the weakest directions are what this measures: keep them
+  ceres::Covariance covariance(options);
+  const std::vector<std::pair<const double*, const double*>> blocks = {{intrinsics, intrinsics}};
+  if (!covariance.Compute(blocks, problem)) return InternalError("projector fit", "no covariance of fx and cx");
+  Eigen::Matrix2d block;
+  covariance.GetCovarianceBlock(intrinsics, intrinsics, block.data());
+  return Eigen::Vector2d(Eigen::Vector2d(std::sqrt(block(0, 0)), std::sqrt(block(1, 1))) * residual_rms);
+}
+
+// Fits `parameters` to the corners and the kept board rays; with hold_intrinsics, fx and cx stay.
+// Returns the standard deviations of fx and cx when they were fitted (else zeros).
+Result<Eigen::Vector2d> Solve(const ProjectorModel& prior, const ProjectorObservations& observed, const std::vector<std::vector<bool>>& kept,
+                              bool hold_intrinsics, ProjectorParameters* parameters) {
   ceres::Problem problem;
-  for (const ProjectorCorrespondence& p : points) {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ColumnResidual, 1, 6>(
-                                 new ColumnResidual{p.point_mm, p.column, prior.K(0, 0), prior.K(0, 2)}),
-                             new ceres::CauchyLoss(1.0), pose);
+  for (const ProjectorCorrespondence& p : observed.corners) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 1, 6, 2>(new CornerResidual{p.point_mm, p.column}),
+                             new ceres::CauchyLoss(1.0), parameters->pose, parameters->intrinsics);
+  }
+  for (size_t b = 0; b < observed.boards.size(); ++b) {
+    for (size_t r = 0; r < observed.boards[b].rays.size(); ++r) {
+      if (!kept[b][r]) continue;
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BoardResidual, 1, 6, 2, 3>(new BoardResidual{observed.boards[b].rays[r]}),
+                               new ceres::CauchyLoss(1.0), parameters->pose, parameters->intrinsics, parameters->planes[b].data());
+    }
   }
   const Rigid3d rig_from_prior = prior.proj_from_rig.inverse();
   problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CentreAlongYPrior, 1, 6>(
                                new CentreAlongYPrior{rig_from_prior.translation(), rig_from_prior.linear().col(1)}),
-                           nullptr, pose);
+                           nullptr, parameters->pose);
+  if (hold_intrinsics) problem.SetParameterBlockConstant(parameters->intrinsics);
   ceres::Solver::Options options;
   options.max_num_iterations = 200;
   options.function_tolerance = 1e-12;
   options.parameter_tolerance = 1e-12;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
-  if (!summary.IsSolutionUsable()) return InternalError("projector pose fit", summary.BriefReport());
-  ProjectorCalibration result;
-  result.projector = prior;
-  result.projector.proj_from_rig = PoseToRigid(pose);
-  result.correspondences = static_cast<int>(points.size());
-  const auto column_of = [](const ProjectorModel& projector, const Eigen::Vector3d& p) {
-    const Eigen::Vector3d q = projector.proj_from_rig * p;
-    return projector.K(0, 0) * q.x() / q.z() + projector.K(0, 2);
-  };
+  if (!summary.IsSolutionUsable()) return InternalError("projector fit", summary.BriefReport());
+  if (hold_intrinsics) return Eigen::Vector2d(Eigen::Vector2d::Zero());
   double sum2 = 0;
-  for (const ProjectorCorrespondence& p : points) {
-    const double error = column_of(result.projector, p.point_mm) - p.column;
-    sum2 += error * error;
-    result.column_change_px = std::max(result.column_change_px, std::abs(column_of(result.projector, p.point_mm) - column_of(prior, p.point_mm)));
+  int count = 0;
+  for (size_t b = 0; b < observed.boards.size(); ++b) {
+    for (size_t r = 0; r < observed.boards[b].rays.size(); ++r) {
+      if (!kept[b][r]) continue;
+      const FlatBoardRay& ray = observed.boards[b].rays[r];
+      sum2 += std::pow(parameters->Column(ray, static_cast<int>(b)) - ray.column, 2);
+      ++count;
+    }
   }
-  result.rms_columns = std::sqrt(sum2 / points.size());
+  return IntrinsicsSigma(&problem, parameters->intrinsics, std::sqrt(sum2 / std::max(count, 1)));
+}
+
+// Drops the board rays the fit leaves far out (robust σ from the median absolute residual).
+void DropBoardOutliers(const ProjectorObservations& observed, const ProjectorParameters& parameters, std::vector<std::vector<bool>>* kept) {
+  for (size_t b = 0; b < observed.boards.size(); ++b) {
+    const std::vector<FlatBoardRay>& rays = observed.boards[b].rays;
+    std::vector<double> residuals;
+    for (const FlatBoardRay& ray : rays) residuals.push_back(std::abs(parameters.Column(ray, static_cast<int>(b)) - ray.column));
+    std::vector<double> sorted = residuals;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double limit = std::max(kMinBoardOutlierPx, kBoardOutlierSigmas * 1.4826 * sorted[sorted.size() / 2]);
+    for (size_t r = 0; r < rays.size(); ++r) (*kept)[b][r] = residuals[r] <= limit;
+  }
+}
+
+FlatBoardFit DescribeBoard(const FlatBoardView& board, const std::vector<bool>& kept, const ProjectorParameters& parameters, int index) {
+  const std::array<double, 3>& plane = parameters.planes[index];
+  FlatBoardFit fit;
+  fit.name = board.name;
+  fit.height_mm = plane[0];
+  fit.tilt_deg = RadToDeg(std::atan(std::hypot(plane[1], plane[2])));
+  double sum2 = 0;
+  for (size_t r = 0; r < board.rays.size(); ++r) {
+    if (!kept[r]) continue;
+    const double error = parameters.Column(board.rays[r], index) - board.rays[r].column;
+    sum2 += error * error;
+    ++fit.rays;
+  }
+  fit.rms_columns = fit.rays > 0 ? std::sqrt(sum2 / fit.rays) : 0;
+  return fit;
+}
+
+}  // namespace
+
+Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, const ProjectorObservations& observed) {
+  if (static_cast<int>(observed.corners.size()) < kMinCorrespondences) {
+    return FailedPreconditionError("projector", "decoded at " + std::to_string(observed.corners.size()) + " target corners: at least " +
+                                                    std::to_string(kMinCorrespondences) + " are needed");
+  }
+  LOOM_RETURN_IF_ERROR(CheckBoards(observed.boards));
+  ProjectorParameters parameters;
+  RigidToPose(prior.proj_from_rig, parameters.pose);
+  parameters.intrinsics[0] = prior.K(0, 0);
+  parameters.intrinsics[1] = prior.K(0, 2);
+  std::vector<std::vector<bool>> kept;
+  for (const FlatBoardView& board : observed.boards) {
+    parameters.planes.push_back({board.nominal_height_mm, 0, 0});
+    kept.emplace_back(board.rays.size(), true);
+  }
+  ProjectorCalibration result;
+  LOOM_RETURN_IF_ERROR(Solve(prior, observed, kept, observed.boards.empty(), &parameters).status());
+  if (!observed.boards.empty()) {
+    DropBoardOutliers(observed, parameters, &kept);
+    const ProjectorParameters before = parameters;
+    LOOM_ASSIGN_OR_RETURN(const Eigen::Vector2d sigma, Solve(prior, observed, kept, false, &parameters));
+    result.focal_sigma_percent = 100 * sigma[0] / parameters.intrinsics[0];
+    result.cx_sigma_px = sigma[1];
+    result.intrinsics_fitted = result.focal_sigma_percent <= kMaxFocalSigmaPercent && result.cx_sigma_px <= kMaxCxSigmaPx;
+    if (!result.intrinsics_fitted) {
+      parameters = before;
+      parameters.intrinsics[0] = prior.K(0, 0);
+      parameters.intrinsics[1] = prior.K(0, 2);
+      LOOM_RETURN_IF_ERROR(Solve(prior, observed, kept, true, &parameters).status());
+    }
+  }
+  result.projector = prior;
+  result.projector.proj_from_rig = PoseToRigid(parameters.pose);
+  result.projector.K(0, 0) = parameters.intrinsics[0];
+  result.projector.K(0, 2) = parameters.intrinsics[1];
+  result.correspondences = static_cast<int>(observed.corners.size());
+  result.focal_change_percent = 100 * (parameters.intrinsics[0] / prior.K(0, 0) - 1);
+  result.cx_change_px = parameters.intrinsics[1] - prior.K(0, 2);
+  for (size_t b = 0; b < observed.boards.size(); ++b) {
+    result.boards.push_back(DescribeBoard(observed.boards[b], kept[b], parameters, static_cast<int>(b)));
+  }
+  ProjectorParameters at_prior = parameters;
+  RigidToPose(prior.proj_from_rig, at_prior.pose);
+  at_prior.intrinsics[0] = prior.K(0, 0);
+  at_prior.intrinsics[1] = prior.K(0, 2);
+  double sum2 = 0;
+  for (const ProjectorCorrespondence& p : observed.corners) {
+    const double column = parameters.Column(p.point_mm);
+    sum2 += (column - p.column) * (column - p.column);
+    result.column_change_px = std::max(result.column_change_px, std::abs(column - at_prior.Column(p.point_mm)));
+  }
+  result.rms_columns = std::sqrt(sum2 / observed.corners.size());
   result.rotation_change_deg =
       RadToDeg(Eigen::AngleAxisd(result.projector.proj_from_rig.rotation() * prior.proj_from_rig.rotation().transpose()).angle());
-  result.centre_change_mm = (result.projector.proj_from_rig.inverse().translation() - rig_from_prior.translation()).norm();
+  result.centre_change_mm = (result.projector.proj_from_rig.inverse().translation() - prior.proj_from_rig.inverse().translation()).norm();
   return result;
 }
 
@@ -137,7 +311,19 @@ Status WriteProjectorCalibration(const fs::path& directory, const ProjectorCalib
   out << YAML::Key << "correspondences" << YAML::Value << calibration.correspondences;
   out << YAML::Key << "column_change_px" << YAML::Value << calibration.column_change_px;
   out << YAML::Key << "rotation_change_deg" << YAML::Value << calibration.rotation_change_deg;
-  out << YAML::Key << "centre_change_mm" << YAML::Value << calibration.centre_change_mm << YAML::EndMap;
+  out << YAML::Key << "centre_change_mm" << YAML::Value << calibration.centre_change_mm;
+  out << YAML::Key << "intrinsics" << YAML::Value
+      << (calibration.intrinsics_fitted ? "fx and cx fitted to the boards' columns; fy, cy the rig YAML's (columns do not see them)"
+                                        : "the rig YAML's (the scan has no board under the patterns)");
+  out << YAML::Key << "focal_change_percent" << YAML::Value << calibration.focal_change_percent;
+  out << YAML::Key << "cx_change_px" << YAML::Value << calibration.cx_change_px;
+  out << YAML::Key << "boards" << YAML::Value << YAML::BeginSeq;
+  for (const FlatBoardFit& board : calibration.boards) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << board.name << YAML::Key << "height_mm" << YAML::Value
+        << board.height_mm << YAML::Key << "tilt_deg" << YAML::Value << board.tilt_deg << YAML::Key << "rays" << YAML::Value
+        << board.rays << YAML::Key << "rms_columns" << YAML::Value << board.rms_columns << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
   internal::EmitSource(out, from);
   out << YAML::EndMap;
   return WriteFileAtomically(directory / "projector.yaml", std::string(out.c_str()) + "\n");
