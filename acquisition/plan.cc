@@ -261,6 +261,12 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
   builder.LinearitySeries();
   if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, "white tile").linear_light_mm = rig.linear_light->travel_mm / 2;
+  // The projector's patterns on the tile lying on the table and raised on the spacer: a flat
+  // board at two heights, for the projector's focal length (calibration/projector.h).
+  if (rig.white_reference.spacer_mm > 0) {
+    builder.StructuredLight(0, "white tile");
+    builder.StructuredLight(0, "white tile on spacer");
+  }
   builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), "colour chart");
   return builder.Finish();
 }

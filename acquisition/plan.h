@@ -12,8 +12,9 @@
 // | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
 // A calibration scan: dark frames, the calibration target at several turntable angles (at three
 // of them with the structured-light patterns on it), the
-// light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear light (mid-travel), the colour chart
-// through every filter.
+// light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear light (mid-travel)
+// — and, when the rig gives a spacer for it, under the projector's patterns lying on the table
+// and raised on the spacer — the colour chart through every filter.
 //
 // Steps come in capture order, grouped to keep slow moves few: one turntable angle at a time,
 // wheel slots in order, the strip swept in one direction. Every step carries an HDR bracket

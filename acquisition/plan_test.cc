@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <fstream>
 
 #include "core/config.h"
@@ -77,9 +79,17 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   EXPECT_EQ(calibration.Images(StepKind::kTarget), 8 * 2);
   EXPECT_EQ(calibration.Images(StepKind::kDark), 2);
   EXPECT_EQ(calibration.Images(StepKind::kLightProbe), (12 + 3) * 2);  // every LED and the strip at 3 positions
-  // The projector's patterns on the target at 3 angles (2 references, 9 Gray bits and their
-  // inverses, 4 phases for 320 columns).
-  EXPECT_EQ(calibration.Images(StepKind::kStructuredLight), 3 * 24 * 2);
+  // The projector's patterns (2 references, 9 Gray bits and their inverses, 4 phases for 320
+  // columns) on the target at 3 angles, then on the white tile lying and on its spacer.
+  EXPECT_EQ(calibration.Images(StepKind::kStructuredLight), (3 + 2) * 24 * 2);
+  std::map<std::string, int> patterns_on;
+  for (const Step& step : calibration.steps) patterns_on[step.object] += step.kind == StepKind::kStructuredLight;
+  EXPECT_EQ(patterns_on["target"], 3 * 24);
+  EXPECT_EQ(patterns_on["white tile"], 24);
+  EXPECT_EQ(patterns_on["white tile on spacer"], 24);
+  RigModel no_spacer = rig;
+  no_spacer.white_reference.spacer_mm = 0;
+  EXPECT_EQ(MakeCalibrationPlan(no_spacer, LoadShippedPreset("low"))->Images(StepKind::kStructuredLight), 3 * 24 * 2);
   EXPECT_GT(EstimateSeconds(plan), 0);
   // More positions, more time.
   EXPECT_GT(EstimateSeconds(*MakeMaterialPlan(rig, LoadShippedPreset("high"))), EstimateSeconds(plan));

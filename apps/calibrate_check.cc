@@ -153,7 +153,7 @@ Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::Ca
     std::cout << "projector: not compared (" << calib << " holds no projector.yaml: loom calibrate geometry)\n";
     return std::optional<calibration::Changes>();
   }
-  if (reconstruction::StructuredLightAngles(store.info().plan).empty()) {
+  if (reconstruction::StructuredLightAngles(store.info().plan, "target").empty()) {
     std::cout << "projector: not compared (the scan has no structured light on the target)\n";
     return std::optional<calibration::Changes>();
   }

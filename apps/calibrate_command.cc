@@ -108,21 +108,41 @@ Status CalibrateLights(const acquisition::CaptureStore& store, const RigModel& c
   return Status::Ok();
 }
 
-// The projector's pose from its columns at the target's corners, with the cameras just calibrated.
+void PrintProjector(const calibration::ProjectorCalibration& projector) {
+  std::cout << "projector: " << projector.correspondences << " target corners decoded, RMS " << projector.rms_columns
+            << " columns; the rig YAML's columns there off by up to " << projector.column_change_px << " px (projector.yaml)\n";
+  for (const calibration::FlatBoardFit& board : projector.boards) {
+    std::cout << "projector: " << board.name << " at " << board.height_mm << " mm (tilted " << board.tilt_deg << " deg), "
+              << board.rays << " pixels, RMS " << board.rms_columns << " columns\n";
+  }
+  if (projector.boards.empty()) {
+    std::cout << "projector: focal length and centre kept at the rig YAML's (the scan has no white tile on a spacer under the patterns)\n";
+  } else if (projector.intrinsics_fitted) {
+    std::cout << "projector: focal length " << std::showpos << projector.focal_change_percent << " % (1 sigma " << std::noshowpos
+              << projector.focal_sigma_percent << " %), centre " << std::showpos << projector.cx_change_px << " px (1 sigma "
+              << std::noshowpos << projector.cx_sigma_px << " px) against the rig YAML\n";
+  } else {
+    std::cout << "projector: focal length and centre kept at the rig YAML's: the boards pin them down only to " << projector.focal_sigma_percent
+              << " % and " << projector.cx_sigma_px << " px (1 sigma; the cameras see too little of the projector's field)\n";
+  }
+}
+
+// The projector's pose from its columns at the target's corners, and its focal length and centre
+// from the white tile at two heights, with the cameras just calibrated.
 Status CalibrateProjectorPose(const acquisition::CaptureStore& store, const RigModel& calibrated, const CalibrationTargetModel& target,
                               const calibration::TargetPlacement& placement, const std::string& out) {
   const std::string scan_dir = store.directory().string();
-  if (!calibrated.projector || reconstruction::StructuredLightAngles(store.info().plan).empty()) {
+  if (!calibrated.projector || reconstruction::StructuredLightAngles(store.info().plan, "target").empty()) {
     std::cout << "projector: not calibrated (the scan has no structured light on the target)\n";
     return Status::Ok();
   }
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
-                        reconstruction::TargetCornerColumns(scan, target, placement));
-  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, {corners, {}}));
+  calibration::ProjectorObservations observed;
+  LOOM_ASSIGN_OR_RETURN(observed.corners, reconstruction::TargetCornerColumns(scan, target, placement));
+  LOOM_ASSIGN_OR_RETURN(observed.boards, reconstruction::FlatBoardRays(scan));
+  LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, observed));
   LOOM_RETURN_IF_ERROR(calibration::WriteProjectorCalibration(out, projector, scan_dir));
-  std::cout << "projector: " << projector.correspondences << " target corners decoded, RMS " << projector.rms_columns
-            << " columns; the rig YAML's columns there off by up to " << projector.column_change_px << " px (projector.yaml)\n";
+  PrintProjector(projector);
   return Status::Ok();
 }
 

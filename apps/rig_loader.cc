@@ -15,11 +15,12 @@ namespace {
 //     cameras: [{name: cam1, move_mm: [1, -2, 0.5], rotate_deg: [0.3, 0, -0.2], sensitivity_scale: 0.9, vignetting: 0.2}]
 //     leds: [{index: 3, intensity_scale: 0.85, move_mm: [5, -3, 2]}]
 //     filter_wheels: [{name: wheel0, slot: 2, shift_nm: 8}]
-//     projector: {move_mm: [2, 0, -1], rotate_deg: [0.5, 0, 0]}
+//     projector: {move_mm: [2, 0, -1], rotate_deg: [0.5, 0, 0], focal_scale: 1.03, shift_cx_px: 4}
 //     linear_light: {turn_deg: 1.5}
 // move_mm shifts a camera's, the projector's or an LED's centre (rig frame); rotate_deg turns a
 // camera or the projector about its own x, y, z; the scales multiply the nominal sensitivity and
-// intensity; shift_nm moves a filter's band; turn_deg turns the linear light's arm about its
+// intensity (focal_scale the projector's focal length); shift_cx_px moves the projector's
+// principal point along its columns; shift_nm moves a filter's band; turn_deg turns the linear light's arm about its
 // sweep axis at every carriage position (an offset of its start and end angles).
 
 // A device's pose moved by `move_mm` (its centre, rig frame) and turned by `rotate_deg` (about
@@ -100,6 +101,13 @@ RigModel AsBuilt(const ConfigNode& root, RigModel model) {
   if (const std::optional<ConfigNode> node = as_built->OptionalChild("projector")) {
     if (model.projector) {
       model.projector->proj_from_rig = Moved(*node, model.projector->proj_from_rig);
+      double focal_scale = 1, shift_cx_px = 0;
+      node->Optional("focal_scale", &focal_scale);
+      node->Optional("shift_cx_px", &shift_cx_px);
+      if (!(focal_scale > 0)) node->AddError("focal_scale", "must be > 0");
+      model.projector->K(0, 0) *= focal_scale;
+      model.projector->K(1, 1) *= focal_scale;
+      model.projector->K(0, 2) += shift_cx_px;
     } else {
       node->AddError("move_mm", "the geometry has no projector");
     }
@@ -159,12 +167,14 @@ Status PlaceSimObject(const LoadedRig& loaded, const std::string& object) {
     spec.kind = "target";
   } else if (object == "white tile") {
     spec.kind = "white-tile";
+  } else if (object == "white tile on spacer") {
+    spec.kind = "white-tile-on-spacer";
   } else if (object == "colour chart") {
     spec.kind = "colour-chart";
   } else if (object == "chrome sphere") {
     spec.kind = "chrome-sphere";
   } else if (object != "sample") {
-    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, colour chart, chrome sphere");
+    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, white tile on spacer, colour chart, chrome sphere");
   }
   LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
   const std::shared_ptr<const sim::Scene> current = loaded.world->scene();

@@ -315,6 +315,8 @@ Status WriteProjectorCalibration(const fs::path& directory, const ProjectorCalib
   out << YAML::Key << "intrinsics" << YAML::Value
       << (calibration.intrinsics_fitted ? "fx and cx fitted to the boards' columns; fy, cy the rig YAML's (columns do not see them)"
                                         : "the rig YAML's (the scan has no board under the patterns)");
+  out << YAML::Key << "focal_sigma_percent" << YAML::Value << calibration.focal_sigma_percent;
+  out << YAML::Key << "cx_sigma_px" << YAML::Value << calibration.cx_sigma_px;
   out << YAML::Key << "focal_change_percent" << YAML::Value << calibration.focal_change_percent;
   out << YAML::Key << "cx_change_px" << YAML::Value << calibration.cx_change_px;
   out << YAML::Key << "boards" << YAML::Value << YAML::BeginSeq;

@@ -2,7 +2,10 @@
 // The reference objects of a calibration scan (besides the geometric target), as the rig YAML's
 // `geometry:` describes them:
 //
-//   white_reference: {albedo: 0.95}   # a diffuse tile (Spectralon-like), its certified albedo
+//   white_reference: {albedo: 0.95, spacer_mm: 30}   # a diffuse tile (Spectralon-like), its certified
+//                                     # albedo; spacer_mm: a calibration also shows the projector's
+//                                     # patterns on it lying on the table and raised on a spacer
+//                                     # about this thick (its focal length; absent: no spacer)
 //   colour_chart: {patch_mm: 3.2}     # a ColorChecker Classic of 6 × 4 patches, centred
 //   light_probe: {radius_mm: 10}      # a chrome sphere (for the lights' directions)
 //
@@ -18,6 +21,7 @@ namespace loom {
 
 struct WhiteReferenceModel {
   double albedo = 0.95;
+  double spacer_mm = 0;  // 0: none
 };
 
 struct LightProbeModel {

@@ -242,6 +242,8 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
   if (std::optional<ConfigNode> node = geometry.OptionalChild("white_reference")) {
     node->Required("albedo", &rig.white_reference.albedo);
     if (!(rig.white_reference.albedo > 0 && rig.white_reference.albedo <= 1)) node->AddError("albedo", "must be in (0, 1]");
+    node->Optional("spacer_mm", &rig.white_reference.spacer_mm);
+    if (!(rig.white_reference.spacer_mm >= 0)) node->AddError("spacer_mm", "must be >= 0");
   }
   if (std::optional<ConfigNode> node = geometry.OptionalChild("colour_chart")) {
     node->Required("patch_mm", &rig.colour_chart.patch_mm);

@@ -41,22 +41,24 @@ std::optional<double> ColumnAt(const Image& columns, const Eigen::Vector2d& pixe
 
 }  // namespace
 
-std::vector<double> StructuredLightAngles(const acquisition::Plan& plan) {
+std::vector<double> StructuredLightAngles(const acquisition::Plan& plan, const std::string& object) {
   std::vector<double> angles;
   for (const Step& step : plan.steps) {
-    if (step.kind == StepKind::kStructuredLight && std::find(angles.begin(), angles.end(), step.turntable_deg) == angles.end()) {
+    if (step.kind == StepKind::kStructuredLight && step.object == object &&
+        std::find(angles.begin(), angles.end(), step.turntable_deg) == angles.end()) {
       angles.push_back(step.turntable_deg);
     }
   }
   return angles;
 }
 
-Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, double turntable_deg) {
+Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, const std::string& object,
+                                double turntable_deg) {
   const RigModel& rig = scan.rig();
   if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
   std::map<std::string, Image> patterns;
   for (const Step& step : scan.plan().steps) {
-    if (step.kind != StepKind::kStructuredLight || step.turntable_deg != turntable_deg) continue;
+    if (step.kind != StepKind::kStructuredLight || step.object != object || step.turntable_deg != turntable_deg) continue;
     LOOM_ASSIGN_OR_RETURN(calibration::RadianceView view, scan.View(step.index, camera.name));
     patterns[step.projector_pattern] = std::move(view.radiance);
   }
@@ -77,10 +79,10 @@ Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(co
   const Eigen::Matrix3d yaw = Eigen::AngleAxisd(DegToRad(placement.yaw_deg), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d offset(placement.offset_mm.x(), placement.offset_mm.y(), 0);
   std::vector<calibration::ProjectorCorrespondence> correspondences;
-  for (double angle : StructuredLightAngles(scan.plan())) {
+  for (double angle : StructuredLightAngles(scan.plan(), "target")) {
     const Rigid3d rig_from_sample = rig.turntable.RigFromSample(angle);
     for (const CameraModel& camera : rig.cameras) {
-      LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, angle));
+      LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, "target", angle));
       for (const Eigen::Vector3d& corner : target.CornersInBoard()) {
         const Eigen::Vector3d in_rig = rig_from_sample * (yaw * (target.SampleFromBoard() * corner) + offset);
         Eigen::Vector2d pixel;
@@ -90,6 +92,39 @@ Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(co
     }
   }
   return correspondences;
+}
+
+std::vector<std::pair<std::string, double>> FlatBoardObjects(const acquisition::Plan& plan, const RigModel& rig) {
+  const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on spacer", rig.white_reference.spacer_mm}};
+  for (const auto& [object, height] : boards) {
+    if (StructuredLightAngles(plan, object).empty()) return {};
+  }
+  return boards;
+}
+
+Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration::ScanRadiance& scan, int max_rays_per_camera) {
+  const RigModel& rig = scan.rig();
+  std::vector<calibration::FlatBoardView> views;
+  for (const auto& [object, height] : FlatBoardObjects(scan.plan(), rig)) {
+    const double angle = StructuredLightAngles(scan.plan(), object).front();
+    calibration::FlatBoardView view{object, height, {}};
+    for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+      const CameraModel& camera = rig.cameras[c];
+      LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, object, angle));
+      const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(double(camera.width) * camera.height / max_rays_per_camera))));
+      // The board lies still at `angle`; rays in the rig frame are what the fit needs.
+      const Rigid3d rig_from_cam = camera.cam_from_rig.inverse();
+      for (int y = stride / 2; y < camera.height; y += stride) {
+        for (int x = stride / 2; x < camera.width; x += stride) {
+          const float column = columns.at(0, y, x);
+          if (std::isnan(column)) continue;
+          view.rays.push_back({c, rig_from_cam.translation(), rig_from_cam.rotation() * camera.Unproject({x, y}), column});
+        }
+      }
+    }
+    views.push_back(std::move(view));
+  }
+  return views;
 }
 
 }  // namespace loom::reconstruction

@@ -1,10 +1,13 @@
 #pragma once
 // The projector columns a scan's structured-light steps encode (structured_light.h), decoded per
-// camera and turntable angle; and, for the projector's calibration (calibration/projector.h),
-// the decoded column at each corner of the calibration target where the calibrated cameras see
-// it. The target's black squares are too dark to decode, so a corner's column comes from a
-// plane fitted to the decodable pixels around it (its white squares).
+// camera, object and turntable angle; and, for the projector's calibration
+// (calibration/projector.h), the decoded column at each corner of the calibration target where
+// the calibrated cameras see it, and the rays of the camera pixels that saw the white tile under
+// the patterns. The target's black squares are too dark to decode, so a corner's column comes
+// from a plane fitted to the decodable pixels around it (its white squares).
 
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "calibration/geometry.h"
@@ -14,17 +17,29 @@
 
 namespace loom::reconstruction {
 
-// The turntable angles at which the scan's plan has structured-light steps, in plan order.
-std::vector<double> StructuredLightAngles(const acquisition::Plan& plan);
+// The turntable angles at which the scan's plan has structured-light steps on `object` (the
+// plan's: "sample", "target", ...), in plan order.
+std::vector<double> StructuredLightAngles(const acquisition::Plan& plan, const std::string& object);
 
-// The structured-light steps at `turntable_deg`, decoded in `camera`: channel "column" (NaN
-// where undecodable). A missing pattern, or too few phase patterns, is an error naming it.
-Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, double turntable_deg);
+// The structured-light steps on `object` at `turntable_deg`, decoded in `camera`: channel
+// "column" (NaN where undecodable). A missing pattern, or too few phase patterns, is an error
+// naming it.
+Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, const std::string& object,
+                                double turntable_deg);
 
 // Every camera, every structured-light angle: the target's corners (placed as loom calibrate
 // geometry found it; the scan's rig carries that calibration) with their decoded columns.
 Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(const calibration::ScanRadiance& scan,
                                                                               const CalibrationTargetModel& target,
                                                                               const calibration::TargetPlacement& placement);
+
+// The objects of a calibration scan that are flat boards under the patterns: the white tile on
+// the table and on its spacer (acquisition/plan.h), with their nominal heights; empty when the
+// scan has no spacer step.
+std::vector<std::pair<std::string, double>> FlatBoardObjects(const acquisition::Plan& plan, const RigModel& rig);
+
+// Every camera's decoded pixels on each of those boards (at most max_rays_per_camera, on a
+// regular grid of pixels) as rays in the rig frame (the scan's rig carries the calibration).
+Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration::ScanRadiance& scan, int max_rays_per_camera = 4000);
 
 }  // namespace loom::reconstruction

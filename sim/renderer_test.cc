@@ -59,6 +59,19 @@ TEST(RendererTest, WhiteLambertianHasTheAnalyticRadiance) {
   EXPECT_GT(radiance.at(0, 50, 70), radiance.at(0, 50, 30));  // nearer the LED
 }
 
+// A tile raised 30 mm: near-vertical rays find its top to within the shadow test's tolerance,
+// so it is lit (not shadowed by itself) with the analytic radiance at its height.
+TEST(RendererTest, ARaisedTileIsLitAtItsHeight) {
+  const Scene scene(TestRig(), WhiteTileOnSpacer({128, 128, 0.5}, 1.0, 30));
+  const SceneState state{.leds = {{0, 1000}}};
+  const Image radiance = scene.RenderRadiance(0, state, {.supersampling = 1});
+  const LedModel& led = scene.rig().leds[0];
+  // Pixel (50, 50) looks straight down at the origin; (70, 50) meets z = 30 at x = 10 · 470/500.
+  for (const auto& [column, p] : {std::pair{50, Eigen::Vector3d(0, 0, 30)}, std::pair{70, Eigen::Vector3d(9.4, 0, 30)}}) {
+    EXPECT_NEAR(radiance.at(0, 50, column), AnalyticRadiance(led, p), 1e-4 * AnalyticRadiance(led, p)) << column;
+  }
+}
+
 TEST(RendererTest, InverseSquareAndAngularFalloff) {
   RigModel rig = TestRig();
   const Eigen::Vector3d p(0, 0, 0);

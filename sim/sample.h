@@ -4,8 +4,9 @@
 //
 //   sample: {kind: fabric, seed: 1, size_px: 256, pixel_mm: 0.1}
 //
-// kinds: fabric (procedural, by seed), white-tile, chessboard, colour-chart, and target and
-// chrome-sphere (the rig's calibration target and light probe, their sizes their own).
+// kinds: fabric (procedural, by seed), white-tile (and white-tile-on-spacer, raised by the rig's
+// white_reference spacer_mm), chessboard, colour-chart, and target and chrome-sphere (the rig's
+// calibration target and light probe, their sizes their own).
 
 #include <cstdint>
 #include <string>
@@ -23,7 +24,7 @@ struct SampleSpec {
   double pixel_mm = 0.1;
   std::optional<CalibrationTargetModel> target;  // the rig's, for kind "target"
   ColourChartModel chart;                        // the rig's, for kind "colour-chart"
-  WhiteReferenceModel white;                     // the rig's, for kind "white-tile"
+  WhiteReferenceModel white;                     // the rig's, for kinds "white-tile", "white-tile-on-spacer"
   LightProbeModel probe;                         // the rig's, for kind "chrome-sphere"
 };
 

@@ -51,6 +51,17 @@ Material WhiteTile(const GridOptions& grid, double albedo) {
   return FlatLambertian("white tile", grid, [&](double, double) -> Eigen::Vector3d { return Eigen::Vector3d::Constant(albedo); });
 }
 
+Material WhiteTileOnSpacer(const GridOptions& grid, double albedo, double spacer_mm) {
+  Material m = WhiteTile(grid, albedo);
+  m.name = "white tile on spacer";
+  const int height = *m.maps.FindChannel("height");
+  for (int y = 0; y < m.height(); ++y) {
+    for (int x = 0; x < m.width(); ++x) m.maps.at(height, y, x) = static_cast<float>(spacer_mm);
+  }
+  m.provenance = {{"loom.generator", std::string("sim::WhiteTileOnSpacer")}, {"loom.spacer_mm", std::to_string(spacer_mm)}};
+  return m;
+}
+
 Material Chessboard(int inner_cols, int inner_rows, double square_mm, const GridOptions& grid) {
   const double half_w = (inner_cols + 1) * square_mm / 2;
   const double half_h = (inner_rows + 1) * square_mm / 2;

@@ -6,12 +6,13 @@
 // | Uniform          | one WardParams everywhere, flat                   | renderer tests (white        |
 // |                  |                                                   | Lambertian, uniform glossy)  |
 // | WhiteTile        | Lambertian, grey (0.95: a Spectralon-like tile)   | flat field, LED intensities  |
+// | WhiteTileOnSpacer| the same, raised on a spacer (its edge a step)    | the projector's focal length |
 // | Chessboard       | black/white squares, flat, Lambertian             | geometric calibration        |
 // | ColourChart      | the 24 patches of a ColorChecker, Lambertian      | the filters' colour weights  |
 // | CalibrationTarget| a chessboard on a wedge (the rig's target model)  | loom calibrate geometry      |
 // | ChromeSphere     | a mirror-like sphere resting on the table         | the lights' directions       |
 //
-// All but the target and the sphere flat (height 0, n_s = z), centred on the sample like every material.
+// All but the target, the sphere and the raised tile flat (height 0, n_s = z), centred on the sample like every material.
 
 #include "core/rig_model.h"
 #include "fitting/model/ward_gd10.h"
@@ -28,6 +29,7 @@ struct GridOptions {
 Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params,
                          const GridOptions& grid);
 Material WhiteTile(const GridOptions& grid, double albedo = WhiteReferenceModel{}.albedo);
+Material WhiteTileOnSpacer(const GridOptions& grid, double albedo, double spacer_mm);
 // A board of (inner_cols + 1) × (inner_rows + 1) squares of square_mm, centred, on white.
 Material Chessboard(int inner_cols, int inner_rows, double square_mm, const GridOptions& grid);
 // The chart of core/reference_objects.h (its albedos and layout), centred.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/sample.h"
 
 namespace loom::sim {
 namespace {
@@ -45,6 +46,21 @@ TEST(TestMaterialsTest, WhiteTileAndUniformAreFlat) {
   EXPECT_EQ(p.a_s, Eigen::Vector3d::Zero());
   EXPECT_EQ(p.n_s, Eigen::Vector3d::UnitZ());
   EXPECT_EQ(tile.maps.at(*tile.maps.ChannelIndex("height"), 3, 3), 0.0f);
+}
+
+TEST(TestMaterialsTest, TheTileOnItsSpacerIsTheTileRaised) {
+  const Material raised = WhiteTileOnSpacer({.width_px = 16, .height_px = 16, .pixel_mm = 1.0}, 0.95, 30);
+  EXPECT_TRUE(At(raised, 3, -2).a_d.isApprox(Eigen::Vector3d::Constant(0.95), 1e-6));
+  EXPECT_EQ(raised.maps.at(*raised.maps.ChannelIndex("height"), 3, 3), 30.0f);
+  SampleSpec spec;
+  spec.kind = "white-tile-on-spacer";
+  const Result<Material> without_spacer = MakeSample(spec);
+  ASSERT_FALSE(without_spacer.ok());
+  EXPECT_NE(without_spacer.status().ToString().find("spacer_mm"), std::string::npos) << without_spacer.status().ToString();
+  spec.white.spacer_mm = 30;
+  const Result<Material> made = MakeSample(spec);
+  ASSERT_TRUE(made.ok()) << made.status().ToString();
+  EXPECT_EQ(made->name, "white tile on spacer");
 }
 
 }  // namespace
