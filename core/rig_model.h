@@ -70,6 +70,18 @@ struct FilterModel {
   // What a camera records of an RGB albedo through this slot, as radiometric calibration
   // measured it on the colour chart (calibration/radiometry.h); unset: the spectral model's.
   std::optional<Eigen::Vector3d> measured_weights;
+
+  static FilterModel Open() {
+    FilterModel slot;
+    slot.open = true;
+    return slot;
+  }
+  static FilterModel BandPass(double center_nm, double fwhm_nm) {
+    FilterModel slot;
+    slot.center_nm = center_nm;
+    slot.fwhm_nm = fwhm_nm;
+    return slot;
+  }
 };
 
 struct FilterWheelModel {

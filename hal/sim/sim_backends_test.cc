@@ -37,7 +37,7 @@ RigModel SmallRig() {
     led.axis = -led.position_mm.normalized();
     rig.leds.push_back(led);
   }
-  rig.filter_wheels.push_back({"wheel0", 1, {{false, 450, 40, 0.9}, {false, 650, 40, 0.9}}});
+  rig.filter_wheels.push_back({"wheel0", 1, {FilterModel::BandPass(450, 40), FilterModel::BandPass(650, 40)}});
   rig.linear_light = LinearLightModel{};
   ProjectorModel projector;
   projector.width = 32;
