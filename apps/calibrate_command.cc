@@ -120,10 +120,10 @@ void PrintProjector(const calibration::ProjectorCalibration& projector) {
   } else if (projector.intrinsics_fitted) {
     std::cout << "projector: focal length " << std::showpos << projector.focal_change_percent << " % (1 sigma " << std::noshowpos
               << projector.focal_sigma_percent << " %), centre " << std::showpos << projector.cx_change_px << " px (1 sigma "
-              << std::noshowpos << projector.cx_sigma_px << " px) against the rig YAML\n";
+              << std::noshowpos << projector.cx_sigma_px << " px) against the rig YAML; the sigmas count the decoding noise only\n";
   } else {
     std::cout << "projector: focal length and centre kept at the rig YAML's: the boards pin them down only to " << projector.focal_sigma_percent
-              << " % and " << projector.cx_sigma_px << " px (1 sigma; the cameras see too little of the projector's field)\n";
+              << " % and " << projector.cx_sigma_px << " px (1 sigma; the cameras see too little of the projector's field, 0.1 % and 0.5 px needed)\n";
   }
 }
 

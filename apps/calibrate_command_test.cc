@@ -6,7 +6,7 @@
 // turned 1.5°. Calibration starts from
 // the YAML and must find the rig as built. Then loom calibrate check on the same scan: the fresh calibration holds, while one stored before
 // the side camera was knocked, LED 3 dimmed, LED 4 moved, the projector and the linear light turned is named for recalibration. Also: a missing frame
-// is named. One test: the calibration scan takes about 45 s.
+// is named. One test: the calibration scan takes about 2 min.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -126,6 +126,8 @@ void ExpectTheProjectorAsBuilt(const fs::path& dir) {
   }
   std::cout << "projector columns in the sample volume: the rig YAML off by up to " << worst_nominal << " px, calibrated "
             << worst_found << " px\n";
+  // Measured (2026-11-22): the rig YAML off by up to 4.8 px, calibrated 0.079 px (210 corners
+  // decoded, RMS 0.016 columns; the boards at -0.007 and 30.019 mm, RMS 0.011 and 0.015).
   EXPECT_LT(worst_found, 0.5);
   EXPECT_GT(worst_nominal, 2);
   // tac7-mini's cameras see too little of the projector's field to pin its focal length down
@@ -230,7 +232,7 @@ void ExpectTheFreshCalibrationHoldsAndAStaleOneDoesNot(const fs::path& dir) {
   EXPECT_NEAR(drifted["cameras"]["cam1"]["rotation_deg"].get<double>(), 0.43, 0.15) << drifted.dump(2);
   EXPECT_NE(stale.output.find("projector columns moved up to"), std::string::npos) << stale.output;
   ASSERT_EQ(drifted["projector"]["exceeded"].size(), 1u) << drifted.dump(2);
-  // The rig YAML's projector is 7.7 px off in the sample volume (ExpectTheProjectorAsBuilt).
+  // The rig YAML's projector is 4.8 px off in the sample volume (ExpectTheProjectorAsBuilt).
   EXPECT_GT(drifted["projector"]["change"]["projector columns"].get<double>(), 2) << drifted.dump(2);
   EXPECT_NE(stale.output.find("linear light turned 1."), std::string::npos) << stale.output;
   ASSERT_EQ(drifted["linear_light"]["exceeded"].size(), 1u) << drifted.dump(2);

@@ -13,6 +13,7 @@
 #include "calibration/internal/provenance.h"
 #include "core/config.h"
 #include "core/file_io.h"
+#include "core/log.h"
 
 namespace loom::calibration {
 namespace {
@@ -29,8 +30,9 @@ constexpr int kMinBoardRaysPerCamera = 200;
 constexpr double kBoardOutlierSigmas = 4;
 constexpr double kMinBoardOutlierPx = 0.2;
 // The boards' fx and cx replace the prior's only when they pin them down this well (1σ). A
-// board seen over a small part of the projector's field cannot: on tac7-mini (cameras seeing
-// 32 mm of the projector's 210 mm field) σ is 1 % and 6 px; on tac7 (150 mm) 0.01 % and 0.2 px.
+// board seen over a small part of the projector's field cannot: on the simulated tac7-mini
+// (cameras seeing 32 mm of the projector's 210 mm field) σ is 0.16 % and 1.2 px; with cameras
+// seeing 96 mm, 0.019 % and 0.08 px (projector.h).
 constexpr double kMaxFocalSigmaPercent = 0.1;
 constexpr double kMaxCxSigmaPx = 0.5;
 
@@ -272,6 +274,11 @@ Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, con
   result.cx_change_px = parameters.intrinsics[1] - prior.K(0, 2);
   for (size_t b = 0; b < observed.boards.size(); ++b) {
     result.boards.push_back(DescribeBoard(observed.boards[b], kept[b], parameters, static_cast<int>(b)));
+    const double off_mm = result.boards.back().height_mm - observed.boards[b].nominal_height_mm;
+    if (std::abs(off_mm) > kMinBoardSeparationMm) {
+      LOOM_LOG(Warning) << "projector board '" << observed.boards[b].name << "' found at " << result.boards.back().height_mm
+                        << " mm, not near its nominal " << observed.boards[b].nominal_height_mm << " mm: was it placed as asked?";
+    }
   }
   ProjectorParameters at_prior = parameters;
   RigidToPose(prior.proj_from_rig, at_prior.pose);
@@ -314,7 +321,8 @@ Status WriteProjectorCalibration(const fs::path& directory, const ProjectorCalib
   out << YAML::Key << "centre_change_mm" << YAML::Value << calibration.centre_change_mm;
   out << YAML::Key << "intrinsics" << YAML::Value
       << (calibration.intrinsics_fitted ? "fx and cx fitted to the boards' columns; fy, cy the rig YAML's (columns do not see them)"
-                                        : "the rig YAML's (the scan has no board under the patterns)");
+          : calibration.boards.empty() ? "the rig YAML's (the scan has no white tile on a spacer under the patterns)"
+                                       : "the rig YAML's (the boards do not pin fx and cx down: the cameras see too little of the projector's field)");
   out << YAML::Key << "focal_sigma_percent" << YAML::Value << calibration.focal_sigma_percent;
   out << YAML::Key << "cx_sigma_px" << YAML::Value << calibration.cx_sigma_px;
   out << YAML::Key << "focal_change_percent" << YAML::Value << calibration.focal_change_percent;

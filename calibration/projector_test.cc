@@ -146,6 +146,22 @@ TEST(ProjectorTest, HoldsTheFocalLengthWhereTheBoardsCoverTooLittleOfTheField) {
   EXPECT_LT(worst_found, 0.05);
 }
 
+// The operator left the spacer out: both boards lie on the table, nothing separates focal length
+// from distance, and the lens stays the prior's.
+TEST(ProjectorTest, ASpacerLeftOutHoldsTheLens) {
+  RigModel rig = loom::testing::ShippedRigModel("tac7");
+  rig.calibration_target = loom::testing::ShippedRigModel("tac7-mini").calibration_target;
+  const ProjectorModel built = WithOtherLens(Knocked(*rig.projector));
+  const ProjectorObservations observed{Corners(rig, built, 0.05),
+                                       {Board(rig, built, "white tile", 0, 0.2, {0, 0}, 0.05, 24, 63),
+                                        Board(rig, built, "white tile on spacer", 30, 0.3, {0, 0}, 0.05, 24, 63)}};
+  const Result<ProjectorCalibration> found = CalibrateProjector(*rig.projector, observed);
+  ASSERT_TRUE(found.ok()) << found.status().ToString();
+  PrintBoards(*found);
+  EXPECT_FALSE(found->intrinsics_fitted);
+  EXPECT_NEAR(found->boards[1].height_mm, 0.3, 0.05);
+}
+
 TEST(ProjectorTest, BoardsThatCannotSeparateFocalLengthAreAnErrorNamingThem) {
   const RigModel rig = loom::testing::ShippedRigModel("tac7-mini");
   const ProjectorModel built = WithOtherLens(Knocked(*rig.projector));
