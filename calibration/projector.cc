@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include <ceres/ceres.h>
@@ -147,14 +148,15 @@ struct ProjectorParameters {
 };
 
 // The standard deviations of fx and cx after a fit, from the Jacobian at the solution scaled by
-// the board columns' residual variance.
+// the board columns' residual variance; infinite where the Jacobian is rank deficient (boards at
+// one height: nothing separates focal length from distance).
 Result<Eigen::Vector2d> IntrinsicsSigma(ceres::Problem* problem, double* intrinsics, double residual_rms) {
   ceres::Covariance::Options options;
   options.algorithm_type = ceres::DENSE_SVD;
-  options.null_space_rank = -1;  // the weakest directions are what this measures: keep them
+  options.null_space_rank = 0;  // the weak directions are what this measures: drop none
   ceres::Covariance covariance(options);
   const std::vector<std::pair<const double*, const double*>> blocks = {{intrinsics, intrinsics}};
-  if (!covariance.Compute(blocks, problem)) return InternalError("projector fit", "no covariance of fx and cx");
+  if (!covariance.Compute(blocks, problem)) return Eigen::Vector2d(Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()));
   Eigen::Matrix2d block;
   covariance.GetCovarianceBlock(intrinsics, intrinsics, block.data());
   return Eigen::Vector2d(Eigen::Vector2d(std::sqrt(block(0, 0)), std::sqrt(block(1, 1))) * residual_rms);

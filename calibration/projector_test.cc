@@ -159,6 +159,8 @@ TEST(ProjectorTest, ASpacerLeftOutHoldsTheLens) {
   ASSERT_TRUE(found.ok()) << found.status().ToString();
   PrintBoards(*found);
   EXPECT_FALSE(found->intrinsics_fitted);
+  EXPECT_GT(found->focal_sigma_percent, 0.1);
+  EXPECT_EQ(found->projector.K, rig.projector->K);
   EXPECT_NEAR(found->boards[1].height_mm, 0.3, 0.05);
 }
 
