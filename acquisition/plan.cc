@@ -265,7 +265,7 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   // board at two heights, for the projector's focal length (calibration/projector.h).
   if (rig.white_reference.spacer_mm > 0) {
     builder.StructuredLight(0, "white tile");
-    builder.StructuredLight(0, "white tile on spacer");
+    builder.StructuredLight(0, "white tile on its spacer");
   }
   builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), "colour chart");
   return builder.Finish();

@@ -86,7 +86,7 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   for (const Step& step : calibration.steps) patterns_on[step.object] += step.kind == StepKind::kStructuredLight;
   EXPECT_EQ(patterns_on["target"], 3 * 24);
   EXPECT_EQ(patterns_on["white tile"], 24);
-  EXPECT_EQ(patterns_on["white tile on spacer"], 24);
+  EXPECT_EQ(patterns_on["white tile on its spacer"], 24);
   RigModel no_spacer = rig;
   no_spacer.white_reference.spacer_mm = 0;
   EXPECT_EQ(MakeCalibrationPlan(no_spacer, LoadShippedPreset("low"))->Images(StepKind::kStructuredLight), 3 * 24 * 2);

@@ -167,14 +167,14 @@ Status PlaceSimObject(const LoadedRig& loaded, const std::string& object) {
     spec.kind = "target";
   } else if (object == "white tile") {
     spec.kind = "white-tile";
-  } else if (object == "white tile on spacer") {
+  } else if (object == "white tile on its spacer") {
     spec.kind = "white-tile-on-spacer";
   } else if (object == "colour chart") {
     spec.kind = "colour-chart";
   } else if (object == "chrome sphere") {
     spec.kind = "chrome-sphere";
   } else if (object != "sample") {
-    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, white tile on spacer, colour chart, chrome sphere");
+    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, white tile on its spacer, colour chart, chrome sphere");
   }
   LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
   const std::shared_ptr<const sim::Scene> current = loaded.world->scene();

@@ -57,7 +57,7 @@ struct FlatBoardRay {
 // One placement of the flat board: its plane z = height + slope · (x, y) in the rig frame starts
 // at nominal_height_mm, level.
 struct FlatBoardView {
-  std::string name;  // the plan's object ("white tile on spacer"), for messages and reports
+  std::string name;  // the plan's object ("white tile on its spacer"), for messages and reports
   double nominal_height_mm = 0;
   std::vector<FlatBoardRay> rays;
 };

@@ -105,7 +105,7 @@ TEST(ProjectorTest, FindsTheFocalLengthAndCentreFromABoardAtTwoHeights) {
   const ProjectorModel built = WithOtherLens(Knocked(*rig.projector));
   const ProjectorObservations observed{Corners(rig, built, 0.05),
                                        {Board(rig, built, "white tile", 0, 0.2, {0.003, -0.002}, 0.05, 24, 63),
-                                        Board(rig, built, "white tile on spacer", 30, 30.4, {-0.002, 0.004}, 0.05, 24, 63)}};
+                                        Board(rig, built, "white tile on its spacer", 30, 30.4, {-0.002, 0.004}, 0.05, 24, 63)}};
   const Result<ProjectorCalibration> found = CalibrateProjector(*rig.projector, observed);
   ASSERT_TRUE(found.ok()) << found.status().ToString();
   ASSERT_EQ(found->boards.size(), 2u);
@@ -130,7 +130,7 @@ TEST(ProjectorTest, HoldsTheFocalLengthWhereTheBoardsCoverTooLittleOfTheField) {
   const Result<ProjectorCalibration> corners_only = CalibrateProjector(*rig.projector, observed);
   ASSERT_TRUE(corners_only.ok()) << corners_only.status().ToString();
   observed.boards = {Board(rig, built, "white tile", 0, 0.2, {0.003, -0.002}, 0.05),
-                     Board(rig, built, "white tile on spacer", 30, 30.4, {-0.002, 0.004}, 0.05)};
+                     Board(rig, built, "white tile on its spacer", 30, 30.4, {-0.002, 0.004}, 0.05)};
   const Result<ProjectorCalibration> found = CalibrateProjector(*rig.projector, observed);
   ASSERT_TRUE(found.ok()) << found.status().ToString();
   ASSERT_EQ(found->boards.size(), 2u);
@@ -154,7 +154,7 @@ TEST(ProjectorTest, ASpacerLeftOutHoldsTheLens) {
   const ProjectorModel built = WithOtherLens(Knocked(*rig.projector));
   const ProjectorObservations observed{Corners(rig, built, 0.05),
                                        {Board(rig, built, "white tile", 0, 0.2, {0, 0}, 0.05, 24, 63),
-                                        Board(rig, built, "white tile on spacer", 30, 0.3, {0, 0}, 0.05, 24, 63)}};
+                                        Board(rig, built, "white tile on its spacer", 30, 0.3, {0, 0}, 0.05, 24, 63)}};
   const Result<ProjectorCalibration> found = CalibrateProjector(*rig.projector, observed);
   ASSERT_TRUE(found.ok()) << found.status().ToString();
   PrintBoards(*found);
@@ -168,15 +168,15 @@ TEST(ProjectorTest, BoardsThatCannotSeparateFocalLengthAreAnErrorNamingThem) {
   const RigModel rig = loom::testing::ShippedRigModel("tac7-mini");
   const ProjectorModel built = WithOtherLens(Knocked(*rig.projector));
   ProjectorObservations observed{Corners(rig, built, 0.05), {Board(rig, built, "white tile", 0, 0, {0, 0}, 0.05),
-                                                             Board(rig, built, "white tile on spacer", 2, 2, {0, 0}, 0.05)}};
+                                                             Board(rig, built, "white tile on its spacer", 2, 2, {0, 0}, 0.05)}};
   const Result<ProjectorCalibration> too_close = CalibrateProjector(*rig.projector, observed);
   ASSERT_FALSE(too_close.ok());
   EXPECT_NE(too_close.status().ToString().find("span 2"), std::string::npos) << too_close.status().ToString();
-  observed.boards[1] = Board(rig, built, "white tile on spacer", 30, 30, {0, 0}, 0.05);
+  observed.boards[1] = Board(rig, built, "white tile on its spacer", 30, 30, {0, 0}, 0.05);
   std::erase_if(observed.boards[1].rays, [](const FlatBoardRay& ray) { return ray.camera == 1; });
   const Result<ProjectorCalibration> one_camera = CalibrateProjector(*rig.projector, observed);
   ASSERT_FALSE(one_camera.ok());
-  EXPECT_NE(one_camera.status().ToString().find("white tile on spacer"), std::string::npos) << one_camera.status().ToString();
+  EXPECT_NE(one_camera.status().ToString().find("white tile on its spacer"), std::string::npos) << one_camera.status().ToString();
 }
 
 TEST(ProjectorTest, FindsTheProjectorsColumnsAsBuilt) {

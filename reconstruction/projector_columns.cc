@@ -95,7 +95,7 @@ Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(co
 }
 
 std::vector<std::pair<std::string, double>> FlatBoardObjects(const acquisition::Plan& plan, const RigModel& rig) {
-  const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on spacer", rig.white_reference.spacer_mm}};
+  const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on its spacer", rig.white_reference.spacer_mm}};
   for (const auto& [object, height] : boards) {
     if (StructuredLightAngles(plan, object).empty()) return {};
   }

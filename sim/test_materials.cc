@@ -53,7 +53,7 @@ Material WhiteTile(const GridOptions& grid, double albedo) {
 
 Material WhiteTileOnSpacer(const GridOptions& grid, double albedo, double spacer_mm) {
   Material m = WhiteTile(grid, albedo);
-  m.name = "white tile on spacer";
+  m.name = "white tile on its spacer";
   const int height = *m.maps.FindChannel("height");
   for (int y = 0; y < m.height(); ++y) {
     for (int x = 0; x < m.width(); ++x) m.maps.at(height, y, x) = static_cast<float>(spacer_mm);

@@ -60,7 +60,7 @@ TEST(TestMaterialsTest, TheTileOnItsSpacerIsTheTileRaised) {
   spec.white.spacer_mm = 30;
   const Result<Material> made = MakeSample(spec);
   ASSERT_TRUE(made.ok()) << made.status().ToString();
-  EXPECT_EQ(made->name, "white tile on spacer");
+  EXPECT_EQ(made->name, "white tile on its spacer");
 }
 
 }  // namespace
