@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <sstream>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -127,8 +128,10 @@ Status CheckBoards(const std::vector<FlatBoardView>& boards) {
     }
   }
   if (highest - lowest < kMinBoardSeparationMm) {
-    return FailedPreconditionError("projector boards", "their heights span " + std::to_string(highest - lowest) + " mm: at least " +
-                                                           std::to_string(kMinBoardSeparationMm) + " mm are needed to separate focal length from distance");
+    std::ostringstream message;
+    message << "their nominal heights span " << highest - lowest << " mm: at least " << kMinBoardSeparationMm
+            << " mm are needed to separate focal length from distance";
+    return FailedPreconditionError("projector boards", message.str());
   }
   return Status::Ok();
 }
@@ -234,6 +237,52 @@ FlatBoardFit DescribeBoard(const FlatBoardView& board, const std::vector<bool>& 
   return fit;
 }
 
+// With boards: drops the rays the first fit cannot explain, fits fx and cx too, and keeps them
+// where the boards pin them down; else fits again with the prior's.
+Status FitLens(const ProjectorModel& prior, const ProjectorObservations& observed, ProjectorParameters* parameters,
+               std::vector<std::vector<bool>>* kept, ProjectorCalibration* result) {
+  DropBoardOutliers(observed, *parameters, kept);
+  const ProjectorParameters before = *parameters;
+  LOOM_ASSIGN_OR_RETURN(const Eigen::Vector2d sigma, Solve(prior, observed, *kept, false, parameters));
+  result->focal_sigma_percent = 100 * sigma[0] / parameters->intrinsics[0];
+  result->cx_sigma_px = sigma[1];
+  result->intrinsics_fitted = result->focal_sigma_percent <= kMaxFocalSigmaPercent && result->cx_sigma_px <= kMaxCxSigmaPx;
+  if (result->intrinsics_fitted) return Status::Ok();
+  *parameters = before;
+  parameters->intrinsics[0] = prior.K(0, 0);
+  parameters->intrinsics[1] = prior.K(0, 2);
+  return Solve(prior, observed, *kept, true, parameters).status();
+}
+
+void DescribeBoards(const ProjectorObservations& observed, const std::vector<std::vector<bool>>& kept,
+                    const ProjectorParameters& parameters, ProjectorCalibration* result) {
+  for (size_t b = 0; b < observed.boards.size(); ++b) {
+    const FlatBoardView& board = observed.boards[b];
+    result->boards.push_back(DescribeBoard(board, kept[b], parameters, static_cast<int>(b)));
+    if (std::abs(result->boards.back().height_mm - board.nominal_height_mm) > kMinBoardSeparationMm) {
+      LOOM_LOG(Warning) << "projector board '" << board.name << "' found at " << result->boards.back().height_mm
+                        << " mm, not near its nominal " << board.nominal_height_mm << " mm: was it placed as asked?";
+    }
+  }
+}
+
+// The fit's columns at the corners against the decoded ones and against the prior's.
+void DescribeCorners(const ProjectorModel& prior, const ProjectorObservations& observed, const ProjectorParameters& parameters,
+                     ProjectorCalibration* result) {
+  ProjectorParameters at_prior = parameters;
+  RigidToPose(prior.proj_from_rig, at_prior.pose);
+  at_prior.intrinsics[0] = prior.K(0, 0);
+  at_prior.intrinsics[1] = prior.K(0, 2);
+  double sum2 = 0;
+  for (const ProjectorCorrespondence& p : observed.corners) {
+    const double column = parameters.Column(p.point_mm);
+    sum2 += (column - p.column) * (column - p.column);
+    result->column_change_px = std::max(result->column_change_px, std::abs(column - at_prior.Column(p.point_mm)));
+  }
+  result->correspondences = static_cast<int>(observed.corners.size());
+  result->rms_columns = std::sqrt(sum2 / observed.corners.size());
+}
+
 }  // namespace
 
 Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, const ProjectorObservations& observed) {
@@ -253,46 +302,15 @@ Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, con
   }
   ProjectorCalibration result;
   LOOM_RETURN_IF_ERROR(Solve(prior, observed, kept, observed.boards.empty(), &parameters).status());
-  if (!observed.boards.empty()) {
-    DropBoardOutliers(observed, parameters, &kept);
-    const ProjectorParameters before = parameters;
-    LOOM_ASSIGN_OR_RETURN(const Eigen::Vector2d sigma, Solve(prior, observed, kept, false, &parameters));
-    result.focal_sigma_percent = 100 * sigma[0] / parameters.intrinsics[0];
-    result.cx_sigma_px = sigma[1];
-    result.intrinsics_fitted = result.focal_sigma_percent <= kMaxFocalSigmaPercent && result.cx_sigma_px <= kMaxCxSigmaPx;
-    if (!result.intrinsics_fitted) {
-      parameters = before;
-      parameters.intrinsics[0] = prior.K(0, 0);
-      parameters.intrinsics[1] = prior.K(0, 2);
-      LOOM_RETURN_IF_ERROR(Solve(prior, observed, kept, true, &parameters).status());
-    }
-  }
+  if (!observed.boards.empty()) LOOM_RETURN_IF_ERROR(FitLens(prior, observed, &parameters, &kept, &result));
   result.projector = prior;
   result.projector.proj_from_rig = PoseToRigid(parameters.pose);
   result.projector.K(0, 0) = parameters.intrinsics[0];
   result.projector.K(0, 2) = parameters.intrinsics[1];
-  result.correspondences = static_cast<int>(observed.corners.size());
   result.focal_change_percent = 100 * (parameters.intrinsics[0] / prior.K(0, 0) - 1);
   result.cx_change_px = parameters.intrinsics[1] - prior.K(0, 2);
-  for (size_t b = 0; b < observed.boards.size(); ++b) {
-    result.boards.push_back(DescribeBoard(observed.boards[b], kept[b], parameters, static_cast<int>(b)));
-    const double off_mm = result.boards.back().height_mm - observed.boards[b].nominal_height_mm;
-    if (std::abs(off_mm) > kMinBoardSeparationMm) {
-      LOOM_LOG(Warning) << "projector board '" << observed.boards[b].name << "' found at " << result.boards.back().height_mm
-                        << " mm, not near its nominal " << observed.boards[b].nominal_height_mm << " mm: was it placed as asked?";
-    }
-  }
-  ProjectorParameters at_prior = parameters;
-  RigidToPose(prior.proj_from_rig, at_prior.pose);
-  at_prior.intrinsics[0] = prior.K(0, 0);
-  at_prior.intrinsics[1] = prior.K(0, 2);
-  double sum2 = 0;
-  for (const ProjectorCorrespondence& p : observed.corners) {
-    const double column = parameters.Column(p.point_mm);
-    sum2 += (column - p.column) * (column - p.column);
-    result.column_change_px = std::max(result.column_change_px, std::abs(column - at_prior.Column(p.point_mm)));
-  }
-  result.rms_columns = std::sqrt(sum2 / observed.corners.size());
+  DescribeBoards(observed, kept, parameters, &result);
+  DescribeCorners(prior, observed, parameters, &result);
   result.rotation_change_deg =
       RadToDeg(Eigen::AngleAxisd(result.projector.proj_from_rig.rotation() * prior.proj_from_rig.rotation().transpose()).angle());
   result.centre_change_mm = (result.projector.proj_from_rig.inverse().translation() - prior.proj_from_rig.inverse().translation()).norm();

@@ -171,7 +171,7 @@ TEST(ProjectorTest, BoardsThatCannotSeparateFocalLengthAreAnErrorNamingThem) {
                                                              Board(rig, built, "white tile on its spacer", 2, 2, {0, 0}, 0.05)}};
   const Result<ProjectorCalibration> too_close = CalibrateProjector(*rig.projector, observed);
   ASSERT_FALSE(too_close.ok());
-  EXPECT_NE(too_close.status().ToString().find("span 2"), std::string::npos) << too_close.status().ToString();
+  EXPECT_NE(too_close.status().ToString().find("span 2 mm"), std::string::npos) << too_close.status().ToString();
   observed.boards[1] = Board(rig, built, "white tile on its spacer", 30, 30, {0, 0}, 0.05);
   std::erase_if(observed.boards[1].rays, [](const FlatBoardRay& ray) { return ray.camera == 1; });
   const Result<ProjectorCalibration> one_camera = CalibrateProjector(*rig.projector, observed);
