@@ -290,9 +290,12 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--out", out, "Calibration YAML to write")->required();
   std::string scan;
   CLI::App* geometry = app.add_subcommand(
-      "geometry", "Every camera's intrinsics and pose in the turntable's frame, from a calibration scan's target views");
+      "geometry", "Every camera's pose in the turntable's frame from a calibration scan's target views; the LEDs' positions and "
+                  "the linear light's sweep from the chrome sphere; the projector's pose from its columns on the target (and its "
+                  "focal length and centre from the white tile at two heights, where the cameras see enough of its field)");
   geometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
-  geometry->add_option("--out", out, "Calibration directory to write: CAMERA.yaml files and geometry.json")->required();
+  geometry->add_option("--out", out, "Calibration directory to write: CAMERA.yaml files, geometry.json, light_positions.yaml, "
+                                     "projector.yaml")->required();
   std::string calib, json, reference_camera;
   CLI::App* radiometry = app.add_subcommand(
       "radiometry", "Light intensities, camera sensitivity and flat field, filter colour weights and camera linearity from a "
