@@ -150,6 +150,23 @@ struct ProjectorParameters {
   }
 };
 
+// Sum of squared column residuals over a board's kept rays, and how many.
+struct BoardResiduals {
+  double sum2 = 0;
+  int rays = 0;
+};
+
+BoardResiduals ResidualsOf(const FlatBoardView& board, const std::vector<bool>& kept, const ProjectorParameters& parameters, int index) {
+  BoardResiduals residuals;
+  for (size_t r = 0; r < board.rays.size(); ++r) {
+    if (!kept[r]) continue;
+    const double error = parameters.Column(board.rays[r], index) - board.rays[r].column;
+    residuals.sum2 += error * error;
+    ++residuals.rays;
+  }
+  return residuals;
+}
+
 // The standard deviations of fx and cx after a fit, from the Jacobian at the solution scaled by
 // the board columns' residual variance; infinite where the Jacobian is rank deficient (boards at
 // one height: nothing separates focal length from distance).
@@ -194,17 +211,13 @@ Result<Eigen::Vector2d> Solve(const ProjectorModel& prior, const ProjectorObserv
   ceres::Solve(options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return InternalError("projector fit", summary.BriefReport());
   if (hold_intrinsics) return Eigen::Vector2d(Eigen::Vector2d::Zero());
-  double sum2 = 0;
-  int count = 0;
+  BoardResiduals all;
   for (size_t b = 0; b < observed.boards.size(); ++b) {
-    for (size_t r = 0; r < observed.boards[b].rays.size(); ++r) {
-      if (!kept[b][r]) continue;
-      const FlatBoardRay& ray = observed.boards[b].rays[r];
-      sum2 += std::pow(parameters->Column(ray, static_cast<int>(b)) - ray.column, 2);
-      ++count;
-    }
+    const BoardResiduals board = ResidualsOf(observed.boards[b], kept[b], *parameters, static_cast<int>(b));
+    all.sum2 += board.sum2;
+    all.rays += board.rays;
   }
-  return IntrinsicsSigma(&problem, parameters->intrinsics, std::sqrt(sum2 / std::max(count, 1)));
+  return IntrinsicsSigma(&problem, parameters->intrinsics, std::sqrt(all.sum2 / std::max(all.rays, 1)));
 }
 
 // Drops the board rays the fit leaves far out (robust σ from the median absolute residual).
@@ -226,14 +239,9 @@ FlatBoardFit DescribeBoard(const FlatBoardView& board, const std::vector<bool>& 
   fit.name = board.name;
   fit.height_mm = plane[0];
   fit.tilt_deg = RadToDeg(std::atan(std::hypot(plane[1], plane[2])));
-  double sum2 = 0;
-  for (size_t r = 0; r < board.rays.size(); ++r) {
-    if (!kept[r]) continue;
-    const double error = parameters.Column(board.rays[r], index) - board.rays[r].column;
-    sum2 += error * error;
-    ++fit.rays;
-  }
-  fit.rms_columns = fit.rays > 0 ? std::sqrt(sum2 / fit.rays) : 0;
+  const BoardResiduals residuals = ResidualsOf(board, kept, parameters, index);
+  fit.rays = residuals.rays;
+  fit.rms_columns = fit.rays > 0 ? std::sqrt(residuals.sum2 / fit.rays) : 0;
   return fit;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <utility>
 
 #include <Eigen/Dense>
 
@@ -94,19 +95,19 @@ Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(co
   return correspondences;
 }
 
-std::vector<std::pair<std::string, double>> FlatBoardObjects(const acquisition::Plan& plan, const RigModel& rig) {
-  const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on its spacer", rig.white_reference.spacer_mm}};
-  for (const auto& [object, height] : boards) {
-    if (StructuredLightAngles(plan, object).empty()) return {};
-  }
-  return boards;
-}
-
 Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration::ScanRadiance& scan, int max_rays_per_camera) {
   const RigModel& rig = scan.rig();
+  const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on its spacer", rig.white_reference.spacer_mm}};
+  std::vector<double> angles;
+  for (const auto& [object, height] : boards) {
+    const std::vector<double> at = StructuredLightAngles(scan.plan(), object);
+    if (at.empty()) return std::vector<calibration::FlatBoardView>();  // no spacer step: no boards at all
+    angles.push_back(at.front());
+  }
   std::vector<calibration::FlatBoardView> views;
-  for (const auto& [object, height] : FlatBoardObjects(scan.plan(), rig)) {
-    const double angle = StructuredLightAngles(scan.plan(), object).front();
+  for (size_t b = 0; b < boards.size(); ++b) {
+    const auto& [object, height] = boards[b];
+    const double angle = angles[b];
     calibration::FlatBoardView view{object, height, {}};
     for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
       const CameraModel& camera = rig.cameras[c];

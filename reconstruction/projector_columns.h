@@ -7,7 +7,6 @@
 // from a plane fitted to the decodable pixels around it (its white squares).
 
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "calibration/geometry.h"
@@ -33,13 +32,10 @@ Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(co
                                                                               const CalibrationTargetModel& target,
                                                                               const calibration::TargetPlacement& placement);
 
-// The objects of a calibration scan that are flat boards under the patterns: the white tile on
-// the table and on its spacer (acquisition/plan.h), with their nominal heights; empty when the
-// scan has no spacer step.
-std::vector<std::pair<std::string, double>> FlatBoardObjects(const acquisition::Plan& plan, const RigModel& rig);
-
-// Every camera's decoded pixels on each of those boards (at most max_rays_per_camera, on a
-// regular grid of pixels) as rays in the rig frame (the scan's rig carries the calibration).
+// The flat boards of a calibration scan under the patterns — the white tile on the table and on
+// its spacer (acquisition/plan.h), at their nominal heights; none when the scan has no spacer
+// step — with every camera's decoded pixels on each (at most max_rays_per_camera, on a regular
+// grid of pixels) as rays in the rig frame (the scan's rig carries the calibration).
 Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration::ScanRadiance& scan, int max_rays_per_camera = 4000);
 
 }  // namespace loom::reconstruction
