@@ -28,7 +28,7 @@ struct DemoArguments {
   std::string object = "fabric:1";
   std::string preset = "low";
   std::string out = "loom-demo";
-  std::vector<std::string> methods = {"cnn", "cnn+ceres"};
+  std::vector<std::string> methods = {"cnn", "cnn+refine"};
   int size_px = 0;  // 0: the reconstruction's default
   bool quiet = false;
 };
@@ -199,9 +199,9 @@ int RunDemo(int argc, char** argv) {
   app.add_option("--rig", args.rig, "Simulated rig: a name in configs/rig/ or a YAML file (default tac7-mini)");
   app.add_option("--object", args.object, "The material: fabric:SEED (default fabric:1)");
   app.add_option("--preset", args.preset, "Gloss preset of the material scan (default low)");
-  app.add_option("--methods", args.methods, "Fit methods, in order, the last being the main result (default cnn cnn+ceres)")
+  app.add_option("--methods", args.methods, "Fit methods, in order, the last being the main result (default cnn cnn+refine)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"ceres", "cnn", "cnn+ceres"}));
+      ->check(CLI::IsMember({"ceres", "refine", "cnn", "cnn+ceres", "cnn+refine"}));
   app.add_option("--size", args.size_px, "Stack size in pixels (square, centred; default: reconstruct's)")->check(CLI::Range(8, 8192));
   app.add_option("--out", args.out, "Directory to write, new or empty (default loom-demo)");
   app.add_flag("--quiet", args.quiet, "No progress bars");

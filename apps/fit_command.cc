@@ -30,6 +30,7 @@ struct FitArguments {
   int clusters = 8;
   int threads = 0;
   std::string f0 = "1";
+  double prior_weight = 0;
   bool quiet = false;
 };
 
@@ -51,6 +52,8 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"cluster_seconds", s.cluster_seconds},
                          {"pixel_seconds", s.pixel_seconds},
                          {"threads", s.threads},
+                         {"solver", args.method.ends_with("refine") ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
+                         {"prior_weight", args.prior_weight},
                          {"ms_per_pixel_per_thread", s.ms_per_pixel_per_thread()},
                          {"loom_version", std::string(VersionWithCommit())}};
   return json.dump(2) + "\n";
@@ -93,15 +96,17 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 Status Fit(FitArguments args) {
-  if (args.method != "ceres" && args.method != "cnn" && args.method != "cnn+ceres") {
-    return InvalidArgumentError("--method " + args.method, "expected ceres, cnn or cnn+ceres");
+  if (args.method != "ceres" && args.method != "refine" && args.method != "cnn" && args.method != "cnn+ceres" &&
+      args.method != "cnn+refine") {
+    return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres or cnn+refine");
   }
+  const bool with_cnn = args.method.starts_with("cnn");
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << stack.observations.size() << " observations (" << stack.source << ")\n";
   std::optional<Image> cnn_maps;
   double cnn_seconds = 0;
-  if (args.method != "ceres") {
+  if (with_cnn) {
     const auto start = std::chrono::steady_clock::now();
     LOOM_ASSIGN_OR_RETURN(cnn_maps, CnnMaps(args, stack));
     cnn_seconds = SecondsSince(start);
@@ -120,6 +125,10 @@ Status Fit(FitArguments args) {
   fitting::StackFitOptions options;
   options.clusters = args.clusters;
   options.threads = args.threads;
+  if (args.method.ends_with("refine")) {
+    options.solver = fitting::PixelSolver::kBatchRefiner;
+    options.prior.weight = args.prior_weight;
+  }
   if (args.f0 == "material") {
     options.fixed_f0.reset();
   } else {
@@ -159,8 +168,14 @@ int RunFit(int argc, char** argv) {
       ->required();
   app.add_option("--out", args.out, "Output directory: svbrdf.exr, PNG previews, fit.json")->required();
   app.add_option("--method", args.method,
-                 "ceres (clusters, then every pixel), cnn (the network alone) or cnn+ceres (the CNN's maps start "
-                 "every pixel's Ceres fit)");
+                 "ceres (clusters, then every pixel with Ceres), refine (clusters, then every pixel with the batched "
+                 "refiner), cnn (the network alone), cnn+ceres (the CNN's maps start every pixel's Ceres fit) or "
+                 "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
+                 "uncertainty maps)");
+  app.add_option("--prior-weight", args.prior_weight,
+                 "refine methods: weight of the prior toward the start maps (0: none; 1: the CNN's measured errors "
+                 "as its 1 sigma)")
+      ->check(CLI::Range(0.0, 1e6));
   app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
   app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));

@@ -8,13 +8,25 @@
 // it: normal 3° off, albedos ±15 %, σ ±25 %, α ±10° (shared/docs/build-notes.md measured
 // 13 ms/px for the autodiff fit from such a start). F0 held at the truth, as loom fit does.
 // Counters: ms_per_pixel, iterations per pixel, recovered (normal within 2°, a_d within 0.03).
+//
+// The batched refiner (fitting/batch_refiner.h) on the same pixels from the same starts, one
+// thread, with cost_vs_ceres = the median over pixels of its final cost / Ceres' (1 = the
+// same optimum); and both on fast-path stacks of a procedural fabric (8 × 8 px, starts as above
+// from the truth) with tac7-mini's low-preset observations (88 point-lit, 140 linear-light of 32
+// emitters: the main job's stack layout) and tac7's (4 cameras; 280 linear-light).
 #include <benchmark/benchmark.h>
 
 #include <random>
 #include <vector>
 
 #include "bench/bench_report.h"
+#include "core/config.h"
+#include "fitting/batch_refiner.h"
+#include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
+#include "fitting/stack_pixels.h"
+#include "sim/fabric.h"
+#include "sim/stack.h"
 
 namespace {
 
@@ -120,11 +132,157 @@ BENCHMARK_CAPTURE(BM_Fit, point900_autodiff, true, 900, 0)->Unit(benchmark::kMil
 BENCHMARK_CAPTURE(BM_Fit, linear_analytic, false, 300, 100)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Fit, linear_autodiff, true, 300, 100)->Unit(benchmark::kMillisecond);
 
+// Pixels given as lists, as the refiner takes them.
+loom::fitting::RefineProblem ListProblem(const std::vector<std::vector<PixelObservation>>& lists,
+                                         const std::vector<WardParams<double>>& starts) {
+  return {static_cast<int>(lists.size()), loom::fitting::LightsPerObservation(lists),
+          [&lists](int i) { return lists[i]; }, [&starts](int i) { return starts[i]; }};
+}
+
+double Median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+// Median over pixels of the refiner's final cost / Ceres' from the same start.
+double CostVsCeres(const std::vector<std::vector<PixelObservation>>& lists, const std::vector<WardParams<double>>& starts,
+                   const std::vector<loom::fitting::RefinedPixel>& refined, double f0) {
+  std::vector<double> ratios;
+  for (size_t i = 0; i < lists.size(); ++i) {
+    const auto ceres = loom::fitting::FitPixel(lists[i], starts[i], {.max_iterations = 30, .multi_start = false, .fixed_f0 = f0});
+    if (ceres.ok() && ceres->cost > 0) ratios.push_back(refined[i].cost / ceres->cost);
+  }
+  return ratios.empty() ? NAN : Median(ratios);
+}
+
+void BM_Refine(benchmark::State& state, int points, int lines) {
+  const std::vector<Pixel> pixels = MakePixels(points, lines);
+  std::vector<std::vector<PixelObservation>> lists;
+  std::vector<WardParams<double>> starts;
+  for (int copy = 0; copy < 4; ++copy) {  // 128 pixels a batch: the lanes' start and end matter little
+    for (const Pixel& pixel : pixels) lists.push_back(pixel.observations), starts.push_back(pixel.start);
+  }
+  loom::fitting::RefineOptions options;
+  options.threads = 1;
+  options.fixed_f0 = pixels.front().truth.f0;  // RandomTruth's F0 is every pixel's
+  const loom::fitting::RefineProblem problem = ListProblem(lists, starts);
+  int64_t fits = 0, iterations = 0, recovered = 0;
+  std::vector<loom::fitting::RefinedPixel> last;
+  for (auto _ : state) {
+    auto refined = loom::fitting::RefinePixels(problem, options);
+    if (!refined.ok()) {
+      state.SkipWithError(refined.status().ToString().c_str());
+      return;
+    }
+    for (size_t i = 0; i < refined->size(); ++i) {
+      const WardParams<double>& truth = pixels[i % kPixels].truth;
+      const WardParams<double>& p = (*refined)[i].params;
+      iterations += (*refined)[i].iterations;
+      const double angle = std::acos(std::clamp(p.n_s.dot(truth.n_s), -1.0, 1.0));
+      if (angle < 2 * loom::kPi / 180 && (p.a_d - truth.a_d).cwiseAbs().maxCoeff() < 0.03) ++recovered;
+    }
+    fits += static_cast<int64_t>(refined->size());
+    last = std::move(*refined);
+  }
+  state.SetItemsProcessed(fits);
+  state.counters["ms_per_pixel"] = benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate |
+                                                                                         benchmark::Counter::kInvert);
+  state.counters["iterations"] = static_cast<double>(iterations) / fits;
+  state.counters["recovered"] = static_cast<double>(recovered) / fits;
+  state.counters["observations"] = points + lines;
+  state.counters["cost_vs_ceres"] = CostVsCeres(lists, starts, last, *options.fixed_f0);
+}
+
+// A fast-path stack of fabric 5 on `rig`'s geometry: its turntable at 0, 120, 240° under every
+// LED and filter, and the strip at `strip_positions` positions for every camera.
+struct StackCase {
+  std::vector<std::vector<PixelObservation>> lists;
+  std::vector<WardParams<double>> truths, starts;
+  std::vector<int> lights;
+  int observations = 0;
+};
+
+StackCase MakeStackCase(const std::string& rig_name, int strip_positions) {
+  auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig_name + ".yaml", 1);
+  LOOM_CHECK(doc.ok()) << doc.status().ToString();
+  const loom::RigModel rig = loom::ReadRigModel(doc->root().Child("geometry"));
+  const loom::sim::Material fabric = loom::sim::GenerateFabric(5, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
+  const loom::sim::Scene scene(rig, fabric);
+  std::vector<loom::sim::Observation> observations = loom::sim::DefaultObservations(rig, {0, 120, 240});
+  for (int k = 0; k < strip_positions; ++k) {
+    const double position_mm = rig.linear_light->travel_mm * k / (strip_positions - 1);
+    for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
+      observations.push_back({camera, {.linear_light_on = true, .linear_light_mm = position_mm}});
+    }
+  }
+  const loom::ObservationStack stack = loom::sim::RenderStack(scene, observations, {});
+  const loom::fitting::StackPixels pixels(stack);
+  StackCase c;
+  c.observations = static_cast<int>(stack.observations.size());
+  for (const loom::StackObservation& o : stack.observations) c.lights.push_back(static_cast<int>(o.emitters.size()));
+  std::mt19937 rng(3);
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) {
+      c.lists.push_back(pixels.Observations(x, y));
+      c.truths.push_back(loom::fitting::GetParams(fabric.maps, x, y));
+      c.starts.push_back(NearStart(c.truths.back(), rng));
+      c.starts.back().a_s = c.starts.back().a_s.cwiseMin(1.0);
+      c.starts.back().sigma_x = std::clamp(c.starts.back().sigma_x, loom::fitting::kMinSigma, loom::fitting::kMaxSigma);
+      c.starts.back().sigma_y = std::clamp(c.starts.back().sigma_y, loom::fitting::kMinSigma, loom::fitting::kMaxSigma);
+    }
+  }
+  return c;
+}
+
+void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_positions, bool refiner) {
+  const StackCase c = MakeStackCase(rig, strip_positions);
+  const double f0 = c.truths.front().f0;  // a fabric's F0 is one per material
+  loom::fitting::RefineOptions options;
+  options.threads = 1;
+  options.fixed_f0 = f0;
+  const loom::fitting::RefineProblem problem{static_cast<int>(c.lists.size()), c.lights,
+                                             [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }};
+  int64_t fits = 0, iterations = 0;
+  std::vector<loom::fitting::RefinedPixel> last;
+  for (auto _ : state) {
+    if (refiner) {
+      auto refined = loom::fitting::RefinePixels(problem, options);
+      LOOM_CHECK(refined.ok()) << refined.status().ToString();
+      for (const auto& r : *refined) iterations += r.iterations;
+      last = std::move(*refined);
+    } else {
+      for (size_t i = 0; i < c.lists.size(); ++i) {
+        const auto fit = loom::fitting::FitPixel(c.lists[i], c.starts[i], {.max_iterations = 30, .multi_start = false, .fixed_f0 = f0});
+        LOOM_CHECK(fit.ok()) << fit.status().ToString();
+        iterations += fit->iterations;
+      }
+    }
+    fits += static_cast<int64_t>(c.lists.size());
+  }
+  state.SetItemsProcessed(fits);
+  state.counters["ms_per_pixel"] = benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate |
+                                                                                         benchmark::Counter::kInvert);
+  state.counters["iterations"] = static_cast<double>(iterations) / fits;
+  state.counters["observations"] = c.observations;
+  if (refiner) state.counters["cost_vs_ceres"] = CostVsCeres(c.lists, c.starts, last, f0);
+}
+
+BENCHMARK_CAPTURE(BM_Refine, point900, 900, 0)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Refine, linear, 300, 100)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_ceres, "tac7-mini", 70, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_refine, "tac7-mini", 70, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_StackFit, tac7_low_ceres, "tac7", 70, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine, "tac7", 70, true)->Unit(benchmark::kMillisecond);
+
 }  // namespace
 
 int main(int argc, char** argv) {
   return loom::bench::RunBenchmarks(
-      argc, argv, "fit", "Per-pixel Ceres fit of the GD10 Ward model on one core: analytic vs autodiff Jacobians",
+      argc, argv, "fit", "Per-pixel fit of the GD10 Ward model on one core: Ceres with analytic vs autodiff Jacobians, and the batched refiner vs Ceres from the same starts",
       {{"point900_analytic_vs_autodiff", "BM_Fit/point900_analytic", "BM_Fit/point900_autodiff"},
-       {"linear_analytic_vs_autodiff", "BM_Fit/linear_analytic", "BM_Fit/linear_autodiff"}});
+       {"linear_analytic_vs_autodiff", "BM_Fit/linear_analytic", "BM_Fit/linear_autodiff"},
+       {"point900_refiner_vs_ceres", "BM_Refine/point900", "BM_Fit/point900_analytic"},
+       {"linear_refiner_vs_ceres", "BM_Refine/linear", "BM_Fit/linear_analytic"},
+       {"tac7_mini_low_refiner_vs_ceres", "BM_StackFit/tac7_mini_low_refine", "BM_StackFit/tac7_mini_low_ceres"},
+       {"tac7_low_refiner_vs_ceres", "BM_StackFit/tac7_low_refine", "BM_StackFit/tac7_low_ceres"}});
 }

@@ -20,6 +20,7 @@
 // n is differentiated in the ambient R³: the fitter's SphereManifold projects it.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "fitting/internal/pixel_cost.h"
@@ -208,7 +209,42 @@ class AnalyticPixelCost : public ceres::CostFunction {
   double inverse_scale_;
 };
 
+// ∂r̃/∂r = a / |r̃| beyond the threshold: the gradient of ½ r̃² is a·sign(r)·∂r, as for ρ.
+class RobustPixelCost : public ceres::CostFunction {
+ public:
+  RobustPixelCost(ceres::CostFunction* inner, double huber_scale) : inner_(inner), a_(huber_scale) {
+    *mutable_parameter_block_sizes() = inner->parameter_block_sizes();
+    set_num_residuals(inner->num_residuals());
+  }
+
+  bool Evaluate(double const* const* blocks, double* residuals, double** jacobians) const override {
+    if (!inner_->Evaluate(blocks, residuals, jacobians)) return false;
+    const std::vector<int32_t>& sizes = parameter_block_sizes();
+    for (int k = 0; k < num_residuals(); ++k) {
+      const double r = residuals[k];
+      if (std::abs(r) <= a_) continue;
+      const double robust = std::copysign(std::sqrt(2 * a_ * std::abs(r) - a_ * a_), r);
+      residuals[k] = robust;
+      if (!jacobians) continue;
+      const double factor = a_ / std::abs(robust);
+      for (size_t b = 0; b < sizes.size(); ++b) {
+        if (!jacobians[b]) continue;
+        for (int j = 0; j < sizes[b]; ++j) jacobians[b][k * sizes[b] + j] *= factor;
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::unique_ptr<ceres::CostFunction> inner_;
+  double a_;
+};
+
 }  // namespace
+
+ceres::CostFunction* MakeRobustPixelCost(ceres::CostFunction* inner, double huber_scale) {
+  return new RobustPixelCost(inner, huber_scale);
+}
 
 ceres::CostFunction* MakeAnalyticPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale) {
   return new AnalyticPixelCost(observations, inverse_scale);

@@ -49,11 +49,12 @@ struct Start {
 Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
               const PixelFitOptions& options) {
   Blocks blocks(initial);
-  ceres::CostFunction* cost = options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
-                                                            : internal::MakeAnalyticPixelCost(usable, inverse_scale);
+  ceres::CostFunction* cost = internal::MakeRobustPixelCost(
+      options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
+                                    : internal::MakeAnalyticPixelCost(usable, inverse_scale),
+      options.huber_scale);
   ceres::Problem problem;
-  problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber_scale), blocks.n_s, blocks.a_d, blocks.a_s,
-                           blocks.sigma, blocks.alpha, blocks.f0);
+  problem.AddResidualBlock(cost, nullptr, blocks.n_s, blocks.a_d, blocks.a_s, blocks.sigma, blocks.alpha, blocks.f0);
   problem.SetManifold(blocks.n_s, new ceres::SphereManifold<3>());
   for (int i = 0; i < 3; ++i) {
     problem.SetParameterLowerBound(blocks.a_d, i, 0);

@@ -13,8 +13,8 @@
 // (unbounded above, a tiny σ lets a_s run off to thousands on a pixel whose highlight falls
 // between the observations), (σx, σy) in
 // [kMinSigma, kMaxSigma], α (free; wrapped to (−π/2, π/2] after), F0 ∈ [0, 1]. Residuals are
-// radiances relative to the pixel's mean observed radiance, under a Huber loss, so a shadowed or
-// mis-registered observation cannot drag the fit. Observations with NaN radiance are skipped.
+// radiances relative to the pixel's mean observed radiance, each under a Huber loss, so a shadowed or
+// mis-registered observation cannot drag the fit (internal/pixel_cost.h: MakeRobustPixelCost). Observations with NaN radiance are skipped.
 // Derivatives: hand-derived (fitting/pixel_cost.cc), one residual block per pixel (the
 // formulation measured fastest in shared/docs/build-notes.md); checked by ceres::GradientChecker
 // and against ceres::Jet in tests.

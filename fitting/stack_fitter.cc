@@ -95,11 +95,12 @@ struct PixelOutcome {
   int iterations = 0;
   int observations = 0;
   bool fitted = false;
+  std::optional<ParamSigma> sigma;  // the refiner's
 };
 
 PixelOutcome FitFromStart(const std::vector<PixelObservation>& observations, const WardParams<double>& start,
                           const PixelFitOptions& fit) {
-  PixelOutcome outcome{start, 0, 0, 0, static_cast<int>(observations.size()), false};
+  PixelOutcome outcome{start, 0, 0, 0, static_cast<int>(observations.size()), false, std::nullopt};
   if (Result<PixelFitResult> result = FitPixel(observations, start, fit); result.ok()) {
     outcome.params = result->params;
     outcome.cost = result->cost;
@@ -117,8 +118,89 @@ PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, co
   Result<PixelFitResult> again =
       FitFromStarts(observations, GridInitialParams(observations, fit.fixed_f0.value_or(1.0), options.retry_grid_starts), fit);
   if (!again.ok() || again->cost >= first.cost) return first;
-  return {again->params, again->cost, RelativeRms(again->params, observations), first.iterations + again->iterations,
-          first.observations, true};
+  return {again->params,     again->cost, RelativeRms(again->params, observations), first.iterations + again->iterations,
+          first.observations, true,        std::nullopt};
+}
+
+std::vector<int> EmittersPerObservation(const ObservationStack& stack) {
+  std::vector<int> emitters;
+  for (const StackObservation& o : stack.observations) emitters.push_back(static_cast<int>(o.emitters.size()));
+  return emitters;
+}
+
+RefineOptions RefinerOptions(const PixelFitOptions& fit, const StackFitOptions& options) {
+  RefineOptions refine;
+  refine.max_iterations = fit.max_iterations;
+  refine.huber_scale = fit.huber_scale;
+  refine.fixed_f0 = fit.fixed_f0;
+  refine.threads = options.threads;
+  return refine;
+}
+
+PixelOutcome OutcomeOf(const RefinedPixel& r, const std::vector<PixelObservation>& observations) {
+  PixelOutcome outcome{r.params, r.cost, 0, r.iterations, r.observations_used, r.fitted, std::nullopt};
+  if (r.fitted) outcome.sigma = r.sigma;
+  outcome.rms = RelativeRms(r.params, observations);
+  return outcome;
+}
+
+// Step 4 on the refiner: every pixel from start_of(i).
+Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const ObservationStack& stack,
+                                            const std::function<WardParams<double>(int)>& start_of,
+                                            const RefineOptions& refine, const std::function<void(int)>& progress) {
+  const int width = pixels.width();
+  const int count = width * pixels.height();
+  const RefineProblem problem{count, EmittersPerObservation(stack),
+                              [&](int i) { return pixels.Observations(i % width, i / width); }, start_of};
+  LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
+  std::vector<PixelOutcome> outcomes(count);
+  ParallelFor(count, refine.threads,
+              [&](int i) { outcomes[i] = OutcomeOf(refined[i], pixels.Observations(i % width, i / width)); });
+  return outcomes;
+}
+
+// Step 5 on the refiner: each retried pixel from its best grid starts, freely; the best of those
+// and its first fit is kept.
+Status RefineRetries(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
+                     const RefineOptions& refine, const StackFitOptions& options,
+                     const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
+  const int width = pixels.width();
+  const int per_pixel = options.retry_grid_starts;
+  std::vector<WardParams<double>> starts(retry.size() * per_pixel);
+  ParallelFor(static_cast<int>(retry.size()), options.threads, [&](int r) {
+    const int i = retry[r];
+    std::vector<WardParams<double>> grid =
+        GridInitialParams(pixels.Observations(i % width, i / width), refine.fixed_f0.value_or(1.0), per_pixel);
+    grid.resize(per_pixel, grid.empty() ? outcomes[i].params : grid.front());
+    std::copy(grid.begin(), grid.end(), starts.begin() + static_cast<size_t>(r) * per_pixel);
+  });
+  RefineOptions free = refine;
+  free.prior.weight = 0;
+  const RefineProblem problem{static_cast<int>(starts.size()), EmittersPerObservation(stack),
+                              [&](int j) {
+                                const int i = retry[j / per_pixel];
+                                return pixels.Observations(i % width, i / width);
+                              },
+                              [&](int j) { return starts[j]; }};
+  LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined,
+                        RefinePixels(problem, free, [&](int done) { progress(done / per_pixel); }));
+  for (size_t r = 0; r < retry.size(); ++r) {
+    PixelOutcome& outcome = outcomes[retry[r]];
+    const int first_iterations = outcome.iterations;
+    int extra_iterations = 0;
+    const RefinedPixel* best = nullptr;
+    for (int s = 0; s < per_pixel; ++s) {
+      const RefinedPixel& candidate = refined[r * per_pixel + s];
+      extra_iterations += candidate.iterations;
+      if (candidate.fitted && candidate.cost < (best ? best->cost : outcome.cost)) best = &candidate;
+    }
+    if (best) {
+      const int i = retry[r];
+      outcome = OutcomeOf(*best, pixels.Observations(i % width, i / width));
+    }
+    outcome.iterations = first_iterations + extra_iterations;
+  }
+  return {};
 }
 
 // A fit is poor when its residual is well above the stack's noise level, which the best-fitted
@@ -186,12 +268,25 @@ Image MapsOf(const std::vector<PixelOutcome>& outcomes, const PixelClusters& clu
   const int cluster_channel = maps.AddChannel(kFitClusterChannel);
   const int used_channel = maps.AddChannel(kFitObservationsChannel);
   const int rms_channel = maps.AddChannel(kFitRmsChannel);
+  const bool with_uncertainty = std::any_of(outcomes.begin(), outcomes.end(), [](const PixelOutcome& o) { return o.sigma; });
+  const int first_uncertainty = maps.num_channels();
+  if (with_uncertainty) {
+    for (const char* name : kUncertaintyChannels) maps.AddChannel(name);
+  }
   for (size_t i = 0; i < outcomes.size(); ++i) {
     const int x = static_cast<int>(i) % width, y = static_cast<int>(i) / width;
     SetParams(maps, x, y, outcomes[i].params);
     maps.at(cluster_channel, y, x) = static_cast<float>(clusters.labels[i]);
     maps.at(used_channel, y, x) = static_cast<float>(outcomes[i].observations);
     maps.at(rms_channel, y, x) = static_cast<float>(outcomes[i].rms);
+    if (!with_uncertainty) continue;
+    const std::optional<ParamSigma>& s = outcomes[i].sigma;
+    const double values[kUncertaintyChannels.size()] = {
+        s ? s->normal_deg : NAN, s ? s->a_d.x() : NAN, s ? s->a_d.y() : NAN, s ? s->a_d.z() : NAN, s ? s->a_s.x() : NAN,
+        s ? s->a_s.y() : NAN,    s ? s->a_s.z() : NAN, s ? s->sigma_x : NAN, s ? s->sigma_y : NAN, s ? s->alpha_deg : NAN};
+    for (size_t c = 0; c < kUncertaintyChannels.size(); ++c) {
+      maps.at(first_uncertainty + static_cast<int>(c), y, x) = static_cast<float>(values[c]);
+    }
   }
   return maps;
 }
@@ -288,27 +383,40 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     return start;
   };
   const Clock::time_point pixel_start = Clock::now();
+  const auto pixel_progress = [&](int done) { report("pixels", done, pixel_count); };
   std::vector<PixelOutcome> outcomes(pixel_count);
-  ParallelFor(
-      pixel_count, options.threads,
-      [&](int i) {
-        const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
-        outcomes[i] = FitFromStart(observations, start_of(i), pixel_options);
-      },
-      [&](int done) { report("pixels", done, pixel_count); });
+  const bool refiner = options.solver == PixelSolver::kBatchRefiner;
+  RefineOptions refine = RefinerOptions(pixel_options, options);
+  if (options.initial_maps) refine.prior = options.prior;
+  if (refiner) {
+    LOOM_ASSIGN_OR_RETURN(outcomes, RefineAll(pixels, stack, start_of, refine, pixel_progress));
+  } else {
+    ParallelFor(
+        pixel_count, options.threads,
+        [&](int i) {
+          const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
+          outcomes[i] = FitFromStart(observations, start_of(i), pixel_options);
+        },
+        pixel_progress);
+  }
   summary.retry_threshold_rms = RetryThreshold(outcomes, options);
   std::vector<int> retry;
   for (int i = 0; i < pixel_count; ++i) {
     if (outcomes[i].fitted && outcomes[i].rms > summary.retry_threshold_rms) retry.push_back(i);
   }
-  ParallelFor(
-      static_cast<int>(retry.size()), options.threads,
-      [&](int r) {
-        const int i = retry[r];
-        const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
-        outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options);
-      },
-      [&](int done) { report("retries", done, static_cast<int>(retry.size())); });
+  const auto retry_progress = [&](int done) { report("retries", done, static_cast<int>(retry.size())); };
+  if (refiner) {
+    LOOM_RETURN_IF_ERROR(RefineRetries(pixels, stack, retry, refine, options, retry_progress, outcomes));
+  } else {
+    ParallelFor(
+        static_cast<int>(retry.size()), options.threads,
+        [&](int r) {
+          const int i = retry[r];
+          const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
+          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options);
+        },
+        retry_progress);
+  }
   summary.pixel_seconds = SecondsSince(pixel_start);
   summary.pixels_retried = static_cast<int>(retry.size());
   fit.maps = MapsOf(outcomes, clusters, stack);

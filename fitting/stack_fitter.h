@@ -10,17 +10,23 @@
 //     again from grid-searched starts and keeps the better.
 // A pixel with too few usable observations keeps its cluster's parameters and is counted.
 // With initial maps (e.g. the CNN's), steps 1–3 are skipped: every pixel starts from its map.
+// Steps 4 and 5 run on Ceres, one solve per pixel (the reference), or on the batched refiner
+// (batch_refiner.h: the same cost, many pixels per vectorised evaluation), which also states
+// each pixel's 1σ uncertainty in the unc.* channels and may add a prior toward the start maps.
 //
 // Output maps: svbrdf_maps.h's 13 channels and `height` (the stack's pos.Z), then
 // fit.cluster (index; −1 when started from initial maps), fit.observations (used), fit.rms (RMS residual relative to the pixel's
-// mean radiance).
+// mean radiance); with the refiner also the 1σ uncertainties kUncertaintyChannels (NaN where
+// the data leave a parameter undetermined or the pixel kept its start).
 
+#include <array>
 #include <functional>
 #include <optional>
 #include <vector>
 
 #include "core/image.h"
 #include "core/observation_stack.h"
+#include "fitting/batch_refiner.h"
 #include "fitting/pixel_fitter.h"
 #include "fitting/stack_pixels.h"
 
@@ -30,6 +36,12 @@ struct StackFitProgress {
   std::string stage;  // "clusters", "pixels"
   int done = 0;
   int total = 0;
+};
+
+// What fits each pixel in steps 4 and 5.
+enum class PixelSolver {
+  kCeres,         // one Ceres solve per pixel (pixel_fitter.h)
+  kBatchRefiner,  // batch_refiner.h
 };
 
 struct StackFitOptions {
@@ -49,6 +61,10 @@ struct StackFitOptions {
   // per material, the size-weighted median of the cluster fits (F0 free there), as Pantora does.
   std::optional<double> fixed_f0 = 1.0;
   StackPixelOptions pixels;
+  PixelSolver solver = PixelSolver::kCeres;
+  // With the refiner and initial maps: the prior toward them in the first pass (retries from
+  // grid starts fit freely).
+  RefinePrior prior;
   // Starts of the per-pixel fits, when given: SVBRDF maps on the stack's grid (the CNN's, for
   // cnn+ceres). No clusters are formed; with fixed_f0 unset the material's F0 is the maps'
   // median. Not owned; must outlive FitStack.
@@ -84,6 +100,10 @@ struct StackFit {
 inline constexpr const char* kFitClusterChannel = "fit.cluster";
 inline constexpr const char* kFitObservationsChannel = "fit.observations";
 inline constexpr const char* kFitRmsChannel = "fit.rms";
+// 1σ of the normal's angle (degrees), a_d, a_s, σx, σy and α (degrees).
+inline constexpr std::array<const char*, 10> kUncertaintyChannels = {
+    "unc.normal_deg", "unc.a_d.R", "unc.a_d.G", "unc.a_d.B", "unc.a_s.R",
+    "unc.a_s.G",      "unc.a_s.B", "unc.sigma_x", "unc.sigma_y", "unc.alpha_deg"};
 
 Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& options = {});
 

@@ -6,16 +6,17 @@
 #   2. scan of a procedural fabric (fabric:1) with the low-gloss plan → build/demo/scan;
 #   3. `loom reconstruct --calib`: structured-light heightmap, every HDR image projected onto it
 #      in the top view → build/demo/reconstruction/stack.exr (the whole 128 × 128 px sample);
-#   4. `loom fit` with the CNN shipped for tac7-mini and with the CNN refined by Ceres (the main
-#      result), each evaluated against the simulator's ground truth → build/demo/report-*/;
+#   4. `loom fit` with the CNN shipped for tac7-mini and with the CNN refined by the batched
+#      refiner (the main result), each evaluated against the simulator's ground truth →
+#      build/demo/report-*/;
 #   5. a one-screen summary (parameter errors, re-render L1, time per stage) and
-#      build/demo/summary.json. LOOM_DEMO_BASELINE=1 adds Ceres alone (about 5 more minutes).
+#      build/demo/summary.json. LOOM_DEMO_BASELINE=1 adds Ceres alone and CNN + Ceres (about 8 more minutes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 bash scripts/build.sh loom
-methods=cnn,cnn+ceres
-if [[ "${LOOM_DEMO_BASELINE:-0}" == 1 ]]; then methods=ceres,cnn,cnn+ceres; fi
+methods=cnn,cnn+refine
+if [[ "${LOOM_DEMO_BASELINE:-0}" == 1 ]]; then methods=ceres,cnn+ceres,cnn,cnn+refine; fi
 ./build/apps/loom version
 rm -rf build/demo
 ./build/apps/loom demo --rig configs/rig/tac7-mini.yaml --object fabric:1 --preset low --methods "$methods" --out build/demo

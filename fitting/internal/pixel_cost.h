@@ -18,6 +18,13 @@ inline constexpr int kParameterBlockSizes[] = {3, 3, 3, 2, 1, 1};
 
 ceres::CostFunction* MakeAnalyticPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale);
 
+// Huber's loss on each residual of `inner` (owned), inside the cost: r̃ = r where |r| ≤ a, else
+// sign(r) √(2a|r| − a²), so that ½ Σ r̃² = ½ Σ ρ(r²) with ρ ceres::HuberLoss(a). A ceres::LossFunction
+// cannot do this here: it robustifies a residual block's whole squared norm, and the fitter puts
+// all of a pixel's observations in one block (one outlier would then reweight them all, and a
+// pixel whose total exceeds a² is fitted by plain least squares).
+ceres::CostFunction* MakeRobustPixelCost(ceres::CostFunction* inner, double huber_scale);
+
 constexpr int kStride = 4;  // Jet derivatives per pass; 4 keeps the Jets in registers
 
 struct AutodiffPixelResidual {

@@ -1,0 +1,443 @@
+#include "fitting/batch_refiner.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "core/check.h"
+#include "core/parallel.h"
+#include "fitting/internal/refine_kernel.h"
+#include "fitting/internal/refine_lanes.h"
+
+namespace loom::fitting {
+namespace {
+
+using internal::kAmbientParams;
+using internal::kLanes;
+using internal::kTangentParams;
+using Params = std::array<double, kAmbientParams>;
+using Vector12 = Eigen::Matrix<double, kTangentParams, 1>;
+using Matrix12 = Eigen::Matrix<double, kTangentParams, kTangentParams>;
+
+// Ceres' Levenberg–Marquardt defaults (ceres::Solver::Options), so that both stop alike.
+constexpr double kInitialRadius = 1e4;
+constexpr double kMaxRadius = 1e16;
+constexpr double kMinRadius = 1e-32;
+constexpr double kMinRelativeDecrease = 1e-3;
+constexpr double kMinDiagonal = 1e-6;
+constexpr double kMaxDiagonal = 1e32;
+
+// Tangent index → ambient index: the normal's 2 tangent coordinates stand for n_s's 3.
+constexpr int Ambient(int i) { return i + 1; }
+constexpr int kF0 = 11;
+constexpr int kAlpha = 10;
+
+struct Bounds {
+  double lower, upper;
+};
+// Bounds of tangent parameter i (none for the normal and α).
+std::optional<Bounds> BoundsOf(int i) {
+  if (i >= 2 && i <= 7) return Bounds{0, kMaxAlbedo};
+  if (i == 8 || i == 9) return Bounds{kMinSigma, kMaxSigma};
+  if (i == kF0) return Bounds{0, 1};
+  return std::nullopt;
+}
+
+double WrapAngle(double alpha) { return alpha - kPi * std::ceil((alpha - kPi / 2) / kPi); }
+
+Params Pack(const WardParams<double>& p) {
+  return {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
+          p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, p.alpha,   p.f0};
+}
+
+WardParams<double> Unpack(const Params& x) {
+  WardParams<double> p;
+  p.n_s = Eigen::Vector3d(x[0], x[1], x[2]).normalized();
+  p.a_d = Eigen::Vector3d(x[3], x[4], x[5]);
+  p.a_s = Eigen::Vector3d(x[6], x[7], x[8]);
+  p.sigma_x = x[9];
+  p.sigma_y = x[10];
+  p.alpha = WrapAngle(x[11]);
+  p.f0 = x[12];
+  return p;
+}
+
+struct TangentBasis {
+  Eigen::Vector3d u = Eigen::Vector3d::UnitX(), v = Eigen::Vector3d::UnitY();
+};
+
+TangentBasis BasisOf(const Params& x) {
+  const Eigen::Vector3d n = Eigen::Vector3d(x[0], x[1], x[2]).normalized();
+  const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d u = (a - a.dot(n) * n).normalized();
+  return {u, n.cross(u)};
+}
+
+// The prior's precision per tangent parameter (0: none) and its residual d = x − start.
+struct Prior {
+  Vector12 precision = Vector12::Zero();
+
+  explicit Prior(const RefinePrior& prior) {
+    if (prior.weight <= 0) return;
+    const double deg = kPi / 180;
+    const auto set = [&](int first, int last, double sigma) {
+      for (int i = first; i <= last; ++i) precision[i] = prior.weight / (sigma * sigma);
+    };
+    set(0, 1, prior.normal_deg * deg);
+    set(2, 7, prior.albedo);
+    set(8, 9, prior.sigma);
+    set(kAlpha, kAlpha, prior.alpha_deg * deg);
+  }
+  bool active() const { return precision.any(); }
+
+  Vector12 Difference(const Params& x, const TangentBasis& basis, const Params& start) const {
+    Vector12 d = Vector12::Zero();
+    const Eigen::Vector3d dn = Eigen::Vector3d(x[0], x[1], x[2]).normalized() - Eigen::Vector3d(start[0], start[1], start[2]);
+    d[0] = basis.u.dot(dn);
+    d[1] = basis.v.dot(dn);
+    for (int i = 2; i < kAlpha; ++i) d[i] = x[Ambient(i)] - start[Ambient(i)];
+    d[kAlpha] = WrapAngle(x[Ambient(kAlpha)] - start[Ambient(kAlpha)]);
+    return d;
+  }
+};
+
+// One pixel's LM state in a lane.
+struct Lane {
+  int pixel = -1;
+  Params start{}, x{}, trial{};
+  TangentBasis basis, trial_basis;
+  bool at_start = true;          // the pending evaluation is of the start
+  double cost = 0, data_cost = 0, weighted_squares = 0;
+  Vector12 jtr = Vector12::Zero();
+  Matrix12 jtj = Matrix12::Zero();  // data + prior
+  double predicted_decrease = 0;
+  double radius = kInitialRadius, decrease_factor = 2;
+  int iterations = 0, used = 0;
+  double inverse_scale = 1;
+};
+
+struct Evaluation {
+  double cost, data_cost, weighted_squares;
+  Vector12 jtr;
+  Matrix12 jtj;
+};
+
+Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior, const Params& x,
+                    const TangentBasis& basis, const Params& start) {
+  Evaluation e;
+  e.data_cost = eq.cost[p];
+  e.weighted_squares = eq.weighted_squares[p];
+  for (int i = 0; i < kTangentParams; ++i) {
+    e.jtr[i] = eq.jtr[i][p];
+    for (int j = i; j < kTangentParams; ++j) e.jtj(i, j) = e.jtj(j, i) = eq.jtj[internal::NormalIndex(i, j)][p];
+  }
+  e.cost = e.data_cost;
+  if (prior.active()) {
+    const Vector12 d = prior.Difference(x, basis, start);
+    e.cost += 0.5 * d.dot(prior.precision.cwiseProduct(d));
+    e.jtr += prior.precision.cwiseProduct(d);
+    e.jtj.diagonal() += prior.precision;
+  }
+  return e;
+}
+
+bool Frozen(const Lane& lane, int i, const RefineOptions& options) {
+  if (i == kF0 && options.fixed_f0) return true;
+  const std::optional<Bounds> bounds = BoundsOf(i);
+  if (!bounds) return false;
+  const double value = lane.x[Ambient(i)];
+  return (value <= bounds->lower && lane.jtr[i] > 0) || (value >= bounds->upper && lane.jtr[i] < 0);
+}
+
+// x ⊞ δ, projected onto the bounds; returns the step actually taken, per tangent parameter.
+Vector12 Move(const Params& x, const TangentBasis& basis, const Vector12& delta, Params& moved) {
+  moved = x;
+  const Eigen::Vector3d n = Eigen::Vector3d(x[0], x[1], x[2]).normalized() + delta[0] * basis.u + delta[1] * basis.v;
+  const Eigen::Vector3d unit = n.normalized();
+  moved[0] = unit.x(), moved[1] = unit.y(), moved[2] = unit.z();
+  Vector12 taken = delta;
+  for (int i = 2; i < kTangentParams; ++i) {
+    double value = x[Ambient(i)] + delta[i];
+    if (const std::optional<Bounds> bounds = BoundsOf(i)) value = std::clamp(value, bounds->lower, bounds->upper);
+    moved[Ambient(i)] = value;
+    taken[i] = value - x[Ambient(i)];
+  }
+  return taken;
+}
+
+// max |x − Π(x − g)|: Ceres' gradient test, with the bounds' projection.
+double ProjectedGradientNorm(const Lane& lane, const RefineOptions& options) {
+  double largest = 0;
+  for (int i = 0; i < kTangentParams; ++i) {
+    if (i == kF0 && options.fixed_f0) continue;
+    double change = lane.jtr[i];
+    if (const std::optional<Bounds> bounds = BoundsOf(i)) {
+      const double value = lane.x[Ambient(i)];
+      change = value - std::clamp(value - lane.jtr[i], bounds->lower, bounds->upper);
+    }
+    largest = std::max(largest, std::abs(change));
+  }
+  return largest;
+}
+
+enum class StepOutcome { kReady, kConverged, kFailed };
+
+// The damped step from the lane's current state into lane.trial.
+StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
+  for (;;) {
+    // Ceres' Jacobi scaling: columns scaled by 1 / (1 + |J_i|), so that the normal derivatives,
+    // albedos and σ (whose columns differ by orders of magnitude) meet the Cholesky solve and the
+    // damping on an equal footing.
+    const Vector12 scale = (1 + lane.jtj.diagonal().array().sqrt()).inverse();
+    Matrix12 a = scale.asDiagonal() * lane.jtj * scale.asDiagonal();
+    Vector12 g = scale.cwiseProduct(lane.jtr);
+    for (int i = 0; i < kTangentParams; ++i) a(i, i) += std::clamp(a(i, i), kMinDiagonal, kMaxDiagonal) / lane.radius;
+    for (int i = 0; i < kTangentParams; ++i) {
+      if (!Frozen(lane, i, options)) continue;
+      a.row(i).setZero();
+      a.col(i).setZero();
+      a(i, i) = 1;
+      g[i] = 0;
+    }
+    const Eigen::LLT<Matrix12> llt(a);
+    Vector12 delta = llt.info() == Eigen::Success ? Vector12(scale.cwiseProduct(llt.solve(-g))) : Vector12::Constant(NAN);
+    if (delta.allFinite()) {
+      const Vector12 taken = Move(lane.x, lane.basis, delta, lane.trial);
+      double x_norm = 0;
+      for (double v : lane.x) x_norm += v * v;
+      if (taken.norm() <= options.parameter_tolerance * (std::sqrt(x_norm) + options.parameter_tolerance)) {
+            return StepOutcome::kConverged;
+      }
+      lane.predicted_decrease = -(taken.dot(lane.jtr) + 0.5 * taken.dot(lane.jtj * taken));
+      if (lane.predicted_decrease > 0) {
+        lane.trial_basis = BasisOf(lane.trial);
+        return StepOutcome::kReady;
+      }
+    }
+    // No usable step at this damping: shrink the trust region, as after a rejected step.
+    lane.radius /= lane.decrease_factor;
+    lane.decrease_factor *= 2;
+    if (lane.radius < kMinRadius) return StepOutcome::kConverged;
+  }
+}
+
+void Accept(Lane& lane, const Evaluation& e) {
+  lane.cost = e.cost;
+  lane.data_cost = e.data_cost;
+  lane.weighted_squares = e.weighted_squares;
+  lane.jtr = e.jtr;
+  lane.jtj = e.jtj;
+}
+
+ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
+  std::vector<int> free;
+  for (int i = 0; i < kTangentParams; ++i) {
+    if (!(i == kF0 && options.fixed_f0)) free.push_back(i);
+  }
+  const int n = static_cast<int>(free.size());
+  Eigen::MatrixXd h(n, n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) h(i, j) = lane.jtj(free[i], free[j]);
+  }
+  const double dof = std::max(1, lane.used - n);
+  const double variance = lane.weighted_squares / dof;
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Constant(n, n, NAN);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(h);
+  if (ldlt.info() == Eigen::Success && ldlt.isPositive() && ldlt.vectorD().minCoeff() > 0) {
+    covariance = ldlt.solve(Eigen::MatrixXd::Identity(n, n)) * variance;
+  }
+  const auto sd = [&](int i) { return std::sqrt(std::max(0.0, covariance(i, i))); };
+  ParamSigma s;
+  const double deg = 180 / kPi;
+  s.normal_deg = std::sqrt(std::max(0.0, covariance(0, 0) + covariance(1, 1))) * deg;
+  if (std::isnan(covariance(0, 0))) s.normal_deg = NAN;
+  for (int c = 0; c < 3; ++c) {
+    s.a_d[c] = std::isnan(covariance(2 + c, 2 + c)) ? NAN : sd(2 + c);
+    s.a_s[c] = std::isnan(covariance(5 + c, 5 + c)) ? NAN : sd(5 + c);
+  }
+  s.sigma_x = std::isnan(covariance(8, 8)) ? NAN : sd(8);
+  s.sigma_y = std::isnan(covariance(9, 9)) ? NAN : sd(9);
+  s.alpha_deg = std::isnan(covariance(kAlpha, kAlpha)) ? NAN : sd(kAlpha) * deg;
+  return s;
+}
+
+Params ClampedStart(const WardParams<double>& start, const RefineOptions& options) {
+  Params x = Pack(start);
+  const Eigen::Vector3d n = Eigen::Vector3d(x[0], x[1], x[2]).normalized();
+  x[0] = n.x(), x[1] = n.y(), x[2] = n.z();
+  if (options.fixed_f0) x[12] = *options.fixed_f0;
+  for (int i = 2; i < kTangentParams; ++i) {
+    if (const std::optional<Bounds> b = BoundsOf(i)) x[Ambient(i)] = std::clamp(x[Ambient(i)], b->lower, b->upper);
+  }
+  return x;
+}
+
+// One worker: kLanes pixels in flight, each finished one replaced by the next from `next`.
+class Batch {
+ public:
+  Batch(const RefineProblem& problem, const RefineOptions& options, std::vector<RefinedPixel>& results,
+        std::atomic<int>& next, std::atomic<int>& done)
+      : problem_(problem), options_(options), prior_(options.prior), results_(results), next_(next), done_(done),
+        data_(problem.lights_per_observation) {
+    inputs_.huber_scale = options.huber_scale;
+  }
+
+  void Run() {
+    for (int p = 0; p < kLanes; ++p) Refill(p);
+    while (std::any_of(lanes_.begin(), lanes_.end(), [](const Lane& l) { return l.pixel >= 0; })) {
+      internal::EvaluateLanes(data_, inputs_, equations_);
+      for (int p = 0; p < kLanes; ++p) {
+        if (lanes_[p].pixel >= 0) Advance(p);
+      }
+    }
+  }
+
+ private:
+  // Loads the next pixel with enough observations into lane p (or leaves it idle).
+  void Refill(int p) {
+    Lane& lane = lanes_[p];
+    lane.pixel = -1;
+    for (int pixel = next_++; pixel < problem_.pixels; pixel = next_++) {
+      const std::vector<PixelObservation> all = problem_.observations(pixel);
+      const internal::UsableObservations usable = internal::Usable(all);
+      const WardParams<double> start = problem_.start(pixel);
+      if (static_cast<int>(usable.observations.size()) < kNumWardParams) {
+        results_[pixel] = {start, 0, static_cast<int>(usable.observations.size()), 0, false, false, {}};
+        ++done_;
+        continue;
+      }
+      lane = Lane{};
+      lane.pixel = pixel;
+      lane.used = static_cast<int>(usable.observations.size());
+      lane.inverse_scale = internal::LoadLane(usable, p, data_);
+      lane.start = ClampedStart(start, options_);
+      lane.x = lane.trial = lane.start;
+      lane.basis = lane.trial_basis = BasisOf(lane.x);
+      SetInputs(p);
+      return;
+    }
+    data_.ClearLane(p);
+  }
+
+  void SetInputs(int p) {
+    const Lane& lane = lanes_[p];
+    for (int i = 0; i < kAmbientParams; ++i) inputs_.params[i][p] = lane.trial[i];
+    for (int c = 0; c < 3; ++c) {
+      inputs_.tangent[0][c][p] = lane.trial_basis.u[c];
+      inputs_.tangent[1][c][p] = lane.trial_basis.v[c];
+    }
+    inputs_.inverse_scale[p] = lane.inverse_scale;
+  }
+
+  // One LM decision for lane p from the evaluation of its trial point.
+  void Advance(int p) {
+    Lane& lane = lanes_[p];
+    const Evaluation e = ReadLane(equations_, p, prior_, lane.trial, lane.trial_basis, lane.start);
+    bool converged = false;
+    if (lane.at_start) {
+      lane.at_start = false;
+      Accept(lane, e);
+    } else {
+      ++lane.iterations;
+      const double decrease = lane.cost - e.cost;
+      const double ratio = decrease / lane.predicted_decrease;
+      if (std::isfinite(e.cost) && ratio > kMinRelativeDecrease) {
+        const double old_cost = lane.cost;
+        lane.x = lane.trial;
+        lane.basis = lane.trial_basis;
+        Accept(lane, e);
+        lane.radius = std::min(kMaxRadius, lane.radius / std::max(1.0 / 3, 1 - std::pow(2 * ratio - 1, 3)));
+        lane.decrease_factor = 2;
+        converged = std::abs(decrease) <= options_.function_tolerance * old_cost;
+      } else {
+        lane.radius /= lane.decrease_factor;
+        lane.decrease_factor *= 2;
+        converged = lane.radius < kMinRadius;
+      }
+    }
+    converged = converged || ProjectedGradientNorm(lane, options_) <= options_.gradient_tolerance;
+    if (!converged && lane.iterations < options_.max_iterations) {
+      const StepOutcome step = ComputeStep(lane, options_);
+      if (step == StepOutcome::kReady) {
+        SetInputs(p);
+        return;
+      }
+      converged = step == StepOutcome::kConverged;
+    }
+    Finish(p, converged);
+  }
+
+  void Finish(int p, bool converged) {
+    Lane& lane = lanes_[p];
+    results_[lane.pixel] = {Unpack(lane.x), lane.data_cost, lane.used, lane.iterations, true, converged,
+                            SigmaOf(lane, options_)};
+    ++done_;
+    Refill(p);
+  }
+
+  const RefineProblem& problem_;
+  const RefineOptions& options_;
+  const Prior prior_;
+  std::vector<RefinedPixel>& results_;
+  std::atomic<int>& next_;
+  std::atomic<int>& done_;
+  internal::LaneData data_;
+  internal::LaneInputs inputs_{};
+  internal::LaneEquations equations_{};
+  std::array<Lane, kLanes> lanes_;
+};
+
+}  // namespace
+
+Status RefineOptions::Check() const {
+  std::vector<std::string> problems;
+  if (max_iterations < 1) problems.push_back("max_iterations must be ≥ 1");
+  if (!(huber_scale > 0)) problems.push_back("huber_scale must be > 0");
+  if (fixed_f0 && !(*fixed_f0 >= 0 && *fixed_f0 <= 1)) problems.push_back("fixed_f0 must be in [0, 1]");
+  if (!(function_tolerance >= 0)) problems.push_back("function_tolerance must be ≥ 0");
+  if (!(gradient_tolerance >= 0)) problems.push_back("gradient_tolerance must be ≥ 0");
+  if (!(parameter_tolerance >= 0)) problems.push_back("parameter_tolerance must be ≥ 0");
+  if (!(prior.weight >= 0)) problems.push_back("prior.weight must be ≥ 0");
+  if (!(prior.normal_deg > 0 && prior.albedo > 0 && prior.sigma > 0 && prior.alpha_deg > 0)) {
+    problems.push_back("prior's normal_deg, albedo, sigma and alpha_deg must be > 0");
+  }
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  return ProblemsStatus("RefineOptions", problems);
+}
+
+std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObservation>>& pixels) {
+  std::vector<int> lights;
+  for (const std::vector<PixelObservation>& observations : pixels) {
+    for (size_t k = 0; k < observations.size(); ++k) {
+      const PixelObservation& o = observations[k];
+      const size_t slot = o.source >= 0 ? static_cast<size_t>(o.source) : k;
+      if (slot >= lights.size()) lights.resize(slot + 1, 0);
+      lights[slot] = std::max(lights[slot], static_cast<int>(o.lights.size()));
+    }
+  }
+  return lights;
+}
+
+Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, const RefineOptions& options,
+                                               const std::function<void(int done)>& progress) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  if (problem.pixels < 0 || !problem.observations || !problem.start) {
+    return InvalidArgumentError("refine problem", "needs a pixel count ≥ 0, observations and starts");
+  }
+  std::vector<RefinedPixel> results(problem.pixels);
+  std::atomic<int> next{0}, done{0};
+  const int workers = std::max(1, std::min(ThreadCount(options.threads), (problem.pixels + kLanes - 1) / kLanes));
+  ParallelFor(
+      workers, workers, [&](int) { Batch(problem, options, results, next, done).Run(); },
+      [&](int) {
+        if (progress) progress(done.load());
+      });
+  return results;
+}
+
+std::string RefinerInstructionSet() { return internal::RefineKernelIsa(); }
+
+}  // namespace loom::fitting

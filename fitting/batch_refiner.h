@@ -1,0 +1,100 @@
+#pragma once
+// The batched refiner: Levenberg–Marquardt over many pixels at once, the fast replacement for
+// one Ceres solve per pixel (pixel_fitter.h stays the reference).
+//
+// It minimises the same cost as FitPixel: ½ Σ ρ(r²) over a pixel's usable observations, r the
+// predicted minus the observed radiance relative to the pixel's mean, ρ Huber's loss;
+// a_d, a_s ∈ [0, kMaxAlbedo], σ ∈ [kMinSigma, kMaxSigma], F0 ∈ [0, 1] or held fixed, n_s on the
+// unit sphere, α free (wrapped to (−π/2, π/2] after). Observations with NaN radiance or no
+// light are skipped, and a pixel with fewer than 13 usable ones keeps its start (`fitted` false).
+//
+// How: the model and its hand-derived Jacobian are evaluated for 8 pixels per call
+// (internal/refine_kernel.h: structure-of-arrays, vectorised across pixels); each pixel then takes
+// its own LM step — a 12 × 12 normal-equation solve with Ceres' trust-region rules for damping,
+// its own convergence test (Ceres' function, gradient and parameter tolerances), and bounds
+// held by an active set (a parameter at a bound that the gradient pushes out is frozen for the
+// step) plus projection. A pixel that finishes hands its lane to the next one.
+//
+// Optionally the objective adds a Gaussian prior toward the start (the CNN's prediction):
+// ½ Σ_i ((x_i − start_i) / (prior_sigma_i · √(1/prior_weight)))², a MAP fit rather than a free
+// one; see RefinePrior.
+//
+// Uncertainty: at the solution, covariance = s² (JᵀWJ + prior)⁻¹ with s² = Σ W r² / (m − p), the
+// residual variance; its 1σ per parameter goes into RefinedPixel::sigma.
+// Thread-safety: RefinePixels runs its own workers; `observations` and `start` are called from
+// them concurrently and must be safe for that.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/status.h"
+#include "fitting/pixel_fitter.h"
+
+namespace loom::fitting {
+
+// A Gaussian prior toward each pixel's start, in the parameters' own units: the 1σ of the start
+// as an estimate of the truth (for a CNN: its measured error). weight 0 turns it off; weight w
+// scales every term by w (as if the σ's were divided by √w).
+struct RefinePrior {
+  double weight = 0;
+  double normal_deg = 5;
+  double albedo = 0.1;  // a_d and a_s, each channel
+  double sigma = 0.05;  // σx, σy
+  double alpha_deg = 30;
+};
+
+struct RefineOptions {
+  int max_iterations = 30;          // LM steps (accepted or not) per pixel
+  double huber_scale = 0.5;         // as PixelFitOptions::huber_scale
+  std::optional<double> fixed_f0;   // F0 held at this value instead of fitted
+  double function_tolerance = 1e-6;   // |Δcost| / cost of an accepted step; Ceres' default
+  double gradient_tolerance = 1e-10;  // max-norm of the projected gradient; Ceres' default
+  double parameter_tolerance = 1e-8;  // |step| / (|x| + tol); Ceres' default
+  RefinePrior prior;
+  int threads = 0;                  // 0: one per core
+  Status Check() const;             // every problem, naming the field
+};
+
+// 1σ of a refined pixel's parameters (NaN where the data and prior leave one undetermined).
+struct ParamSigma {
+  double normal_deg = 0;  // of the angle between the fitted and the true normal
+  Eigen::Vector3d a_d = Eigen::Vector3d::Zero();
+  Eigen::Vector3d a_s = Eigen::Vector3d::Zero();
+  double sigma_x = 0, sigma_y = 0;
+  double alpha_deg = 0;
+};
+
+struct RefinedPixel {
+  WardParams<double> params;
+  double cost = 0;          // ½ Σ ρ(r²) of the data, as Ceres' final cost (the prior not included)
+  int observations_used = 0;
+  int iterations = 0;
+  bool fitted = false;      // false: too few usable observations; params = start
+  bool converged = false;
+  ParamSigma sigma;
+};
+
+// The pixels to refine. `observations(i)` gives pixel i's observations; an observation's slot
+// in the batch layout is its `source` (≥ 0, as StackPixels sets it) or else its position in the
+// list. `lights_per_observation[slot]` bounds the light samples any pixel has there.
+struct RefineProblem {
+  int pixels = 0;
+  std::vector<int> lights_per_observation;
+  std::function<std::vector<PixelObservation>(int pixel)> observations;
+  std::function<WardParams<double>(int pixel)> start;
+};
+
+// lights_per_observation for pixels given as lists (tests, benchmarks): per slot, the most any
+// of them has.
+std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObservation>>& pixels);
+
+// Refines every pixel; `progress(done)` is called on the calling thread now and then.
+Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, const RefineOptions& options,
+                                               const std::function<void(int done)>& progress = {});
+
+// The instruction set the refiner's kernel runs with here (e.g. "x86-64-v3 (AVX2, FMA)").
+std::string RefinerInstructionSet();
+
+}  // namespace loom::fitting

@@ -1,0 +1,234 @@
+// The batched refiner's kernel (refine_kernel.h). Compiled with -O3 -ffast-math (CMakeLists):
+// fast-math lets GCC call glibc's vector exp (libmvec) from the lane loops; the vectorisation
+// report of this file (-fopt-info-vec, docs/benchmarks.md) confirms the loops over lanes are
+// vectorised. EvaluateLanes is built three times (AVX-512, AVX2 + FMA, baseline SSE2) and the
+// loader picks the best the processor has.
+//
+// Per light sample, with the notation of fitting/pixel_cost.cc (its derivation holds here):
+//   e = (h_t²/σx² + h_b²/σy²) / h_n²,  ward = exp(−e) / (4π σx σy c² h_n⁴),  spec = F · ward
+//   L += E (w·a_d/π + w·a_s spec) (n·l)
+// and the per-observation sums Σ E(n·l)/π, Σ E spec (n·l), Σ E (1−k) ward (n·l) give the
+// albedo and F0 columns; σ, α and n accumulate per sample.
+#include "fitting/internal/refine_kernel.h"
+
+#include <cmath>
+
+namespace loom::fitting::internal {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// Below this h·n the lobe is nothing (exp(−e) underflows for any σ the fit allows); the floor
+// only keeps masked-out terms finite, since fast-math multiplies them by 0 rather than branching.
+constexpr double kMinHalfwayCosine = 1e-3;
+
+#define LANES _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kLanes; ++p)
+
+// The lobe's parameter-dependent frame and constants, per lane.
+struct LaneLobe {
+  alignas(64) double n[3][kLanes], t[3][kLanes], b[3][kLanes], t0[3][kLanes], dt[3][kLanes], db[3][kLanes];
+  alignas(64) double t0_dot_n[kLanes], inv_t_prime[kLanes], inv_sx2[kLanes], inv_sy2[kLanes];
+  alignas(64) double inv_sx[kLanes], inv_sy[kLanes], normalisation[kLanes], f0[kLanes];
+};
+
+[[gnu::always_inline]] inline void PrepareLobe(const LaneInputs& in, LaneLobe& lobe) {
+  const auto& x = in.params;
+  LANES {
+    const double n0 = x[0][p], n1 = x[1][p], n2 = x[2][p];
+    const double inv_norm = 1 / std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+    const double nx = n0 * inv_norm, ny = n1 * inv_norm, nz = n2 * inv_norm;
+    const double sx = x[9][p], sy = x[10][p], alpha = x[11][p];
+    const double ca = std::cos(alpha), sa = std::sin(alpha);
+    const double t0n = ca * nx + sa * ny;
+    const double tpx = ca - t0n * nx, tpy = sa - t0n * ny, tpz = -t0n * nz;
+    const double itp = 1 / std::sqrt(tpx * tpx + tpy * tpy + tpz * tpz);
+    const double tx = tpx * itp, ty = tpy * itp, tz = tpz * itp;
+    // ∂t/∂α from dt0 = (−sin α, cos α, 0).
+    const double d0n = -sa * nx + ca * ny;
+    const double dpx = -sa - d0n * nx, dpy = ca - d0n * ny, dpz = -d0n * nz;
+    const double t_dot_dp = tx * dpx + ty * dpy + tz * dpz;
+    const double dtx = (dpx - tx * t_dot_dp) * itp, dty = (dpy - ty * t_dot_dp) * itp, dtz = (dpz - tz * t_dot_dp) * itp;
+    lobe.n[0][p] = nx, lobe.n[1][p] = ny, lobe.n[2][p] = nz;
+    lobe.t[0][p] = tx, lobe.t[1][p] = ty, lobe.t[2][p] = tz;
+    lobe.b[0][p] = ny * tz - nz * ty, lobe.b[1][p] = nz * tx - nx * tz, lobe.b[2][p] = nx * ty - ny * tx;
+    lobe.t0[0][p] = ca, lobe.t0[1][p] = sa, lobe.t0[2][p] = 0;
+    lobe.dt[0][p] = dtx, lobe.dt[1][p] = dty, lobe.dt[2][p] = dtz;
+    lobe.db[0][p] = ny * dtz - nz * dty, lobe.db[1][p] = nz * dtx - nx * dtz, lobe.db[2][p] = nx * dty - ny * dtx;
+    lobe.t0_dot_n[p] = t0n;
+    lobe.inv_t_prime[p] = itp;
+    lobe.inv_sx[p] = 1 / sx;
+    lobe.inv_sy[p] = 1 / sy;
+    lobe.inv_sx2[p] = 1 / (sx * sx);
+    lobe.inv_sy2[p] = 1 / (sy * sy);
+    lobe.normalisation[p] = 1 / (4 * kPi * sx * sy);
+    lobe.f0[p] = x[12][p];
+  }
+}
+
+// One observation's sums over its light samples.
+struct ObservationSums {
+  alignas(64) double radiance[kLanes], diffuse[kLanes], specular[kLanes], fresnel[kLanes];
+  alignas(64) double sigma_x[kLanes], sigma_y[kLanes], alpha[kLanes], n[3][kLanes];
+};
+
+[[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const double* diffuse_albedo,
+                                             const double* specular_albedo, int first, int end, ObservationSums& s) {
+  LANES {
+    s.radiance[p] = s.diffuse[p] = s.specular[p] = s.fresnel[p] = 0;
+    s.sigma_x[p] = s.sigma_y[p] = s.alpha[p] = 0;
+    s.n[0][p] = s.n[1][p] = s.n[2][p] = 0;
+  }
+  for (int slot = first; slot < end; ++slot) {
+    const int o = slot * kLanes;
+    const double* __restrict lx = &d.lx[o];
+    const double* __restrict ly = &d.ly[o];
+    const double* __restrict lz = &d.lz[o];
+    const double* __restrict hx = &d.hx[o];
+    const double* __restrict hy = &d.hy[o];
+    const double* __restrict hz = &d.hz[o];
+    const double* __restrict irradiance = &d.irradiance[o];
+    const double* __restrict inv_c2 = &d.inv_c2[o];
+    const double* __restrict schlick = &d.schlick[o];
+    LANES {
+      const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
+      const double n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+      const double irradiance_p = irradiance[p];  // loaded unconditionally: a select vectorises, a branch not
+      const double e = n_dot_l > 0 ? irradiance_p : 0.0;
+      const double h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
+      const double h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
+      const double h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
+      const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
+      const double inv_h_n = 1 / h_n;
+      const double inv_h_n2 = inv_h_n * inv_h_n;
+      const double tx = h_t * lobe.inv_sx2[p], by = h_b * lobe.inv_sy2[p];
+      const double exponent = (h_t * tx + h_b * by) * inv_h_n2;
+      const double ward = std::exp(-exponent) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+      const double fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
+      const double specular = fresnel * ward;
+      const double e_cos = e * n_dot_l;
+      const double shading = e * (diffuse_albedo[p] * (1 / kPi) + specular_albedo[p] * specular);
+      s.radiance[p] += shading * n_dot_l;
+      s.diffuse[p] += e_cos * (1 / kPi);
+      s.specular[p] += e_cos * specular;
+      s.fresnel[p] += e_cos * (1 - schlick[p]) * ward;
+      const double q = e_cos * specular_albedo[p] * specular;
+      s.sigma_x[p] += q * lobe.inv_sx[p] * (2 * h_t * tx * inv_h_n2 - 1);
+      s.sigma_y[p] += q * lobe.inv_sy[p] * (2 * h_b * by * inv_h_n2 - 1);
+      const double h_dt = hx[p] * lobe.dt[0][p] + hy[p] * lobe.dt[1][p] + hz[p] * lobe.dt[2][p];
+      const double h_db = hx[p] * lobe.db[0][p] + hy[p] * lobe.db[1][p] + hz[p] * lobe.db[2][p];
+      s.alpha[p] -= q * 2 * (tx * h_dt + by * h_db) * inv_h_n2;
+      // ∂h_t/∂n = −(t0 h_n + (t0·n)(h − t h_t)) / |t'|,  ∂h_b/∂n = t × h − (t0·n)(h × n − t h_b) / |t'|
+      const double t0n_itp = lobe.t0_dot_n[p] * lobe.inv_t_prime[p];
+      const double h_n_itp = h_n_raw * lobe.inv_t_prime[p];
+      const double t0x = lobe.t0[0][p], t0y = lobe.t0[1][p];
+      const double ttx = lobe.t[0][p], tty = lobe.t[1][p], ttz = lobe.t[2][p];
+      const double dht_x = -(t0x * h_n_itp + t0n_itp * (hx[p] - ttx * h_t));
+      const double dht_y = -(t0y * h_n_itp + t0n_itp * (hy[p] - tty * h_t));
+      const double dht_z = -(t0n_itp * (hz[p] - ttz * h_t));
+      const double hcn_x = hy[p] * nz - hz[p] * ny, hcn_y = hz[p] * nx - hx[p] * nz, hcn_z = hx[p] * ny - hy[p] * nx;
+      const double dhb_x = (tty * hz[p] - ttz * hy[p]) - t0n_itp * (hcn_x - ttx * h_b);
+      const double dhb_y = (ttz * hx[p] - ttx * hz[p]) - t0n_itp * (hcn_y - tty * h_b);
+      const double dhb_z = (ttx * hy[p] - tty * hx[p]) - t0n_itp * (hcn_z - ttz * h_b);
+      // ∂L/∂n = shading l + q (−4 h / h_n − ∂e/∂n),  ∂e/∂n = 2 (tx ∂h_t + by ∂h_b) / h_n² − 2 e h / h_n
+      const double g2 = 2 * inv_h_n2;
+      const double h_coeff = q * (2 * exponent - 4) * inv_h_n;
+      s.n[0][p] += shading * lx[p] + h_coeff * hx[p] - q * g2 * (tx * dht_x + by * dhb_x);
+      s.n[1][p] += shading * ly[p] + h_coeff * hy[p] - q * g2 * (tx * dht_y + by * dhb_y);
+      s.n[2][p] += shading * lz[p] + h_coeff * hz[p] - q * g2 * (tx * dht_z + by * dhb_z);
+    }
+  }
+}
+
+}  // namespace
+
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) {
+  LaneLobe lobe;
+  PrepareLobe(in, lobe);
+  LANES {
+    out.cost[p] = 0;
+    out.weighted_squares[p] = 0;
+  }
+  for (int i = 0; i < kTangentParams; ++i) LANES { out.jtr[i][p] = 0; }
+  for (int i = 0; i < kNormalEntries; ++i) LANES { out.jtj[i][p] = 0; }
+  const double a = in.huber_scale;
+  ObservationSums s;
+  alignas(64) double diffuse_albedo[kLanes], specular_albedo[kLanes];
+  alignas(64) double g[kTangentParams][kLanes], weighted_r[kLanes], weight[kLanes];
+  for (int k = 0; k < d.observations; ++k) {
+    const int o = k * kLanes;
+    LANES {
+      diffuse_albedo[p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
+      specular_albedo[p] = d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
+    }
+    SumLights(d, lobe, diffuse_albedo, specular_albedo, d.first_slot[k], d.first_slot[k + 1], s);
+    LANES {
+      // The model is 0 when the camera is below the shading normal's horizon.
+      const double n_dot_v = lobe.n[0][p] * d.vx[o + p] + lobe.n[1][p] * d.vy[o + p] + lobe.n[2][p] * d.vz[o + p];
+      const double inverse_scale = in.inverse_scale[p];
+      const double seen = n_dot_v > 0 ? inverse_scale : 0.0;
+      const double r = s.radiance[p] * seen - d.radiance[o + p] * inverse_scale;
+      const double abs_r = std::fabs(r);
+      const bool inlier = abs_r <= a;
+      const double rho = inlier ? r * r : 2 * a * abs_r - a * a;
+      const double w = d.weight[o + p] * (inlier ? 1.0 : a / (abs_r > 0 ? abs_r : 1.0));
+      out.cost[p] += 0.5 * d.weight[o + p] * rho;
+      out.weighted_squares[p] += w * r * r;
+      weight[p] = w;
+      weighted_r[p] = w * r;
+      const double gn_x = s.n[0][p] * seen, gn_y = s.n[1][p] * seen, gn_z = s.n[2][p] * seen;
+      g[0][p] = gn_x * in.tangent[0][0][p] + gn_y * in.tangent[0][1][p] + gn_z * in.tangent[0][2][p];
+      g[1][p] = gn_x * in.tangent[1][0][p] + gn_y * in.tangent[1][1][p] + gn_z * in.tangent[1][2][p];
+      const double diffuse = s.diffuse[p] * seen, specular = s.specular[p] * seen;
+      g[2][p] = d.wr[o + p] * diffuse, g[3][p] = d.wg[o + p] * diffuse, g[4][p] = d.wb[o + p] * diffuse;
+      g[5][p] = d.wr[o + p] * specular, g[6][p] = d.wg[o + p] * specular, g[7][p] = d.wb[o + p] * specular;
+      g[8][p] = s.sigma_x[p] * seen;
+      g[9][p] = s.sigma_y[p] * seen;
+      g[10][p] = s.alpha[p] * seen;
+      g[11][p] = specular_albedo[p] * s.fresnel[p] * seen;
+    }
+    for (int i = 0; i < kTangentParams; ++i) {
+      LANES { out.jtr[i][p] += g[i][p] * weighted_r[p]; }
+      for (int j = i; j < kTangentParams; ++j) {
+        const int e = NormalIndex(i, j);
+        LANES { out.jtj[e][p] += weight[p] * g[i][p] * g[j][p]; }
+      }
+    }
+  }
+}
+
+const char* RefineKernelIsa() {
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("x86-64-v4")) return "x86-64-v4 (AVX-512)";
+  if (__builtin_cpu_supports("x86-64-v3")) return "x86-64-v3 (AVX2, FMA)";
+  return "x86-64 baseline (SSE2)";
+}
+
+LaneData::LaneData(const std::vector<int>& slots_per_observation)
+    : observations(static_cast<int>(slots_per_observation.size())) {
+  first_slot.push_back(0);
+  for (int slots : slots_per_observation) first_slot.push_back(first_slot.back() + slots);
+  const size_t per_observation = static_cast<size_t>(observations) * kLanes;
+  const size_t per_slot = static_cast<size_t>(slots()) * kLanes;
+  for (auto* v : {&radiance, &weight, &vx, &vy, &vz, &wr, &wg, &wb}) v->assign(per_observation, 0.0);
+  for (auto* v : {&lx, &ly, &lz, &hx, &hy, &hz, &irradiance, &inv_c2, &schlick}) v->assign(per_slot, 0.0);
+  for (int lane = 0; lane < kLanes; ++lane) ClearLane(lane);
+}
+
+void LaneData::ClearLane(int lane) {
+  for (int k = 0; k < observations; ++k) {
+    const size_t i = static_cast<size_t>(k) * kLanes + lane;
+    radiance[i] = weight[i] = 0;
+    vx[i] = vy[i] = 0, vz[i] = 1;
+    wr[i] = wg[i] = wb[i] = 0;
+  }
+  for (int s = 0; s < slots(); ++s) {
+    const size_t i = static_cast<size_t>(s) * kLanes + lane;
+    lx[i] = ly[i] = 0, lz[i] = 1;
+    hx[i] = hy[i] = 0, hz[i] = 1;
+    irradiance[i] = 0;
+    inv_c2[i] = 1;
+    schlick[i] = 0;
+  }
+}
+
+}  // namespace loom::fitting::internal

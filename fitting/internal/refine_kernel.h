@@ -1,0 +1,75 @@
+#pragma once
+// The batched refiner's inner loop (fitting/batch_refiner.h): for kLanes pixels at once, the
+// GD10 model's radiance of every observation, its hand-derived gradient (the formulas of
+// fitting/pixel_cost.cc) and the Huber-weighted normal equations JᵀWJ, JᵀWr of the pixel's
+// relative residuals — the same residuals and robust loss as the Ceres cost (pixel_fitter.h).
+//
+// Memory is structure-of-arrays with the lane innermost (element [i * kLanes + lane]), so that
+// every loop over lanes is a vector loop (AVX2 or AVX-512, chosen at run time; exp() through
+// glibc's vector math library). refine_kernel.cc is compiled with -ffast-math for that, which is
+// why nothing here may hold NaN: a masked observation has weight 0 and radiance 0, an empty
+// light slot irradiance 0.
+//
+// Parameters: 13 per lane in WardParams' order (n_s 3, a_d 3, a_s 3, σx, σy, α, F0). The
+// Jacobian has 12 columns: n_s moves in the plane of a per-lane tangent basis (2), then a_d,
+// a_s, σx, σy, α, F0.
+
+#include <vector>
+
+namespace loom::fitting::internal {
+
+inline constexpr int kLanes = 8;
+inline constexpr int kAmbientParams = 13;
+inline constexpr int kTangentParams = 12;
+inline constexpr int kNormalEntries = kTangentParams * (kTangentParams + 1) / 2;  // upper triangle
+
+// Upper-triangle index of (i, j), i ≤ j, row by row.
+constexpr int NormalIndex(int i, int j) { return i * kTangentParams - i * (i - 1) / 2 + (j - i); }
+
+// The observations of kLanes pixels in one layout: observation k owns light slots
+// [first_slot[k], first_slot[k + 1]); a pixel fills as many of them as it has light samples.
+struct LaneData {
+  int observations = 0;
+  std::vector<int> first_slot;  // observations + 1
+  // Per observation × lane.
+  std::vector<double> radiance, weight;  // weight 0: masked (the radiance is then 0)
+  std::vector<double> vx, vy, vz;        // towards the camera, local frame
+  std::vector<double> wr, wg, wb;        // colour weights
+  // Per light slot × lane: what does not depend on the parameters.
+  std::vector<double> lx, ly, lz;        // towards the light
+  std::vector<double> hx, hy, hz;        // normalize(l + v)
+  std::vector<double> irradiance;        // 0: empty slot
+  std::vector<double> inv_c2;            // 1 / (l·h)²
+  std::vector<double> schlick;           // (1 − l·h)⁵
+
+  // Sizes every array for `slots_per_observation`, all lanes empty.
+  explicit LaneData(const std::vector<int>& slots_per_observation);
+  // Empties one lane: weight and irradiance 0, harmless directions.
+  void ClearLane(int lane);
+  int slots() const { return first_slot.back(); }
+};
+
+// Per-lane inputs of one evaluation.
+struct LaneInputs {
+  alignas(64) double params[kAmbientParams][kLanes];
+  alignas(64) double tangent[2][3][kLanes];  // orthonormal, ⟂ n_s
+  alignas(64) double inverse_scale[kLanes];  // 1 / the pixel's mean observed radiance
+  double huber_scale = 0.5;
+};
+
+// Per-lane outputs: ½ Σ ρ(r²) (Ceres' cost), JᵀWr, JᵀWJ (upper triangle), and Σ W r² with the
+// count of unmasked observations (the residual variance for the uncertainty).
+struct LaneEquations {
+  alignas(64) double cost[kLanes];
+  alignas(64) double jtr[kTangentParams][kLanes];
+  alignas(64) double jtj[kNormalEntries][kLanes];
+  alignas(64) double weighted_squares[kLanes];
+};
+
+// Evaluates every lane (idle lanes too: their data is empty and their result ignored).
+void EvaluateLanes(const LaneData& data, const LaneInputs& inputs, LaneEquations& out);
+
+// Which instruction set EvaluateLanes runs with on this machine ("avx512", "avx2", "baseline").
+const char* RefineKernelIsa();
+
+}  // namespace loom::fitting::internal

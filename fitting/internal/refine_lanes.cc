@@ -1,0 +1,56 @@
+#include "fitting/internal/refine_lanes.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/check.h"
+
+namespace loom::fitting::internal {
+
+UsableObservations Usable(const std::vector<PixelObservation>& all) {
+  UsableObservations usable;
+  for (size_t k = 0; k < all.size(); ++k) {
+    const PixelObservation& o = all[k];
+    if (std::isnan(o.radiance) || o.lights.empty()) continue;
+    usable.observations.push_back(&o);
+    usable.slots.push_back(o.source >= 0 ? o.source : static_cast<int>(k));
+  }
+  return usable;
+}
+
+double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
+  data.ClearLane(lane);
+  double sum = 0;
+  for (size_t u = 0; u < usable.observations.size(); ++u) {
+    const PixelObservation& o = *usable.observations[u];
+    const int slot = usable.slots[u];
+    LOOM_CHECK(slot >= 0 && slot < data.observations) << "observation slot " << slot << " outside the batch's " << data.observations;
+    const size_t i = static_cast<size_t>(slot) * kLanes + lane;
+    data.radiance[i] = o.radiance;
+    data.weight[i] = 1;
+    data.vx[i] = o.v_local.x(), data.vy[i] = o.v_local.y(), data.vz[i] = o.v_local.z();
+    data.wr[i] = o.rgb_weights.x(), data.wg[i] = o.rgb_weights.y(), data.wb[i] = o.rgb_weights.z();
+    sum += std::abs(o.radiance);
+    int light_slot = data.first_slot[slot];
+    for (const LightSample& light : o.lights) {
+      // The zero conditions that do not depend on the parameters, as the Ceres cost drops them.
+      const Eigen::Vector3d sum_lv = light.l_local + o.v_local;
+      if (o.v_local.z() <= 0 || light.l_local.z() <= 0 || sum_lv.squaredNorm() < 1e-20) continue;
+      LOOM_CHECK(light_slot < data.first_slot[slot + 1])
+          << "observation slot " << slot << " has more light samples than its " << data.first_slot[slot + 1] - data.first_slot[slot];
+      const Eigen::Vector3d h = sum_lv.normalized();
+      const double c = std::clamp(light.l_local.dot(h), 0.0, 1.0);
+      const double one_minus_c = 1 - c;
+      const size_t s = static_cast<size_t>(light_slot++) * kLanes + lane;
+      data.lx[s] = light.l_local.x(), data.ly[s] = light.l_local.y(), data.lz[s] = light.l_local.z();
+      data.hx[s] = h.x(), data.hy[s] = h.y(), data.hz[s] = h.z();
+      data.irradiance[s] = light.irradiance;
+      data.inv_c2[s] = 1 / (c * c);
+      data.schlick[s] = one_minus_c * one_minus_c * one_minus_c * one_minus_c * one_minus_c;
+    }
+  }
+  const double mean = sum / usable.observations.size();
+  return mean > 0 ? 1 / mean : 1;
+}
+
+}  // namespace loom::fitting::internal
