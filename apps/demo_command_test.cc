@@ -23,13 +23,13 @@ TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("demo_command_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml";
-  const auto demo = RunCommand(Loom("demo --rig " + rig + " --size 24 --methods cnn+ceres --quiet --out " + dir.string()));
+  const auto demo = RunCommand(Loom("demo --rig " + rig + " --size 24 --methods cnn+refine --quiet --out " + dir.string()));
   ASSERT_EQ(demo.exit_code, 0) << demo.output;
   std::cout << demo.output.substr(demo.output.find("== summary"));
 
   std::ifstream file(dir / "summary.json");
   const nlohmann::json summary = nlohmann::json::parse(file);
-  const nlohmann::json& fit = summary["methods"]["cnn+ceres"];
+  const nlohmann::json& fit = summary["methods"]["cnn+refine"];
   // Measured (2026-11-22, 2 cores, the CNN shipped in session 9): camera calibration 0.30 px;
   // normal error median 4.1° (4.7° with the CNN before it), a_d NRMSE 0.066 (0.080), a_s·F0
   // 0.287, re-render relative L1 0.120 (0.126) over all observations. The bounds leave room for
@@ -40,10 +40,10 @@ TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   EXPECT_LT(fit["parameter_nrmse"]["a_d"].get<double>(), 0.10) << fit.dump(2);
   EXPECT_LT(fit["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.16) << fit.dump(2);
   for (const char* stage : {"calibration scan", "calibrate geometry", "calibrate radiometry", "material scan", "reconstruct",
-                            "ground truth", "fit cnn+ceres", "evaluate cnn+ceres", "export"}) {
+                            "ground truth", "fit cnn+refine", "evaluate cnn+refine", "export"}) {
     EXPECT_TRUE(summary["stage_seconds"].contains(stage)) << stage;
   }
-  EXPECT_TRUE(fs::exists(dir / "report-cnn+ceres" / "index.html"));
+  EXPECT_TRUE(fs::exists(dir / "report-cnn+refine" / "index.html"));
   EXPECT_TRUE(fs::exists(dir / "gltf" / "material.gltf"));
   EXPECT_TRUE(fs::exists(dir / "material.h5"));
 

@@ -110,9 +110,11 @@ struct Lane {
   Params start{}, x{}, trial{};
   TangentBasis basis, trial_basis;
   bool at_start = true;          // the pending evaluation is of the start
-  double cost = 0, data_cost = 0, weighted_squares = 0;
+  double cost = 0, data_cost = 0;
   Vector12 jtr = Vector12::Zero();
   Matrix12 jtj = Matrix12::Zero();  // data + prior
+  Matrix12 bread = Matrix12::Zero();  // Σ ψ'(r) g gᵀ (+ the prior)
+  Matrix12 meat = Matrix12::Zero();   // Σ ψ(r)² g gᵀ
   double predicted_decrease = 0;
   double radius = kInitialRadius, decrease_factor = 2;
   int iterations = 0, used = 0;
@@ -120,19 +122,22 @@ struct Lane {
 };
 
 struct Evaluation {
-  double cost, data_cost, weighted_squares;
+  double cost, data_cost;
   Vector12 jtr;
-  Matrix12 jtj;
+  Matrix12 jtj, bread, meat;
 };
 
 Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior, const Params& x,
                     const TangentBasis& basis, const Params& start) {
   Evaluation e;
   e.data_cost = eq.cost[p];
-  e.weighted_squares = eq.weighted_squares[p];
   for (int i = 0; i < kTangentParams; ++i) {
     e.jtr[i] = eq.jtr[i][p];
-    for (int j = i; j < kTangentParams; ++j) e.jtj(i, j) = e.jtj(j, i) = eq.jtj[internal::NormalIndex(i, j)][p];
+    for (int j = i; j < kTangentParams; ++j) {
+      e.jtj(i, j) = e.jtj(j, i) = eq.jtj[internal::NormalIndex(i, j)][p];
+      e.bread(i, j) = e.bread(j, i) = eq.bread[internal::NormalIndex(i, j)][p];
+      e.meat(i, j) = e.meat(j, i) = eq.meat[internal::NormalIndex(i, j)][p];
+    }
   }
   e.cost = e.data_cost;
   if (prior.active()) {
@@ -140,6 +145,7 @@ Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior
     e.cost += 0.5 * d.dot(prior.precision.cwiseProduct(d));
     e.jtr += prior.precision.cwiseProduct(d);
     e.jtj.diagonal() += prior.precision;
+    e.bread.diagonal() += prior.precision;
   }
   return e;
 }
@@ -227,27 +233,33 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
 void Accept(Lane& lane, const Evaluation& e) {
   lane.cost = e.cost;
   lane.data_cost = e.data_cost;
-  lane.weighted_squares = e.weighted_squares;
+  lane.bread = e.bread;
+  lane.meat = e.meat;
   lane.jtr = e.jtr;
   lane.jtj = e.jtj;
 }
 
+// The sandwich covariance H⁻¹ M H⁻¹ · m/(m − p) of an M-estimator (H = Σ ψ' g gᵀ, M = Σ ψ² g gᵀ;
+// White's, with its small-sample factor): the
+// noise of a scan is not the same on every observation — a highlight's is many times a dark
+// view's — and the plain s² H⁻¹ then understates the normal's and σ's error and overstates
+// the albedos' (measured: 1σ covered 23 % of normal errors, 100 % of a_d's).
 ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
   std::vector<int> free;
   for (int i = 0; i < kTangentParams; ++i) {
     if (!(i == kF0 && options.fixed_f0)) free.push_back(i);
   }
   const int n = static_cast<int>(free.size());
-  Eigen::MatrixXd h(n, n);
+  Eigen::MatrixXd h(n, n), m(n, n);
   for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j) h(i, j) = lane.jtj(free[i], free[j]);
+    for (int j = 0; j < n; ++j) h(i, j) = lane.bread(free[i], free[j]), m(i, j) = lane.meat(free[i], free[j]);
   }
-  const double dof = std::max(1, lane.used - n);
-  const double variance = lane.weighted_squares / dof;
+  const double small_sample = static_cast<double>(lane.used) / std::max(1, lane.used - n);
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Constant(n, n, NAN);
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(h);
   if (ldlt.info() == Eigen::Success && ldlt.isPositive() && ldlt.vectorD().minCoeff() > 0) {
-    covariance = ldlt.solve(Eigen::MatrixXd::Identity(n, n)) * variance;
+    const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(n, n));
+    covariance = inverse * m * inverse * small_sample;
   }
   const auto sd = [&](int i) { return std::sqrt(std::max(0.0, covariance(i, i))); };
   ParamSigma s;

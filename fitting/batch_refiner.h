@@ -19,8 +19,9 @@
 // ½ Σ_i ((x_i − start_i) / (prior_sigma_i · √(1/prior_weight)))², a MAP fit rather than a free
 // one; see RefinePrior.
 //
-// Uncertainty: at the solution, covariance = s² (JᵀWJ + prior)⁻¹ with s² = Σ W r² / (m − p), the
-// residual variance; its 1σ per parameter goes into RefinedPixel::sigma.
+// Uncertainty: at the solution, the sandwich covariance H⁻¹ (Σ (W r)² g gᵀ) H⁻¹ · m/(m − p),
+// H = JᵀWJ (+ the prior), which holds when the noise differs between observations (a scan's
+// does: highlights are noisier); its 1σ per parameter goes into RefinedPixel::sigma.
 // Thread-safety: RefinePixels runs its own workers; `observations` and `start` are called from
 // them concurrently and must be safe for that.
 

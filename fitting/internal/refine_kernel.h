@@ -44,7 +44,8 @@ struct LaneData {
 
   // Sizes every array for `slots_per_observation`, all lanes empty.
   explicit LaneData(const std::vector<int>& slots_per_observation);
-  // Empties one lane: weight and irradiance 0, harmless directions.
+  // Empties one lane: weight and irradiance 0 (directions stay finite: the constructor's or a
+  // previous pixel's).
   void ClearLane(int lane);
   int slots() const { return first_slot.back(); }
 };
@@ -57,13 +58,15 @@ struct LaneInputs {
   double huber_scale = 0.5;
 };
 
-// Per-lane outputs: ½ Σ ρ(r²) (Ceres' cost), JᵀWr, JᵀWJ (upper triangle), and Σ W r² with the
-// count of unmasked observations (the residual variance for the uncertainty).
+// Per-lane outputs: ½ Σ ρ(r²) (Ceres' cost), JᵀWr, JᵀWJ (upper triangle) for the LM steps, and
+// for the uncertainty's sandwich covariance its bread Σ ψ'(r) g gᵀ (the inliers' JᵀJ: Huber's
+// ψ' is 0 beyond the threshold) and its meat Σ ψ(r)² g gᵀ = Σ (W r)² g gᵀ.
 struct LaneEquations {
   alignas(64) double cost[kLanes];
   alignas(64) double jtr[kTangentParams][kLanes];
   alignas(64) double jtj[kNormalEntries][kLanes];
-  alignas(64) double weighted_squares[kLanes];
+  alignas(64) double bread[kNormalEntries][kLanes];
+  alignas(64) double meat[kNormalEntries][kLanes];
 };
 
 // Evaluates every lane (idle lanes too: their data is empty and their result ignored).
