@@ -34,7 +34,12 @@ struct FitArguments {
   bool quiet = false;
 };
 
-std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, double cnn_seconds) {
+std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, double cnn_seconds,
+                        const Image& maps) {
+  std::vector<std::string> uncertainty;
+  for (const std::string& name : maps.channel_names()) {
+    if (name.starts_with("unc.")) uncertainty.push_back(name);
+  }
   nlohmann::json json = {{"method", args.method},
                          {"model", args.model},
                          {"cnn_seconds", cnn_seconds},
@@ -54,6 +59,7 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"threads", s.threads},
                          {"solver", args.method.ends_with("refine") ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
                          {"prior_weight", args.prior_weight},
+                         {"uncertainty_channels", uncertainty},
                          {"ms_per_pixel_per_thread", s.ms_per_pixel_per_thread()},
                          {"loom_version", std::string(VersionWithCommit())}};
   return json.dump(2) + "\n";
@@ -155,7 +161,7 @@ Status Fit(FitArguments args) {
             << " iterations per pixel\n"
             << "time: clusters " << FormatDuration(s.cluster_seconds) << ", pixels " << FormatDuration(s.pixel_seconds)
             << " (" << s.ms_per_pixel_per_thread() << " ms per pixel per thread, " << s.threads << " threads)\n";
-  return WriteMaps(args, stack, fit.maps, SummaryJson(s, args, cnn_seconds));
+  return WriteMaps(args, stack, fit.maps, SummaryJson(s, args, cnn_seconds, fit.maps));
 }
 
 }  // namespace

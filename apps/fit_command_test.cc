@@ -108,6 +108,20 @@ TEST_F(FitCommandTest, CnnPlusCeresRecoversTheFabric) {
   EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
 }
 
+// The batched refiner from the CNN's maps: what cnn+ceres reaches, with uncertainty maps.
+TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
+  const nlohmann::json json = FitAndEvaluate(dir_, "cnn+refine");
+  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
+  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
+  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
+  std::ifstream fit_json(dir_ / "cnn+refine" / "fit.json");
+  const nlohmann::json fit = nlohmann::json::parse(fit_json);
+  EXPECT_NE(fit["solver"].get<std::string>().find("batch refiner"), std::string::npos) << fit.dump(2);
+  const std::vector<std::string> uncertainty = fit["uncertainty_channels"];
+  EXPECT_EQ(uncertainty.size(), 10u) << fit.dump(2);
+  EXPECT_EQ(uncertainty.front(), "unc.normal_deg");
+}
+
 TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
   const std::string model = (dir_ / "no-such-model").string();
   const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
