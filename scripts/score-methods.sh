@@ -12,7 +12,7 @@
 # --stack --size`), not the training dataset's SIZE px material of the same seed.
 #
 # LOOM (default build/apps/loom), RIG (configs/rig/tac7-mini.yaml), PRESET (low), MODEL (the
-# rig's default), SIZE (32 px), METHODS (ceres cnn cnn+ceres; ceres must be among them) can be
+# rig's default), SIZE (32 px), METHODS (ceres cnn cnn+ceres cnn+refine; ceres must be among them) can be
 # set in the environment. OUT/<seed>/<method>/ keeps every fit and report; OUT/scores.tsv has
 # one line per seed and method.
 set -euo pipefail
@@ -30,7 +30,7 @@ loom=${LOOM:-build/apps/loom}
 rig=${RIG:-configs/rig/tac7-mini.yaml}
 preset=${PRESET:-low}
 size=${SIZE:-32}
-read -r -a methods <<< "${METHODS:-ceres cnn cnn+ceres}"
+read -r -a methods <<< "${METHODS:-ceres cnn cnn+ceres cnn+refine}"
 model_option=()
 if [[ -n "${MODEL:-}" ]]; then model_option=(--model "$MODEL"); fi
 

@@ -8,7 +8,7 @@
 # Task N takes line N of SCANS (a scan directory) and writes RESULTS/<scan name>/{reconstruction,
 # fit,report}. A task whose fit.json already exists is skipped, so resubmitting the same array
 # after failures redoes only what failed. LOOM (default: loom on PATH) and LOOM_FIT_METHOD
-# (default cnn+ceres) can be set in the environment; the model is the rig's default
+# (default cnn+refine) can be set in the environment; the model is the rig's default
 # (configs/models/<rig>) unless LOOM_MODEL names one.
 #SBATCH --job-name=loom-fit
 #SBATCH --cpus-per-task=8
@@ -24,7 +24,7 @@ fi
 scans=$1 calib=$2 results=$3
 task=${SLURM_ARRAY_TASK_ID:?"not an array task: submit with sbatch --array=1-N"}
 loom=${LOOM:-loom}
-method=${LOOM_FIT_METHOD:-cnn+ceres}
+method=${LOOM_FIT_METHOD:-cnn+refine}
 threads=${SLURM_CPUS_PER_TASK:-0}
 
 scan=$(sed -n "${task}p" "$scans")
