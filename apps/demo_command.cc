@@ -143,6 +143,8 @@ void PrintMethod(const std::string& method, const nlohmann::ordered_json& e) {
   }
   std::cout << "  |";
   for (const auto& [group, l1] : e["rerender_l1"]["fit"].items()) std::cout << std::setw(8) << l1["relative_l1"].get<double>();
+  std::cout << "  |" << std::setprecision(2);
+  for (const auto& [name, noise] : e["map_noise"].items()) std::cout << std::setw(7) << noise["ratio"].get<double>();
   std::cout << "\n";
 }
 
@@ -152,13 +154,15 @@ void PrintSummary(const nlohmann::ordered_json& summary, const std::vector<std::
             << std::setprecision(3) << summary["calibration_rms_px"].get<double>() << " px\n";
   const nlohmann::ordered_json& first = summary["methods"][methods.front()];
   std::cout << "           normal error  parameter NRMSE against the ground truth" << std::string(20, ' ')
-            << "| re-render relative L1\n" << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°"
+            << "| re-render relative L1" << std::string(18, ' ') << "| map noise ÷ truth's\n" << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°"
             << std::setw(7) << "p90°";
   for (const auto& [name, nrmse] : first["parameter_nrmse"].items()) {
     if (name.rfind("n_s", 0) != 0) std::cout << std::setw(9) << name;
   }
   std::cout << "  |";
   for (const auto& [group, l1] : first["rerender_l1"]["fit"].items()) std::cout << std::setw(8) << group.substr(0, 7);
+  std::cout << "  |";
+  for (const auto& [name, noise] : first["map_noise"].items()) std::cout << std::setw(7) << name;
   std::cout << "\n";
   for (const std::string& method : methods) PrintMethod(method, summary["methods"][method]);
   std::cout << "\ntime per stage:";

@@ -32,6 +32,14 @@ void PrintSummary(const fitting::Evaluation& e) {
     std::cout << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 "
               << e.normal_p90_deg << " deg\n" << std::setprecision(4);
   }
+  if (!e.map_noise.empty()) {
+    std::cout << "map noise (mean squared Laplacian, fit" << (e.parameters.empty() ? "" : " / reference") << "):";
+    for (const fitting::MapNoise& n : e.map_noise) {
+      std::cout << "  " << n.name << " " << n.fit;
+      if (!e.parameters.empty()) std::cout << " / " << n.reference;
+    }
+    std::cout << "\n";
+  }
   std::cout << "re-render relative L1 against the measured values (fit";
   if (!e.reference_vs_measured.empty()) std::cout << " / reference";
   std::cout << "):";

@@ -31,6 +31,9 @@ struct FitArguments {
   int threads = 0;
   std::string f0 = "1";
   double prior_weight = 0;
+  double smoothing_weight = 0;
+  int strip_samples = 0;
+  bool no_retries = false;
   bool quiet = false;
 };
 
@@ -59,6 +62,9 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"threads", s.threads},
                          {"solver", args.method.ends_with("refine") ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
                          {"prior_weight", args.prior_weight},
+                         {"smoothing_weight", args.smoothing_weight},
+                         {"strip_samples", args.strip_samples},
+                         {"retries", !args.no_retries},
                          {"uncertainty_channels", uncertainty},
                          {"ms_per_pixel_per_thread", s.ms_per_pixel_per_thread()},
                          {"loom_version", std::string(VersionWithCommit())}};
@@ -128,12 +134,16 @@ Status Fit(FitArguments args) {
   ProgressBar clusters("clusters", args.quiet);
   ProgressBar pixels("pixels  ", args.quiet);
   ProgressBar retries("retries ", args.quiet);
+  ProgressBar smoothing("smoothing", args.quiet);
   fitting::StackFitOptions options;
   options.clusters = args.clusters;
   options.threads = args.threads;
+  options.retry_poor_fits = !args.no_retries;
   if (args.method.ends_with("refine")) {
     options.solver = fitting::PixelSolver::kBatchRefiner;
     options.prior.weight = args.prior_weight;
+    options.smoothing.weight = args.smoothing_weight;
+    options.max_lights_per_observation = args.strip_samples;
   }
   if (args.f0 == "material") {
     options.fixed_f0.reset();
@@ -149,7 +159,8 @@ Status Fit(FitArguments args) {
     }
   }
   options.progress = [&](const fitting::StackFitProgress& p) {
-    (p.stage == "clusters" ? clusters : p.stage == "pixels" ? pixels : retries).Update(p.done, p.total, p.stage);
+    ProgressBar& bar = p.stage == "clusters" ? clusters : p.stage == "pixels" ? pixels : p.stage == "retries" ? retries : smoothing;
+    bar.Update(p.done, p.total, p.stage);
   };
   if (cnn_maps) options.initial_maps = &*cnn_maps;
   LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
@@ -182,12 +193,22 @@ int RunFit(int argc, char** argv) {
                  "refine methods: weight of the prior toward the start maps (0: none; 1: the CNN's measured errors "
                  "as its 1 sigma)")
       ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--smoothing-weight", args.smoothing_weight,
+                 "refine methods: weight of a second pass's prior toward each pixel's 3x3 neighbourhood median (0: no "
+                 "second pass)")
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--strip-samples", args.strip_samples,
+                 "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
+                 "strip (0: all of them)")
+      ->check(CLI::Range(0, 4096));
   app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
   app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", args.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_option("--f0", args.f0, "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
                                   "observations fix), or 'material': one F0 fitted per material");
+  app.add_flag("--no-retries", args.no_retries,
+               "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (Status status = Fit(args); !status.ok()) return ReportFailure(status);

@@ -136,7 +136,7 @@ BENCHMARK_CAPTURE(BM_Fit, linear_autodiff, true, 300, 100)->Unit(benchmark::kMil
 loom::fitting::RefineProblem ListProblem(const std::vector<std::vector<PixelObservation>>& lists,
                                          const std::vector<WardParams<double>>& starts) {
   return {static_cast<int>(lists.size()), loom::fitting::LightsPerObservation(lists),
-          [&lists](int i) { return lists[i]; }, [&starts](int i) { return starts[i]; }};
+          [&lists](int i) { return lists[i]; }, [&starts](int i) { return starts[i]; }, {}};
 }
 
 double Median(std::vector<double> values) {
@@ -241,7 +241,7 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
   options.threads = 1;
   options.fixed_f0 = f0;
   const loom::fitting::RefineProblem problem{static_cast<int>(c.lists.size()), c.lights,
-                                             [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }};
+                                             [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }, {}};
   int64_t fits = 0, iterations = 0;
   std::vector<loom::fitting::RefinedPixel> last;
   for (auto _ : state) {

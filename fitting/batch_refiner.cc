@@ -95,7 +95,8 @@ struct Prior {
 
   Vector12 Difference(const Params& x, const TangentBasis& basis, const Params& start) const {
     Vector12 d = Vector12::Zero();
-    const Eigen::Vector3d dn = Eigen::Vector3d(x[0], x[1], x[2]).normalized() - Eigen::Vector3d(start[0], start[1], start[2]);
+    const Eigen::Vector3d dn =
+        Eigen::Vector3d(x[0], x[1], x[2]).normalized() - Eigen::Vector3d(start[0], start[1], start[2]).normalized();
     d[0] = basis.u.dot(dn);
     d[1] = basis.v.dot(dn);
     for (int i = 2; i < kAlpha; ++i) d[i] = x[Ambient(i)] - start[Ambient(i)];
@@ -108,9 +109,12 @@ struct Prior {
 struct Lane {
   int pixel = -1;
   Params start{}, x{}, trial{};
+  Params prior_mean{};           // the start unless the problem names another
   TangentBasis basis, trial_basis;
   bool at_start = true;          // the pending evaluation is of the start
-  double cost = 0, data_cost = 0;
+  bool final_pass = false;       // ... or of the solution again, for the uncertainty's leverage
+  bool converged = false;
+  double cost = 0, data_cost = 0, squares = 0;
   Vector12 jtr = Vector12::Zero();
   Matrix12 jtj = Matrix12::Zero();  // data + prior
   Matrix12 bread = Matrix12::Zero();  // Σ ψ'(r) g gᵀ (+ the prior)
@@ -122,7 +126,7 @@ struct Lane {
 };
 
 struct Evaluation {
-  double cost, data_cost;
+  double cost, data_cost, squares;
   Vector12 jtr;
   Matrix12 jtj, bread, meat;
 };
@@ -131,6 +135,7 @@ Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior
                     const TangentBasis& basis, const Params& start) {
   Evaluation e;
   e.data_cost = eq.cost[p];
+  e.squares = eq.squares[p];
   for (int i = 0; i < kTangentParams; ++i) {
     e.jtr[i] = eq.jtr[i][p];
     for (int j = i; j < kTangentParams; ++j) {
@@ -233,34 +238,48 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
 void Accept(Lane& lane, const Evaluation& e) {
   lane.cost = e.cost;
   lane.data_cost = e.data_cost;
+  lane.squares = e.squares;
   lane.bread = e.bread;
   lane.meat = e.meat;
   lane.jtr = e.jtr;
   lane.jtj = e.jtj;
 }
 
-// The sandwich covariance H⁻¹ M H⁻¹ · m/(m − p) of an M-estimator (H = Σ ψ' g gᵀ, M = Σ ψ² g gᵀ;
-// White's, with its small-sample factor): the
+// The sandwich covariance H⁻¹ M H⁻¹ · m/(m − p) of an M-estimator (H = Σ ψ' g gᵀ, M = Σ ψ² g gᵀ
+// with each term divided by 1 − its leverage, HC2; White's, with its small-sample factor): the
 // noise of a scan is not the same on every observation — a highlight's is many times a dark
 // view's — and the plain s² H⁻¹ then understates the normal's and σ's error and overstates
 // the albedos' (measured: 1σ covered 23 % of normal errors, 100 % of a_d's).
-ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
+// The inverse of the bread over the free parameters (zero rows and columns for a held F0);
+// NaN where it is singular.
+Matrix12 BreadInverse(const Lane& lane, const RefineOptions& options) {
   std::vector<int> free;
   for (int i = 0; i < kTangentParams; ++i) {
     if (!(i == kF0 && options.fixed_f0)) free.push_back(i);
   }
   const int n = static_cast<int>(free.size());
-  Eigen::MatrixXd h(n, n), m(n, n);
+  Eigen::MatrixXd h(n, n);
   for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j) h(i, j) = lane.bread(free[i], free[j]), m(i, j) = lane.meat(free[i], free[j]);
+    for (int j = 0; j < n; ++j) h(i, j) = lane.bread(free[i], free[j]);
   }
-  const double small_sample = static_cast<double>(lane.used) / std::max(1, lane.used - n);
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Constant(n, n, NAN);
+  Matrix12 inverse = Matrix12::Zero();
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(h);
-  if (ldlt.info() == Eigen::Success && ldlt.isPositive() && ldlt.vectorD().minCoeff() > 0) {
-    const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(n, n));
-    covariance = inverse * m * inverse * small_sample;
+  if (!(ldlt.info() == Eigen::Success && ldlt.isPositive() && ldlt.vectorD().minCoeff() > 0)) {
+    return Matrix12::Constant(NAN);
   }
+  const Eigen::MatrixXd free_inverse = ldlt.solve(Eigen::MatrixXd::Identity(n, n));
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) inverse(free[i], free[j]) = free_inverse(i, j);
+  }
+  return inverse;
+}
+
+ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
+  const int n = kTangentParams - (options.fixed_f0 ? 1 : 0);
+  const double small_sample = static_cast<double>(lane.used) / std::max(1, lane.used - n);
+  const Matrix12 inverse = BreadInverse(lane, options);
+  const Matrix12 covariance = inverse.allFinite() ? Matrix12(inverse * lane.meat * inverse * small_sample)
+                                                  : Matrix12::Constant(NAN);
   const auto sd = [&](int i) { return std::sqrt(std::max(0.0, covariance(i, i))); };
   ParamSigma s;
   const double deg = 180 / kPi;
@@ -312,12 +331,13 @@ class Batch {
   void Refill(int p) {
     Lane& lane = lanes_[p];
     lane.pixel = -1;
+    inputs_.leverage[p] = 0;
     for (int pixel = next_++; pixel < problem_.pixels; pixel = next_++) {
       const std::vector<PixelObservation> all = problem_.observations(pixel);
       const internal::UsableObservations usable = internal::Usable(all);
       const WardParams<double> start = problem_.start(pixel);
       if (static_cast<int>(usable.observations.size()) < kNumWardParams) {
-        results_[pixel] = {start, 0, static_cast<int>(usable.observations.size()), 0, false, false, {}};
+        results_[pixel] = {start, 0, 0, static_cast<int>(usable.observations.size()), 0, false, false, {}};
         ++done_;
         continue;
       }
@@ -327,6 +347,7 @@ class Batch {
       lane.inverse_scale = internal::LoadLane(usable, p, data_);
       lane.start = ClampedStart(start, options_);
       lane.x = lane.trial = lane.start;
+      lane.prior_mean = problem_.prior_mean ? Pack(problem_.prior_mean(pixel)) : lane.start;
       lane.basis = lane.trial_basis = BasisOf(lane.x);
       SetInputs(p);
       return;
@@ -347,7 +368,12 @@ class Batch {
   // One LM decision for lane p from the evaluation of its trial point.
   void Advance(int p) {
     Lane& lane = lanes_[p];
-    const Evaluation e = ReadLane(equations_, p, prior_, lane.trial, lane.trial_basis, lane.start);
+    const Evaluation e = ReadLane(equations_, p, prior_, lane.trial, lane.trial_basis, lane.prior_mean);
+    if (lane.final_pass) {
+      lane.meat = e.meat;
+      Finish(p);
+      return;
+    }
     bool converged = false;
     if (lane.at_start) {
       lane.at_start = false;
@@ -379,12 +405,29 @@ class Batch {
       }
       converged = step == StepOutcome::kConverged;
     }
-    Finish(p, converged);
+    BeginUncertaintyPass(p, converged);
   }
 
-  void Finish(int p, bool converged) {
+  // One more evaluation at the solution, with each observation's leverage (HC3) in the meat.
+  void BeginUncertaintyPass(int p, bool converged) {
     Lane& lane = lanes_[p];
-    results_[lane.pixel] = {Unpack(lane.x), lane.data_cost, lane.used, lane.iterations, true, converged,
+    lane.converged = converged;
+    lane.final_pass = true;
+    lane.trial = lane.x;
+    lane.trial_basis = lane.basis;
+    SetInputs(p);
+    const Matrix12 inverse = BreadInverse(lane, options_);
+    const bool usable = inverse.allFinite();
+    inputs_.leverage[p] = usable ? 1 : 0;
+    for (int i = 0; i < kTangentParams; ++i) {
+      for (int j = i; j < kTangentParams; ++j) inputs_.bread_inverse[internal::NormalIndex(i, j)][p] = usable ? inverse(i, j) : 0;
+    }
+  }
+
+  void Finish(int p) {
+    Lane& lane = lanes_[p];
+    results_[lane.pixel] = {Unpack(lane.x), lane.data_cost, std::sqrt(lane.squares / lane.used), lane.used,
+                            lane.iterations,        true,           lane.converged,
                             SigmaOf(lane, options_)};
     ++done_;
     Refill(p);
@@ -416,8 +459,25 @@ Status RefineOptions::Check() const {
   if (!(prior.normal_deg > 0 && prior.albedo > 0 && prior.sigma > 0 && prior.alpha_deg > 0)) {
     problems.push_back("prior's normal_deg, albedo, sigma and alpha_deg must be > 0");
   }
+  if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   return ProblemsStatus("RefineOptions", problems);
+}
+
+std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& lights, int count) {
+  const int n = static_cast<int>(lights.size());
+  if (n <= count || count < 1) return lights;
+  std::vector<LightSample> merged;
+  for (int g = 0; g < count; ++g) {
+    Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+    double irradiance = 0;
+    for (int j = g * n / count; j < (g + 1) * n / count; ++j) {
+      direction += lights[j].irradiance * lights[j].l_local;
+      irradiance += lights[j].irradiance;
+    }
+    if (irradiance > 0) merged.push_back({direction.normalized(), irradiance});
+  }
+  return merged;
 }
 
 std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObservation>>& pixels) {
@@ -439,11 +499,15 @@ Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, con
   if (problem.pixels < 0 || !problem.observations || !problem.start) {
     return InvalidArgumentError("refine problem", "needs a pixel count ≥ 0, observations and starts");
   }
+  RefineProblem layout = problem;
+  if (options.max_lights_per_observation > 0) {
+    for (int& lights : layout.lights_per_observation) lights = std::min(lights, options.max_lights_per_observation);
+  }
   std::vector<RefinedPixel> results(problem.pixels);
   std::atomic<int> next{0}, done{0};
   const int workers = std::max(1, std::min(ThreadCount(options.threads), (problem.pixels + kLanes - 1) / kLanes));
   ParallelFor(
-      workers, workers, [&](int) { Batch(problem, options, results, next, done).Run(); },
+      workers, workers, [&](int) { Batch(layout, options, results, next, done).Run(); },
       [&](int) {
         if (progress) progress(done.load());
       });

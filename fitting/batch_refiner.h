@@ -15,13 +15,16 @@
 // held by an active set (a parameter at a bound that the gradient pushes out is frozen for the
 // step) plus projection. A pixel that finishes hands its lane to the next one.
 //
-// Optionally the objective adds a Gaussian prior toward the start (the CNN's prediction):
+// Optionally the objective adds a Gaussian prior toward the start (the CNN's prediction) or
+// another estimate (RefineProblem::prior_mean: e.g. the neighbours' parameters):
 // ½ Σ_i ((x_i − start_i) / (prior_sigma_i · √(1/prior_weight)))², a MAP fit rather than a free
 // one; see RefinePrior.
 //
-// Uncertainty: at the solution, the sandwich covariance H⁻¹ (Σ (W r)² g gᵀ) H⁻¹ · m/(m − p),
-// H = JᵀWJ (+ the prior), which holds when the noise differs between observations (a scan's
-// does: highlights are noisier); its 1σ per parameter goes into RefinedPixel::sigma.
+// Uncertainty: at the solution, the sandwich covariance H⁻¹ (Σ ψ(r)² g gᵀ / (1 − h)) H⁻¹ ·
+// m/(m − p), H = Σ ψ'(r) g gᵀ (+ the prior), h each observation's leverage (HC2), which holds
+// when the noise differs between observations (a scan's does: highlights are noisier) and when
+// few observations fix a parameter (a highlight's do the normal and σ); its 1σ per parameter
+// goes into RefinedPixel::sigma.
 // Thread-safety: RefinePixels runs its own workers; `observations` and `start` are called from
 // them concurrently and must be safe for that.
 
@@ -54,6 +57,10 @@ struct RefineOptions {
   double gradient_tolerance = 1e-10;  // max-norm of the projected gradient; Ceres' default
   double parameter_tolerance = 1e-8;  // |step| / (|x| + tol); Ceres' default
   RefinePrior prior;
+  // Light samples an observation is evaluated with, at most (0: all): a linear light's emitters
+  // beyond this are merged along the strip (MergeLightSamples). The cost of a fit is about
+  // proportional to the samples; docs/benchmarks.md has what each count costs in accuracy.
+  int max_lights_per_observation = 0;
   int threads = 0;                  // 0: one per core
   Status Check() const;             // every problem, naming the field
 };
@@ -70,6 +77,7 @@ struct ParamSigma {
 struct RefinedPixel {
   WardParams<double> params;
   double cost = 0;          // ½ Σ ρ(r²) of the data, as Ceres' final cost (the prior not included)
+  double rms = 0;           // √(Σ r² / m): the RMS residual relative to the pixel's mean radiance
   int observations_used = 0;
   int iterations = 0;
   bool fitted = false;      // false: too few usable observations; params = start
@@ -85,7 +93,15 @@ struct RefineProblem {
   std::vector<int> lights_per_observation;
   std::function<std::vector<PixelObservation>(int pixel)> observations;
   std::function<WardParams<double>(int pixel)> start;
+  // Where RefineOptions::prior pulls pixel i (empty: its start).
+  std::function<WardParams<double>(int pixel)> prior_mean;
 };
+
+// A light list longer than `count` (a strip's emitters, in order along it) as `count` samples:
+// consecutive runs of about equal length merged into one each, at the run's irradiance-weighted
+// mean direction with its summed irradiance — the midpoint rule on a coarser partition of the
+// strip. Shorter lists come back as they are.
+std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& lights, int count);
 
 // lights_per_observation for pixels given as lists (tests, benchmarks): per slot, the most any
 // of them has.

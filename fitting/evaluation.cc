@@ -67,6 +67,35 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
   evaluation.normal_p90_deg = Percentile(normal_deg, 0.9);
 }
 
+// Mean squared 4-neighbour Laplacian of a label group's channels over the interior pixels.
+double MeanSquaredLaplacian(const Image& maps, const LabelGroup& group) {
+  const int w = maps.width(), h = maps.height();
+  if (w < 3 || h < 3) return 0;
+  std::vector<Label> labels(static_cast<size_t>(w) * h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) labels[static_cast<size_t>(y) * w + x] = EncodeLabel(Canonical(GetParams(maps, x, y)));
+  }
+  const auto at = [&](int x, int y, int c) { return labels[static_cast<size_t>(y) * w + x][c]; };
+  double sum = 0;
+  for (int y = 1; y + 1 < h; ++y) {
+    for (int x = 1; x + 1 < w; ++x) {
+      for (int c = group.first; c < group.first + group.count; ++c) {
+        const double laplacian = at(x - 1, y, c) + at(x + 1, y, c) + at(x, y - 1, c) + at(x, y + 1, c) - 4 * at(x, y, c);
+        sum += laplacian * laplacian / group.count;
+      }
+    }
+  }
+  return sum / ((w - 2.0) * (h - 2.0));
+}
+
+void AddMapNoise(const Image& maps, const std::optional<Image>& reference, Evaluation& evaluation) {
+  for (const LabelGroup& group : kLabelGroups) {
+    const std::string name = group.name;
+    if (name != "a_s" && name != "sigma" && name != "alpha") continue;
+    evaluation.map_noise.push_back({name, MeanSquaredLaplacian(maps, group), reference ? MeanSquaredLaplacian(*reference, group) : 0});
+  }
+}
+
 // Re-render errors of each of `maps` (fit, reference) in one pass: the observations of a pixel
 // (their shadow tests the costly part) are built once for all of them.
 std::vector<std::vector<RenderError>> RenderErrors(const std::vector<const Image*>& maps, const ObservationStack& stack,
@@ -132,6 +161,7 @@ Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& refer
   const StackPixels pixels(stack);
   Evaluation evaluation;
   std::vector<const Image*> rendered = {&maps};
+  AddMapNoise(maps, reference, evaluation);
   if (reference) {
     AddParameterErrors(maps, *reference, evaluation);
     rendered.push_back(&*reference);

@@ -5,7 +5,10 @@
 //     wrap-around and small σ weigh as the network's loss weighs them; every label channel is
 //     normalised by its range (1 for albedos, σ', F0; 2 for n_s and cos/sin 2α). Also the
 //     shading normals' angle error and a_s·F0 (the product a fit can observe away from grazing);
-//  2. relative L1 between the model re-rendered under every stack observation and the measured
+//  2. map noise: the mean squared 4-neighbour Laplacian of the a_s, σ and α label channels (a
+//     measure of high-frequency energy: salt-and-pepper speckle raises it, smooth maps keep it
+//     low), for the fit and the reference, whose ratio says how much noisier the fit is;
+//  3. relative L1 between the model re-rendered under every stack observation and the measured
 //     value, per observation group (colour, monochrome, linear) — for the fit and for the
 //     reference — over the observations the fitter uses (seen, not cast-shadowed).
 // Both maps and the stack must share the grid (same width and height): an error otherwise.
@@ -24,6 +27,12 @@ struct ParameterError {
   double nrmse = 0;
 };
 
+struct MapNoise {
+  std::string name;       // a_s, sigma, alpha
+  double fit = 0;         // mean squared Laplacian, label units²
+  double reference = 0;   // 0 without a reference
+};
+
 struct RenderError {
   std::string group;  // colour, monochrome, linear, all
   int64_t values = 0;
@@ -34,6 +43,7 @@ struct Evaluation {
   std::vector<ParameterError> parameters;  // empty without a reference
   double normal_median_deg = 0;
   double normal_p90_deg = 0;
+  std::vector<MapNoise> map_noise;
   std::vector<RenderError> fit_vs_measured;
   std::vector<RenderError> reference_vs_measured;  // empty without a reference
   double FitL1() const;                            // the "all" group

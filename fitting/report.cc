@@ -128,6 +128,10 @@ std::string EvaluationJson(const Evaluation& e) {
   nlohmann::json json;
   for (const ParameterError& p : e.parameters) json["parameter_nrmse"][p.name] = p.nrmse;
   if (!e.parameters.empty()) json["normal_error_deg"] = {{"median", e.normal_median_deg}, {"p90", e.normal_p90_deg}};
+  for (const MapNoise& n : e.map_noise) {
+    json["map_noise"][n.name] = {{"fit", n.fit}, {"reference", n.reference},
+                                 {"ratio", n.reference > 0 ? n.fit / n.reference : 0.0}};
+  }
   for (const RenderError& r : e.fit_vs_measured) json["rerender_l1"]["fit"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};
   for (const RenderError& r : e.reference_vs_measured) {
     json["rerender_l1"]["reference"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};

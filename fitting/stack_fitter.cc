@@ -134,13 +134,13 @@ RefineOptions RefinerOptions(const PixelFitOptions& fit, const StackFitOptions& 
   refine.huber_scale = fit.huber_scale;
   refine.fixed_f0 = fit.fixed_f0;
   refine.threads = options.threads;
+  refine.max_lights_per_observation = options.max_lights_per_observation;
   return refine;
 }
 
-PixelOutcome OutcomeOf(const RefinedPixel& r, const std::vector<PixelObservation>& observations) {
-  PixelOutcome outcome{r.params, r.cost, 0, r.iterations, r.observations_used, r.fitted, std::nullopt};
+PixelOutcome OutcomeOf(const RefinedPixel& r) {
+  PixelOutcome outcome{r.params, r.cost, r.rms, r.iterations, r.observations_used, r.fitted, std::nullopt};
   if (r.fitted) outcome.sigma = r.sigma;
-  outcome.rms = RelativeRms(r.params, observations);
   return outcome;
 }
 
@@ -150,12 +150,14 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
                                             const RefineOptions& refine, const std::function<void(int)>& progress) {
   const int width = pixels.width();
   const int count = width * pixels.height();
-  const RefineProblem problem{count, EmittersPerObservation(stack),
-                              [&](int i) { return pixels.Observations(i % width, i / width); }, start_of};
+  const RefineProblem problem{.pixels = count,
+                              .lights_per_observation = EmittersPerObservation(stack),
+                              .observations = [&](int i) { return pixels.Observations(i % width, i / width); },
+                              .start = start_of,
+                              .prior_mean = {}};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
-  std::vector<PixelOutcome> outcomes(count);
-  ParallelFor(count, refine.threads,
-              [&](int i) { outcomes[i] = OutcomeOf(refined[i], pixels.Observations(i % width, i / width)); });
+  std::vector<PixelOutcome> outcomes;
+  for (const RefinedPixel& r : refined) outcomes.push_back(OutcomeOf(r));
   return outcomes;
 }
 
@@ -176,12 +178,15 @@ Status RefineRetries(const StackPixels& pixels, const ObservationStack& stack, c
   });
   RefineOptions free = refine;
   free.prior.weight = 0;
-  const RefineProblem problem{static_cast<int>(starts.size()), EmittersPerObservation(stack),
-                              [&](int j) {
-                                const int i = retry[j / per_pixel];
-                                return pixels.Observations(i % width, i / width);
-                              },
-                              [&](int j) { return starts[j]; }};
+  const RefineProblem problem{.pixels = static_cast<int>(starts.size()),
+                              .lights_per_observation = EmittersPerObservation(stack),
+                              .observations =
+                                  [&](int j) {
+                                    const int i = retry[j / per_pixel];
+                                    return pixels.Observations(i % width, i / width);
+                                  },
+                              .start = [&](int j) { return starts[j]; },
+                              .prior_mean = {}};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined,
                         RefinePixels(problem, free, [&](int done) { progress(done / per_pixel); }));
   for (size_t r = 0; r < retry.size(); ++r) {
@@ -194,12 +199,69 @@ Status RefineRetries(const StackPixels& pixels, const ObservationStack& stack, c
       extra_iterations += candidate.iterations;
       if (candidate.fitted && candidate.cost < (best ? best->cost : outcome.cost)) best = &candidate;
     }
-    if (best) {
-      const int i = retry[r];
-      outcome = OutcomeOf(*best, pixels.Observations(i % width, i / width));
-    }
+    if (best) outcome = OutcomeOf(*best);
     outcome.iterations = first_iterations + extra_iterations;
   }
+  return {};
+}
+
+// The median of each parameter over a pixel's 8 neighbours (σ compared with σx ≥ σy, α through
+// (cos 2α, sin 2α), the normal component-wise then normalised).
+std::vector<WardParams<double>> NeighbourMedians(const std::vector<PixelOutcome>& outcomes, int width, int height) {
+  std::vector<WardParams<double>> medians(outcomes.size());
+  ParallelFor(height, 0, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      std::array<std::vector<double>, 13> values;
+      double c2 = 0, s2 = 0;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = x + dx, ny = y + dy;
+          if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= width || ny >= height) continue;
+          WardParams<double> p = outcomes[static_cast<size_t>(ny) * width + nx].params;
+          if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
+          const double v[13] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
+                                p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, 0,           p.f0};
+          for (int i = 0; i < 13; ++i) values[i].push_back(v[i]);
+          c2 += std::cos(2 * p.alpha), s2 += std::sin(2 * p.alpha);
+        }
+      }
+      double m[13];
+      for (int i = 0; i < 13; ++i) {
+        std::vector<double>& v = values[i];
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        m[i] = v[v.size() / 2];
+      }
+      WardParams<double>& median = medians[static_cast<size_t>(y) * width + x];
+      median.n_s = Eigen::Vector3d(m[0], m[1], m[2]).normalized();
+      median.a_d = Eigen::Vector3d(m[3], m[4], m[5]);
+      median.a_s = Eigen::Vector3d(m[6], m[7], m[8]);
+      median.sigma_x = m[9];
+      median.sigma_y = m[10];
+      median.alpha = 0.5 * std::atan2(s2, c2);
+      median.f0 = m[12];
+    }
+  });
+  return medians;
+}
+
+// The smoothing pass: every fitted pixel again from its first fit, pulled toward its
+// neighbourhood's median; the pixel keeps what its data say where they say it.
+Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine,
+                     const RefinePrior& smoothing, const std::function<void(int)>& progress,
+                     std::vector<PixelOutcome>& outcomes) {
+  const int width = pixels.width();
+  const std::vector<WardParams<double>> medians = NeighbourMedians(outcomes, width, pixels.height());
+  refine.prior = smoothing;
+  const RefineProblem problem{static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
+                              [&](int i) { return pixels.Observations(i % width, i / width); },
+                              [&](int i) { return outcomes[i].params; }, [&](int i) { return medians[i]; }};
+  LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
+  ParallelFor(static_cast<int>(outcomes.size()), refine.threads, [&](int i) {
+    if (!outcomes[i].fitted || !refined[i].fitted) return;
+    const int iterations = outcomes[i].iterations + refined[i].iterations;
+    outcomes[i] = OutcomeOf(refined[i]);
+    outcomes[i].iterations = iterations;
+  });
   return {};
 }
 
@@ -315,8 +377,14 @@ Status StackFitOptions::Check() const {
   if (!(retry_above_rms > 0)) problems.push_back("retry_above_rms must be > 0");
   if (!(retry_above_noise_rms >= 1)) problems.push_back("retry_above_noise_rms must be ≥ 1");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
+  if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());
+  for (const auto& [name, p] : {std::pair{"prior", prior}, {"smoothing", smoothing}}) {
+    RefineOptions refine;
+    refine.prior = p;
+    if (Status s = refine.Check(); !s.ok()) problems.push_back(std::string(name) + ": " + s.message());
+  }
   return ProblemsStatus("StackFitOptions", problems);
 }
 
@@ -401,12 +469,16 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   }
   summary.retry_threshold_rms = RetryThreshold(outcomes, options);
   std::vector<int> retry;
-  for (int i = 0; i < pixel_count; ++i) {
+  for (int i = 0; options.retry_poor_fits && i < pixel_count; ++i) {
     if (outcomes[i].fitted && outcomes[i].rms > summary.retry_threshold_rms) retry.push_back(i);
   }
   const auto retry_progress = [&](int done) { report("retries", done, static_cast<int>(retry.size())); };
   if (refiner) {
     LOOM_RETURN_IF_ERROR(RefineRetries(pixels, stack, retry, refine, options, retry_progress, outcomes));
+    if (options.smoothing.weight > 0) {
+      LOOM_RETURN_IF_ERROR(SmoothingPass(pixels, stack, refine, options.smoothing,
+                                         [&](int done) { report("smoothing", done, pixel_count); }, outcomes));
+    }
   } else {
     ParallelFor(
         static_cast<int>(retry.size()), options.threads,

@@ -52,6 +52,7 @@ struct StackFitOptions {
   int grid_starts = 4;              // best grid-searched starts of a cluster's fit (GridInitialParams)
   // Step 5: a fit is poor above both a floor and a multiple of the stack's noise level (the
   // relative RMS of the best-fitted tenth of its pixels).
+  bool retry_poor_fits = true;         // step 5 at all
   double retry_above_rms = 0.1;        // floor: decides on noise-free stacks
   double retry_above_noise_rms = 2.5;  // multiple of the noise level
   int retry_grid_starts = 2;           // best grid-searched starts of a retry
@@ -65,6 +66,15 @@ struct StackFitOptions {
   // With the refiner and initial maps: the prior toward them in the first pass (retries from
   // grid starts fit freely).
   RefinePrior prior;
+  // With the refiner: a second pass from the first one's maps with a prior toward each pixel's
+  // 3 × 3 neighbourhood (its median; weight 0: no second pass). Where a pixel's own data pin a
+  // parameter down the data win; where they leave it loose (a highlight between observations,
+  // α of a nearly isotropic lobe) the neighbours of the same appearance decide, which removes
+  // the speckle a free per-pixel fit leaves.
+  RefinePrior smoothing;
+  // With the refiner: light samples per observation at most (RefineOptions::
+  // max_lights_per_observation; 0: the stack's emitters, all of them).
+  int max_lights_per_observation = 0;
   // Starts of the per-pixel fits, when given: SVBRDF maps on the stack's grid (the CNN's, for
   // cnn+ceres). No clusters are formed; with fixed_f0 unset the material's F0 is the maps'
   // median. Not owned; must outlive FitStack.

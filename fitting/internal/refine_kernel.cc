@@ -152,13 +152,16 @@ struct ObservationSums {
 void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
-  LANES { out.cost[p] = 0; }
+  LANES { out.cost[p] = out.squares[p] = 0; }
   for (int i = 0; i < kTangentParams; ++i) LANES { out.jtr[i][p] = 0; }
   for (int i = 0; i < kNormalEntries; ++i) LANES { out.jtj[i][p] = out.bread[i][p] = out.meat[i][p] = 0; }
   const double a = in.huber_scale;
+  bool any_leverage = false;
+  for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
   ObservationSums s;
   alignas(64) double diffuse_albedo[kLanes], specular_albedo[kLanes];
   alignas(64) double g[kTangentParams][kLanes], weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
+  alignas(64) double meat_weight[kLanes];
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
     LANES {
@@ -177,6 +180,7 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
       const double rho = inlier ? r * r : 2 * a * abs_r - a * a;
       const double w = d.weight[o + p] * (inlier ? 1.0 : a / (abs_r > 0 ? abs_r : 1.0));
       out.cost[p] += 0.5 * d.weight[o + p] * rho;
+      out.squares[p] += d.weight[o + p] * r * r;
       weight[p] = w;
       inlier_weight[p] = inlier ? d.weight[o + p] : 0.0;
       weighted_r[p] = w * r;
@@ -191,6 +195,19 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
       g[10][p] = s.alpha[p] * seen;
       g[11][p] = specular_albedo[p] * s.fresnel[p] * seen;
     }
+    alignas(64) double h[kLanes] = {};
+    for (int i = 0; any_leverage && i < kTangentParams; ++i) {
+      for (int j = i; j < kTangentParams; ++j) {
+        const int e = NormalIndex(i, j);
+        const double both = i == j ? 1.0 : 2.0;
+        LANES { h[p] += both * g[i][p] * in.bread_inverse[e][p] * g[j][p]; }
+      }
+    }
+    LANES {
+      const double leverage = in.leverage[p] * inlier_weight[p] * h[p];
+      const double kept = 1 - (leverage < 0.99 ? leverage : 0.99);
+      meat_weight[p] = weighted_r[p] * weighted_r[p] / kept;
+    }
     for (int i = 0; i < kTangentParams; ++i) {
       LANES { out.jtr[i][p] += g[i][p] * weighted_r[p]; }
       for (int j = i; j < kTangentParams; ++j) {
@@ -199,7 +216,7 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
           const double gg = g[i][p] * g[j][p];
           out.jtj[e][p] += weight[p] * gg;
           out.bread[e][p] += inlier_weight[p] * gg;
-          out.meat[e][p] += weighted_r[p] * weighted_r[p] * gg;
+          out.meat[e][p] += meat_weight[p] * gg;
         }
       }
     }

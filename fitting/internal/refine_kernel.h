@@ -55,6 +55,10 @@ struct LaneInputs {
   alignas(64) double params[kAmbientParams][kLanes];
   alignas(64) double tangent[2][3][kLanes];  // orthonormal, ⟂ n_s
   alignas(64) double inverse_scale[kLanes];  // 1 / the pixel's mean observed radiance
+  // Lanes with leverage 1 scale each observation's meat term by 1 / (1 − h), h = ψ' gᵀ B⁻¹ g
+  // its leverage (HC2), with B⁻¹ = bread_inverse (upper triangle); 0 leaves the meat as is.
+  alignas(64) double leverage[kLanes];
+  alignas(64) double bread_inverse[kNormalEntries][kLanes];
   double huber_scale = 0.5;
 };
 
@@ -63,6 +67,7 @@ struct LaneInputs {
 // ψ' is 0 beyond the threshold) and its meat Σ ψ(r)² g gᵀ = Σ (W r)² g gᵀ.
 struct LaneEquations {
   alignas(64) double cost[kLanes];
+  alignas(64) double squares[kLanes];  // Σ r² (no loss): the fit's relative RMS
   alignas(64) double jtr[kTangentParams][kLanes];
   alignas(64) double jtj[kNormalEntries][kLanes];
   alignas(64) double bread[kNormalEntries][kLanes];

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/check.h"
+#include "fitting/batch_refiner.h"
 
 namespace loom::fitting::internal {
 
@@ -31,14 +32,19 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
     data.vx[i] = o.v_local.x(), data.vy[i] = o.v_local.y(), data.vz[i] = o.v_local.z();
     data.wr[i] = o.rgb_weights.x(), data.wg[i] = o.rgb_weights.y(), data.wb[i] = o.rgb_weights.z();
     sum += std::abs(o.radiance);
-    int light_slot = data.first_slot[slot];
+    // The zero conditions that do not depend on the parameters drop a light, as the Ceres cost
+    // does; more lights than the slot holds (a strip's emitters) are merged along the strip.
+    std::vector<LightSample> lights;
     for (const LightSample& light : o.lights) {
-      // The zero conditions that do not depend on the parameters, as the Ceres cost drops them.
-      const Eigen::Vector3d sum_lv = light.l_local + o.v_local;
-      if (o.v_local.z() <= 0 || light.l_local.z() <= 0 || sum_lv.squaredNorm() < 1e-20) continue;
-      LOOM_CHECK(light_slot < data.first_slot[slot + 1])
-          << "observation slot " << slot << " has more light samples than its " << data.first_slot[slot + 1] - data.first_slot[slot];
-      const Eigen::Vector3d h = sum_lv.normalized();
+      if (o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) {
+        lights.push_back(light);
+      }
+    }
+    const int capacity = data.first_slot[slot + 1] - data.first_slot[slot];
+    if (static_cast<int>(lights.size()) > capacity) lights = MergeLightSamples(lights, capacity);
+    int light_slot = data.first_slot[slot];
+    for (const LightSample& light : lights) {
+      const Eigen::Vector3d h = (light.l_local + o.v_local).normalized();
       const double c = std::clamp(light.l_local.dot(h), 0.0, 1.0);
       const double one_minus_c = 1 - c;
       const size_t s = static_cast<size_t>(light_slot++) * kLanes + lane;

@@ -4,7 +4,8 @@
 // `source`, else its position in the list), and the packing of their light samples with what
 // does not depend on the parameters (h, 1/(l·h)², Schlick's (1 − l·h)⁵) computed once. Light
 // samples the model zeroes whatever the parameters (l or v below the geometric horizon,
-// l + v ≈ 0) are dropped here, as the Ceres cost drops them.
+// l + v ≈ 0) are dropped here, as the Ceres cost drops them; an observation with more light
+// samples than its slot holds has them merged (MergeLightSamples).
 
 #include <vector>
 
@@ -21,7 +22,7 @@ struct UsableObservations {
 UsableObservations Usable(const std::vector<PixelObservation>& all);
 
 // Empties `lane` and writes the observations into it; returns 1 / the mean |radiance| (1 if 0).
-// CHECK-fails when an observation's slot or light count does not fit the data's layout.
+// CHECK-fails when an observation's slot is outside the data's layout.
 double LoadLane(const UsableObservations& usable, int lane, LaneData& data);
 
 }  // namespace loom::fitting::internal
