@@ -112,7 +112,6 @@ struct Lane {
   Params prior_mean{};           // the start unless the problem names another
   TangentBasis basis, trial_basis;
   bool at_start = true;          // the pending evaluation is of the start
-  bool final_pass = false;       // ... or of the solution again, for the uncertainty's leverage
   bool converged = false;
   double cost = 0, data_cost = 0, squares = 0;
   Vector12 jtr = Vector12::Zero();
@@ -250,9 +249,9 @@ void Accept(Lane& lane, const Evaluation& e) {
 // noise of a scan is not the same on every observation — a highlight's is many times a dark
 // view's — and the plain s² H⁻¹ then understates the normal's and σ's error and overstates
 // the albedos' (measured: 1σ covered 23 % of normal errors, 100 % of a_d's).
-// The inverse of the bread over the free parameters (zero rows and columns for a held F0);
-// NaN where it is singular.
-Matrix12 BreadInverse(const Lane& lane, const RefineOptions& options) {
+// The inverse of `m` over the free parameters (zero rows and columns for a held F0); NaN where
+// it is singular.
+Matrix12 FreeInverse(const Matrix12& m, const RefineOptions& options) {
   std::vector<int> free;
   for (int i = 0; i < kTangentParams; ++i) {
     if (!(i == kF0 && options.fixed_f0)) free.push_back(i);
@@ -260,7 +259,7 @@ Matrix12 BreadInverse(const Lane& lane, const RefineOptions& options) {
   const int n = static_cast<int>(free.size());
   Eigen::MatrixXd h(n, n);
   for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j) h(i, j) = lane.bread(free[i], free[j]);
+    for (int j = 0; j < n; ++j) h(i, j) = m(free[i], free[j]);
   }
   Matrix12 inverse = Matrix12::Zero();
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(h);
@@ -277,7 +276,7 @@ Matrix12 BreadInverse(const Lane& lane, const RefineOptions& options) {
 ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
   const int n = kTangentParams - (options.fixed_f0 ? 1 : 0);
   const double small_sample = static_cast<double>(lane.used) / std::max(1, lane.used - n);
-  const Matrix12 inverse = BreadInverse(lane, options);
+  const Matrix12 inverse = FreeInverse(lane.bread, options);
   const Matrix12 covariance = inverse.allFinite() ? Matrix12(inverse * lane.meat * inverse * small_sample)
                                                   : Matrix12::Constant(NAN);
   const auto sd = [&](int i) { return std::sqrt(std::max(0.0, covariance(i, i))); };
@@ -312,8 +311,8 @@ class Batch {
   Batch(const RefineProblem& problem, const RefineOptions& options, std::vector<RefinedPixel>& results,
         std::atomic<int>& next, std::atomic<int>& done)
       : problem_(problem), options_(options), prior_(options.prior), results_(results), next_(next), done_(done),
-        data_(problem.lights_per_observation) {
-    inputs_.huber_scale = options.huber_scale;
+        data_(problem.lights_per_observation), parked_data_(problem.lights_per_observation) {
+    inputs_.huber_scale = parked_inputs_.huber_scale = options.huber_scale;
   }
 
   void Run() {
@@ -324,6 +323,7 @@ class Batch {
         if (lanes_[p].pixel >= 0) Advance(p);
       }
     }
+    EvaluateParked();
   }
 
  private:
@@ -331,7 +331,6 @@ class Batch {
   void Refill(int p) {
     Lane& lane = lanes_[p];
     lane.pixel = -1;
-    inputs_.leverage[p] = 0;
     for (int pixel = next_++; pixel < problem_.pixels; pixel = next_++) {
       const std::vector<PixelObservation> all = problem_.observations(pixel);
       const internal::UsableObservations usable = internal::Usable(all);
@@ -369,11 +368,6 @@ class Batch {
   void Advance(int p) {
     Lane& lane = lanes_[p];
     const Evaluation e = ReadLane(equations_, p, prior_, lane.trial, lane.trial_basis, lane.prior_mean);
-    if (lane.final_pass) {
-      lane.meat = e.meat;
-      Finish(p);
-      return;
-    }
     bool converged = false;
     if (lane.at_start) {
       lane.at_start = false;
@@ -405,32 +399,53 @@ class Batch {
       }
       converged = step == StepOutcome::kConverged;
     }
-    BeginUncertaintyPass(p, converged);
+    Park(p, converged);
   }
 
-  // One more evaluation at the solution, with each observation's leverage (HC3) in the meat.
-  void BeginUncertaintyPass(int p, bool converged) {
+  // A finished pixel waits in the parked batch for one more evaluation at its solution, with
+  // each observation's leverage (HC2) in the uncertainty's meat; its lane takes the next pixel.
+  // Parking keeps the uncertainty's sums out of the iterations' kernel calls: done there, they
+  // ran in two calls of three (some lane was always finishing) and doubled a point-lit fit.
+  void Park(int p, bool converged) {
     Lane& lane = lanes_[p];
     lane.converged = converged;
-    lane.final_pass = true;
-    lane.trial = lane.x;
-    lane.trial_basis = lane.basis;
-    SetInputs(p);
-    const Matrix12 inverse = BreadInverse(lane, options_);
-    const bool usable = inverse.allFinite();
-    inputs_.leverage[p] = usable ? 1 : 0;
-    for (int i = 0; i < kTangentParams; ++i) {
-      for (int j = i; j < kTangentParams; ++j) inputs_.bread_inverse[internal::NormalIndex(i, j)][p] = usable ? inverse(i, j) : 0;
+    const int q = parked_count_++;
+    data_.CopyLane(p, parked_data_, q);
+    parked_[q] = lane;
+    for (int i = 0; i < kAmbientParams; ++i) parked_inputs_.params[i][q] = lane.x[i];
+    for (int c = 0; c < 3; ++c) {
+      parked_inputs_.tangent[0][c][q] = lane.basis.u[c];
+      parked_inputs_.tangent[1][c][q] = lane.basis.v[c];
     }
+    parked_inputs_.inverse_scale[q] = lane.inverse_scale;
+    const Matrix12 inverse = FreeInverse(lane.jtj, options_);  // the hat matrix of the last LM step's
+    const bool usable = inverse.allFinite();
+    parked_inputs_.leverage[q] = usable ? 1 : 0;
+    for (int i = 0; i < kTangentParams; ++i) {
+      for (int j = i; j < kTangentParams; ++j) {
+        parked_inputs_.bread_inverse[internal::NormalIndex(i, j)][q] = usable ? inverse(i, j) : 0;
+      }
+    }
+    Refill(p);
+    if (parked_count_ == kLanes) EvaluateParked();
   }
 
-  void Finish(int p) {
-    Lane& lane = lanes_[p];
-    results_[lane.pixel] = {Unpack(lane.x), lane.data_cost, std::sqrt(lane.squares / lane.used), lane.used,
-                            lane.iterations,        true,           lane.converged,
-                            SigmaOf(lane, options_)};
-    ++done_;
-    Refill(p);
+  // The parked pixels' uncertainty evaluation (lanes beyond parked_count_ hold stale, finite
+  // data and are ignored).
+  void EvaluateParked() {
+    if (parked_count_ == 0) return;
+    internal::EvaluateLanes(parked_data_, parked_inputs_, parked_equations_);
+    for (int q = 0; q < parked_count_; ++q) {
+      Lane& lane = parked_[q];
+      const Evaluation e = ReadLane(parked_equations_, q, prior_, lane.x, lane.basis, lane.prior_mean);
+      lane.bread = e.bread;
+      lane.meat = e.meat;
+      results_[lane.pixel] = {Unpack(lane.x), lane.data_cost, std::sqrt(lane.squares / lane.used), lane.used,
+                              lane.iterations,        true,           lane.converged,
+                              SigmaOf(lane, options_)};
+      ++done_;
+    }
+    parked_count_ = 0;
   }
 
   const RefineProblem& problem_;
@@ -443,6 +458,11 @@ class Batch {
   internal::LaneInputs inputs_{};
   internal::LaneEquations equations_{};
   std::array<Lane, kLanes> lanes_;
+  internal::LaneData parked_data_;
+  internal::LaneInputs parked_inputs_{};
+  internal::LaneEquations parked_equations_{};
+  std::array<Lane, kLanes> parked_;
+  int parked_count_ = 0;
 };
 
 }  // namespace

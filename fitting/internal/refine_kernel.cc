@@ -91,6 +91,34 @@ struct ObservationSums {
     const double* __restrict irradiance = &d.irradiance[o];
     const double* __restrict inv_c2 = &d.inv_c2[o];
     const double* __restrict schlick = &d.schlick[o];
+    // Most of a strip's emitters are far from every lane's highlight: for those the lobe is
+    // dropped (as beyond kNegligibleLobeExponent anyway) and only the diffuse term is summed,
+    // a fifth of the work. The test costs the exponent of each lane, a min-reduction.
+    double nearest = kNegligibleLobeExponent + 1;
+    LANES {
+      const double h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
+      const double h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
+      const double h_n_raw = hx[p] * lobe.n[0][p] + hy[p] * lobe.n[1][p] + hz[p] * lobe.n[2][p];
+      const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
+      const double exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) / (h_n * h_n);
+      const double lit = irradiance[p];
+      const double candidate = lit > 0 ? exponent : kNegligibleLobeExponent + 1;
+      nearest = candidate < nearest ? candidate : nearest;
+    }
+    if (nearest > kNegligibleLobeExponent) {
+      LANES {
+        const double n_dot_l = lobe.n[0][p] * lx[p] + lobe.n[1][p] * ly[p] + lobe.n[2][p] * lz[p];
+        const double irradiance_p = irradiance[p];
+        const double e = n_dot_l > 0 ? irradiance_p : 0.0;
+        const double shading = e * diffuse_albedo[p] * (1 / kPi);
+        s.radiance[p] += shading * n_dot_l;
+        s.diffuse[p] += e * n_dot_l * (1 / kPi);
+        s.n[0][p] += shading * lx[p];
+        s.n[1][p] += shading * ly[p];
+        s.n[2][p] += shading * lz[p];
+      }
+      continue;
+    }
     LANES {
       const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
       const double n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
@@ -146,6 +174,54 @@ struct ObservationSums {
   }
 }
 
+// One vector of kLanes doubles (one zmm, two ymm or four xmm: GCC splits it for the target).
+typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
+
+[[gnu::always_inline]] inline LaneVector Load(const double* p) {
+  LaneVector v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// out[NormalIndex(i, j)] = Σ_k w_k g_ki g_kj (i ≤ j), per lane, in 4 × 4 tiles whose 16
+// accumulators stay in registers over all observations: accumulating into memory per
+// observation (a load and a store per entry) had been half the work on point-lit stacks.
+[[gnu::always_inline]] inline void Gram(const double* g, const double* w, int observations, double (*out)[kLanes]) {
+  constexpr int kTile = 4;
+  for (int bi = 0; bi < kTangentParams; bi += kTile) {
+    for (int bj = bi; bj < kTangentParams; bj += kTile) {
+      LaneVector acc[kTile][kTile] = {};
+      for (int k = 0; k < observations; ++k) {
+        const double* gk = g + static_cast<size_t>(k) * kTangentParams * kLanes;
+        const LaneVector wk = Load(w + static_cast<size_t>(k) * kLanes);
+        LaneVector left[kTile], right[kTile];
+        for (int a = 0; a < kTile; ++a) left[a] = wk * Load(gk + (bi + a) * kLanes);
+        for (int b = 0; b < kTile; ++b) right[b] = Load(gk + (bj + b) * kLanes);
+        for (int a = 0; a < kTile; ++a) {
+          for (int b = 0; b < kTile; ++b) acc[a][b] += left[a] * right[b];
+        }
+      }
+      for (int a = 0; a < kTile; ++a) {
+        for (int b = 0; b < kTile; ++b) {
+          if (bi + a > bj + b) continue;
+          __builtin_memcpy(out[NormalIndex(bi + a, bj + b)], &acc[a][b], sizeof(LaneVector));
+        }
+      }
+    }
+  }
+}
+
+// out[i] = Σ_k g_ki v_k, per lane.
+[[gnu::always_inline]] inline void Project(const double* g, const double* v, int observations, double (*out)[kLanes]) {
+  LaneVector acc[kTangentParams] = {};
+  for (int k = 0; k < observations; ++k) {
+    const double* gk = g + static_cast<size_t>(k) * kTangentParams * kLanes;
+    const LaneVector vk = Load(v + static_cast<size_t>(k) * kLanes);
+    for (int i = 0; i < kTangentParams; ++i) acc[i] += Load(gk + i * kLanes) * vk;
+  }
+  for (int i = 0; i < kTangentParams; ++i) __builtin_memcpy(out[i], &acc[i], sizeof(LaneVector));
+}
+
 }  // namespace
 
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
@@ -153,15 +229,13 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
   LaneLobe lobe;
   PrepareLobe(in, lobe);
   LANES { out.cost[p] = out.squares[p] = 0; }
-  for (int i = 0; i < kTangentParams; ++i) LANES { out.jtr[i][p] = 0; }
-  for (int i = 0; i < kNormalEntries; ++i) LANES { out.jtj[i][p] = out.bread[i][p] = out.meat[i][p] = 0; }
+  for (int i = 0; i < kNormalEntries; ++i) LANES { out.bread[i][p] = out.meat[i][p] = 0; }
   const double a = in.huber_scale;
   bool any_leverage = false;
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
   ObservationSums s;
   alignas(64) double diffuse_albedo[kLanes], specular_albedo[kLanes];
   alignas(64) double g[kTangentParams][kLanes], weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
-  alignas(64) double meat_weight[kLanes];
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
     LANES {
@@ -203,23 +277,23 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
         LANES { h[p] += both * g[i][p] * in.bread_inverse[e][p] * g[j][p]; }
       }
     }
+    // Kept per observation; the sums over observations below (Gram) run on them at the end.
+    double* __restrict gk = &d.gradients[static_cast<size_t>(k) * kTangentParams * kLanes];
+    for (int i = 0; i < kTangentParams; ++i) LANES { gk[i * kLanes + p] = g[i][p]; }
     LANES {
-      const double leverage = in.leverage[p] * inlier_weight[p] * h[p];
+      const double leverage = in.leverage[p] * weight[p] * h[p];
       const double kept = 1 - (leverage < 0.99 ? leverage : 0.99);
-      meat_weight[p] = weighted_r[p] * weighted_r[p] / kept;
+      d.weights[o + p] = weight[p];
+      d.weighted_residuals[o + p] = weighted_r[p];
+      d.inlier_weights[o + p] = inlier_weight[p];
+      d.meat_weights[o + p] = weighted_r[p] * weighted_r[p] / kept;
     }
-    for (int i = 0; i < kTangentParams; ++i) {
-      LANES { out.jtr[i][p] += g[i][p] * weighted_r[p]; }
-      for (int j = i; j < kTangentParams; ++j) {
-        const int e = NormalIndex(i, j);
-        LANES {
-          const double gg = g[i][p] * g[j][p];
-          out.jtj[e][p] += weight[p] * gg;
-          out.bread[e][p] += inlier_weight[p] * gg;
-          out.meat[e][p] += meat_weight[p] * gg;
-        }
-      }
-    }
+  }
+  Gram(d.gradients.data(), d.weights.data(), d.observations, out.jtj);
+  Project(d.gradients.data(), d.weighted_residuals.data(), d.observations, out.jtr);
+  if (any_leverage) {  // the uncertainty's matrices only when some lane is at its solution
+    Gram(d.gradients.data(), d.inlier_weights.data(), d.observations, out.bread);
+    Gram(d.gradients.data(), d.meat_weights.data(), d.observations, out.meat);
   }
 }
 
@@ -237,9 +311,27 @@ LaneData::LaneData(const std::vector<int>& slots_per_observation)
   const size_t per_observation = static_cast<size_t>(observations) * kLanes;
   const size_t per_slot = static_cast<size_t>(slots()) * kLanes;
   for (auto* v : {&radiance, &weight, &vx, &vy, &vz, &wr, &wg, &wb}) v->assign(per_observation, 0.0);
+  for (auto* v : {&weights, &weighted_residuals, &inlier_weights, &meat_weights}) v->assign(per_observation, 0.0);
+  gradients.assign(per_observation * kTangentParams, 0.0);
   for (auto* v : {&lx, &ly, &hx, &hy, &irradiance, &schlick}) v->assign(per_slot, 0.0);
   for (auto* v : {&lz, &hz, &inv_c2}) v->assign(per_slot, 1.0);
   vz.assign(per_observation, 1.0);
+}
+
+void LaneData::CopyLane(int lane, LaneData& to, int to_lane) const {
+  const auto copy = [&](const std::vector<double>& from, std::vector<double>& into, int count) {
+    const double* __restrict source = from.data() + lane;
+    double* __restrict target = into.data() + to_lane;
+    for (int i = 0; i < count; ++i) target[i * kLanes] = source[i * kLanes];
+  };
+  for (auto member : {&LaneData::radiance, &LaneData::weight, &LaneData::vx, &LaneData::vy, &LaneData::vz, &LaneData::wr,
+                      &LaneData::wg, &LaneData::wb}) {
+    copy(this->*member, to.*member, observations);
+  }
+  for (auto member : {&LaneData::lx, &LaneData::ly, &LaneData::lz, &LaneData::hx, &LaneData::hy, &LaneData::hz,
+                      &LaneData::irradiance, &LaneData::inv_c2, &LaneData::schlick}) {
+    copy(this->*member, to.*member, slots());
+  }
 }
 
 void LaneData::ClearLane(int lane) {

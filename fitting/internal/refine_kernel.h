@@ -41,12 +41,17 @@ struct LaneData {
   std::vector<double> irradiance;        // 0: empty slot
   std::vector<double> inv_c2;            // 1 / (l·h)²
   std::vector<double> schlick;           // (1 − l·h)⁵
+  // The kernel's scratch: per observation × lane, the gradient (12 each) and the weights of the
+  // sums over observations. Written by EvaluateLanes (hence mutable): one LaneData per thread.
+  mutable std::vector<double> gradients, weights, weighted_residuals, inlier_weights, meat_weights;
 
   // Sizes every array for `slots_per_observation`, all lanes empty.
   explicit LaneData(const std::vector<int>& slots_per_observation);
   // Empties one lane: weight and irradiance 0 (directions stay finite: the constructor's or a
   // previous pixel's).
   void ClearLane(int lane);
+  // Copies one lane's observations into lane `to_lane` of `to` (same layout).
+  void CopyLane(int lane, LaneData& to, int to_lane) const;
   int slots() const { return first_slot.back(); }
 };
 
@@ -55,8 +60,9 @@ struct LaneInputs {
   alignas(64) double params[kAmbientParams][kLanes];
   alignas(64) double tangent[2][3][kLanes];  // orthonormal, ⟂ n_s
   alignas(64) double inverse_scale[kLanes];  // 1 / the pixel's mean observed radiance
-  // Lanes with leverage 1 scale each observation's meat term by 1 / (1 − h), h = ψ' gᵀ B⁻¹ g
-  // its leverage (HC2), with B⁻¹ = bread_inverse (upper triangle); 0 leaves the meat as is.
+  // Lanes with leverage 1 scale each observation's meat term by 1 / (1 − h), h = W gᵀ H⁻¹ g
+  // its leverage (HC2), H⁻¹ = bread_inverse (upper triangle: the inverse of JᵀWJ); 0 leaves
+  // the meat as is.
   alignas(64) double leverage[kLanes];
   alignas(64) double bread_inverse[kNormalEntries][kLanes];
   double huber_scale = 0.5;
@@ -64,7 +70,8 @@ struct LaneInputs {
 
 // Per-lane outputs: ½ Σ ρ(r²) (Ceres' cost), JᵀWr, JᵀWJ (upper triangle) for the LM steps, and
 // for the uncertainty's sandwich covariance its bread Σ ψ'(r) g gᵀ (the inliers' JᵀJ: Huber's
-// ψ' is 0 beyond the threshold) and its meat Σ ψ(r)² g gᵀ = Σ (W r)² g gᵀ.
+// ψ' is 0 beyond the threshold) and its meat Σ ψ(r)² g gᵀ / (1 − h) — those two only when some
+// lane has leverage set (zero otherwise).
 struct LaneEquations {
   alignas(64) double cost[kLanes];
   alignas(64) double squares[kLanes];  // Σ r² (no loss): the fit's relative RMS

@@ -22,6 +22,7 @@ UsableObservations Usable(const std::vector<PixelObservation>& all) {
 double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
   data.ClearLane(lane);
   double sum = 0;
+  thread_local std::vector<LightSample> lights;  // reused: one allocation per thread, not per observation
   for (size_t u = 0; u < usable.observations.size(); ++u) {
     const PixelObservation& o = *usable.observations[u];
     const int slot = usable.slots[u];
@@ -34,7 +35,7 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
     sum += std::abs(o.radiance);
     // The zero conditions that do not depend on the parameters drop a light, as the Ceres cost
     // does; more lights than the slot holds (a strip's emitters) are merged along the strip.
-    std::vector<LightSample> lights;
+    lights.clear();
     for (const LightSample& light : o.lights) {
       if (o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) {
         lights.push_back(light);
