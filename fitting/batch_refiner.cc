@@ -9,6 +9,7 @@
 
 #include "core/check.h"
 #include "core/parallel.h"
+#include "fitting/internal/grid_candidates.h"
 #include "fitting/internal/refine_kernel.h"
 #include "fitting/internal/refine_lanes.h"
 
@@ -87,7 +88,8 @@ struct Prior {
       for (int i = first; i <= last; ++i) precision[i] = prior.weight / (sigma * sigma);
     };
     set(0, 1, prior.normal_deg * deg);
-    set(2, 7, prior.albedo);
+    set(2, 4, prior.diffuse_albedo);
+    set(5, 7, prior.specular_albedo);
     set(8, 9, prior.sigma);
     set(kAlpha, kAlpha, prior.alpha_deg * deg);
   }
@@ -476,8 +478,9 @@ Status RefineOptions::Check() const {
   if (!(gradient_tolerance >= 0)) problems.push_back("gradient_tolerance must be ≥ 0");
   if (!(parameter_tolerance >= 0)) problems.push_back("parameter_tolerance must be ≥ 0");
   if (!(prior.weight >= 0)) problems.push_back("prior.weight must be ≥ 0");
-  if (!(prior.normal_deg > 0 && prior.albedo > 0 && prior.sigma > 0 && prior.alpha_deg > 0)) {
-    problems.push_back("prior's normal_deg, albedo, sigma and alpha_deg must be > 0");
+  if (!(prior.normal_deg > 0 && prior.diffuse_albedo > 0 && prior.specular_albedo > 0 && prior.sigma > 0 &&
+        prior.alpha_deg > 0)) {
+    problems.push_back("prior's normal_deg, diffuse_albedo, specular_albedo, sigma and alpha_deg must be > 0");
   }
   if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
@@ -498,6 +501,58 @@ std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& light
     if (irradiance > 0) merged.push_back({direction.normalized(), irradiance});
   }
   return merged;
+}
+
+std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& observations, double f0, int count,
+                                           int max_lights) {
+  const internal::UsableObservations usable = internal::Usable(observations);
+  if (usable.observations.empty()) return {};
+  std::vector<int> layout(*std::max_element(usable.slots.begin(), usable.slots.end()) + 1, 0);
+  for (size_t u = 0; u < usable.observations.size(); ++u) {
+    const int lights = static_cast<int>(usable.observations[u]->lights.size());
+    layout[usable.slots[u]] = max_lights > 0 ? std::min(lights, max_lights) : lights;
+  }
+  internal::LaneData data(layout);
+  internal::LoadLane(usable, 0, data);
+  for (int lane = 1; lane < kLanes; ++lane) data.CopyLane(0, data, lane);
+  const std::vector<WardParams<double>> candidates = internal::GridCandidates(f0);
+  std::vector<double> diffuse(layout.size() * kLanes), specular(layout.size() * kLanes);
+  std::vector<std::pair<double, WardParams<double>>> scored;
+  internal::LaneInputs inputs{};
+  for (size_t first = 0; first < candidates.size(); first += kLanes) {
+    for (int lane = 0; lane < kLanes; ++lane) {
+      const Params x = Pack(candidates[std::min(first + lane, candidates.size() - 1)]);
+      for (int i = 0; i < kAmbientParams; ++i) inputs.params[i][lane] = x[i];
+    }
+    internal::SumTermsLanes(data, inputs, diffuse.data(), specular.data());
+    for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
+      Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+      std::vector<Eigen::Matrix<double, 6, 1>> rows;
+      for (size_t u = 0; u < usable.observations.size(); ++u) {
+        const PixelObservation& o = *usable.observations[u];
+        const size_t k = static_cast<size_t>(usable.slots[u]) * kLanes + lane;
+        Eigen::Matrix<double, 6, 1> row;
+        row << o.rgb_weights * diffuse[k], o.rgb_weights * specular[k];
+        normal += row * row.transpose();
+        rhs += row * o.radiance;
+        rows.push_back(row);
+      }
+      WardParams<double> candidate = candidates[first + lane];
+      const Eigen::Matrix<double, 6, 1> albedos = internal::SolveAlbedos(normal, rhs);
+      double cost = 0;
+      for (size_t u = 0; u < rows.size(); ++u) cost += std::pow(rows[u].dot(albedos) - usable.observations[u]->radiance, 2);
+      candidate.a_d = albedos.head<3>();
+      candidate.a_s = albedos.tail<3>();
+      scored.push_back({cost, candidate});
+    }
+  }
+  const size_t keep = std::min(scored.size(), static_cast<size_t>(std::max(count, 1)));
+  std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),
+                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<WardParams<double>> best;
+  for (size_t i = 0; i < keep; ++i) best.push_back(scored[i].second);
+  return best;
 }
 
 std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObservation>>& pixels) {

@@ -41,11 +41,16 @@ namespace loom::fitting {
 // A Gaussian prior toward each pixel's start, in the parameters' own units: the 1σ of the start
 // as an estimate of the truth (for a CNN: its measured error). weight 0 turns it off; weight w
 // scales every term by w (as if the σ's were divided by √w).
+// The defaults are the shipped tac7-mini CNN's errors (its test RMSE, configs/models/tac7-mini),
+// but for a_d: on reconstructed stacks the network's diffuse albedo is off by more than its test
+// error says (NRMSE 0.10 against 0.06), while every observation pins a_d down, so its prior is
+// loose.
 struct RefinePrior {
   double weight = 0;
-  double normal_deg = 5;
-  double albedo = 0.1;  // a_d and a_s, each channel
-  double sigma = 0.05;  // σx, σy
+  double normal_deg = 6;
+  double diffuse_albedo = 0.3;   // a_d, each channel
+  double specular_albedo = 0.09; // a_s, each channel
+  double sigma = 0.05;           // σx, σy
   double alpha_deg = 30;
 };
 
@@ -102,6 +107,12 @@ struct RefineProblem {
 // mean direction with its summed irradiance — the midpoint rule on a coarser partition of the
 // strip. Shorter lists come back as they are.
 std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& lights, int count);
+
+// GridInitialParams (pixel_fitter.h) on the refiner's kernel: the same candidates, each scored
+// with its least-squares albedos, 8 per vectorised call; a strip's emitters merged into at most
+// `max_lights` samples (0: all; the scalar search takes every 4th). For the refiner's retries.
+std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& observations, double f0, int count,
+                                           int max_lights = 8);
 
 // lights_per_observation for pixels given as lists (tests, benchmarks): per slot, the most any
 // of them has.

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 
 #include "core/geometry.h"
+#include "fitting/internal/grid_candidates.h"
 #include "fitting/pixel_fitter.h"
 
 namespace loom::fitting {
@@ -37,21 +38,8 @@ ShapeScore Score(const std::vector<PixelObservation>& observations, const WardPa
     rhs += row * o.radiance;
     rows.push_back(row);
   }
-  normal.diagonal().array() += 1e-9 * normal.trace() + 1e-30;  // colour may rest on few observations
   ShapeScore score;
-  score.albedos = normal.ldlt().solve(rhs);
-  if ((score.albedos.array() < 0).any()) {
-    // One active-set pass: fix the negative ones at 0 and solve for the rest.
-    for (int i = 0; i < 6; ++i) {
-      if (score.albedos[i] >= 0) continue;
-      normal.row(i).setZero();
-      normal.col(i).setZero();
-      normal(i, i) = 1;
-      rhs[i] = 0;
-    }
-    score.albedos = normal.ldlt().solve(rhs).cwiseMax(0.0);
-  }
-  score.albedos = score.albedos.cwiseMin(kMaxAlbedo);
+  score.albedos = internal::SolveAlbedos(normal, rhs);
   for (size_t k = 0; k < observations.size(); ++k) {
     const double r = rows[k].dot(score.albedos) - observations[k].radiance;
     score.cost += r * r;
@@ -86,15 +74,29 @@ std::vector<LobeShape> CandidateShapes() {
 
 }  // namespace
 
-std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0,
-                                                  int count) {
+namespace internal {
+
+Eigen::Matrix<double, 6, 1> SolveAlbedos(Eigen::Matrix<double, 6, 6> normal, Eigen::Matrix<double, 6, 1> rhs) {
+  normal.diagonal().array() += 1e-9 * normal.trace() + 1e-30;  // colour may rest on few observations
+  Eigen::Matrix<double, 6, 1> albedos = normal.ldlt().solve(rhs);
+  if ((albedos.array() < 0).any()) {
+    // One active-set pass: fix the negative ones at 0 and solve for the rest.
+    for (int i = 0; i < 6; ++i) {
+      if (albedos[i] >= 0) continue;
+      normal.row(i).setZero();
+      normal.col(i).setZero();
+      normal(i, i) = 1;
+      rhs[i] = 0;
+    }
+    albedos = normal.ldlt().solve(rhs).cwiseMax(0.0);
+  }
+  return albedos.cwiseMin(kMaxAlbedo);
+}
+
+std::vector<WardParams<double>> GridCandidates(double f0) {
   static const std::vector<Eigen::Vector3d> normals = CandidateNormals();
   static const std::vector<LobeShape> shapes = CandidateShapes();
-  std::vector<PixelObservation> usable;
-  for (const PixelObservation& o : observations) {
-    if (!std::isnan(o.radiance) && !o.lights.empty()) usable.push_back(o);
-  }
-  std::vector<std::pair<double, WardParams<double>>> scored;
+  std::vector<WardParams<double>> candidates;
   for (const Eigen::Vector3d& n : normals) {
     for (const LobeShape& shape : shapes) {
       WardParams<double> candidate;
@@ -103,11 +105,26 @@ std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObserva
       candidate.sigma_y = shape.sigma_y;
       candidate.alpha = shape.alpha;
       candidate.f0 = f0;
-      const ShapeScore score = Score(usable, candidate);
-      candidate.a_d = score.albedos.head<3>();
-      candidate.a_s = score.albedos.tail<3>();
-      scored.push_back({score.cost, candidate});
+      candidates.push_back(candidate);
     }
+  }
+  return candidates;
+}
+
+}  // namespace internal
+
+std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0,
+                                                  int count) {
+  std::vector<PixelObservation> usable;
+  for (const PixelObservation& o : observations) {
+    if (!std::isnan(o.radiance) && !o.lights.empty()) usable.push_back(o);
+  }
+  std::vector<std::pair<double, WardParams<double>>> scored;
+  for (WardParams<double> candidate : internal::GridCandidates(f0)) {
+    const ShapeScore score = Score(usable, candidate);
+    candidate.a_d = score.albedos.head<3>();
+    candidate.a_s = score.albedos.tail<3>();
+    scored.push_back({score.cost, candidate});
   }
   const size_t keep = std::min(scored.size(), static_cast<size_t>(std::max(count, 1)));
   std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),

@@ -161,23 +161,23 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
   return outcomes;
 }
 
-// Step 5 on the refiner: each retried pixel from its best grid starts, freely; the best of those
-// and its first fit is kept.
+// Step 5 on the refiner: each retried pixel from its best grid starts, under the first pass's
+// prior toward its own start (a grid start tries another basin; the prior still keeps the CNN's
+// knowledge where the data leave a parameter loose); the best of those and its first fit is kept.
 Status RefineRetries(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                      const RefineOptions& refine, const StackFitOptions& options,
-                     const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
+                     const std::function<WardParams<double>(int)>& start_of, const std::function<void(int)>& progress,
+                     std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();
   const int per_pixel = options.retry_grid_starts;
   std::vector<WardParams<double>> starts(retry.size() * per_pixel);
   ParallelFor(static_cast<int>(retry.size()), options.threads, [&](int r) {
     const int i = retry[r];
     std::vector<WardParams<double>> grid =
-        GridInitialParams(pixels.Observations(i % width, i / width), refine.fixed_f0.value_or(1.0), per_pixel);
+        GridStarts(pixels.Observations(i % width, i / width), refine.fixed_f0.value_or(1.0), per_pixel);
     grid.resize(per_pixel, grid.empty() ? outcomes[i].params : grid.front());
     std::copy(grid.begin(), grid.end(), starts.begin() + static_cast<size_t>(r) * per_pixel);
   });
-  RefineOptions free = refine;
-  free.prior.weight = 0;
   const RefineProblem problem{.pixels = static_cast<int>(starts.size()),
                               .lights_per_observation = EmittersPerObservation(stack),
                               .observations =
@@ -186,9 +186,9 @@ Status RefineRetries(const StackPixels& pixels, const ObservationStack& stack, c
                                     return pixels.Observations(i % width, i / width);
                                   },
                               .start = [&](int j) { return starts[j]; },
-                              .prior_mean = {}};
+                              .prior_mean = [&](int j) { return start_of(retry[j / per_pixel]); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined,
-                        RefinePixels(problem, free, [&](int done) { progress(done / per_pixel); }));
+                        RefinePixels(problem, refine, [&](int done) { progress(done / per_pixel); }));
   for (size_t r = 0; r < retry.size(); ++r) {
     PixelOutcome& outcome = outcomes[retry[r]];
     const int first_iterations = outcome.iterations;
@@ -474,7 +474,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   }
   const auto retry_progress = [&](int done) { report("retries", done, static_cast<int>(retry.size())); };
   if (refiner) {
-    LOOM_RETURN_IF_ERROR(RefineRetries(pixels, stack, retry, refine, options, retry_progress, outcomes));
+    LOOM_RETURN_IF_ERROR(RefineRetries(pixels, stack, retry, refine, options, start_of, retry_progress, outcomes));
     if (options.smoothing.weight > 0) {
       LOOM_RETURN_IF_ERROR(SmoothingPass(pixels, stack, refine, options.smoothing,
                                          [&](int done) { report("smoothing", done, pixel_count); }, outcomes));

@@ -63,8 +63,7 @@ struct StackFitOptions {
   std::optional<double> fixed_f0 = 1.0;
   StackPixelOptions pixels;
   PixelSolver solver = PixelSolver::kCeres;
-  // With the refiner and initial maps: the prior toward them in the first pass (retries from
-  // grid starts fit freely).
+  // With the refiner and initial maps: the prior toward them (in step 5 too, from grid starts).
   RefinePrior prior;
   // With the refiner: a second pass from the first one's maps with a prior toward each pixel's
   // 3 × 3 neighbourhood (its median; weight 0: no second pass). Where a pixel's own data pin a

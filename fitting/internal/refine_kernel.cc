@@ -297,6 +297,44 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
   }
 }
 
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+void SumTermsLanes(const LaneData& d, const LaneInputs& in, double* diffuse, double* specular) {
+  LaneLobe lobe;
+  PrepareLobe(in, lobe);
+  for (int k = 0; k < d.observations; ++k) {
+    const int o = k * kLanes;
+    alignas(64) double diffuse_sum[kLanes] = {}, specular_sum[kLanes] = {};
+    for (int slot = d.first_slot[k]; slot < d.first_slot[k + 1]; ++slot) {
+      const int i = slot * kLanes;
+      LANES {
+        const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
+        const double n_dot_l = nx * d.lx[i + p] + ny * d.ly[i + p] + nz * d.lz[i + p];
+        const double irradiance = d.irradiance[i + p];
+        const double e_cos = n_dot_l > 0 ? irradiance * n_dot_l : 0.0;
+        const double hx = d.hx[i + p], hy = d.hy[i + p], hz = d.hz[i + p];
+        const double h_t = hx * lobe.t[0][p] + hy * lobe.t[1][p] + hz * lobe.t[2][p];
+        const double h_b = hx * lobe.b[0][p] + hy * lobe.b[1][p] + hz * lobe.b[2][p];
+        const double h_n_raw = hx * nx + hy * ny + hz * nz;
+        const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
+        const double inv_h_n2 = 1 / (h_n * h_n);
+        const double exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) * inv_h_n2;
+        const double negligible = exponent > kNegligibleLobeExponent ? 0.0 : 1.0;
+        const double clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
+        const double ward = negligible * std::exp(-clamped) * lobe.normalisation[p] * d.inv_c2[i + p] * inv_h_n2 * inv_h_n2;
+        const double fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * d.schlick[i + p];
+        diffuse_sum[p] += e_cos * (1 / kPi);
+        specular_sum[p] += e_cos * fresnel * ward;
+      }
+    }
+    LANES {
+      const double n_dot_v = lobe.n[0][p] * d.vx[o + p] + lobe.n[1][p] * d.vy[o + p] + lobe.n[2][p] * d.vz[o + p];
+      const double seen = n_dot_v > 0 ? 1.0 : 0.0;
+      diffuse[o + p] = diffuse_sum[p] * seen;
+      specular[o + p] = specular_sum[p] * seen;
+    }
+  }
+}
+
 const char* RefineKernelIsa() {
   __builtin_cpu_init();
   if (__builtin_cpu_supports("x86-64-v4")) return "x86-64-v4 (AVX-512)";

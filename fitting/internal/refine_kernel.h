@@ -84,6 +84,11 @@ struct LaneEquations {
 // Evaluates every lane (idle lanes too: their data is empty and their result ignored).
 void EvaluateLanes(const LaneData& data, const LaneInputs& inputs, LaneEquations& out);
 
+// For the grid search: per observation k and lane, the model's colour-independent sums
+// diffuse[k * kLanes + lane] = Σ E (n·l) / π and specular[...] = Σ E F D (n·l) (0 where the
+// camera is below the shading normal's horizon), from which the albedos follow linearly.
+void SumTermsLanes(const LaneData& data, const LaneInputs& inputs, double* diffuse, double* specular);
+
 // Which instruction set EvaluateLanes runs with on this machine ("avx512", "avx2", "baseline").
 const char* RefineKernelIsa();
 
