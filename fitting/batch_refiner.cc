@@ -315,6 +315,17 @@ class Batch {
       : problem_(problem), options_(options), prior_(options.prior), results_(results), next_(next), done_(done),
         data_(problem.lights_per_observation), parked_data_(problem.lights_per_observation) {
     inputs_.huber_scale = parked_inputs_.huber_scale = options.huber_scale;
+    // A lane that never holds a pixel still runs through the kernel: give it finite parameters
+    // (zeros would make n_s NaN, which sends libmvec's whole vector down its scalar path).
+    for (internal::LaneInputs* inputs : {&inputs_, &parked_inputs_}) {
+      const Params harmless = Pack(WardParams<double>{});
+      const TangentBasis basis = BasisOf(harmless);
+      for (int p = 0; p < kLanes; ++p) {
+        for (int i = 0; i < kAmbientParams; ++i) inputs->params[i][p] = harmless[i];
+        for (int c = 0; c < 3; ++c) inputs->tangent[0][c][p] = basis.u[c], inputs->tangent[1][c][p] = basis.v[c];
+        inputs->inverse_scale[p] = 1;
+      }
+    }
   }
 
   void Run() {
@@ -517,6 +528,12 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
   for (int lane = 1; lane < kLanes; ++lane) data.CopyLane(0, data, lane);
   const std::vector<WardParams<double>> candidates = internal::GridCandidates(f0);
   std::vector<double> diffuse(layout.size() * kLanes), specular(layout.size() * kLanes);
+  std::vector<Eigen::Matrix3d> outer;  // w wᵀ per usable observation
+  double squares = 0;                  // Σ y²
+  for (const PixelObservation* o : usable.observations) {
+    outer.push_back(o->rgb_weights * o->rgb_weights.transpose());
+    squares += o->radiance * o->radiance;
+  }
   std::vector<std::pair<double, WardParams<double>>> scored;
   internal::LaneInputs inputs{};
   for (size_t first = 0; first < candidates.size(); first += kLanes) {
@@ -526,25 +543,25 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
     }
     internal::SumTermsLanes(data, inputs, diffuse.data(), specular.data());
     for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
+      // The albedos' normal equations from the sums alone: row = (w D, w S), so Σ row rowᵀ is
+      // built of D², DS and S² times w wᵀ, and the cost is aᵀ N a − 2 aᵀ b + Σ y².
       Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
-      std::vector<Eigen::Matrix<double, 6, 1>> rows;
       for (size_t u = 0; u < usable.observations.size(); ++u) {
-        const PixelObservation& o = *usable.observations[u];
         const size_t k = static_cast<size_t>(usable.slots[u]) * kLanes + lane;
-        Eigen::Matrix<double, 6, 1> row;
-        row << o.rgb_weights * diffuse[k], o.rgb_weights * specular[k];
-        normal += row * row.transpose();
-        rhs += row * o.radiance;
-        rows.push_back(row);
+        const double d = diffuse[k], sp = specular[k], y = usable.observations[u]->radiance;
+        normal.topLeftCorner<3, 3>() += d * d * outer[u];
+        normal.topRightCorner<3, 3>() += d * sp * outer[u];
+        normal.bottomRightCorner<3, 3>() += sp * sp * outer[u];
+        rhs.head<3>() += d * y * usable.observations[u]->rgb_weights;
+        rhs.tail<3>() += sp * y * usable.observations[u]->rgb_weights;
       }
+      normal.bottomLeftCorner<3, 3>() = normal.topRightCorner<3, 3>().transpose();
       WardParams<double> candidate = candidates[first + lane];
       const Eigen::Matrix<double, 6, 1> albedos = internal::SolveAlbedos(normal, rhs);
-      double cost = 0;
-      for (size_t u = 0; u < rows.size(); ++u) cost += std::pow(rows[u].dot(albedos) - usable.observations[u]->radiance, 2);
       candidate.a_d = albedos.head<3>();
       candidate.a_s = albedos.tail<3>();
-      scored.push_back({cost, candidate});
+      scored.push_back({albedos.dot(normal * albedos) - 2 * albedos.dot(rhs) + squares, candidate});
     }
   }
   const size_t keep = std::min(scored.size(), static_cast<size_t>(std::max(count, 1)));

@@ -269,7 +269,8 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
       g[10][p] = s.alpha[p] * seen;
       g[11][p] = specular_albedo[p] * s.fresnel[p] * seen;
     }
-    alignas(64) double h[kLanes] = {};
+    alignas(64) double h[kLanes];
+    LANES { h[p] = 0; }
     for (int i = 0; any_leverage && i < kTangentParams; ++i) {
       for (int j = i; j < kTangentParams; ++j) {
         const int e = NormalIndex(i, j);
@@ -303,25 +304,35 @@ void SumTermsLanes(const LaneData& d, const LaneInputs& in, double* diffuse, dou
   PrepareLobe(in, lobe);
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
-    alignas(64) double diffuse_sum[kLanes] = {}, specular_sum[kLanes] = {};
+    alignas(64) double diffuse_sum[kLanes], specular_sum[kLanes];
+    LANES { diffuse_sum[p] = specular_sum[p] = 0; }
     for (int slot = d.first_slot[k]; slot < d.first_slot[k + 1]; ++slot) {
       const int i = slot * kLanes;
+      const double* __restrict lx = &d.lx[i];
+      const double* __restrict ly = &d.ly[i];
+      const double* __restrict lz = &d.lz[i];
+      const double* __restrict hx = &d.hx[i];
+      const double* __restrict hy = &d.hy[i];
+      const double* __restrict hz = &d.hz[i];
+      const double* __restrict irradiance = &d.irradiance[i];
+      const double* __restrict inv_c2 = &d.inv_c2[i];
+      const double* __restrict schlick = &d.schlick[i];
       LANES {
         const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
-        const double n_dot_l = nx * d.lx[i + p] + ny * d.ly[i + p] + nz * d.lz[i + p];
-        const double irradiance = d.irradiance[i + p];
-        const double e_cos = n_dot_l > 0 ? irradiance * n_dot_l : 0.0;
-        const double hx = d.hx[i + p], hy = d.hy[i + p], hz = d.hz[i + p];
-        const double h_t = hx * lobe.t[0][p] + hy * lobe.t[1][p] + hz * lobe.t[2][p];
-        const double h_b = hx * lobe.b[0][p] + hy * lobe.b[1][p] + hz * lobe.b[2][p];
-        const double h_n_raw = hx * nx + hy * ny + hz * nz;
+        const double n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+        const double lit = irradiance[p] * n_dot_l;
+        const double e_cos = n_dot_l > 0 ? lit : 0.0;
+        const double h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
+        const double h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
+        const double h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
         const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
         const double inv_h_n2 = 1 / (h_n * h_n);
         const double exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) * inv_h_n2;
-        const double negligible = exponent > kNegligibleLobeExponent ? 0.0 : 1.0;
-        const double clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
-        const double ward = negligible * std::exp(-clamped) * lobe.normalisation[p] * d.inv_c2[i + p] * inv_h_n2 * inv_h_n2;
-        const double fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * d.schlick[i + p];
+        // Clamped, not dropped: exp(−600) is nothing, and a select around exp() would turn it
+        // into a branch that stops the loop from vectorising (it did here).
+        const double clamped = exponent > 600 ? 600 : exponent;
+        const double ward = std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+        const double fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
         diffuse_sum[p] += e_cos * (1 / kPi);
         specular_sum[p] += e_cos * fresnel * ward;
       }
