@@ -75,10 +75,10 @@ TEST_F(FitCommandTest, ACorruptStackIsAnErrorNamingTheFile) {
 }
 
 // Fits with `method` (the shipped tac7-mini model for the CNN) and evaluates against the truth.
-nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method) {
+nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method, const std::string& options = "") {
   const fs::path out = dir / method;
   const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir / "stack.exr").string() + " --method " + method +
-                              " --out " + out.string() + " --quiet");
+                              " --out " + out.string() + " --quiet " + options);
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
   const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (out / "svbrdf.exr").string() + " --stack " +
                                (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() +
@@ -108,9 +108,11 @@ TEST_F(FitCommandTest, CnnPlusCeresRecoversTheFabric) {
   EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
 }
 
-// The batched refiner from the CNN's maps: what cnn+ceres reaches, with uncertainty maps.
+// The batched refiner from the CNN's maps, without the prior (which on this noise-free stack can
+// only pull away from an exact fit: a_d NRMSE 0.038 at the default 0.1): what cnn+ceres
+// reaches, with uncertainty maps.
 TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
-  const nlohmann::json json = FitAndEvaluate(dir_, "cnn+refine");
+  const nlohmann::json json = FitAndEvaluate(dir_, "cnn+refine", "--prior-weight 0");
   EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
   EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
   EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
@@ -120,6 +122,9 @@ TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
   const std::vector<std::string> uncertainty = fit["uncertainty_channels"];
   EXPECT_EQ(uncertainty.size(), 10u) << fit.dump(2);
   EXPECT_EQ(uncertainty.front(), "unc.normal_deg");
+  // Shown in the report as maps.
+  EXPECT_TRUE(fs::exists(dir_ / "cnn+refine" / "report" / "unc.normal_deg.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "cnn+refine" / "report" / "unc.sigma_x.png"));
 }
 
 TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {

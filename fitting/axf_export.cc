@@ -103,6 +103,11 @@ Status WriteTextures(hid_t group, const Image& maps, double pixel_mm, const fs::
   if (const std::optional<int> height = maps.FindChannel(kHeightChannel)) {
     LOOM_RETURN_IF_ERROR(WriteTexture(group, "Height", w, h, 1, [&](int x, int y, float* o) { o[0] = maps.at(*height, y, x); }, file));
   }
+  // The refiner's 1σ maps, one dataset each (not an AxF texture: AxF has none for uncertainty).
+  for (int channel : maps.ChannelsWithPrefix("unc.")) {
+    const std::string name = "Uncertainty_" + maps.channel_name(channel).substr(4);
+    LOOM_RETURN_IF_ERROR(WriteTexture(group, name.c_str(), w, h, 1, [&](int x, int y, float* o) { o[0] = maps.at(channel, y, x); }, file));
+  }
   return Status::Ok();
 }
 

@@ -15,6 +15,8 @@
 //     Normal         float32 [H][W][3]  the shading normal in the flat sample's frame (x along
 //                                       the rows, y down the image, z up), tilted by the heightmap
 //     Height         float32 [H][W]     mm above the sample plane (when the maps have one)
+//     Uncertainty_*  float32 [H][W]     the refiner's 1σ maps (stack_fitter.h's unc.* channels:
+//                                       normal_deg, a_d.R … alpha_deg; NaN: undetermined), when present
 // Rows run down the image (row 0 at the sample's −y), as in loom's maps.
 // Not the AxF container itself: X-Rite's AxF SDK writes that (its own group tree, compound
 // types and colour handling); these datasets map onto its SVBRDF textures one to one.

@@ -119,6 +119,23 @@ TEST_F(AxfExportTest, WritesTheSvbrdfTexturesWithAxfNamesAndUnits) {
   H5Fclose(file);
 }
 
+TEST_F(AxfExportTest, CarriesTheRefinersUncertaintyMaps) {
+  Image maps = TestMaps();
+  const int sigma = maps.AddChannel("unc.normal_deg");
+  maps.at(sigma, 1, 2) = 1.5f;
+  maps.at(sigma, 0, 0) = std::nanf("");  // undetermined
+  const fs::path path = dir_ / "uncertain.h5";
+  ASSERT_TRUE(WriteAxfStyle(maps, 1.0, path).ok());
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t group = H5Gopen2(file, "svbrdf", H5P_DEFAULT);
+  EXPECT_EQ((Shape(group, "Uncertainty_normal_deg")), (std::vector<hsize_t>{2, 3}));
+  const std::vector<float> values = Values(group, "Uncertainty_normal_deg", 6);
+  EXPECT_FLOAT_EQ(values[1 * 3 + 2], 1.5f);
+  EXPECT_TRUE(std::isnan(values[0]));
+  H5Gclose(group);
+  H5Fclose(file);
+}
+
 TEST_F(AxfExportTest, ReadsBackTheMaps) {
   const Image maps = TestMaps();
   const fs::path path = dir_ / "material.h5";

@@ -85,6 +85,19 @@ std::string ErrorTable(const Evaluation& e) {
     html << "</tr>\n";
   }
   html << "</table>\n";
+  if (!e.map_noise.empty()) {
+    html << "<h2>Map noise (mean squared Laplacian)</h2>\n<table><tr><th>parameter</th><th>fit</th>"
+         << (e.parameters.empty() ? "" : "<th>reference</th><th>fit ÷ reference</th>") << "</tr>\n";
+    for (const MapNoise& n : e.map_noise) {
+      html << "<tr><td>" << n.name << "</td><td>" << Fixed(n.fit, 6) << "</td>";
+      if (!e.parameters.empty()) {
+        html << "<td>" << Fixed(n.reference, 6) << "</td><td>" << (n.reference > 0 ? Fixed(n.fit / n.reference, 2) : "—")
+             << "</td>";
+      }
+      html << "</tr>\n";
+    }
+    html << "</table>\n";
+  }
   return html.str();
 }
 
@@ -97,6 +110,25 @@ Status WriteMapSection(const fs::path& dir, const ReportInputs& in, std::ostring
     html << "<tr><td>" << name << "</td><td><img src=\"fit-" << name << ".png\"></td>";
     if (in.reference) html << "<td><img src=\"reference-" << name << ".png\"></td>";
     html << "</tr>\n";
+  }
+  html << "</table>\n";
+  return Status::Ok();
+}
+
+// The refiner's 1σ maps (unc.*), each with white at its 99th percentile (printed beside it);
+// magenta where a parameter is undetermined (NaN).
+Status WriteUncertaintySection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
+  const std::vector<int> channels = in.maps->ChannelsWithPrefix("unc.");
+  if (channels.empty()) return Status::Ok();
+  html << "<h2>Uncertainty (1σ of each parameter)</h2>\n<p>From the fit's sandwich covariance (fitting/batch_refiner.h); "
+          "black = 0, white = the value given; magenta: not determined by the data.</p>\n<table><tr><th>parameter</th>"
+          "<th>1σ</th><th>white at</th></tr>\n";
+  for (int channel : channels) {
+    const std::string name = in.maps->channel_name(channel);
+    const double white = White(*in.maps, channel);
+    LOOM_RETURN_IF_ERROR(WriteRadiancePng(dir / (name + ".png"), *in.maps, channel, white));
+    html << "<tr><td>" << name.substr(4) << "</td><td><img src=\"" << name << ".png\"></td><td>" << Fixed(white, 4)
+         << "</td></tr>\n";
   }
   html << "</table>\n";
   return Status::Ok();
@@ -150,6 +182,7 @@ Status WriteReport(const fs::path& dir, const ReportInputs& in) {
           "border-bottom:1px solid #ccc;text-align:left;vertical-align:top}img{width:192px;image-rendering:pixelated}"
           "</style></head><body>\n<h1>" << Escape(in.title) << "</h1>\n" << in.notes_html << ErrorTable(in.evaluation);
   LOOM_RETURN_IF_ERROR(WriteMapSection(dir, in, html));
+  LOOM_RETURN_IF_ERROR(WriteUncertaintySection(dir, in, html));
   LOOM_RETURN_IF_ERROR(WriteRenderSection(dir, in, html));
   html << "<p><small>" << Escape(std::string(VersionWithCommit())) << "</small></p></body></html>\n";
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "index.html", html.str()));
