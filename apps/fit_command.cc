@@ -36,6 +36,7 @@ struct FitArguments {
   double smoothing_weight = 0;
   int strip_samples = 0;
   bool no_retries = false;
+  double retry_above = 2.5;
   bool quiet = false;
 };
 
@@ -67,6 +68,7 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"smoothing_weight", args.smoothing_weight},
                          {"strip_samples", args.strip_samples},
                          {"retries", !args.no_retries},
+                         {"retry_above", args.retry_above},
                          {"uncertainty_channels", uncertainty},
                          {"ms_per_pixel_per_thread", s.ms_per_pixel_per_thread()},
                          {"loom_version", std::string(VersionWithCommit())}};
@@ -141,6 +143,7 @@ Status Fit(FitArguments args) {
   options.clusters = args.clusters;
   options.threads = args.threads;
   options.retry_poor_fits = !args.no_retries;
+  options.retry_above_noise_rms = args.retry_above;
   if (args.method.ends_with("refine")) {
     options.solver = fitting::PixelSolver::kBatchRefiner;
     options.prior.weight = args.prior_weight;
@@ -209,6 +212,10 @@ int RunFit(int argc, char** argv) {
   app.add_option("--threads", args.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_option("--f0", args.f0, "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
                                   "observations fix), or 'material': one F0 fitted per material");
+  app.add_option("--retry-above", args.retry_above,
+                 "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
+                 "stack's noise level (the best-fitted tenth's RMS; default 2.5)")
+      ->check(CLI::Range(1.0, 1e6));
   app.add_flag("--no-retries", args.no_retries,
                "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
   app.add_flag("--quiet", args.quiet, "No progress output");
