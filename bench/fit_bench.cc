@@ -25,6 +25,7 @@
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
 #include "fitting/stack_pixels.h"
+#include "fitting/testing/near_start.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"
 
@@ -33,6 +34,7 @@ namespace {
 using loom::fitting::LightSample;
 using loom::fitting::PixelObservation;
 using loom::fitting::WardParams;
+using loom::fitting::testing::NearStart;
 
 constexpr int kPixels = 32;  // distinct pixels cycled through
 
@@ -59,17 +61,6 @@ WardParams<double> RandomTruth(std::mt19937& rng) {
   return p;
 }
 
-WardParams<double> NearStart(const WardParams<double>& truth, std::mt19937& rng) {
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  WardParams<double> s = truth;
-  s.n_s = (truth.n_s + 0.05 * Eigen::Vector3d(gauss(rng), gauss(rng), 0)).normalized();
-  s.a_d = (truth.a_d.array() * (1 + 0.15 * gauss(rng))).matrix();
-  s.a_s = (truth.a_s.array() * (1 + 0.15 * gauss(rng))).matrix();
-  s.sigma_x *= 1 + 0.25 * gauss(rng);
-  s.sigma_y *= 1 + 0.25 * gauss(rng);
-  s.alpha += 0.17 * gauss(rng);
-  return s;
-}
 
 // Observations of `truth`: `points` point-lit, `lines` of `emitters_per_line` each.
 Pixel MakePixel(std::mt19937& rng, int points, int lines, int emitters_per_line) {
@@ -226,9 +217,6 @@ StackCase MakeStackCase(const std::string& rig_name, int strip_positions) {
       c.lists.push_back(pixels.Observations(x, y));
       c.truths.push_back(loom::fitting::GetParams(fabric.maps, x, y));
       c.starts.push_back(NearStart(c.truths.back(), rng));
-      c.starts.back().a_s = c.starts.back().a_s.cwiseMin(1.0);
-      c.starts.back().sigma_x = std::clamp(c.starts.back().sigma_x, loom::fitting::kMinSigma, loom::fitting::kMaxSigma);
-      c.starts.back().sigma_y = std::clamp(c.starts.back().sigma_y, loom::fitting::kMinSigma, loom::fitting::kMaxSigma);
     }
   }
   return c;

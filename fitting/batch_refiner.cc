@@ -564,12 +564,7 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
       scored.push_back({albedos.dot(normal * albedos) - 2 * albedos.dot(rhs) + squares, candidate});
     }
   }
-  const size_t keep = std::min(scored.size(), static_cast<size_t>(std::max(count, 1)));
-  std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),
-                    [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<WardParams<double>> best;
-  for (size_t i = 0; i < keep; ++i) best.push_back(scored[i].second);
-  return best;
+  return internal::Best(std::move(scored), count);
 }
 
 std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObservation>>& pixels) {

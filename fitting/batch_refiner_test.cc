@@ -15,6 +15,7 @@
 #include "fitting/internal/refine_lanes.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/stack_pixels.h"
+#include "fitting/testing/near_start.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"
@@ -24,31 +25,7 @@ namespace {
 
 using internal::kLanes;
 using internal::kTangentParams;
-
-WardParams<double> Truth() {
-  WardParams<double> p;
-  p.n_s = Eigen::Vector3d(0.12, -0.06, 1).normalized();
-  p.a_d = {0.35, 0.2, 0.08};
-  p.a_s = {0.25, 0.22, 0.2};
-  p.sigma_x = 0.12;
-  p.sigma_y = 0.3;
-  p.alpha = 0.5;
-  p.f0 = 0.6;
-  return p;
-}
-
-// A start where a CNN might put it: normal 3° off, albedos ±15 %, σ ±25 %, α ±10°.
-WardParams<double> NearStart(const WardParams<double>& truth, std::mt19937& rng) {
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  WardParams<double> s = truth;
-  s.n_s = (truth.n_s + 0.05 * Eigen::Vector3d(gauss(rng), gauss(rng), 0)).normalized();
-  s.a_d = (truth.a_d.array() * (1 + 0.15 * gauss(rng))).matrix().cwiseMin(1.0);
-  s.a_s = (truth.a_s.array() * (1 + 0.15 * gauss(rng))).matrix().cwiseMin(1.0);
-  s.sigma_x = std::clamp(s.sigma_x * (1 + 0.25 * gauss(rng)), kMinSigma, kMaxSigma);
-  s.sigma_y = std::clamp(s.sigma_y * (1 + 0.25 * gauss(rng)), kMinSigma, kMaxSigma);
-  s.alpha += 0.17 * gauss(rng);
-  return s;
-}
+using testing::NearStart;
 
 // tac7-mini's low-preset observations of one pixel of a fast-path stack (16 strip positions).
 struct SimulatedStack {
@@ -363,6 +340,56 @@ TEST(BatchRefinerTest, TheBatchedGridSearchPicksAStartOfTheScalarOnesTop) {
   }
 }
 
+TEST(BatchRefinerTest, MergedLightSamplesKeepTheStripsIrradianceAndOrder) {
+  std::vector<LightSample> strip;
+  for (int j = 0; j < 32; ++j) strip.push_back({Eigen::Vector3d(-0.5 + j / 31.0, 0, 1).normalized(), 1.0 + 0.1 * j});
+  const std::vector<LightSample> merged = MergeLightSamples(strip, 8);
+  ASSERT_EQ(merged.size(), 8u);
+  double total = 0, merged_total = 0;
+  for (const LightSample& l : strip) total += l.irradiance;
+  for (size_t g = 0; g < merged.size(); ++g) {
+    merged_total += merged[g].irradiance;
+    EXPECT_NEAR(merged[g].l_local.norm(), 1, 1e-12);
+    if (g > 0) {
+      EXPECT_GT(merged[g].l_local.x(), merged[g - 1].l_local.x()) << "group " << g;
+    }
+  }
+  EXPECT_NEAR(merged_total, total, 1e-12 * total);
+  EXPECT_EQ(MergeLightSamples(strip, 40).size(), 32u);  // shorter than the count: as it is
+}
+
+// The prior pulls toward its mean: the start, or RefineProblem::prior_mean when given; at a
+// weight far above the data's it is where the fit stays.
+TEST(BatchRefinerTest, APriorHoldsTheFitNearItsMean) {
+  const SimulatedStack simulated = NoisyFabricStack(2, 0.01, 23);
+  const StackPixels pixels(simulated.stack);
+  const WardParams<double> truth = GetParams(simulated.fabric.maps, 0, 0);
+  WardParams<double> off = truth;
+  off.n_s = (truth.n_s + Eigen::Vector3d(0.1, 0, 0)).normalized();  // ~6° from the truth
+  off.a_s *= 1.3;
+  const auto refine = [&](double weight, bool mean_is_truth) {
+    RefineOptions options;
+    options.fixed_f0 = truth.f0;
+    options.prior.weight = weight;
+    RefineProblem problem{1, LightsPerStackObservation(simulated.stack), [&](int) { return pixels.Observations(0, 0); },
+                          [&](int) { return off; }, {}};
+    if (mean_is_truth) problem.prior_mean = [&](int) { return truth; };
+    const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
+    EXPECT_TRUE(refined.ok()) << refined.status().ToString();
+    return refined->front().params;
+  };
+  const auto angle_deg = [](const WardParams<double>& a, const WardParams<double>& b) {
+    return RadToDeg(std::acos(std::clamp(a.n_s.normalized().dot(b.n_s.normalized()), -1.0, 1.0)));
+  };
+  const WardParams<double> free = refine(0, false);
+  EXPECT_LT(angle_deg(free, truth), 1.0);          // the data alone find the normal
+  const WardParams<double> held = refine(1e8, false);
+  EXPECT_LT(angle_deg(held, off), 0.1);            // a dominant prior keeps the start's
+  EXPECT_LT((held.a_s - off.a_s).cwiseAbs().maxCoeff(), 1e-3);
+  const WardParams<double> pulled = refine(1e8, true);
+  EXPECT_LT(angle_deg(pulled, truth), 0.1);        // ... or its own mean's
+}
+
 TEST(BatchRefinerTest, OptionsAreCheckedNamingEachField) {
   RefineOptions bad;
   bad.max_iterations = 0;
@@ -374,7 +401,7 @@ TEST(BatchRefinerTest, OptionsAreCheckedNamingEachField) {
   for (const char* field : {"max_iterations", "huber_scale", "fixed_f0", "prior.weight"}) {
     EXPECT_NE(status.message().find(field), std::string::npos) << field << " in " << status.message();
   }
-  const RefineProblem empty{0, {}, [](int) { return std::vector<PixelObservation>{}; }, [](int) { return Truth(); }, {}};
+  const RefineProblem empty{0, {}, [](int) { return std::vector<PixelObservation>{}; }, [](int) { return WardParams<double>{}; }, {}};
   const Result<std::vector<RefinedPixel>> none = RefinePixels(empty, {});
   ASSERT_TRUE(none.ok());
   EXPECT_TRUE(none->empty());

@@ -93,6 +93,15 @@ Eigen::Matrix<double, 6, 1> SolveAlbedos(Eigen::Matrix<double, 6, 6> normal, Eig
   return albedos.cwiseMin(kMaxAlbedo);
 }
 
+std::vector<WardParams<double>> Best(std::vector<std::pair<double, WardParams<double>>> scored, int count) {
+  const size_t keep = std::min(scored.size(), static_cast<size_t>(std::max(count, 1)));
+  std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),
+                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<WardParams<double>> best;
+  for (size_t i = 0; i < keep; ++i) best.push_back(scored[i].second);
+  return best;
+}
+
 std::vector<WardParams<double>> GridCandidates(double f0) {
   static const std::vector<Eigen::Vector3d> normals = CandidateNormals();
   static const std::vector<LobeShape> shapes = CandidateShapes();
@@ -126,12 +135,7 @@ std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObserva
     candidate.a_s = score.albedos.tail<3>();
     scored.push_back({score.cost, candidate});
   }
-  const size_t keep = std::min(scored.size(), static_cast<size_t>(std::max(count, 1)));
-  std::partial_sort(scored.begin(), scored.begin() + keep, scored.end(),
-                    [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<WardParams<double>> best;
-  for (size_t i = 0; i < keep; ++i) best.push_back(scored[i].second);
-  return best;
+  return internal::Best(std::move(scored), count);
 }
 
 }  // namespace loom::fitting

@@ -244,6 +244,17 @@ std::vector<WardParams<double>> NeighbourMedians(const std::vector<PixelOutcome>
   return medians;
 }
 
+// `p` as the same lobe written the way `like` is: σx and σy in the same order (swapping them turns
+// α by 90°). Without this the prior would pull a pixel with σx < σy toward its neighbours' σx > σy
+// across the whole parameter space (it did: the σ map came out 14× noisier).
+WardParams<double> InTheConventionOf(WardParams<double> p, const WardParams<double>& like) {
+  if ((p.sigma_x < p.sigma_y) != (like.sigma_x < like.sigma_y)) {
+    std::swap(p.sigma_x, p.sigma_y);
+    p.alpha += kPi / 2;
+  }
+  return p;
+}
+
 // The smoothing pass: every fitted pixel again from its first fit, pulled toward its
 // neighbourhood's median; the pixel keeps what its data say where they say it.
 Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine,
@@ -254,7 +265,7 @@ Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, R
   refine.prior = smoothing;
   const RefineProblem problem{static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
                               [&](int i) { return pixels.Observations(i % width, i / width); },
-                              [&](int i) { return outcomes[i].params; }, [&](int i) { return medians[i]; }};
+                              [&](int i) { return outcomes[i].params; }, [&](int i) { return InTheConventionOf(medians[i], outcomes[i].params); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
   ParallelFor(static_cast<int>(outcomes.size()), refine.threads, [&](int i) {
     if (!outcomes[i].fitted || !refined[i].fitted) return;

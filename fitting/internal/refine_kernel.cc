@@ -24,6 +24,19 @@ constexpr double kMinHalfwayCosine = 1e-3;
 // the diffuse term.
 constexpr double kNegligibleLobeExponent = 60;
 
+// A light slot's parameter-free arrays as restrict pointers to its kLanes values, named as
+// LaneData's members (locals, so that the vectoriser sees they do not alias).
+#define SLOT_POINTERS(data, offset)                               \
+  const double* __restrict lx = &(data).lx[offset];               \
+  const double* __restrict ly = &(data).ly[offset];               \
+  const double* __restrict lz = &(data).lz[offset];               \
+  const double* __restrict hx = &(data).hx[offset];               \
+  const double* __restrict hy = &(data).hy[offset];               \
+  const double* __restrict hz = &(data).hz[offset];               \
+  const double* __restrict irradiance = &(data).irradiance[offset]; \
+  const double* __restrict inv_c2 = &(data).inv_c2[offset];       \
+  const double* __restrict schlick = &(data).schlick[offset]
+
 #define LANES _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kLanes; ++p)
 
 // The lobe's parameter-dependent frame and constants, per lane.
@@ -82,15 +95,7 @@ struct ObservationSums {
   }
   for (int slot = first; slot < end; ++slot) {
     const int o = slot * kLanes;
-    const double* __restrict lx = &d.lx[o];
-    const double* __restrict ly = &d.ly[o];
-    const double* __restrict lz = &d.lz[o];
-    const double* __restrict hx = &d.hx[o];
-    const double* __restrict hy = &d.hy[o];
-    const double* __restrict hz = &d.hz[o];
-    const double* __restrict irradiance = &d.irradiance[o];
-    const double* __restrict inv_c2 = &d.inv_c2[o];
-    const double* __restrict schlick = &d.schlick[o];
+    SLOT_POINTERS(d, o);
     // Most of a strip's emitters are far from every lane's highlight: for those the lobe is
     // dropped (as beyond kNegligibleLobeExponent anyway) and only the diffuse term is summed,
     // a fifth of the work. The test costs the exponent of each lane, a min-reduction.
@@ -308,15 +313,7 @@ void SumTermsLanes(const LaneData& d, const LaneInputs& in, double* diffuse, dou
     LANES { diffuse_sum[p] = specular_sum[p] = 0; }
     for (int slot = d.first_slot[k]; slot < d.first_slot[k + 1]; ++slot) {
       const int i = slot * kLanes;
-      const double* __restrict lx = &d.lx[i];
-      const double* __restrict ly = &d.ly[i];
-      const double* __restrict lz = &d.lz[i];
-      const double* __restrict hx = &d.hx[i];
-      const double* __restrict hy = &d.hy[i];
-      const double* __restrict hz = &d.hz[i];
-      const double* __restrict irradiance = &d.irradiance[i];
-      const double* __restrict inv_c2 = &d.inv_c2[i];
-      const double* __restrict schlick = &d.schlick[i];
+      SLOT_POINTERS(d, i);
       LANES {
         const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
         const double n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
