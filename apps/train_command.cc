@@ -4,15 +4,19 @@
 //
 // 1. The dataset: procedural fabrics (seeds first_seed, first_seed + 1, …), each rendered with
 //    the simulator's fast path into DIR/fabric-SEED.stack.exr with its ground truth
-//    DIR/fabric-SEED.truth.exr. Pairs already in DIR are read, not rendered again, so a dataset
+//    DIR/fabric-SEED.truth.exr (fabric-SEED-out-of-model.* for the --out-of-model-share of the
+//    seeds: sim/fabric.h's out-of-model fabrics). Pairs already in DIR are read, not rendered again, so a dataset
 //    is built once and reused — and reconstructed stacks with reference fits can be put there
 //    under the same names. Split by material: the last --test pairs (sorted by name) are the
 //    test set, the --validation before them validate every epoch, the rest train.
 // 2. Training (fitting/cnn_training.h) with checkpoints in MODEL/checkpoints; --resume goes on
-//    from the last one.
+//    from the last one; --init starts from another model's weights (fine-tuning) instead of
+//    random ones; --rerender-weight adds the re-rendering loss.
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
 //    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
 #include <algorithm>
+#include <cmath>
+#include <memory>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -48,6 +52,8 @@ struct TrainArguments {
   int test = 3;
   int size_px = 64;
   uint64_t first_seed = 1000;
+  double out_of_model_share = 0;
+  std::string init;  // a model to start from
   int width_divisor = 8;
   double dropout = 0.02;
   fitting::CnnTrainingOptions training;
@@ -74,10 +80,15 @@ Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::pat
   ProgressBar bar("dataset", args.quiet);
   for (int i = 0; i < args.materials; ++i) {
     const uint64_t seed = args.first_seed + i;
-    const std::string name = "fabric-" + std::to_string(seed);
+    // The share spread evenly over the seeds: material i is out of model when i · share
+    // crosses an integer before (i + 1) · share.
+    const bool out_of_model =
+        std::floor((i + 1) * args.out_of_model_share) > std::floor(i * args.out_of_model_share);
+    const std::string name = "fabric-" + std::to_string(seed) + (out_of_model ? "-out-of-model" : "");
     const fs::path stack_path = dir / (name + ".stack.exr"), truth_path = dir / (name + ".truth.exr");
     if (!fs::exists(stack_path) || !fs::exists(truth_path)) {
       sim::SampleSpec spec;
+      spec.kind = out_of_model ? "fabric-out-of-model" : "fabric";
       spec.seed = seed;
       spec.size_px = args.size_px;
       spec.pixel_mm = rig_scene.material().pixel_mm;
@@ -102,11 +113,11 @@ Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::pat
   return pairs;
 }
 
-double MedianPositiveRadiance(const std::vector<ObservationStack>& stacks) {
+double MedianPositiveRadiance(const std::vector<std::shared_ptr<const ObservationStack>>& stacks) {
   std::vector<float> values;
-  for (const ObservationStack& s : stacks) {
-    for (int c = kStackGeometryChannels; c < s.image.num_channels(); c += 7) {  // a sample of the channels
-      for (float v : s.image.channel(c)) {
+  for (const std::shared_ptr<const ObservationStack>& s : stacks) {
+    for (int c = kStackGeometryChannels; c < s->image.num_channels(); c += 7) {  // a sample of the channels
+      for (float v : s->image.channel(c)) {
         if (std::isfinite(v) && v > 0) values.push_back(v);
       }
     }
@@ -116,14 +127,30 @@ double MedianPositiveRadiance(const std::vector<ObservationStack>& stacks) {
   return values[values.size() / 2];
 }
 
-Result<fitting::CnnExample> Example(const ObservationStack& stack, const fs::path& truth_path,
-                                    const fitting::CnnModelInfo& info) {
+// `keep_stack`: the example holds on to its stack (the re-rendering loss needs it).
+Result<fitting::CnnExample> Example(const std::shared_ptr<const ObservationStack>& stack, const fs::path& truth_path,
+                                    const fitting::CnnModelInfo& info, bool keep_stack) {
   LOOM_ASSIGN_OR_RETURN(const sim::Material truth, sim::ReadMaterial(truth_path));
-  if (truth.width() != stack.image.width() || truth.height() != stack.image.height()) {
-    return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack.source);
+  if (truth.width() != stack->image.width() || truth.height() != stack->image.height()) {
+    return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack->source);
   }
-  LOOM_ASSIGN_OR_RETURN(fitting::CnnTensor input, fitting::CnnInputFromStack(stack, info));
-  return fitting::CnnExample{stack.source, std::move(input), fitting::CnnLabelsFromMaps(truth.maps)};
+  LOOM_ASSIGN_OR_RETURN(fitting::CnnTensor input, fitting::CnnInputFromStack(*stack, info));
+  return fitting::CnnExample{truth_path.string(), std::move(input), fitting::CnnLabelsFromMaps(truth.maps),
+                             keep_stack ? stack : nullptr};
+}
+
+// The model to train: a new one for the dataset, or --init's (its input normalisation kept).
+Result<fitting::Cnn> StartingModel(const TrainArguments& args, const fitting::CnnModelInfo& info) {
+  if (args.init.empty()) return fitting::Cnn::Create(info, args.training.seed);
+  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(args.init));
+  if (cnn.info().architecture.input_channels != info.architecture.input_channels || cnn.info().rig != info.rig ||
+      cnn.info().observation_groups != info.observation_groups) {
+    return InvalidArgumentError("--init " + args.init, "a model for other stacks (rig '" + cnn.info().rig + "', " +
+                                                           std::to_string(cnn.info().architecture.input_channels) +
+                                                           " input channels) than the dataset's ('" + info.rig + "', " +
+                                                           std::to_string(info.architecture.input_channels) + ")");
+  }
+  return cnn;
 }
 
 std::string RmseLine(const std::array<double, 14>& rmse) {
@@ -144,21 +171,24 @@ Status Train(TrainArguments args) {
   if (static_cast<int>(pairs.size()) <= args.validation + args.test) {
     return FailedPreconditionError(data.string(), std::to_string(pairs.size()) + " materials, too few for the split");
   }
-  std::vector<ObservationStack> stacks;
+  std::vector<std::shared_ptr<const ObservationStack>> stacks;
   for (const Pair& p : pairs) {
     LOOM_ASSIGN_OR_RETURN(ObservationStack stack, ReadObservationStack(p.stack));
-    stacks.push_back(std::move(stack));
+    stacks.push_back(std::make_shared<const ObservationStack>(std::move(stack)));
   }
   const int train_count = static_cast<int>(pairs.size()) - args.validation - args.test;
   fitting::CnnModelInfo info;
-  info.architecture = {fitting::kCnnGeometryChannels + static_cast<int>(stacks[0].observations.size()),
+  info.architecture = {fitting::kCnnGeometryChannels + static_cast<int>(stacks[0]->observations.size()),
                        args.width_divisor, args.dropout};
   info.radiance_scale = MedianPositiveRadiance({stacks.begin(), stacks.begin() + train_count});
-  info.rig = stacks[0].rig;
-  for (const StackObservation& o : stacks[0].observations) info.observation_groups.push_back(o.group);
+  info.rig = stacks[0]->rig;
+  for (const StackObservation& o : stacks[0]->observations) info.observation_groups.push_back(o.group);
+  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, StartingModel(args, info));
+  info = cnn.info();
   std::vector<fitting::CnnExample> sets[3];  // train, validation, test
   for (size_t i = 0; i < pairs.size(); ++i) {
-    LOOM_ASSIGN_OR_RETURN(fitting::CnnExample example, Example(stacks[i], pairs[i].truth, info));
+    LOOM_ASSIGN_OR_RETURN(fitting::CnnExample example,
+                          Example(stacks[i], pairs[i].truth, info, args.training.rerender_weight > 0));
     const int set = static_cast<int>(i) < train_count ? 0 : static_cast<int>(i) < train_count + args.validation ? 1 : 2;
     sets[set].push_back(std::move(example));
   }
@@ -167,7 +197,6 @@ Status Train(TrainArguments args) {
             << " validation, " << sets[2].size() << " test materials; " << info.architecture.input_channels
             << " input channels; radiance scale " << info.radiance_scale << "\n";
 
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Create(info, args.training.seed));
   args.training.checkpoint_dir = out / "checkpoints";
   ProgressBar bar("training", args.quiet);
   args.training.progress = [&](const fitting::CnnTrainingProgress& p) {
@@ -191,8 +220,9 @@ Status Train(TrainArguments args) {
   std::ostringstream training;
   training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of "
            << history.size() << " epochs on " << sets[0].size() << " simulated fabrics (" << args.size_px << " px, seeds "
-           << args.first_seed << "…), preset " << args.preset << "; test loss " << test.loss << " on " << sets[2].size()
-           << " held-out fabrics; loom " << VersionWithCommit();
+           << args.first_seed << "…, out-of-model share " << args.out_of_model_share << "), preset " << args.preset
+           << (args.init.empty() ? "" : ", from " + args.init) << "; test loss " << test.loss << " on "
+           << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   const nlohmann::json report = {{"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
@@ -206,6 +236,12 @@ Status Train(TrainArguments args) {
                                               {"lr_end", args.training.learning_rate_end},
                                               {"weight_decay", args.training.weight_decay},
                                               {"radiance_noise", args.training.radiance_noise},
+                                              {"out_of_model_share", args.out_of_model_share},
+                                              {"init", args.init},
+                                              {"rerender_weight", args.training.rerender_weight},
+                                              {"rerender_pixels", args.training.rerender_pixels},
+                                              {"rerender_strip_samples", args.training.rerender_strip_samples},
+                                              {"rerender_huber", args.training.rerender_huber},
                                               {"seed", args.training.seed}}},
                                  {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
                                  {"label_channels", fitting::kLabelChannelNames},
@@ -251,6 +287,16 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--radiance-noise", t.radiance_noise,
                  "Relative noise multiplied into the training tiles' radiance, as reconstructed stacks carry (0: none)")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--out-of-model-share", args.out_of_model_share,
+                 "Share of the fabrics made out of model: with what GD10 cannot represent (sim/fabric.h)")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--init", args.init, "Start from this model (fine-tuning): its weights, architecture and input normalisation")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--rerender-weight", t.rerender_weight,
+                 "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn_training.h)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
+      ->check(CLI::Range(1, 100000));
   app.add_option("--threads", t.threads, "Torch threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_option("--seed", t.seed, "Seed of the weights, tiles and dropout");
   app.add_flag("--resume", t.resume, "Go on from OUT/checkpoints (same options as the interrupted run)");

@@ -77,7 +77,7 @@ void BM_PaperSliding(benchmark::State& state) {
 void BM_Training(benchmark::State& state) {
   const int channels = static_cast<int>(state.range(0)), divisor = static_cast<int>(state.range(1));
   Cnn cnn = MakeCnn(channels, divisor);
-  loom::fitting::CnnExample example{"random", RandomInput(channels, 64), {}};
+  loom::fitting::CnnExample example{"random", RandomInput(channels, 64), {}, nullptr};
   example.labels.labels = {loom::fitting::kLabelSize, 64, 64, std::vector<float>(loom::fitting::kLabelSize * 64 * 64, 0.5f)};
   example.labels.valid.assign(64 * 64, 1);
   loom::fitting::CnnTrainingOptions options;

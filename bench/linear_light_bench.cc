@@ -7,12 +7,14 @@
 //
 //   bench_linear_light --json=linear_light.json
 //
-// Two forms: the strip sampled at N points, and the stack's 32 emitters merged into N
-// (fitting::MergeLightSamples, what the refiner does with max_lights_per_observation = N).
+// Three forms: the strip sampled at N points; the stack's 32 emitters merged into N
+// (fitting::MergeLightSamples, what the refiner does with max_lights_per_observation = N); and
+// merged per observation by the lobe's width (StripSamplesFor), the diffuse term kept over all 32.
 // Per N and form: the relative radiance error |L_N − L_ref| / L_ref of every observation whose L_ref is at
 // least 1 % of its pixel's mean (p50, p99, max), and the error relative to the pixel's mean
 // radiance, the unit the fit's residuals are in (p99, max); diffuse and specular alike.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -66,6 +68,28 @@ std::vector<PixelObservation> StripObservations(loom::RigModel rig, int emitters
     }
   }
   return observations;
+}
+
+// The lobe-adaptive form (tried for issue #21 and rejected, docs/benchmarks.md): how many samples
+// an observation's strip needs for a lobe no narrower than `sigma`. The lobe falls off as
+// exp(−θ_h²/σ²) in the halfway vector's angle, a Gaussian of width σ/√2, and the midpoint rule
+// on a Gaussian on an unbounded line is exact up to ~2·exp(−2π² w²) with w samples per width;
+// runs of 2^k emitters are merged while the halfway vector moves at most σ / (√2 · w) across one.
+int StripSamplesFor(const PixelObservation& observation, double sigma, double samples_per_width) {
+  const std::vector<LightSample>& lights = observation.lights;
+  const int n = static_cast<int>(lights.size());
+  if (n <= 1) return n;
+  double widest_step = 0;
+  Eigen::Vector3d previous = (lights[0].l_local + observation.v_local).normalized();
+  for (int i = 1; i < n; ++i) {
+    const Eigen::Vector3d h = (lights[i].l_local + observation.v_local).normalized();
+    widest_step = std::max(widest_step, std::acos(std::clamp(h.dot(previous), -1.0, 1.0)));
+    previous = h;
+  }
+  const double run = sigma / (std::sqrt(2.0) * samples_per_width);
+  int merged_per_sample = 1;
+  while (n % (2 * merged_per_sample) == 0 && 2 * merged_per_sample * widest_step <= run) merged_per_sample *= 2;
+  return n / merged_per_sample;
 }
 
 }  // namespace
@@ -122,6 +146,51 @@ int main(int argc, char** argv) {
                       {"observations", relative.size()}});
       std::cout << rows.back().dump() << std::endl;
     }
+  }
+  // The adaptive form: the diffuse term over all 32 emitters (the refiner's closed form), the
+  // lobe over StripSamplesFor's count for the material's narrower σ; error against the
+  // reference and against the 32 emitters themselves (the stack's model).
+  for (const double samples_per_width : {0.75, 1.0, 1.5, 2.0}) {
+    std::vector<double> relative, of_mean, against_model, counts_used;
+    for (size_t m = 0; m < materials.size(); ++m) {
+      const Eigen::Vector3d& p = points[m % points.size()];
+      WardParams<double> diffuse_only = materials[m], lobe_only = materials[m];
+      diffuse_only.a_s.setZero();
+      lobe_only.a_d.setZero();
+      const double narrower = std::min(materials[m].sigma_x, materials[m].sigma_y);
+      const std::vector<PixelObservation> reference = StripObservations(rig, kReferenceEmitters, p);
+      const std::vector<PixelObservation> model = StripObservations(rig, 32, p);
+      std::vector<double> exact(reference.size());
+      double mean = 0;
+      const loom::fitting::WardLobe<double> lobe(materials[m]);
+      for (size_t k = 0; k < reference.size(); ++k) mean += (exact[k] = PredictRadiance(lobe, reference[k])) / reference.size();
+      for (size_t k = 0; k < reference.size(); ++k) {
+        PixelObservation merged = model[k];
+        const int count = StripSamplesFor(model[k], narrower, samples_per_width);
+        counts_used.push_back(count);
+        merged.lights = loom::fitting::MergeLightSamples(model[k].lights, count);
+        const double adaptive = PredictRadiance(loom::fitting::WardLobe<double>(diffuse_only), model[k]) +
+                                PredictRadiance(loom::fitting::WardLobe<double>(lobe_only), merged);
+        const double error = std::abs(adaptive - exact[k]);
+        of_mean.push_back(error / mean);
+        against_model.push_back(std::abs(adaptive - PredictRadiance(lobe, model[k])) / mean);
+        if (exact[k] >= 0.01 * mean) relative.push_back(error / exact[k]);
+      }
+    }
+    double mean_count = 0;
+    for (double c : counts_used) mean_count += c / counts_used.size();
+    rows.push_back({{"form", "adaptive"},
+                    {"samples_per_width", samples_per_width},
+                    {"emitters", mean_count},
+                    {"relative_error_p50", Quantile(relative, 0.5)},
+                    {"relative_error_p99", Quantile(relative, 0.99)},
+                    {"relative_error_max", Quantile(relative, 1.0)},
+                    {"error_of_pixel_mean_p99", Quantile(of_mean, 0.99)},
+                    {"error_of_pixel_mean_max", Quantile(of_mean, 1.0)},
+                    {"against_32_of_pixel_mean_p99", Quantile(against_model, 0.99)},
+                    {"against_32_of_pixel_mean_max", Quantile(against_model, 1.0)},
+                    {"observations", relative.size()}});
+    std::cout << rows.back().dump() << std::endl;
   }
   const nlohmann::json out = {{"bench", "linear_light"},
                               {"description", "linear-light radiance with the strip as N point emitters vs 4096, tac7-mini, fabric parameters"},

@@ -10,7 +10,9 @@
 #include "core/file_io.h"
 #include "core/parallel.h"
 #include "fitting/internal/cnn_net.h"
+#include "fitting/internal/rerender_loss.h"
 #include "fitting/model/label.h"
+#include "fitting/stack_pixels.h"
 
 namespace loom::fitting {
 
@@ -68,14 +70,22 @@ struct Material {
   torch::Tensor labels;  // 1 × 14 × H × W
   torch::Tensor valid;   // 1 × 1 × H × W
   int height, width;
+  std::shared_ptr<const StackPixels> pixels;  // for the re-rendering loss
+};
+
+struct TileOrigin {
+  const Material* material;
+  int x, y;
 };
 
 struct Batch {
   torch::Tensor input, labels, valid;
+  std::vector<TileOrigin> origins;
 };
 
 Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, std::mt19937_64& rng) {
   std::vector<torch::Tensor> inputs, labels, valid;
+  std::vector<TileOrigin> origins;
   for (int i = 0; i < count; ++i) {
     const Material& m = materials[std::uniform_int_distribution<size_t>(0, materials.size() - 1)(rng)];
     const int y = std::uniform_int_distribution<int>(0, m.height - tile)(rng);
@@ -83,8 +93,33 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
     inputs.push_back(m.input.narrow(2, y, tile + 2 * kPatchHalo).narrow(3, x, tile + 2 * kPatchHalo));
     labels.push_back(m.labels.narrow(2, y, tile).narrow(3, x, tile));
     valid.push_back(m.valid.narrow(2, y, tile).narrow(3, x, tile));
+    origins.push_back({&m, x, y});
   }
-  return {torch::cat(inputs), torch::cat(labels), torch::cat(valid)};
+  return {torch::cat(inputs), torch::cat(labels), torch::cat(valid), std::move(origins)};
+}
+
+// The re-rendering loss of a batch's predictions (N × 14 × T × T) at `per_tile` random valid
+// pixels of each tile; nothing (an undefined tensor) when no tile has one.
+torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predicted, const CnnTrainingOptions& options,
+                                std::mt19937_64& rng) {
+  std::vector<std::vector<PixelObservation>> observations;
+  std::vector<torch::Tensor> labels;
+  const int tile = static_cast<int>(predicted.size(2));
+  for (size_t b = 0; b < batch.origins.size(); ++b) {
+    const TileOrigin& origin = batch.origins[b];
+    const torch::Tensor valid = batch.valid[static_cast<int64_t>(b)][0].flatten().nonzero().flatten();
+    if (valid.numel() == 0) continue;
+    for (int k = 0; k < options.rerender_pixels; ++k) {
+      const int64_t at = valid[std::uniform_int_distribution<int64_t>(0, valid.numel() - 1)(rng)].item<int64_t>();
+      const int dy = static_cast<int>(at / tile), dx = static_cast<int>(at % tile);
+      observations.push_back(origin.material->pixels->Observations(origin.x + dx, origin.y + dy));
+      labels.push_back(predicted[static_cast<int64_t>(b)].select(1, dy).select(1, dx));
+    }
+  }
+  if (labels.empty()) return {};
+  const internal::RerenderBatch rerender = internal::MakeRerenderBatch(observations, options.rerender_strip_samples);
+  if (rerender.radiance.numel() == 0) return {};
+  return internal::RerenderLoss(torch::stack(labels), rerender, options.rerender_huber);
 }
 
 double LearningRate(const CnnTrainingOptions& options, int epoch) {  // epoch 0-based
@@ -116,6 +151,7 @@ Json EpochJson(const CnnEpoch& e) {
   return {{"epoch", e.epoch},
           {"learning_rate", e.learning_rate},
           {"train_loss", e.train_loss},
+          {"train_rerender_loss", e.train_rerender_loss},
           {"validation_loss", e.validation_loss},
           {"validation_rmse", e.validation_rmse},
           {"seconds", e.seconds},
@@ -127,6 +163,7 @@ CnnEpoch EpochFromJson(const Json& j) {
   e.epoch = j.at("epoch").get<int>();
   e.learning_rate = j.at("learning_rate").get<double>();
   e.train_loss = j.at("train_loss").get<double>();
+  e.train_rerender_loss = j.value("train_rerender_loss", 0.0);  // absent in histories before the loss existed
   e.validation_loss = j.at("validation_loss").get<double>();
   e.validation_rmse = j.at("validation_rmse").get<std::array<double, 14>>();
   e.seconds = j.at("seconds").get<double>();
@@ -208,6 +245,10 @@ Status CnnTrainingOptions::Check() const {
   if (!(learning_rate_start > 0) || !(learning_rate_end > 0)) problems.push_back("learning rates must be > 0");
   if (!(weight_decay >= 0)) problems.push_back("weight_decay must be ≥ 0");
   if (!(radiance_noise >= 0)) problems.push_back("radiance_noise must be ≥ 0");
+  if (!(rerender_weight >= 0)) problems.push_back("rerender_weight must be ≥ 0");
+  if (rerender_pixels < 1) problems.push_back("rerender_pixels must be ≥ 1");
+  if (rerender_strip_samples < 0) problems.push_back("rerender_strip_samples must be ≥ 0");
+  if (!(rerender_huber > 0)) problems.push_back("rerender_huber must be > 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (resume && checkpoint_dir.empty()) problems.push_back("resume needs a checkpoint_dir");
   return ProblemsStatus("CnnTrainingOptions", problems);
@@ -266,8 +307,18 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
   std::vector<Material> materials;
   double valid_pixels = 0;
   for (const CnnExample& e : train) {
+    std::shared_ptr<const StackPixels> pixels;
+    if (options.rerender_weight > 0) {
+      if (!e.stack) return InvalidArgumentError(e.name, "training example without its stack: the re-rendering loss needs it");
+      if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
+        return InvalidArgumentError(e.name, "training example whose stack is not the input's size");
+      }
+      // Cast shadows are left out: the test costs a ray march per emitter, and the robust loss
+      // takes the few shadowed observations as outliers.
+      pixels = std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false});
+    }
     materials.push_back({internal::PaddedInput(e.input), AsTensor(e.labels.labels), ValidTensor(e.labels),
-                         e.input.height, e.input.width});
+                         e.input.height, e.input.width, std::move(pixels)});
     valid_pixels += materials.back().valid.sum().item<double>();
   }
   const int tile_samples = options.tile * options.tile * options.tiles_per_step;
@@ -286,7 +337,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
     torch::manual_seed(options.seed * 1000003 + epoch);
     at::Generator noise = at::make_generator<at::CPUGeneratorImpl>(options.seed * 1000003 + epoch);
     net->train();
-    double loss_sum = 0, samples = 0;
+    double loss_sum = 0, rerender_sum = 0, samples = 0;
     for (int step = 0; step < steps; ++step) {
       const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
       const torch::Tensor count = batch.valid.sum();
@@ -294,7 +345,14 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
       optimizer->zero_grad();
       const torch::Tensor input =
           options.radiance_noise > 0 ? NoisyRadiance(batch.input, options.radiance_noise, noise) : batch.input;
-      const torch::Tensor loss = HuberSum(net->ForwardDense(input), batch.labels, batch.valid) / (count * kLabelSize);
+      const torch::Tensor predicted = net->ForwardDense(input);
+      torch::Tensor loss = HuberSum(predicted, batch.labels, batch.valid) / (count * kLabelSize);
+      if (options.rerender_weight > 0) {
+        if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
+          loss = loss + options.rerender_weight * rerender.to(torch::kFloat32);
+          rerender_sum += rerender.item<double>();
+        }
+      }
       loss.backward();
       optimizer->step();
       loss_sum += loss.item<double>();
@@ -302,6 +360,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
       if (options.progress) options.progress({epoch + 1, options.epochs, step + 1, steps, loss_sum / (step + 1)});
     }
     record.train_loss = loss_sum / steps;
+    record.train_rerender_loss = rerender_sum / steps;
     record.samples_per_second = samples / std::chrono::duration<double>(Clock::now() - start).count();
     Result<CnnScore> score = ScoreCnn(cnn, validation, threads);
     if (!score.ok()) return score.status();

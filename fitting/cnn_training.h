@@ -5,7 +5,8 @@
 // Training is on dense tiles: the dense form computes each output pixel from its own 15 × 15
 // neighbourhood only, so a tile of T × T outputs is T² patch samples for the price of one
 // forward pass over (T + 14)². Loss: the paper's Huber (δ = 1) on the 14-d label with weights
-// 20 on a_d and 10 on a_s, averaged over the valid pixels (those on the material). Adam with
+// 20 on a_d and 10 on a_s, averaged over the valid pixels (those on the material), plus
+// optionally a re-rendering loss (rerender_weight, below). Adam with
 // weight decay; the learning rate decays exponentially from `learning_rate_start` at the first
 // epoch to `learning_rate_end` at the last (the paper: 1e-5 → 1e-6). Dropout acts on the dense
 // feature maps, so one dropped activation reaches the neighbouring outputs of its tile too.
@@ -17,9 +18,11 @@
 #include <array>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "core/observation_stack.h"
 #include "fitting/cnn.h"
 
 namespace loom::fitting {
@@ -28,6 +31,9 @@ struct CnnExample {
   std::string name;   // for messages: the stack it came from
   CnnTensor input;    // CnnInputFromStack
   CnnLabels labels;   // CnnLabelsFromMaps of its reference maps, same height and width
+  // The stack itself, for the re-rendering loss (CnnTrainingOptions::rerender_weight); may be
+  // null otherwise.
+  std::shared_ptr<const ObservationStack> stack;
 };
 
 struct CnnTrainingProgress {
@@ -51,6 +57,16 @@ struct CnnTrainingOptions {
   // the simulator's exact ones. 0: none. (For tac7-mini, 0.07 made no better model:
   // configs/models/tac7-mini/README.md.)
   double radiance_noise = 0;
+  // The re-rendering loss (internal/rerender_loss.h), added to the label loss with this weight
+  // (0: off; every training example then needs its stack). Per tile, `rerender_pixels` random
+  // valid pixels are rendered from the predicted labels under their own observations (cast
+  // shadows left out, a strip's emitters merged into `rerender_strip_samples`) and compared
+  // with the stack's radiance: Huber with δ = `rerender_huber` on the residual relative to the
+  // pixel's mean, the fitters' residual.
+  double rerender_weight = 0;
+  int rerender_pixels = 16;
+  int rerender_strip_samples = 8;
+  double rerender_huber = 0.1;
   int threads = 0;                    // torch threads; 0: one per core
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
@@ -68,7 +84,8 @@ extern const std::array<const char*, 14> kLabelChannelNames;
 struct CnnEpoch {
   int epoch = 0;
   double learning_rate = 0;
-  double train_loss = 0;                   // mean over the epoch's steps
+  double train_loss = 0;                   // mean over the epoch's steps (label + weighted re-rendering loss)
+  double train_rerender_loss = 0;          // the re-rendering loss alone, unweighted (0 when off)
   double validation_loss = 0;              // over every valid pixel of the validation materials
   std::array<double, 14> validation_rmse{};  // per label channel
   double seconds = 0;                      // training and validation

@@ -8,6 +8,9 @@
 #include <random>
 
 #include "fitting/model/label.h"
+#include "fitting/testing/tac7_mini.h"
+#include "sim/fabric.h"
+#include "sim/stack.h"
 
 namespace loom::fitting {
 namespace {
@@ -125,6 +128,57 @@ TEST(CnnTrainingTest, TrainingFeedsTheNetworkNoisyRadianceWhenAsked) {
   ASSERT_TRUE(exact_history.ok() && noisy_history.ok());
   // Same weights, tiles and dropout: only the noise can tell the two runs apart.
   EXPECT_NE(exact_history->front().train_loss, noisy_history->front().train_loss);
+}
+
+// A simulated tac7-mini fabric as a training example, with its stack for the re-rendering loss.
+CnnExample SimulatedExample(uint64_t seed, CnnModelInfo& info) {
+  const sim::Material fabric = sim::GenerateFabric(seed, {.width_px = 12, .height_px = 12, .pixel_mm = 0.2});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  auto stack = std::make_shared<ObservationStack>(sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 8), {}));
+  info.architecture = {.input_channels = kCnnGeometryChannels + static_cast<int>(stack->observations.size()),
+                       .width_divisor = 32, .dropout = 0};
+  info.observation_groups.clear();
+  for (const StackObservation& o : stack->observations) info.observation_groups.push_back(o.group);
+  info.radiance_scale = 0.05;
+  Result<CnnTensor> input = CnnInputFromStack(*stack, info);
+  EXPECT_TRUE(input.ok()) << input.status().ToString();
+  return {"fabric " + std::to_string(seed), std::move(*input), CnnLabelsFromMaps(sim::TruthOnStackGrid(scene, {}).maps),
+          std::move(stack)};
+}
+
+TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) {
+  CnnModelInfo info;
+  const std::vector<CnnExample> train = {SimulatedExample(3, info), SimulatedExample(4, info)};
+  const std::vector<CnnExample> validation = {SimulatedExample(5, info)};
+  CnnTrainingOptions options = FastOptions();
+  options.tile = 6;
+  options.epochs = 4;
+  options.rerender_pixels = 8;
+  // Two copies of one network trained on the labels alone (from a random start its normals lie
+  // below the horizon, where nothing renders), then on with and without the re-rendering loss;
+  // a weight of 1e-9 only records the loss.
+  std::vector<double> rerender_loss;
+  for (const double weight : {1e-9, 10.0}) {
+    Result<Cnn> cnn = Cnn::Create(info, 3);
+    ASSERT_TRUE(cnn.ok());
+    ASSERT_TRUE(TrainCnn(*cnn, train, validation, options).ok());
+    CnnTrainingOptions more = options;
+    more.rerender_weight = weight;
+    more.learning_rate_start = more.learning_rate_end = 1e-3;
+    const Result<std::vector<CnnEpoch>> history = TrainCnn(*cnn, train, validation, more);
+    ASSERT_TRUE(history.ok()) << history.status().ToString();
+    rerender_loss.push_back(history->back().train_rerender_loss);
+  }
+  EXPECT_GT(rerender_loss[0], 0);
+  EXPECT_LT(rerender_loss[1], 0.7 * rerender_loss[0]);
+
+  std::vector<CnnExample> without_stacks = train;
+  without_stacks[1].stack.reset();
+  options.rerender_weight = 1;
+  Result<Cnn> cnn = Cnn::Create(info, 3);
+  const Result<std::vector<CnnEpoch>> refused = TrainCnn(*cnn, without_stacks, validation, options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("fabric 4"), std::string::npos) << refused.status().ToString();
 }
 
 TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 
-#include "fitting/model/svbrdf_maps.h"
 #include "core/heightfield.h"
+#include "fitting/model/svbrdf_maps.h"
 #include "sim/internal/noise.h"
+#include "sim/reflectance.h"
 
 namespace loom::sim {
 namespace {
@@ -247,6 +249,56 @@ Material MakeFabric(const FabricDescription& f, const FabricOptions& options) {
 
 Material GenerateFabric(uint64_t seed, const FabricOptions& options) {
   return MakeFabric(RandomFabric(seed), options);
+}
+
+FabricBeyond RandomFabricBeyond(uint64_t seed) {
+  // A stream apart from RandomFabric's (whose draws stay as they were for every seed).
+  internal::Rng rng(seed ^ 0x6265796f6e64ULL);
+  FabricBeyond b;
+  if (rng.Uniform() < 0.5) {
+    const Eigen::Vector3d tint = HsvToLinearRgb(rng.Uniform(), 0.2 + 0.5 * rng.Uniform(), 1.0);
+    b.specular_tint = tint / tint.maxCoeff();
+  }
+  if (rng.Uniform() < 2.0 / 3) {
+    b.coat = 0.03 + 0.12 * rng.Uniform();
+    b.coat_roughness = std::exp(std::log(0.05) + (std::log(0.5) - std::log(0.05)) * rng.Uniform());
+  }
+  if (rng.Uniform() < 2.0 / 3) b.fibre_masking = 0.2 + 0.5 * rng.Uniform();
+  if (rng.Uniform() < 2.0 / 3) b.meso_deg = 2 + 8 * rng.Uniform();
+  return b;
+}
+
+Material MakeOutOfModelFabric(const FabricDescription& fabric, const FabricBeyond& b, const FabricOptions& options) {
+  Material material = MakeFabric(fabric, options);
+  material.name += " (out of model)";
+  const BeyondLayout layout = AddBeyondChannels(material.maps);
+  BeyondGd10 beyond;
+  beyond.coat = Eigen::Vector3d::Constant(b.coat);
+  beyond.coat_roughness = b.coat_roughness;
+  beyond.fibre_masking = b.fibre_masking;
+  beyond.meso_deg = b.meso_deg;
+  for (int y = 0; y < material.height(); ++y) {
+    for (int x = 0; x < material.width(); ++x) {
+      fitting::WardParams<double> p = fitting::GetParams(material.maps, x, y);
+      p.a_d *= 1 - b.coat;
+      p.a_s = p.a_s.cwiseProduct(b.specular_tint);
+      fitting::SetParams(material.maps, x, y, p);
+      SetBeyond(material.maps, layout, x, y, beyond);
+    }
+  }
+  material.provenance["loom.generator"] = std::string("sim::MakeOutOfModelFabric");
+  material.provenance["loom.beyond.specular_tint"] = std::to_string(b.specular_tint.x()) + " " +
+                                                     std::to_string(b.specular_tint.y()) + " " +
+                                                     std::to_string(b.specular_tint.z());
+  material.provenance["loom.beyond.coat"] = b.coat;
+  material.provenance["loom.beyond.coat_roughness"] = b.coat_roughness;
+  material.provenance["loom.beyond.fibre_masking"] = b.fibre_masking;
+  material.provenance["loom.beyond.meso_deg"] = b.meso_deg;
+  return material;
+}
+
+Material GenerateOutOfModelFabric(uint64_t seed, const FabricOptions& options) {
+  return MakeOutOfModelFabric(RandomFabric(seed), RandomFabricBeyond(seed), options);
 }
 
 }  // namespace loom::sim

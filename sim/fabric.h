@@ -63,4 +63,33 @@ Material MakeFabric(const FabricDescription& fabric, const FabricOptions& option
 // RandomFabric + MakeFabric.
 Material GenerateFabric(uint64_t seed, const FabricOptions& options);
 
+// Out-of-model fabrics: what real fabrics show and GD10 cannot represent (sim/reflectance.h),
+// on top of a fabric's GD10 maps, and a coloured specular albedo (GD10 has it, the procedural
+// fabrics do not). Each effect is on for a share of the seeds:
+//
+// | choice (per seed)  | share | range                          | what it stands for             |
+// |--------------------|-------|--------------------------------|--------------------------------|
+// | specular tint      | 1/2   | hue any, saturation 0.2 .. 0.7 | metallic and dyed-fibre sheen  |
+// | coat (GGX lobe)    | 2/3   | albedo 0.03 .. 0.15, grey      | a second lobe: finish, sizing  |
+// | coat roughness     |       | GGX α 0.05 .. 0.5 (log-uniform)| sharp gloss to broad sheen     |
+// | fibre masking      | 2/3   | 0.2 .. 0.7                     | fibres shadowing each other    |
+// | mesostructure      | 2/3   | 2 .. 10°                       | fibres finer than a pixel      |
+//
+// a_d is scaled by (1 − coat) so that the energy stays bounded. The GD10 channels stay the
+// fabric's nominal parameters (what the CNN is trained towards); they are not the best GD10 fit.
+struct FabricBeyond {
+  Eigen::Vector3d specular_tint = Eigen::Vector3d::Ones();  // multiplies a_s; max component 1
+  double coat = 0;
+  double coat_roughness = 0.2;
+  double fibre_masking = 0;
+  double meso_deg = 0;
+};
+
+// A seed's out-of-model choices, from a random stream of their own: the fabric under them is
+// RandomFabric(seed)'s.
+FabricBeyond RandomFabricBeyond(uint64_t seed);
+Material MakeOutOfModelFabric(const FabricDescription& fabric, const FabricBeyond& beyond, const FabricOptions& options);
+// RandomFabric + RandomFabricBeyond + MakeOutOfModelFabric.
+Material GenerateOutOfModelFabric(uint64_t seed, const FabricOptions& options);
+
 }  // namespace loom::sim

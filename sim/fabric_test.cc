@@ -5,6 +5,7 @@
 #include <set>
 
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/reflectance.h"
 
 namespace loom::sim {
 namespace {
@@ -118,6 +119,41 @@ TEST(FabricTest, GeneratedMaterialsCoverTheModelsRanges) {
   EXPECT_GT(RadToDeg(tilt_max), 15.0);  // thread relief tilts the shading normals
   EXPECT_EQ(alpha_bins.size(), 4u);     // every quarter of (−π/2, π/2]
   EXPECT_GT(ad_max.minCoeff(), 0.5);
+}
+
+TEST(FabricTest, AnOutOfModelFabricIsItsSeedsFabricWithWhatGd10CannotRepresent) {
+  int tinted = 0, coated = 0, masked = 0, meso = 0;
+  for (uint64_t seed = 0; seed < 12; ++seed) {
+    const Material plain = GenerateFabric(seed, Small(16));
+    const Material beyond = GenerateOutOfModelFabric(seed, Small(16));
+    const FabricBeyond choices = RandomFabricBeyond(seed);
+    const Result<std::optional<BeyondLayout>> layout = FindBeyondChannels(beyond.maps);
+    ASSERT_TRUE(layout.ok() && layout->has_value()) << "seed " << seed;
+    for (int y = 0; y < 16; y += 5) {
+      for (int x = 0; x < 16; x += 5) {
+        const WardParams<double> a = GetParams(plain.maps, x, y), b = GetParams(beyond.maps, x, y);
+        // The geometry and the lobe's shape are the fabric's; the albedos are tinted and scaled.
+        EXPECT_EQ(a.n_s, b.n_s);
+        EXPECT_EQ(a.sigma_x, b.sigma_x);
+        EXPECT_EQ(a.alpha, b.alpha);
+        EXPECT_NEAR((a.a_s.cwiseProduct(choices.specular_tint) - b.a_s).norm(), 0, 1e-6);
+        EXPECT_NEAR((a.a_d * (1 - choices.coat) - b.a_d).norm(), 0, 1e-6);
+        EXPECT_LE((b.a_d + b.a_s).maxCoeff() + choices.coat, 1.0 + 1e-6) << "energy at seed " << seed;
+        const BeyondGd10 pixel = GetBeyond(beyond.maps, **layout, x, y);
+        EXPECT_NEAR(pixel.coat.x(), choices.coat, 1e-6);
+        EXPECT_NEAR(pixel.meso_deg, choices.meso_deg, 1e-5);
+      }
+    }
+    tinted += choices.specular_tint.minCoeff() < 0.95;
+    coated += choices.coat > 0;
+    masked += choices.fibre_masking > 0;
+    meso += choices.meso_deg > 0;
+  }
+  // Each effect on for some seeds and off for others.
+  for (int count : {tinted, coated, masked, meso}) {
+    EXPECT_GT(count, 1);
+    EXPECT_LT(count, 12);
+  }
 }
 
 TEST(FabricTest, WriteReadRoundTrip) {

@@ -2,6 +2,7 @@
 
 #include "core/version.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/reflectance.h"
 
 namespace loom::sim {
 
@@ -18,6 +19,9 @@ Result<Material> ReadMaterial(const std::filesystem::path& path) {
   LOOM_ASSIGN_OR_RETURN(ExrImage exr, ReadExr(path));
   if (!fitting::HasSvbrdfLayout(exr.image)) {
     return InvalidArgumentError(path.string(), "not an SVBRDF map file: the first channels must be n_s.X ... F0");
+  }
+  if (Result<std::optional<BeyondLayout>> beyond = FindBeyondChannels(exr.image); !beyond.ok()) {
+    return beyond.status().WithContext(path.string());
   }
   Material material;
   material.maps = std::move(exr.image);

@@ -54,6 +54,7 @@ double ShotNoise(double mean, uint64_t seed, uint64_t index) {
 
 struct Scene::Surface {
   fitting::WardParams<double> params;
+  BeyondGd10 beyond;
   Eigen::Matrix3d world_from_local = Eigen::Matrix3d::Identity();
 };
 
@@ -93,6 +94,9 @@ Scene::Scene(RigModel rig, Material material) : rig_(std::move(rig)), material_(
   frames_.resize(normals.size());
   for (size_t i = 0; i < normals.size(); ++i) frames_[i] = WorldFromLocal(normals[i], Eigen::Vector3d::UnitX());
   panchromatic_ = PanchromaticWeights();
+  Result<std::optional<BeyondLayout>> beyond = FindBeyondChannels(material_.maps);
+  LOOM_CHECK(beyond.ok()) << material_.name << ": " << beyond.status().ToString() << " (ReadMaterial refuses such files)";
+  beyond_ = *beyond;
 }
 
 std::optional<int> Scene::MapPixel(double x_mm, double y_mm) const {
@@ -148,31 +152,31 @@ bool Scene::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) con
 }
 
 double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
-                                  const Eigen::Vector3d& weights, const fitting::WardLobe<double>& lobe,
+                                  const Eigen::Vector3d& weights, const Reflectance& reflectance,
                                   const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local,
                                   bool shadows) const {
   if (intensity <= 0) return 0;
   const Eigen::Vector3d to_light = light - p;
   const double distance2 = to_light.squaredNorm();
-  const fitting::WardTerms<double> terms = lobe.Terms(local_from_world * (to_light / std::sqrt(distance2)), v_local);
-  if (terms.cos_l <= 0) return 0;
+  const double reflected = reflectance.EvaluateCos(local_from_world * (to_light / std::sqrt(distance2)), v_local, weights);
+  if (reflected <= 0) return 0;
   if (shadows && Shadowed(p, light)) return 0;
-  const fitting::WardParams<double>& params = lobe.params();
-  return intensity / distance2 *
-         (weights.dot(params.a_d) * terms.diffuse + weights.dot(params.a_s) * terms.specular) * terms.cos_l;
+  return intensity / distance2 * reflected;
 }
 
 double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state,
                          bool shadows) const {
   Surface surface;
   if (const std::optional<int> pixel = MapPixel(p.x(), p.y())) {
-    surface.params = fitting::GetParams(material_.maps, *pixel % material_.width(), *pixel / material_.width());
+    const int x = *pixel % material_.width(), y = *pixel / material_.width();
+    surface.params = fitting::GetParams(material_.maps, x, y);
+    if (beyond_) surface.beyond = GetBeyond(material_.maps, *beyond_, x, y);
     surface.world_from_local = frames_[*pixel];
   } else {
     surface.params.a_d = Eigen::Vector3d::Constant(kHolderAlbedo);
     surface.params.a_s = Eigen::Vector3d::Zero();
   }
-  const fitting::WardLobe<double> lobe(surface.params);
+  const Reflectance reflectance(surface.params, surface.beyond);
   const Eigen::Matrix3d local_from_world = surface.world_from_local.transpose();
   const Eigen::Vector3d v_local = local_from_world * (eye - p).normalized();
   const Rigid3d rig_from_sample = rig_.turntable.RigFromSample(state.turntable_deg);
@@ -192,7 +196,7 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       }
     }
     radiance += PointSourceRadiance(p, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma),
-                                    weights, lobe, local_from_world, v_local, shadows);
+                                    weights, reflectance, local_from_world, v_local, shadows);
   }
   if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
     // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
@@ -206,7 +210,7 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       if (c <= 0) continue;
       const double intensity = strip.intensity_per_mm * segment_mm * state.linear_light_intensity *
                                std::pow(c, strip.falloff_exponent);
-      radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, lobe, local_from_world,
+      radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, reflectance, local_from_world,
                                       v_local, shadows);
     }
   }
@@ -224,7 +228,7 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       if (uv.x() > -0.5 && uv.y() > -0.5 && uv.x() < columns - 0.5 && uv.y() < rows - 0.5) {
         const double level = ProjectedLevel(image, std::clamp(uv.x(), 0.0, columns - 1.0), std::clamp(uv.y(), 0.0, rows - 1.0));
         radiance += PointSourceRadiance(p, sample_from_rig * projector.proj_from_rig.inverse().translation(),
-                                        projector.max_intensity * level, panchromatic_, lobe, local_from_world,
+                                        projector.max_intensity * level, panchromatic_, reflectance, local_from_world,
                                         v_local, shadows);
       }
     }

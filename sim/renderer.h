@@ -13,13 +13,15 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "core/heightmap.h"
 #include "core/image.h"
 #include "fitting/model/ward_gd10.h"
-#include "sim/material.h"
 #include "core/rig_model.h"
+#include "sim/material.h"
+#include "sim/reflectance.h"
 
 namespace loom::sim {
 
@@ -93,12 +95,13 @@ class Scene {
   Material material_;
   Heightmap heightmap_;                     // from the material's height channel
   std::vector<Eigen::Matrix3d> frames_;     // world_from_local per map pixel (geometric frame)
+  std::optional<BeyondLayout> beyond_;      // the material's beyond-GD10 channels, if it has them
   Eigen::Vector3d panchromatic_;
 
   // Radiance at `p` from one point source at `light` (sample frame) of radiant intensity
   // `intensity` towards p, with `weights` for the albedos.
   double PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
-                             const Eigen::Vector3d& weights, const fitting::WardLobe<double>& lobe,
+                             const Eigen::Vector3d& weights, const Reflectance& reflectance,
                              const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local,
                              bool shadows) const;
 };

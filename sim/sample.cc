@@ -21,11 +21,11 @@ SampleSpec ReadSampleSpec(const ConfigNode& node) {
 Result<Material> MakeSample(const SampleSpec& spec) {
   const GridOptions grid{spec.size_px, spec.size_px, spec.pixel_mm};
   const double side_mm = spec.size_px * spec.pixel_mm;
-  if (spec.kind == "fabric") {
+  if (spec.kind == "fabric" || spec.kind == "fabric-out-of-model") {
     FabricOptions options;
     options.width_px = options.height_px = spec.size_px;
     options.pixel_mm = spec.pixel_mm;
-    return GenerateFabric(spec.seed, options);
+    return spec.kind == "fabric" ? GenerateFabric(spec.seed, options) : GenerateOutOfModelFabric(spec.seed, options);
   }
   if (spec.kind == "white-tile") return WhiteTile(grid, spec.white.albedo);
   if (spec.kind == "white-tile-on-spacer") {
@@ -40,7 +40,7 @@ Result<Material> MakeSample(const SampleSpec& spec) {
   }
   if (spec.kind == "chrome-sphere") return ChromeSphere(spec.probe);
   return InvalidArgumentError("sample kind '" + spec.kind + "'",
-                              "unknown (expected fabric, white-tile, white-tile-on-spacer, chessboard, colour-chart, target, chrome-sphere)");
+                              "unknown (expected fabric, fabric-out-of-model, white-tile, white-tile-on-spacer, chessboard, colour-chart, target, chrome-sphere)");
 }
 
 }  // namespace loom::sim

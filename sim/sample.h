@@ -4,7 +4,8 @@
 //
 //   sample: {kind: fabric, seed: 1, size_px: 256, pixel_mm: 0.1}
 //
-// kinds: fabric (procedural, by seed), white-tile (and white-tile-on-spacer, raised by the rig's
+// kinds: fabric (procedural, by seed), fabric-out-of-model (the same fabric with what GD10 cannot
+// represent: fabric.h's GenerateOutOfModelFabric), white-tile (and white-tile-on-spacer, raised by the rig's
 // white_reference spacer_mm), chessboard, colour-chart, and target and chrome-sphere (the rig's
 // calibration target and light probe, their sizes their own).
 
