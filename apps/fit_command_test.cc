@@ -157,11 +157,12 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_TRUE(fs::exists(dir_ / "toy" / "svbrdf.exr"));
 
-  // Fine-tuned from it, on a dataset half out of model, with the re-rendering loss.
+  // Fine-tuned from it, on a dataset half out of model, with the re-rendering loss, streamed from
+  // disk one training material at a time.
   const fs::path tuned = dir_ / "tuned";
   const auto tune = RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR +
                                "/configs/rig/tac7-mini.yaml --out " + tuned.string() + " --init " + model.string() +
-                               " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4"
+                               " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4 --resident-materials 1 --steps-per-epoch 4"
                                " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --quiet");
   ASSERT_EQ(tune.exit_code, 0) << tune.output;
   for (const char* file : {"data/fabric-1000.stack.exr", "data/fabric-1001-out-of-model.stack.exr",
@@ -172,6 +173,8 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   const nlohmann::json tuned_training = nlohmann::json::parse(tuned_file);
   EXPECT_EQ(tuned_training["options"]["init"], model.string());
   EXPECT_EQ(tuned_training["options"]["rerender_weight"], 1.0);
+  EXPECT_EQ(tuned_training["options"]["resident_materials"], 1);
+  EXPECT_NE(tune.output.find("2 training (read 1 at a time)"), std::string::npos) << tune.output;
   EXPECT_GT(tuned_training["epochs"][0]["train_rerender_loss"].get<double>(), 0);
 }
 

@@ -171,31 +171,45 @@ Status Train(TrainArguments args) {
   if (static_cast<int>(pairs.size()) <= args.validation + args.test) {
     return FailedPreconditionError(data.string(), std::to_string(pairs.size()) + " materials, too few for the split");
   }
-  std::vector<std::shared_ptr<const ObservationStack>> stacks;
-  for (const Pair& p : pairs) {
-    LOOM_ASSIGN_OR_RETURN(ObservationStack stack, ReadObservationStack(p.stack));
-    stacks.push_back(std::make_shared<const ObservationStack>(std::move(stack)));
-  }
   const int train_count = static_cast<int>(pairs.size()) - args.validation - args.test;
+  const bool streaming = args.training.resident_materials > 0 && args.training.resident_materials < train_count;
+  const auto read_stack = [&](int i) -> Result<std::shared_ptr<const ObservationStack>> {
+    LOOM_ASSIGN_OR_RETURN(ObservationStack stack, ReadObservationStack(pairs[static_cast<size_t>(i)].stack));
+    return std::make_shared<const ObservationStack>(std::move(stack));
+  };
+  // The input normalisation from the training stacks: all of them, or streaming the first 64.
+  std::vector<std::shared_ptr<const ObservationStack>> stacks;
+  for (int i = 0; i < (streaming ? std::min(train_count, 64) : static_cast<int>(pairs.size())); ++i) {
+    LOOM_ASSIGN_OR_RETURN(std::shared_ptr<const ObservationStack> stack, read_stack(i));
+    stacks.push_back(std::move(stack));
+  }
   fitting::CnnModelInfo info;
   info.architecture = {fitting::kCnnGeometryChannels + static_cast<int>(stacks[0]->observations.size()),
                        args.width_divisor, args.dropout};
-  info.radiance_scale = MedianPositiveRadiance({stacks.begin(), stacks.begin() + train_count});
+  info.radiance_scale = MedianPositiveRadiance({stacks.begin(), stacks.begin() + std::min<int>(train_count, stacks.size())});
   info.rig = stacks[0]->rig;
   for (const StackObservation& o : stacks[0]->observations) info.observation_groups.push_back(o.group);
   LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, StartingModel(args, info));
   info = cnn.info();
-  std::vector<fitting::CnnExample> sets[3];  // train, validation, test
-  for (size_t i = 0; i < pairs.size(); ++i) {
-    LOOM_ASSIGN_OR_RETURN(fitting::CnnExample example,
-                          Example(stacks[i], pairs[i].truth, info, args.training.rerender_weight > 0));
-    const int set = static_cast<int>(i) < train_count ? 0 : static_cast<int>(i) < train_count + args.validation ? 1 : 2;
-    sets[set].push_back(std::move(example));
+  const bool keep_stacks = args.training.rerender_weight > 0;
+  const auto example = [&](int i) -> Result<fitting::CnnExample> {
+    if (i < static_cast<int>(stacks.size())) return Example(stacks[i], pairs[static_cast<size_t>(i)].truth, info, keep_stacks);
+    LOOM_ASSIGN_OR_RETURN(const std::shared_ptr<const ObservationStack> stack, read_stack(i));
+    return Example(stack, pairs[static_cast<size_t>(i)].truth, info, keep_stacks);
+  };
+  std::vector<fitting::CnnExample> sets[3];  // train (when in memory), validation, test
+  for (int i = streaming ? train_count : 0; i < static_cast<int>(pairs.size()); ++i) {
+    LOOM_ASSIGN_OR_RETURN(fitting::CnnExample e, example(i));
+    sets[i < train_count ? 0 : i < train_count + args.validation ? 1 : 2].push_back(std::move(e));
   }
   stacks.clear();
-  std::cout << "dataset " << data.string() << ": " << sets[0].size() << " training, " << sets[1].size()
-            << " validation, " << sets[2].size() << " test materials; " << info.architecture.input_channels
-            << " input channels; radiance scale " << info.radiance_scale << "\n";
+  const fitting::CnnExampleSource train_source =
+      streaming ? fitting::CnnExampleSource{train_count, example}
+                : fitting::CnnExampleSource{train_count, [&](int i) -> Result<fitting::CnnExample> { return sets[0][i]; }};
+  std::cout << "dataset " << data.string() << ": " << train_count << " training"
+            << (streaming ? " (read " + std::to_string(args.training.resident_materials) + " at a time)" : "") << ", "
+            << sets[1].size() << " validation, " << sets[2].size() << " test materials; "
+            << info.architecture.input_channels << " input channels; radiance scale " << info.radiance_scale << "\n";
 
   args.training.checkpoint_dir = out / "checkpoints";
   ProgressBar bar("training", args.quiet);
@@ -205,7 +219,8 @@ Status Train(TrainArguments args) {
     bar.Update(static_cast<int64_t>(p.epoch - 1) * p.steps + p.step, static_cast<int64_t>(p.epochs) * p.steps, "steps",
                detail.str());
   };
-  LOOM_ASSIGN_OR_RETURN(const std::vector<fitting::CnnEpoch> history, fitting::TrainCnn(cnn, sets[0], sets[1], args.training));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<fitting::CnnEpoch> history,
+                        fitting::TrainCnn(cnn, train_source, sets[1], args.training));
   for (const fitting::CnnEpoch& e : history) {
     std::cout << std::setprecision(4) << "epoch " << e.epoch << ": lr " << e.learning_rate << ", train " << e.train_loss
               << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0)
@@ -219,7 +234,7 @@ Status Train(TrainArguments args) {
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnScore test, fitting::ScoreCnn(cnn, sets[2], args.training.threads));
   std::ostringstream training;
   training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of "
-           << history.size() << " epochs on " << sets[0].size() << " simulated fabrics (" << args.size_px << " px, seeds "
+           << history.size() << " epochs on " << train_count << " simulated fabrics (" << args.size_px << " px, seeds "
            << args.first_seed << "…, out-of-model share " << args.out_of_model_share << "), preset " << args.preset
            << (args.init.empty() ? "" : ", from " + args.init) << "; test loss " << test.loss << " on "
            << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
@@ -242,10 +257,11 @@ Status Train(TrainArguments args) {
                                               {"rerender_pixels", args.training.rerender_pixels},
                                               {"rerender_strip_samples", args.training.rerender_strip_samples},
                                               {"rerender_huber", args.training.rerender_huber},
+                                              {"resident_materials", args.training.resident_materials},
                                               {"seed", args.training.seed}}},
                                  {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
                                  {"label_channels", fitting::kLabelChannelNames},
-                                 {"materials", {{"train", sets[0].size()}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
+                                 {"materials", {{"train", train_count}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
                                  {"loom_version", std::string(VersionWithCommit())}};
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out / "training.json", report.dump(2) + "\n"));
   std::cout << "kept epoch " << best->epoch << " (lowest validation loss " << best->validation_loss << ")\n"
@@ -297,6 +313,10 @@ int RunTrain(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
       ->check(CLI::Range(1, 100000));
+  app.add_option("--resident-materials", t.resident_materials,
+                 "Training materials in memory at once (0: all); fewer stream the dataset from --data, "
+                 "a window at a time (needs --steps-per-epoch)")
+      ->check(CLI::Range(0, 100000000));
   app.add_option("--threads", t.threads, "Torch threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_option("--seed", t.seed, "Seed of the weights, tiles and dropout");
   app.add_flag("--resume", t.resume, "Go on from OUT/checkpoints (same options as the interrupted run)");

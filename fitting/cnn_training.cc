@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <numeric>
 #include <cmath>
 #include <random>
 
@@ -70,8 +71,25 @@ struct Material {
   torch::Tensor labels;  // 1 × 14 × H × W
   torch::Tensor valid;   // 1 × 1 × H × W
   int height, width;
-  std::shared_ptr<const StackPixels> pixels;  // for the re-rendering loss
+  std::shared_ptr<const ObservationStack> stack;  // for the re-rendering loss: `pixels` reads it
+  std::shared_ptr<const StackPixels> pixels;
 };
+
+// A training example as tensors (copies: the example may go).
+Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& options) {
+  std::shared_ptr<const StackPixels> pixels;
+  if (options.rerender_weight > 0) {
+    if (!e.stack) return InvalidArgumentError(e.name, "training example without its stack: the re-rendering loss needs it");
+    if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
+      return InvalidArgumentError(e.name, "training example whose stack is not the input's size");
+    }
+    // Cast shadows are left out: the test costs a ray march per emitter, and the robust loss
+    // takes the few shadowed observations as outliers.
+    pixels = std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false});
+  }
+  return Material{internal::PaddedInput(e.input), AsTensor(e.labels.labels).clone(), ValidTensor(e.labels),
+                  e.input.height, e.input.width, e.stack, std::move(pixels)};
+}
 
 struct TileOrigin {
   const Material* material;
@@ -249,6 +267,7 @@ Status CnnTrainingOptions::Check() const {
   if (rerender_pixels < 1) problems.push_back("rerender_pixels must be ≥ 1");
   if (rerender_strip_samples < 0) problems.push_back("rerender_strip_samples must be ≥ 0");
   if (!(rerender_huber > 0)) problems.push_back("rerender_huber must be > 0");
+  if (resident_materials < 0) problems.push_back("resident_materials must be ≥ 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (resume && checkpoint_dir.empty()) problems.push_back("resume needs a checkpoint_dir");
   return ProblemsStatus("CnnTrainingOptions", problems);
@@ -282,12 +301,55 @@ Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& example
   return score;
 }
 
+namespace {
+
+// The training examples source.load(indices[i]) as materials, each checked.
+Result<std::vector<Material>> LoadMaterials(const Cnn& cnn, const CnnExampleSource& source, const std::vector<int>& indices,
+                                            const CnnTrainingOptions& options) {
+  std::vector<Material> materials;
+  for (int i : indices) {
+    LOOM_ASSIGN_OR_RETURN(const CnnExample example, source.load(i));
+    LOOM_RETURN_IF_ERROR(CheckExamples(cnn, {example}, options.tile, "training"));
+    LOOM_ASSIGN_OR_RETURN(Material material, PrepareMaterial(example, options));
+    materials.push_back(std::move(material));
+  }
+  return materials;
+}
+
+// An epoch's windows of the training set: all of it, or with resident_materials a random order
+// cut into windows of that many.
+std::vector<std::vector<int>> EpochWindows(int count, const CnnTrainingOptions& options, int epoch) {
+  std::vector<int> order(count);
+  std::iota(order.begin(), order.end(), 0);
+  const int window = options.resident_materials > 0 ? std::min(options.resident_materials, count) : count;
+  if (window == count) return {order};
+  std::mt19937_64 rng(options.seed * 7919 + epoch);  // apart from the tiles' stream
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<std::vector<int>> windows;
+  for (int first = 0; first < count; first += window) {
+    windows.emplace_back(order.begin() + first, order.begin() + std::min(first + window, count));
+  }
+  return windows;
+}
+
+}  // namespace
+
 Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
                                        const std::vector<CnnExample>& validation, const CnnTrainingOptions& options) {
+  const CnnExampleSource source{static_cast<int>(train.size()),
+                                [&](int i) -> Result<CnnExample> { return train[static_cast<size_t>(i)]; }};
+  return TrainCnn(cnn, source, validation, options);
+}
+
+Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, const std::vector<CnnExample>& validation,
+                                       const CnnTrainingOptions& options) {
   LOOM_RETURN_IF_ERROR(options.Check());
-  if (train.empty() || validation.empty()) return InvalidArgumentError("CNN training", "needs training and validation examples");
-  LOOM_RETURN_IF_ERROR(CheckExamples(cnn, train, options.tile, "training"));
+  if (train.count == 0 || validation.empty()) return InvalidArgumentError("CNN training", "needs training and validation examples");
   LOOM_RETURN_IF_ERROR(CheckExamples(cnn, validation, 1, "validation"));
+  const bool streaming = options.resident_materials > 0 && options.resident_materials < train.count;
+  if (streaming && options.steps_per_epoch == 0) {
+    return InvalidArgumentError("CnnTrainingOptions", "resident_materials below the training set needs steps_per_epoch");
+  }
   const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
   internal::KeepFreedMemoryForReuse();
@@ -304,26 +366,16 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
     optimizer = std::make_unique<torch::optim::Adam>(cnn.net().net->parameters(), adam);
   }
 
+  // In memory: every material, loaded once; streaming: one window at a time.
   std::vector<Material> materials;
-  double valid_pixels = 0;
-  for (const CnnExample& e : train) {
-    std::shared_ptr<const StackPixels> pixels;
-    if (options.rerender_weight > 0) {
-      if (!e.stack) return InvalidArgumentError(e.name, "training example without its stack: the re-rendering loss needs it");
-      if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
-        return InvalidArgumentError(e.name, "training example whose stack is not the input's size");
-      }
-      // Cast shadows are left out: the test costs a ray march per emitter, and the robust loss
-      // takes the few shadowed observations as outliers.
-      pixels = std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false});
-    }
-    materials.push_back({internal::PaddedInput(e.input), AsTensor(e.labels.labels), ValidTensor(e.labels),
-                         e.input.height, e.input.width, std::move(pixels)});
-    valid_pixels += materials.back().valid.sum().item<double>();
+  int steps = options.steps_per_epoch;
+  if (!streaming) {
+    LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, EpochWindows(train.count, options, 0).front(), options));
+    double valid_pixels = 0;
+    for (const Material& m : materials) valid_pixels += m.valid.sum().item<double>();
+    const int tile_samples = options.tile * options.tile * options.tiles_per_step;
+    if (steps == 0) steps = std::max(1, static_cast<int>(std::ceil(valid_pixels / tile_samples)));
   }
-  const int tile_samples = options.tile * options.tile * options.tiles_per_step;
-  const int steps = options.steps_per_epoch > 0 ? options.steps_per_epoch
-                                                : std::max(1, static_cast<int>(std::ceil(valid_pixels / tile_samples)));
   internal::CnnNet& net = cnn.net().net;
   for (int epoch = static_cast<int>(history.size()); epoch < options.epochs; ++epoch) {
     const Clock::time_point start = Clock::now();
@@ -338,26 +390,37 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
     at::Generator noise = at::make_generator<at::CPUGeneratorImpl>(options.seed * 1000003 + epoch);
     net->train();
     double loss_sum = 0, rerender_sum = 0, samples = 0;
-    for (int step = 0; step < steps; ++step) {
-      const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
-      const torch::Tensor count = batch.valid.sum();
-      if (count.item<double>() == 0) continue;
-      optimizer->zero_grad();
-      const torch::Tensor input =
-          options.radiance_noise > 0 ? NoisyRadiance(batch.input, options.radiance_noise, noise) : batch.input;
-      const torch::Tensor predicted = net->ForwardDense(input);
-      torch::Tensor loss = HuberSum(predicted, batch.labels, batch.valid) / (count * kLabelSize);
-      if (options.rerender_weight > 0) {
-        if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
-          loss = loss + options.rerender_weight * rerender.to(torch::kFloat32);
-          rerender_sum += rerender.item<double>();
-        }
+    const std::vector<std::vector<int>> windows = EpochWindows(train.count, options, epoch);
+    int step = 0;
+    for (size_t w = 0; w < windows.size(); ++w) {
+      if (streaming) {
+        materials.clear();  // before the next window: at most one window in memory
+        LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, windows[w], options));
       }
-      loss.backward();
-      optimizer->step();
-      loss_sum += loss.item<double>();
-      samples += count.item<double>();
-      if (options.progress) options.progress({epoch + 1, options.epochs, step + 1, steps, loss_sum / (step + 1)});
+      // The epoch's steps shared out among the windows by their size.
+      const int window_end = static_cast<int>(static_cast<int64_t>(steps) *
+                                              (static_cast<int64_t>(w + 1) * windows.front().size()) / train.count);
+      for (; step < std::min(steps, w + 1 == windows.size() ? steps : window_end); ++step) {
+        const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
+        const torch::Tensor count = batch.valid.sum();
+        if (count.item<double>() == 0) continue;
+        optimizer->zero_grad();
+        const torch::Tensor input =
+            options.radiance_noise > 0 ? NoisyRadiance(batch.input, options.radiance_noise, noise) : batch.input;
+        const torch::Tensor predicted = net->ForwardDense(input);
+        torch::Tensor loss = HuberSum(predicted, batch.labels, batch.valid) / (count * kLabelSize);
+        if (options.rerender_weight > 0) {
+          if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
+            loss = loss + options.rerender_weight * rerender.to(torch::kFloat32);
+            rerender_sum += rerender.item<double>();
+          }
+        }
+        loss.backward();
+        optimizer->step();
+        loss_sum += loss.item<double>();
+        samples += count.item<double>();
+        if (options.progress) options.progress({epoch + 1, options.epochs, step + 1, steps, loss_sum / (step + 1)});
+      }
     }
     record.train_loss = loss_sum / steps;
     record.train_rerender_loss = rerender_sum / steps;

@@ -36,6 +36,13 @@ struct CnnExample {
   std::shared_ptr<const ObservationStack> stack;
 };
 
+// Training examples read on demand, for datasets larger than memory: `count` of them,
+// `load(i)` reads example i (0 ≤ i < count; called again for the same i in later epochs).
+struct CnnExampleSource {
+  int count = 0;
+  std::function<Result<CnnExample>(int index)> load;
+};
+
 struct CnnTrainingProgress {
   int epoch = 0;      // 1-based
   int epochs = 0;
@@ -67,6 +74,11 @@ struct CnnTrainingOptions {
   int rerender_pixels = 16;
   int rerender_strip_samples = 8;
   double rerender_huber = 0.1;
+  // Training materials in memory at once (0: all, loaded once). Fewer: each epoch goes through
+  // the training set in a random order (from seed and epoch) that many at a time, its steps
+  // shared out among those windows by size, tiles drawn from the window's materials; needs
+  // steps_per_epoch.
+  int resident_materials = 0;
   int threads = 0;                    // torch threads; 0: one per core
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
@@ -97,6 +109,9 @@ struct CnnEpoch {
 // channels and be at least `tile` pixels on each side.
 Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
                                        const std::vector<CnnExample>& validation, const CnnTrainingOptions& options);
+// The same with the training examples read as needed (options.resident_materials at a time).
+Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, const std::vector<CnnExample>& validation,
+                                       const CnnTrainingOptions& options);
 
 // The epochs as a JSON array (what checkpoints keep in history.json).
 std::string CnnHistoryJson(const std::vector<CnnEpoch>& history);

@@ -83,6 +83,30 @@ TEST(CnnTrainingTest, TheValidationLossFallsOnALearnableTask) {
   EXPECT_GT(history->back().samples_per_second, 0);
 }
 
+TEST(CnnTrainingTest, AStreamedDatasetTrainsWithOneMaterialInMemoryAtATime) {
+  const std::vector<CnnExample> examples = {Example(1), Example(2), Example(4)}, validation = {Example(3)};
+  int loads = 0;
+  const CnnExampleSource source{3, [&](int i) -> Result<CnnExample> {
+                                  ++loads;
+                                  return examples[static_cast<size_t>(i)];
+                                }};
+  Cnn cnn = SmallCnn();
+  const Result<CnnScore> before = ScoreCnn(cnn, validation, 1);
+  ASSERT_TRUE(before.ok());
+  CnnTrainingOptions options = FastOptions();
+  options.resident_materials = 1;
+  options.steps_per_epoch = 36;  // 12 per material
+  const Result<std::vector<CnnEpoch>> history = TrainCnn(cnn, source, validation, options);
+  ASSERT_TRUE(history.ok()) << history.status().ToString();
+  EXPECT_EQ(loads, options.epochs * 3);  // each material read once per epoch
+  EXPECT_LT(history->back().validation_loss, 0.3 * before->loss);
+
+  options.steps_per_epoch = 0;
+  const Result<std::vector<CnnEpoch>> refused = TrainCnn(cnn, source, validation, options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("steps_per_epoch"), std::string::npos) << refused.status().ToString();
+}
+
 TEST(CnnTrainingTest, RadianceNoiseMultipliesTheObservationsAndLeavesTheGeometry) {
   CnnTensor input = Example(1).input;
   const int first_radiance = kCnnGeometryChannels * input.height * input.width;
