@@ -201,7 +201,7 @@ int RunDemo(int argc, char** argv) {
   AddCommonOptions(app);
   DemoArguments args;
   app.add_option("--rig", args.rig, "Simulated rig: a name in configs/rig/ or a YAML file (default tac7-mini)");
-  app.add_option("--object", args.object, "The material: fabric:SEED (default fabric:1)");
+  app.add_option("--object", args.object, "The material: fabric:SEED or fabric-out-of-model:SEED (default fabric:1)");
   app.add_option("--preset", args.preset, "Gloss preset of the material scan (default low)");
   app.add_option("--methods", args.methods, "Fit methods, in order, the last being the main result (default cnn cnn+refine)")
       ->delimiter(',')

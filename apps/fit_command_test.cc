@@ -90,13 +90,13 @@ nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method, co
 
 TEST_F(FitCommandTest, TheShippedCnnAloneRecoversTheFabricRoughly) {
   const nlohmann::json json = FitAndEvaluate(dir_, "cnn");
-  // Measured (2026-11-22) with the shipped model: normal median 6.4° (p90 14.6°), a_d NRMSE
-  // 0.045, re-render L1 0.38 (the model before it, trained for too few steps: 18.6°, 0.195,
-  // 0.76; configs/models/tac7-mini/README.md). Its maps are a start for Ceres (next test), not
-  // a result. Bounds ~1.5× those: they catch a broken chain or model, no more.
-  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 10.0) << json.dump(2);
-  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.07) << json.dump(2);
-  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.6) << json.dump(2);
+  // Measured (2026-11-23) with the shipped model: normal median 4.7° (p90 11.6°), a_d NRMSE
+  // 0.055, re-render L1 0.235 (the model before it, without the re-rendering loss: 6.4°, 0.045,
+  // 0.38; configs/models/tac7-mini/README.md). Its maps are a start for Ceres (next test), not
+  // a result. Bounds ~1.3–2× those: they catch a broken chain or model, no more.
+  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 8.0) << json.dump(2);
+  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.08) << json.dump(2);
+  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.4) << json.dump(2);
 }
 
 TEST_F(FitCommandTest, CnnPlusCeresRecoversTheFabric) {

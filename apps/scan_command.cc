@@ -88,8 +88,8 @@ int RunScan(int argc, char** argv) {
   bool calibration = false, quiet = false;
   app.add_option("--rig", rig, "Rig YAML");
   app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
-  app.add_option("--object", object, "What lies on the turntable; on a simulated rig: fabric:SEED, white-tile, "
-                                     "chessboard, colour-chart");
+  app.add_option("--object", object, "What lies on the turntable; on a simulated rig: fabric:SEED, "
+                                     "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
   app.add_flag("--calibration", calibration, "Run the calibration plan");
   app.add_option("--out", out, "New scan directory");
   app.add_option("--resume", resume, "Continue the interrupted scan in this directory");

@@ -179,7 +179,9 @@ int RunSim(int argc, char** argv) {
   double pixel_mm = 0.1;
   std::string out;
   CLI::App* material = app.add_subcommand("material", "Write a material's SVBRDF maps (OpenEXR) and preview PNGs");
-  material->add_option("--kind", kind, "fabric (procedural, by seed), white-tile, chessboard, colour-chart");
+  material->add_option("--kind", kind,
+                       "fabric (procedural, by seed), fabric-out-of-model (the same with what GD10 cannot represent), "
+                       "white-tile, chessboard, colour-chart");
   material->add_option("--seed", seed, "Seed of a procedural fabric (same seed, same maps)");
   material->add_option("--size", size_px, "Map size in pixels (square)")->check(CLI::Range(8, 8192));
   material->add_option("--pixel-mm", pixel_mm, "Map pixel size on the sample in mm")->check(CLI::PositiveNumber);
@@ -192,8 +194,8 @@ int RunSim(int argc, char** argv) {
                                                   "the fast-path observation stack");
   render->add_option("--rig", rig_path, "Simulated rig YAML (with geometry:)")->required();
   std::string object;
-  render->add_option("--object", object, "What lies on the turntable instead of the rig's sample: fabric:SEED, white-tile, "
-                                         "chessboard, colour-chart");
+  render->add_option("--object", object, "What lies on the turntable instead of the rig's sample: fabric:SEED, "
+                                         "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
   render->add_option("--camera", camera, "Camera of the rig geometry");
   render->add_option("--leds", leds, "LED:MILLIAMPS[,...] lit for the frame");
   render->add_option("--turntable-deg", angle_deg, "Turntable angle");
