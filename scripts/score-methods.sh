@@ -13,6 +13,10 @@
 # KIND (default fabric) picks the set: `fabric` (GD10 materials, which Ceres inverts exactly when
 # noise-free) or `fabric-out-of-model` (the same fabrics with what GD10 cannot represent: a second
 # lobe, coloured specular, fibre masking, sub-pixel mesostructure; sim/fabric.h).
+# CALIB (a calibration directory from `loom calibrate`, e.g. a `loom demo`'s OUT/calib) scores
+# reconstructed stacks instead: each fabric scanned on the simulated rig (`loom scan`, about a
+# minute each on tac7-mini) and reconstructed with that calibration (`loom reconstruct --calib`),
+# with the camera blur, noise and calibration error that the fast path leaves out.
 #
 # LOOM (default build/apps/loom), RIG (configs/rig/tac7-mini.yaml), PRESET (low), MODEL (the
 # rig's default), SIZE (32 px), METHODS (ceres cnn cnn+ceres cnn+refine; ceres must be among them) can be
@@ -46,6 +50,12 @@ for seed in "${seeds[@]}"; do
   mkdir -p "$dir"
   "$loom" sim render --rig "$rig" --stack --preset "$preset" --object "$kind:$seed" --size "$size" \
     --truth "$dir/truth.exr" --out "$dir/stack.exr" > /dev/null
+  if [[ -n "${CALIB:-}" ]]; then
+    rm -rf "$dir/scan" "$dir/reconstruction"
+    "$loom" scan --rig "$rig" --preset "$preset" --object "$kind:$seed" --out "$dir/scan" --quiet > /dev/null
+    "$loom" reconstruct "$dir/scan" --calib "$CALIB" --size "$size" --out "$dir/reconstruction" --quiet > /dev/null
+    cp "$dir/reconstruction/stack.exr" "$dir/stack.exr"  # the truth stays the fast path's: same grid
+  fi
   for method in "${methods[@]}"; do
     "$loom" fit "$dir/stack.exr" --method "$method" "${model_option[@]}" --out "$dir/$method/fit" --quiet > /dev/null
     report=$("$loom" eval "$dir/$method/fit/svbrdf.exr" --stack "$dir/stack.exr" --reference "$dir/truth.exr" \
@@ -64,7 +74,7 @@ for seed in "${seeds[@]}"; do
 done
 
 echo
-echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE"
+echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstructed with $CALIB}): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE"
 awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5 }
   END {
     if (!("ceres" in n)) { print "error: METHODS has no ceres to compare with" > "/dev/stderr"; exit 1 }
