@@ -262,7 +262,25 @@ Status Sequencer::PlaceObject(const Step& step) {
   return Status::Ok();
 }
 
+Status SequencerOptions::Check() const {
+  std::vector<std::string> problems;
+  if (max_retries < 0) problems.push_back("max_retries must be ≥ 0");
+  if (!(black_level_dn >= 0 && std::isfinite(black_level_dn))) problems.push_back("black_level_dn must be ≥ 0 and finite");
+  if (!(noise_floor_dn >= 0 && std::isfinite(noise_floor_dn))) problems.push_back("noise_floor_dn must be ≥ 0 and finite");
+  if (!(noise_floor_sigmas > 0 && std::isfinite(noise_floor_sigmas))) {
+    problems.push_back("noise_floor_sigmas must be > 0 and finite");
+  }
+  if (!(saturation_margin_dn >= 0 && std::isfinite(saturation_margin_dn))) {
+    problems.push_back("saturation_margin_dn must be ≥ 0 and finite");
+  }
+  // A bracket needs exposures that grow: a factor of 1 or less would repeat one forever.
+  if (!(exposure_factor > 1 && std::isfinite(exposure_factor))) problems.push_back("exposure_factor must be > 1 and finite");
+  if (phase_steps < 1) problems.push_back("phase_steps must be ≥ 1 (the patterns' shift is k / phase_steps)");
+  return ProblemsStatus("SequencerOptions", problems);
+}
+
 Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) {
+  LOOM_RETURN_IF_ERROR(options_.Check());
   LOOM_RETURN_IF_ERROR(rig_.OpenAndConfigure());
   LOOM_RETURN_IF_ERROR(rig_.StartAll());
   const Clock::time_point start = Clock::now();

@@ -35,6 +35,7 @@ struct SequencerOptions {
   // than the one before (steps needing none, kNoObject, do not count): an operator is asked to
   // place it, a simulated rig swaps its scene. An error stops the scan before that step.
   std::function<Status(const std::string& object)> place_object;
+  Status Check() const;  // every problem, naming the field (NaN fails every check)
 };
 
 struct ScanProgress {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 
 #include "core/config.h"
@@ -159,6 +160,21 @@ TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
   const Status done = resumed.Run();
   ASSERT_TRUE(done.ok()) << done.ToString();
   EXPECT_EQ(resumed.dark_levels().size(), model_.cameras.size());
+}
+
+TEST(SequencerOptionsTest, EveryBadValueIsRefusedNamingItsField) {
+  EXPECT_TRUE(SequencerOptions{}.Check().ok());
+  SequencerOptions bad;
+  bad.max_retries = -1;
+  bad.black_level_dn = std::nan("");
+  bad.noise_floor_sigmas = 0;
+  bad.exposure_factor = 1;  // a bracket that never grows
+  bad.phase_steps = 0;
+  const Status status = bad.Check();
+  ASSERT_FALSE(status.ok());
+  for (const char* field : {"max_retries", "black_level_dn", "noise_floor_sigmas", "exposure_factor", "phase_steps"}) {
+    EXPECT_NE(status.message().find(field), std::string::npos) << field << " in " << status.message();
+  }
 }
 
 }  // namespace

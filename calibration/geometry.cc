@@ -324,8 +324,18 @@ RigModel ApplyGeometry(const RigModel& nominal, const RigGeometry& geometry) {
   return rig;
 }
 
+Status GeometryOptions::Check() const {
+  std::vector<std::string> problems;
+  if (min_views_per_camera < 1) problems.push_back("min_views_per_camera must be ≥ 1");
+  if (!(reject_view_above_px > 0 && std::isfinite(reject_view_above_px))) {
+    problems.push_back("reject_view_above_px must be > 0 and finite");
+  }
+  return ProblemsStatus("GeometryOptions", problems);
+}
+
 Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const CalibrationTargetModel& target,
                                          const std::vector<TargetView>& views, const GeometryOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
   std::vector<TargetView> kept = views;
   std::vector<std::string> rejected;
   for (;;) {

@@ -64,6 +64,7 @@ struct GeometryOptions {
   // A view further than this (RMS px) from where the adjusted rig puts the target is a
   // misdetection (seen at grazing angles): rejected, and the rest adjusted again.
   double reject_view_above_px = 2;
+  Status Check() const;  // every problem, naming the field
 };
 
 // `nominal` gives the cameras (names, sizes, starting intrinsics). A camera with fewer than

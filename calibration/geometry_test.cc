@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "calibration/testing/synthetic_views.h"
 
 namespace loom::calibration {
@@ -64,6 +66,17 @@ TEST(GeometryTest, ACameraWithTooFewViewsIsNamed) {
   ASSERT_FALSE(geometry.ok());
   EXPECT_NE(geometry.status().ToString().find("camera side"), std::string::npos) << geometry.status().ToString();
   EXPECT_NE(geometry.status().ToString().find("in 2 views"), std::string::npos) << geometry.status().ToString();
+}
+
+TEST(GeometryTest, BadOptionsAreRefusedNamingTheField) {
+  GeometryOptions bad;
+  bad.min_views_per_camera = 0;
+  bad.reject_view_above_px = std::nan("");
+  const Result<RigGeometry> refused = CalibrateRigGeometry(RigModel{}, CalibrationTargetModel{}, {}, bad);
+  ASSERT_FALSE(refused.ok());
+  for (const char* field : {"min_views_per_camera", "reject_view_above_px"}) {
+    EXPECT_NE(refused.status().message().find(field), std::string::npos) << field << " in " << refused.status().message();
+  }
 }
 
 }  // namespace

@@ -402,6 +402,7 @@ std::vector<uint8_t> BrightPixels(const Image& radiance, int edge_px) {
 
 Result<Radiometry> FitRadiometry(const RigModel& rig, const std::vector<LitView>& white, const std::vector<LitView>& chart,
                                  const RadiometryOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
   Radiometry radiometry;
   radiometry.white_albedo = rig.white_reference.albedo;
   std::vector<TileView> tiles;
@@ -434,7 +435,14 @@ Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const
 
 }  // namespace
 
+Status RadiometryOptions::Check() const {
+  std::vector<std::string> problems;
+  if (edge_px < 0 || edge_px > 1000) problems.push_back("edge_px must be in [0, 1000]");
+  return ProblemsStatus("RadiometryOptions", problems);
+}
+
 Result<Radiometry> CalibrateRadiometry(const ScanRadiance& scan, const RadiometryOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
   LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> white, scan.LitViews(StepKind::kWhiteReference));
   LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> chart, scan.LitViews(StepKind::kColourChart));
   if (white.empty()) {

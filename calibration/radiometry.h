@@ -43,6 +43,7 @@ namespace loom::calibration {
 struct RadiometryOptions {
   std::string reference_camera;  // keeps its sensitivity; empty: the camera looking most nearly straight down
   int edge_px = 3;               // tile and patch edges left out: their pixels mix two albedos
+  Status Check() const;          // every problem, naming the field
 };
 
 struct CameraRadiometry {

@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -231,6 +232,13 @@ TEST_F(RadiometryTest, MissingViewsAreNamed) {
   const Result<Radiometry> two_lights = FitRadiometry(*nominal_, {mixed}, {}, {});
   ASSERT_FALSE(two_lights.ok());
   EXPECT_EQ(two_lights.status().subject(), mixed.source);
+}
+
+TEST(RadiometryOptionsTest, ANegativeEdgeIsRefusedNamingTheField) {
+  EXPECT_TRUE(RadiometryOptions{}.Check().ok());
+  RadiometryOptions bad;
+  bad.edge_px = -1;
+  EXPECT_NE(bad.Check().message().find("edge_px"), std::string::npos) << bad.Check().message();
 }
 
 }  // namespace

@@ -99,11 +99,24 @@ std::vector<CameraSampling> StackSampling(const RigModel& rig, double pixel_mm) 
   return sampling;
 }
 
+Status ReconstructOptions::Check() const {
+  std::vector<std::string> problems;
+  if (width_px < 1 || height_px < 1 || width_px > kMaxStackSide || height_px > kMaxStackSide) {
+    problems.push_back("width_px and height_px must be in [1, " + std::to_string(kMaxStackSide) + "]");
+  }
+  // Below a micrometre no rig resolves anything, and the heightmap's blur in pixels explodes.
+  if (!(pixel_mm >= 1e-3 && pixel_mm <= 100)) problems.push_back("pixel_mm must be in [0.001, 100]");
+  if (!(normal_blur_mm >= 0 && normal_blur_mm <= 100)) problems.push_back("normal_blur_mm must be in [0, 100]");
+  if (!(std::isfinite(min_height_mm) && std::isfinite(max_height_mm) && min_height_mm < max_height_mm)) {
+    problems.push_back("min_height_mm must be below max_height_mm, both finite");
+  }
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  return ProblemsStatus("ReconstructOptions", problems);
+}
+
 Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
                                    const std::function<void(const ReconstructProgress&)>& progress) {
-  if (options.width_px <= 0 || options.height_px <= 0 || options.pixel_mm <= 0) {
-    return InvalidArgumentError("reconstruction grid", "needs a positive size and pixel size");
-  }
+  LOOM_RETURN_IF_ERROR(options.Check());
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));
   const CameraModel* camera = options.heightmap_camera.empty() ? TopCamera(rig) : rig.FindCamera(options.heightmap_camera);
   if (camera == nullptr) return NotFoundError("camera '" + options.heightmap_camera + "'", "not in rig '" + rig.name + "'");

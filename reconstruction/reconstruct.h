@@ -25,6 +25,9 @@
 
 namespace loom::reconstruction {
 
+// The largest stack side: 16384² pixels of a tac7 stack's 934 channels would be ~1 TB.
+inline constexpr int kMaxStackSide = 16384;
+
 struct ReconstructOptions {
   int width_px = 128;
   int height_px = 128;
@@ -34,6 +37,7 @@ struct ReconstructOptions {
   double max_height_mm = 5;
   std::string heightmap_camera;  // empty: the camera looking most nearly straight down
   int threads = 0;               // 0: one per core
+  Status Check() const;          // every problem, naming the field (NaN fails every check)
 };
 
 struct ReconstructProgress {
