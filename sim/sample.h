@@ -27,7 +27,13 @@ struct SampleSpec {
   ColourChartModel chart;                        // the rig's, for kind "colour-chart"
   WhiteReferenceModel white;                     // the rig's, for kinds "white-tile", "white-tile-on-spacer"
   LightProbeModel probe;                         // the rig's, for kind "chrome-sphere"
+  // size_px in [8, kMaxSampleSide], pixel_mm in [0.001, 10] (NaN fails): every problem, naming
+  // the field.
+  Status Check() const;
 };
+
+// The largest sample side: 4096² maps of 14 float channels are ~1 GB.
+inline constexpr int kMaxSampleSide = 4096;
 
 SampleSpec ReadSampleSpec(const ConfigNode& node);
 Result<Material> MakeSample(const SampleSpec& spec);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/sample.h"
 
@@ -61,6 +63,23 @@ TEST(TestMaterialsTest, TheTileOnItsSpacerIsTheTileRaised) {
   const Result<Material> made = MakeSample(spec);
   ASSERT_TRUE(made.ok()) << made.status().ToString();
   EXPECT_EQ(made->name, "white tile on its spacer");
+}
+
+// A sample's size and pixel are refused before anything is made (a NaN or 1e-300 pixel once
+// crashed `loom rig list`, issue #24), naming the field.
+TEST(TestMaterialsTest, ASampleOfNoSizeOrNoPixelIsRefusedBeforeItIsMade) {
+  for (const double pixel_mm : {std::nan(""), 0.0, 1e-300, -1.0}) {
+    SampleSpec spec;
+    spec.pixel_mm = pixel_mm;
+    const Result<Material> refused = MakeSample(spec);
+    ASSERT_FALSE(refused.ok()) << pixel_mm;
+    EXPECT_NE(refused.status().ToString().find("pixel_mm"), std::string::npos) << refused.status().ToString();
+  }
+  SampleSpec huge;
+  huge.size_px = kMaxSampleSide + 1;
+  const Result<Material> refused = MakeSample(huge);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("size_px"), std::string::npos) << refused.status().ToString();
 }
 
 }  // namespace
