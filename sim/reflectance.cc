@@ -68,11 +68,9 @@ void SetBeyond(Image& maps, const BeyondLayout& layout, int x, int y, const Beyo
   for (size_t i = 0; i < kBeyondChannels.size(); ++i) maps.at(layout.channel[i], y, x) = static_cast<float>(values[i]);
 }
 
-Reflectance::Reflectance(const fitting::WardParams<double>& params, const BeyondGd10& beyond) : beyond_(beyond) {
-  if (!(beyond.meso_deg > 0)) {
-    facets_.emplace_back(params);
-    return;
-  }
+Reflectance::Reflectance(const fitting::WardParams<double>& params, const BeyondGd10& beyond)
+    : beyond_(beyond), lobe_(params) {
+  if (!(beyond.meso_deg > 0)) return;
   const fitting::AnisotropyFrame<double> frame = fitting::MakeAnisotropyFrame(params.n_s, params.alpha);
   const double tilt = DegToRad(beyond.meso_deg);
   for (const Eigen::Vector3d& towards : {frame.t, Eigen::Vector3d(-frame.t), frame.b, Eigen::Vector3d(-frame.b)}) {
@@ -83,6 +81,7 @@ Reflectance::Reflectance(const fitting::WardParams<double>& params, const Beyond
 }
 
 double Reflectance::EvaluateCos(const Eigen::Vector3d& l, const Eigen::Vector3d& v, const Eigen::Vector3d& weights) const {
+  if (facets_.empty()) return FacetCos(lobe_, l, v, weights);
   double sum = 0;
   for (const fitting::WardLobe<double>& facet : facets_) sum += FacetCos(facet, l, v, weights);
   return sum / static_cast<double>(facets_.size());

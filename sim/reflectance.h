@@ -69,7 +69,10 @@ class Reflectance {
                   const Eigen::Vector3d& weights) const;
 
   BeyondGd10 beyond_;
-  std::vector<fitting::WardLobe<double>> facets_;  // 1, or 4 with mesostructure
+  // The pixel's own lobe, or with mesostructure its 4 tilted copies (a renderer builds one
+  // Reflectance per shaded point: without mesostructure nothing is allocated).
+  fitting::WardLobe<double> lobe_;
+  std::vector<fitting::WardLobe<double>> facets_;
 };
 
 }  // namespace loom::sim
