@@ -35,6 +35,7 @@ struct FitArguments {
   double prior_weight = 0.1;
   double smoothing_weight = 0;
   int strip_samples = 0;
+  int coarse_samples = 0;
   bool no_retries = false;
   double retry_above = 2.5;
   bool quiet = false;
@@ -54,6 +55,7 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"pixels_fitted", s.pixels_fitted},
                          {"pixels_kept_at_cluster", s.pixels_kept_at_cluster},
                          {"pixels_retried", s.pixels_retried},
+                         {"pixels_retry_finished", s.pixels_retry_finished},
                          {"retry_threshold_rms", s.retry_threshold_rms},
                          {"clusters", s.cluster_sizes},
                          {"f0", s.f0},
@@ -67,6 +69,7 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
                          {"prior_weight", args.prior_weight},
                          {"smoothing_weight", args.smoothing_weight},
                          {"strip_samples", args.strip_samples},
+                         {"coarse_samples", args.coarse_samples},
                          {"retries", !args.no_retries},
                          {"retry_above", args.retry_above},
                          {"uncertainty_channels", uncertainty},
@@ -149,6 +152,7 @@ Status Fit(FitArguments args) {
     options.prior.weight = args.prior_weight;
     options.smoothing.weight = args.smoothing_weight;
     options.max_lights_per_observation = args.strip_samples;
+    options.coarse_lights_per_observation = args.coarse_samples;
   }
   if (args.f0 == "material") {
     options.fixed_f0.reset();
@@ -172,7 +176,8 @@ Status Fit(FitArguments args) {
   const fitting::StackFitSummary& s = fit.summary;
   std::cout << std::fixed << std::setprecision(2) << "fitted " << s.pixels_fitted << " of " << s.pixels << " px ("
             << s.pixels_kept_at_cluster << " kept at their start, " << s.pixels_retried
-            << " redone from grid starts, relative RMS above " << s.retry_threshold_rms << ") from " << (cnn_maps ? "the CNN's maps" : std::to_string(s.cluster_sizes.size()) + " clusters")
+            << " retried from grid starts, relative RMS above " << s.retry_threshold_rms << ", "
+            << s.pixels_retry_finished << " of them refitted from a grid start) from " << (cnn_maps ? "the CNN's maps" : std::to_string(s.cluster_sizes.size()) + " clusters")
             << "; F0 " << s.f0 << "; " << s.mean_observations << " observations and " << s.mean_iterations
             << " iterations per pixel\n"
             << "time: clusters " << FormatDuration(s.cluster_seconds) << ", pixels " << FormatDuration(s.pixel_seconds)
@@ -205,6 +210,10 @@ int RunFit(int argc, char** argv) {
   app.add_option("--strip-samples", args.strip_samples,
                  "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
                  "strip (0: all of them)")
+      ->check(CLI::Range(0, 4096));
+  app.add_option("--coarse-samples", args.coarse_samples,
+                 "refine methods: coarse to fine, each pixel first converged with its strips merged into this many "
+                 "light samples, then finished with all of them (0: one pass)")
       ->check(CLI::Range(0, 4096));
   app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
   app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")

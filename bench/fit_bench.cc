@@ -222,12 +222,17 @@ StackCase MakeStackCase(const std::string& rig_name, int strip_positions) {
   return c;
 }
 
-void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_positions, bool refiner) {
+enum class Solver { kCeres, kRefiner };
+
+// `coarse`: the refiner's coarse_lights_per_observation (0: one pass).
+void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_positions, Solver solver, int coarse) {
   const StackCase c = MakeStackCase(rig, strip_positions);
   const double f0 = c.truths.front().f0;  // a fabric's F0 is one per material
+  const bool refiner = solver == Solver::kRefiner;
   loom::fitting::RefineOptions options;
   options.threads = 1;
   options.fixed_f0 = f0;
+  options.coarse_lights_per_observation = coarse;
   const loom::fitting::RefineProblem problem{static_cast<int>(c.lists.size()), c.lights,
                                              [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }, {}};
   int64_t fits = 0, iterations = 0;
@@ -258,10 +263,16 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
 // Real time: the refiner runs on a worker thread of its own (RefinePixels), Ceres on this one.
 BENCHMARK_CAPTURE(BM_Refine, point900, 900, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Refine, linear, 300, 100)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_ceres, "tac7-mini", 70, false)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_refine, "tac7-mini", 70, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_StackFit, tac7_low_ceres, "tac7", 70, false)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine, "tac7", 70, true)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_ceres, "tac7-mini", 70, Solver::kCeres, 0)
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_refine, "tac7-mini", 70, Solver::kRefiner, 0)
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_refine_coarse8, "tac7-mini", 70, Solver::kRefiner, 8)
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_StackFit, tac7_low_ceres, "tac7", 70, Solver::kCeres, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine, "tac7", 70, Solver::kRefiner, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine_coarse8, "tac7", 70, Solver::kRefiner, 8)
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 
@@ -274,5 +285,9 @@ int main(int argc, char** argv) {
        {"linear_refiner_vs_ceres", "BM_Refine/linear/real_time", "BM_Fit/linear_analytic/real_time"},
        {"tac7_mini_low_refiner_vs_ceres", "BM_StackFit/tac7_mini_low_refine/real_time",
         "BM_StackFit/tac7_mini_low_ceres/real_time"},
-       {"tac7_low_refiner_vs_ceres", "BM_StackFit/tac7_low_refine/real_time", "BM_StackFit/tac7_low_ceres/real_time"}});
+       {"tac7_low_refiner_vs_ceres", "BM_StackFit/tac7_low_refine/real_time", "BM_StackFit/tac7_low_ceres/real_time"},
+       {"tac7_mini_low_coarse8_vs_one_pass", "BM_StackFit/tac7_mini_low_refine_coarse8/real_time",
+        "BM_StackFit/tac7_mini_low_refine/real_time"},
+       {"tac7_low_coarse8_vs_one_pass", "BM_StackFit/tac7_low_refine_coarse8/real_time",
+        "BM_StackFit/tac7_low_refine/real_time"}});
 }

@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Cholesky>
 
@@ -359,7 +360,7 @@ class Batch {
       lane.inverse_scale = internal::LoadLane(usable, p, data_);
       lane.start = ClampedStart(start, options_);
       lane.x = lane.trial = lane.start;
-      lane.prior_mean = problem_.prior_mean ? Pack(problem_.prior_mean(pixel)) : lane.start;
+      lane.prior_mean = problem_.prior_mean ? ClampedStart(problem_.prior_mean(pixel), options_) : lane.start;
       lane.basis = lane.trial_basis = BasisOf(lane.x);
       SetInputs(p);
       return;
@@ -422,6 +423,12 @@ class Batch {
   void Park(int p, bool converged) {
     Lane& lane = lanes_[p];
     lane.converged = converged;
+    if (!options_.uncertainty) {
+      results_[lane.pixel] = Finished(lane, {});
+      ++done_;
+      Refill(p);
+      return;
+    }
     const int q = parked_count_++;
     data_.CopyLane(p, parked_data_, q);
     parked_[q] = lane;
@@ -453,12 +460,15 @@ class Batch {
       const Evaluation e = ReadLane(parked_equations_, q, prior_, lane.x, lane.basis, lane.prior_mean);
       lane.bread = e.bread;
       lane.meat = e.meat;
-      results_[lane.pixel] = {Unpack(lane.x), lane.data_cost, std::sqrt(lane.squares / lane.used), lane.used,
-                              lane.iterations,        true,           lane.converged,
-                              SigmaOf(lane, options_)};
+      results_[lane.pixel] = Finished(lane, SigmaOf(lane, options_));
       ++done_;
     }
     parked_count_ = 0;
+  }
+
+  static RefinedPixel Finished(const Lane& lane, const ParamSigma& sigma) {
+    return {Unpack(lane.x), lane.data_cost, std::sqrt(lane.squares / lane.used), lane.used, lane.iterations, true,
+            lane.converged, sigma};
   }
 
   const RefineProblem& problem_;
@@ -494,6 +504,7 @@ Status RefineOptions::Check() const {
     problems.push_back("prior's normal_deg, diffuse_albedo, specular_albedo, sigma and alpha_deg must be > 0");
   }
   if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
+  if (coarse_lights_per_observation < 0) problems.push_back("coarse_lights_per_observation must be ≥ 0");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   return ProblemsStatus("RefineOptions", problems);
 }
@@ -528,13 +539,21 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
   for (int lane = 1; lane < kLanes; ++lane) data.CopyLane(0, data, lane);
   const std::vector<WardParams<double>> candidates = internal::GridCandidates(f0);
   std::vector<double> diffuse(layout.size() * kLanes), specular(layout.size() * kLanes);
-  std::vector<Eigen::Matrix3d> outer;  // w wᵀ per usable observation
-  double squares = 0;                  // Σ y²
+  // The albedos' normal equations are Σ over observations of (D², DS, S²) · w wᵀ and (D, S) · y w:
+  // observations that share colour weights w (every monochrome one) are summed as scalars first.
+  std::vector<Eigen::Vector3d> weights;  // distinct colour weights
+  std::vector<int> group;                // per usable observation: its index in `weights`
+  double squares = 0;                    // Σ y²
   for (const PixelObservation* o : usable.observations) {
-    outer.push_back(o->rgb_weights * o->rgb_weights.transpose());
+    const auto found = std::find(weights.begin(), weights.end(), o->rgb_weights);
+    group.push_back(static_cast<int>(found - weights.begin()));
+    if (found == weights.end()) weights.push_back(o->rgb_weights);
     squares += o->radiance * o->radiance;
   }
+  std::vector<Eigen::Matrix3d> outer;  // w wᵀ per group
+  for (const Eigen::Vector3d& w : weights) outer.push_back(w * w.transpose());
   std::vector<std::pair<double, WardParams<double>>> scored;
+  std::vector<std::array<double, 5>> sums(weights.size());  // Σ D², DS, S², D y, S y per group
   internal::LaneInputs inputs{};
   for (size_t first = 0; first < candidates.size(); first += kLanes) {
     for (int lane = 0; lane < kLanes; ++lane) {
@@ -543,18 +562,21 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
     }
     internal::SumTermsLanes(data, inputs, diffuse.data(), specular.data());
     for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
-      // The albedos' normal equations from the sums alone: row = (w D, w S), so Σ row rowᵀ is
-      // built of D², DS and S² times w wᵀ, and the cost is aᵀ N a − 2 aᵀ b + Σ y².
-      Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
-      Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+      std::fill(sums.begin(), sums.end(), std::array<double, 5>{});
       for (size_t u = 0; u < usable.observations.size(); ++u) {
         const size_t k = static_cast<size_t>(usable.slots[u]) * kLanes + lane;
         const double d = diffuse[k], sp = specular[k], y = usable.observations[u]->radiance;
-        normal.topLeftCorner<3, 3>() += d * d * outer[u];
-        normal.topRightCorner<3, 3>() += d * sp * outer[u];
-        normal.bottomRightCorner<3, 3>() += sp * sp * outer[u];
-        rhs.head<3>() += d * y * usable.observations[u]->rgb_weights;
-        rhs.tail<3>() += sp * y * usable.observations[u]->rgb_weights;
+        std::array<double, 5>& sum = sums[group[u]];
+        sum[0] += d * d, sum[1] += d * sp, sum[2] += sp * sp, sum[3] += d * y, sum[4] += sp * y;
+      }
+      Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+      for (size_t g = 0; g < weights.size(); ++g) {
+        normal.topLeftCorner<3, 3>() += sums[g][0] * outer[g];
+        normal.topRightCorner<3, 3>() += sums[g][1] * outer[g];
+        normal.bottomRightCorner<3, 3>() += sums[g][2] * outer[g];
+        rhs.head<3>() += sums[g][3] * weights[g];
+        rhs.tail<3>() += sums[g][4] * weights[g];
       }
       normal.bottomLeftCorner<3, 3>() = normal.topRightCorner<3, 3>().transpose();
       WardParams<double> candidate = candidates[first + lane];
@@ -580,12 +602,10 @@ std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObserva
   return lights;
 }
 
-Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, const RefineOptions& options,
-                                               const std::function<void(int done)>& progress) {
-  LOOM_RETURN_IF_ERROR(options.Check());
-  if (problem.pixels < 0 || !problem.observations || !problem.start) {
-    return InvalidArgumentError("refine problem", "needs a pixel count ≥ 0, observations and starts");
-  }
+namespace {
+
+std::vector<RefinedPixel> RefineInOnePass(const RefineProblem& problem, const RefineOptions& options,
+                                          const std::function<void(int done)>& progress) {
   RefineProblem layout = problem;
   if (options.max_lights_per_observation > 0) {
     for (int& lights : layout.lights_per_observation) lights = std::min(lights, options.max_lights_per_observation);
@@ -598,6 +618,43 @@ Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, con
       [&](int) {
         if (progress) progress(done.load());
       });
+  return results;
+}
+
+// Whether a coarse pass would evaluate fewer light samples than the fine one somewhere.
+bool CoarsensSomething(const RefineProblem& problem, const RefineOptions& options) {
+  const int coarse = options.coarse_lights_per_observation;
+  const int fine = options.max_lights_per_observation > 0 ? options.max_lights_per_observation
+                                                          : std::numeric_limits<int>::max();
+  return coarse > 0 && coarse < fine &&
+         std::any_of(problem.lights_per_observation.begin(), problem.lights_per_observation.end(),
+                     [&](int lights) { return lights > coarse; });
+}
+
+}  // namespace
+
+Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, const RefineOptions& options,
+                                               const std::function<void(int done)>& progress) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  if (problem.pixels < 0 || !problem.observations || !problem.start) {
+    return InvalidArgumentError("refine problem", "needs a pixel count ≥ 0, observations and starts");
+  }
+  RefineOptions fine_options = options;
+  fine_options.coarse_lights_per_observation = 0;
+  if (!CoarsensSomething(problem, options)) return RefineInOnePass(problem, fine_options, progress);
+
+  RefineOptions coarse_options = fine_options;
+  coarse_options.max_lights_per_observation = options.coarse_lights_per_observation;
+  const std::vector<RefinedPixel> coarse = RefineInOnePass(problem, coarse_options, [&](int done) {
+    if (progress) progress(done / 2);
+  });
+  RefineProblem fine = problem;
+  fine.start = [&](int i) { return coarse[i].params; };
+  fine.prior_mean = problem.prior_mean ? problem.prior_mean : problem.start;  // still the caller's, not the coarse fit
+  std::vector<RefinedPixel> results = RefineInOnePass(fine, fine_options, [&](int done) {
+    if (progress) progress((problem.pixels + done) / 2);
+  });
+  for (int i = 0; i < problem.pixels; ++i) results[i].iterations += coarse[i].iterations;
   return results;
 }
 

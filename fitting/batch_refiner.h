@@ -66,6 +66,14 @@ struct RefineOptions {
   // beyond this are merged along the strip (MergeLightSamples). The cost of a fit is about
   // proportional to the samples; docs/benchmarks.md has what each count costs in accuracy.
   int max_lights_per_observation = 0;
+  // Coarse to fine: with a count > 0, each pixel first converges with every observation's light
+  // samples merged into at most this many, then finishes from there with all of them (or
+  // max_lights_per_observation). The answer is the full model's minimum, as the finishing pass
+  // decides convergence; only the way there is cheaper (docs/benchmarks.md). 0: one pass.
+  int coarse_lights_per_observation = 0;
+  // The 1σ of each refined pixel (RefinedPixel::sigma): one more evaluation per pixel, and a copy
+  // of its data. Off, sigma stays zero.
+  bool uncertainty = true;
   int threads = 0;                  // 0: one per core
   Status Check() const;             // every problem, naming the field
 };
@@ -118,7 +126,8 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
 // of them has.
 std::vector<int> LightsPerObservation(const std::vector<std::vector<PixelObservation>>& pixels);
 
-// Refines every pixel; `progress(done)` is called on the calling thread now and then.
+// Refines every pixel; `progress(done)` is called on the calling thread now and then. A pixel's
+// `iterations` count both passes of a coarse-to-fine refinement.
 Result<std::vector<RefinedPixel>> RefinePixels(const RefineProblem& problem, const RefineOptions& options,
                                                const std::function<void(int done)>& progress = {});
 

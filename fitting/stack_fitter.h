@@ -56,6 +56,11 @@ struct StackFitOptions {
   double retry_above_rms = 0.1;        // floor: decides on noise-free stacks
   double retry_above_noise_rms = 2.5;  // multiple of the noise level
   int retry_grid_starts = 2;           // best grid-searched starts of a retry
+  // With the refiner: a retry's starts are explored with the strips merged into this many light
+  // samples (0: all), and finished with all of them only where the best beats the first fit's
+  // explored cost by this fraction.
+  int retry_explore_lights = 8;
+  double retry_min_gain = 0.01;
   // F0 of every pixel. Away from grazing angles only a_s·F0 is observable, and on tac7-mini's
   // geometry the cluster fits scatter F0 over [0, 1] (measured: 0.01 and 1 for one fabric whose
   // truth is 0.74), so by default it is held at 1 and a_s carries the product. nullopt: one F0
@@ -74,6 +79,8 @@ struct StackFitOptions {
   // With the refiner: light samples per observation at most (RefineOptions::
   // max_lights_per_observation; 0: the stack's emitters, all of them).
   int max_lights_per_observation = 0;
+  // With the refiner: coarse to fine (RefineOptions::coarse_lights_per_observation; 0: off).
+  int coarse_lights_per_observation = 0;
   // Starts of the per-pixel fits, when given: SVBRDF maps on the stack's grid (the CNN's, for
   // cnn+ceres). No clusters are formed; with fixed_f0 unset the material's F0 is the maps'
   // median. Not owned; must outlive FitStack.
@@ -89,6 +96,9 @@ struct StackFitSummary {
   int pixels_fitted = 0;
   int pixels_kept_at_cluster = 0;   // too few usable observations
   int pixels_retried = 0;           // redone from grid starts
+  int pixels_retry_finished = 0;    // of those, fitted from a grid start with every light sample
+                                    // (the refiner explores with fewer and finishes only the
+                                    // pixels where a grid start wins; Ceres finishes all)
   double retry_threshold_rms = 0;   // relative RMS above which they were
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;

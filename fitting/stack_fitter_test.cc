@@ -204,5 +204,46 @@ TEST(StackFitterTest, RetriesOnlyPixelsWellAboveTheStacksNoise) {
   EXPECT_EQ(clean_fit->summary.retry_threshold_rms, options.retry_above_rms);
 }
 
+// The refiner's retries on a noise-free stack whose starts put some pixels in a wrong basin (the
+// normal 35° off, a lobe too narrow): the first fit leaves them there, the retries' explored grid
+// starts win and are refitted with every light sample, and the pixels end at the truth.
+TEST(StackFitterTest, TheRefinersRetriesBringPixelsOutOfAWrongBasin) {
+  const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 10, .height_px = 10, .pixel_mm = 0.2});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
+  Image initial = PerturbedTruth(fabric);
+  const std::vector<int> misled = {11, 23, 37, 45, 58, 62, 74, 86};
+  for (int i : misled) {
+    WardParams<double> p = GetParams(initial, i % 10, i / 10);
+    p.n_s = Eigen::AngleAxisd(35 * kPi / 180, Eigen::Vector3d::UnitY()) * p.n_s;
+    p.sigma_x = p.sigma_y = 0.02;
+    SetParams(initial, i % 10, i / 10, p);
+  }
+  StackFitOptions options;
+  options.solver = PixelSolver::kBatchRefiner;
+  options.initial_maps = &initial;
+  options.retry_poor_fits = false;
+  const Result<StackFit> first_only = FitStack(stack, options);
+  options.retry_poor_fits = true;
+  const Result<StackFit> retried = FitStack(stack, options);
+  ASSERT_TRUE(first_only.ok() && retried.ok()) << first_only.status().ToString() << retried.status().ToString();
+  const auto normal_error_deg = [&](const StackFit& fit, int i) {
+    const double c = GetParams(fit.maps, i % 10, i / 10).n_s.dot(GetParams(fabric.maps, i % 10, i / 10).n_s);
+    return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / kPi;
+  };
+  int stuck = 0;
+  for (int i : misled) {
+    stuck += normal_error_deg(*first_only, i) > 5;
+    EXPECT_LT(normal_error_deg(*retried, i), 1) << "pixel " << i;
+  }
+  EXPECT_GE(stuck, 4) << "the wrong starts should trap the first fit, or this test shows nothing";
+  const StackFitSummary& s = retried->summary;
+  std::cout << stuck << " of " << misled.size() << " misled pixels stuck without retries; " << s.pixels_retried
+            << " retried, " << s.pixels_retry_finished << " refitted from a grid start\n";
+  EXPECT_GE(s.pixels_retried, stuck);
+  EXPECT_GE(s.pixels_retry_finished, stuck);
+  EXPECT_LE(s.pixels_retry_finished, s.pixels_retried);
+}
+
 }  // namespace
 }  // namespace loom::fitting
