@@ -90,7 +90,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
   ASSERT_TRUE(geometry_doc.ok());
   RigModel model = ReadRigModel(geometry_doc->root().Child("geometry"));
   model.name = "tac7-peers";
-  Preset preset;
+  scan::Preset preset;
   preset.name = "peer";
   preset.turntable_deg = {0, 120};
   preset.colour_views_deg = {0};
@@ -99,7 +99,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
   preset.exposure.max_exposures = 2;
   preset.gray_bits = 1;
   preset.phase_steps = 1;
-  const Plan plan = *MakeMaterialPlan(model, preset);
+  const scan::Plan plan = *scan::MakeMaterialPlan(model, preset);
 
   hal::BackendRegistry registry;
   hal::RegisterAravisBackend(registry);
@@ -120,7 +120,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
 
   const fs::path dir = fs::path(::testing::TempDir()) / "peer_scan";
   fs::remove_all(dir);
-  auto store = CaptureStore::Create(dir, {"peer rig", "fake cameras", plan});
+  auto store = scan::CaptureStore::Create(dir, {"peer rig", "fake cameras", plan});
   ASSERT_TRUE(store.ok());
   {
     hal::SafeStateGuard guard(**rig);
@@ -130,9 +130,9 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
   }
   EXPECT_EQ(store->steps_done(), static_cast<int>(plan.steps.size()));
   // What the devices did is what the plan asked: check the journal against the plan.
-  for (const FrameRecord& record : store->records()) {
-    const Step& step = plan.steps[record.key.step];
-    const hal::RigState& state = record.metadata.rig_state;
+  for (const scan::FrameRecord& record : store->records()) {
+    const scan::Step& step = plan.steps[record.key.step];
+    const scan::RigState& state = record.metadata.rig_state;
     ASSERT_EQ(state.leds_on, step.leds) << record.file;
     ASSERT_NEAR(state.turntable_deg, step.turntable_deg, 1e-3) << record.file;
     if (step.filter) {

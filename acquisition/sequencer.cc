@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "acquisition/patterns.h"
 #include "core/interrupt.h"
 #include "core/log.h"
+#include "scan/patterns.h"
 
 namespace loom::acquisition {
 namespace {
@@ -20,22 +20,7 @@ struct Exposure {
 
 }  // namespace
 
-DarkLevel MeasureDarkLevel(const hal::RawFrame& dark) {
-  if (dark.pixels.empty()) return {};
-  std::vector<uint16_t> values = dark.pixels;
-  const auto middle = values.begin() + values.size() / 2;
-  std::nth_element(values.begin(), middle, values.end());
-  const double median = *middle;
-  std::vector<double> deviations;
-  deviations.reserve(values.size());
-  for (uint16_t v : values) deviations.push_back(std::abs(v - median));
-  const auto mid_deviation = deviations.begin() + deviations.size() / 2;
-  std::nth_element(deviations.begin(), mid_deviation, deviations.end());
-  // Readings quantise to 1 DN: the spread is never below the quantisation's 1/sqrt(12).
-  return {median, std::max(1.4826 * *mid_deviation, 0.29)};
-}
-
-Sequencer::Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options)
+Sequencer::Sequencer(hal::Rig& rig, const scan::Plan& plan, scan::CaptureStore& store, SequencerOptions options)
     : rig_(rig), plan_(plan), store_(store), options_(options) {}
 
 Result<hal::Camera*> Sequencer::FindCamera(const std::string& name) const {
@@ -44,7 +29,7 @@ Result<hal::Camera*> Sequencer::FindCamera(const std::string& name) const {
   return camera;
 }
 
-Status Sequencer::ApplyStep(const Step& step) {
+Status Sequencer::ApplyStep(const scan::Step& step) {
   const std::string where = "step " + std::to_string(step.index);
   if (hal::Turntable* turntable = rig_.turntable()) {
     LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
@@ -78,7 +63,7 @@ Status Sequencer::ApplyStep(const Step& step) {
   if (!step.projector_pattern.empty()) {
     hal::Projector* projector = rig_.projector();
     if (projector == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a projector");
-    LOOM_ASSIGN_OR_RETURN(const hal::Pattern pattern, MakePattern(step.projector_pattern, projector->settings().width,
+    LOOM_ASSIGN_OR_RETURN(const scan::Pattern pattern, scan::MakePattern(step.projector_pattern, projector->settings().width,
                                                                  projector->settings().height, options_.phase_steps));
     LOOM_RETURN_IF_ERROR(projector->Show(pattern));
     projector_showing_ = true;
@@ -100,11 +85,11 @@ Status Sequencer::SetExposure(hal::Camera& camera, double exposure_us) {
   return camera.Start();
 }
 
-Result<hal::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const Step& step) {
+Result<scan::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const scan::Step& step) {
   Status last;
   for (int attempt = 0; attempt <= options_.max_retries; ++attempt) {
     if (InterruptRequested()) return CancelledError("scan", "interrupted at step " + std::to_string(step.index));
-    Result<hal::RawFrame> frame = rig_.Snap(camera);
+    Result<scan::RawFrame> frame = rig_.Snap(camera);
     if (frame.ok()) return frame;
     last = frame.status();
     const bool transient = last.code() == StatusCode::kTimeout || last.code() == StatusCode::kUnavailable ||
@@ -115,18 +100,18 @@ Result<hal::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const S
   return last.WithContext("step " + std::to_string(step.index));
 }
 
-Result<std::vector<hal::RawFrame>> Sequencer::CaptureExposure(const Step& step, double exposure_us, int exposure_index) {
-  std::vector<std::optional<hal::RawFrame>> frames(step.cameras.size());
+Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step& step, double exposure_us, int exposure_index) {
+  std::vector<std::optional<scan::RawFrame>> frames(step.cameras.size());
   std::vector<size_t> to_capture;
   for (size_t i = 0; i < step.cameras.size(); ++i) {
-    const FrameKey key{step.index, step.cameras[i], exposure_index};
+    const scan::FrameKey key{step.index, step.cameras[i], exposure_index};
     if (!store_.Has(key)) {
       to_capture.push_back(i);
       continue;
     }
-    for (const FrameRecord& record : store_.records()) {  // resumed: what was captured decides as it did then
+    for (const scan::FrameRecord& record : store_.records()) {  // resumed: what was captured decides as it did then
       if (record.key == key) {
-        LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, store_.ReadFrame(record));
+        LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, store_.ReadFrame(record));
         frames[i] = std::move(frame);
       }
     }
@@ -140,11 +125,11 @@ Result<std::vector<hal::RawFrame>> Sequencer::CaptureExposure(const Step& step, 
     }
     // The step's cameras are triggered together, then read out; a camera that fails is retried
     // on its own.
-    LOOM_ASSIGN_OR_RETURN(const hal::RigState state, rig_.ReadState());
+    LOOM_ASSIGN_OR_RETURN(const scan::RigState state, rig_.ReadState());
     std::vector<Status> triggered;
     for (hal::Camera* camera : cameras) triggered.push_back(camera->TriggerSoftware());
     for (size_t c = 0; c < cameras.size(); ++c) {
-      Result<hal::RawFrame> frame = triggered[c].ok() ? cameras[c]->WaitFrame() : Result<hal::RawFrame>(triggered[c]);
+      Result<scan::RawFrame> frame = triggered[c].ok() ? cameras[c]->WaitFrame() : Result<scan::RawFrame>(triggered[c]);
       if (frame.ok()) {
         frame->metadata.rig_state = state;
       } else {
@@ -157,7 +142,7 @@ Result<std::vector<hal::RawFrame>> Sequencer::CaptureExposure(const Step& step, 
       frames[i] = std::move(*frame);
     }
   }
-  std::vector<hal::RawFrame> result;
+  std::vector<scan::RawFrame> result;
   for (auto& frame : frames) result.push_back(std::move(*frame));
   return result;
 }
@@ -169,19 +154,19 @@ std::pair<double, double> Sequencer::BlackAndFloor(const std::string& camera) co
   return {options_.black_level_dn, options_.noise_floor_dn};
 }
 
-Status Sequencer::MeasureDark(const Step& step) {
-  LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
-  for (const hal::RawFrame& frame : frames) {
-    const DarkLevel level = MeasureDarkLevel(frame);
+Status Sequencer::MeasureDark(const scan::Step& step) {
+  LOOM_ASSIGN_OR_RETURN(const std::vector<scan::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
+  for (const scan::RawFrame& frame : frames) {
+    const scan::DarkLevel level = scan::MeasureDarkLevel(frame);
     dark_[frame.metadata.camera] = level;
     LOOM_LOG(Info) << frame.metadata.camera << ": black level " << level.black_dn << " DN, noise " << level.noise_dn << " DN";
   }
   return Status::Ok();
 }
 
-Status Sequencer::CaptureStep(const Step& step) {
+Status Sequencer::CaptureStep(const scan::Step& step) {
   LOOM_RETURN_IF_ERROR(ApplyStep(step));
-  if (step.kind == StepKind::kDark) {
+  if (step.kind == scan::StepKind::kDark) {
     LOOM_RETURN_IF_ERROR(MeasureDark(step));
     return store_.MarkStepDone(step.index);
   }
@@ -189,18 +174,18 @@ Status Sequencer::CaptureStep(const Step& step) {
   const double min_us = first->capabilities().exposure_min_us;
   const double max_us = first->capabilities().exposure_max_us;
   std::vector<Exposure> exposures = {{std::clamp(step.exposure.probe_us, min_us, max_us), 0}};
-  LOOM_ASSIGN_OR_RETURN(std::vector<hal::RawFrame> probe, CaptureExposure(step, exposures[0].us, 0));
-  std::vector<std::vector<hal::RawFrame>> frames = {std::move(probe)};
+  LOOM_ASSIGN_OR_RETURN(std::vector<scan::RawFrame> probe, CaptureExposure(step, exposures[0].us, 0));
+  std::vector<std::vector<scan::RawFrame>> frames = {std::move(probe)};
   while (static_cast<int>(exposures.size()) < step.exposure.max_exposures) {
     const auto shortest = std::min_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
     const auto longest = std::max_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
     bool saturated = false;
     bool weak = false;
-    for (const hal::RawFrame& frame : frames[shortest->index]) {
-      const double top = (1 << hal::BitDepth(frame.metadata.pixel_format)) - 1 - options_.saturation_margin_dn;
+    for (const scan::RawFrame& frame : frames[shortest->index]) {
+      const double top = (1 << scan::BitDepth(frame.metadata.pixel_format)) - 1 - options_.saturation_margin_dn;
       saturated |= std::any_of(frame.pixels.begin(), frame.pixels.end(), [&](uint16_t v) { return v >= top; });
     }
-    for (const hal::RawFrame& frame : frames[longest->index]) {
+    for (const scan::RawFrame& frame : frames[longest->index]) {
       // Lit but weak: some signal above black, less than the noise floor. Unlit pixels (off
       // the sample, in shadow) would never leave the floor: they do not ask for more.
       const auto [black, floor] = BlackAndFloor(frame.metadata.camera);
@@ -220,7 +205,7 @@ Status Sequencer::CaptureStep(const Step& step) {
     }
     const int index = static_cast<int>(exposures.size());
     exposures.push_back({next, index});
-    LOOM_ASSIGN_OR_RETURN(std::vector<hal::RawFrame> more, CaptureExposure(step, next, index));
+    LOOM_ASSIGN_OR_RETURN(std::vector<scan::RawFrame> more, CaptureExposure(step, next, index));
     frames.push_back(std::move(more));
   }
   const auto shortest = std::min_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
@@ -228,19 +213,19 @@ Status Sequencer::CaptureStep(const Step& step) {
   return store_.MarkStepDone(step.index);
 }
 
-Status Sequencer::CaptureLinearitySeries(const Step& step, double shortest_us, const std::vector<hal::RawFrame>& shortest,
+Status Sequencer::CaptureLinearitySeries(const scan::Step& step, double shortest_us, const std::vector<scan::RawFrame>& shortest,
                                          int next_index, double min_us, double max_us) {
   if (step.exposure.linearity_series <= 0) return Status::Ok();
   // The brightest pixels (99.9th percentile: a hot pixel does not count) of any camera.
   double peak = 0, full_scale = 0;
-  for (const hal::RawFrame& frame : shortest) {
+  for (const scan::RawFrame& frame : shortest) {
     std::vector<uint16_t> values = frame.pixels;
     const auto at = values.begin() + static_cast<long>(0.999 * (values.size() - 1));
     std::nth_element(values.begin(), at, values.end());
     const double black = BlackAndFloor(frame.metadata.camera).first;
     if (*at - black > peak) {
       peak = *at - black;
-      full_scale = (1 << hal::BitDepth(frame.metadata.pixel_format)) - 1 - black;
+      full_scale = (1 << scan::BitDepth(frame.metadata.pixel_format)) - 1 - black;
     }
   }
   if (peak <= 0) return Status::Ok();  // nothing lit: nothing to measure
@@ -251,8 +236,8 @@ Status Sequencer::CaptureLinearitySeries(const Step& step, double shortest_us, c
   return Status::Ok();
 }
 
-Status Sequencer::PlaceObject(const Step& step) {
-  if (step.object == kNoObject || step.object == object_placed_) return Status::Ok();
+Status Sequencer::PlaceObject(const scan::Step& step) {
+  if (step.object == scan::kNoObject || step.object == object_placed_) return Status::Ok();
   if (options_.place_object) {
     if (Status placed = options_.place_object(step.object); !placed.ok()) {
       return placed.WithContext("step " + std::to_string(step.index));
@@ -286,10 +271,10 @@ Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) 
   const Clock::time_point start = Clock::now();
   const int already = store_.steps_done();
   int done_now = 0;
-  for (const Step& step : plan_.steps) {
+  for (const scan::Step& step : plan_.steps) {
     if (store_.StepDone(step.index)) {
       // A resumed scan reads its stored dark frames again: the brackets to come depend on them.
-      if (step.kind == StepKind::kDark) LOOM_RETURN_IF_ERROR(MeasureDark(step));
+      if (step.kind == scan::StepKind::kDark) LOOM_RETURN_IF_ERROR(MeasureDark(step));
       continue;
     }
     if (InterruptRequested()) return CancelledError("scan", "interrupted before step " + std::to_string(step.index));

@@ -17,9 +17,10 @@
 #include <functional>
 #include <map>
 
-#include "acquisition/capture_store.h"
-#include "acquisition/plan.h"
 #include "hal/rig.h"
+#include "scan/capture_store.h"
+#include "scan/dark_level.h"
+#include "scan/plan.h"
 
 namespace loom::acquisition {
 
@@ -46,45 +47,38 @@ struct ScanProgress {
   double eta_s = 0;
 };
 
-// A camera's dark frame, summarised.
-struct DarkLevel {
-  double black_dn = 0;  // median
-  double noise_dn = 0;  // 1.4826 × median absolute deviation: hot pixels do not count
-};
-DarkLevel MeasureDarkLevel(const hal::RawFrame& dark);
-
 class Sequencer {
  public:
-  Sequencer(hal::Rig& rig, const Plan& plan, CaptureStore& store, SequencerOptions options = {});
+  Sequencer(hal::Rig& rig, const scan::Plan& plan, scan::CaptureStore& store, SequencerOptions options = {});
   // Brings the rig up (open, configure, start) and runs every step not yet done.
   Status Run(const std::function<void(const ScanProgress&)>& progress = nullptr);
   // Each camera's dark level from the plan's dark step (empty before it, or without one).
-  const std::map<std::string, DarkLevel>& dark_levels() const { return dark_; }
+  const std::map<std::string, scan::DarkLevel>& dark_levels() const { return dark_; }
 
  private:
-  Status PlaceObject(const Step& step);
-  Status ApplyStep(const Step& step);
-  Status CaptureStep(const Step& step);
+  Status PlaceObject(const scan::Step& step);
+  Status ApplyStep(const scan::Step& step);
+  Status CaptureStep(const scan::Step& step);
   // A dark step's one exposure (no bracket), captured or read back from the store: sets the
   // cameras' black levels and noise floors.
-  Status MeasureDark(const Step& step);
+  Status MeasureDark(const scan::Step& step);
   // Black level and, above it, the weakest usable reading of `camera`.
   std::pair<double, double> BlackAndFloor(const std::string& camera) const;
   // One frame of every camera of `step` at `exposure_us`: read back when stored, else captured.
-  Result<std::vector<hal::RawFrame>> CaptureExposure(const Step& step, double exposure_us, int exposure_index);
+  Result<std::vector<scan::RawFrame>> CaptureExposure(const scan::Step& step, double exposure_us, int exposure_index);
   // The step's linearity series (plan.h), after its bracket: `shortest` is the bracket's
   // shortest exposure and its frames; series frames take indices from `next_index` on.
-  Status CaptureLinearitySeries(const Step& step, double shortest_us, const std::vector<hal::RawFrame>& shortest,
+  Status CaptureLinearitySeries(const scan::Step& step, double shortest_us, const std::vector<scan::RawFrame>& shortest,
                                 int next_index, double min_us, double max_us);
-  Result<hal::RawFrame> CaptureWithRetries(hal::Camera& camera, const Step& step);
+  Result<scan::RawFrame> CaptureWithRetries(hal::Camera& camera, const scan::Step& step);
   Status SetExposure(hal::Camera& camera, double exposure_us);
   Result<hal::Camera*> FindCamera(const std::string& name) const;
 
   hal::Rig& rig_;
-  const Plan& plan_;
-  CaptureStore& store_;
+  const scan::Plan& plan_;
+  scan::CaptureStore& store_;
   SequencerOptions options_;
-  std::map<std::string, DarkLevel> dark_;  // by camera
+  std::map<std::string, scan::DarkLevel> dark_;  // by camera
   bool strip_on_ = false;
   bool projector_showing_ = false;
   std::string object_placed_;

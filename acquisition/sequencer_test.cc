@@ -30,7 +30,7 @@ class SequencerTest : public ::testing::Test {
         std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
     rig_ = MakeRig();
     ASSERT_NE(rig_, nullptr);
-    Preset preset;
+    scan::Preset preset;
     preset.name = "tiny";
     preset.turntable_deg = {0};
     preset.colour_views_deg = {0};
@@ -38,7 +38,7 @@ class SequencerTest : public ::testing::Test {
     preset.exposure.max_exposures = 2;
     preset.gray_bits = 1;
     preset.phase_steps = 1;
-    plan_ = *MakeMaterialPlan(model_, preset);
+    plan_ = *scan::MakeMaterialPlan(model_, preset);
   }
 
   // The sim rig on world_, as a new `loom scan` process would load it.
@@ -51,33 +51,33 @@ class SequencerTest : public ::testing::Test {
     return rig.ok() ? std::move(*rig) : nullptr;
   }
 
-  CaptureStore NewStore() {
-    return std::move(*CaptureStore::Create(dir_, {"rig", "white tile", plan_}));
+  scan::CaptureStore NewStore() {
+    return std::move(*scan::CaptureStore::Create(dir_, {"rig", "white tile", plan_}));
   }
 
   fs::path dir_;
   RigModel model_;
   std::shared_ptr<hal::SimWorld> world_;
   std::unique_ptr<hal::Rig> rig_;
-  Plan plan_;
+  scan::Plan plan_;
 };
 
 // A step with a linearity series (plan.h): after its bracket, exposures halving from the one
 // that brings the brightest pixels to 90 % of full scale.
 TEST_F(SequencerTest, ALinearitySeriesFollowsTheBracket) {
-  Plan plan = plan_;
-  const auto lit = std::find_if(plan.steps.begin(), plan.steps.end(), [](const Step& s) { return s.kind == StepKind::kMonochrome; });
+  scan::Plan plan = plan_;
+  const auto lit = std::find_if(plan.steps.begin(), plan.steps.end(), [](const scan::Step& s) { return s.kind == scan::StepKind::kMonochrome; });
   ASSERT_NE(lit, plan.steps.end());
-  Step series = *lit;
+  scan::Step series = *lit;
   series.index = 1;
   series.exposure.linearity_series = 4;
   plan.steps = {plan.steps.front(), series};  // the dark step, then the lit one
-  CaptureStore store = std::move(*CaptureStore::Create(dir_, {"rig", "white tile", plan}));
+  scan::CaptureStore store = std::move(*scan::CaptureStore::Create(dir_, {"rig", "white tile", plan}));
   Sequencer sequencer(*rig_, plan, store);
   const Status done = sequencer.Run();
   ASSERT_TRUE(done.ok()) << done.ToString();
-  std::vector<const FrameRecord*> frames;
-  for (const FrameRecord& record : store.records()) {
+  std::vector<const scan::FrameRecord*> frames;
+  for (const scan::FrameRecord& record : store.records()) {
     if (record.key.step == 1 && record.key.camera == "cam0") frames.push_back(&record);
   }
   ASSERT_GE(frames.size(), 5u);
@@ -86,7 +86,7 @@ TEST_F(SequencerTest, ALinearitySeriesFollowsTheBracket) {
     EXPECT_DOUBLE_EQ(frames[i]->metadata.exposure_us, frames[i - 1]->metadata.exposure_us / 2) << i;
   }
   // The series' first frame: its brightest pixels near 90 % of the 12-bit range above black.
-  const Result<hal::RawFrame> top = store.ReadFrame(*frames[first]);
+  const Result<scan::RawFrame> top = store.ReadFrame(*frames[first]);
   ASSERT_TRUE(top.ok()) << top.status().ToString();
   std::vector<uint16_t> values = top->pixels;
   std::nth_element(values.begin(), values.begin() + static_cast<long>(0.999 * (values.size() - 1)), values.end());
@@ -96,7 +96,7 @@ TEST_F(SequencerTest, ALinearitySeriesFollowsTheBracket) {
 
 TEST_F(SequencerTest, ACameraThatDropsOutBrieflyIsRetried) {
   world_->camera_failures["cam1"] = 2;
-  CaptureStore store = NewStore();
+  scan::CaptureStore store = NewStore();
   Sequencer sequencer(*rig_, plan_, store);
   const Status done = sequencer.Run();
   ASSERT_TRUE(done.ok()) << done.ToString();
@@ -105,7 +105,7 @@ TEST_F(SequencerTest, ACameraThatDropsOutBrieflyIsRetried) {
 }
 
 TEST_F(SequencerTest, ACameraThatStaysOutStopsTheScanCleanly) {
-  CaptureStore store = NewStore();
+  scan::CaptureStore store = NewStore();
   Sequencer sequencer(*rig_, plan_, store);
   int steps = 0;
   // Let a few steps pass, then pull cam1's cable for good.
@@ -120,28 +120,28 @@ TEST_F(SequencerTest, ACameraThatStaysOutStopsTheScanCleanly) {
     hal::SafeStateGuard guard(*rig_);  // what loom scan holds around the sequencer
   }
   EXPECT_TRUE(world_->state.leds.empty());
-  const Result<CaptureStore> reopened = CaptureStore::Open(dir_, /*repair=*/true);
+  const Result<scan::CaptureStore> reopened = scan::CaptureStore::Open(dir_, /*repair=*/true);
   ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
   EXPECT_EQ(reopened->steps_done(), 3);
   EXPECT_FALSE(reopened->StepDone(3));
-  for (const FrameRecord& record : reopened->records()) EXPECT_TRUE(reopened->ReadFrame(record).ok()) << record.file;
+  for (const scan::FrameRecord& record : reopened->records()) EXPECT_TRUE(reopened->ReadFrame(record).ok()) << record.file;
 }
 
 TEST(DarkLevelTest, MedianAndRobustSpreadIgnoreHotPixels) {
-  hal::RawFrame dark;
+  scan::RawFrame dark;
   dark.width = 100;
   dark.height = 10;
   for (int i = 0; i < 1000; ++i) dark.pixels.push_back(static_cast<uint16_t>(64 + (i % 3) - 1));  // 63, 64, 65
   for (int i = 0; i < 10; ++i) dark.pixels[i * 97] = 4095;                                         // hot pixels
-  const DarkLevel level = MeasureDarkLevel(dark);
+  const scan::DarkLevel level = scan::MeasureDarkLevel(dark);
   EXPECT_EQ(level.black_dn, 64);
   EXPECT_NEAR(level.noise_dn, 1.4826, 1e-9);  // MAD 1 of a spread whose std is 0.82: robust, not exact
 }
 
 TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
-  ASSERT_EQ(plan_.steps.front().kind, StepKind::kDark);
+  ASSERT_EQ(plan_.steps.front().kind, scan::StepKind::kDark);
   {
-    CaptureStore store = NewStore();
+    scan::CaptureStore store = NewStore();
     Sequencer sequencer(*rig_, plan_, store);
     ASSERT_TRUE(sequencer.Run().ok());
     ASSERT_EQ(sequencer.dark_levels().size(), model_.cameras.size());
@@ -153,7 +153,7 @@ TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
   }
   // Resumed by a new process (here: with every step done), the levels come from the stored
   // dark frames.
-  Result<CaptureStore> reopened = CaptureStore::Open(dir_, /*repair=*/true);
+  Result<scan::CaptureStore> reopened = scan::CaptureStore::Open(dir_, /*repair=*/true);
   ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
   const std::unique_ptr<hal::Rig> fresh_rig = MakeRig();
   Sequencer resumed(*fresh_rig, plan_, *reopened);

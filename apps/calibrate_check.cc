@@ -14,11 +14,11 @@
 #include "calibration/drift.h"
 #include "calibration/light_positions.h"
 #include "calibration/projector.h"
+#include "calibration/projector_columns.h"
 #include "calibration/radiometry.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
 #include "core/version.h"
-#include "reconstruction/projector_columns.h"
 
 namespace loom::apps {
 namespace {
@@ -108,14 +108,14 @@ struct LightChecks {
 };
 
 // `fresh_cameras`: the stored calibration with the fresh scan's camera geometry applied.
-Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const RigModel& fresh_cameras, const std::string& calib,
+Result<LightChecks> CheckLights(const scan::CaptureStore& store, const RigModel& fresh_cameras, const std::string& calib,
                                 const calibration::DriftThresholds& thresholds) {
   LightChecks checks;
   RigModel rig = fresh_cameras;
   LOOM_ASSIGN_OR_RETURN(const bool has_positions, calibration::ApplyLightPositionCalibration(calib, &rig));
   if (has_positions) {
     LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
-    LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(acquisition::StepKind::kLightProbe));
+    LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(scan::StepKind::kLightProbe));
     LOOM_ASSIGN_OR_RETURN(const calibration::LightPositions fresh, calibration::CalibrateLightPositions(rig, views));
     checks.positions = calibration::MeasureLightPositionDrift(fresh, thresholds);
     PrintChanges("LED positions against the stored ones", *checks.positions);
@@ -143,7 +143,7 @@ Result<LightChecks> CheckLights(const acquisition::CaptureStore& store, const Ri
 // The projector against the stored one: a fresh calibration of its columns at the target's
 // corners, seen by the fresh cameras, starting from the stored projector. Nothing where CALIB
 // holds no projector.yaml or the scan showed no structured light on the target.
-Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::CaptureStore& store, const RigModel& fresh_cameras,
+Result<std::optional<calibration::Changes>> CheckProjector(const scan::CaptureStore& store, const RigModel& fresh_cameras,
                                                            const CalibrationTargetModel& target,
                                                            const calibration::TargetPlacement& placement, const std::string& calib,
                                                            const calibration::DriftThresholds& thresholds) {
@@ -153,13 +153,13 @@ Result<std::optional<calibration::Changes>> CheckProjector(const acquisition::Ca
     std::cout << "projector: not compared (" << calib << " holds no projector.yaml: loom calibrate geometry)\n";
     return std::optional<calibration::Changes>();
   }
-  if (reconstruction::StructuredLightAngles(store.info().plan, "target").empty()) {
+  if (calibration::StructuredLightAngles(store.info().plan, "target").empty()) {
     std::cout << "projector: not compared (the scan has no structured light on the target)\n";
     return std::optional<calibration::Changes>();
   }
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
   LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::ProjectorCorrespondence> corners,
-                        reconstruction::TargetCornerColumns(scan, target, placement));
+                        calibration::TargetCornerColumns(scan, target, placement));
   LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration fresh, calibration::CalibrateProjector(*rig.projector, {corners, {}}));
   const calibration::Changes changes = calibration::MeasureProjectorDrift(fresh, thresholds);
   PrintChanges("against the stored projector (" + std::to_string(fresh.correspondences) + " target corners decoded)", changes);
@@ -176,7 +176,7 @@ nlohmann::json ChangesJson(const std::optional<calibration::Changes>& changes, c
 }  // namespace
 
 Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, OpenCalibrationStore(scan_dir));
   LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(store));
   LOOM_ASSIGN_OR_RETURN(const calibration::DriftThresholds thresholds,
                         DriftThresholdsOf(opened.rig_yaml, scan_dir + "/scan.yaml (rig)"));

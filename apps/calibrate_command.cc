@@ -12,7 +12,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "acquisition/capture_store.h"
 #include "apps/calibrate_scan.h"
 #include "apps/command.h"
 #include "apps/rig_loader.h"
@@ -22,11 +21,12 @@
 #include "calibration/intrinsics.h"
 #include "calibration/light_positions.h"
 #include "calibration/projector.h"
+#include "calibration/projector_columns.h"
 #include "calibration/radiometry.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/file_io.h"
-#include "reconstruction/projector_columns.h"
 #include "core/version.h"
+#include "scan/capture_store.h"
 
 namespace loom::apps {
 namespace {
@@ -82,10 +82,10 @@ nlohmann::json AgainstNominal(const CameraModel& nominal, const calibration::Cam
 }
 
 // The LEDs' positions from the scan's light-probe views, with the cameras just calibrated.
-Status CalibrateLights(const acquisition::CaptureStore& store, const RigModel& calibrated, const std::string& out) {
+Status CalibrateLights(const scan::CaptureStore& store, const RigModel& calibrated, const std::string& out) {
   const std::string scan_dir = store.directory().string();
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(acquisition::StepKind::kLightProbe));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<calibration::LitView> views, scan.LitViews(scan::StepKind::kLightProbe));
   if (views.empty()) {
     std::cout << "LED positions: not calibrated (the scan has no light-probe views: the rig YAML needs geometry: light_probe:)\n";
     return Status::Ok();
@@ -129,17 +129,17 @@ void PrintProjector(const calibration::ProjectorCalibration& projector) {
 
 // The projector's pose from its columns at the target's corners, and its focal length and centre
 // from the white tile at two heights, with the cameras just calibrated.
-Status CalibrateProjectorPose(const acquisition::CaptureStore& store, const RigModel& calibrated, const CalibrationTargetModel& target,
+Status CalibrateProjectorPose(const scan::CaptureStore& store, const RigModel& calibrated, const CalibrationTargetModel& target,
                               const calibration::TargetPlacement& placement, const std::string& out) {
   const std::string scan_dir = store.directory().string();
-  if (!calibrated.projector || reconstruction::StructuredLightAngles(store.info().plan, "target").empty()) {
+  if (!calibrated.projector || calibration::StructuredLightAngles(store.info().plan, "target").empty()) {
     std::cout << "projector: not calibrated (the scan has no structured light on the target)\n";
     return Status::Ok();
   }
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, calibrated));
   calibration::ProjectorObservations observed;
-  LOOM_ASSIGN_OR_RETURN(observed.corners, reconstruction::TargetCornerColumns(scan, target, placement));
-  LOOM_ASSIGN_OR_RETURN(observed.boards, reconstruction::FlatBoardRays(scan));
+  LOOM_ASSIGN_OR_RETURN(observed.corners, calibration::TargetCornerColumns(scan, target, placement));
+  LOOM_ASSIGN_OR_RETURN(observed.boards, calibration::FlatBoardRays(scan));
   LOOM_ASSIGN_OR_RETURN(const calibration::ProjectorCalibration projector, calibration::CalibrateProjector(*calibrated.projector, observed));
   LOOM_RETURN_IF_ERROR(calibration::WriteProjectorCalibration(out, projector, scan_dir));
   PrintProjector(projector);
@@ -147,7 +147,7 @@ Status CalibrateProjectorPose(const acquisition::CaptureStore& store, const RigM
 }
 
 Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, OpenCalibrationStore(scan_dir));
   LOOM_ASSIGN_OR_RETURN(const CalibrationScan opened, OpenCalibrationScan(store));
   const RigModel& nominal = opened.nominal;
   const CalibrationTargetModel& target = opened.target;
@@ -238,7 +238,7 @@ Result<RigModel> WithStoredGeometry(const RigModel& nominal, const std::string& 
 }
 
 Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib, const std::string& reference_camera) {
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, OpenCalibrationStore(scan_dir));
+  LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, OpenCalibrationStore(scan_dir));
   LOOM_ASSIGN_OR_RETURN(const RigModel nominal, LoadRigModelFromText(store.info().rig_yaml, scan_dir + "/scan.yaml (rig)"));
   LOOM_ASSIGN_OR_RETURN(const RigModel rig, WithStoredGeometry(nominal, calib));
   LOOM_ASSIGN_OR_RETURN(const calibration::ScanRadiance scan, calibration::ScanRadiance::Open(store, rig));
@@ -253,15 +253,15 @@ Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib
 
 }  // namespace
 
-Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_dir) {
-  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store, acquisition::CaptureStore::Open(scan_dir));
+Result<scan::CaptureStore> OpenCalibrationStore(const std::string& scan_dir) {
+  LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store, scan::CaptureStore::Open(scan_dir));
   if (store.info().plan.purpose != "calibration") {
     return InvalidArgumentError(scan_dir, "is a " + store.info().plan.purpose + " scan, not a calibration scan (loom scan --calibration)");
   }
   return store;
 }
 
-Result<CalibrationScan> OpenCalibrationScan(const acquisition::CaptureStore& store) {
+Result<CalibrationScan> OpenCalibrationScan(const scan::CaptureStore& store) {
   const std::string scan_dir = store.directory().string();
   CalibrationScan result;
   result.rig_yaml = store.info().rig_yaml;

@@ -22,9 +22,9 @@
 #include "calibration/projector.h"
 #include "calibration/radiometry_yaml.h"
 #include "core/config.h"
-#include "core/testing/shipped_rig.h"
 #include "core/rig_model.h"
 #include "core/spectra.h"
+#include "core/testing/shipped_rig.h"
 #include "core/testing/subprocess.h"
 
 namespace {

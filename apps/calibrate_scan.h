@@ -4,9 +4,9 @@
 
 #include <string>
 
-#include "acquisition/capture_store.h"
 #include "calibration/geometry.h"
 #include "core/rig_model.h"
+#include "scan/capture_store.h"
 
 namespace loom::apps {
 
@@ -22,9 +22,9 @@ struct CalibrationScan {
 };
 
 // A scan directory that must hold a calibration scan (an error names it otherwise).
-Result<acquisition::CaptureStore> OpenCalibrationStore(const std::string& scan_dir);
+Result<scan::CaptureStore> OpenCalibrationStore(const std::string& scan_dir);
 // Its rig snapshot and the target views detected in it (`store`: OpenCalibrationStore's).
-Result<CalibrationScan> OpenCalibrationScan(const acquisition::CaptureStore& store);
+Result<CalibrationScan> OpenCalibrationScan(const scan::CaptureStore& store);
 
 // loom calibrate check: prints the comparison, writes it to `json_path` when given; returns
 // whether to recalibrate.

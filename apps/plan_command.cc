@@ -4,21 +4,21 @@
 #include <iostream>
 #include <map>
 
-#include "acquisition/plan.h"
 #include "apps/command.h"
 #include "apps/rig_loader.h"
+#include "scan/plan.h"
 
 namespace loom::apps {
 namespace {
 
-using acquisition::Plan;
-using acquisition::Step;
-using acquisition::StepKind;
+using scan::Plan;
+using scan::Step;
+using scan::StepKind;
 
 void PrintStep(const Step& step) {
-  std::cout << "  " << std::setw(5) << step.index << "  " << std::left << std::setw(17) << acquisition::StepKindName(step.kind)
+  std::cout << "  " << std::setw(5) << step.index << "  " << std::left << std::setw(17) << scan::StepKindName(step.kind)
             << std::right << " table " << std::setw(5) << step.turntable_deg << " deg";
-  for (const hal::LedDrive& led : step.leds) {
+  for (const scan::LedDrive& led : step.leds) {
     if (step.leds.size() <= 3) std::cout << "  LED " << led.led << " @ " << led.current_ma << " mA";
   }
   if (step.leds.size() > 3) std::cout << "  " << step.leds.size() << " LEDs";
@@ -49,12 +49,12 @@ int RunPlan(int argc, char** argv) {
 
   Result<RigModel> rig = LoadRigModel(rig_path);
   if (!rig.ok()) return ReportFailure(rig.status());
-  Result<acquisition::Preset> preset = acquisition::LoadPreset(ResolvePresetPath(preset_name));
+  Result<scan::Preset> preset = scan::LoadPreset(ResolvePresetPath(preset_name));
   if (!preset.ok()) return ReportFailure(preset.status());
-  Result<Plan> plan = calibration ? acquisition::MakeCalibrationPlan(*rig, *preset) : acquisition::MakeMaterialPlan(*rig, *preset);
+  Result<Plan> plan = calibration ? scan::MakeCalibrationPlan(*rig, *preset) : scan::MakeMaterialPlan(*rig, *preset);
   if (!plan.ok()) return ReportFailure(plan.status());
   if (yaml) {
-    std::cout << acquisition::PlanToYaml(*plan);
+    std::cout << scan::PlanToYaml(*plan);
     return kExitOk;
   }
 
@@ -66,11 +66,11 @@ int RunPlan(int argc, char** argv) {
     by_kind[step.kind].second += step.images();
   }
   for (const auto& [kind, counts] : by_kind) {
-    std::cout << "  " << std::left << std::setw(17) << acquisition::StepKindName(kind) << std::right << std::setw(6)
+    std::cout << "  " << std::left << std::setw(17) << scan::StepKindName(kind) << std::right << std::setw(6)
               << counts.first << " steps " << std::setw(6) << counts.second << " images\n";
   }
-  const acquisition::DurationModel model;
-  std::cout << "estimated duration: " << FormatDuration(acquisition::EstimateSeconds(*plan, model)) << " ("
+  const scan::DurationModel model;
+  std::cout << "estimated duration: " << FormatDuration(scan::EstimateSeconds(*plan, model)) << " ("
             << model.exposures_per_bracket << " exposures per bracket, " << model.frame_overhead_s
             << " s per frame, turntable " << model.turntable_deg_s << " deg/s, strip " << model.linear_light_mm_s
             << " mm/s)\n";

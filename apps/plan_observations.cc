@@ -3,8 +3,8 @@
 namespace loom::apps {
 namespace {
 
-using acquisition::Step;
-using acquisition::StepKind;
+using scan::Step;
+using scan::StepKind;
 
 template <typename Device>
 Result<int> IndexOf(const std::vector<Device>& devices, const std::string& name, const Step& step) {
@@ -17,7 +17,7 @@ Result<int> IndexOf(const std::vector<Device>& devices, const std::string& name,
 Result<sim::SceneState> StateOf(const RigModel& rig, const Step& step) {
   sim::SceneState state;
   state.turntable_deg = step.turntable_deg;
-  for (const hal::LedDrive& led : step.leds) state.leds.push_back({led.led, led.current_ma});
+  for (const scan::LedDrive& led : step.leds) state.leds.push_back({led.led, led.current_ma});
   if (step.filter) {
     LOOM_ASSIGN_OR_RETURN(const int wheel, IndexOf(rig.filter_wheels, step.filter->wheel, step));
     state.filter_slots[wheel] = step.filter->slot;
@@ -31,7 +31,7 @@ Result<sim::SceneState> StateOf(const RigModel& rig, const Step& step) {
 
 }  // namespace
 
-Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, const acquisition::Plan& plan) {
+Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, const scan::Plan& plan) {
   std::vector<sim::Observation> observations;
   for (const Step& step : plan.steps) {
     if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;

@@ -5,12 +5,12 @@
 
 #include <vector>
 
-#include "acquisition/plan.h"
+#include "scan/plan.h"
 #include "sim/stack.h"
 
 namespace loom::apps {
 
 // Cameras and wheels are looked up by name in `rig`; a name it lacks is an error naming it.
-Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, const acquisition::Plan& plan);
+Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, const scan::Plan& plan);
 
 }  // namespace loom::apps

@@ -87,7 +87,7 @@ std::string SummaryJson(const reconstruction::Reconstruction& r, const Reconstru
 
 Status Reconstruct(const ReconstructArguments& args) {
   const auto start = std::chrono::steady_clock::now();
-  LOOM_ASSIGN_OR_RETURN(const acquisition::CaptureStore store, acquisition::CaptureStore::Open(args.scan));
+  LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, scan::CaptureStore::Open(args.scan));
   LOOM_ASSIGN_OR_RETURN(RigModel rig, LoadRigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
   Applied applied;
   if (!args.calib.empty()) {

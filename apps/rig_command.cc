@@ -10,8 +10,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "apps/rig_loader.h"
 #include "apps/command.h"
+#include "apps/rig_loader.h"
 #include "core/exr_io.h"
 #include "core/interrupt.h"
 #include "hal/aravis/aravis_backend.h"
@@ -109,7 +109,7 @@ int StatusOfAll(Rig& rig) {
   return failures == 0 ? kExitOk : kExitFailure;
 }
 
-Status WriteFrame(const hal::RawFrame& frame, const std::string& path) {
+Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
   if (path.ends_with(".png")) {
     const cv::Mat image(frame.height, frame.width, CV_16UC1, const_cast<uint16_t*>(frame.pixels.data()));
     if (!cv::imwrite(path, image)) return IoError(path, "cannot write PNG");
@@ -118,11 +118,11 @@ Status WriteFrame(const hal::RawFrame& frame, const std::string& path) {
   if (!path.ends_with(".exr")) return InvalidArgumentError("--out " + path, "must end in .exr or .png");
   Image image(frame.width, frame.height, {"Y"});
   std::copy(frame.pixels.begin(), frame.pixels.end(), image.channel(0).begin());
-  const hal::FrameMetadata& meta = frame.metadata;
+  const scan::FrameMetadata& meta = frame.metadata;
   return WriteExr(path, image,
                   {{"loom.camera", meta.camera},
                    {"loom.cameraSerial", meta.camera_serial},
-                   {"loom.pixelFormat", std::string(hal::PixelFormatName(meta.pixel_format))},
+                   {"loom.pixelFormat", std::string(scan::PixelFormatName(meta.pixel_format))},
                    {"loom.exposure_us", meta.exposure_us},
                    {"loom.gain", meta.gain},
                    {"loom.frameId", static_cast<int>(meta.frame_id)},
@@ -131,7 +131,7 @@ Status WriteFrame(const hal::RawFrame& frame, const std::string& path) {
                    {"loom.units", std::string("raw sensor counts (DN)")}});
 }
 
-Result<std::vector<hal::LedDrive>> ParseLeds(const std::string& text);
+Result<std::vector<scan::LedDrive>> ParseLeds(const std::string& text);
 
 Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& leds,
             const std::string& out) {
@@ -141,7 +141,7 @@ Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const 
   hal::SafeStateGuard guard(rig);
   if (!leds.empty()) {
     if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
-    LOOM_ASSIGN_OR_RETURN(const std::vector<hal::LedDrive> drives, ParseLeds(leds));
+    LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, ParseLeds(leds));
     LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
     LOOM_RETURN_IF_ERROR(rig.leds()->Start());
     LOOM_RETURN_IF_ERROR(rig.leds()->Drive(drives));
@@ -157,10 +157,10 @@ Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const 
   LOOM_RETURN_IF_ERROR(camera->Start());
   // The other devices are read for the frame's rig state only where they are open: snap does not
   // move anything, so the state recorded is what the open devices report.
-  LOOM_ASSIGN_OR_RETURN(const hal::RawFrame frame, rig.Snap(*camera));
+  LOOM_ASSIGN_OR_RETURN(const scan::RawFrame frame, rig.Snap(*camera));
   LOOM_RETURN_IF_ERROR(WriteFrame(frame, out));
   std::cout << "wrote " << out << ": " << frame.width << "x" << frame.height << " "
-            << hal::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us
+            << scan::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us
             << " us, from " << camera->description() << "\n";
   return camera->Close();
 }
@@ -191,8 +191,8 @@ Status Move(Rig& rig, const std::string& name, double to) {
   return device->Close();
 }
 
-Result<std::vector<hal::LedDrive>> ParseLeds(const std::string& text) {
-  std::vector<hal::LedDrive> leds;
+Result<std::vector<scan::LedDrive>> ParseLeds(const std::string& text) {
+  std::vector<scan::LedDrive> leds;
   std::stringstream items(text);
   std::string item;
   while (std::getline(items, item, ',')) {
@@ -209,7 +209,7 @@ Result<std::vector<hal::LedDrive>> ParseLeds(const std::string& text) {
 
 Status Leds(Rig& rig, const std::string& on, double hold_s) {
   if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
-  LOOM_ASSIGN_OR_RETURN(const std::vector<hal::LedDrive> leds, ParseLeds(on));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> leds, ParseLeds(on));
   hal::SafeStateGuard guard(rig);
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
   LOOM_RETURN_IF_ERROR(rig.leds()->Start());

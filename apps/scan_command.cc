@@ -1,25 +1,25 @@
 // loom scan: run a measurement plan on a rig into a crash-safe scan directory, or resume one.
 #include <iostream>
 
-#include "acquisition/capture_store.h"
 #include "acquisition/sequencer.h"
 #include "apps/command.h"
 #include "apps/progress.h"
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
+#include "scan/capture_store.h"
 
 namespace loom::apps {
 namespace {
 
 namespace fs = std::filesystem;
 
-Result<acquisition::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, const std::string& purpose) {
+Result<scan::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, const std::string& purpose) {
   if (!loaded.model) {
     return InvalidArgumentError("rig '" + loaded.rig->name() + "'", "has no 'geometry:' section: a plan needs the rig's description");
   }
-  LOOM_ASSIGN_OR_RETURN(const acquisition::Preset preset, acquisition::LoadPreset(ResolvePresetPath(preset_name)));
-  return purpose == "calibration" ? acquisition::MakeCalibrationPlan(*loaded.model, preset)
-                                  : acquisition::MakeMaterialPlan(*loaded.model, preset);
+  LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
+  return purpose == "calibration" ? scan::MakeCalibrationPlan(*loaded.model, preset)
+                                  : scan::MakeMaterialPlan(*loaded.model, preset);
 }
 
 // A real rig's operator places each object: the first before the scan starts (it is named),
@@ -39,7 +39,7 @@ Status AskOperator(const std::string& object, bool* first) {
   return Status::Ok();
 }
 
-Status RunScan(LoadedRig& loaded, const acquisition::Plan& plan, acquisition::CaptureStore& store, bool quiet) {
+Status RunScan(LoadedRig& loaded, const scan::Plan& plan, scan::CaptureStore& store, bool quiet) {
   hal::SafeStateGuard guard(*loaded.rig);
   acquisition::SequencerOptions options;
   bool first_object = true;
@@ -60,15 +60,15 @@ Status NewScan(const std::string& rig_path, const std::string& preset, const std
   LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(rig_path));
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, rig_path, object));
   const std::string purpose = calibration ? "calibration" : "material";
-  LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, MakePlan(loaded, preset, purpose));
-  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store,
-                        acquisition::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan}));
+  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, MakePlan(loaded, preset, purpose));
+  LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store,
+                        scan::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan}));
   return RunScan(loaded, store.info().plan, store, quiet);
 }
 
 Status ResumeScan(const fs::path& directory, bool quiet) {
-  LOOM_ASSIGN_OR_RETURN(acquisition::CaptureStore store, acquisition::CaptureStore::Open(directory, /*repair=*/true));
-  const acquisition::ScanInfo& info = store.info();
+  LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store, scan::CaptureStore::Open(directory, /*repair=*/true));
+  const scan::ScanInfo& info = store.info();
   const std::string object = info.object == "sample" ? "" : info.object;
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(info.rig_yaml, (directory / "scan.yaml").string() + " (rig)", object));
   if (!quiet) {

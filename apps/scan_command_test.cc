@@ -11,13 +11,13 @@
 #include <random>
 #include <thread>
 
-#include "acquisition/capture_store.h"
 #include "core/testing/subprocess.h"
+#include "scan/capture_store.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-using loom::acquisition::CaptureStore;
+using loom::scan::CaptureStore;
 using loom::testing::Subprocess;
 using namespace std::chrono_literals;
 

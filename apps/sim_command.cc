@@ -9,14 +9,14 @@
 #include <sstream>
 
 
-#include "acquisition/plan.h"
 #include "apps/command.h"
 #include "apps/plan_observations.h"
+#include "apps/rig_loader.h"
+#include "core/exr_io.h"
 #include "core/observation_stack.h"
 #include "fitting/export.h"
 #include "fitting/model/svbrdf_maps.h"
-#include "apps/rig_loader.h"
-#include "core/exr_io.h"
+#include "scan/plan.h"
 #include "sim/fabric.h"
 #include "sim/sample.h"
 #include "sim/stack.h"
@@ -108,9 +108,9 @@ int RenderStack(const LoadedRig& loaded, const std::string& preset_name, int siz
                 const fs::path& out) {
   const std::shared_ptr<const sim::Scene> scene_owner = loaded.world->scene();
   const sim::Scene& scene = *scene_owner;
-  Result<acquisition::Preset> preset = acquisition::LoadPreset(ResolvePresetPath(preset_name));
+  Result<scan::Preset> preset = scan::LoadPreset(ResolvePresetPath(preset_name));
   if (!preset.ok()) return ReportFailure(preset.status());
-  Result<acquisition::Plan> plan = acquisition::MakeMaterialPlan(scene.rig(), *preset);
+  Result<scan::Plan> plan = scan::MakeMaterialPlan(scene.rig(), *preset);
   if (!plan.ok()) return ReportFailure(plan.status());
   Result<std::vector<sim::Observation>> observations = PlanObservations(scene.rig(), *plan);
   if (!observations.ok()) return ReportFailure(observations.status());

@@ -24,7 +24,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "acquisition/plan.h"
 #include "apps/command.h"
 #include "apps/plan_observations.h"
 #include "apps/progress.h"
@@ -33,6 +32,7 @@
 #include "core/version.h"
 #include "fitting/cnn_training.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "scan/plan.h"
 #include "sim/material.h"
 #include "sim/sample.h"
 #include "sim/stack.h"
@@ -71,8 +71,8 @@ Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::pat
   if (!loaded->world) return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
   const std::shared_ptr<const sim::Scene> rig_scene_owner = loaded->world->scene();
   const sim::Scene& rig_scene = *rig_scene_owner;
-  LOOM_ASSIGN_OR_RETURN(const acquisition::Preset preset, acquisition::LoadPreset(ResolvePresetPath(args.preset)));
-  LOOM_ASSIGN_OR_RETURN(const acquisition::Plan plan, acquisition::MakeMaterialPlan(rig_scene.rig(), preset));
+  LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
+  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, scan::MakeMaterialPlan(rig_scene.rig(), preset));
   LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, PlanObservations(rig_scene.rig(), plan));
   std::error_code ec;
   fs::create_directories(dir, ec);

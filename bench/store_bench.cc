@@ -7,9 +7,9 @@
 
 #include <filesystem>
 
-#include "acquisition/capture_store.h"
 #include "bench/bench_report.h"
 #include "bench/fake_camera_peers.h"
+#include "scan/capture_store.h"
 
 namespace {
 
@@ -36,7 +36,7 @@ void BM_FourCameras(benchmark::State& state) {
   const bool store_frames = state.range(0) == 1;
   const fs::path dir = fs::temp_directory_path() / "loom_bench_store";
   fs::remove_all(dir);
-  auto store = loom::acquisition::CaptureStore::Create(dir, {"bench", "fake", {}});
+  auto store = loom::scan::CaptureStore::Create(dir, {"bench", "fake", {}});
   if (!store.ok()) {
     state.SkipWithError(store.status().ToString().c_str());
     return;

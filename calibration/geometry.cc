@@ -214,8 +214,8 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
   const BoardSpec board{"chessboard", target.inner_cols, target.inner_rows, target.square_mm};
   const RigModel& rig = scan.rig();
   DetectedTargetViews detected;
-  for (const acquisition::Step& step : scan.plan().steps) {
-    if (step.kind != acquisition::StepKind::kTarget) continue;
+  for (const scan::Step& step : scan.plan().steps) {
+    if (step.kind != scan::StepKind::kTarget) continue;
     for (const std::string& camera_name : step.cameras) {
       LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera_name));
       const std::string source = "step " + std::to_string(step.index) + " " + camera_name;

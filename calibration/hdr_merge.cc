@@ -7,13 +7,13 @@
 namespace loom::calibration {
 namespace {
 
-std::string FrameName(const hal::RawFrame& frame) {
+std::string FrameName(const scan::RawFrame& frame) {
   return "frame " + std::to_string(frame.metadata.frame_id) + " of camera '" + frame.metadata.camera + "'";
 }
 
-Status CheckBracket(const std::vector<hal::RawFrame>& bracket) {
+Status CheckBracket(const std::vector<scan::RawFrame>& bracket) {
   if (bracket.empty()) return InvalidArgumentError("HDR merge", "an empty bracket");
-  for (const hal::RawFrame& frame : bracket) {
+  for (const scan::RawFrame& frame : bracket) {
     if (frame.width != bracket[0].width || frame.height != bracket[0].height ||
         frame.pixels.size() != static_cast<size_t>(frame.width) * frame.height) {
       return InvalidArgumentError(FrameName(frame), "is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
@@ -70,7 +70,7 @@ std::pair<double, double> MergePixel(const std::vector<Reading>& readings, const
 
 }  // namespace
 
-Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor) {
+Result<HdrImage> MergeBracket(const std::vector<scan::RawFrame>& bracket, const SensorNoise& sensor) {
   LOOM_RETURN_IF_ERROR(CheckBracket(bracket));
   const int width = bracket[0].width;
   const int height = bracket[0].height;
@@ -79,7 +79,7 @@ Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const S
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       readings.clear();
-      for (const hal::RawFrame& frame : bracket) {
+      for (const scan::RawFrame& frame : bracket) {
         const double value = frame.at(y, x);
         if (value >= sensor.saturation_dn) continue;
         readings.push_back({value - sensor.black_dn, frame.metadata.exposure_us});
@@ -98,7 +98,7 @@ namespace {
 // Each pixel's reading averaged with its neighbours (5 × 5, clipped at the edges): what the
 // linearity check selects pixels by. Selecting on a pixel's own readings would keep those whose
 // noise went one way: near saturation, a bias of tenths of a percent.
-std::vector<double> LocalMean(const hal::RawFrame& frame, double black) {
+std::vector<double> LocalMean(const scan::RawFrame& frame, double black) {
   constexpr int kRadius = 2;
   std::vector<double> mean(frame.pixels.size());
   for (int y = 0; y < frame.height; ++y) {
@@ -119,18 +119,18 @@ std::vector<double> LocalMean(const hal::RawFrame& frame, double black) {
 
 }  // namespace
 
-Result<Linearity> MeasureLinearity(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor,
+Result<Linearity> MeasureLinearity(const std::vector<scan::RawFrame>& bracket, const SensorNoise& sensor,
                                    const std::vector<uint8_t>& mask) {
   LOOM_RETURN_IF_ERROR(CheckBracket(bracket));
   const double low = 10 * sensor.floor_sigmas * sensor.read_noise_dn;
   const double high = 0.9 * (sensor.saturation_dn - sensor.black_dn);
-  std::vector<const hal::RawFrame*> frames;
-  for (const hal::RawFrame& frame : bracket) frames.push_back(&frame);
+  std::vector<const scan::RawFrame*> frames;
+  for (const scan::RawFrame& frame : bracket) frames.push_back(&frame);
   std::sort(frames.begin(), frames.end(), [](auto* a, auto* b) { return a->metadata.exposure_us < b->metadata.exposure_us; });
   Linearity linearity;
   for (size_t i = 0; i + 1 < frames.size(); ++i) {
-    const hal::RawFrame& shorter = *frames[i];
-    const hal::RawFrame& longer = *frames[i + 1];
+    const scan::RawFrame& shorter = *frames[i];
+    const scan::RawFrame& longer = *frames[i + 1];
     const double gain = longer.metadata.exposure_us / shorter.metadata.exposure_us;
     const std::vector<double> expected = LocalMean(shorter, sensor.black_dn);
     double sum_short = 0, sum_long = 0;

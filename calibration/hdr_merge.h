@@ -18,7 +18,7 @@
 
 #include "core/image.h"
 #include "core/status.h"
-#include "hal/camera.h"
+#include "scan/frame.h"
 
 namespace loom::calibration {
 
@@ -39,7 +39,7 @@ struct HdrImage {
 
 // `bracket`: frames of one camera and view, any exposure order; all the same size. An empty
 // bracket, mixed sizes or a non-positive exposure time are errors naming the frame.
-Result<HdrImage> MergeBracket(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor);
+Result<HdrImage> MergeBracket(const std::vector<scan::RawFrame>& bracket, const SensorNoise& sensor);
 
 // Camera linearity from a bracket of a steady scene: for each pair of consecutive exposures, the
 // mean count rate (reading above black over exposure time) of the pixels both read well — above
@@ -52,7 +52,7 @@ struct Linearity {
   int pairs = 0;
 };
 // `mask`: the pixels to use (row-major, nonzero = use), or empty for all.
-Result<Linearity> MeasureLinearity(const std::vector<hal::RawFrame>& bracket, const SensorNoise& sensor,
+Result<Linearity> MeasureLinearity(const std::vector<scan::RawFrame>& bracket, const SensorNoise& sensor,
                                    const std::vector<uint8_t>& mask = {});
 
 }  // namespace loom::calibration

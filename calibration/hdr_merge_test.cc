@@ -25,10 +25,10 @@ SensorNoise NoiseOf(const SensorModel& sensor) {
           static_cast<double>((1 << sensor.adc_bits) - 2), 3};
 }
 
-std::vector<hal::RawFrame> Bracket(const Image& radiance, const SensorModel& sensor, const std::vector<double>& exposures_us) {
-  std::vector<hal::RawFrame> bracket;
+std::vector<scan::RawFrame> Bracket(const Image& radiance, const SensorModel& sensor, const std::vector<double>& exposures_us) {
+  std::vector<scan::RawFrame> bracket;
   for (size_t i = 0; i < exposures_us.size(); ++i) {
-    hal::RawFrame frame;
+    scan::RawFrame frame;
     frame.width = radiance.width();
     frame.height = radiance.height();
     frame.pixels = sim::CaptureRaw(radiance, sensor, {exposures_us[i], 0}, 1000 + i);
@@ -90,7 +90,7 @@ TEST(HdrMergeTest, BlackStaysBlackAndAlwaysSaturatedIsUnknown) {
 TEST(HdrMergeTest, ABadBracketIsAnErrorNamingTheFrame) {
   const SensorModel sensor = TestSensor();
   Image radiance(4, 4, {"L"});
-  std::vector<hal::RawFrame> bracket = Bracket(radiance, sensor, {100, 400});
+  std::vector<scan::RawFrame> bracket = Bracket(radiance, sensor, {100, 400});
   EXPECT_FALSE(MergeBracket({}, NoiseOf(sensor)).ok());
   bracket[1].metadata.exposure_us = 0;
   const Result<HdrImage> no_time = MergeBracket(bracket, NoiseOf(sensor));
@@ -110,13 +110,13 @@ TEST(HdrMergeTest, LinearityOfASteadyScene) {
   const double reading_at_longest = 3000;  // DN above black at 4000 µs
   const auto grey = radiance.channel(0);
   std::fill(grey.begin(), grey.end(), static_cast<float>(reading_at_longest * sensor.ElectronsPerDn() / (sensor.sensitivity * 4000e-6)));
-  std::vector<hal::RawFrame> bracket = Bracket(radiance, sensor, {250, 1000, 4000});
+  std::vector<scan::RawFrame> bracket = Bracket(radiance, sensor, {250, 1000, 4000});
   const Result<Linearity> linear = MeasureLinearity(bracket, NoiseOf(sensor));
   ASSERT_TRUE(linear.ok()) << linear.status().ToString();
   EXPECT_EQ(linear->pairs, 2);
   EXPECT_NEAR(linear->max_dn, reading_at_longest, 100);
   EXPECT_LT(linear->deviation, 0.005);
-  for (hal::RawFrame& frame : bracket) {
+  for (scan::RawFrame& frame : bracket) {
     for (uint16_t& v : frame.pixels) {
       const double s = v - sensor.dark_offset_dn;
       v = static_cast<uint16_t>(std::lround(sensor.dark_offset_dn + s * (1 - 0.06 * s / 4031)));

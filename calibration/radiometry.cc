@@ -15,7 +15,7 @@
 namespace loom::calibration {
 namespace {
 
-using acquisition::StepKind;
+using scan::StepKind;
 
 // Where a camera pixel looks on the turntable's plane (z = 0 in the sample frame at the view's
 // angle), if it looks down at it.
@@ -422,7 +422,7 @@ Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const
   LinearityByCamera linearity;
   for (const LitView& view : white) {
     const std::string& camera = scan.rig().cameras[view.camera].name;
-    LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> bracket, scan.Bracket(view.step, camera));
+    LOOM_ASSIGN_OR_RETURN(const std::vector<scan::RawFrame> bracket, scan.Bracket(view.step, camera));
     LOOM_ASSIGN_OR_RETURN(const Linearity measured, MeasureLinearity(bracket, scan.NoiseOf(camera, bracket.front().metadata.gain),
                                                                      BrightPixels(view.radiance, options.edge_px)));
     Linearity& worst = linearity[camera];

@@ -6,11 +6,11 @@
 
 namespace loom::calibration {
 
-using acquisition::FrameRecord;
-using acquisition::Step;
-using acquisition::StepKind;
+using scan::FrameRecord;
+using scan::Step;
+using scan::StepKind;
 
-Result<ScanRadiance> ScanRadiance::Open(const acquisition::CaptureStore& store, const RigModel& rig) {
+Result<ScanRadiance> ScanRadiance::Open(const scan::CaptureStore& store, const RigModel& rig) {
   ScanRadiance scan(store, rig);
   for (const Step& step : store.info().plan.steps) {
     for (const std::string& camera : step.cameras) {
@@ -27,8 +27,8 @@ Result<ScanRadiance> ScanRadiance::Open(const acquisition::CaptureStore& store, 
     for (const std::string& camera : step.cameras) {
       const auto bracket = scan.brackets_.find({step.index, camera});
       if (bracket == scan.brackets_.end()) return NotFoundError(scan.Where(step.index, camera), "the dark frame is missing");
-      LOOM_ASSIGN_OR_RETURN(const hal::RawFrame dark, store.ReadFrame(*bracket->second.front()));
-      scan.dark_[camera] = acquisition::MeasureDarkLevel(dark);
+      LOOM_ASSIGN_OR_RETURN(const scan::RawFrame dark, store.ReadFrame(*bracket->second.front()));
+      scan.dark_[camera] = scan::MeasureDarkLevel(dark);
     }
     break;
   }
@@ -39,16 +39,16 @@ std::string ScanRadiance::Where(int step, const std::string& camera) const {
   return "scan " + store_->directory().string() + ", step " + std::to_string(step) + ", camera '" + camera + "'";
 }
 
-Result<std::vector<hal::RawFrame>> ScanRadiance::Bracket(int step, const std::string& camera_name) const {
+Result<std::vector<scan::RawFrame>> ScanRadiance::Bracket(int step, const std::string& camera_name) const {
   if (!store_->StepDone(step)) {
     return FailedPreconditionError(Where(step, camera_name), "the step was not captured to the end (resume the scan: loom scan --resume)");
   }
   const auto bracket = brackets_.find({step, camera_name});
   if (bracket == brackets_.end()) return NotFoundError(Where(step, camera_name), "no frames recorded");
   const CameraModel& camera = *rig_->FindCamera(camera_name);
-  std::vector<hal::RawFrame> frames;
+  std::vector<scan::RawFrame> frames;
   for (const FrameRecord* record : bracket->second) {
-    LOOM_ASSIGN_OR_RETURN(hal::RawFrame frame, store_->ReadFrame(*record));
+    LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, store_->ReadFrame(*record));
     if (frame.width != camera.width || frame.height != camera.height) {
       return InvalidArgumentError(store_->directory().string() + "/" + record->file,
                                   "is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + ", camera '" +
@@ -71,7 +71,7 @@ SensorNoise ScanRadiance::NoiseOf(const std::string& camera_name, double gain_db
 }
 
 Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name) const {
-  LOOM_ASSIGN_OR_RETURN(const std::vector<hal::RawFrame> frames, Bracket(step, camera_name));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<scan::RawFrame> frames, Bracket(step, camera_name));
   const CameraModel& camera = *rig_->FindCamera(camera_name);
   const SensorModel& sensor = camera.sensor;
   const SensorNoise noise = NoiseOf(camera_name, frames.front().metadata.gain);
@@ -109,10 +109,10 @@ Result<std::vector<LitView>> ScanRadiance::LitViews(StepKind kind) const {
 }
 
 // The lights of a view as the rig model names them; only the wheels in front of lit LEDs count.
-Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where) {
+Result<LightingState> LightingOf(const RigModel& rig, const scan::RigState& state, const std::string& where) {
   LightingState lighting;
   lighting.turntable_deg = state.turntable_deg;
-  for (const hal::LedDrive& led : state.leds_on) {
+  for (const scan::LedDrive& led : state.leds_on) {
     lighting.leds.emplace_back(led.led, led.current_ma);
     for (size_t w = 0; w < rig.filter_wheels.size(); ++w) {
       const FilterWheelModel& wheel = rig.filter_wheels[w];

@@ -13,25 +13,25 @@
 #include <utility>
 #include <vector>
 
-#include "acquisition/capture_store.h"
-#include "acquisition/sequencer.h"
 #include "calibration/hdr_merge.h"
 #include "core/image.h"
-#include "core/rig_observation.h"
 #include "core/rig_model.h"
+#include "core/rig_observation.h"
+#include "scan/capture_store.h"
+#include "scan/dark_level.h"
 
 namespace loom::calibration {
 
 struct RadianceView {
   int camera = 0;           // index into the rig's cameras
-  hal::RigState state;      // what the devices did (the first frame's record)
+  scan::RigState state;      // what the devices did (the first frame's record)
   Image radiance;           // channel "L"; NaN where every exposure saturated
   int saturated_pixels = 0;
 };
 
 // The lights of a view as the rig model names them (only the wheels in front of lit LEDs
 // count); a lit LED whose wheel position was not recorded is an error naming `where`.
-Result<LightingState> LightingOf(const RigModel& rig, const hal::RigState& state, const std::string& where);
+Result<LightingState> LightingOf(const RigModel& rig, const scan::RigState& state, const std::string& where);
 
 // One view's radiance and what lit it: ScanRadiance's views, or rendered ones in tests.
 struct LitView {
@@ -45,27 +45,27 @@ struct LitView {
 class ScanRadiance {
  public:
   // `store` and `rig` must outlive the reader. Every camera of the plan must be in `rig`.
-  static Result<ScanRadiance> Open(const acquisition::CaptureStore& store, const RigModel& rig);
+  static Result<ScanRadiance> Open(const scan::CaptureStore& store, const RigModel& rig);
 
-  const acquisition::Plan& plan() const { return store_->info().plan; }
+  const scan::Plan& plan() const { return store_->info().plan; }
   const RigModel& rig() const { return *rig_; }
   const std::filesystem::path& directory() const { return store_->directory(); }
   Result<RadianceView> View(int step, const std::string& camera) const;
   // The step's raw bracket for one camera, and what the HDR merge knows of that camera at the
   // bracket's gain: what View merges, for measurements on the raw readings (linearity).
-  Result<std::vector<hal::RawFrame>> Bracket(int step, const std::string& camera) const;
+  Result<std::vector<scan::RawFrame>> Bracket(int step, const std::string& camera) const;
   SensorNoise NoiseOf(const std::string& camera, double gain_db) const;
   // Every view of every step of `kind`, with its lighting.
-  Result<std::vector<LitView>> LitViews(acquisition::StepKind kind) const;
+  Result<std::vector<LitView>> LitViews(scan::StepKind kind) const;
 
  private:
-  ScanRadiance(const acquisition::CaptureStore& store, const RigModel& rig) : store_(&store), rig_(&rig) {}
+  ScanRadiance(const scan::CaptureStore& store, const RigModel& rig) : store_(&store), rig_(&rig) {}
   std::string Where(int step, const std::string& camera) const;
 
-  const acquisition::CaptureStore* store_;
+  const scan::CaptureStore* store_;
   const RigModel* rig_;
-  std::map<std::string, acquisition::DarkLevel> dark_;                      // by camera
-  std::map<std::pair<int, std::string>, std::vector<const acquisition::FrameRecord*>> brackets_;  // (step, camera)
+  std::map<std::string, scan::DarkLevel> dark_;                      // by camera
+  std::map<std::pair<int, std::string>, std::vector<const scan::FrameRecord*>> brackets_;  // (step, camera)
 };
 
 }  // namespace loom::calibration

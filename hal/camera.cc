@@ -11,19 +11,19 @@ namespace {
 
 using internal::FormatNumber;
 
-std::string Format(const Roi& roi) {
+std::string Format(const scan::Roi& roi) {
   return std::to_string(roi.x) + "," + std::to_string(roi.y) + " " + std::to_string(roi.width) +
          "x" + std::to_string(roi.height);
 }
 
-bool Offers(const CameraCapabilities& caps, PixelFormat format) {
+bool Offers(const CameraCapabilities& caps, scan::PixelFormat format) {
   return std::find(caps.pixel_formats.begin(), caps.pixel_formats.end(), format) !=
          caps.pixel_formats.end();
 }
 
-void NegotiateRoi(const CameraCapabilities& caps, const Roi& requested, Roi* applied,
+void NegotiateRoi(const CameraCapabilities& caps, const scan::Roi& requested, scan::Roi* applied,
                   ConfigureReport* report) {
-  Roi roi = requested;
+  scan::Roi roi = requested;
   if (roi.width == 0) roi.width = caps.sensor_width - roi.x;
   if (roi.height == 0) roi.height = caps.sensor_height - roi.y;
   if (roi.x < 0 || roi.y < 0 || roi.width <= 0 || roi.height <= 0 || roi.x >= caps.sensor_width ||
@@ -33,7 +33,7 @@ void NegotiateRoi(const CameraCapabilities& caps, const Roi& requested, Roi* app
                    " sensor");
     return;
   }
-  Roi clipped = roi;
+  scan::Roi clipped = roi;
   clipped.width = std::min(roi.width, caps.sensor_width - roi.x);
   clipped.height = std::min(roi.height, caps.sensor_height - roi.y);
   if (clipped != roi) {
@@ -56,32 +56,6 @@ bool Differs(double a, double b) { return std::abs(a - b) > 1e-9 * std::max(1.0,
 
 }  // namespace
 
-std::string_view PixelFormatName(PixelFormat format) {
-  switch (format) {
-    case PixelFormat::kMono8: return "Mono8";
-    case PixelFormat::kMono12: return "Mono12";
-    case PixelFormat::kMono16: return "Mono16";
-  }
-  return "unknown";
-}
-
-Result<PixelFormat> ParsePixelFormat(std::string_view name) {
-  for (PixelFormat f : {PixelFormat::kMono8, PixelFormat::kMono12, PixelFormat::kMono16}) {
-    if (PixelFormatName(f) == name) return f;
-  }
-  return InvalidArgumentError("pixel format '" + std::string(name) + "'",
-                              "unknown (expected Mono8, Mono12 or Mono16)");
-}
-
-int BitDepth(PixelFormat format) {
-  switch (format) {
-    case PixelFormat::kMono8: return 8;
-    case PixelFormat::kMono12: return 12;
-    case PixelFormat::kMono16: return 16;
-  }
-  return 16;
-}
-
 std::string_view TriggerModeName(TriggerMode mode) {
   switch (mode) {
     case TriggerMode::kFreeRun: return "free-run";
@@ -96,11 +70,11 @@ ConfigureReport Camera::Negotiate(const CameraSettings& requested, CameraSetting
   ConfigureReport report;
   *applied = requested;
   if (!Offers(caps, requested.pixel_format)) {
-    if (requested.pixel_format == PixelFormat::kMono12 && Offers(caps, PixelFormat::kMono16)) {
-      applied->pixel_format = PixelFormat::kMono16;
+    if (requested.pixel_format == scan::PixelFormat::kMono12 && Offers(caps, scan::PixelFormat::kMono16)) {
+      applied->pixel_format = scan::PixelFormat::kMono16;
       report.Adjust("pixel_format", "Mono12", "Mono16", "the camera does not offer Mono12");
     } else {
-      report.Reject("pixel format " + std::string(PixelFormatName(requested.pixel_format)) +
+      report.Reject("pixel format " + std::string(scan::PixelFormatName(requested.pixel_format)) +
                     " is not offered by the camera");
     }
   }
@@ -149,12 +123,12 @@ Status Camera::TriggerSoftware() {
   return DoTriggerSoftware();
 }
 
-Result<RawFrame> Camera::WaitFrame() {
+Result<scan::RawFrame> Camera::WaitFrame() {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "WaitFrame"));
   return DoWaitFrame(std::chrono::milliseconds(settings_.frame_timeout_ms));
 }
 
-Result<RawFrame> Camera::Snap() {
+Result<scan::RawFrame> Camera::Snap() {
   LOOM_RETURN_IF_ERROR(TriggerSoftware());
   return WaitFrame();
 }

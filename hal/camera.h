@@ -21,29 +21,16 @@
 #include <vector>
 
 #include "hal/device.h"
-#include "hal/rig_state.h"
+#include "scan/frame.h"
 
 namespace loom::hal {
-
-enum class PixelFormat { kMono8, kMono12, kMono16 };
-std::string_view PixelFormatName(PixelFormat format);
-Result<PixelFormat> ParsePixelFormat(std::string_view name);
-int BitDepth(PixelFormat format);
 
 enum class TriggerMode { kFreeRun, kSoftware, kHardware };
 std::string_view TriggerModeName(TriggerMode mode);
 
-struct Roi {
-  int x = 0;
-  int y = 0;
-  int width = 0;   // 0 = full sensor width
-  int height = 0;  // 0 = full sensor height
-  bool operator==(const Roi&) const = default;
-};
-
 struct CameraSettings {
-  PixelFormat pixel_format = PixelFormat::kMono16;
-  Roi roi;
+  scan::PixelFormat pixel_format = scan::PixelFormat::kMono16;
+  scan::Roi roi;
   double exposure_us = 10000.0;
   double gain = 0.0;
   TriggerMode trigger = TriggerMode::kSoftware;
@@ -55,33 +42,11 @@ struct CameraSettings {
 struct CameraCapabilities {
   int sensor_width = 0;
   int sensor_height = 0;
-  std::vector<PixelFormat> pixel_formats;
+  std::vector<scan::PixelFormat> pixel_formats;
   double exposure_min_us = 0;
   double exposure_max_us = 0;
   double gain_min = 0;
   double gain_max = 0;
-};
-
-struct FrameMetadata {
-  std::string camera;          // rig name of the camera
-  std::string camera_serial;
-  PixelFormat pixel_format = PixelFormat::kMono16;
-  Roi roi;                     // as applied (full-sensor ROI spelled out)
-  double exposure_us = 0;      // as the camera reports it applied
-  double gain = 0;
-  uint64_t frame_id = 0;       // the camera's frame counter
-  uint64_t device_timestamp_ns = 0;
-  int64_t host_timestamp_ns = 0;  // system clock, ns since the Unix epoch, when received
-  RigState rig_state;          // filled by the Rig
-};
-
-struct RawFrame {
-  int width = 0;
-  int height = 0;
-  std::vector<uint16_t> pixels;  // row-major, width * height
-  FrameMetadata metadata;
-
-  uint16_t at(int y, int x) const { return pixels[static_cast<size_t>(y) * width + x]; }
 };
 
 class Camera : public Device {
@@ -99,9 +64,9 @@ class Camera : public Device {
   // Running, software trigger: asks for one frame.
   Status TriggerSoftware();
   // Running: the next frame, or Timeout / Unavailable naming the camera.
-  Result<RawFrame> WaitFrame();
+  Result<scan::RawFrame> WaitFrame();
   // Running, software trigger: TriggerSoftware() then WaitFrame().
-  Result<RawFrame> Snap();
+  Result<scan::RawFrame> Snap();
 
  protected:
   void set_capabilities(CameraCapabilities capabilities) { capabilities_ = std::move(capabilities); }
@@ -111,7 +76,7 @@ class Camera : public Device {
   // Applies validated settings; may refine *applied with what the device reports back.
   virtual Status DoConfigure(CameraSettings* applied) = 0;
   virtual Status DoTriggerSoftware() = 0;
-  virtual Result<RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) = 0;
+  virtual Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) = 0;
 
  private:
   CameraCapabilities capabilities_;

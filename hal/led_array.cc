@@ -25,9 +25,9 @@ Result<ConfigureReport> LedArray::Configure(const LedArraySettings& requested) {
   return report;
 }
 
-Status LedArray::Drive(std::span<const LedDrive> leds) {
+Status LedArray::Drive(std::span<const scan::LedDrive> leds) {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "Drive"));
-  for (const LedDrive& drive : leds) {
+  for (const scan::LedDrive& drive : leds) {
     if (drive.led < 0 || drive.led >= led_count_) {
       return Error(StatusCode::kInvalidArgument, "LED " + std::to_string(drive.led) +
                                                      " does not exist (0.." +

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "hal/device.h"
-#include "hal/rig_state.h"
+#include "scan/rig_state.h"
 
 namespace loom::hal {
 
@@ -38,7 +38,7 @@ class LedArray : public Device {
   Result<ConfigureReport> Configure(const LedArraySettings& requested);
   // Running. Lights exactly these LEDs; an index out of range or a current above the limit is
   // InvalidArgument (nothing changes).
-  Status Drive(std::span<const LedDrive> leds);
+  Status Drive(std::span<const scan::LedDrive> leds);
   // Any open state: every LED off.
   Status AllOff();
   // Any open state.
@@ -50,7 +50,7 @@ class LedArray : public Device {
     max_current_ma_ = max_current_ma;
   }
   virtual Status DoConfigure(const LedArraySettings& applied) = 0;
-  virtual Status DoDrive(std::span<const LedDrive> leds) = 0;
+  virtual Status DoDrive(std::span<const scan::LedDrive> leds) = 0;
   virtual Status DoAllOff() = 0;
   virtual Result<LedArrayReadback> DoRead() = 0;
   Status DoMakeSafe() override { return DoAllOff(); }

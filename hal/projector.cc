@@ -21,7 +21,7 @@ Result<ConfigureReport> Projector::Configure(const ProjectorSettings& requested)
   return report;
 }
 
-Status Projector::Show(const Pattern& pattern) {
+Status Projector::Show(const scan::Pattern& pattern) {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "Show"));
   if (pattern.width != settings_.width || pattern.height != settings_.height ||
       pattern.pixels.size() != static_cast<size_t>(pattern.width) * pattern.height) {

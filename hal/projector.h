@@ -11,19 +11,13 @@
 #include <vector>
 
 #include "hal/device.h"
+#include "scan/pattern.h"
 
 namespace loom::hal {
 
 struct ProjectorSettings {
   int width = 0;
   int height = 0;
-};
-
-struct Pattern {
-  std::string name;  // e.g. "gray_x_03", recorded with each frame
-  int width = 0;
-  int height = 0;
-  std::vector<uint8_t> pixels;  // row-major grey levels
 };
 
 class Projector : public Device {
@@ -39,7 +33,7 @@ class Projector : public Device {
 
   Result<ConfigureReport> Configure(const ProjectorSettings& requested);
   // Running. The pattern must have the configured size.
-  Status Show(const Pattern& pattern);
+  Status Show(const scan::Pattern& pattern);
   // Any open state: all black.
   Status Blank();
 
@@ -49,7 +43,7 @@ class Projector : public Device {
     native_height_ = height;
   }
   virtual Status DoConfigure(const ProjectorSettings& applied) = 0;
-  virtual Status DoShow(const Pattern& pattern) = 0;
+  virtual Status DoShow(const scan::Pattern& pattern) = 0;
   virtual Status DoBlank() = 0;
   Status DoMakeSafe() override { return Blank(); }
 

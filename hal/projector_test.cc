@@ -15,8 +15,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-Pattern Stripes(const std::string& name, int width, int height, int period) {
-  Pattern pattern{name, width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height)};
+scan::Pattern Stripes(const std::string& name, int width, int height, int period) {
+  scan::Pattern pattern{name, width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height)};
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) pattern.pixels[y * width + x] = (x / period) % 2 ? 255 : 0;
   }

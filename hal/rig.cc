@@ -25,7 +25,7 @@ TriggerMode ParseTrigger(const ConfigNode& node, const std::string& text) {
 
 CameraSettings ReadCameraSettings(const ConfigNode& node) {
   CameraSettings settings;
-  std::string pixel_format(PixelFormatName(settings.pixel_format));
+  std::string pixel_format(scan::PixelFormatName(settings.pixel_format));
   std::string trigger(TriggerModeName(settings.trigger));
   std::vector<int> roi;
   node.Optional("pixel_format", &pixel_format);
@@ -35,7 +35,7 @@ CameraSettings ReadCameraSettings(const ConfigNode& node) {
   node.Optional("trigger", &trigger);
   node.Optional("buffer_count", &settings.buffer_count);
   node.Optional("frame_timeout_ms", &settings.frame_timeout_ms);
-  if (Result<PixelFormat> format = ParsePixelFormat(pixel_format); format.ok()) {
+  if (Result<scan::PixelFormat> format = scan::ParsePixelFormat(pixel_format); format.ok()) {
     settings.pixel_format = *format;
   } else {
     node.AddError("pixel_format", format.status().message());
@@ -220,8 +220,8 @@ Status Rig::CloseAll() {
   return first;
 }
 
-Result<RigState> Rig::ReadState() {
-  RigState state;
+Result<scan::RigState> Rig::ReadState() {
+  scan::RigState state;
   if (leds_ && leds_->state() != DeviceState::kClosed) {
     LOOM_ASSIGN_OR_RETURN(const LedArrayReadback leds, leds_->Read());
     for (size_t i = 0; i < leds.current_ma.size(); ++i) {
@@ -245,9 +245,9 @@ Result<RigState> Rig::ReadState() {
   return state;
 }
 
-Result<RawFrame> Rig::Snap(Camera& camera) {
-  LOOM_ASSIGN_OR_RETURN(RigState state, ReadState());
-  LOOM_ASSIGN_OR_RETURN(RawFrame frame, camera.Snap());
+Result<scan::RawFrame> Rig::Snap(Camera& camera) {
+  LOOM_ASSIGN_OR_RETURN(scan::RigState state, ReadState());
+  LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, camera.Snap());
   frame.metadata.rig_state = std::move(state);
   return frame;
 }

@@ -26,7 +26,7 @@
 
 #include "core/config.h"
 #include "hal/registry.h"
-#include "hal/rig_state.h"
+#include "scan/rig_state.h"
 
 namespace loom::hal {
 
@@ -67,10 +67,10 @@ class Rig {
   Status MakeSafe();
   Status CloseAll();
   // What the devices report now (turntable angle, LEDs lit, wheel slots, ...).
-  Result<RigState> ReadState();
+  Result<scan::RigState> ReadState();
   // One software-triggered frame from `camera` (running), stamped with ReadState() taken just
   // before the trigger: what the rig really did for this frame.
-  Result<RawFrame> Snap(Camera& camera);
+  Result<scan::RawFrame> Snap(Camera& camera);
 
  private:
   Rig() = default;

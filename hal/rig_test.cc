@@ -67,13 +67,13 @@ TEST_F(RigTest, LoadsBringsUpAndReadsState) {
   ASSERT_TRUE(r.OpenAndConfigure().ok());
   ASSERT_TRUE(r.StartAll().ok());
   EXPECT_EQ(r.leds()->settings().current_limit_ma, 400);
-  const LedDrive drive[] = {{5, 200}};
+  const scan::LedDrive drive[] = {{5, 200}};
   ASSERT_TRUE(r.leds()->Drive(drive).ok());
   ASSERT_TRUE(r.turntable()->MoveTo(30).ok());
   ASSERT_TRUE(r.linear_light()->MoveTo(100).ok());
-  const Result<RigState> state = r.ReadState();
+  const Result<scan::RigState> state = r.ReadState();
   ASSERT_TRUE(state.ok());
-  EXPECT_EQ(state->leds_on, (std::vector<LedDrive>{{5, 200}}));
+  EXPECT_EQ(state->leds_on, (std::vector<scan::LedDrive>{{5, 200}}));
   EXPECT_NEAR(state->turntable_deg, 30, 1e-3);
   EXPECT_NEAR(state->linear_light_mm, 100, 1e-3);
   ASSERT_TRUE(r.CloseAll().ok());
@@ -82,7 +82,7 @@ TEST_F(RigTest, LoadsBringsUpAndReadsState) {
 TEST_F(RigTest, GuardMakesTheRigSafeOnReturnAndOnException) {
   Result<std::unique_ptr<Rig>> rig = Rig::Load(WriteRig(), registry_);
   ASSERT_TRUE(rig.ok()) << rig.status().ToString();
-  const LedDrive drive[] = {{1, 100}, {2, 100}};
+  const scan::LedDrive drive[] = {{1, 100}, {2, 100}};
   {
     SafeStateGuard guard(**rig);
     ASSERT_TRUE((*rig)->OpenAndConfigure().ok());

@@ -8,14 +8,14 @@
 
 #include <Eigen/SVD>
 
+#include "calibration/projector_columns.h"
+#include "calibration/scan_radiance.h"
+#include "calibration/structured_light.h"
 #include "core/heightfield.h"
 #include "core/heightmap.h"
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/rig_observation.h"
-#include "calibration/scan_radiance.h"
-#include "reconstruction/projector_columns.h"
-#include "reconstruction/structured_light.h"
 
 namespace loom::reconstruction {
 
@@ -25,8 +25,8 @@ using calibration::ScanRadiance;
 
 namespace {
 
-using acquisition::Step;
-using acquisition::StepKind;
+using scan::Step;
+using scan::StepKind;
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
@@ -49,7 +49,7 @@ struct ViewRef {
   std::string camera;
 };
 
-std::vector<ViewRef> FittingViews(const acquisition::Plan& plan) {
+std::vector<ViewRef> FittingViews(const scan::Plan& plan) {
   std::vector<ViewRef> views;
   for (const Step& step : plan.steps) {
     if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;
@@ -61,16 +61,16 @@ std::vector<ViewRef> FittingViews(const acquisition::Plan& plan) {
 Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& camera, const ReconstructOptions& options,
                                    int* filled) {
   const RigModel& rig = scan.rig();
-  const std::vector<double> angles = StructuredLightAngles(scan.plan(), "sample");
+  const std::vector<double> angles = calibration::StructuredLightAngles(scan.plan(), "sample");
   const size_t pixels = static_cast<size_t>(options.width_px) * options.height_px;
   if (angles.empty()) {
     LOOM_LOG(Warning) << "the scan has no structured-light steps: the sample is taken as flat (height 0)";
     return std::vector<float>(pixels, 0.0f);
   }
   if (angles.size() > 1) return InvalidArgumentError("structured-light steps", "turntable angles differ within the sequence");
-  LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, "sample", angles.front()));
-  const HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm, options.max_height_mm};
-  LOOM_ASSIGN_OR_RETURN(TriangulatedHeights heights, TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
+  LOOM_ASSIGN_OR_RETURN(const Image columns, calibration::DecodeScanColumns(scan, camera, "sample", angles.front()));
+  const calibration::HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm, options.max_height_mm};
+  LOOM_ASSIGN_OR_RETURN(calibration::TriangulatedHeights heights, calibration::TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
   *filled = heights.filled;
   return std::move(heights.heights_mm);
 }
@@ -114,7 +114,7 @@ Status ReconstructOptions::Check() const {
   return ProblemsStatus("ReconstructOptions", problems);
 }
 
-Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
+Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
                                    const std::function<void(const ReconstructProgress&)>& progress) {
   LOOM_RETURN_IF_ERROR(options.Check());
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));

@@ -19,9 +19,9 @@
 #include <string>
 #include <vector>
 
-#include "acquisition/capture_store.h"
 #include "core/observation_stack.h"
 #include "core/rig_model.h"
+#include "scan/capture_store.h"
 
 namespace loom::reconstruction {
 
@@ -66,7 +66,7 @@ struct Reconstruction {
   double unseen_fraction = 0;   // of observation samples: NaN (hidden or off the camera's image)
 };
 
-Result<Reconstruction> Reconstruct(const acquisition::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
+Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
                                    const std::function<void(const ReconstructProgress&)>& progress = nullptr);
 
 }  // namespace loom::reconstruction

@@ -11,20 +11,20 @@
 namespace loom::hal {
 namespace {
 
-Result<ArvPixelFormat> ToArv(PixelFormat format) {
+Result<ArvPixelFormat> ToArv(scan::PixelFormat format) {
   switch (format) {
-    case PixelFormat::kMono8: return ARV_PIXEL_FORMAT_MONO_8;
-    case PixelFormat::kMono12: return ARV_PIXEL_FORMAT_MONO_12;
-    case PixelFormat::kMono16: return ARV_PIXEL_FORMAT_MONO_16;
+    case scan::PixelFormat::kMono8: return ARV_PIXEL_FORMAT_MONO_8;
+    case scan::PixelFormat::kMono12: return ARV_PIXEL_FORMAT_MONO_12;
+    case scan::PixelFormat::kMono16: return ARV_PIXEL_FORMAT_MONO_16;
   }
   return InternalError("pixel format", "unknown");
 }
 
-std::optional<PixelFormat> FromArv(ArvPixelFormat format) {
+std::optional<scan::PixelFormat> FromArv(ArvPixelFormat format) {
   switch (format) {
-    case ARV_PIXEL_FORMAT_MONO_8: return PixelFormat::kMono8;
-    case ARV_PIXEL_FORMAT_MONO_12: return PixelFormat::kMono12;
-    case ARV_PIXEL_FORMAT_MONO_16: return PixelFormat::kMono16;
+    case ARV_PIXEL_FORMAT_MONO_8: return scan::PixelFormat::kMono8;
+    case ARV_PIXEL_FORMAT_MONO_12: return scan::PixelFormat::kMono12;
+    case ARV_PIXEL_FORMAT_MONO_16: return scan::PixelFormat::kMono16;
     default: return std::nullopt;
   }
 }
@@ -91,7 +91,7 @@ Result<DeviceIdentity> AravisCamera::DoOpen() {
   gint64* formats = arv_camera_dup_available_pixel_formats(camera_, &n_formats, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "reading the pixel formats"));
   for (guint i = 0; i < n_formats; ++i) {
-    if (std::optional<PixelFormat> format = FromArv(static_cast<ArvPixelFormat>(formats[i]))) {
+    if (std::optional<scan::PixelFormat> format = FromArv(static_cast<ArvPixelFormat>(formats[i]))) {
       caps.pixel_formats.push_back(*format);
     }
   }
@@ -109,7 +109,7 @@ Status AravisCamera::ApplySettings(CameraSettings* applied) {
   LOOM_ASSIGN_OR_RETURN(const ArvPixelFormat format, ToArv(applied->pixel_format));
   arv_camera_set_pixel_format(camera_, format, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "setting the pixel format"));
-  const Roi& roi = applied->roi;
+  const scan::Roi& roi = applied->roi;
   arv_camera_set_region(camera_, roi.x, roi.y, roi.width, roi.height, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "setting the region of interest"));
   arv_camera_set_exposure_time(camera_, applied->exposure_us, &error);
@@ -129,7 +129,7 @@ Status AravisCamera::ApplySettings(CameraSettings* applied) {
   LOOM_RETURN_IF_ERROR(FromGError(error, "reading back the exposure"));
   applied->gain = arv_camera_get_gain(camera_, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "reading back the gain"));
-  Roi actual;
+  scan::Roi actual;
   arv_camera_get_region(camera_, &actual.x, &actual.y, &actual.width, &actual.height, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "reading back the region"));
   applied->roi = actual;
@@ -208,7 +208,7 @@ bool AravisCamera::Answers() {
 bool AravisCamera::KeepsSettings() {
   GError* error = nullptr;
   const double exposure_us = arv_camera_get_exposure_time(camera_, &error);
-  Roi roi;
+  scan::Roi roi;
   if (error == nullptr) arv_camera_get_region(camera_, &roi.x, &roi.y, &roi.width, &roi.height, &error);
   const ArvPixelFormat format = error == nullptr ? arv_camera_get_pixel_format(camera_, &error) : 0;
   if (error != nullptr) {
@@ -236,17 +236,17 @@ Status AravisCamera::Reconnect() {
   return last;
 }
 
-Result<RawFrame> AravisCamera::ToRawFrame(ArvBuffer* buffer) const {
-  const std::optional<PixelFormat> format = FromArv(arv_buffer_get_image_pixel_format(buffer));
+Result<scan::RawFrame> AravisCamera::ToRawFrame(ArvBuffer* buffer) const {
+  const std::optional<scan::PixelFormat> format = FromArv(arv_buffer_get_image_pixel_format(buffer));
   if (!format) {
     return Error(StatusCode::kDataLoss, "frame in an unsupported pixel format 0x" +
                                             std::to_string(arv_buffer_get_image_pixel_format(buffer)));
   }
-  RawFrame frame;
+  scan::RawFrame frame;
   frame.width = arv_buffer_get_image_width(buffer);
   frame.height = arv_buffer_get_image_height(buffer);
   const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
-  const size_t bytes_per_pixel = *format == PixelFormat::kMono8 ? 1 : 2;
+  const size_t bytes_per_pixel = *format == scan::PixelFormat::kMono8 ? 1 : 2;
   size_t size = 0;
   const void* data = arv_buffer_get_data(buffer, &size);
   // Aravis 0.8's fake camera with a custom fill pattern reports size 0: trust the geometry.
@@ -262,7 +262,7 @@ Result<RawFrame> AravisCamera::ToRawFrame(ArvBuffer* buffer) const {
   } else {
     std::memcpy(frame.pixels.data(), data, pixels * 2);  // GigE Vision Mono16 is little-endian
   }
-  FrameMetadata& meta = frame.metadata;
+  scan::FrameMetadata& meta = frame.metadata;
   meta.camera = name();
   meta.camera_serial = identity().serial;
   meta.pixel_format = *format;
@@ -288,7 +288,7 @@ ArvBuffer* AravisCamera::PopFrameBuffer(std::chrono::milliseconds timeout) {
   }
 }
 
-Result<RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeout) {
+Result<scan::RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeout) {
   ArvBuffer* buffer = PopFrameBuffer(timeout);
   if (buffer == nullptr) {
     // No frame: an untriggered hardware trigger, or a camera that dropped out or restarted
@@ -308,9 +308,9 @@ Result<RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeout) {
                  what + "; reconnected and acquiring again, but this frame is lost: repeat the capture");
   }
   const ArvBufferStatus status = arv_buffer_get_status(buffer);
-  Result<RawFrame> frame = status == ARV_BUFFER_STATUS_SUCCESS
+  Result<scan::RawFrame> frame = status == ARV_BUFFER_STATUS_SUCCESS
                                ? ToRawFrame(buffer)
-                               : Result<RawFrame>(Error(StatusCode::kDataLoss,
+                               : Result<scan::RawFrame>(Error(StatusCode::kDataLoss,
                                                         "frame arrived incomplete (" +
                                                             std::string(BufferStatusName(status)) + ")"));
   arv_stream_push_buffer(stream_, buffer);
@@ -329,11 +329,21 @@ std::vector<DiscoveredCamera> DiscoverAravisCameras() {
   return cameras;
 }
 
+Status AravisCameraOptions::Check() const {
+  std::vector<std::string> problems;
+  if (address.empty()) problems.push_back("address must not be empty");
+  if (reconnect_attempts < 0 || reconnect_attempts > 100) problems.push_back("reconnect_attempts must be in [0, 100]");
+  return ProblemsStatus("AravisCameraOptions", problems);
+}
+
 void RegisterAravisBackend(BackendRegistry& registry) {
   registry.Register<Camera>("aravis", [](const DeviceConfig& config) -> Result<std::unique_ptr<Camera>> {
     AravisCameraOptions options;
     config.node.Required("address", &options.address);
     config.node.Optional("reconnect_attempts", &options.reconnect_attempts);
+    if (const Status checked = options.Check(); !checked.ok()) {
+      return InvalidArgumentError("camera '" + config.name + "'", checked.message());
+    }
     return std::unique_ptr<Camera>(std::make_unique<AravisCamera>(config.name, options));
   });
 }

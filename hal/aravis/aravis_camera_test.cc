@@ -36,7 +36,7 @@ void FillTestPattern(ArvBuffer* buffer, void*, guint32 exposure_us, guint32, Arv
 
 CameraSettings SmallMono16(double exposure_us) {
   CameraSettings settings;
-  settings.pixel_format = PixelFormat::kMono16;
+  settings.pixel_format = scan::PixelFormat::kMono16;
   settings.roi = {0, 0, 64, 48};
   settings.exposure_us = exposure_us;
   settings.trigger = TriggerMode::kSoftware;
@@ -44,7 +44,7 @@ CameraSettings SmallMono16(double exposure_us) {
   return settings;
 }
 
-void ExpectTestPattern(const RawFrame& frame, uint32_t exposure_us) {
+void ExpectTestPattern(const scan::RawFrame& frame, uint32_t exposure_us) {
   ASSERT_EQ(frame.width, 64);
   ASSERT_EQ(frame.height, 48);
   for (int y = 0; y < frame.height; y += 7) {
@@ -77,12 +77,12 @@ TEST_F(FakeInterfaceTest, CapturesTestSuppliedFramesWithMetadata) {
   EXPECT_NE(report->outcome, Negotiation::kInvalid) << report->ToString();
   ASSERT_TRUE(camera.Start().ok());
   for (int i = 0; i < 5; ++i) {
-    const Result<RawFrame> frame = camera.Snap();
+    const Result<scan::RawFrame> frame = camera.Snap();
     ASSERT_TRUE(frame.ok()) << frame.status().ToString();
     ExpectTestPattern(*frame, 5000);
     EXPECT_EQ(frame->metadata.camera, "cam0");
     EXPECT_EQ(frame->metadata.exposure_us, 5000);
-    EXPECT_EQ(frame->metadata.pixel_format, PixelFormat::kMono16);
+    EXPECT_EQ(frame->metadata.pixel_format, scan::PixelFormat::kMono16);
     EXPECT_GT(frame->metadata.host_timestamp_ns, 0);
   }
   // Reconfiguring needs the camera stopped; the new exposure shows in the content.
@@ -90,7 +90,7 @@ TEST_F(FakeInterfaceTest, CapturesTestSuppliedFramesWithMetadata) {
   ASSERT_TRUE(camera.Stop().ok());
   ASSERT_TRUE(camera.Configure(SmallMono16(9000)).ok());
   ASSERT_TRUE(camera.Start().ok());
-  const Result<RawFrame> frame = camera.Snap();
+  const Result<scan::RawFrame> frame = camera.Snap();
   ASSERT_TRUE(frame.ok()) << frame.status().ToString();
   ExpectTestPattern(*frame, 9000);
   ASSERT_TRUE(camera.Close().ok());
@@ -100,12 +100,12 @@ TEST_F(FakeInterfaceTest, NegotiatesMono12AndOutOfRangeValues) {
   AravisCamera camera("cam0", {.address = "Fake_1"});
   ASSERT_TRUE(camera.Open().ok());
   CameraSettings settings = SmallMono16(1e12);  // beyond the fake's maximum exposure
-  settings.pixel_format = PixelFormat::kMono12;  // the fake offers Mono8 and Mono16 only
+  settings.pixel_format = scan::PixelFormat::kMono12;  // the fake offers Mono8 and Mono16 only
   settings.roi = {2000, 0, 100, 100};            // runs off the 2048-wide sensor
   const Result<ConfigureReport> report = camera.Configure(settings);
   ASSERT_TRUE(report.ok()) << report.status().ToString();
   EXPECT_EQ(report->outcome, Negotiation::kAdjusted) << report->ToString();
-  EXPECT_EQ(camera.settings().pixel_format, PixelFormat::kMono16);
+  EXPECT_EQ(camera.settings().pixel_format, scan::PixelFormat::kMono16);
   EXPECT_EQ(camera.settings().roi.width, 48);
   EXPECT_LE(camera.settings().exposure_us, camera.capabilities().exposure_max_us);
   settings.roi = {5000, 0, 10, 10};
@@ -127,7 +127,7 @@ TEST_F(FakeInterfaceTest, HardwareTriggerTakesFramesFromTheLine) {
   ASSERT_TRUE(camera.Start().ok());
   EXPECT_EQ(camera.TriggerSoftware().code(), StatusCode::kFailedPrecondition);
   for (int i = 0; i < 3; ++i) {
-    const Result<RawFrame> frame = camera.WaitFrame();
+    const Result<scan::RawFrame> frame = camera.WaitFrame();
     ASSERT_TRUE(frame.ok()) << frame.status().ToString();
     ExpectTestPattern(*frame, 1000);
   }
@@ -169,7 +169,7 @@ TEST_F(GigEFakeTest, CapturesOverLoopbackGigEVision) {
   ASSERT_TRUE(camera.Start().ok());
   uint64_t last_id = 0;
   for (int i = 0; i < 10; ++i) {
-    const Result<RawFrame> frame = camera.Snap();
+    const Result<scan::RawFrame> frame = camera.Snap();
     ASSERT_TRUE(frame.ok()) << frame.status().ToString();
     ExpectTestPattern(*frame, 2000);
     EXPECT_EQ(frame->metadata.camera_serial, "LOOMGV01");
@@ -190,7 +190,7 @@ TEST_F(GigEFakeTest, CameraThatDropsOutIsAnErrorNamingItNotAHang) {
   ASSERT_TRUE(camera.Start().ok());
   ASSERT_TRUE(camera.Snap().ok());
   g_clear_object(&fake_);  // the camera is gone
-  const Result<RawFrame> lost = camera.Snap();
+  const Result<scan::RawFrame> lost = camera.Snap();
   ASSERT_FALSE(lost.ok());
   EXPECT_EQ(lost.status().code(), StatusCode::kUnavailable) << lost.status().ToString();
   EXPECT_EQ(lost.status().subject(), "camera 'cam2' (aravis 127.0.0.1)");
@@ -206,7 +206,7 @@ TEST_F(GigEFakeTest, CameraThatComesBackIsReconnected) {
   ASSERT_TRUE(camera.Snap().ok());
   g_clear_object(&fake_);
   StartFake();  // power-cycled: a new camera at the same address
-  Result<RawFrame> frame = camera.Snap();
+  Result<scan::RawFrame> frame = camera.Snap();
   if (!frame.ok()) {
     // The loss was noticed: reported, reconnected; the next capture works.
     EXPECT_EQ(frame.status().code(), StatusCode::kUnavailable) << frame.status().ToString();
@@ -215,6 +215,13 @@ TEST_F(GigEFakeTest, CameraThatComesBackIsReconnected) {
   }
   ASSERT_TRUE(frame.ok()) << frame.status().ToString();
   ExpectTestPattern(*frame, 2000);
+}
+
+TEST(AravisCameraOptionsTest, AnEmptyAddressOrNegativeReconnectsAreRefusedNamingTheField) {
+  const Status status = AravisCameraOptions{.address = "", .reconnect_attempts = -1}.Check();
+  EXPECT_NE(status.ToString().find("address"), std::string::npos) << status.ToString();
+  EXPECT_NE(status.ToString().find("reconnect_attempts"), std::string::npos) << status.ToString();
+  EXPECT_TRUE((AravisCameraOptions{.address = "127.0.0.1", .reconnect_attempts = 0}.Check().ok()));
 }
 
 }  // namespace

@@ -53,7 +53,7 @@ class FourCamerasTest : public ::testing::Test {
       }
       ASSERT_TRUE(opened.ok()) << opened.ToString();
       CameraSettings settings;
-      settings.pixel_format = PixelFormat::kMono16;
+      settings.pixel_format = scan::PixelFormat::kMono16;
       settings.roi = {0, 0, 128, 96};
       settings.trigger = TriggerMode::kSoftware;
       settings.frame_timeout_ms = 1000;
@@ -64,7 +64,7 @@ class FourCamerasTest : public ::testing::Test {
   }
 
   // The fake's own pattern is a diagonal ramp: a pixel depends on x + y only.
-  static void ExpectDiagonalRamp(const RawFrame& frame) {
+  static void ExpectDiagonalRamp(const scan::RawFrame& frame) {
     ASSERT_EQ(frame.width, 128);
     ASSERT_EQ(frame.height, 96);
     int nonzero = 0;
@@ -88,7 +88,7 @@ TEST_F(FourCamerasTest, CapturesFromAllFourAtOnce) {
   for (int round = 0; round < kRounds; ++round) {
     for (auto& camera : cameras_) ASSERT_TRUE(camera->TriggerSoftware().ok());
     for (int i = 0; i < kCameras; ++i) {
-      const Result<RawFrame> frame = cameras_[i]->WaitFrame();
+      const Result<scan::RawFrame> frame = cameras_[i]->WaitFrame();
       ASSERT_TRUE(frame.ok()) << frame.status().ToString();
       ExpectDiagonalRamp(*frame);
       EXPECT_EQ(frame->metadata.camera_serial, Serial(i));
@@ -106,7 +106,7 @@ TEST_F(FourCamerasTest, OneKilledMidAcquisitionIsNamedAndTheOthersGoOn) {
   for (auto& camera : cameras_) ASSERT_TRUE(camera->Snap().ok());
   fakes_[2].Kill();
   for (int i = 0; i < kCameras; ++i) {
-    const Result<RawFrame> frame = cameras_[i]->Snap();
+    const Result<scan::RawFrame> frame = cameras_[i]->Snap();
     if (i == 2) {
       ASSERT_FALSE(frame.ok());
       EXPECT_EQ(frame.status().code(), StatusCode::kUnavailable) << frame.status().ToString();

@@ -49,7 +49,7 @@ class DisplayProjector : public Projector {
     DestroyWindow();
     return Status::Ok();
   }
-  Status DoShow(const Pattern& pattern) override {
+  Status DoShow(const scan::Pattern& pattern) override {
     const cv::Mat image(pattern.height, pattern.width, CV_8UC1, const_cast<uint8_t*>(pattern.pixels.data()));
     return Present(image);
   }

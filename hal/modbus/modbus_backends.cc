@@ -246,9 +246,9 @@ class ModbusLedArray : public LedArray {
     link_.Close();
     return Status::Ok();
   }
-  Status DoDrive(std::span<const LedDrive> leds) override {
+  Status DoDrive(std::span<const scan::LedDrive> leds) override {
     std::vector<uint16_t> currents(led_count(), 0);
-    for (const LedDrive& drive : leds) currents[drive.led] = static_cast<uint16_t>(std::lround(drive.current_ma));
+    for (const scan::LedDrive& drive : leds) currents[drive.led] = static_cast<uint16_t>(std::lround(drive.current_ma));
     const Status written = link_.Write(map::kLedCurrents, currents);
     if (written.ok() || written.code() != StatusCode::kUnavailable) return written;
     // A refused write: say why if the controller knows.

@@ -213,7 +213,7 @@ TEST(ModbusLedArrayTest, DrivesReadsBackAndRefusesBadRequests) {
   auto leds = MakeDevice<LedArray>(DeviceYaml("leds", sim.endpoint));
   Bringup(*leds, LedArraySettings{.current_limit_ma = 500});
   EXPECT_EQ(leds->led_count(), 29);
-  const LedDrive drive[] = {{3, 250}, {17, 500}};
+  const scan::LedDrive drive[] = {{3, 250}, {17, 500}};
   ASSERT_TRUE(leds->Drive(drive).ok());
   Result<LedArrayReadback> read = leds->Read();
   ASSERT_TRUE(read.ok());
@@ -222,9 +222,9 @@ TEST(ModbusLedArrayTest, DrivesReadsBackAndRefusesBadRequests) {
   EXPECT_EQ(read->current_ma[0], 0);
   EXPECT_GT(read->temperature_c, 30.0);
 
-  const LedDrive too_bright[] = {{3, 501}};
+  const scan::LedDrive too_bright[] = {{3, 501}};
   EXPECT_EQ(leds->Drive(too_bright).code(), StatusCode::kInvalidArgument);
-  const LedDrive missing[] = {{29, 10}};
+  const scan::LedDrive missing[] = {{29, 10}};
   const Status no_led = leds->Drive(missing);
   EXPECT_EQ(no_led.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(no_led.message().find("LED 29 does not exist"), std::string::npos);
@@ -238,7 +238,7 @@ TEST(ModbusLedArrayTest, OverTemperatureSwitchesOffAndIsReported) {
   Simulator sim = StartSimulator("leds");
   auto leds = MakeDevice<LedArray>(DeviceYaml("hemisphere", sim.endpoint));
   Bringup(*leds, LedArraySettings{.current_limit_ma = 500});
-  const LedDrive drive[] = {{0, 100}};
+  const scan::LedDrive drive[] = {{0, 100}};
   ASSERT_TRUE(leds->Drive(drive).ok());
   InjectFault(sim.endpoint, map::kInjectOverTemperature);
   const Status refused = leds->Drive(drive);
@@ -277,7 +277,7 @@ TEST(ModbusRtuTest, TurntableAndLedsOverAPty) {
   EXPECT_NEAR(*turntable->Angle(), 12.5, 1e-3);
   auto leds = MakeDevice<LedArray>(DeviceYaml("leds", led_sim.endpoint));
   Bringup(*leds, LedArraySettings{.current_limit_ma = 300});
-  const LedDrive drive[] = {{28, 300}};
+  const scan::LedDrive drive[] = {{28, 300}};
   ASSERT_TRUE(leds->Drive(drive).ok());
   EXPECT_EQ(leds->Read()->current_ma[28], 300);
 }

@@ -4,7 +4,7 @@
 
 namespace loom::hal {
 
-uint64_t PatternChecksum(const Pattern& pattern) {
+uint64_t PatternChecksum(const scan::Pattern& pattern) {
   uint64_t hash = 0xcbf29ce484222325ull;
   for (uint8_t value : pattern.pixels) {
     hash ^= value;
@@ -35,7 +35,7 @@ Status RecordingProjector::Append(const RecordedPattern& entry) {
   return log ? Status::Ok() : Error(StatusCode::kIoError, "cannot append to " + log_path_);
 }
 
-Status RecordingProjector::DoShow(const Pattern& pattern) {
+Status RecordingProjector::DoShow(const scan::Pattern& pattern) {
   return Append({pattern.name, PatternChecksum(pattern)});
 }
 

@@ -31,7 +31,7 @@ class RecordingProjector : public Projector {
   Status DoStart() override { return Status::Ok(); }
   Status DoStop() override { return Status::Ok(); }
   Status DoClose() override { return Status::Ok(); }
-  Status DoShow(const Pattern& pattern) override;
+  Status DoShow(const scan::Pattern& pattern) override;
   Status DoBlank() override;
 
  private:
@@ -43,7 +43,7 @@ class RecordingProjector : public Projector {
   std::vector<RecordedPattern> history_;
 };
 
-uint64_t PatternChecksum(const Pattern& pattern);
+uint64_t PatternChecksum(const scan::Pattern& pattern);
 
 void RegisterRecordingBackend(BackendRegistry& registry);
 

@@ -47,7 +47,7 @@ class SimCamera : public Camera {
     CameraCapabilities caps;
     caps.sensor_width = camera.width;
     caps.sensor_height = camera.height;
-    caps.pixel_formats = {PixelFormat::kMono12, PixelFormat::kMono16};
+    caps.pixel_formats = {scan::PixelFormat::kMono12, scan::PixelFormat::kMono16};
     caps.exposure_min_us = 10;
     caps.exposure_max_us = 1e7;
     caps.gain_min = 0;
@@ -67,7 +67,7 @@ class SimCamera : public Camera {
     queue_.push_back(Render());
     return Status::Ok();
   }
-  Result<RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override {
+  Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override {
     if (InjectedFailure()) {
       queue_.clear();
       return Error(StatusCode::kUnavailable, "camera dropped out (injected by the simulator)");
@@ -76,7 +76,7 @@ class SimCamera : public Camera {
     if (queue_.empty()) {
       return Error(StatusCode::kTimeout, "no frame within " + std::to_string(timeout.count()) + " ms (not triggered)");
     }
-    RawFrame frame = std::move(queue_.front());
+    scan::RawFrame frame = std::move(queue_.front());
     queue_.pop_front();
     return frame;
   }
@@ -90,7 +90,7 @@ class SimCamera : public Camera {
     return true;
   }
 
-  RawFrame Render() {
+  scan::RawFrame Render() {
     sim::SceneState state;
     {
       std::lock_guard lock(world_->mutex);
@@ -102,8 +102,8 @@ class SimCamera : public Camera {
     const CameraSettings& s = settings();
     const std::vector<uint16_t> full =
         sim::CaptureRaw(radiance, model.sensor, {s.exposure_us, s.gain}, FrameSeed(world_->seed, index_, state, s));
-    const int shift = s.pixel_format == PixelFormat::kMono16 ? 16 - model.sensor.adc_bits : 0;
-    RawFrame frame;
+    const int shift = s.pixel_format == scan::PixelFormat::kMono16 ? 16 - model.sensor.adc_bits : 0;
+    scan::RawFrame frame;
     frame.width = s.roi.width;
     frame.height = s.roi.height;
     frame.pixels.resize(static_cast<size_t>(frame.width) * frame.height);
@@ -113,7 +113,7 @@ class SimCamera : public Camera {
             static_cast<uint16_t>(full[static_cast<size_t>(y + s.roi.y) * model.width + x + s.roi.x] << shift);
       }
     }
-    FrameMetadata& meta = frame.metadata;
+    scan::FrameMetadata& meta = frame.metadata;
     meta.camera = name();
     meta.camera_serial = identity().serial;
     meta.pixel_format = s.pixel_format;
@@ -142,7 +142,7 @@ class SimCamera : public Camera {
   int supersampling_;
   int index_ = -1;
   uint64_t frames_ = 0;
-  std::deque<RawFrame> queue_;
+  std::deque<scan::RawFrame> queue_;
   std::shared_ptr<const sim::Scene> rendered_scene_;
   sim::SceneState rendered_state_;
   Image rendered_;
@@ -162,10 +162,10 @@ class SimLedArray : public LedArray {
   Status DoStart() override { return Status::Ok(); }
   Status DoStop() override { return DoAllOff(); }
   Status DoClose() override { return Status::Ok(); }
-  Status DoDrive(std::span<const LedDrive> leds) override {
+  Status DoDrive(std::span<const scan::LedDrive> leds) override {
     std::lock_guard lock(world_->mutex);
     world_->state.leds.clear();
-    for (const LedDrive& drive : leds) {
+    for (const scan::LedDrive& drive : leds) {
       if (drive.current_ma > 0) world_->state.leds.push_back({drive.led, drive.current_ma});
     }
     return Status::Ok();
@@ -307,7 +307,7 @@ class SimProjector : public Projector {
   Status DoStart() override { return Status::Ok(); }
   Status DoStop() override { return Status::Ok(); }
   Status DoClose() override { return Status::Ok(); }
-  Status DoShow(const Pattern& pattern) override {
+  Status DoShow(const scan::Pattern& pattern) override {
     auto image = std::make_shared<sim::ProjectedImage>(sim::ProjectedImage{pattern.width, pattern.height, pattern.pixels});
     std::lock_guard lock(world_->mutex);
     world_->state.projector_image = std::move(image);

@@ -66,7 +66,7 @@ class SimBackendsTest : public ::testing::Test {
     ASSERT_TRUE(rig_->StartAll().ok());
   }
 
-  double MeanDn(const RawFrame& frame) {
+  double MeanDn(const scan::RawFrame& frame) {
     double sum = 0;
     for (uint16_t v : frame.pixels) sum += v;
     return sum / frame.pixels.size();
@@ -78,40 +78,40 @@ class SimBackendsTest : public ::testing::Test {
 
 TEST_F(SimBackendsTest, LightsChangeWhatTheCameraRenders) {
   Camera& camera = *rig_->cameras()[0];
-  const Result<RawFrame> dark = rig_->Snap(camera);
+  const Result<scan::RawFrame> dark = rig_->Snap(camera);
   ASSERT_TRUE(dark.ok()) << dark.status().ToString();
   EXPECT_NEAR(MeanDn(*dark), 64, 1.0);  // the dark offset
-  const LedDrive drive[] = {{0, 800}};
+  const scan::LedDrive drive[] = {{0, 800}};
   ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
-  const Result<RawFrame> lit = rig_->Snap(camera);
+  const Result<scan::RawFrame> lit = rig_->Snap(camera);
   ASSERT_TRUE(lit.ok());
   EXPECT_GT(MeanDn(*lit), 150);
-  EXPECT_EQ(lit->metadata.rig_state.leds_on, (std::vector<LedDrive>{{0, 800}}));
+  EXPECT_EQ(lit->metadata.rig_state.leds_on, (std::vector<scan::LedDrive>{{0, 800}}));
   EXPECT_EQ(lit->metadata.camera_serial, "SIM-top");
 }
 
 TEST_F(SimBackendsTest, SameStateSameFrameAndTheTurntableMovesTheSample) {
   Camera& camera = *rig_->cameras()[0];
-  const LedDrive drive[] = {{0, 800}};
+  const scan::LedDrive drive[] = {{0, 800}};
   ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
-  const RawFrame a = *rig_->Snap(camera);
-  const RawFrame b = *rig_->Snap(camera);
+  const scan::RawFrame a = *rig_->Snap(camera);
+  const scan::RawFrame b = *rig_->Snap(camera);
   EXPECT_EQ(a.pixels, b.pixels);  // what a resumed scan relies on
   ASSERT_TRUE(rig_->turntable()->MoveTo(90).ok());
-  const RawFrame turned = *rig_->Snap(camera);
+  const scan::RawFrame turned = *rig_->Snap(camera);
   EXPECT_NE(turned.pixels, a.pixels);
   EXPECT_EQ(turned.metadata.rig_state.turntable_deg, 90);
 }
 
 TEST_F(SimBackendsTest, FilterWheelColoursTheLight) {
   Camera& camera = *rig_->cameras()[0];
-  const LedDrive drive[] = {{1, 1000}};  // the LED behind wheel0
+  const scan::LedDrive drive[] = {{1, 1000}};  // the LED behind wheel0
   ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
   FilterWheel& wheel = *rig_->filter_wheels()[0];
   ASSERT_TRUE(wheel.MoveTo(0).ok());  // 450 nm
-  const RawFrame blue = *rig_->Snap(camera);
+  const scan::RawFrame blue = *rig_->Snap(camera);
   ASSERT_TRUE(wheel.MoveTo(1).ok());  // 650 nm
-  const RawFrame red = *rig_->Snap(camera);
+  const scan::RawFrame red = *rig_->Snap(camera);
   EXPECT_EQ(red.metadata.rig_state.filter_slots.at("wheel0"), 1);
   // The chart's red patch (row 2, column 2: index 14) is bright through 650 nm, dark through 450.
   // Patch centres lie 4.8 mm apart; camera: 500 mm away, f = 600 px → 1.2 px per mm.
@@ -126,14 +126,14 @@ TEST_F(SimBackendsTest, LinearLightAndProjectorLightTheSample) {
   const double dark = MeanDn(*rig_->Snap(camera));
   ASSERT_TRUE(rig_->linear_light()->MoveTo(rig_->linear_light()->travel_mm() / 2).ok());
   ASSERT_TRUE(rig_->linear_light()->SetStrip(true, 1.0).ok());
-  const RawFrame strip = *rig_->Snap(camera);
+  const scan::RawFrame strip = *rig_->Snap(camera);
   EXPECT_GT(MeanDn(strip), dark + 20);
   EXPECT_TRUE(strip.metadata.rig_state.linear_light_on);
   ASSERT_TRUE(rig_->linear_light()->SetStrip(false, 0).ok());
   Projector& projector = *rig_->projector();
   EXPECT_EQ(projector.native_width(), 32);  // from the geometry
   ASSERT_TRUE(projector.Show({"white", 32, 24, std::vector<uint8_t>(32 * 24, 255)}).ok());
-  const RawFrame white = *rig_->Snap(camera);
+  const scan::RawFrame white = *rig_->Snap(camera);
   EXPECT_GT(MeanDn(white), dark + 20);
   EXPECT_EQ(white.metadata.rig_state.projector_pattern, "white");
   ASSERT_TRUE(rig_->MakeSafe().ok());  // blanks the projector, strip off
@@ -142,16 +142,16 @@ TEST_F(SimBackendsTest, LinearLightAndProjectorLightTheSample) {
 
 TEST_F(SimBackendsTest, RoiAndMono16) {
   Camera& camera = *rig_->cameras()[0];
-  const LedDrive drive[] = {{0, 800}};
+  const scan::LedDrive drive[] = {{0, 800}};
   ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
-  const RawFrame full = *rig_->Snap(camera);
+  const scan::RawFrame full = *rig_->Snap(camera);
   ASSERT_TRUE(camera.Stop().ok());
   CameraSettings settings = camera.settings();
   settings.roi = {10, 5, 20, 12};
-  settings.pixel_format = PixelFormat::kMono16;
+  settings.pixel_format = scan::PixelFormat::kMono16;
   ASSERT_TRUE(camera.Configure(settings).ok());
   ASSERT_TRUE(camera.Start().ok());
-  const RawFrame roi = *rig_->Snap(camera);
+  const scan::RawFrame roi = *rig_->Snap(camera);
   ASSERT_EQ(roi.width, 20);
   ASSERT_EQ(roi.height, 12);
   EXPECT_EQ(roi.at(3, 4), full.at(5 + 3, 10 + 4) << 4);  // 12-bit values, MSB-aligned

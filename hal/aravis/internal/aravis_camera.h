@@ -11,6 +11,7 @@ namespace loom::hal {
 struct AravisCameraOptions {
   std::string address;         // IP address or Aravis device id
   int reconnect_attempts = 2;  // after a dropped camera
+  Status Check() const;        // every problem, naming the field
 };
 
 class AravisCamera : public Camera {
@@ -37,7 +38,7 @@ class AravisCamera : public Camera {
   Status DoClose() override;
   Status DoMakeSafe() override;
   Status DoTriggerSoftware() override;
-  Result<RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override;
+  Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override;
 
  private:
   Status Connect();
@@ -50,7 +51,7 @@ class AravisCamera : public Camera {
   bool KeepsSettings();
   // After a lost camera: reopen, reconfigure and restart acquisition.
   Status Reconnect();
-  Result<RawFrame> ToRawFrame(ArvBuffer* buffer) const;
+  Result<scan::RawFrame> ToRawFrame(ArvBuffer* buffer) const;
   // The next filled buffer within `timeout`, or nullptr.
   ArvBuffer* PopFrameBuffer(std::chrono::milliseconds timeout);
   // A status naming this camera from an Aravis GError (which it frees); OK if none.

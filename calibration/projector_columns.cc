@@ -1,4 +1,4 @@
-#include "reconstruction/projector_columns.h"
+#include "calibration/projector_columns.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,13 +8,13 @@
 
 #include <Eigen/Dense>
 
-#include "reconstruction/structured_light.h"
+#include "calibration/structured_light.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
 namespace {
 
-using acquisition::Step;
-using acquisition::StepKind;
+using scan::Step;
+using scan::StepKind;
 
 constexpr int kCornerRadiusPx = 4;
 constexpr int kMinDecodedAround = 8;
@@ -42,7 +42,7 @@ std::optional<double> ColumnAt(const Image& columns, const Eigen::Vector2d& pixe
 
 }  // namespace
 
-std::vector<double> StructuredLightAngles(const acquisition::Plan& plan, const std::string& object) {
+std::vector<double> StructuredLightAngles(const scan::Plan& plan, const std::string& object) {
   std::vector<double> angles;
   for (const Step& step : plan.steps) {
     if (step.kind == StepKind::kStructuredLight && step.object == object &&
@@ -53,14 +53,14 @@ std::vector<double> StructuredLightAngles(const acquisition::Plan& plan, const s
   return angles;
 }
 
-Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, const std::string& object,
+Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, const std::string& object,
                                 double turntable_deg) {
   const RigModel& rig = scan.rig();
   if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
   std::map<std::string, Image> patterns;
   for (const Step& step : scan.plan().steps) {
     if (step.kind != StepKind::kStructuredLight || step.object != object || step.turntable_deg != turntable_deg) continue;
-    LOOM_ASSIGN_OR_RETURN(calibration::RadianceView view, scan.View(step.index, camera.name));
+    LOOM_ASSIGN_OR_RETURN(RadianceView view, scan.View(step.index, camera.name));
     patterns[step.projector_pattern] = std::move(view.radiance);
   }
   DecodeOptions decode;
@@ -73,13 +73,13 @@ Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const Cam
   return DecodeProjectorColumns(patterns, decode);
 }
 
-Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(const calibration::ScanRadiance& scan,
+Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadiance& scan,
                                                                               const CalibrationTargetModel& target,
-                                                                              const calibration::TargetPlacement& placement) {
+                                                                              const TargetPlacement& placement) {
   const RigModel& rig = scan.rig();
   const Eigen::Matrix3d yaw = Eigen::AngleAxisd(DegToRad(placement.yaw_deg), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d offset(placement.offset_mm.x(), placement.offset_mm.y(), 0);
-  std::vector<calibration::ProjectorCorrespondence> correspondences;
+  std::vector<ProjectorCorrespondence> correspondences;
   for (double angle : StructuredLightAngles(scan.plan(), "target")) {
     const Rigid3d rig_from_sample = rig.turntable.RigFromSample(angle);
     for (const CameraModel& camera : rig.cameras) {
@@ -95,20 +95,20 @@ Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(co
   return correspondences;
 }
 
-Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration::ScanRadiance& scan, int max_rays_per_camera) {
+Result<std::vector<FlatBoardView>> FlatBoardRays(const ScanRadiance& scan, int max_rays_per_camera) {
   const RigModel& rig = scan.rig();
   const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on its spacer", rig.white_reference.spacer_mm}};
   std::vector<double> angles;
   for (const auto& [object, height] : boards) {
     const std::vector<double> at = StructuredLightAngles(scan.plan(), object);
-    if (at.empty()) return std::vector<calibration::FlatBoardView>();  // no spacer step: no boards at all
+    if (at.empty()) return std::vector<FlatBoardView>();  // no spacer step: no boards at all
     angles.push_back(at.front());
   }
-  std::vector<calibration::FlatBoardView> views;
+  std::vector<FlatBoardView> views;
   for (size_t b = 0; b < boards.size(); ++b) {
     const auto& [object, height] = boards[b];
     const double angle = angles[b];
-    calibration::FlatBoardView view{object, height, {}};
+    FlatBoardView view{object, height, {}};
     for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
       const CameraModel& camera = rig.cameras[c];
       LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, object, angle));
@@ -128,4 +128,4 @@ Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration:
   return views;
 }
 
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration

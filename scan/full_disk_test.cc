@@ -4,9 +4,9 @@
 
 #include <cstdlib>
 
-#include "acquisition/capture_store.h"
+#include "scan/capture_store.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 namespace {
 
 TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
@@ -15,7 +15,7 @@ TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
   const std::filesystem::path dir = std::filesystem::path(tmpfs) / "scan";
   Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", {}});
   ASSERT_TRUE(store.ok()) << store.status().ToString();
-  hal::RawFrame frame;
+  RawFrame frame;
   frame.width = frame.height = 64;
   uint32_t state = 1;
   for (int i = 0; i < 64 * 64; ++i) {
@@ -41,4 +41,4 @@ TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
 }
 
 }  // namespace
-}  // namespace loom::acquisition
+}  // namespace loom::scan

@@ -2,10 +2,10 @@
 // reconstruction read the steps that were really planned, whatever the presets say today.
 #include <yaml-cpp/yaml.h>
 
-#include "acquisition/plan.h"
 #include "core/config.h"
+#include "scan/plan.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 namespace {
 
 constexpr int kPlanSchemaVersion = 1;
@@ -18,7 +18,7 @@ void EmitStep(YAML::Emitter& out, const Step& step) {
   if (!step.leds.empty()) {
     std::vector<int> leds;
     std::vector<double> currents;
-    for (const hal::LedDrive& led : step.leds) {
+    for (const LedDrive& led : step.leds) {
       leds.push_back(led.led);
       currents.push_back(led.current_ma);
     }
@@ -108,4 +108,4 @@ Result<Plan> ParsePlanYaml(std::string_view text, const std::string& source_name
   return plan;
 }
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

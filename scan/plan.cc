@@ -1,14 +1,14 @@
-#include "acquisition/plan.h"
+#include "scan/plan.h"
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
 
-#include "acquisition/patterns.h"
 #include "core/config.h"
+#include "scan/patterns.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 namespace {
 
 constexpr int kPresetSchemaVersion = 1;
@@ -293,4 +293,4 @@ double EstimateSeconds(const Plan& plan, const DurationModel& model) {
   return seconds;
 }
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

@@ -1,4 +1,4 @@
-#include "acquisition/capture_store.h"
+#include "scan/capture_store.h"
 
 #include <unistd.h>
 
@@ -14,7 +14,7 @@
 #include "core/file_io.h"
 #include "core/version.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 namespace {
 
 namespace fs = std::filesystem;
@@ -31,9 +31,9 @@ std::string FrameFileName(const FrameKey& key) {
 }
 
 Json ToJson(const FrameRecord& r) {
-  const hal::FrameMetadata& m = r.metadata;
+  const FrameMetadata& m = r.metadata;
   Json leds = Json::array();
-  for (const hal::LedDrive& led : m.rig_state.leds_on) leds.push_back({led.led, led.current_ma});
+  for (const LedDrive& led : m.rig_state.leds_on) leds.push_back({led.led, led.current_ma});
   return {{"step", r.key.step},
           {"camera", r.key.camera},
           {"exposure", r.key.exposure},
@@ -42,7 +42,7 @@ Json ToJson(const FrameRecord& r) {
           {"width", r.width},
           {"height", r.height},
           {"serial", m.camera_serial},
-          {"pixel_format", std::string(hal::PixelFormatName(m.pixel_format))},
+          {"pixel_format", std::string(PixelFormatName(m.pixel_format))},
           {"exposure_us", m.exposure_us},
           {"gain", m.gain},
           {"frame_id", m.frame_id},
@@ -64,10 +64,10 @@ FrameRecord FromJson(const Json& j) {
   r.checksum = j.at("checksum").get<std::string>();
   r.width = j.at("width").get<int>();
   r.height = j.at("height").get<int>();
-  hal::FrameMetadata& m = r.metadata;
+  FrameMetadata& m = r.metadata;
   m.camera = r.key.camera;
   m.camera_serial = j.at("serial").get<std::string>();
-  m.pixel_format = hal::ParsePixelFormat(j.at("pixel_format").get<std::string>()).value();
+  m.pixel_format = ParsePixelFormat(j.at("pixel_format").get<std::string>()).value();
   m.exposure_us = j.at("exposure_us").get<double>();
   m.gain = j.at("gain").get<double>();
   m.frame_id = j.at("frame_id").get<uint64_t>();
@@ -229,7 +229,7 @@ bool CaptureStore::Has(const FrameKey& key) const {
   return false;
 }
 
-Status CaptureStore::Append(const FrameKey& key, const hal::RawFrame& frame) {
+Status CaptureStore::Append(const FrameKey& key, const RawFrame& frame) {
   if (Has(key)) {
     return AlreadyExistsError(directory_.string(), "frame " + FrameFileName(key) + " is already stored");
   }
@@ -253,7 +253,7 @@ Status CaptureStore::MarkStepDone(int step) {
   return Status::Ok();
 }
 
-Result<hal::RawFrame> CaptureStore::ReadFrame(const FrameRecord& record) const {
+Result<RawFrame> CaptureStore::ReadFrame(const FrameRecord& record) const {
   const fs::path path = directory_ / record.file;
   LOOM_ASSIGN_OR_RETURN(ExrUint16Image image, ReadExrUint16(path, kPixelChannel));
   if (image.width != record.width || image.height != record.height) {
@@ -266,7 +266,7 @@ Result<hal::RawFrame> CaptureStore::ReadFrame(const FrameRecord& record) const {
     return DataLossError(path.string(), "checksum mismatch (" + checksum + ", journal " + record.checksum +
                                             "): the frame was altered after it was stored");
   }
-  hal::RawFrame frame;
+  RawFrame frame;
   frame.width = image.width;
   frame.height = image.height;
   frame.pixels = std::move(image.pixels);
@@ -274,4 +274,4 @@ Result<hal::RawFrame> CaptureStore::ReadFrame(const FrameRecord& record) const {
   return frame;
 }
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

@@ -9,7 +9,7 @@
 #include "core/status.h"
 #include "hal/projector.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 
 inline constexpr int kPhasePeriodColumns = 16;
 
@@ -19,6 +19,6 @@ int GrayCodeBits(int projector_width);
 std::string GrayPatternName(int bit, bool inverse);
 
 // `phase_steps` is the number of phase_x patterns in the sequence.
-Result<hal::Pattern> MakePattern(const std::string& name, int width, int height, int phase_steps);
+Result<Pattern> MakePattern(const std::string& name, int width, int height, int phase_steps);
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

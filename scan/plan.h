@@ -27,9 +27,9 @@
 
 #include "core/rig_model.h"
 #include "core/status.h"
-#include "hal/rig_state.h"
+#include "scan/rig_state.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 
 enum class StepKind { kDark, kTarget, kLightProbe, kWhiteReference, kColourChart, kStructuredLight, kColour, kMonochrome, kLinearLight };
 std::string_view StepKindName(StepKind kind);
@@ -58,7 +58,7 @@ struct Step {
   int index = 0;
   StepKind kind = StepKind::kMonochrome;
   std::vector<std::string> cameras;     // triggered together
-  std::vector<hal::LedDrive> leds;      // lit; all others off
+  std::vector<LedDrive> leds;      // lit; all others off
   std::optional<FilterSetting> filter;
   double turntable_deg = 0;
   std::optional<double> linear_light_mm;  // strip on at this position
@@ -119,4 +119,4 @@ struct DurationModel {
 };
 double EstimateSeconds(const Plan& plan, const DurationModel& model = {});
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

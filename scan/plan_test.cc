@@ -1,4 +1,4 @@
-#include "acquisition/plan.h"
+#include "scan/plan.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include "core/config.h"
 #include "core/testing/shipped_rig.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 namespace {
 
 using loom::testing::ShippedRigModel;
@@ -161,4 +161,4 @@ TEST(PlanTest, AMaterialScanStartsWithDarkFrames) {
 }
 
 }  // namespace
-}  // namespace loom::acquisition
+}  // namespace loom::scan

@@ -1,9 +1,9 @@
-#include "acquisition/patterns.h"
+#include "scan/patterns.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace loom::acquisition {
+namespace loom::scan {
 
 int GrayCodeBits(int projector_width) { return static_cast<int>(std::ceil(std::log2(std::max(2, projector_width)))); }
 
@@ -11,8 +11,8 @@ std::string GrayPatternName(int bit, bool inverse) {
   return "gray_x_" + std::string(bit < 10 ? "0" : "") + std::to_string(bit) + (inverse ? "_inv" : "");
 }
 
-Result<hal::Pattern> MakePattern(const std::string& name, int width, int height, int phase_steps) {
-  hal::Pattern pattern{name, width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height)};
+Result<Pattern> MakePattern(const std::string& name, int width, int height, int phase_steps) {
+  Pattern pattern{name, width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height)};
   const auto fill = [&](auto column_value) {
     for (int y = 0; y < height; ++y) {
       for (int x = 0; x < width; ++x) pattern.pixels[static_cast<size_t>(y) * width + x] = column_value(x);
@@ -45,4 +45,4 @@ Result<hal::Pattern> MakePattern(const std::string& name, int width, int height,
   return InvalidArgumentError("pattern '" + name + "'", "unknown (white, black, gray_x_NN[_inv], phase_x_K)");
 }
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

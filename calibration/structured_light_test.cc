@@ -1,13 +1,13 @@
-#include "reconstruction/structured_light.h"
+#include "calibration/structured_light.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "acquisition/patterns.h"
-#include "acquisition/plan.h"
+#include "scan/patterns.h"
+#include "scan/plan.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
 namespace {
 
 constexpr int kProjectorWidth = 320;
@@ -16,7 +16,7 @@ constexpr int kPhaseSteps = 4;
 // What a camera records of a pattern when pixel (x, y) sees projector column u(x, y): the
 // pattern's level there (linear between columns, as a defocused projector throws it) times an
 // albedo that varies over the image, plus ambient light.
-Image Observe(const hal::Pattern& pattern, int width, int height, double (*column)(int, int)) {
+Image Observe(const scan::Pattern& pattern, int width, int height, double (*column)(int, int)) {
   Image image(width, height, {"L"});
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
@@ -35,8 +35,8 @@ double SmoothColumn(int x, int y) { return 5.3 + 2.71 * x + 0.4 * std::sin(0.3 *
 
 std::map<std::string, Image> ObserveSequence(double (*column)(int, int)) {
   std::map<std::string, Image> images;
-  for (const std::string& name : acquisition::StructuredLightPatterns(kProjectorWidth, 0, kPhaseSteps)) {
-    const Result<hal::Pattern> pattern = acquisition::MakePattern(name, kProjectorWidth, 1, kPhaseSteps);
+  for (const std::string& name : scan::StructuredLightPatterns(kProjectorWidth, 0, kPhaseSteps)) {
+    const Result<scan::Pattern> pattern = scan::MakePattern(name, kProjectorWidth, 1, kPhaseSteps);
     EXPECT_TRUE(pattern.ok()) << pattern.status().ToString();
     images[name] = Observe(*pattern, 100, 20, column);
   }
@@ -73,5 +73,16 @@ TEST(StructuredLightTest, AMissingPatternIsAnErrorNamingIt) {
   EXPECT_NE(columns.status().ToString().find("gray_x_03_inv"), std::string::npos) << columns.status().ToString();
 }
 
+TEST(StructuredLightTest, BadDecodeOptionsAreRefusedNamingEachField) {
+  const DecodeOptions bad{.projector_width = 0, .phase_steps = 2, .min_contrast = std::nan("")};
+  const Status status = bad.Check();
+  for (const char* field : {"projector_width", "phase_steps", "min_contrast"}) {
+    EXPECT_NE(status.ToString().find(field), std::string::npos) << field << " in " << status.ToString();
+  }
+  const Result<Image> columns = DecodeProjectorColumns({}, bad);
+  ASSERT_FALSE(columns.ok());
+  EXPECT_NE(columns.status().ToString().find("DecodeOptions"), std::string::npos) << columns.status().ToString();
+}
+
 }  // namespace
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration

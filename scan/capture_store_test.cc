@@ -1,4 +1,4 @@
-#include "acquisition/capture_store.h"
+#include "scan/capture_store.h"
 
 #include <gtest/gtest.h>
 
@@ -7,19 +7,19 @@
 #include "core/exr_io.h"
 #include "core/file_io.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 namespace {
 
 namespace fs = std::filesystem;
 
-hal::RawFrame Frame(int seed) {
-  hal::RawFrame frame;
+RawFrame Frame(int seed) {
+  RawFrame frame;
   frame.width = 16;
   frame.height = 12;
   for (int i = 0; i < 16 * 12; ++i) frame.pixels.push_back(static_cast<uint16_t>((i * 37 + seed * 1001) % 4096));
   frame.metadata.camera = "cam0";
   frame.metadata.camera_serial = "SIM-cam0";
-  frame.metadata.pixel_format = hal::PixelFormat::kMono12;
+  frame.metadata.pixel_format = PixelFormat::kMono12;
   frame.metadata.exposure_us = 1250.5;
   frame.metadata.frame_id = 7 + seed;
   frame.metadata.rig_state.leds_on = {{3, 800}};
@@ -67,7 +67,7 @@ TEST_F(CaptureStoreTest, FramesAndWhatTheDevicesDidRoundTrip) {
   EXPECT_EQ(reopened->info().rig_yaml, "schema_version: 1\nname: r\n");
   EXPECT_EQ(reopened->info().plan, TwoStepPlan());
   ASSERT_EQ(reopened->records().size(), 2u);
-  const Result<hal::RawFrame> frame = reopened->ReadFrame(reopened->records()[1]);
+  const Result<RawFrame> frame = reopened->ReadFrame(reopened->records()[1]);
   ASSERT_TRUE(frame.ok()) << frame.status().ToString();
   EXPECT_EQ(frame->pixels, Frame(1).pixels);
   EXPECT_EQ(frame->metadata.exposure_us, 1250.5);
@@ -83,7 +83,7 @@ TEST_F(CaptureStoreTest, AlteredTruncatedAndMissingFramesAreNamed) {
   // Altered: a valid frame file with other pixels.
   const fs::path altered = dir_ / records[0].file;
   ASSERT_TRUE(WriteExrUint16(altered, 16, 12, Frame(9).pixels, "DN").ok());
-  const Result<hal::RawFrame> bad = store.ReadFrame(records[0]);
+  const Result<RawFrame> bad = store.ReadFrame(records[0]);
   EXPECT_EQ(bad.status().code(), StatusCode::kDataLoss);
   EXPECT_EQ(bad.status().subject(), altered.string());
   EXPECT_NE(bad.status().message().find("checksum mismatch"), std::string::npos);
@@ -93,7 +93,7 @@ TEST_F(CaptureStoreTest, AlteredTruncatedAndMissingFramesAreNamed) {
   EXPECT_EQ(store.ReadFrame(records[1]).status().code(), StatusCode::kDataLoss);
   // Missing.
   fs::remove(dir_ / records[2].file);
-  const Result<hal::RawFrame> missing = store.ReadFrame(records[2]);
+  const Result<RawFrame> missing = store.ReadFrame(records[2]);
   EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
   EXPECT_EQ(missing.status().subject(), (dir_ / records[2].file).string());
 }
@@ -154,4 +154,4 @@ TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {
 }
 
 }  // namespace
-}  // namespace loom::acquisition
+}  // namespace loom::scan

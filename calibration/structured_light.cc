@@ -1,14 +1,14 @@
-#include "reconstruction/structured_light.h"
+#include "calibration/structured_light.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
 
-#include "acquisition/patterns.h"
 #include "core/geometry.h"
+#include "scan/patterns.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -63,14 +63,25 @@ int FillHoles(std::vector<float>& heights, int width, int height) {
 
 }  // namespace
 
+Status DecodeOptions::Check() const {
+  std::vector<std::string> problems;
+  if (projector_width < 2 || projector_width > kMaxProjectorWidth) {
+    problems.push_back("projector_width must be in [2, " + std::to_string(kMaxProjectorWidth) + "]");
+  }
+  if (phase_steps < 3) problems.push_back("phase_steps must be ≥ 3 (a phase needs three shifts)");
+  if (!(min_contrast >= 0 && min_contrast < 1)) problems.push_back("min_contrast must be in [0, 1)");
+  return ProblemsStatus("DecodeOptions", problems);
+}
+
 Result<Image> DecodeProjectorColumns(const std::map<std::string, Image>& patterns, const DecodeOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
   LOOM_ASSIGN_OR_RETURN(const Image* white, Pattern(patterns, "white", nullptr));
   LOOM_ASSIGN_OR_RETURN(const Image* black, Pattern(patterns, "black", white));
-  const int bits = acquisition::GrayCodeBits(options.projector_width);
+  const int bits = scan::GrayCodeBits(options.projector_width);
   std::vector<std::pair<const Image*, const Image*>> gray;
   for (int b = 0; b < bits; ++b) {
-    LOOM_ASSIGN_OR_RETURN(const Image* on, Pattern(patterns, acquisition::GrayPatternName(b, false), white));
-    LOOM_ASSIGN_OR_RETURN(const Image* off, Pattern(patterns, acquisition::GrayPatternName(b, true), white));
+    LOOM_ASSIGN_OR_RETURN(const Image* on, Pattern(patterns, scan::GrayPatternName(b, false), white));
+    LOOM_ASSIGN_OR_RETURN(const Image* off, Pattern(patterns, scan::GrayPatternName(b, true), white));
     gray.emplace_back(on, off);
   }
   std::vector<const Image*> phase;
@@ -89,7 +100,7 @@ Result<Image> DecodeProjectorColumns(const std::map<std::string, Image>& pattern
     if (std::isfinite(c)) finite.push_back(c);
   }
   const double min_contrast = options.min_contrast * Percentile(finite, 0.9);
-  const double period = acquisition::kPhasePeriodColumns;
+  const double period = scan::kPhasePeriodColumns;
   Image columns(w, h, {"column"});
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
@@ -167,4 +178,4 @@ Result<TriangulatedHeights> TriangulateHeights(const Image& columns, const Camer
   return result;
 }
 
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration

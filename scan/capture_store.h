@@ -3,7 +3,7 @@
 //
 //   SCAN/scan.yaml       what was scanned: the rig YAML (snapshot), the object, loom's version and
 //                        the plan's summary (written once, atomically)
-//   SCAN/plan.yaml       the expanded plan, step by step (acquisition/plan.h's PlanToYaml)
+//   SCAN/plan.yaml       the expanded plan, step by step (plan.h's PlanToYaml)
 //   SCAN/frames/         raw frames, s<step>_<camera>_e<exposure>.exr: one UINT channel "DN",
 //                        lossless, never rewritten
 //   SCAN/journal.jsonl   one JSON record per frame: what the devices really did, the file and a
@@ -20,11 +20,11 @@
 #include <string>
 #include <vector>
 
-#include "acquisition/plan.h"
 #include "core/status.h"
 #include "hal/camera.h"
+#include "scan/plan.h"
 
-namespace loom::acquisition {
+namespace loom::scan {
 
 struct FrameKey {
   int step = 0;
@@ -39,7 +39,7 @@ struct FrameRecord {
   std::string checksum;    // FNV-1a 64 of the pixels, hex
   int width = 0;
   int height = 0;
-  hal::FrameMetadata metadata;
+  FrameMetadata metadata;
 };
 
 struct ScanInfo {
@@ -62,14 +62,14 @@ class CaptureStore {
   bool Has(const FrameKey& key) const;
 
   // Stores a frame durably, then records it. A key already stored is AlreadyExists.
-  Status Append(const FrameKey& key, const hal::RawFrame& frame);
+  Status Append(const FrameKey& key, const RawFrame& frame);
   // Records that every frame of `step` is stored (its HDR bracket is complete).
   Status MarkStepDone(int step);
   bool StepDone(int step) const { return done_steps_.contains(step); }
   int steps_done() const { return static_cast<int>(done_steps_.size()); }
 
   // The frame of a record, verified against its checksum.
-  Result<hal::RawFrame> ReadFrame(const FrameRecord& record) const;
+  Result<RawFrame> ReadFrame(const FrameRecord& record) const;
 
  private:
   explicit CaptureStore(std::filesystem::path directory) : directory_(std::move(directory)) {}
@@ -83,4 +83,4 @@ class CaptureStore {
 
 std::string FrameChecksum(const std::vector<uint16_t>& pixels);
 
-}  // namespace loom::acquisition
+}  // namespace loom::scan

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace loom::hal {
+namespace loom::scan {
 
 struct LedDrive {
   int led = 0;             // index on the LED controller, 0-based
@@ -27,4 +27,4 @@ struct RigState {
   bool operator==(const RigState&) const = default;
 };
 
-}  // namespace loom::hal
+}  // namespace loom::scan

@@ -14,28 +14,28 @@
 #include "calibration/scan_radiance.h"
 #include "core/image.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
 
 // The turntable angles at which the scan's plan has structured-light steps on `object` (the
 // plan's: "sample", "target", ...), in plan order.
-std::vector<double> StructuredLightAngles(const acquisition::Plan& plan, const std::string& object);
+std::vector<double> StructuredLightAngles(const scan::Plan& plan, const std::string& object);
 
 // The structured-light steps on `object` at `turntable_deg`, decoded in `camera`: channel
 // "column" (NaN where undecodable). A missing pattern, or too few phase patterns, is an error
 // naming it.
-Result<Image> DecodeScanColumns(const calibration::ScanRadiance& scan, const CameraModel& camera, const std::string& object,
+Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, const std::string& object,
                                 double turntable_deg);
 
 // Every camera, every structured-light angle: the target's corners (placed as loom calibrate
 // geometry found it; the scan's rig carries that calibration) with their decoded columns.
-Result<std::vector<calibration::ProjectorCorrespondence>> TargetCornerColumns(const calibration::ScanRadiance& scan,
+Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadiance& scan,
                                                                               const CalibrationTargetModel& target,
-                                                                              const calibration::TargetPlacement& placement);
+                                                                              const TargetPlacement& placement);
 
 // The flat boards of a calibration scan under the patterns — the white tile on the table and on
-// its spacer (acquisition/plan.h), at their nominal heights; none when the scan has no spacer
+// its spacer (scan/plan.h), at their nominal heights; none when the scan has no spacer
 // step — with every camera's decoded pixels on each (at most max_rays_per_camera, on a regular
 // grid of pixels) as rays in the rig frame (the scan's rig carries the calibration).
-Result<std::vector<calibration::FlatBoardView>> FlatBoardRays(const calibration::ScanRadiance& scan, int max_rays_per_camera = 4000);
+Result<std::vector<FlatBoardView>> FlatBoardRays(const ScanRadiance& scan, int max_rays_per_camera = 4000);
 
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration

@@ -1,5 +1,5 @@
 #pragma once
-// Structured light → heightmap. acquisition/patterns.h defines what the projector showed: white
+// Structured light → heightmap. scan/patterns.h defines what the projector showed: white
 // and black references, the Gray code of the projector column bit by bit (each with its
 // inverse) and phase-shifted sinusoids along x with a period of kPhasePeriodColumns.
 //
@@ -25,12 +25,15 @@
 #include "core/rig_model.h"
 #include "core/status.h"
 
-namespace loom::reconstruction {
+namespace loom::calibration {
+
+inline constexpr int kMaxProjectorWidth = 1 << 16;
 
 struct DecodeOptions {
   int projector_width = 0;
   int phase_steps = 4;
   double min_contrast = 0.1;  // white − black, relative to its 90th percentile over the image
+  Status Check() const;       // every problem, naming the field
 };
 
 // `patterns`: the camera's radiance image (channel 0) for every pattern name of the sequence
@@ -56,4 +59,4 @@ struct TriangulatedHeights {
 Result<TriangulatedHeights> TriangulateHeights(const Image& columns, const CameraModel& camera, const ProjectorModel& projector,
                                                const TurntableModel& turntable, double turntable_deg, const HeightmapGrid& grid);
 
-}  // namespace loom::reconstruction
+}  // namespace loom::calibration
