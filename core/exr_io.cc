@@ -260,6 +260,28 @@ void WritePixels(const fs::path& file_path, const Image& image, const ExrAttribu
 
 }  // namespace
 
+Status ExrWriteOptions::Check() const {
+  std::vector<std::string> problems;
+  if (pixel_type != ExrPixelType::kFloat && pixel_type != ExrPixelType::kHalf) {
+    problems.push_back("pixel_type must be kFloat or kHalf");
+  }
+  if (static_cast<int>(compression) < static_cast<int>(ExrCompression::kNone) ||
+      static_cast<int>(compression) > static_cast<int>(ExrCompression::kRle)) {
+    problems.push_back("compression must be one of kNone, kZip, kZips, kPiz, kRle");
+  }
+  return ProblemsStatus("ExrWriteOptions", problems);
+}
+
+Status ExrReadOptions::Check() const {
+  std::vector<std::string> problems;
+  std::set<std::string> seen;
+  for (const std::string& name : channels) {
+    if (name.empty()) problems.push_back("channels holds an empty name");
+    if (!seen.insert(name).second) problems.push_back("channels names '" + name + "' twice");
+  }
+  return ProblemsStatus("ExrReadOptions", problems);
+}
+
 void SetExrThreadCount(int threads) {
   std::call_once(g_threads_once, [] {});
   Imf::setGlobalThreadCount(threads > 0 ? threads
@@ -276,6 +298,7 @@ Status WriteExr(const fs::path& path, const Image& image, const ExrAttributes& a
                                                    " channels)");
   }
   LOOM_RETURN_IF_ERROR(CheckAttributeNames(path, attributes));
+  LOOM_RETURN_IF_ERROR(options.Check());
   return WriteAtomically(path, [&](const fs::path& temporary) { WritePixels(temporary, image, attributes, options); });
 }
 
@@ -296,6 +319,7 @@ Result<ExrHeader> ReadExrHeader(const fs::path& path) {
 }
 
 Result<ExrImage> ReadExr(const fs::path& path, const ExrReadOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
   LOOM_RETURN_IF_ERROR(CheckReadableExr(path));
   EnsureThreadPool();
   try {

@@ -40,12 +40,14 @@ struct ExrWriteOptions {
   ExrPixelType pixel_type = ExrPixelType::kFloat;
   // kZip: lossless, good on smooth maps, ~2–4× slower to write than kNone.
   ExrCompression compression = ExrCompression::kZip;
+  Status Check() const;  // every problem, naming the field
 };
 
 struct ExrReadOptions {
   // Read only these channels, in this order (all channels when empty). A channel that is not
   // in the file is a NotFound error naming it and the file.
   std::vector<std::string> channels;
+  Status Check() const;  // every problem, naming the field
 };
 
 struct ExrImage {

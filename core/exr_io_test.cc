@@ -201,5 +201,20 @@ TEST_F(ExrIoTest, Uint16FramesAreLossless) {
   EXPECT_EQ(ReadExrUint16(dir_ / "float.exr", "Y").status().code(), StatusCode::kInvalidArgument);
 }
 
+TEST_F(ExrIoTest, BadReadAndWriteOptionsAreRefusedNamingTheField) {
+  Image image(2, 2, {"Y"});
+  ASSERT_TRUE(WriteExr(dir_ / "y.exr", image).ok());
+  const Result<ExrImage> twice = ReadExr(dir_ / "y.exr", {.channels = {"Y", "Y"}});
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.status().ToString().find("channels names 'Y' twice"), std::string::npos) << twice.status().ToString();
+  EXPECT_NE(ExrReadOptions{.channels = {""}}.Check().ToString().find("empty name"), std::string::npos);
+  ExrWriteOptions bad_write;
+  bad_write.compression = static_cast<ExrCompression>(99);
+  const Status written = WriteExr(dir_ / "bad.exr", image, {}, bad_write);
+  ASSERT_FALSE(written.ok());
+  EXPECT_NE(written.ToString().find("compression"), std::string::npos) << written.ToString();
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.exr"));
+}
+
 }  // namespace
 }  // namespace loom

@@ -5,8 +5,10 @@
 #include <random>
 #include <string>
 
+#include "core/check.h"
 #include "core/heightfield.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/internal/grid_check.h"
 #include "sim/internal/noise.h"
 #include "sim/reflectance.h"
 
@@ -186,11 +188,21 @@ FabricDescription RandomFabric(uint64_t seed) {
   return f;
 }
 
+Status FabricOptions::Check() const {
+  std::vector<std::string> problems;
+  internal::AddGridProblems(width_px, height_px, pixel_mm, /*zero_is_default=*/false, problems);
+  if (!(geometric_blur_mm >= 0 && geometric_blur_mm <= 1000)) problems.push_back("geometric_blur_mm must be in [0, 1000]");
+  if (supersampling < 1 || supersampling > 16) problems.push_back("supersampling must be in [1, 16]");
+  return ProblemsStatus("FabricOptions", problems);
+}
+
 Material MakeFabric(const FabricDescription& f, const FabricOptions& options) {
+  const Status checked = options.Check();
+  LOOM_CHECK(checked.ok()) << checked.ToString();
   const int w = options.width_px;
   const int h = options.height_px;
   const double px = options.pixel_mm;
-  const int ss = std::max(1, options.supersampling);
+  const int ss = options.supersampling;
   Material material;
   material.name = "fabric " + std::string(WeaveName(f.weave));
   material.pixel_mm = px;

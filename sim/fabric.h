@@ -26,6 +26,7 @@
 #include <string>
 
 #include "core/geometry.h"
+#include "core/status.h"
 #include "sim/material.h"
 
 namespace loom::sim {
@@ -54,6 +55,7 @@ struct FabricOptions {
   double pixel_mm = 0.1;
   double geometric_blur_mm = 1.0;  // scale of the geometric normal (structured light)
   int supersampling = 3;           // per axis, for the parameter maps of thread edges
+  Status Check() const;            // every problem, naming the field (the makers throw on one)
 };
 
 // The choices a seed makes (the table above).

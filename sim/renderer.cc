@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "fitting/model/svbrdf_maps.h"
+#include "core/check.h"
 #include "core/heightfield.h"
 #include "sim/internal/noise.h"
 #include "core/spectra.h"
@@ -236,13 +237,22 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
   return radiance;
 }
 
+Status RenderOptions::Check() const {
+  std::vector<std::string> problems;
+  if (supersampling < 1 || supersampling > 16) problems.push_back("supersampling must be in [1, 16]");
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  return ProblemsStatus("RenderOptions", problems);
+}
+
 Image Scene::RenderRadiance(int camera_index, const SceneState& state, const RenderOptions& options) const {
+  const Status checked = options.Check();
+  LOOM_CHECK(checked.ok()) << checked.ToString();
   const CameraModel& camera = rig_.cameras.at(camera_index);
   const Rigid3d sample_from_rig = rig_.turntable.RigFromSample(state.turntable_deg).inverse();
   const Eigen::Vector3d eye = sample_from_rig * camera.CentreInRig();
   const Eigen::Matrix3d sample_from_cam = sample_from_rig.linear() * camera.cam_from_rig.linear().transpose();
   Image radiance(camera.width, camera.height, {"L"});
-  const int ss = std::max(1, options.supersampling);
+  const int ss = options.supersampling;
   ForEachRow(camera.height, ThreadCount(options.threads), [&](int y) {
     for (int x = 0; x < camera.width; ++x) {
       double sum = 0;

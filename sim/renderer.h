@@ -20,6 +20,7 @@
 #include "core/image.h"
 #include "fitting/model/ward_gd10.h"
 #include "core/rig_model.h"
+#include "core/status.h"
 #include "sim/material.h"
 #include "sim/reflectance.h"
 
@@ -60,6 +61,7 @@ struct RenderOptions {
   int supersampling = 2;   // rays per pixel per axis
   bool shadows = true;
   int threads = 0;         // 0 = one per core
+  Status Check() const;    // every problem, naming the field (RenderRadiance throws on one)
 };
 
 class Scene {

@@ -6,6 +6,7 @@
 
 #include "core/check.h"
 #include "core/rig_observation.h"
+#include "sim/internal/grid_check.h"
 
 namespace loom::sim {
 std::vector<Observation> DefaultObservations(const RigModel& rig, const std::vector<double>& turntable_deg) {
@@ -42,7 +43,16 @@ StackObservation DescribeObservation(const RigModel& rig, const Observation& obs
   return *std::move(described);
 }
 
+Status StackOptions::Check() const {
+  std::vector<std::string> problems;
+  internal::AddGridProblems(width_px, height_px, pixel_mm, /*zero_is_default=*/true, problems);
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  return ProblemsStatus("StackOptions", problems);
+}
+
 ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>& observations, const StackOptions& options) {
+  const Status checked = options.Check();
+  LOOM_CHECK(checked.ok()) << checked.ToString();
   const Material& material = scene.material();
   const double pixel_mm = options.pixel_mm > 0 ? options.pixel_mm : material.pixel_mm;
   const int width = options.width_px > 0 ? options.width_px : material.width();
@@ -88,6 +98,8 @@ ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>&
 }
 
 Material TruthOnStackGrid(const Scene& scene, const StackOptions& options) {
+  const Status checked = options.Check();
+  LOOM_CHECK(checked.ok()) << checked.ToString();
   const Material& material = scene.material();
   Material truth;
   truth.name = material.name;

@@ -26,6 +26,7 @@ struct StackOptions {
   double pixel_mm = 0;      // 0: the material's pixel size
   bool shadows = true;
   int threads = 0;          // 0: one per core
+  Status Check() const;     // every problem, naming the field (RenderStack throws on one)
 };
 
 // Every camera × every LED at 1000 mA × each turntable angle, then every filtered LED through

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "core/spectra.h"
+#include "sim/fabric.h"
 #include "sim/test_materials.h"
 
 namespace loom::sim {
@@ -134,6 +135,28 @@ TEST(StackTest, TheLinearLightIsOneEmitterPerSegment) {
   const double segment_mm = rig.linear_light->strip_length_mm / rig.linear_light->segments;
   EXPECT_NEAR(strip.emitters[0].intensity, 0.5 * rig.linear_light->intensity_per_mm * segment_mm, 1e-9);
   EXPECT_NEAR((strip.emitters[1].position_mm - strip.emitters[0].position_mm).norm(), segment_mm, 1e-9);
+}
+
+// The simulator's options name every bad field, and its makers refuse them (a CheckError: these
+// come from code, a rig's `sample:` is checked before, in SampleSpec).
+TEST(SimOptionsTest, BadGridsRenderingsAndStacksAreRefusedNamingEachField) {
+  const GridOptions grid{.width_px = 0, .height_px = 20000, .pixel_mm = std::nan("")};
+  for (const char* field : {"width_px", "height_px", "pixel_mm"}) {
+    EXPECT_NE(grid.Check().ToString().find(field), std::string::npos) << field << " in " << grid.Check().ToString();
+  }
+  EXPECT_THROW(WhiteTile(grid), CheckError);
+  const FabricOptions fabric{.width_px = 8, .height_px = 8, .pixel_mm = 1e-300, .geometric_blur_mm = -1, .supersampling = 0};
+  for (const char* field : {"pixel_mm", "geometric_blur_mm", "supersampling"}) {
+    EXPECT_NE(fabric.Check().ToString().find(field), std::string::npos) << field << " in " << fabric.Check().ToString();
+  }
+  EXPECT_THROW(GenerateFabric(1, fabric), CheckError);
+  const RenderOptions render{.supersampling = 0, .threads = -1};
+  EXPECT_NE(render.Check().ToString().find("supersampling"), std::string::npos);
+  EXPECT_NE(render.Check().ToString().find("threads"), std::string::npos);
+  StackOptions stack;
+  EXPECT_TRUE(stack.Check().ok()) << "0 means the material's grid";
+  stack.pixel_mm = -0.1;
+  EXPECT_NE(stack.Check().ToString().find("pixel_mm"), std::string::npos) << stack.Check().ToString();
 }
 
 }  // namespace

@@ -2,10 +2,17 @@
 
 #include <cmath>
 
+#include "core/check.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/internal/grid_check.h"
 
 namespace loom::sim {
 namespace {
+
+void ThrowIfBad(const GridOptions& grid) {
+  const Status checked = grid.Check();
+  LOOM_CHECK(checked.ok()) << checked.ToString();
+}
 
 fitting::WardParams<double> Lambertian(const Eigen::Vector3d& albedo) {
   fitting::WardParams<double> p;
@@ -18,6 +25,7 @@ fitting::WardParams<double> Lambertian(const Eigen::Vector3d& albedo) {
 // A flat material whose albedo is given per point (sample-frame mm).
 template <typename AlbedoAt>
 Material FlatLambertian(const std::string& name, const GridOptions& grid, AlbedoAt albedo_at) {
+  ThrowIfBad(grid);
   Material m;
   m.name = name;
   m.pixel_mm = grid.pixel_mm;
@@ -35,7 +43,14 @@ Material FlatLambertian(const std::string& name, const GridOptions& grid, Albedo
 
 }  // namespace
 
+Status GridOptions::Check() const {
+  std::vector<std::string> problems;
+  internal::AddGridProblems(width_px, height_px, pixel_mm, /*zero_is_default=*/false, problems);
+  return ProblemsStatus("GridOptions", problems);
+}
+
 Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params, const GridOptions& grid) {
+  ThrowIfBad(grid);
   Material m;
   m.name = name;
   m.pixel_mm = grid.pixel_mm;

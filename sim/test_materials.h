@@ -15,6 +15,7 @@
 // All but the target, the sphere and the raised tile flat (height 0, n_s = z), centred on the sample like every material.
 
 #include "core/rig_model.h"
+#include "core/status.h"
 #include "fitting/model/ward_gd10.h"
 #include "sim/material.h"
 
@@ -24,6 +25,7 @@ struct GridOptions {
   int width_px = 256;
   int height_px = 256;
   double pixel_mm = 0.5;
+  Status Check() const;  // every problem, naming the field (the makers below throw on one)
 };
 
 Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params,
