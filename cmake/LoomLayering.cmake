@@ -66,3 +66,23 @@ function(loom_check_layering)
     endforeach()
   endforeach()
 endfunction()
+
+# loom_check_includes(DIRECTORIES dir... FORBIDDEN prefix...): the same rule for the sources, which
+# the link graph does not see (the include path is the project root, so a header of a forbidden
+# module compiles without linking it).
+function(loom_check_includes)
+  cmake_parse_arguments(ARG "" "" "DIRECTORIES;FORBIDDEN" ${ARGN})
+  foreach(directory IN LISTS ARG_DIRECTORIES)
+    file(GLOB_RECURSE sources "${directory}/*.h" "${directory}/*.cc")
+    foreach(source IN LISTS sources)
+      foreach(prefix IN LISTS ARG_FORBIDDEN)
+        file(STRINGS "${source}" hits REGEX "^#include \"${prefix}/")
+        if(hits)
+          list(GET hits 0 hit)
+          message(FATAL_ERROR "Layering: ${source} must not include ${prefix}/ (algorithms read stored scans "
+                              "and never use devices), but it does: ${hit}")
+        endif()
+      endforeach()
+    endforeach()
+  endforeach()
+endfunction()

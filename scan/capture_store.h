@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "core/status.h"
-#include "hal/camera.h"
+#include "scan/frame.h"
 #include "scan/plan.h"
 
 namespace loom::scan {

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "core/status.h"
-#include "hal/projector.h"
+#include "scan/pattern.h"
 
 namespace loom::scan {
 
