@@ -105,18 +105,18 @@ TEST_F(SequencerTest, ACameraThatDropsOutBrieflyIsRetried) {
 }
 
 TEST_F(SequencerTest, ACameraThatStaysOutStopsTheScanCleanly) {
-  scan::CaptureStore store = NewStore();
-  Sequencer sequencer(*rig_, plan_, store);
-  int steps = 0;
-  // Let a few steps pass, then pull cam1's cable for good.
-  const Status done = sequencer.Run([&](const ScanProgress&) {
-    if (++steps == 3) world_->camera_failures["cam1"] = -1;
-  });
-  ASSERT_FALSE(done.ok());
-  EXPECT_EQ(done.code(), StatusCode::kUnavailable);
-  EXPECT_EQ(done.subject(), "camera 'cam1' (sim virtual cam1)");
-  EXPECT_NE(done.message().find("step 3"), std::string::npos) << done.ToString();
   {
+    scan::CaptureStore store = NewStore();
+    Sequencer sequencer(*rig_, plan_, store);
+    int steps = 0;
+    // Let a few steps pass, then pull cam1's cable for good.
+    const Status done = sequencer.Run([&](const ScanProgress&) {
+      if (++steps == 3) world_->camera_failures["cam1"] = -1;
+    });
+    ASSERT_FALSE(done.ok());
+    EXPECT_EQ(done.code(), StatusCode::kUnavailable);
+    EXPECT_EQ(done.subject(), "camera 'cam1' (sim virtual cam1)");
+    EXPECT_NE(done.message().find("step 3"), std::string::npos) << done.ToString();
     hal::SafeStateGuard guard(*rig_);  // what loom scan holds around the sequencer
   }
   EXPECT_TRUE(world_->state.leds.empty());

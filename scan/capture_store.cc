@@ -1,8 +1,12 @@
 #include "scan/capture_store.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -12,6 +16,7 @@
 #include "core/config.h"
 #include "core/exr_io.h"
 #include "core/file_io.h"
+#include "core/log.h"
 #include "core/version.h"
 
 namespace loom::scan {
@@ -23,6 +28,32 @@ using Json = nlohmann::json;
 constexpr int kScanSchemaVersion = 1;
 constexpr char kPixelChannel[] = "DN";
 constexpr char kPlanFile[] = "plan.yaml";
+constexpr char kWriterLockFile[] = "writer.lock";
+
+// An exclusive flock on `directory`/writer.lock for as long as the returned handle lives. The
+// kernel drops it when the process dies, so a killed scan never leaves its directory locked;
+// the holder's pid is written into the file for the message a second writer gets.
+Result<std::shared_ptr<void>> LockForWriting(const fs::path& directory, const fs::path& shown_as) {
+  const fs::path path = directory / kWriterLockFile;
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return IoError(path.string(), std::string("cannot open the writer lock: ") + std::strerror(errno));
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int error = errno;
+    char holder[32] = {};
+    const ssize_t read = ::pread(fd, holder, sizeof(holder) - 1, 0);
+    ::close(fd);
+    if (error != EWOULDBLOCK) return IoError(path.string(), std::string("cannot lock: ") + std::strerror(error));
+    const std::string pid = read > 0 ? " (pid " + std::string(holder, static_cast<size_t>(read)) + ")" : "";
+    return FailedPreconditionError(shown_as.string(), "is being written by another process" + pid +
+                                                          ": one writer per scan; let it finish or stop it, then resume");
+  }
+  // The pid only makes the message clearer: a full disk must not stop a resume here.
+  const std::string pid = std::to_string(::getpid());
+  if (::ftruncate(fd, 0) == 0 && ::pwrite(fd, pid.data(), pid.size(), 0) < 0) {
+    LOOM_LOG(Warning) << path.string() << ": could not record this process's pid (" << std::strerror(errno) << ")";
+  }
+  return std::shared_ptr<void>(nullptr, [fd](void*) { ::close(fd); });
+}
 
 std::string FrameFileName(const FrameKey& key) {
   char name[160];
@@ -153,6 +184,12 @@ Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanI
   fs::remove_all(building, ec);
   fs::create_directories(building / "frames", ec);
   if (ec) return IoError(directory.string(), "cannot create: " + ec.message());
+  // Locked before it has its name: the lock file's inode goes with the rename.
+  Result<std::shared_ptr<void>> lock = LockForWriting(building, directory);
+  if (!lock.ok()) {
+    fs::remove_all(building, ec);
+    return lock.status();
+  }
   for (const auto& [file, text] : {std::pair{kPlanFile, PlanToYaml(info.plan)}, std::pair{"scan.yaml", ScanYaml(info)}}) {
     if (Status written = WriteFileAtomically(building / file, text); !written.ok()) {
       fs::remove_all(building, ec);
@@ -166,6 +203,7 @@ Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanI
     return IoError(directory.string(), "cannot create: " + ec.message());
   }
   CaptureStore store(directory);
+  store.writer_lock_ = *std::move(lock);
   store.info_ = info;
   return store;
 }
@@ -176,6 +214,9 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
     return NotFoundError(directory.string(), "not a scan directory (no scan.yaml): nothing to read or resume");
   }
   CaptureStore store(directory);
+  if (repair) {
+    LOOM_ASSIGN_OR_RETURN(store.writer_lock_, LockForWriting(directory, directory));
+  }
   LOOM_ASSIGN_OR_RETURN(store.info_, ReadScanYaml(directory));
   std::string journal;
   if (fs::exists(store.JournalPath())) {

@@ -8,14 +8,19 @@
 //                        lossless, never rewritten
 //   SCAN/journal.jsonl   one JSON record per frame: what the devices really did, the file and a
 //                        checksum of its pixels
+//   SCAN/writer.lock     held (flock, exclusive) by the one process writing the scan; the kernel
+//                        releases it when that process ends, however it ends
 //
 // Order of a write: the frame file (temporary name, fsync, rename, fsync of the directory),
 // then its journal record (appended, fsync). A frame without a record is partial and is redone
 // on resume; a torn last journal line (a crash mid-append) is dropped. Reading verifies every
 // frame against its record: a missing, truncated or altered frame is an error naming the file.
-// Not thread-safe: one writer per scan.
+// One writer per scan: Create and Open(repair) take the writer lock, and a second writer (a
+// second `loom scan --resume` on the same directory) is refused naming the directory. Not
+// thread-safe.
 
 #include <filesystem>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -50,10 +55,11 @@ struct ScanInfo {
 
 class CaptureStore {
  public:
-  // A new scan in `directory` (created; must not exist or be empty).
+  // A new scan in `directory` (created; must not exist or be empty), locked for writing.
   static Result<CaptureStore> Create(const std::filesystem::path& directory, const ScanInfo& info);
   // An existing scan, for reading or resuming: reads scan.yaml and the journal. With
-  // `repair`, drops a torn last journal line from the file and deletes partial frames.
+  // `repair` (resuming), takes the writer lock first (FailedPrecondition while another process
+  // holds it), then drops a torn last journal line from the file and deletes partial frames.
   static Result<CaptureStore> Open(const std::filesystem::path& directory, bool repair = false);
 
   const std::filesystem::path& directory() const { return directory_; }
@@ -76,6 +82,7 @@ class CaptureStore {
   std::filesystem::path JournalPath() const { return directory_ / "journal.jsonl"; }
 
   std::filesystem::path directory_;
+  std::shared_ptr<void> writer_lock_;  // while this store writes (empty when read-only)
   ScanInfo info_;
   std::vector<FrameRecord> records_;
   std::set<int> done_steps_;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <fstream>
 
 #include "core/exr_io.h"
@@ -99,9 +101,11 @@ TEST_F(CaptureStoreTest, AlteredTruncatedAndMissingFramesAreNamed) {
 }
 
 TEST_F(CaptureStoreTest, ACrashMidAppendIsRepairedOnResume) {
-  CaptureStore store = MakeStore();
-  ASSERT_TRUE(store.Append({0, "cam0", 0}, Frame(0)).ok());
-  ASSERT_TRUE(store.Append({1, "cam0", 0}, Frame(1)).ok());
+  {
+    CaptureStore store = MakeStore();  // the process that crashes: its writer lock goes with it
+    ASSERT_TRUE(store.Append({0, "cam0", 0}, Frame(0)).ok());
+    ASSERT_TRUE(store.Append({1, "cam0", 0}, Frame(1)).ok());
+  }
   // A crash after the frame of step 2 but mid-way through its journal record, plus a leftover
   // temporary file and a frame that never got a record.
   const std::string journal = *ReadFile(dir_ / "journal.jsonl");
@@ -151,6 +155,26 @@ TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {
   const Result<CaptureStore> nothing = CaptureStore::Open(dir_ / "nowhere");
   EXPECT_EQ(nothing.status().code(), StatusCode::kNotFound);
   EXPECT_NE(nothing.status().message().find("not a scan directory"), std::string::npos);
+}
+
+// Two `loom scan --resume` on one directory once both ran, and left 466 journal records for
+// 238 frames: a second writer is now refused, naming the scan, until the first one ends.
+TEST_F(CaptureStoreTest, ASecondWriterIsRefusedUntilTheFirstEnds) {
+  {
+    CaptureStore writer = MakeStore();
+    const Result<CaptureStore> second = CaptureStore::Open(dir_, /*repair=*/true);
+    ASSERT_FALSE(second.ok());
+    EXPECT_EQ(second.status().code(), StatusCode::kFailedPrecondition);
+    EXPECT_EQ(second.status().subject(), dir_.string());
+    EXPECT_NE(second.status().message().find("pid " + std::to_string(::getpid())), std::string::npos)
+        << second.status().ToString();
+    EXPECT_TRUE(CaptureStore::Open(dir_).ok()) << "readers are not writers";
+    ASSERT_TRUE(writer.Append({0, "cam0", 0}, Frame(0)).ok());
+  }
+  Result<CaptureStore> resumed = CaptureStore::Open(dir_, /*repair=*/true);
+  ASSERT_TRUE(resumed.ok()) << resumed.status().ToString();
+  EXPECT_EQ(resumed->records().size(), 1u);
+  EXPECT_EQ(CaptureStore::Open(dir_, /*repair=*/true).status().code(), StatusCode::kFailedPrecondition);
 }
 
 }  // namespace

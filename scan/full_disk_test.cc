@@ -9,12 +9,12 @@
 namespace loom::scan {
 namespace {
 
-TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
-  const char* tmpfs = std::getenv("LOOM_SMALL_TMPFS");
-  if (tmpfs == nullptr) GTEST_SKIP() << "needs run_in_small_tmpfs.sh";
-  const std::filesystem::path dir = std::filesystem::path(tmpfs) / "scan";
+// Appends noise frames to a new scan in `dir` until the disk is full: the error, with `stored`
+// the frames that made it. The writer, and its lock, end with the function, as a scan's
+// process does.
+Status FillUntilFull(const std::filesystem::path& dir, int& stored) {
   Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", {}});
-  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  if (!store.ok()) return store.status();
   RawFrame frame;
   frame.width = frame.height = 64;
   uint32_t state = 1;
@@ -22,12 +22,19 @@ TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
     state = state * 1664525u + 1013904223u;  // noise: does not compress
     frame.pixels.push_back(static_cast<uint16_t>(state >> 20));
   }
-  Status failed;
-  int stored = 0;
-  for (int step = 0; step < 1000 && failed.ok(); ++step) {
-    failed = store->Append({step, "cam0", 0}, frame);
-    if (failed.ok()) ++stored;
+  for (int step = 0; step < 1000; ++step) {
+    if (Status appended = store->Append({step, "cam0", 0}, frame); !appended.ok()) return appended;
+    ++stored;
   }
+  return Status::Ok();
+}
+
+TEST(FullDiskTest, TheFrameThatDoesNotFitIsAnErrorAndNothingIsCorrupted) {
+  const char* tmpfs = std::getenv("LOOM_SMALL_TMPFS");
+  if (tmpfs == nullptr) GTEST_SKIP() << "needs run_in_small_tmpfs.sh";
+  const std::filesystem::path dir = std::filesystem::path(tmpfs) / "scan";
+  int stored = 0;
+  const Status failed = FillUntilFull(dir, stored);
   ASSERT_FALSE(failed.ok()) << "the 256 KiB disk never filled";
   EXPECT_EQ(failed.code(), StatusCode::kIoError) << failed.ToString();
   EXPECT_NE(failed.subject().find("/frames/s"), std::string::npos) << failed.ToString();  // names the frame file
