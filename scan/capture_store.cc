@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -53,6 +54,13 @@ Result<std::shared_ptr<void>> LockForWriting(const fs::path& directory, const fs
     LOOM_LOG(Warning) << path.string() << ": could not record this process's pid (" << std::strerror(errno) << ")";
   }
   return std::shared_ptr<void>(nullptr, [fd](void*) { ::close(fd); });
+}
+
+// Whether `name` (a file in frames/) is one the store writes: a frame, or a frame's temporary
+// (core's atomic writes: ".<name>.tmp-<pid>"). Resume deletes only these.
+bool IsStoreFrameName(const std::string& name) {
+  static const std::regex frame(R"(\.?s\d{5}_[^/]+_e\d{2}\.exr(\.tmp-\d+)?)");
+  return std::regex_match(name, frame);
 }
 
 std::string FrameFileName(const FrameKey& key) {
@@ -174,6 +182,9 @@ std::string FrameChecksum(const std::vector<uint16_t>& pixels) {
 
 Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanInfo& info) {
   std::error_code ec;
+  if (fs::exists(directory, ec) && !fs::is_directory(directory, ec)) {
+    return AlreadyExistsError(directory.string(), "exists and is not a directory: a scan never replaces a file");
+  }
   if (fs::exists(directory, ec) && !fs::is_empty(directory, ec)) {
     return AlreadyExistsError(directory.string(), "not empty: a scan is never written over (use --resume to continue it)");
   }
@@ -251,13 +262,19 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
     if (good_bytes < journal.size()) {
       fs::resize_file(store.JournalPath(), good_bytes);
     }
-    // Frames without a record never completed: remove them, and any temporary files.
+    // Frames without a record never completed: remove them, and any temporary files. A file
+    // the store would never have written is someone else's: it stays.
     std::set<std::string> recorded;
     for (const FrameRecord& record : store.records_) recorded.insert(record.file);
     std::error_code ec;
     for (const auto& entry : fs::directory_iterator(directory / "frames", ec)) {
-      const std::string relative = "frames/" + entry.path().filename().string();
-      if (!recorded.contains(relative)) fs::remove(entry.path(), ec);
+      const std::string name = entry.path().filename().string();
+      if (recorded.contains("frames/" + name)) continue;
+      if (IsStoreFrameName(name)) {
+        fs::remove(entry.path(), ec);
+      } else {
+        LOOM_LOG(Warning) << entry.path().string() << ": not a file this scan wrote; left as it is";
+      }
     }
   }
   return store;

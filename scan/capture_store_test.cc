@@ -112,6 +112,9 @@ TEST_F(CaptureStoreTest, ACrashMidAppendIsRepairedOnResume) {
   std::ofstream(dir_ / "journal.jsonl", std::ios::app) << journal.substr(0, 40);
   std::ofstream(dir_ / "frames" / ".s00002_cam0_e00.exr.tmp-123") << "partial";
   ASSERT_TRUE(WriteExrUint16(dir_ / "frames" / "s00002_cam0_e00.exr", 16, 12, Frame(2).pixels, "DN").ok());
+  // And files the store never writes, which resuming must not touch.
+  std::ofstream(dir_ / "frames" / "notes.txt") << "the operator's";
+  std::ofstream(dir_ / "frames" / "s00002_cam0_e00.exr.bak") << "a copy";
 
   // Reading tolerates the torn line; resuming removes it and the partial files.
   ASSERT_EQ(CaptureStore::Open(dir_)->records().size(), 2u);
@@ -120,6 +123,8 @@ TEST_F(CaptureStoreTest, ACrashMidAppendIsRepairedOnResume) {
   EXPECT_FALSE(resumed->Has({2, "cam0", 0}));
   EXPECT_FALSE(fs::exists(dir_ / "frames" / "s00002_cam0_e00.exr"));
   EXPECT_FALSE(fs::exists(dir_ / "frames" / ".s00002_cam0_e00.exr.tmp-123"));
+  EXPECT_TRUE(fs::exists(dir_ / "frames" / "notes.txt"));
+  EXPECT_TRUE(fs::exists(dir_ / "frames" / "s00002_cam0_e00.exr.bak"));
   ASSERT_TRUE(resumed->Append({2, "cam0", 0}, Frame(2)).ok());
   const Result<CaptureStore> after = CaptureStore::Open(dir_);
   ASSERT_TRUE(after.ok()) << after.status().ToString();
@@ -152,6 +157,13 @@ TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {
       << opened.status().ToString();
   const Result<CaptureStore> again = CaptureStore::Create(dir_, {});
   EXPECT_EQ(again.status().code(), StatusCode::kAlreadyExists);
+  // An existing file, even an empty one, is never replaced by a scan.
+  std::ofstream(dir_.string() + ".txt").close();
+  const Result<CaptureStore> over_file = CaptureStore::Create(dir_.string() + ".txt", {});
+  EXPECT_EQ(over_file.status().code(), StatusCode::kAlreadyExists);
+  EXPECT_NE(over_file.status().message().find("not a directory"), std::string::npos) << over_file.status().ToString();
+  EXPECT_TRUE(fs::is_regular_file(dir_.string() + ".txt"));
+  fs::remove(dir_.string() + ".txt");
   const Result<CaptureStore> nothing = CaptureStore::Open(dir_ / "nowhere");
   EXPECT_EQ(nothing.status().code(), StatusCode::kNotFound);
   EXPECT_NE(nothing.status().message().find("not a scan directory"), std::string::npos);
