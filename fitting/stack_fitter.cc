@@ -162,6 +162,10 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
   return outcomes;
 }
 
+// Light samples per strip that the grid search scores its candidates with: they are coarse
+// anyway, and 4 rank them as 8 do (the main job: same L1, 9 % less time).
+constexpr int kGridLights = 4;
+
 // Step 5 on the refiner for some retried pixels, in two stages. Explore: each pixel's best grid
 // starts and its first fit are refined with the strips merged into `retry_explore_lights`
 // samples (a grid start tries another basin; the prior toward the pixel's own start still keeps
@@ -169,10 +173,6 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
 // basin beats the first fit's by retry_min_gain is it refined again with every sample; the
 // better of that and the first fit is kept. Most retried pixels are noisy rather than in a wrong
 // basin, and end the exploration where they were (docs/benchmarks.md).
-// Light samples per strip that the grid search scores its candidates with: they are coarse
-// anyway, and 4 rank them as 8 do (the main job: same L1, 9 % less time).
-constexpr int kGridLights = 4;
-
 // Returns how many were finished.
 Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                              const RefineOptions& refine, const StackFitOptions& options,
