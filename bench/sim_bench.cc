@@ -1,13 +1,18 @@
 // The simulator's speed: frames per second of tac7-mini and tac7 cameras (one LED lit, 2×2
 // supersampling, shadows), BRDF evaluations per second inside the renderer, and fast-path stack
-// throughput (pixel-observations per second). Ratio against the naive way: one thread.
+// throughput (pixel-observations per second), and the heightfield marches (shadow tests and
+// camera rays per second) skipping 8-pixel blocks against one block, the plain march that only
+// stops above the highest point. Ratios against the naive way: one thread, one block.
 #include <benchmark/benchmark.h>
 
 #include "bench/bench_report.h"
 #include "core/config.h"
+#include "core/heightmap.h"
 #include "core/rig_model.h"
 #include "sim/sample.h"
+#include "fitting/model/svbrdf_maps.h"
 #include "sim/stack.h"
+#include "sim/test_materials.h"
 
 namespace {
 
@@ -63,6 +68,73 @@ void BM_FastPathStack(benchmark::State& state) {
 }
 BENCHMARK(BM_FastPathStack)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime();
 
+// range(1): 0 tac7-mini's fabric (0.2 mm of relief), 1 its chrome sphere (a calibration scan's
+// tallest object), as a heightmap of range(0) pixel blocks (0: one block, the whole grid).
+const loom::sim::Material& MarchedMaterial(int which) {
+  if (which == 0) return Scenes(0).material();
+  static const loom::sim::Material sphere = loom::sim::ChromeSphere(*Scenes(0).rig().light_probe);
+  return sphere;
+}
+
+loom::Heightmap MarchedHeightmap(const benchmark::State& state) {
+  const loom::sim::Material& material = MarchedMaterial(static_cast<int>(state.range(1)));
+  const int block_px = static_cast<int>(state.range(0));
+  const auto plane = material.maps.channel(*material.maps.FindChannel(loom::fitting::kHeightChannel));
+  const int block = block_px > 0 ? block_px : std::max(material.width(), material.height()) + 1;
+  return loom::Heightmap(std::vector<float>(plane.begin(), plane.end()), material.width(), material.height(),
+                         material.pixel_mm, block);
+}
+
+// Shadow tests from a 32 × 32 grid of surface points towards every LED of tac7-mini (sample
+// frame, turntable at 0).
+void BM_Shadowed(benchmark::State& state) {
+  const loom::Heightmap map = MarchedHeightmap(state);
+  const loom::sim::Material& material = MarchedMaterial(static_cast<int>(state.range(1)));
+  const Scene& scene = Scenes(0);
+  const double half = 0.5 * material.width() * material.pixel_mm, step = 2 * half / 32;
+  int64_t tests = 0, shadowed = 0;
+  for (auto _ : state) {
+    for (double y = -half; y < half; y += step) {
+      for (double x = -half; x < half; x += step) {
+        const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+        for (const loom::LedModel& led : scene.rig().leds) {
+          shadowed += map.Shadowed(p, led.position_mm);
+          ++tests;
+        }
+      }
+    }
+  }
+  benchmark::DoNotOptimize(shadowed);
+  state.SetItemsProcessed(tests);
+  state.counters["shadowed_fraction"] = static_cast<double>(shadowed) / static_cast<double>(tests);
+}
+BENCHMARK(BM_Shadowed)->ArgsProduct({{8, 0}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Camera rays from every camera of tac7-mini to a 64 × 64 grid over the material: the
+// renderer's first hit.
+void BM_FirstHit(benchmark::State& state) {
+  const loom::Heightmap map = MarchedHeightmap(state);
+  const loom::sim::Material& material = MarchedMaterial(static_cast<int>(state.range(1)));
+  const Scene& scene = Scenes(0);
+  const double half = 0.5 * material.width() * material.pixel_mm, step = 2 * half / 64;
+  int64_t rays = 0;
+  double checksum = 0;
+  for (auto _ : state) {
+    for (const loom::CameraModel& camera : scene.rig().cameras) {
+      const Eigen::Vector3d eye = camera.CentreInRig();
+      for (double y = -half; y < half; y += step) {
+        for (double x = -half; x < half; x += step) {
+          checksum += map.FirstHit(eye, (Eigen::Vector3d(x, y, 0) - eye).normalized()).z();
+          ++rays;
+        }
+      }
+    }
+  }
+  benchmark::DoNotOptimize(checksum);
+  state.SetItemsProcessed(rays);
+}
+BENCHMARK(BM_FirstHit)->ArgsProduct({{8, 0}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -70,5 +142,9 @@ int main(int argc, char** argv) {
       argc, argv, "bench_sim",
       "Simulator: camera frames/s (items = frames, cam1 45°, one LED), fast-path stack pixel-observations/s",
       {{"frame_two_threads_vs_one_tac7_mini", "BM_RenderFrame/0/2/real_time", "BM_RenderFrame/0/1/real_time"},
-       {"stack_two_threads_vs_one", "BM_FastPathStack/2/real_time", "BM_FastPathStack/1/real_time"}});
+       {"stack_two_threads_vs_one", "BM_FastPathStack/2/real_time", "BM_FastPathStack/1/real_time"},
+       {"shadow_tests_blocks_vs_plain_march_fabric", "BM_Shadowed/8/0/real_time", "BM_Shadowed/0/0/real_time"},
+       {"shadow_tests_blocks_vs_plain_march_sphere", "BM_Shadowed/8/1/real_time", "BM_Shadowed/0/1/real_time"},
+       {"camera_rays_blocks_vs_plain_march_fabric", "BM_FirstHit/8/0/real_time", "BM_FirstHit/0/0/real_time"},
+       {"camera_rays_blocks_vs_plain_march_sphere", "BM_FirstHit/8/1/real_time", "BM_FirstHit/0/1/real_time"}});
 }

@@ -13,24 +13,48 @@ namespace loom {
 
 class Heightmap {
  public:
+  // Shadowed() skips the march across a block of this many pixels a side wherever the ray is
+  // above everything the block's heights can interpolate to.
+  static constexpr int kDefaultBlockPx = 8;
+
   Heightmap() = default;
-  // Row-major heights (mm), width × height of them (CHECKed).
-  Heightmap(std::vector<float> heights_mm, int width, int height, double pixel_mm);
+  // Row-major heights (mm), width × height of them, block_px ≥ 1 (CHECKed).
+  Heightmap(std::vector<float> heights_mm, int width, int height, double pixel_mm, int block_px = kDefaultBlockPx);
 
   // Bilinear between pixel centres, so the surface is continuous for ray marching.
   double HeightAt(double x_mm, double y_mm) const;
   double max_height_mm() const { return max_height_mm_; }
 
   // True if the surface blocks the segment from surface point `p` towards the point `light`
-  // (a light below the horizon is blocked). Marches at half a pixel up to the highest point.
+  // (a light below the horizon is blocked). Marches at half a pixel up to the highest point;
+  // the samples it skips (off the grid, or above their block's highest point) are ones that
+  // cannot be below the surface, so the answer is the full march's.
   bool Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) const;
 
+  // Where the ray from `origin` along the unit `direction` (z < 0, CHECKed) first meets the
+  // surface, to 10 nm: marched at half a pixel down from the highest point and bisected, the
+  // blocks it passes above skipped; the ray's point at z = 0 if it meets nothing before.
+  Eigen::Vector3d FirstHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+
  private:
+  // The highest height that HeightAt can return in the block holding grid point (gx, gy), and
+  // the ray parameter at which the ray q + t·u (grid units) leaves that block or the grid.
+  struct Block {
+    double max_mm;
+    double t_leave;
+  };
+  Block BlockAlong(double gx, double gy, double ux, double uy) const;
+  void BuildBlockMaxima();
+
   std::vector<float> heights_mm_;
   int width_ = 0;
   int height_ = 0;
   double pixel_mm_ = 1;
   double max_height_mm_ = 0;
+  int block_px_ = kDefaultBlockPx;
+  int blocks_x_ = 0;
+  int blocks_y_ = 0;
+  std::vector<float> block_max_mm_;
 };
 
 }  // namespace loom

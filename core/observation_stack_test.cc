@@ -7,7 +7,6 @@
 #include <limits>
 
 #include "core/exr_io.h"
-#include "core/heightmap.h"
 
 namespace loom {
 namespace {
@@ -115,29 +114,6 @@ TEST_F(ObservationStackTest, InfinityAndNanGeometryAreErrorsNamingChannelAndPixe
   read = ReadObservationStack(dir_ / "nan.exr");
   ASSERT_FALSE(read.ok());
   EXPECT_NE(read.status().ToString().find("pos.Z"), std::string::npos) << read.status().ToString();
-}
-
-TEST(HeightmapTest, InterpolatesBetweenPixelCentresAndIsZeroOffTheGrid) {
-  // 2 × 1 pixels of 1 mm: centres at x = −0.5 and +0.5.
-  const Heightmap map({1.0f, 3.0f}, 2, 1, 1.0);
-  EXPECT_DOUBLE_EQ(map.HeightAt(0.0, 0.0), 2.0);
-  EXPECT_DOUBLE_EQ(map.HeightAt(-0.5, 0.0), 1.0);
-  EXPECT_DOUBLE_EQ(map.HeightAt(10.0, 0.0), 0.0);
-  EXPECT_EQ(map.max_height_mm(), 3.0);
-}
-
-TEST(HeightmapTest, AWallCastsAShadowOnlyOnItsFarSide) {
-  // A 2 mm wall at x ∈ [0, 1) mm on a 10 mm wide flat grid.
-  std::vector<float> heights(40 * 40, 0.0f);
-  for (int y = 0; y < 40; ++y) {
-    for (int x = 20; x < 24; ++x) heights[y * 40 + x] = 2.0f;
-  }
-  const Heightmap map(heights, 40, 40, 0.25);
-  const Eigen::Vector3d light(500, 0, 500);  // 45° from +x
-  EXPECT_TRUE(map.Shadowed({-1.0, 0, 0}, light));   // behind the wall, within its 2 mm shadow
-  EXPECT_FALSE(map.Shadowed({-3.0, 0, 0}, light));  // beyond the shadow
-  EXPECT_FALSE(map.Shadowed({2.0, 0, 0}, light));   // on the lit side
-  EXPECT_TRUE(map.Shadowed({2.0, 0, 0}, {-500, 0, -1}));  // below the horizon
 }
 
 }  // namespace

@@ -95,6 +95,10 @@ Scene::Scene(RigModel rig, Material material) : rig_(std::move(rig)), material_(
   frames_.resize(normals.size());
   for (size_t i = 0; i < normals.size(); ++i) frames_[i] = WorldFromLocal(normals[i], Eigen::Vector3d::UnitX());
   panchromatic_ = PanchromaticWeights();
+  for (const FilterWheelModel& wheel : rig_.filter_wheels) {
+    std::vector<Eigen::Vector3d>& slots = filter_weights_.emplace_back();
+    for (const FilterModel& filter : wheel.filters) slots.push_back(FilterWeights(filter));
+  }
   Result<std::optional<BeyondLayout>> beyond = FindBeyondChannels(material_.maps);
   LOOM_CHECK(beyond.ok()) << material_.name << ": " << beyond.status().ToString() << " (ReadMaterial refuses such files)";
   beyond_ = *beyond;
@@ -116,33 +120,7 @@ Eigen::Vector3d Scene::GeometricNormalAt(double x_mm, double y_mm) const {
 
 std::optional<Eigen::Vector3d> Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const {
   if (direction.z() >= 0) return std::nullopt;
-  const double top = heightmap_.max_height_mm() + 1e-6;
-  const double t_top = std::max(0.0, (top - origin.z()) / direction.z());
-  const double t_bottom = -origin.z() / direction.z();
-  Eigen::Vector3d hit = origin + t_bottom * direction;
-  if (heightmap_.max_height_mm() > 0) {
-    const double horizontal = std::max(direction.head<2>().norm(), 1e-9);
-    const double dt = 0.5 * material_.pixel_mm / horizontal;
-    double previous = t_top;
-    for (double t = t_top + dt;; t += dt) {
-      const double tt = std::min(t, t_bottom);
-      const Eigen::Vector3d p = origin + tt * direction;
-      if (p.z() <= HeightAt(p.x(), p.y())) {
-        // Above at lo, below at hi; bisected to 10 nm, well inside Shadowed's 0.1 µm tolerance
-        // (a near-vertical ray's first step can span the whole height range).
-        double lo = previous, hi = tt;
-        while (hi - lo > 1e-5) {
-          const double mid = 0.5 * (lo + hi);
-          const Eigen::Vector3d q = origin + mid * direction;
-          (q.z() <= HeightAt(q.x(), q.y()) ? hi : lo) = mid;
-        }
-        hit = origin + hi * direction;
-        break;
-      }
-      if (tt >= t_bottom) break;
-      previous = tt;
-    }
-  }
+  const Eigen::Vector3d hit = heightmap_.FirstHit(origin, direction);
   if (hit.head<2>().norm() > rig_.sample_holder_diameter_mm / 2 && !MapPixel(hit.x(), hit.y())) return std::nullopt;
   return hit;
 }
@@ -193,7 +171,7 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       const auto slot = state.filter_slots.find(static_cast<int>(w));
       if (wheel.led == lit.led && slot != state.filter_slots.end() && slot->second >= 0 &&
           slot->second < static_cast<int>(wheel.filters.size())) {
-        weights = FilterWeights(wheel.filters[slot->second]);
+        weights = filter_weights_[w][slot->second];
       }
     }
     radiance += PointSourceRadiance(p, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma),

@@ -99,6 +99,9 @@ class Scene {
   std::vector<Eigen::Matrix3d> frames_;     // world_from_local per map pixel (geometric frame)
   std::optional<BeyondLayout> beyond_;      // the material's beyond-GD10 channels, if it has them
   Eigen::Vector3d panchromatic_;
+  // FilterWeights of every wheel's every slot, [wheel][slot]: a spectral integral, once per scene
+  // rather than once per ray.
+  std::vector<std::vector<Eigen::Vector3d>> filter_weights_;
 
   // Radiance at `p` from one point source at `light` (sample frame) of radiant intensity
   // `intensity` towards p, with `weights` for the albedos.

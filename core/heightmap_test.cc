@@ -1,0 +1,146 @@
+#include "core/heightmap.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/check.h"
+
+namespace loom {
+namespace {
+
+TEST(HeightmapTest, InterpolatesBetweenPixelCentresAndIsZeroOffTheGrid) {
+  // 2 × 1 pixels of 1 mm: centres at x = −0.5 and +0.5.
+  const Heightmap map({1.0f, 3.0f}, 2, 1, 1.0);
+  EXPECT_DOUBLE_EQ(map.HeightAt(0.0, 0.0), 2.0);
+  EXPECT_DOUBLE_EQ(map.HeightAt(-0.5, 0.0), 1.0);
+  EXPECT_DOUBLE_EQ(map.HeightAt(10.0, 0.0), 0.0);
+  EXPECT_EQ(map.max_height_mm(), 3.0);
+}
+
+TEST(HeightmapTest, AWallCastsAShadowOnlyOnItsFarSide) {
+  // A 2 mm wall at x ∈ [0, 1) mm on a 10 mm wide flat grid.
+  std::vector<float> heights(40 * 40, 0.0f);
+  for (int y = 0; y < 40; ++y) {
+    for (int x = 20; x < 24; ++x) heights[y * 40 + x] = 2.0f;
+  }
+  const Heightmap map(heights, 40, 40, 0.25);
+  const Eigen::Vector3d light(500, 0, 500);  // 45° from +x
+  EXPECT_TRUE(map.Shadowed({-1.0, 0, 0}, light));   // behind the wall, within its 2 mm shadow
+  EXPECT_FALSE(map.Shadowed({-3.0, 0, 0}, light));  // beyond the shadow
+  EXPECT_FALSE(map.Shadowed({2.0, 0, 0}, light));   // on the lit side
+  EXPECT_TRUE(map.Shadowed({2.0, 0, 0}, {-500, 0, -1}));  // below the horizon
+}
+
+// The march without blocks: every half-pixel sample up to the highest point, as Shadowed was
+// before it skipped any.
+bool ShadowedByMarchingEverySample(const Heightmap& map, const Eigen::Vector3d& p, const Eigen::Vector3d& light,
+                                   double pixel_mm) {
+  const Eigen::Vector3d s = (light - p).normalized();
+  if (s.z() <= 0) return true;
+  const double t_max = (map.max_height_mm() - p.z()) / s.z();
+  const double dt = 0.5 * pixel_mm / std::max(s.head<2>().norm(), 1e-9);
+  for (double t = std::min(dt, t_max) * 0.5; t < t_max; t += dt) {
+    const Eigen::Vector3d q = p + t * s;
+    if (q.z() < map.HeightAt(q.x(), q.y()) - 1e-4) return true;
+  }
+  return false;
+}
+
+// The camera's march without blocks: every half-pixel sample down from the highest point,
+// bisected where it first is below the surface.
+Eigen::Vector3d FirstHitByMarchingEverySample(const Heightmap& map, const Eigen::Vector3d& origin,
+                                              const Eigen::Vector3d& direction, double pixel_mm) {
+  const double t_top = std::max(0.0, (map.max_height_mm() + 1e-6 - origin.z()) / direction.z());
+  const double t_bottom = -origin.z() / direction.z();
+  const double dt = 0.5 * pixel_mm / std::max(direction.head<2>().norm(), 1e-9);
+  const auto below = [&](double t) {
+    const Eigen::Vector3d p = origin + t * direction;
+    return p.z() <= map.HeightAt(p.x(), p.y());
+  };
+  double previous = t_top;
+  for (double t = t_top + dt;; t += dt) {
+    const double tt = std::min(t, t_bottom);
+    if (below(tt)) {
+      double lo = previous, hi = tt;
+      while (hi - lo > 1e-5) (below(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
+      return origin + hi * direction;
+    }
+    if (tt >= t_bottom) return origin + t_bottom * direction;
+    previous = tt;
+  }
+}
+
+// Rough bumps with a plateau and a pit below the holder, on a grid whose size is no multiple
+// of any block tried.
+std::vector<float> RoughHeights(int w, int h, std::mt19937& random) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::vector<float> heights(w * h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float z = static_cast<float>(0.3 * std::sin(0.7 * x) * std::cos(0.5 * y) + 0.05 * unit(random));
+      if (x > 30 && y > 25) z = 1.5f;   // a plateau
+      if (x < 6 && y < 6) z = -0.4f;    // a pit
+      heights[y * w + x] = z;
+    }
+  }
+  return heights;
+}
+
+constexpr int kW = 45, kH = 38;
+constexpr double kPixelMm = 0.2;
+
+TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsShadows) {
+  // Surface points on and off the grid, lights from below the horizon to overhead.
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const std::vector<float> heights = RoughHeights(kW, kH, random);
+  for (int block_px : {1, 3, 8, 64}) {
+    const Heightmap map(heights, kW, kH, kPixelMm, block_px);
+    int shadowed = 0;
+    for (int k = 0; k < 20000; ++k) {
+      const double x = (unit(random) - 0.5) * 1.4 * kW * kPixelMm;
+      const double y = (unit(random) - 0.5) * 1.4 * kH * kPixelMm;
+      const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+      const double elevation = std::asin(unit(random) * 1.05 - 0.05), azimuth = 2 * M_PI * unit(random);
+      const Eigen::Vector3d light =
+          p + 400.0 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                                      std::sin(elevation));
+      const bool expected = ShadowedByMarchingEverySample(map, p, light, kPixelMm);
+      ASSERT_EQ(map.Shadowed(p, light), expected) << "block " << block_px << ", ray " << k << " from " << p.transpose();
+      shadowed += expected;
+    }
+    // Both answers occur often enough to matter.
+    EXPECT_GT(shadowed, 2000) << block_px;
+    EXPECT_LT(shadowed, 18000) << block_px;
+  }
+}
+
+TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsFirstHits) {
+  // Camera rays from 300 mm, from straight down to grazing, aimed on and off the grid.
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const std::vector<float> heights = RoughHeights(kW, kH, random);
+  for (int block_px : {1, 3, 8, 64}) {
+    const Heightmap map(heights, kW, kH, kPixelMm, block_px);
+    int on_the_grid = 0;
+    for (int k = 0; k < 20000; ++k) {
+      const Eigen::Vector3d aim((unit(random) - 0.5) * 1.4 * kW * kPixelMm, (unit(random) - 0.5) * 1.4 * kH * kPixelMm, 0);
+      const double elevation = std::acos(unit(random) * 0.97), azimuth = 2 * M_PI * unit(random);
+      const Eigen::Vector3d towards_eye(std::sin(elevation) * std::cos(azimuth), std::sin(elevation) * std::sin(azimuth),
+                                        std::cos(elevation));
+      const Eigen::Vector3d eye = aim + 300.0 * towards_eye;
+      const Eigen::Vector3d expected = FirstHitByMarchingEverySample(map, eye, -towards_eye, kPixelMm);
+      ASSERT_EQ(map.FirstHit(eye, -towards_eye), expected) << "block " << block_px << ", ray " << k;
+      on_the_grid += std::abs(expected.x()) < kW * kPixelMm / 2 && std::abs(expected.y()) < kH * kPixelMm / 2;
+    }
+    EXPECT_GT(on_the_grid, 8000) << block_px;
+  }
+  EXPECT_THROW(Heightmap(heights, kW, kH, kPixelMm).FirstHit({0, 0, 10}, {0, 0, 1}), CheckError);
+}
+
+}  // namespace
+}  // namespace loom
