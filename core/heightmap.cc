@@ -49,9 +49,13 @@ void Heightmap::BuildBlockMaxima() {
   }
 }
 
+Eigen::Vector2d Heightmap::GridPoint(double x_mm, double y_mm) const {
+  return {x_mm / pixel_mm_ + width_ / 2.0 - 0.5, y_mm / pixel_mm_ + height_ / 2.0 - 0.5};
+}
+
 double Heightmap::HeightAt(double x_mm, double y_mm) const {
-  const double gx = x_mm / pixel_mm_ + width_ / 2.0 - 0.5;
-  const double gy = y_mm / pixel_mm_ + height_ / 2.0 - 0.5;
+  const Eigen::Vector2d g = GridPoint(x_mm, y_mm);
+  const double gx = g.x(), gy = g.y();
   const int x0 = static_cast<int>(std::floor(gx));
   const int y0 = static_cast<int>(std::floor(gy));
   const double fx = gx - x0;
@@ -63,8 +67,9 @@ double Heightmap::HeightAt(double x_mm, double y_mm) const {
   return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
 }
 
-Heightmap::Block Heightmap::BlockAlong(double gx, double gy, double ux, double uy) const {
+Heightmap::Block Heightmap::BlockAlong(const Eigen::Vector2d& g, double ux, double uy) const {
   constexpr double kNever = std::numeric_limits<double>::infinity();
+  const double gx = g.x(), gy = g.y();
   const double w = width_, h = height_;
   if (gx < -1 || gy < -1 || gx >= w || gy >= h) {
     // Off the grid the surface is the holder, at 0, until the ray enters the grid, if it does.
@@ -101,9 +106,7 @@ bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light)
   const double ux = s.x() / pixel_mm_, uy = s.y() / pixel_mm_;  // grid units per mm along the ray
   for (double t = std::min(dt, t_max) * 0.5; t < t_max;) {
     const Eigen::Vector3d q = p + t * s;
-    const double gx = q.x() / pixel_mm_ + width_ / 2.0 - 0.5;
-    const double gy = q.y() / pixel_mm_ + height_ / 2.0 - 0.5;
-    const Block block = BlockAlong(gx, gy, ux, uy);
+    const Block block = BlockAlong(GridPoint(q.x(), q.y()), ux, uy);
     if (q.z() >= block.max_mm - kShadowToleranceMm) {
       // The ray rises, so every sample until it leaves the block is above the block too.
       const double t_leave = t + block.t_leave;
@@ -134,9 +137,7 @@ Eigen::Vector3d Heightmap::FirstHit(const Eigen::Vector3d& origin, const Eigen::
     const double tt = std::min(t, t_bottom);
     const Eigen::Vector3d p = origin + tt * direction;
     if (tt < t_bottom) {
-      const double gx = p.x() / pixel_mm_ + width_ / 2.0 - 0.5;
-      const double gy = p.y() / pixel_mm_ + height_ / 2.0 - 0.5;
-      const Block block = BlockAlong(gx, gy, ux, uy);
+      const Block block = BlockAlong(GridPoint(p.x(), p.y()), ux, uy);
       const double t_end = std::min(tt + block.t_leave, t_bottom);
       if (origin.z() + t_end * direction.z() >= block.max_mm) {
         // The ray descends, so every sample before it leaves the block is above the block.

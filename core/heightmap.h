@@ -13,8 +13,8 @@ namespace loom {
 
 class Heightmap {
  public:
-  // Shadowed() skips the march across a block of this many pixels a side wherever the ray is
-  // above everything the block's heights can interpolate to.
+  // Shadowed() and FirstHit() skip the march across a block of this many pixels a side wherever
+  // the ray is above everything the block's heights can interpolate to.
   static constexpr int kDefaultBlockPx = 8;
 
   Heightmap() = default;
@@ -37,13 +37,16 @@ class Heightmap {
   Eigen::Vector3d FirstHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
 
  private:
-  // The highest height that HeightAt can return in the block holding grid point (gx, gy), and
-  // the ray parameter at which the ray q + t·u (grid units) leaves that block or the grid.
+  // A sample-frame point in grid coordinates: pixel centres at integers.
+  Eigen::Vector2d GridPoint(double x_mm, double y_mm) const;
+  // The highest height that HeightAt can return in the block holding grid point g, and how far
+  // along the ray g + t·(ux, uy) (grid units per mm of ray) it leaves that block, or the
+  // holder around the grid.
   struct Block {
     double max_mm;
     double t_leave;
   };
-  Block BlockAlong(double gx, double gy, double ux, double uy) const;
+  Block BlockAlong(const Eigen::Vector2d& g, double ux, double uy) const;
   void BuildBlockMaxima();
 
   std::vector<float> heights_mm_;

@@ -92,13 +92,14 @@ std::vector<float> RoughHeights(int w, int h, std::mt19937& random) {
 
 constexpr int kW = 45, kH = 38;
 constexpr double kPixelMm = 0.2;
+constexpr int kBlockSizesPx[] = {1, 3, 8, 64};
 
 TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsShadows) {
   // Surface points on and off the grid, lights from below the horizon to overhead.
   std::mt19937 random(7);
   std::uniform_real_distribution<double> unit(0, 1);
   const std::vector<float> heights = RoughHeights(kW, kH, random);
-  for (int block_px : {1, 3, 8, 64}) {
+  for (int block_px : kBlockSizesPx) {
     const Heightmap map(heights, kW, kH, kPixelMm, block_px);
     int shadowed = 0;
     for (int k = 0; k < 20000; ++k) {
@@ -124,7 +125,7 @@ TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsFirstHits) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> unit(0, 1);
   const std::vector<float> heights = RoughHeights(kW, kH, random);
-  for (int block_px : {1, 3, 8, 64}) {
+  for (int block_px : kBlockSizesPx) {
     const Heightmap map(heights, kW, kH, kPixelMm, block_px);
     int on_the_grid = 0;
     for (int k = 0; k < 20000; ++k) {
