@@ -26,6 +26,7 @@
 #include "core/spectra.h"
 #include "core/testing/shipped_rig.h"
 #include "core/testing/subprocess.h"
+#include "hal/sim/sim_rig.h"
 
 namespace {
 
@@ -42,18 +43,11 @@ constexpr char kAsBuilt[] = R"(as_built:
   linear_light: {turn_deg: 1.5}
 )";
 
-// cam1 as the simulator built it (the same construction as apps/rig_loader.cc's as_built).
+// The rig as the simulator built it.
 loom::RigModel Truth(const fs::path& rig_path) {
-  const auto doc = loom::ConfigDocument::LoadFile(rig_path, 1);
-  loom::RigModel rig = loom::ReadRigModel(doc->root().Child("geometry"));
-  loom::CameraModel& cam1 = rig.cameras[1];
-  const Eigen::Matrix3d turn = (Eigen::AngleAxisd(loom::DegToRad(0.2), Eigen::Vector3d::UnitZ()) *
-                                Eigen::AngleAxisd(loom::DegToRad(-0.3), Eigen::Vector3d::UnitY()) *
-                                Eigen::AngleAxisd(loom::DegToRad(0.3), Eigen::Vector3d::UnitX())).toRotationMatrix();
-  const Eigen::Vector3d centre = cam1.CentreInRig() + Eigen::Vector3d(2, -1.5, 1);
-  const Eigen::Matrix3d rotation = turn * cam1.cam_from_rig.rotation();
-  cam1.cam_from_rig = loom::MakeRigid(rotation, -rotation * centre);
-  return rig;
+  const auto file = loom::RigFile::Load(rig_path);
+  EXPECT_TRUE(file.ok()) << file.status().ToString();
+  return loom::hal::AsBuilt(*file, *file->Model());
 }
 
 nlohmann::json ReadJson(const fs::path& path) {
@@ -87,21 +81,6 @@ void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   ASSERT_TRUE(loom::calibration::WriteProjectorCalibration(stale, projector, "before the projector turned").ok());
 }
 
-// The projector as built (the same construction as apps/rig_loader.cc's as_built).
-loom::ProjectorModel BuiltProjector(const loom::ProjectorModel& nominal) {
-  loom::ProjectorModel built = nominal;
-  const Eigen::Matrix3d turn = (Eigen::AngleAxisd(loom::DegToRad(0.2), Eigen::Vector3d::UnitZ()) *
-                                Eigen::AngleAxisd(loom::DegToRad(-0.3), Eigen::Vector3d::UnitY()) *
-                                Eigen::AngleAxisd(loom::DegToRad(0.4), Eigen::Vector3d::UnitX())).toRotationMatrix();
-  const Eigen::Vector3d centre = nominal.proj_from_rig.inverse().translation() + Eigen::Vector3d(3, -2, 2);
-  const Eigen::Matrix3d rotation = turn * nominal.proj_from_rig.rotation();
-  built.proj_from_rig = loom::MakeRigid(rotation, -rotation * centre);
-  built.K(0, 0) *= 1.03;
-  built.K(1, 1) *= 1.03;
-  built.K(0, 2) += 4;
-  return built;
-}
-
 // What structured light uses: the projector column of every point of the sample volume, up to
 // the white tile's spacer (30 mm).
 void ExpectTheProjectorAsBuilt(const fs::path& dir) {
@@ -110,7 +89,7 @@ void ExpectTheProjectorAsBuilt(const fs::path& dir) {
   const auto applied = loom::calibration::ApplyProjectorCalibration(dir / "calib", &found);
   ASSERT_TRUE(applied.ok()) << applied.status().ToString();
   ASSERT_TRUE(*applied) << "no projector.yaml";
-  const loom::ProjectorModel built = BuiltProjector(*nominal.projector);
+  const loom::ProjectorModel built = *Truth(dir / "rig.yaml").projector;
   const auto column = [](const loom::ProjectorModel& p, const Eigen::Vector3d& x) {
     const Eigen::Vector3d q = p.proj_from_rig * x;
     return p.K(0, 0) * q.x() / q.z() + p.K(0, 2);

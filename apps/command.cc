@@ -52,13 +52,6 @@ std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
   return std::nullopt;
 }
 
-std::string FormatDuration(double seconds) {
-  const int total = static_cast<int>(std::lround(seconds));
-  std::string out;
-  if (total >= 3600) out += std::to_string(total / 3600) + " h ";
-  return out + std::to_string((total % 3600) / 60) + " min " + std::to_string(total % 60) + " s";
-}
-
 int ReportFailure(const Status& status) {
   std::cerr << "error: " << status.ToString() << "\n";
   return kExitFailure;

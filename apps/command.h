@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/duration.h"
 #include "core/status.h"
 
 namespace loom::apps {
@@ -33,9 +34,6 @@ void AddCommonOptions(CLI::App& app);
 // Parses argv into `app`. Returns nothing on success; otherwise the exit code to return:
 // kExitOk after --help, kExitUsage after a usage error (message on stderr).
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv);
-
-// "1 h 2 min 3 s", "4 min 5 s".
-std::string FormatDuration(double seconds);
 
 // Prints "error: <status>" on stderr and returns kExitFailure.
 int ReportFailure(const Status& status);

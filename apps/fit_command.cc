@@ -9,7 +9,6 @@
 
 #include "apps/command.h"
 #include "apps/progress.h"
-#include "core/exr_io.h"
 #include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "core/version.h"
@@ -47,34 +46,21 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
   for (const std::string& name : maps.channel_names()) {
     if (name.starts_with("unc.")) uncertainty.push_back(name);
   }
-  nlohmann::json json = {{"method", args.method},
-                         {"model", args.model},
-                         {"cnn_seconds", cnn_seconds},
-                         {"stack", args.stack},
-                         {"pixels", s.pixels},
-                         {"pixels_fitted", s.pixels_fitted},
-                         {"pixels_kept_at_cluster", s.pixels_kept_at_cluster},
-                         {"pixels_retried", s.pixels_retried},
-                         {"pixels_retry_finished", s.pixels_retry_finished},
-                         {"retry_threshold_rms", s.retry_threshold_rms},
-                         {"clusters", s.cluster_sizes},
-                         {"f0", s.f0},
-                         {"f0_option", args.f0},
-                         {"mean_iterations", s.mean_iterations},
-                         {"mean_observations", s.mean_observations},
-                         {"cluster_seconds", s.cluster_seconds},
-                         {"pixel_seconds", s.pixel_seconds},
-                         {"threads", s.threads},
-                         {"solver", args.method.ends_with("refine") ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
-                         {"prior_weight", args.prior_weight},
-                         {"smoothing_weight", args.smoothing_weight},
-                         {"strip_samples", args.strip_samples},
-                         {"coarse_samples", args.coarse_samples},
-                         {"retries", !args.no_retries},
-                         {"retry_above", args.retry_above},
-                         {"uncertainty_channels", uncertainty},
-                         {"ms_per_pixel_per_thread", s.ms_per_pixel_per_thread()},
-                         {"loom_version", std::string(VersionWithCommit())}};
+  nlohmann::json json = s.ToJson();
+  json.update({{"method", args.method},
+               {"model", args.model},
+               {"cnn_seconds", cnn_seconds},
+               {"stack", args.stack},
+               {"f0_option", args.f0},
+               {"solver", args.method.ends_with("refine") ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
+               {"prior_weight", args.prior_weight},
+               {"smoothing_weight", args.smoothing_weight},
+               {"strip_samples", args.strip_samples},
+               {"coarse_samples", args.coarse_samples},
+               {"retries", !args.no_retries},
+               {"retry_above", args.retry_above},
+               {"uncertainty_channels", uncertainty},
+               {"loom_version", std::string(VersionWithCommit())}});
   return json.dump(2) + "\n";
 }
 
@@ -92,26 +78,10 @@ Result<Image> CnnMaps(FitArguments& args, const ObservationStack& stack) {
 }
 
 Status WriteMaps(const FitArguments& args, const ObservationStack& stack, const Image& maps, const std::string& summary) {
-  std::error_code ec;
-  fs::create_directories(args.out, ec);
-  if (ec) return IoError(args.out, "cannot create: " + ec.message());
-  const fs::path path = fs::path(args.out) / "svbrdf.exr";
-  LOOM_RETURN_IF_ERROR(WriteExr(path, maps,
-                                {{"loom.kind", std::string("svbrdf maps")},
-                                 {"loom.method", args.method},
-                                 {"loom.stack", args.stack},
-                                 {"loom.rig", stack.rig},
-                                 {"loom.pixel_mm", stack.pixel_mm},
-                                 {"loom.units", std::string("albedos linear sRGB; sigma unitless; alpha rad; height mm")},
-                                 {"loom.version", std::string(VersionWithCommit())}}));
-  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(maps, args.out));
+  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(args.out, maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", summary));
-  std::cout << "wrote " << path.string() << ", previews and fit.json in " << args.out << "\n";
+  std::cout << "wrote " << (fs::path(args.out) / "svbrdf.exr").string() << ", previews and fit.json in " << args.out << "\n";
   return Status::Ok();
-}
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 Status Fit(FitArguments args) {
@@ -173,16 +143,8 @@ Status Fit(FitArguments args) {
   };
   if (cnn_maps) options.initial_maps = &*cnn_maps;
   LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
-  const fitting::StackFitSummary& s = fit.summary;
-  std::cout << std::fixed << std::setprecision(2) << "fitted " << s.pixels_fitted << " of " << s.pixels << " px ("
-            << s.pixels_kept_at_cluster << " kept at their start, " << s.pixels_retried
-            << " retried from grid starts, relative RMS above " << s.retry_threshold_rms << ", "
-            << s.pixels_retry_finished << " of them refitted from a grid start) from " << (cnn_maps ? "the CNN's maps" : std::to_string(s.cluster_sizes.size()) + " clusters")
-            << "; F0 " << s.f0 << "; " << s.mean_observations << " observations and " << s.mean_iterations
-            << " iterations per pixel\n"
-            << "time: clusters " << FormatDuration(s.cluster_seconds) << ", pixels " << FormatDuration(s.pixel_seconds)
-            << " (" << s.ms_per_pixel_per_thread() << " ms per pixel per thread, " << s.threads << " threads)\n";
-  return WriteMaps(args, stack, fit.maps, SummaryJson(s, args, cnn_seconds, fit.maps));
+  fit.summary.Report(std::cout);
+  return WriteMaps(args, stack, fit.maps, SummaryJson(fit.summary, args, cnn_seconds, fit.maps));
 }
 
 }  // namespace

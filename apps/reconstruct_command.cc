@@ -12,10 +12,8 @@
 #include "apps/command.h"
 #include "apps/progress.h"
 #include "apps/rig_loader.h"
-#include "calibration/calibration_yaml.h"
-#include "calibration/light_positions.h"
-#include "calibration/projector.h"
-#include "calibration/radiometry_yaml.h"
+#include "calibration/calibration_directory.h"
+#include "core/rig_file.h"
 #include "core/file_io.h"
 #include "core/version.h"
 #include "reconstruction/reconstruct.h"
@@ -31,14 +29,6 @@ struct ReconstructArguments {
   std::string calib;
   reconstruction::ReconstructOptions options;
   bool quiet = false;
-};
-
-// What of a calibration directory the reconstruction used.
-struct Applied {
-  std::vector<std::string> cameras;
-  bool led_positions = false;
-  bool projector = false;
-  bool radiometry = false;
 };
 
 nlohmann::json SamplingJson(const std::vector<reconstruction::CameraSampling>& sampling) {
@@ -63,40 +53,32 @@ void NoteCoarseSampling(const std::vector<reconstruction::CameraSampling>& sampl
                "sharpen them (reconstruction/README.md)\n";
 }
 
-std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args, const Applied& applied,
+std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args, const calibration::AppliedCalibration& applied,
                         double seconds) {
-  const nlohmann::json json = {{"scan", args.scan},
-                               {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
-                               {"calibrated_cameras", applied.cameras},
-                               {"led_positions", applied.led_positions ? "calibrated" : "nominal (the scan's rig YAML)"},
-                               {"projector", applied.projector ? "calibrated" : "nominal (the scan's rig YAML)"},
-                               {"radiometry", applied.radiometry ? "calibrated" : "nominal (the scan's rig YAML)"},
-                               {"width_px", args.options.width_px},
-                               {"height_px", args.options.height_px},
-                               {"pixel_mm", args.options.pixel_mm},
-                               {"observations", r.stack.observations.size()},
-                               {"camera_px_per_stack_px", SamplingJson(r.sampling)},
-                               {"heightmap_camera", r.heightmap_camera},
-                               {"heightmap_filled_pixels", r.heightmap_filled},
-                               {"saturated_pixels", r.saturated_pixels},
-                               {"unseen_fraction", r.unseen_fraction},
-                               {"seconds", seconds},
-                               {"loom_version", std::string(VersionWithCommit())}};
+  nlohmann::json json = {{"scan", args.scan},
+                         {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
+                         {"width_px", args.options.width_px},
+                         {"height_px", args.options.height_px},
+                         {"pixel_mm", args.options.pixel_mm},
+                         {"observations", r.stack.observations.size()},
+                         {"camera_px_per_stack_px", SamplingJson(r.sampling)},
+                         {"heightmap_camera", r.heightmap_camera},
+                         {"heightmap_filled_pixels", r.heightmap_filled},
+                         {"saturated_pixels", r.saturated_pixels},
+                         {"unseen_fraction", r.unseen_fraction},
+                         {"seconds", seconds},
+                         {"loom_version", std::string(VersionWithCommit())}};
+  json.update(applied.ToJson());
   return json.dump(2) + "\n";
 }
 
 Status Reconstruct(const ReconstructArguments& args) {
   const auto start = std::chrono::steady_clock::now();
   LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, scan::CaptureStore::Open(args.scan));
-  LOOM_ASSIGN_OR_RETURN(RigModel rig, LoadRigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
-  Applied applied;
+  LOOM_ASSIGN_OR_RETURN(RigModel rig, RigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
+  calibration::AppliedCalibration applied;
   if (!args.calib.empty()) {
-    LOOM_ASSIGN_OR_RETURN(applied.cameras, calibration::ApplyCameraCalibrations(args.calib, &rig));
-    LOOM_ASSIGN_OR_RETURN(applied.led_positions, calibration::ApplyLightPositionCalibration(args.calib, &rig));
-    LOOM_ASSIGN_OR_RETURN(applied.projector, calibration::ApplyProjectorCalibration(args.calib, &rig));
-    LOOM_ASSIGN_OR_RETURN(const std::optional<calibration::Radiometry> radiometry,
-                          calibration::ApplyRadiometryCalibration(args.calib, &rig));
-    applied.radiometry = radiometry.has_value();
+    LOOM_ASSIGN_OR_RETURN(applied, calibration::CalibrationDirectory(args.calib).Apply(&rig));
     if (!applied.radiometry) {
       std::cerr << "note: " << args.calib << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";
     }

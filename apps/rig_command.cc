@@ -41,7 +41,7 @@ int List(const std::string& rig_path, bool discover) {
     if (!loaded.ok()) return ReportFailure(loaded.status());
     const Rig& rig = *loaded->rig;
     std::cout << "rig '" << rig.name() << "' (" << rig_path << "): " << rig.devices().size() << " devices"
-              << (loaded->world ? ", simulated" : "") << "\n";
+              << (loaded->sim ? ", simulated" : "") << "\n";
     for (Device* device : rig.devices()) {
       std::cout << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11)
                 << device->address() << "\n";

@@ -44,7 +44,7 @@ Status RunScan(LoadedRig& loaded, const scan::Plan& plan, scan::CaptureStore& st
   acquisition::SequencerOptions options;
   bool first_object = true;
   options.place_object = [&](const std::string& object) {
-    return loaded.world ? PlaceSimObject(loaded, object) : AskOperator(object, &first_object);
+    return loaded.sim ? hal::PlaceObject(*loaded.sim, object) : AskOperator(object, &first_object);
   };
   acquisition::Sequencer sequencer(*loaded.rig, plan, store, options);
   ProgressBar bar("scan", quiet);

@@ -10,7 +10,7 @@
 
 
 #include "apps/command.h"
-#include "apps/plan_observations.h"
+#include "sim/plan_observations.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
 #include "core/observation_stack.h"
@@ -106,13 +106,13 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
 // The fast-path stack of the observations a material plan with `preset` makes.
 int RenderStack(const LoadedRig& loaded, const std::string& preset_name, int size_px, const std::string& truth_path,
                 const fs::path& out) {
-  const std::shared_ptr<const sim::Scene> scene_owner = loaded.world->scene();
+  const std::shared_ptr<const sim::Scene> scene_owner = loaded.sim->world->scene();
   const sim::Scene& scene = *scene_owner;
   Result<scan::Preset> preset = scan::LoadPreset(ResolvePresetPath(preset_name));
   if (!preset.ok()) return ReportFailure(preset.status());
   Result<scan::Plan> plan = scan::MakeMaterialPlan(scene.rig(), *preset);
   if (!plan.ok()) return ReportFailure(plan.status());
-  Result<std::vector<sim::Observation>> observations = PlanObservations(scene.rig(), *plan);
+  Result<std::vector<sim::Observation>> observations = sim::PlanObservations(scene.rig(), *plan);
   if (!observations.ok()) return ReportFailure(observations.status());
   const sim::StackOptions options{.width_px = size_px, .height_px = size_px};
   const ObservationStack stack = sim::RenderStack(scene, *observations, options);
@@ -133,11 +133,11 @@ int Render(const std::string& rig_path, const std::string& object, const std::st
            const std::string& truth_path, const fs::path& out) {
   Result<LoadedRig> loaded = LoadRig(rig_path, object);
   if (!loaded.ok()) return ReportFailure(loaded.status());
-  if (!loaded->world) {
+  if (!loaded->sim) {
     return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
   }
   if (stack) return RenderStack(*loaded, preset, size_px, truth_path, out);
-  const std::shared_ptr<const sim::Scene> scene_owner = loaded->world->scene();
+  const std::shared_ptr<const sim::Scene> scene_owner = loaded->sim->world->scene();
   const sim::Scene& scene = *scene_owner;
   int camera = -1;
   for (size_t i = 0; i < scene.rig().cameras.size(); ++i) {
@@ -155,7 +155,7 @@ int Render(const std::string& rig_path, const std::string& object, const std::st
   }
   const Image radiance = scene.RenderRadiance(camera, state);
   const CameraModel& model = scene.rig().cameras[camera];
-  const std::vector<uint16_t> raw = sim::CaptureRaw(radiance, model.sensor, {exposure_us, 0}, loaded->world->seed);
+  const std::vector<uint16_t> raw = sim::CaptureRaw(radiance, model.sensor, {exposure_us, 0}, loaded->sim->world->seed);
   Image image(radiance.width(), radiance.height(), {"radiance", "raw"});
   std::copy(radiance.channel(0).begin(), radiance.channel(0).end(), image.channel(0).begin());
   std::copy(raw.begin(), raw.end(), image.channel(1).begin());

@@ -2,20 +2,14 @@
 //
 //   loom train --rig configs/rig/tac7-mini.yaml --preset low --out MODEL [--data DIR] ...
 //
-// 1. The dataset: procedural fabrics (seeds first_seed, first_seed + 1, …), each rendered with
-//    the simulator's fast path into DIR/fabric-SEED.stack.exr with its ground truth
-//    DIR/fabric-SEED.truth.exr (fabric-SEED-out-of-model.* for the --out-of-model-share of the
-//    seeds: sim/fabric.h's out-of-model fabrics). Pairs already in DIR are read, not rendered again, so a dataset
-//    is built once and reused — and reconstructed stacks with reference fits can be put there
-//    under the same names. Split by material: the last --test pairs (sorted by name) are the
-//    test set, the --validation before them validate every epoch, the rest train.
+// 1. The dataset in DIR: the procedural fabrics of --materials rendered with the simulator's fast
+//    path where missing (sim/training_set.h), split by material (fitting/cnn_dataset.h).
 // 2. Training (fitting/cnn_training.h) with checkpoints in MODEL/checkpoints; --resume goes on
 //    from the last one; --init starts from another model's weights (fine-tuning) instead of
 //    random ones; --rerender-weight adds the re-rendering loss.
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
 //    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
 #include <algorithm>
-#include <cmath>
 #include <memory>
 #include <filesystem>
 #include <iomanip>
@@ -25,17 +19,16 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/command.h"
-#include "apps/plan_observations.h"
 #include "apps/progress.h"
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
 #include "core/version.h"
+#include "fitting/cnn_dataset.h"
 #include "fitting/cnn_training.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "scan/plan.h"
-#include "sim/material.h"
-#include "sim/sample.h"
-#include "sim/stack.h"
+#include "sim/plan_observations.h"
+#include "sim/training_set.h"
 
 namespace loom::apps {
 namespace {
@@ -47,12 +40,9 @@ struct TrainArguments {
   std::string preset = "low";
   std::string out;
   std::string data;  // empty: OUT/data
-  int materials = 24;
+  sim::TrainingSetSpec dataset;
   int validation = 3;
   int test = 3;
-  int size_px = 64;
-  uint64_t first_seed = 1000;
-  double out_of_model_share = 0;
   std::string init;  // a model to start from
   int width_divisor = 8;
   double dropout = 0.02;
@@ -60,97 +50,17 @@ struct TrainArguments {
   bool quiet = false;
 };
 
-struct Pair {
-  fs::path stack, truth;
-};
-
-// The material pairs in `dir`, rendering the missing ones of the first `count` seeds.
-Result<std::vector<Pair>> BuildDataset(const TrainArguments& args, const fs::path& dir) {
-  Result<LoadedRig> loaded = LoadRig(args.rig);
-  if (!loaded.ok()) return loaded.status();
-  if (!loaded->world) return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
-  const std::shared_ptr<const sim::Scene> rig_scene_owner = loaded->world->scene();
-  const sim::Scene& rig_scene = *rig_scene_owner;
+// Renders the fabrics of --materials missing from `dir` (sim/training_set.h).
+Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
+  LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig));
+  if (!loaded.sim) return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
+  const std::shared_ptr<const sim::Scene> rig_scene = loaded.sim->world->scene();
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
-  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, scan::MakeMaterialPlan(rig_scene.rig(), preset));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, PlanObservations(rig_scene.rig(), plan));
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
+  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, scan::MakeMaterialPlan(rig_scene->rig(), preset));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PlanObservations(rig_scene->rig(), plan));
   ProgressBar bar("dataset", args.quiet);
-  for (int i = 0; i < args.materials; ++i) {
-    const uint64_t seed = args.first_seed + i;
-    // The share spread evenly over the seeds: material i is out of model when i · share
-    // crosses an integer before (i + 1) · share.
-    const bool out_of_model =
-        std::floor((i + 1) * args.out_of_model_share) > std::floor(i * args.out_of_model_share);
-    const std::string name = "fabric-" + std::to_string(seed) + (out_of_model ? "-out-of-model" : "");
-    const fs::path stack_path = dir / (name + ".stack.exr"), truth_path = dir / (name + ".truth.exr");
-    if (!fs::exists(stack_path) || !fs::exists(truth_path)) {
-      sim::SampleSpec spec;
-      spec.kind = out_of_model ? "fabric-out-of-model" : "fabric";
-      spec.seed = seed;
-      spec.size_px = args.size_px;
-      spec.pixel_mm = rig_scene.material().pixel_mm;
-      LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
-      const sim::Scene scene(rig_scene.rig(), std::move(material));
-      const ObservationStack stack = sim::RenderStack(scene, observations, {});
-      LOOM_RETURN_IF_ERROR(sim::WriteMaterial(sim::TruthOnStackGrid(scene, {}), truth_path));
-      LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, stack));  // last: a stack names a complete pair
-    }
-    bar.Update(i + 1, args.materials, "materials", name);
-  }
-  std::vector<Pair> pairs;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
-    const std::string file = entry.path().filename().string();
-    const std::string suffix = ".stack.exr";
-    if (file.size() <= suffix.size() || file.compare(file.size() - suffix.size(), suffix.size(), suffix) != 0) continue;
-    const fs::path truth = dir / (file.substr(0, file.size() - suffix.size()) + ".truth.exr");
-    if (!fs::exists(truth)) return NotFoundError(truth.string(), "the reference maps of " + entry.path().string());
-    pairs.push_back({entry.path(), truth});
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.stack < b.stack; });
-  return pairs;
-}
-
-double MedianPositiveRadiance(const std::vector<std::shared_ptr<const ObservationStack>>& stacks) {
-  std::vector<float> values;
-  for (const std::shared_ptr<const ObservationStack>& s : stacks) {
-    for (int c = kStackGeometryChannels; c < s->image.num_channels(); c += 7) {  // a sample of the channels
-      for (float v : s->image.channel(c)) {
-        if (std::isfinite(v) && v > 0) values.push_back(v);
-      }
-    }
-  }
-  if (values.empty()) return 1;
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
-
-// `keep_stack`: the example holds on to its stack (the re-rendering loss needs it).
-Result<fitting::CnnExample> Example(const std::shared_ptr<const ObservationStack>& stack, const fs::path& truth_path,
-                                    const fitting::CnnModelInfo& info, bool keep_stack) {
-  LOOM_ASSIGN_OR_RETURN(const sim::Material truth, sim::ReadMaterial(truth_path));
-  if (truth.width() != stack->image.width() || truth.height() != stack->image.height()) {
-    return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack->source);
-  }
-  LOOM_ASSIGN_OR_RETURN(fitting::CnnTensor input, fitting::CnnInputFromStack(*stack, info));
-  return fitting::CnnExample{truth_path.string(), std::move(input), fitting::CnnLabelsFromMaps(truth.maps),
-                             keep_stack ? stack : nullptr};
-}
-
-// The model to train: a new one for the dataset, or --init's (its input normalisation kept).
-Result<fitting::Cnn> StartingModel(const TrainArguments& args, const fitting::CnnModelInfo& info) {
-  if (args.init.empty()) return fitting::Cnn::Create(info, args.training.seed);
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(args.init));
-  if (cnn.info().architecture.input_channels != info.architecture.input_channels || cnn.info().rig != info.rig ||
-      cnn.info().observation_groups != info.observation_groups) {
-    return InvalidArgumentError("--init " + args.init, "a model for other stacks (rig '" + cnn.info().rig + "', " +
-                                                           std::to_string(cnn.info().architecture.input_channels) +
-                                                           " input channels) than the dataset's ('" + info.rig + "', " +
-                                                           std::to_string(info.architecture.input_channels) + ")");
-  }
-  return cnn;
+  return sim::RenderTrainingSet(*rig_scene, observations, args.dataset, dir,
+                                [&](int done, int total, const std::string& name) { bar.Update(done, total, "materials", name); });
 }
 
 std::string RmseLine(const std::array<double, 14>& rmse) {
@@ -163,46 +73,26 @@ std::string RmseLine(const std::array<double, 14>& rmse) {
 Status Train(TrainArguments args) {
   const fs::path out(args.out);
   const fs::path data = args.data.empty() ? out / "data" : fs::path(args.data);
-  if (args.validation + args.test >= args.materials) {
+  if (args.validation + args.test >= args.dataset.materials) {
     return InvalidArgumentError("--validation/--test", "leave at least one of the --materials " +
-                                                           std::to_string(args.materials) + " for training");
+                                                           std::to_string(args.dataset.materials) + " for training");
   }
-  LOOM_ASSIGN_OR_RETURN(const std::vector<Pair> pairs, BuildDataset(args, data));
-  if (static_cast<int>(pairs.size()) <= args.validation + args.test) {
-    return FailedPreconditionError(data.string(), std::to_string(pairs.size()) + " materials, too few for the split");
-  }
-  const int train_count = static_cast<int>(pairs.size()) - args.validation - args.test;
+  LOOM_RETURN_IF_ERROR(RenderDataset(args, data));
+  LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(data, args.validation, args.test));
+  const int train_count = dataset.train_count();
   const bool streaming = args.training.resident_materials > 0 && args.training.resident_materials < train_count;
-  const auto read_stack = [&](int i) -> Result<std::shared_ptr<const ObservationStack>> {
-    LOOM_ASSIGN_OR_RETURN(ObservationStack stack, ReadObservationStack(pairs[static_cast<size_t>(i)].stack));
-    return std::make_shared<const ObservationStack>(std::move(stack));
-  };
   // The input normalisation from the training stacks: all of them, or streaming the first 64.
-  std::vector<std::shared_ptr<const ObservationStack>> stacks;
-  for (int i = 0; i < (streaming ? std::min(train_count, 64) : static_cast<int>(pairs.size())); ++i) {
-    LOOM_ASSIGN_OR_RETURN(std::shared_ptr<const ObservationStack> stack, read_stack(i));
-    stacks.push_back(std::move(stack));
-  }
-  fitting::CnnModelInfo info;
-  info.architecture = {fitting::kCnnGeometryChannels + static_cast<int>(stacks[0]->observations.size()),
-                       args.width_divisor, args.dropout};
-  info.radiance_scale = MedianPositiveRadiance({stacks.begin(), stacks.begin() + std::min<int>(train_count, stacks.size())});
-  info.rig = stacks[0]->rig;
-  for (const StackObservation& o : stacks[0]->observations) info.observation_groups.push_back(o.group);
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, StartingModel(args, info));
-  info = cnn.info();
+  LOOM_ASSIGN_OR_RETURN(const fitting::CnnModelInfo new_info,
+                        dataset.ModelInfo({0, args.width_divisor, args.dropout}, streaming ? 64 : train_count));
+  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::StartingCnn(new_info, args.init, args.training.seed));
+  const fitting::CnnModelInfo info = cnn.info();
   const bool keep_stacks = args.training.rerender_weight > 0;
-  const auto example = [&](int i) -> Result<fitting::CnnExample> {
-    if (i < static_cast<int>(stacks.size())) return Example(stacks[i], pairs[static_cast<size_t>(i)].truth, info, keep_stacks);
-    LOOM_ASSIGN_OR_RETURN(const std::shared_ptr<const ObservationStack> stack, read_stack(i));
-    return Example(stack, pairs[static_cast<size_t>(i)].truth, info, keep_stacks);
-  };
+  const auto example = [&](int i) { return dataset.Example(i, info, keep_stacks); };
   std::vector<fitting::CnnExample> sets[3];  // train (when in memory), validation, test
-  for (int i = streaming ? train_count : 0; i < static_cast<int>(pairs.size()); ++i) {
+  for (int i = streaming ? train_count : 0; i < dataset.size(); ++i) {
     LOOM_ASSIGN_OR_RETURN(fitting::CnnExample e, example(i));
     sets[i < train_count ? 0 : i < train_count + args.validation ? 1 : 2].push_back(std::move(e));
   }
-  stacks.clear();
   const fitting::CnnExampleSource train_source =
       streaming ? fitting::CnnExampleSource{train_count, example}
                 : fitting::CnnExampleSource{train_count, [&](int i) -> Result<fitting::CnnExample> { return sets[0][i]; }};
@@ -234,15 +124,15 @@ Status Train(TrainArguments args) {
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnScore test, fitting::ScoreCnn(cnn, sets[2], args.training.threads));
   std::ostringstream training;
   training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of "
-           << history.size() << " epochs on " << train_count << " simulated fabrics (" << args.size_px << " px, seeds "
-           << args.first_seed << "…, out-of-model share " << args.out_of_model_share << "), preset " << args.preset
+           << history.size() << " epochs on " << train_count << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
+           << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << "), preset " << args.preset
            << (args.init.empty() ? "" : ", from " + args.init) << "; test loss " << test.loss << " on "
            << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   const nlohmann::json report = {{"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
                                  {"kept_epoch", best->epoch},
-                                 {"options", {{"first_seed", args.first_seed}, {"size_px", args.size_px},
+                                 {"options", {{"first_seed", args.dataset.first_seed}, {"size_px", args.dataset.size_px},
                                               {"width_divisor", args.width_divisor}, {"dropout", args.dropout},
                                               {"epochs", args.training.epochs}, {"tile", args.training.tile},
                                               {"tiles_per_step", args.training.tiles_per_step},
@@ -251,7 +141,7 @@ Status Train(TrainArguments args) {
                                               {"lr_end", args.training.learning_rate_end},
                                               {"weight_decay", args.training.weight_decay},
                                               {"radiance_noise", args.training.radiance_noise},
-                                              {"out_of_model_share", args.out_of_model_share},
+                                              {"out_of_model_share", args.dataset.out_of_model_share},
                                               {"init", args.init},
                                               {"rerender_weight", args.training.rerender_weight},
                                               {"rerender_pixels", args.training.rerender_pixels},
@@ -284,11 +174,11 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--preset", args.preset, "Gloss preset whose material plan makes the observations");
   app.add_option("--out", args.out, "Model directory: model.json, weights.pt, training.json, checkpoints/")->required();
   app.add_option("--data", args.data, "Dataset directory (default OUT/data): NAME.stack.exr + NAME.truth.exr pairs");
-  app.add_option("--materials", args.materials, "Procedural fabrics to render into the dataset")->check(CLI::Range(3, 100000));
+  app.add_option("--materials", args.dataset.materials, "Procedural fabrics to render into the dataset")->check(CLI::Range(3, 100000));
   app.add_option("--validation", args.validation, "Materials held out for validation")->check(CLI::Range(1, 100000));
   app.add_option("--test", args.test, "Materials held out for the final test")->check(CLI::Range(1, 100000));
-  app.add_option("--size", args.size_px, "Material size in pixels (square)")->check(CLI::Range(16, 4096));
-  app.add_option("--first-seed", args.first_seed, "Seed of the first fabric (the main job's fabric:1 is not among the defaults)");
+  app.add_option("--size", args.dataset.size_px, "Material size in pixels (square)")->check(CLI::Range(16, 4096));
+  app.add_option("--first-seed", args.dataset.first_seed, "Seed of the first fabric (the main job's fabric:1 is not among the defaults)");
   app.add_option("--width-divisor", args.width_divisor, "Network width: the paper's divided by this (1, 2, 4, 8, ...)")
       ->check(CLI::Range(1, 256));
   app.add_option("--dropout", args.dropout, "Dropout before the last layer")->check(CLI::Range(0.0, 0.9));
@@ -303,7 +193,7 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--radiance-noise", t.radiance_noise,
                  "Relative noise multiplied into the training tiles' radiance, as reconstructed stacks carry (0: none)")
       ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--out-of-model-share", args.out_of_model_share,
+  app.add_option("--out-of-model-share", args.dataset.out_of_model_share,
                  "Share of the fabrics made out of model: with what GD10 cannot represent (sim/fabric.h)")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--init", args.init, "Start from this model (fine-tuning): its weights, architecture and input normalisation")

@@ -20,7 +20,7 @@
 //  - tac7-mini (cameras see 32 mm of the projector's 210 mm field): boards found at −0.007 and
 //    30.019 mm; fx, cx pinned down only to 0.16 % and 1.2 px, so held; columns up to the spacer
 //    within 0.079 px of the truth (the rig YAML's: 4.8 px off).
-//  - the same with cameras seeing 96 mm (apps/rig_loader.cc's as_built, 320² px at f 2000):
+//  - the same with cameras seeing 96 mm (an `as_built:` rig, 320² px at f 2000):
 //    fx +2.92 % (1σ 0.019 %), cx +1.3 px (1σ 0.08 px); columns within 0.008 px in the sample
 //    volume, 0.41 px over ±45 mm up to 30 mm, 0.93 px over the projector's whole field at the
 //    table (corners alone: 0.017, 0.34 and 1.05 px). The 1σ counts the decoding noise only:

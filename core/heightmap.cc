@@ -107,16 +107,21 @@ bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light)
   for (double t = std::min(dt, t_max) * 0.5; t < t_max;) {
     const Eigen::Vector3d q = p + t * s;
     const Block block = BlockAlong(GridPoint(q.x(), q.y()), ux, uy);
+    const double t_leave = t + block.t_leave;
     if (q.z() >= block.max_mm - kShadowToleranceMm) {
       // The ray rises, so every sample until it leaves the block is above the block too.
-      const double t_leave = t + block.t_leave;
       if (t_leave >= t_max) return false;
       do t += dt;
       while (t < t_leave);
       continue;
     }
-    if (q.z() < HeightAt(q.x(), q.y()) - kShadowToleranceMm) return true;
-    t += dt;
+    // Below the block's top: the surface decides every sample until the ray leaves the block
+    // (no need to look the block up again for each).
+    do {
+      const Eigen::Vector3d r = p + t * s;
+      if (r.z() < HeightAt(r.x(), r.y()) - kShadowToleranceMm) return true;
+      t += dt;
+    } while (t < t_leave && t < t_max);
   }
   return false;
 }

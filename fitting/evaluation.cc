@@ -97,7 +97,8 @@ void AddMapNoise(const Image& maps, const std::optional<Image>& reference, Evalu
 }
 
 // Re-render errors of each of `maps` (fit, reference) in one pass: the observations of a pixel
-// (their shadow tests the costly part) are built once for all of them.
+// (their shadow tests the costly part) are built once for all of them. Rows run in parallel,
+// each summed on its own and the rows added in order, so the sums do not depend on the threads.
 std::vector<std::vector<RenderError>> RenderErrors(const std::vector<const Image*>& maps, const ObservationStack& stack,
                                                   const StackPixels& pixels) {
   struct Sums {
@@ -105,28 +106,41 @@ std::vector<std::vector<RenderError>> RenderErrors(const std::vector<const Image
     double measured = 0;
     int64_t values = 0;
   };
-  std::vector<std::map<std::string, Sums>> sums(maps.size());  // per maps: group → sums
-  for (int y = 0; y < stack.image.height(); ++y) {
-    for (int x = 0; x < stack.image.width(); ++x) {
+  constexpr ObservationGroup kGroups[] = {ObservationGroup::kColour, ObservationGroup::kMonochrome, ObservationGroup::kLinearLight};
+  using GroupSums = std::array<Sums, std::size(kGroups)>;
+  const int width = stack.image.width(), height = stack.image.height();
+  std::vector<GroupSums> rows(static_cast<size_t>(height) * maps.size());  // [row][maps]
+  ParallelFor(height, 0, [&](int y) {
+    for (int x = 0; x < width; ++x) {
       const std::vector<PixelObservation> observations = pixels.Observations(x, y);
       for (size_t m = 0; m < maps.size(); ++m) {
         const WardLobe<double> lobe(GetParams(*maps[m], x, y));
+        GroupSums& row = rows[static_cast<size_t>(y) * maps.size() + m];
         for (const PixelObservation& o : observations) {
-          const std::string group(ObservationGroupName(stack.observations[o.source].group));
-          const double error = std::abs(PredictRadiance(lobe, o) - o.radiance);
-          for (const std::string& key : {group, std::string("all")}) {
-            Sums& sum = sums[m][key];
-            sum.error += error;
-            sum.measured += std::abs(o.radiance);
-            ++sum.values;
-          }
+          Sums& sum = row[static_cast<size_t>(stack.observations[o.source].group)];
+          sum.error += std::abs(PredictRadiance(lobe, o) - o.radiance);
+          sum.measured += std::abs(o.radiance);
+          ++sum.values;
         }
       }
     }
-  }
+  });
   std::vector<std::vector<RenderError>> errors(maps.size());
   for (size_t m = 0; m < maps.size(); ++m) {
-    for (const auto& [group, sum] : sums[m]) {
+    std::map<std::string, Sums> sums;  // group → sums, "all" included, in name order
+    for (int y = 0; y < height; ++y) {
+      for (ObservationGroup group : kGroups) {
+        const Sums& row = rows[static_cast<size_t>(y) * maps.size() + m][static_cast<size_t>(group)];
+        if (row.values == 0) continue;
+        for (const std::string& key : {std::string(ObservationGroupName(group)), std::string("all")}) {
+          Sums& sum = sums[key];
+          sum.error += row.error;
+          sum.measured += row.measured;
+          sum.values += row.values;
+        }
+      }
+    }
+    for (const auto& [group, sum] : sums) {
       errors[m].push_back({group, sum.values, sum.measured > 0 ? sum.error / sum.measured : 0});
     }
   }
@@ -181,11 +195,9 @@ Image RenderObservations(const Image& maps, const ObservationStack& stack, const
   ParallelFor(maps.height(), 0, [&](int y) {
     for (int x = 0; x < maps.width(); ++x) {
       const WardLobe<double> lobe(GetParams(maps, x, y));
-      for (const PixelObservation& o : pixels.Observations(x, y)) {
+      for (const PixelObservation& o : pixels.Observations(x, y, observations)) {
         const auto slot = std::find(observations.begin(), observations.end(), o.source);
-        if (slot != observations.end()) {
-          rendered.at(static_cast<int>(slot - observations.begin()), y, x) = static_cast<float>(PredictRadiance(lobe, o));
-        }
+        rendered.at(static_cast<int>(slot - observations.begin()), y, x) = static_cast<float>(PredictRadiance(lobe, o));
       }
     }
   });

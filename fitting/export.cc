@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/geometry.h"
+#include "core/version.h"
 #include "fitting/internal/png.h"
 #include "fitting/model/svbrdf_maps.h"
 
@@ -51,6 +52,21 @@ uint8_t ToSrgb8(double linear) {
 const std::vector<std::string>& SvbrdfPreviewNames() {
   static const std::vector<std::string> names = {"diffuse", "specular", "normal", "sigma", "alpha", "height"};
   return names;
+}
+
+Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(WriteExr(dir / "svbrdf.exr", maps,
+                                {{"loom.kind", std::string("svbrdf maps")},
+                                 {"loom.method", provenance.method},
+                                 {"loom.stack", provenance.stack},
+                                 {"loom.rig", provenance.rig},
+                                 {"loom.pixel_mm", provenance.pixel_mm},
+                                 {"loom.units", std::string("albedos linear sRGB; sigma unitless; alpha rad; height mm")},
+                                 {"loom.version", std::string(VersionWithCommit())}}));
+  return WriteSvbrdfPreviews(maps, dir);
 }
 
 Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, const std::string& prefix) {

@@ -14,6 +14,18 @@
 
 namespace loom::fitting {
 
+// Where fitted maps came from, as svbrdf.exr's attributes say.
+struct SvbrdfProvenance {
+  std::string method;  // loom fit --method
+  std::string stack;   // the observation stack fitted
+  std::string rig;
+  double pixel_mm = 0;
+};
+
+// DIR/svbrdf.exr (the maps, linear, svbrdf_maps.h's channels, with `provenance` and units as
+// attributes) and its previews (WriteSvbrdfPreviews); DIR is created.
+Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance);
+
 // The previews' file names, in the order WriteSvbrdfPreviews writes them (without ".png").
 const std::vector<std::string>& SvbrdfPreviewNames();
 

@@ -4,10 +4,13 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <numeric>
+#include <ostream>
 
 #include <opencv2/core.hpp>
 
+#include "core/duration.h"
 #include "core/parallel.h"
 #include "fitting/model/svbrdf_maps.h"
 
@@ -16,7 +19,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double SecondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 // log(1 + L / typical): compresses highlights so that k-means groups by appearance, not by
 // the few brightest observations.
@@ -427,6 +429,33 @@ void Summarise(const std::vector<PixelOutcome>& outcomes, StackFitSummary& summa
 }
 
 }  // namespace
+
+nlohmann::json StackFitSummary::ToJson() const {
+  return {{"pixels", pixels},
+          {"pixels_fitted", pixels_fitted},
+          {"pixels_kept_at_cluster", pixels_kept_at_cluster},
+          {"pixels_retried", pixels_retried},
+          {"pixels_retry_finished", pixels_retry_finished},
+          {"retry_threshold_rms", retry_threshold_rms},
+          {"clusters", cluster_sizes},
+          {"f0", f0},
+          {"mean_iterations", mean_iterations},
+          {"mean_observations", mean_observations},
+          {"cluster_seconds", cluster_seconds},
+          {"pixel_seconds", pixel_seconds},
+          {"threads", threads},
+          {"ms_per_pixel_per_thread", ms_per_pixel_per_thread()}};
+}
+
+void StackFitSummary::Report(std::ostream& out) const {
+  const std::string start = cluster_sizes.empty() ? "the initial maps" : std::to_string(cluster_sizes.size()) + " clusters";
+  out << std::fixed << std::setprecision(2) << "fitted " << pixels_fitted << " of " << pixels << " px (" << pixels_kept_at_cluster
+      << " kept at their start, " << pixels_retried << " retried from grid starts, relative RMS above " << retry_threshold_rms
+      << ", " << pixels_retry_finished << " of them refitted from a grid start) from " << start << "; F0 " << f0 << "; "
+      << mean_observations << " observations and " << mean_iterations << " iterations per pixel\n"
+      << "time: clusters " << FormatDuration(cluster_seconds) << ", pixels " << FormatDuration(pixel_seconds) << " ("
+      << ms_per_pixel_per_thread() << " ms per pixel per thread, " << threads << " threads)\n";
+}
 
 Status StackFitOptions::Check() const {
   std::vector<std::string> problems;

@@ -22,7 +22,10 @@
 #include <array>
 #include <functional>
 #include <optional>
+#include <ostream>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "core/image.h"
 #include "core/observation_stack.h"
@@ -109,6 +112,10 @@ struct StackFitSummary {
   double pixel_seconds = 0;
   int threads = 0;
   double ms_per_pixel_per_thread() const { return pixels ? 1e3 * pixel_seconds * threads / pixels : 0; }
+
+  nlohmann::json ToJson() const;
+  // Two lines for the operator: what was fitted from what, and the time it took.
+  void Report(std::ostream& out) const;
 };
 
 struct StackFit {

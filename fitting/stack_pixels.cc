@@ -18,29 +18,38 @@ Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
 }
 
 std::vector<PixelObservation> StackPixels::Observations(int x, int y) const {
-  const Eigen::Vector3d p = stack_.Position(x, y);
-  const Eigen::Matrix3d local_from_sample = LocalFromSample(x, y);
   std::vector<PixelObservation> observations;
   observations.reserve(stack_.observations.size());
-  for (size_t k = 0; k < stack_.observations.size(); ++k) {
-    const float radiance = stack_.image.at(ObservationStack::ObservationChannel(static_cast<int>(k)), y, x);
-    if (std::isnan(radiance)) continue;
-    const StackObservation& o = stack_.observations[k];
-    PixelObservation observation;
-    observation.radiance = radiance;
-    observation.v_local = local_from_sample * (o.camera_mm - p).normalized();
-    observation.rgb_weights = o.rgb_weights;
-    observation.source = static_cast<int>(k);
-    for (const PointEmitter& emitter : o.emitters) {
-      const double intensity = emitter.IntensityTowards(p);
-      if (intensity <= 0) continue;
-      if (options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm)) continue;
-      const Eigen::Vector3d to_light = emitter.position_mm - p;
-      observation.lights.push_back({local_from_sample * to_light.normalized(), intensity / to_light.squaredNorm()});
-    }
-    if (!observation.lights.empty()) observations.push_back(std::move(observation));
-  }
+  const PixelFrame frame{stack_.Position(x, y), LocalFromSample(x, y)};
+  for (size_t k = 0; k < stack_.observations.size(); ++k) Observe(static_cast<int>(k), x, y, frame, observations);
   return observations;
+}
+
+std::vector<PixelObservation> StackPixels::Observations(int x, int y, std::span<const int> only) const {
+  std::vector<PixelObservation> observations;
+  const PixelFrame frame{stack_.Position(x, y), LocalFromSample(x, y)};
+  for (int k : only) Observe(k, x, y, frame, observations);
+  return observations;
+}
+
+void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out) const {
+  const float radiance = stack_.image.at(ObservationStack::ObservationChannel(k), y, x);
+  if (std::isnan(radiance)) return;
+  const StackObservation& o = stack_.observations[k];
+  const Eigen::Vector3d& p = frame.position;
+  PixelObservation observation;
+  observation.radiance = radiance;
+  observation.v_local = frame.local_from_sample * (o.camera_mm - p).normalized();
+  observation.rgb_weights = o.rgb_weights;
+  observation.source = k;
+  for (const PointEmitter& emitter : o.emitters) {
+    const double intensity = emitter.IntensityTowards(p);
+    if (intensity <= 0) continue;
+    if (options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm)) continue;
+    const Eigen::Vector3d to_light = emitter.position_mm - p;
+    observation.lights.push_back({frame.local_from_sample * to_light.normalized(), intensity / to_light.squaredNorm()});
+  }
+  if (!observation.lights.empty()) out.push_back(std::move(observation));
 }
 
 }  // namespace loom::fitting

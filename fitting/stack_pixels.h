@@ -7,6 +7,7 @@
 // shadows never reach the fit. The light model is the stack table's (core/observation_stack.h).
 // Thread-safety: immutable after construction; Observations() may run on many threads.
 
+#include <span>
 #include <vector>
 
 #include "core/heightmap.h"
@@ -29,10 +30,19 @@ class StackPixels {
 
   // The pixel's usable observations (unseen and fully shadowed ones left out).
   std::vector<PixelObservation> Observations(int x, int y) const;
+  // The same among the observations `only` (stack indices), in their order.
+  std::vector<PixelObservation> Observations(int x, int y, std::span<const int> only) const;
   // local_from_sample of the pixel's geometric frame.
   Eigen::Matrix3d LocalFromSample(int x, int y) const;
 
  private:
+  struct PixelFrame {
+    Eigen::Vector3d position;
+    Eigen::Matrix3d local_from_sample;
+  };
+  // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed.
+  void Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out) const;
+
   const ObservationStack& stack_;
   StackPixelOptions options_;
   Heightmap heightmap_;

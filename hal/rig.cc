@@ -4,6 +4,7 @@
 
 #include "core/interrupt.h"
 #include "core/log.h"
+#include "core/rig_file.h"
 
 namespace loom::hal {
 namespace {
@@ -126,14 +127,14 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
 }
 
 Result<std::unique_ptr<Rig>> Rig::Load(const std::filesystem::path& path, const BackendRegistry& registry) {
-  LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kRigSchemaVersion));
-  std::string name;
-  doc.root().Required("name", &name);
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(path));
   // Factories only read their keys (they connect in Open()), so a failure here is a bad value;
   // after one, later keys are unread and Finish() would wrongly call them unknown.
-  Result<std::unique_ptr<Rig>> rig = Create(doc.root().Child("devices"), registry, name);
+  const std::optional<ConfigNode> devices = file.Section("devices");
+  if (!devices) return InvalidArgumentError(path.string(), "has no 'devices:' section");
+  Result<std::unique_ptr<Rig>> rig = Create(*devices, registry, file.name());
   if (!rig.ok()) return rig.status().WithContext(path.string());
-  LOOM_RETURN_IF_ERROR(doc.Finish());
+  LOOM_RETURN_IF_ERROR(file.Finish());
   return rig;
 }
 

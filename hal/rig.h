@@ -30,8 +30,6 @@
 
 namespace loom::hal {
 
-inline constexpr int kRigSchemaVersion = 1;
-
 class Rig {
  public:
   // Reads `devices` (the mapping under the `devices:` key) and creates every device. Problems
@@ -39,7 +37,7 @@ class Rig {
   // its device is returned as an error naming the device.
   static Result<std::unique_ptr<Rig>> Create(const ConfigNode& devices,
                                              const BackendRegistry& registry, std::string name = "");
-  // Loads a rig YAML whose top level is `schema_version`, `name` and `devices`.
+  // Loads a rig YAML (core/rig_file.h) and creates the devices of its `devices:`.
   static Result<std::unique_ptr<Rig>> Load(const std::filesystem::path& path,
                                            const BackendRegistry& registry);
 

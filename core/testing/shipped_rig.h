@@ -6,18 +6,14 @@
 
 #include <string>
 
-#include "core/config.h"
-#include "core/rig_model.h"
+#include "core/rig_file.h"
 
 namespace loom::testing {
 
 inline RigModel ShippedRigModel(const std::string& name) {
-  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml", 1);
-  EXPECT_TRUE(doc.ok()) << doc.status().ToString();
-  if (!doc.ok()) return {};
-  RigModel rig = ReadRigModel(doc->root().Child("geometry"));
-  rig.name = name;
-  return rig;
+  Result<RigModel> rig = LoadRigModel(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml");
+  EXPECT_TRUE(rig.ok()) << rig.status().ToString();
+  return rig.ok() ? *rig : RigModel{};
 }
 
 }  // namespace loom::testing

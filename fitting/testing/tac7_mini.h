@@ -9,16 +9,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/config.h"
+#include "core/testing/shipped_rig.h"
 #include "sim/stack.h"
 
 namespace loom::fitting::testing {
 
-inline RigModel TacMiniGeometry() {
-  auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  EXPECT_TRUE(doc.ok());
-  return ReadRigModel(doc->root().Child("geometry"));
-}
+inline RigModel TacMiniGeometry() { return loom::testing::ShippedRigModel("tac7-mini"); }
 
 // `strip_positions` ≥ 2 positions from 0 to the strip's travel, every camera at each.
 inline std::vector<sim::Observation> TacMiniObservations(const RigModel& rig, int strip_positions) {

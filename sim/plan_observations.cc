@@ -1,6 +1,6 @@
-#include "apps/plan_observations.h"
+#include "sim/plan_observations.h"
 
-namespace loom::apps {
+namespace loom::sim {
 namespace {
 
 using scan::Step;
@@ -14,8 +14,8 @@ Result<int> IndexOf(const std::vector<Device>& devices, const std::string& name,
   return NotFoundError("plan step " + std::to_string(step.index), "'" + name + "' is not in the rig geometry");
 }
 
-Result<sim::SceneState> StateOf(const RigModel& rig, const Step& step) {
-  sim::SceneState state;
+Result<SceneState> StateOf(const RigModel& rig, const Step& step) {
+  SceneState state;
   state.turntable_deg = step.turntable_deg;
   for (const scan::LedDrive& led : step.leds) state.leds.push_back({led.led, led.current_ma});
   if (step.filter) {
@@ -31,11 +31,11 @@ Result<sim::SceneState> StateOf(const RigModel& rig, const Step& step) {
 
 }  // namespace
 
-Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, const scan::Plan& plan) {
-  std::vector<sim::Observation> observations;
+Result<std::vector<Observation>> PlanObservations(const RigModel& rig, const scan::Plan& plan) {
+  std::vector<Observation> observations;
   for (const Step& step : plan.steps) {
     if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;
-    LOOM_ASSIGN_OR_RETURN(const sim::SceneState state, StateOf(rig, step));
+    LOOM_ASSIGN_OR_RETURN(const SceneState state, StateOf(rig, step));
     for (const std::string& camera : step.cameras) {
       LOOM_ASSIGN_OR_RETURN(const int index, IndexOf(rig.cameras, camera, step));
       observations.push_back({index, state});
@@ -44,4 +44,4 @@ Result<std::vector<sim::Observation>> PlanObservations(const RigModel& rig, cons
   return observations;
 }
 
-}  // namespace loom::apps
+}  // namespace loom::sim

@@ -1,0 +1,90 @@
+#include "fitting/cnn_dataset.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/exr_io.h"
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+
+namespace fs = std::filesystem;
+
+Result<CnnDataset> CnnDataset::Open(const fs::path& dir, int validation, int test) {
+  if (!fs::is_directory(dir)) return NotFoundError(dir.string(), "no such dataset directory");
+  std::vector<Pair> pairs;
+  constexpr std::string_view kStack = ".stack.exr";
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
+    const std::string file = entry.path().filename().string();
+    if (file.size() <= kStack.size() || !file.ends_with(kStack)) continue;
+    const fs::path truth = dir / (file.substr(0, file.size() - kStack.size()) + ".truth.exr");
+    if (!fs::exists(truth)) return NotFoundError(truth.string(), "the reference maps of " + entry.path().string());
+    pairs.push_back({entry.path(), truth});
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.stack < b.stack; });
+  if (validation < 1 || test < 1 || static_cast<int>(pairs.size()) <= validation + test) {
+    return FailedPreconditionError(dir.string(), std::to_string(pairs.size()) + " materials, too few for " +
+                                                     std::to_string(validation) + " validation and " + std::to_string(test) +
+                                                     " test materials and at least one to train on");
+  }
+  return CnnDataset(std::move(pairs), validation, test);
+}
+
+Result<std::shared_ptr<const ObservationStack>> CnnDataset::Stack(int i) const {
+  LOOM_ASSIGN_OR_RETURN(ObservationStack stack, ReadObservationStack(pairs_[static_cast<size_t>(i)].stack));
+  return std::make_shared<const ObservationStack>(std::move(stack));
+}
+
+Result<CnnModelInfo> CnnDataset::ModelInfo(const CnnArchitecture& architecture, int max_stacks) const {
+  CnnModelInfo info;
+  info.architecture = architecture;
+  std::vector<float> values;
+  for (int i = 0; i < std::min(train_count(), std::max(max_stacks, 1)); ++i) {
+    LOOM_ASSIGN_OR_RETURN(const std::shared_ptr<const ObservationStack> stack, Stack(i));
+    if (i == 0) {
+      info.architecture.input_channels = kCnnGeometryChannels + static_cast<int>(stack->observations.size());
+      info.rig = stack->rig;
+      for (const StackObservation& o : stack->observations) info.observation_groups.push_back(o.group);
+    }
+    for (int c = kStackGeometryChannels; c < stack->image.num_channels(); c += 7) {  // a sample of the channels
+      for (float v : stack->image.channel(c)) {
+        if (std::isfinite(v) && v > 0) values.push_back(v);
+      }
+    }
+  }
+  info.radiance_scale = 1;
+  if (!values.empty()) {
+    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    info.radiance_scale = values[values.size() / 2];
+  }
+  return info;
+}
+
+Result<CnnExample> CnnDataset::Example(int i, const CnnModelInfo& info, bool keep_stack) const {
+  LOOM_ASSIGN_OR_RETURN(std::shared_ptr<const ObservationStack> stack, Stack(i));
+  const fs::path& truth_path = pairs_[static_cast<size_t>(i)].truth;
+  LOOM_ASSIGN_OR_RETURN(const ExrImage truth, ReadExr(truth_path));
+  if (!HasSvbrdfLayout(truth.image)) {
+    return InvalidArgumentError(truth_path.string(), "not an SVBRDF map file: the first channels must be n_s.X ... F0");
+  }
+  if (truth.image.width() != stack->image.width() || truth.image.height() != stack->image.height()) {
+    return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack->source);
+  }
+  LOOM_ASSIGN_OR_RETURN(CnnTensor input, CnnInputFromStack(*stack, info));
+  return CnnExample{truth_path.string(), std::move(input), CnnLabelsFromMaps(truth.image), keep_stack ? std::move(stack) : nullptr};
+}
+
+Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed) {
+  if (init.empty()) return Cnn::Create(info, seed);
+  LOOM_ASSIGN_OR_RETURN(Cnn cnn, Cnn::Load(init));
+  if (cnn.info().architecture.input_channels != info.architecture.input_channels || cnn.info().rig != info.rig ||
+      cnn.info().observation_groups != info.observation_groups) {
+    return InvalidArgumentError(init, "a model for other stacks (rig '" + cnn.info().rig + "', " +
+                                          std::to_string(cnn.info().architecture.input_channels) +
+                                          " input channels) than the dataset's ('" + info.rig + "', " +
+                                          std::to_string(info.architecture.input_channels) + ")");
+  }
+  return cnn;
+}
+
+}  // namespace loom::fitting

@@ -1,0 +1,54 @@
+#pragma once
+// A CNN's dataset on disk: NAME.stack.exr + NAME.truth.exr pairs (sim/training_set.h renders
+// them; reconstructed stacks with reference fits can be put beside them under the same names),
+// split by material: the last `test` pairs (sorted by name) are the test set, the `validation`
+// before them validate every epoch, the rest train. Examples are read on demand, so training
+// pairs can stay on disk and stream (CnnExampleSource) when the set is larger than memory.
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fitting/cnn.h"
+#include "fitting/cnn_training.h"
+
+namespace loom::fitting {
+
+class CnnDataset {
+ public:
+  // Every pair in `dir`; a stack without its truth is an error naming it, and so is a split that
+  // leaves no training pair.
+  static Result<CnnDataset> Open(const std::filesystem::path& dir, int validation, int test);
+
+  int size() const { return static_cast<int>(pairs_.size()); }
+  int train_count() const { return size() - validation_ - test_; }
+  int validation_count() const { return validation_; }
+  int test_count() const { return test_; }
+
+  // A new model's description for these stacks: input channels and observation groups (the first
+  // stack's) and rig, and the input normalisation, the median positive radiance of the first
+  // `max_stacks` training stacks.
+  Result<CnnModelInfo> ModelInfo(const CnnArchitecture& architecture, int max_stacks) const;
+  // Example `i` (0 ≤ i < size(): training, then validation, then test) as a model with `info`
+  // sees it; `keep_stack` keeps its stack for the re-rendering loss.
+  Result<CnnExample> Example(int i, const CnnModelInfo& info, bool keep_stack) const;
+
+ private:
+  struct Pair {
+    std::filesystem::path stack, truth;
+  };
+  CnnDataset(std::vector<Pair> pairs, int validation, int test)
+      : pairs_(std::move(pairs)), validation_(validation), test_(test) {}
+  Result<std::shared_ptr<const ObservationStack>> Stack(int i) const;
+
+  std::vector<Pair> pairs_;
+  int validation_ = 0;
+  int test_ = 0;
+};
+
+// What training starts from: a new model for `info` (weights from `seed`), or the model in
+// `init` (fine-tuning, its input normalisation kept) when it takes the same stacks.
+Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed);
+
+}  // namespace loom::fitting

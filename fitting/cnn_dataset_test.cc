@@ -1,0 +1,93 @@
+#include "fitting/cnn_dataset.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "fitting/model/label.h"
+#include "fitting/testing/tac7_mini.h"
+#include "sim/test_materials.h"
+#include "sim/training_set.h"
+
+namespace loom::fitting {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool Contains(const Status& status, const std::string& text) { return status.ToString().find(text) != std::string::npos; }
+
+// Four 16 × 16 px fabrics of tac7-mini under three observations.
+fs::path FourPairs(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / (name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  WardParams<double> matte;
+  matte.a_d = Eigen::Vector3d::Constant(0.5);
+  const sim::Scene rig(testing::TacMiniGeometry(), sim::UniformMaterial("placeholder", matte, {16, 16, 0.2}));
+  const std::vector<sim::Observation> observations = {
+      {0, {.leds = {{0, 1000}}}}, {1, {.leds = {{3, 1000}}}}, {0, {.linear_light_on = true, .linear_light_mm = 100}}};
+  sim::TrainingSetSpec spec;
+  spec.materials = 4;
+  spec.size_px = 16;
+  EXPECT_TRUE(sim::RenderTrainingSet(rig, observations, spec, dir).ok());
+  return dir;
+}
+
+TEST(CnnDatasetTest, SplitsByNameAndDescribesTheModelItsStacksNeed) {
+  const fs::path dir = FourPairs("cnn_dataset");
+  const Result<CnnDataset> dataset = CnnDataset::Open(dir, 1, 1);
+  ASSERT_TRUE(dataset.ok()) << dataset.status().ToString();
+  EXPECT_EQ(dataset->size(), 4);
+  EXPECT_EQ(dataset->train_count(), 2);
+  const Result<CnnModelInfo> info = dataset->ModelInfo({0, 32, 0.02}, 64);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->architecture.input_channels, kCnnGeometryChannels + 3);
+  EXPECT_EQ(info->architecture.width_divisor, 32);
+  ASSERT_EQ(info->observation_groups.size(), 3u);
+  EXPECT_EQ(info->observation_groups[2], ObservationGroup::kLinearLight);
+  EXPECT_GT(info->radiance_scale, 0);
+  EXPECT_NE(info->radiance_scale, 1);  // measured, not the fallback
+
+  // The test example is the last fabric by name, with its stack only when asked for.
+  const Result<CnnExample> test = dataset->Example(3, *info, false);
+  ASSERT_TRUE(test.ok()) << test.status().ToString();
+  EXPECT_NE(test->name.find("fabric-1003.truth.exr"), std::string::npos) << test->name;
+  EXPECT_EQ(test->input.channels, info->architecture.input_channels);
+  EXPECT_EQ(test->labels.labels.channels, kLabelSize);
+  EXPECT_EQ(test->stack, nullptr);
+  EXPECT_NE(dataset->Example(0, *info, true)->stack, nullptr);
+  fs::remove_all(dir);
+}
+
+TEST(CnnDatasetTest, AMissingTruthOrTooFewMaterialsAreNamed) {
+  const fs::path dir = FourPairs("cnn_dataset_bad");
+  const Result<CnnDataset> too_few = CnnDataset::Open(dir, 2, 2);
+  ASSERT_FALSE(too_few.ok());
+  EXPECT_TRUE(Contains(too_few.status(), "4 materials")) << too_few.status().ToString();
+  fs::remove(dir / "fabric-1002.truth.exr");
+  const Result<CnnDataset> missing = CnnDataset::Open(dir, 1, 1);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_TRUE(Contains(missing.status(), "fabric-1002.truth.exr")) << missing.status().ToString();
+  EXPECT_FALSE(CnnDataset::Open(dir / "nowhere", 1, 1).ok());
+  fs::remove_all(dir);
+}
+
+TEST(CnnDatasetTest, FineTuningNeedsAModelForTheSameStacks) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("cnn_dataset_init_" + std::to_string(::getpid()));
+  CnnModelInfo info;
+  info.architecture = {kCnnGeometryChannels + 3, 32, 0.02};
+  info.rig = "tac7-mini";
+  info.observation_groups.assign(3, ObservationGroup::kMonochrome);
+  const Result<Cnn> fresh = StartingCnn(info, "", 1);
+  ASSERT_TRUE(fresh.ok()) << fresh.status().ToString();
+  ASSERT_TRUE(fresh->Save(dir).ok());
+  EXPECT_TRUE(StartingCnn(info, dir.string(), 1).ok());
+  CnnModelInfo other = info;
+  other.architecture.input_channels += 1;
+  other.observation_groups.push_back(ObservationGroup::kColour);
+  const Result<Cnn> mismatched = StartingCnn(other, dir.string(), 1);
+  ASSERT_FALSE(mismatched.ok());
+  EXPECT_TRUE(Contains(mismatched.status(), "other stacks")) << mismatched.status().ToString();
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace loom::fitting

@@ -1,0 +1,36 @@
+#pragma once
+// A CNN's training set rendered on the simulated rig: procedural fabrics (seeds first_seed,
+// first_seed + 1, …), each rendered with the fast path (stack.h) into DIR/fabric-SEED.stack.exr
+// with its ground truth on the stack's grid in DIR/fabric-SEED.truth.exr; an out_of_model_share
+// of the seeds, spread evenly, are fabric.h's out-of-model fabrics (fabric-SEED-out-of-model.*).
+// Pairs already in DIR are kept, not rendered again, so a set is built once and grown later.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sim/renderer.h"
+#include "sim/stack.h"
+
+namespace loom::sim {
+
+struct TrainingSetSpec {
+  int materials = 24;
+  int size_px = 64;
+  uint64_t first_seed = 1000;
+  double out_of_model_share = 0;
+  Status Check() const;  // every problem, naming the field
+};
+
+// Called after each material with how many are done, of how many, and its name.
+using TrainingSetProgress = std::function<void(int done, int total, const std::string& name)>;
+
+// `rig`: the rig's scene (its material gives only the pixel size); `observations`: what a
+// material plan makes (plan_observations.h). The stack is written last: a stack names a
+// complete pair.
+Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& observations, const TrainingSetSpec& spec,
+                         const std::filesystem::path& dir, const TrainingSetProgress& progress = {});
+
+}  // namespace loom::sim

@@ -1,0 +1,72 @@
+#include "sim/training_set.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "core/testing/shipped_rig.h"
+#include "sim/material.h"
+#include "sim/test_materials.h"
+
+namespace loom::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / (name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+// tac7-mini under two observations: enough to make pairs, fast to render.
+Scene MiniRig() {
+  fitting::WardParams<double> matte;
+  matte.a_d = Eigen::Vector3d::Constant(0.5);
+  return Scene(testing::ShippedRigModel("tac7-mini"), UniformMaterial("placeholder", matte, {16, 16, 0.2}));
+}
+const std::vector<Observation> kObservations = {{0, {.leds = {{0, 1000}}}}, {1, {.leds = {{3, 1000}}}}};
+
+TEST(TrainingSetTest, RendersEachFabricOnceWithItsTruthAndTheOutOfModelShareSpread) {
+  const fs::path dir = FreshDir("training_set");
+  TrainingSetSpec spec;
+  spec.materials = 3;
+  spec.size_px = 16;
+  spec.out_of_model_share = 1.0 / 3;
+  std::vector<std::string> names;
+  ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, dir,
+                                [&](int, int, const std::string& name) { names.push_back(name); }).ok());
+  EXPECT_EQ(names, (std::vector<std::string>{"fabric-1000", "fabric-1001", "fabric-1002-out-of-model"}));
+  for (const std::string& name : names) {
+    const Result<ObservationStack> stack = ReadObservationStack(dir / (name + ".stack.exr"));
+    ASSERT_TRUE(stack.ok()) << stack.status().ToString();
+    EXPECT_EQ(stack->observations.size(), kObservations.size());
+    const Result<Material> truth = ReadMaterial(dir / (name + ".truth.exr"));
+    ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+    EXPECT_EQ(truth->width(), stack->image.width());
+  }
+
+  // A pair already there is kept, not rendered again; a missing one is.
+  const fs::file_time_type kept = fs::last_write_time(dir / "fabric-1000.stack.exr");
+  fs::remove(dir / "fabric-1001.truth.exr");
+  ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, dir).ok());
+  EXPECT_EQ(fs::last_write_time(dir / "fabric-1000.stack.exr"), kept);
+  EXPECT_TRUE(fs::exists(dir / "fabric-1001.truth.exr"));
+  fs::remove_all(dir);
+}
+
+TEST(TrainingSetTest, ABadSpecNamesEveryFieldAndRendersNothing) {
+  const fs::path dir = FreshDir("training_set_bad");
+  TrainingSetSpec spec;
+  spec.materials = 0;
+  spec.size_px = 2;
+  spec.out_of_model_share = NAN;
+  const Status status = RenderTrainingSet(MiniRig(), kObservations, spec, dir);
+  ASSERT_FALSE(status.ok());
+  for (const char* field : {"materials", "size_px", "out_of_model_share"}) {
+    EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();
+  }
+  EXPECT_FALSE(fs::exists(dir));
+}
+
+}  // namespace
+}  // namespace loom::sim
