@@ -237,7 +237,7 @@ Status Sequencer::CaptureLinearitySeries(const scan::Step& step, double shortest
 }
 
 Status Sequencer::PlaceObject(const scan::Step& step) {
-  if (step.object == scan::kNoObject || step.object == object_placed_) return Status::Ok();
+  if (step.object == scan::ScanObject::kNothing || step.object == object_placed_) return Status::Ok();
   if (options_.place_object) {
     if (Status placed = options_.place_object(step.object); !placed.ok()) {
       return placed.WithContext("step " + std::to_string(step.index));

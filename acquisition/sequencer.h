@@ -33,9 +33,9 @@ struct SequencerOptions {
   double exposure_factor = 4;       // between bracket exposures
   int phase_steps = 4;              // of the structured-light phase patterns
   // Called before the first step run and whenever a step needs another object on the turntable
-  // than the one before (steps needing none, kNoObject, do not count): an operator is asked to
-  // place it, a simulated rig swaps its scene. An error stops the scan before that step.
-  std::function<Status(const std::string& object)> place_object;
+  // than the one before (steps needing none, ScanObject::kNothing, do not count): an operator is
+  // asked to place it, a simulated rig swaps its scene. An error stops the scan before that step.
+  std::function<Status(scan::ScanObject object)> place_object;
   Status Check() const;  // every problem, naming the field (NaN fails every check)
 };
 
@@ -81,7 +81,7 @@ class Sequencer {
   std::map<std::string, scan::DarkLevel> dark_;  // by camera
   bool strip_on_ = false;
   bool projector_showing_ = false;
-  std::string object_placed_;
+  std::optional<scan::ScanObject> object_placed_;
 };
 
 }  // namespace loom::acquisition

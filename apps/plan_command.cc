@@ -27,7 +27,7 @@ void PrintStep(const Step& step) {
   if (!step.projector_pattern.empty()) std::cout << "  pattern " << step.projector_pattern;
   std::cout << "  cameras";
   for (const std::string& camera : step.cameras) std::cout << " " << camera;
-  std::cout << "  [" << step.object << "]\n";
+  std::cout << "  [" << scan::ScanObjectName(step.object) << "]\n";
 }
 
 }  // namespace
@@ -58,7 +58,7 @@ int RunPlan(int argc, char** argv) {
     return kExitOk;
   }
 
-  std::cout << plan->purpose << " scan of rig '" << plan->rig << "' with preset '" << plan->preset << "': "
+  std::cout << scan::PlanPurposeName(plan->purpose) << " scan of rig '" << plan->rig << "' with preset '" << plan->preset << "': "
             << plan->steps.size() << " steps, " << plan->Images() << " images (before HDR bracketing)\n";
   std::map<StepKind, std::pair<int, int>> by_kind;
   for (const Step& step : plan->steps) {

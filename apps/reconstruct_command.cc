@@ -85,8 +85,9 @@ Status Reconstruct(const ReconstructArguments& args) {
   } else {
     std::cerr << "note: no --calib: reconstructing with the rig YAML's nominal geometry and sensor model\n";
   }
-  if (store.info().plan.purpose != "material") {
-    return InvalidArgumentError(args.scan, "is a " + store.info().plan.purpose + " scan; loom reconstruct takes material scans");
+  if (store.info().plan.purpose != scan::PlanPurpose::kMaterial) {
+    return InvalidArgumentError(args.scan, "is a " + std::string(scan::PlanPurposeName(store.info().plan.purpose)) +
+                                               " scan; loom reconstruct takes material scans");
   }
   std::unique_ptr<ProgressBar> bar;
   std::string stage;

@@ -13,18 +13,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Result<scan::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, const std::string& purpose) {
+Result<scan::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, scan::PlanPurpose purpose) {
   if (!loaded.model) {
     return InvalidArgumentError("rig '" + loaded.rig->name() + "'", "has no 'geometry:' section: a plan needs the rig's description");
   }
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
-  return purpose == "calibration" ? scan::MakeCalibrationPlan(*loaded.model, preset)
-                                  : scan::MakeMaterialPlan(*loaded.model, preset);
+  return purpose == scan::PlanPurpose::kCalibration ? scan::MakeCalibrationPlan(*loaded.model, preset)
+                                                    : scan::MakeMaterialPlan(*loaded.model, preset);
 }
 
 // A real rig's operator places each object: the first before the scan starts (it is named),
 // the others when the scan asks, confirmed with Enter.
-Status AskOperator(const std::string& object, bool* first) {
+Status AskOperator(scan::ScanObject placed, bool* first) {
+  const std::string object(scan::ScanObjectName(placed));
   if (*first) {
     *first = false;
     std::cerr << "the scan starts with the " << object << " on the turntable\n";
@@ -43,7 +44,7 @@ Status RunScan(LoadedRig& loaded, const scan::Plan& plan, scan::CaptureStore& st
   hal::SafeStateGuard guard(*loaded.rig);
   acquisition::SequencerOptions options;
   bool first_object = true;
-  options.place_object = [&](const std::string& object) {
+  options.place_object = [&](scan::ScanObject object) {
     return loaded.sim ? hal::PlaceObject(*loaded.sim, object) : AskOperator(object, &first_object);
   };
   acquisition::Sequencer sequencer(*loaded.rig, plan, store, options);
@@ -59,7 +60,7 @@ Status NewScan(const std::string& rig_path, const std::string& preset, const std
                const fs::path& out, bool quiet) {
   LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(rig_path));
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, rig_path, object));
-  const std::string purpose = calibration ? "calibration" : "material";
+  const scan::PlanPurpose purpose = calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial;
   LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, MakePlan(loaded, preset, purpose));
   LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store,
                         scan::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan}));

@@ -85,7 +85,7 @@ Status CheckProjector(const scan::CaptureStore& store, const RigModel& fresh_cam
     check.projector.not_compared = calib.string() + " holds no projector.yaml: loom calibrate geometry";
     return Status::Ok();
   }
-  if (StructuredLightAngles(store.info().plan, "target").empty()) {
+  if (StructuredLightAngles(store.info().plan, scan::ScanObject::kTarget).empty()) {
     check.projector.not_compared = "the scan has no structured light on the target";
     return Status::Ok();
   }

@@ -42,7 +42,7 @@ std::optional<double> ColumnAt(const Image& columns, const Eigen::Vector2d& pixe
 
 }  // namespace
 
-std::vector<double> StructuredLightAngles(const scan::Plan& plan, const std::string& object) {
+std::vector<double> StructuredLightAngles(const scan::Plan& plan, scan::ScanObject object) {
   std::vector<double> angles;
   for (const Step& step : plan.steps) {
     if (step.kind == StepKind::kStructuredLight && step.object == object &&
@@ -53,7 +53,7 @@ std::vector<double> StructuredLightAngles(const scan::Plan& plan, const std::str
   return angles;
 }
 
-Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, const std::string& object,
+Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, scan::ScanObject object,
                                 double turntable_deg) {
   const RigModel& rig = scan.rig();
   if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
@@ -80,10 +80,10 @@ Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadia
   const Eigen::Matrix3d yaw = Eigen::AngleAxisd(DegToRad(placement.yaw_deg), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d offset(placement.offset_mm.x(), placement.offset_mm.y(), 0);
   std::vector<ProjectorCorrespondence> correspondences;
-  for (double angle : StructuredLightAngles(scan.plan(), "target")) {
+  for (double angle : StructuredLightAngles(scan.plan(), scan::ScanObject::kTarget)) {
     const Rigid3d rig_from_sample = rig.turntable.RigFromSample(angle);
     for (const CameraModel& camera : rig.cameras) {
-      LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, "target", angle));
+      LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, scan::ScanObject::kTarget, angle));
       for (const Eigen::Vector3d& corner : target.CornersInBoard()) {
         const Eigen::Vector3d in_rig = rig_from_sample * (yaw * (target.SampleFromBoard() * corner) + offset);
         Eigen::Vector2d pixel;
@@ -97,7 +97,8 @@ Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadia
 
 Result<std::vector<FlatBoardView>> FlatBoardRays(const ScanRadiance& scan, int max_rays_per_camera) {
   const RigModel& rig = scan.rig();
-  const std::vector<std::pair<std::string, double>> boards = {{"white tile", 0.0}, {"white tile on its spacer", rig.white_reference.spacer_mm}};
+  const std::vector<std::pair<scan::ScanObject, double>> boards = {{scan::ScanObject::kWhiteTile, 0.0},
+                                                                   {scan::ScanObject::kWhiteTileOnSpacer, rig.white_reference.spacer_mm}};
   std::vector<double> angles;
   for (const auto& [object, height] : boards) {
     const std::vector<double> at = StructuredLightAngles(scan.plan(), object);
@@ -108,7 +109,7 @@ Result<std::vector<FlatBoardView>> FlatBoardRays(const ScanRadiance& scan, int m
   for (size_t b = 0; b < boards.size(); ++b) {
     const auto& [object, height] = boards[b];
     const double angle = angles[b];
-    FlatBoardView view{object, height, {}};
+    FlatBoardView view{std::string(scan::ScanObjectName(object)), height, {}};
     for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
       const CameraModel& camera = rig.cameras[c];
       LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, object, angle));

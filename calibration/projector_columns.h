@@ -16,14 +16,14 @@
 
 namespace loom::calibration {
 
-// The turntable angles at which the scan's plan has structured-light steps on `object` (the
-// plan's: "sample", "target", ...), in plan order.
-std::vector<double> StructuredLightAngles(const scan::Plan& plan, const std::string& object);
+// The turntable angles at which the scan's plan has structured-light steps on `object`, in plan
+// order.
+std::vector<double> StructuredLightAngles(const scan::Plan& plan, scan::ScanObject object);
 
 // The structured-light steps on `object` at `turntable_deg`, decoded in `camera`: channel
 // "column" (NaN where undecodable). A missing pattern, or too few phase patterns, is an error
 // naming it.
-Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, const std::string& object,
+Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, scan::ScanObject object,
                                 double turntable_deg);
 
 // Every camera, every structured-light angle: the target's corners (placed as loom calibrate

@@ -50,7 +50,7 @@ Result<std::optional<LightPositions>> CalibrateLights(const scan::CaptureStore& 
 Result<std::optional<ProjectorCalibration>> CalibrateProjectorPose(const scan::CaptureStore& store, const RigModel& calibrated,
                                                                    const CalibrationTargetModel& target,
                                                                    const TargetPlacement& placement) {
-  if (!calibrated.projector || StructuredLightAngles(store.info().plan, "target").empty()) {
+  if (!calibrated.projector || StructuredLightAngles(store.info().plan, scan::ScanObject::kTarget).empty()) {
     return std::optional<ProjectorCalibration>();
   }
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, calibrated));
@@ -109,8 +109,8 @@ void ReportProjector(const std::optional<ProjectorCalibration>& projector, std::
 
 Result<scan::CaptureStore> OpenCalibrationStore(const fs::path& directory) {
   LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store, scan::CaptureStore::Open(directory));
-  if (store.info().plan.purpose != "calibration") {
-    return InvalidArgumentError(directory.string(), "is a " + store.info().plan.purpose +
+  if (store.info().plan.purpose != scan::PlanPurpose::kCalibration) {
+    return InvalidArgumentError(directory.string(), "is a " + std::string(scan::PlanPurposeName(store.info().plan.purpose)) +
                                                         " scan, not a calibration scan (loom scan --calibration)");
   }
   return store;

@@ -61,14 +61,14 @@ std::vector<ViewRef> FittingViews(const scan::Plan& plan) {
 Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& camera, const ReconstructOptions& options,
                                    int* filled) {
   const RigModel& rig = scan.rig();
-  const std::vector<double> angles = calibration::StructuredLightAngles(scan.plan(), "sample");
+  const std::vector<double> angles = calibration::StructuredLightAngles(scan.plan(), scan::ScanObject::kSample);
   const size_t pixels = static_cast<size_t>(options.width_px) * options.height_px;
   if (angles.empty()) {
     LOOM_LOG(Warning) << "the scan has no structured-light steps: the sample is taken as flat (height 0)";
     return std::vector<float>(pixels, 0.0f);
   }
   if (angles.size() > 1) return InvalidArgumentError("structured-light steps", "turntable angles differ within the sequence");
-  LOOM_ASSIGN_OR_RETURN(const Image columns, calibration::DecodeScanColumns(scan, camera, "sample", angles.front()));
+  LOOM_ASSIGN_OR_RETURN(const Image columns, calibration::DecodeScanColumns(scan, camera, scan::ScanObject::kSample, angles.front()));
   const calibration::HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm, options.max_height_mm};
   LOOM_ASSIGN_OR_RETURN(calibration::TriangulatedHeights heights, calibration::TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
   *filled = heights.filled;

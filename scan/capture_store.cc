@@ -130,7 +130,7 @@ std::string ScanYaml(const ScanInfo& info) {
   out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
   out << YAML::Key << "object" << YAML::Value << info.object;
   out << YAML::Key << "plan" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "purpose" << YAML::Value << info.plan.purpose;
+  out << YAML::Key << "purpose" << YAML::Value << std::string(PlanPurposeName(info.plan.purpose));
   out << YAML::Key << "preset" << YAML::Value << info.plan.preset;
   out << YAML::Key << "steps" << YAML::Value << info.plan.steps.size();
   out << YAML::Key << "file" << YAML::Value << kPlanFile;
@@ -158,7 +158,7 @@ Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
   const fs::path plan_path = directory / plan_file;
   LOOM_ASSIGN_OR_RETURN(const std::string plan_text, ReadFile(plan_path));
   LOOM_ASSIGN_OR_RETURN(info.plan, ParsePlanYaml(plan_text, plan_path.string()));
-  if (static_cast<int>(info.plan.steps.size()) != steps || info.plan.purpose != purpose || info.plan.preset != preset) {
+  if (static_cast<int>(info.plan.steps.size()) != steps || PlanPurposeName(info.plan.purpose) != purpose || info.plan.preset != preset) {
     return DataLossError(plan_path.string(), "does not match " + path.string() + " (" + std::to_string(steps) +
                                                  " steps of a " + purpose + " scan with preset '" + preset + "')");
   }

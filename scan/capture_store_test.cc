@@ -31,7 +31,7 @@ RawFrame Frame(int seed) {
 }
 
 Plan TwoStepPlan() {
-  Plan plan{"r", "low", "material", {}};
+  Plan plan{"r", "low", PlanPurpose::kMaterial, {}};
   plan.steps.resize(2);
   plan.steps[1].index = 1;
   plan.steps[1].leds = {{3, 800}};

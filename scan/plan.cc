@@ -59,13 +59,13 @@ constexpr int kProbeStripPositions = 3;
 
 class PlanBuilder {
  public:
-  PlanBuilder(const RigModel& rig, const Preset& preset, std::string purpose) : rig_(rig), preset_(preset) {
+  PlanBuilder(const RigModel& rig, const Preset& preset, PlanPurpose purpose) : rig_(rig), preset_(preset) {
     plan_.rig = rig.name;
     plan_.preset = preset.name;
-    plan_.purpose = std::move(purpose);
+    plan_.purpose = purpose;
   }
 
-  Step& Add(StepKind kind, std::vector<std::string> cameras, double turntable_deg, const std::string& object) {
+  Step& Add(StepKind kind, std::vector<std::string> cameras, double turntable_deg, ScanObject object) {
     Step step;
     step.index = static_cast<int>(plan_.steps.size());
     step.kind = kind;
@@ -77,7 +77,7 @@ class PlanBuilder {
     return plan_.steps.back();
   }
 
-  void StructuredLight(double angle, const std::string& object) {
+  void StructuredLight(double angle, ScanObject object) {
     if (!rig_.projector) return;
     for (const std::string& pattern : StructuredLightPatterns(rig_.projector->width, preset_.gray_bits, preset_.phase_steps)) {
       Add(StepKind::kStructuredLight, AllCameras(rig_), angle, object).projector_pattern = pattern;
@@ -85,7 +85,7 @@ class PlanBuilder {
   }
 
   // Every filter of every wheel, for `cameras`.
-  void Filtered(StepKind kind, const std::vector<std::string>& cameras, const std::string& object) {
+  void Filtered(StepKind kind, const std::vector<std::string>& cameras, ScanObject object) {
     for (const FilterWheelModel& wheel : rig_.filter_wheels) {
       for (int slot = 0; slot < static_cast<int>(wheel.filters.size()); ++slot) {
         if (wheel.filters[slot].open) continue;
@@ -98,7 +98,7 @@ class PlanBuilder {
 
   // An LED behind a filter wheel shines through the wheel's open slot (MakeMaterialPlan and
   // MakeCalibrationPlan check that there is one).
-  void EveryLed(StepKind kind, double angle, const std::string& object) {
+  void EveryLed(StepKind kind, double angle, ScanObject object) {
     for (int led = 0; led < static_cast<int>(rig_.leds.size()); ++led) {
       Step& step = Add(kind, AllCameras(rig_), angle, object);
       step.leds = {{led, preset_.led_current_ma}};
@@ -110,7 +110,7 @@ class PlanBuilder {
     const int n = preset_.linear_light_positions;
     const double travel = rig_.linear_light->travel_mm;
     for (int k = 0; k < n; ++k) {
-      Add(StepKind::kLinearLight, AllCameras(rig_), angle, "sample").linear_light_mm = n == 1 ? travel / 2 : travel * k / (n - 1);
+      Add(StepKind::kLinearLight, AllCameras(rig_), angle, ScanObject::kSample).linear_light_mm = n == 1 ? travel / 2 : travel * k / (n - 1);
     }
   }
 
@@ -121,7 +121,7 @@ class PlanBuilder {
     const double travel = rig_.linear_light->travel_mm;
     for (int k = 0; k < kProbeStripPositions; ++k) {
       const double fraction = 0.1 + 0.8 * k / (kProbeStripPositions - 1);
-      Add(StepKind::kLightProbe, AllCameras(rig_), 0, "chrome sphere").linear_light_mm = travel * fraction;
+      Add(StepKind::kLightProbe, AllCameras(rig_), 0, ScanObject::kChromeSphere).linear_light_mm = travel * fraction;
     }
   }
 
@@ -160,6 +160,38 @@ std::string_view StepKindName(StepKind kind) {
     case StepKind::kLinearLight: return "linear light";
   }
   return "unknown";
+}
+
+std::string_view ScanObjectName(ScanObject object) {
+  switch (object) {
+    case ScanObject::kNothing: return "nothing (lights off)";
+    case ScanObject::kSample: return "sample";
+    case ScanObject::kTarget: return "target";
+    case ScanObject::kChromeSphere: return "chrome sphere";
+    case ScanObject::kWhiteTile: return "white tile";
+    case ScanObject::kWhiteTileOnSpacer: return "white tile on its spacer";
+    case ScanObject::kColourChart: return "colour chart";
+  }
+  return "unknown";
+}
+
+std::optional<ScanObject> ParseScanObject(std::string_view name) {
+  for (ScanObject object : {ScanObject::kNothing, ScanObject::kSample, ScanObject::kTarget, ScanObject::kChromeSphere,
+                            ScanObject::kWhiteTile, ScanObject::kWhiteTileOnSpacer, ScanObject::kColourChart}) {
+    if (ScanObjectName(object) == name) return object;
+  }
+  return std::nullopt;
+}
+
+std::string_view PlanPurposeName(PlanPurpose purpose) {
+  return purpose == PlanPurpose::kCalibration ? "calibration" : "material";
+}
+
+std::optional<PlanPurpose> ParsePlanPurpose(std::string_view name) {
+  for (PlanPurpose purpose : {PlanPurpose::kMaterial, PlanPurpose::kCalibration}) {
+    if (PlanPurposeName(purpose) == name) return purpose;
+  }
+  return std::nullopt;
 }
 
 std::optional<StepKind> ParseStepKind(std::string_view name) {
@@ -229,45 +261,45 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
                                                                  std::to_string(preset.linear_light_positions) +
                                                                  " positions), the rig has none");
   }
-  PlanBuilder builder(rig, preset, "material");
+  PlanBuilder builder(rig, preset, PlanPurpose::kMaterial);
   // Everything at the first angle first: the turntable moves once per further angle.
   const double first = preset.turntable_deg.front();
   // Lights off first: the sequencer takes each camera's black level and noise from it.
-  builder.Add(StepKind::kDark, AllCameras(rig), first, "sample");
-  builder.StructuredLight(first, "sample");
-  builder.Filtered(StepKind::kColour, ColourCameras(rig, preset.colour_views_deg), "sample");
-  builder.EveryLed(StepKind::kMonochrome, first, "sample");
+  builder.Add(StepKind::kDark, AllCameras(rig), first, ScanObject::kSample);
+  builder.StructuredLight(first, ScanObject::kSample);
+  builder.Filtered(StepKind::kColour, ColourCameras(rig, preset.colour_views_deg), ScanObject::kSample);
+  builder.EveryLed(StepKind::kMonochrome, first, ScanObject::kSample);
   if (preset.linear_light_positions > 0) builder.LinearLight(first);
-  for (size_t a = 1; a < preset.turntable_deg.size(); ++a) builder.EveryLed(StepKind::kMonochrome, preset.turntable_deg[a], "sample");
+  for (size_t a = 1; a < preset.turntable_deg.size(); ++a) builder.EveryLed(StepKind::kMonochrome, preset.turntable_deg[a], ScanObject::kSample);
   return builder.Finish();
 }
 
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   if (rig.cameras.empty()) return FailedPreconditionError("rig '" + rig.name + "'", "calibration needs cameras");
   LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));
-  PlanBuilder builder(rig, preset, "calibration");
-  builder.Add(StepKind::kDark, AllCameras(rig), 0, std::string(kNoObject));
+  PlanBuilder builder(rig, preset, PlanPurpose::kCalibration);
+  builder.Add(StepKind::kDark, AllCameras(rig), 0, ScanObject::kNothing);
   // The target at 8 turntable angles, lit evenly by every LED at a quarter of the current; at
   // three of them the projector's patterns on it, for the projector's calibration.
   for (int k = 0; k < 8; ++k) {
-    Step& step = builder.Add(StepKind::kTarget, AllCameras(rig), 45.0 * k, "target");
+    Step& step = builder.Add(StepKind::kTarget, AllCameras(rig), 45.0 * k, ScanObject::kTarget);
     for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) step.leds.push_back({led, preset.led_current_ma / 4});
-    if (k % 3 == 0) builder.StructuredLight(45.0 * k, "target");
+    if (k % 3 == 0) builder.StructuredLight(45.0 * k, ScanObject::kTarget);
   }
   if (rig.light_probe) {
-    builder.EveryLed(StepKind::kLightProbe, 0, "chrome sphere");
+    builder.EveryLed(StepKind::kLightProbe, 0, ScanObject::kChromeSphere);
     if (rig.linear_light) builder.StripOverProbe();
   }
-  builder.EveryLed(StepKind::kWhiteReference, 0, "white tile");
+  builder.EveryLed(StepKind::kWhiteReference, 0, ScanObject::kWhiteTile);
   builder.LinearitySeries();
-  if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, "white tile").linear_light_mm = rig.linear_light->travel_mm / 2;
+  if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, ScanObject::kWhiteTile).linear_light_mm = rig.linear_light->travel_mm / 2;
   // The projector's patterns on the tile lying on the table and raised on the spacer: a flat
   // board at two heights, for the projector's focal length (calibration/projector.h).
   if (rig.white_reference.spacer_mm > 0) {
-    builder.StructuredLight(0, "white tile");
-    builder.StructuredLight(0, "white tile on its spacer");
+    builder.StructuredLight(0, ScanObject::kWhiteTile);
+    builder.StructuredLight(0, ScanObject::kWhiteTileOnSpacer);
   }
-  builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), "colour chart");
+  builder.Filtered(StepKind::kColourChart, ColourCameras(rig, preset.colour_views_deg), ScanObject::kColourChart);
   return builder.Finish();
 }
 

@@ -51,8 +51,23 @@ struct FilterSetting {
   bool operator==(const FilterSetting&) const = default;
 };
 
-// The object of a step that needs none on the turntable (a dark frame).
-inline constexpr std::string_view kNoObject = "nothing (lights off)";
+// What must lie on the turntable for a step. Its name is how plan.yaml writes it and what an
+// operator is asked to place; code matches the enum, never the name.
+enum class ScanObject {
+  kNothing,            // a dark frame needs none
+  kSample,             // the material scanned
+  kTarget,             // the rig's calibration_target
+  kChromeSphere,       // its light_probe
+  kWhiteTile,          // its white_reference
+  kWhiteTileOnSpacer,  // the same raised by the reference's spacer_mm
+  kColourChart,
+};
+std::string_view ScanObjectName(ScanObject object);  // "sample", "white tile on its spacer", ...
+std::optional<ScanObject> ParseScanObject(std::string_view name);
+
+enum class PlanPurpose { kMaterial, kCalibration };
+std::string_view PlanPurposeName(PlanPurpose purpose);  // "material", "calibration"
+std::optional<PlanPurpose> ParsePlanPurpose(std::string_view name);
 
 struct Step {
   int index = 0;
@@ -63,7 +78,7 @@ struct Step {
   double turntable_deg = 0;
   std::optional<double> linear_light_mm;  // strip on at this position
   std::string projector_pattern;          // empty: projector dark
-  std::string object;                     // what must lie on the turntable: "sample", "target", ...
+  ScanObject object = ScanObject::kSample;  // what must lie on the turntable
   ExposureBracket exposure;
 
   // Images this step produces before bracketing (one per camera).
@@ -88,7 +103,7 @@ Result<Preset> LoadPreset(const std::filesystem::path& path);
 struct Plan {
   std::string rig;
   std::string preset;
-  std::string purpose;  // "material" or "calibration"
+  PlanPurpose purpose = PlanPurpose::kMaterial;
   std::vector<Step> steps;
 
   int Images(StepKind kind) const;

@@ -74,7 +74,7 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   EXPECT_EQ(plan.Images(StepKind::kColour), 2 * 4 * 2);
   EXPECT_EQ(plan.Images(StepKind::kLinearLight), 70 * 2);
   const Plan calibration = *MakeCalibrationPlan(rig, LoadShippedPreset("low"));
-  EXPECT_EQ(calibration.purpose, "calibration");
+  EXPECT_EQ(calibration.purpose, PlanPurpose::kCalibration);
   EXPECT_EQ(calibration.Images(StepKind::kWhiteReference), (12 + 1) * 2);  // every LED and the linear light
   EXPECT_EQ(calibration.Images(StepKind::kTarget), 8 * 2);
   EXPECT_EQ(calibration.Images(StepKind::kDark), 2);
@@ -82,11 +82,11 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   // The projector's patterns (2 references, 9 Gray bits and their inverses, 4 phases for 320
   // columns) on the target at 3 angles, then on the white tile lying and on its spacer.
   EXPECT_EQ(calibration.Images(StepKind::kStructuredLight), (3 + 2) * 24 * 2);
-  std::map<std::string, int> patterns_on;
+  std::map<ScanObject, int> patterns_on;
   for (const Step& step : calibration.steps) patterns_on[step.object] += step.kind == StepKind::kStructuredLight;
-  EXPECT_EQ(patterns_on["target"], 3 * 24);
-  EXPECT_EQ(patterns_on["white tile"], 24);
-  EXPECT_EQ(patterns_on["white tile on its spacer"], 24);
+  EXPECT_EQ(patterns_on[ScanObject::kTarget], 3 * 24);
+  EXPECT_EQ(patterns_on[ScanObject::kWhiteTile], 24);
+  EXPECT_EQ(patterns_on[ScanObject::kWhiteTileOnSpacer], 24);
   RigModel no_spacer = rig;
   no_spacer.white_reference.spacer_mm = 0;
   EXPECT_EQ(MakeCalibrationPlan(no_spacer, LoadShippedPreset("low"))->Images(StepKind::kStructuredLight), 3 * 24 * 2);
@@ -143,14 +143,26 @@ TEST(PlanTest, TheExpandedPlanRoundTripsThroughYaml) {
 
 TEST(PlanTest, ABadPlanFileNamesTheStepAndKey) {
   const std::string text =
-      "schema_version: 1\nrig: r\npreset: low\npurpose: material\nsteps:\n"
-      "  - {index: 0, kind: dark, cameras: [c], turntable_deg: 0, object: s, probe_exposure_us: 1, max_exposures: 1}\n"
-      "  - {index: 1, kind: sparkle, cameras: [c], turntable_deg: 0, object: s, probe_exposure_us: 1, max_exposures: 1}\n";
+      "schema_version: 1\nrig: r\npreset: low\npurpose: materials\nsteps:\n"
+      "  - {index: 0, kind: dark, cameras: [c], turntable_deg: 0, object: sample, probe_exposure_us: 1, max_exposures: 1}\n"
+      "  - {index: 1, kind: sparkle, cameras: [c], turntable_deg: 0, object: teapot, probe_exposure_us: 1, max_exposures: 1}\n";
   const Result<Plan> plan = ParsePlanYaml(text, "SCAN/plan.yaml");
   ASSERT_FALSE(plan.ok());
-  EXPECT_NE(plan.status().ToString().find("SCAN/plan.yaml"), std::string::npos) << plan.status().ToString();
-  EXPECT_NE(plan.status().ToString().find("steps[1].kind"), std::string::npos) << plan.status().ToString();
-  EXPECT_NE(plan.status().ToString().find("sparkle"), std::string::npos) << plan.status().ToString();
+  const std::string message = plan.status().ToString();
+  for (const char* part : {"SCAN/plan.yaml", "steps[1].kind", "sparkle", "steps[1].object", "teapot", "'purpose'", "materials"}) {
+    EXPECT_NE(message.find(part), std::string::npos) << part << " in " << message;
+  }
+}
+
+TEST(PlanTest, ObjectsAndPurposesAreReadByTheNamesTheyAreWrittenWith) {
+  for (ScanObject object : {ScanObject::kNothing, ScanObject::kSample, ScanObject::kTarget, ScanObject::kChromeSphere,
+                            ScanObject::kWhiteTile, ScanObject::kWhiteTileOnSpacer, ScanObject::kColourChart}) {
+    EXPECT_EQ(ParseScanObject(ScanObjectName(object)), object) << ScanObjectName(object);
+  }
+  EXPECT_EQ(ParseScanObject("white-tile-on-spacer"), std::nullopt);  // the simulator's sample kind, not a plan's object
+  for (PlanPurpose purpose : {PlanPurpose::kMaterial, PlanPurpose::kCalibration}) {
+    EXPECT_EQ(ParsePlanPurpose(PlanPurposeName(purpose)), purpose);
+  }
 }
 
 TEST(PlanTest, AMaterialScanStartsWithDarkFrames) {

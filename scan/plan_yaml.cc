@@ -33,7 +33,7 @@ void EmitStep(YAML::Emitter& out, const Step& step) {
   out << YAML::Key << "turntable_deg" << YAML::Value << step.turntable_deg;
   if (step.linear_light_mm) out << YAML::Key << "linear_light_mm" << YAML::Value << *step.linear_light_mm;
   if (!step.projector_pattern.empty()) out << YAML::Key << "pattern" << YAML::Value << step.projector_pattern;
-  out << YAML::Key << "object" << YAML::Value << step.object;
+  out << YAML::Key << "object" << YAML::Value << std::string(ScanObjectName(step.object));
   out << YAML::Key << "probe_exposure_us" << YAML::Value << step.exposure.probe_us;
   out << YAML::Key << "max_exposures" << YAML::Value << step.exposure.max_exposures;
   if (step.exposure.linearity_series > 0) out << YAML::Key << "linearity_series" << YAML::Value << step.exposure.linearity_series;
@@ -72,7 +72,13 @@ Step ReadStep(const ConfigNode& node, int expected_index) {
     step.linear_light_mm = mm;
   }
   node.Optional("pattern", &step.projector_pattern);
-  node.Required("object", &step.object);
+  std::string object;
+  node.Required("object", &object);
+  if (std::optional<ScanObject> parsed = ParseScanObject(object)) {
+    step.object = *parsed;
+  } else {
+    node.AddError("object", "unknown object '" + object + "'");
+  }
   node.Required("probe_exposure_us", &step.exposure.probe_us);
   node.Required("max_exposures", &step.exposure.max_exposures);
   node.Optional("linearity_series", &step.exposure.linearity_series);
@@ -88,7 +94,7 @@ std::string PlanToYaml(const Plan& plan) {
   out << YAML::Key << "schema_version" << YAML::Value << kPlanSchemaVersion;
   out << YAML::Key << "rig" << YAML::Value << plan.rig;
   out << YAML::Key << "preset" << YAML::Value << plan.preset;
-  out << YAML::Key << "purpose" << YAML::Value << plan.purpose;
+  out << YAML::Key << "purpose" << YAML::Value << std::string(PlanPurposeName(plan.purpose));
   out << YAML::Key << "steps" << YAML::Value << YAML::BeginSeq;
   for (const Step& step : plan.steps) EmitStep(out, step);
   out << YAML::EndSeq << YAML::EndMap;
@@ -100,7 +106,13 @@ Result<Plan> ParsePlanYaml(std::string_view text, const std::string& source_name
   Plan plan;
   doc.root().Required("rig", &plan.rig);
   doc.root().Required("preset", &plan.preset);
-  doc.root().Required("purpose", &plan.purpose);
+  std::string purpose;
+  doc.root().Required("purpose", &purpose);
+  if (std::optional<PlanPurpose> parsed = ParsePlanPurpose(purpose)) {
+    plan.purpose = *parsed;
+  } else {
+    doc.root().AddError("purpose", "expected material or calibration, got '" + purpose + "'");
+  }
   for (const ConfigNode& node : doc.root().Sequence("steps")) {
     plan.steps.push_back(ReadStep(node, static_cast<int>(plan.steps.size())));
   }

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "hal/registry.h"
+#include "scan/plan.h"
 #include "sim/renderer.h"
 
 namespace loom::hal {
@@ -25,24 +26,24 @@ struct SimWorld {
   SimWorld(std::shared_ptr<const sim::Scene> scene, uint64_t seed) : scene_(std::move(scene)), seed(seed) {}
 
   // What lies on the turntable can change between steps (a calibration scan's target, tile and
-  // chart); the rig stays the same. `object` names it as a plan does ("sample" at first).
+  // chart); the rig stays the same. `object` is what a plan calls it (the sample at first).
   std::shared_ptr<const sim::Scene> scene() const {
     std::lock_guard lock(mutex);
     return scene_;
   }
-  std::string object() const {
+  scan::ScanObject object() const {
     std::lock_guard lock(mutex);
     return object_;
   }
-  void set_scene(std::shared_ptr<const sim::Scene> scene, std::string object) {
+  void set_scene(std::shared_ptr<const sim::Scene> scene, scan::ScanObject object) {
     std::lock_guard lock(mutex);
     scene_ = std::move(scene);
-    object_ = std::move(object);
+    object_ = object;
   }
 
  private:
   std::shared_ptr<const sim::Scene> scene_;
-  std::string object_ = "sample";
+  scan::ScanObject object_ = scan::ScanObject::kSample;
 
  public:
   uint64_t seed;

@@ -121,21 +121,17 @@ Result<SimRig> MakeSimRig(const RigFile& file, const RigModel& model, const std:
   return SimRig{std::make_shared<SimWorld>(std::move(scene), static_cast<uint64_t>(file.Seed())), sample};
 }
 
-Status PlaceObject(const SimRig& rig, const std::string& object) {
+Status PlaceObject(const SimRig& rig, scan::ScanObject object) {
   if (rig.world->object() == object) return Status::Ok();  // e.g. a scan's first step: the sample is there
   sim::SampleSpec spec = rig.sample;
-  if (object == "target") {
-    spec.kind = "target";
-  } else if (object == "white tile") {
-    spec.kind = "white-tile";
-  } else if (object == "white tile on its spacer") {
-    spec.kind = "white-tile-on-spacer";
-  } else if (object == "colour chart") {
-    spec.kind = "colour-chart";
-  } else if (object == "chrome sphere") {
-    spec.kind = "chrome-sphere";
-  } else if (object != "sample") {
-    return InvalidArgumentError("object '" + object + "'", "a simulated rig has: sample, target, white tile, white tile on its spacer, colour chart, chrome sphere");
+  switch (object) {
+    case scan::ScanObject::kSample: break;
+    case scan::ScanObject::kTarget: spec.kind = "target"; break;
+    case scan::ScanObject::kWhiteTile: spec.kind = "white-tile"; break;
+    case scan::ScanObject::kWhiteTileOnSpacer: spec.kind = "white-tile-on-spacer"; break;
+    case scan::ScanObject::kColourChart: spec.kind = "colour-chart"; break;
+    case scan::ScanObject::kChromeSphere: spec.kind = "chrome-sphere"; break;
+    case scan::ScanObject::kNothing: return Status::Ok();  // what lies there may stay
   }
   LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
   const std::shared_ptr<const sim::Scene> current = rig.world->scene();

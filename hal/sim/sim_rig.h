@@ -22,6 +22,7 @@
 
 #include "core/rig_file.h"
 #include "hal/sim/sim_backends.h"
+#include "scan/plan.h"
 #include "sim/sample.h"
 
 namespace loom::hal {
@@ -38,9 +39,8 @@ RigModel AsBuilt(const RigFile& file, RigModel model);
 // ("fabric:SEED", "white-tile", "chessboard", "colour-chart"); empty keeps it.
 Result<SimRig> MakeSimRig(const RigFile& file, const RigModel& model, const std::string& object);
 
-// Puts what a plan step names on the turntable: "sample" (the rig's `sample:` or the object asked
-// for), "target" (the geometry's calibration_target), "white tile", "white tile on its spacer",
-// "colour chart", "chrome sphere". Another name is an error.
-Status PlaceObject(const SimRig& rig, const std::string& object);
+// Puts what a plan step needs on the turntable: the sample is the rig's `sample:` (or the object
+// asked for), the calibration objects are the geometry's.
+Status PlaceObject(const SimRig& rig, scan::ScanObject object);
 
 }  // namespace loom::hal
