@@ -11,6 +11,8 @@
 // Angles are radians unless the name ends in _deg. Lengths in mm in the rig, sample and camera
 // frames.
 
+#include <cmath>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -25,6 +27,14 @@ inline constexpr double kPi = 3.14159265358979323846;
 
 constexpr double DegToRad(double deg) { return deg * (kPi / 180.0); }
 constexpr double RadToDeg(double rad) { return rad * (180.0 / kPi); }
+
+// cos^n of a light's falloff. The rigs' exponents are 1 (std::pow(c, 1) is c exactly, at a
+// twentieth of the cost: pow was a tenth of a simulated scan) or other small integers.
+inline double CosinePower(double c, double n) {
+  if (n == 1) return c;
+  if (n == 2) return c * c;
+  return std::pow(c, n);
+}
 
 // b_from_a with the given rotation and translation (p_in_b = R * p_in_a + t).
 Rigid3d MakeRigid(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);

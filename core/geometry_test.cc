@@ -49,5 +49,13 @@ TEST(GeometryTest, LocalFrameIsOrthonormalAndFollowsHint) {
   EXPECT_TRUE((fallback.transpose() * fallback).isIdentity(1e-12));
 }
 
+TEST(GeometryTest, CosinePowerIsPowsFalloff) {
+  for (double c : {0.0, 1e-300, 0.013, 0.5, 0.7071067811865476, 0.999, 1.0}) {
+    EXPECT_EQ(CosinePower(c, 1), std::pow(c, 1.0)) << c;
+    EXPECT_NEAR(CosinePower(c, 2), std::pow(c, 2.0), 1e-16) << c;
+    for (double n : {0.0, 0.5, 3.0, 7.25}) EXPECT_EQ(CosinePower(c, n), std::pow(c, n)) << c << "^" << n;
+  }
+}
+
 }  // namespace
 }  // namespace loom

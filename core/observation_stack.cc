@@ -9,6 +9,7 @@
 
 #include "core/check.h"
 #include "core/exr_io.h"
+#include "core/geometry.h"
 #include "core/version.h"
 
 namespace loom {
@@ -96,7 +97,7 @@ std::optional<ObservationGroup> ObservationGroupFromName(std::string_view name) 
 
 double PointEmitter::IntensityTowards(const Eigen::Vector3d& p_in_sample) const {
   const double c = axis.dot((p_in_sample - position_mm).normalized());
-  return c > 0 ? intensity * std::pow(c, falloff_exponent) : 0.0;
+  return c > 0 ? intensity * CosinePower(c, falloff_exponent) : 0.0;
 }
 
 Eigen::Vector3d ObservationStack::Position(int x, int y) const {

@@ -86,7 +86,7 @@ Eigen::Vector3d CameraModel::Unproject(const Eigen::Vector2d& pixel) const {
 double LedModel::IntensityTowards(const Eigen::Vector3d& point_in_rig, double current_ma) const {
   const double c = axis.dot((point_in_rig - position_mm).normalized());
   if (c <= 0 || current_ma <= 0) return 0;
-  return intensity * (current_ma / 1000.0) * std::pow(c, falloff_exponent);
+  return intensity * (current_ma / 1000.0) * CosinePower(c, falloff_exponent);
 }
 
 Eigen::Vector3d LinearLightModel::StripCentre(double position_mm) const {

@@ -188,7 +188,7 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       const double c = normal.dot((p_in_rig - source).normalized());
       if (c <= 0) continue;
       const double intensity = strip.intensity_per_mm * segment_mm * state.linear_light_intensity *
-                               std::pow(c, strip.falloff_exponent);
+                               CosinePower(c, strip.falloff_exponent);
       radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, reflectance, local_from_world,
                                       v_local, shadows);
     }
