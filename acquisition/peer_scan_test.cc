@@ -35,8 +35,8 @@ class PeerScanTest : public ::testing::Test {
       GTEST_SKIP() << "needs run_in_netns.sh and umockdev-wrapper";
     }
     for (int i = 0; i < 4; ++i) {
-      auto fake = Subprocess::Start({"arv-fake-gv-camera-0.8", "-i", "127.0.0." + std::to_string(i + 1), "-s",
-                                     "PEERCAM" + std::to_string(i)});
+      auto fake = Subprocess::Start(
+          {"arv-fake-gv-camera-0.8", "-i", "127.0.0." + std::to_string(i + 1), "-s", "PEERCAM" + std::to_string(i)});
       ASSERT_TRUE(fake.ok());
       peers_.push_back(std::move(*fake));
     }

@@ -25,7 +25,9 @@ Sequencer::Sequencer(hal::Rig& rig, const scan::Plan& plan, scan::CaptureStore& 
 
 Result<hal::Camera*> Sequencer::FindCamera(const std::string& name) const {
   auto* camera = dynamic_cast<hal::Camera*>(rig_.FindDevice(name));
-  if (camera == nullptr) return NotFoundError("camera '" + name + "'", "the plan uses it, rig '" + rig_.name() + "' has no such camera");
+  if (camera == nullptr) {
+    return NotFoundError("camera '" + name + "'", "the plan uses it, rig '" + rig_.name() + "' has no such camera");
+  }
   return camera;
 }
 
@@ -64,7 +66,7 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
     hal::Projector* projector = rig_.projector();
     if (projector == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a projector");
     LOOM_ASSIGN_OR_RETURN(const scan::Pattern pattern, scan::MakePattern(step.projector_pattern, projector->settings().width,
-                                                                 projector->settings().height, options_.phase_steps));
+                                                                         projector->settings().height, options_.phase_steps));
     LOOM_RETURN_IF_ERROR(projector->Show(pattern));
     projector_showing_ = true;
   } else if (projector_showing_) {
@@ -92,8 +94,8 @@ Result<scan::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const 
     Result<scan::RawFrame> frame = rig_.Snap(camera);
     if (frame.ok()) return frame;
     last = frame.status();
-    const bool transient = last.code() == StatusCode::kTimeout || last.code() == StatusCode::kUnavailable ||
-                           last.code() == StatusCode::kDataLoss;
+    const bool transient =
+        last.code() == StatusCode::kTimeout || last.code() == StatusCode::kUnavailable || last.code() == StatusCode::kDataLoss;
     if (!transient) break;
     LOOM_LOG(Warning) << last.ToString() << " (attempt " << attempt + 1 << " of " << options_.max_retries + 1 << ")";
   }
@@ -119,7 +121,7 @@ Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step&
   if (!to_capture.empty()) {
     std::vector<hal::Camera*> cameras;
     for (size_t i : to_capture) {
-      LOOM_ASSIGN_OR_RETURN(hal::Camera* camera, FindCamera(step.cameras[i]));
+      LOOM_ASSIGN_OR_RETURN(hal::Camera* const camera, FindCamera(step.cameras[i]));
       LOOM_RETURN_IF_ERROR(SetExposure(*camera, exposure_us));
       cameras.push_back(camera);
     }
@@ -170,7 +172,7 @@ Status Sequencer::CaptureStep(const scan::Step& step) {
     LOOM_RETURN_IF_ERROR(MeasureDark(step));
     return store_.MarkStepDone(step.index);
   }
-  LOOM_ASSIGN_OR_RETURN(hal::Camera* first, FindCamera(step.cameras.front()));
+  LOOM_ASSIGN_OR_RETURN(hal::Camera* const first, FindCamera(step.cameras.front()));
   const double min_us = first->capabilities().exposure_min_us;
   const double max_us = first->capabilities().exposure_max_us;
   std::vector<Exposure> exposures = {{std::clamp(step.exposure.probe_us, min_us, max_us), 0}};
@@ -209,7 +211,8 @@ Status Sequencer::CaptureStep(const scan::Step& step) {
     frames.push_back(std::move(more));
   }
   const auto shortest = std::min_element(exposures.begin(), exposures.end(), [](auto& a, auto& b) { return a.us < b.us; });
-  LOOM_RETURN_IF_ERROR(CaptureLinearitySeries(step, shortest->us, frames[shortest->index], static_cast<int>(exposures.size()), min_us, max_us));
+  LOOM_RETURN_IF_ERROR(
+      CaptureLinearitySeries(step, shortest->us, frames[shortest->index], static_cast<int>(exposures.size()), min_us, max_us));
   return store_.MarkStepDone(step.index);
 }
 

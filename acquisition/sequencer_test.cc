@@ -20,14 +20,14 @@ namespace fs = std::filesystem;
 class SequencerTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) / ("sequencer_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ = fs::path(::testing::TempDir()) /
+           ("sequencer_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
     ASSERT_TRUE(doc.ok());
     model_ = ReadRigModel(doc->root().Child("geometry"));
     model_.name = "tac7-mini";
-    world_ = std::make_shared<hal::SimWorld>(
-        std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
+    world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
     rig_ = MakeRig();
     ASSERT_NE(rig_, nullptr);
     scan::Preset preset;
@@ -51,9 +51,7 @@ class SequencerTest : public ::testing::Test {
     return rig.ok() ? std::move(*rig) : nullptr;
   }
 
-  scan::CaptureStore NewStore() {
-    return std::move(*scan::CaptureStore::Create(dir_, {"rig", "white tile", plan_}));
-  }
+  scan::CaptureStore NewStore() { return std::move(*scan::CaptureStore::Create(dir_, {"rig", "white tile", plan_})); }
 
   fs::path dir_;
   RigModel model_;
@@ -66,7 +64,8 @@ class SequencerTest : public ::testing::Test {
 // that brings the brightest pixels to 90 % of full scale.
 TEST_F(SequencerTest, ALinearitySeriesFollowsTheBracket) {
   scan::Plan plan = plan_;
-  const auto lit = std::find_if(plan.steps.begin(), plan.steps.end(), [](const scan::Step& s) { return s.kind == scan::StepKind::kMonochrome; });
+  const auto lit = std::find_if(plan.steps.begin(), plan.steps.end(),
+                                [](const scan::Step& s) { return s.kind == scan::StepKind::kMonochrome; });
   ASSERT_NE(lit, plan.steps.end());
   scan::Step series = *lit;
   series.index = 1;
@@ -132,7 +131,7 @@ TEST(DarkLevelTest, MedianAndRobustSpreadIgnoreHotPixels) {
   dark.width = 100;
   dark.height = 10;
   for (int i = 0; i < 1000; ++i) dark.pixels.push_back(static_cast<uint16_t>(64 + (i % 3) - 1));  // 63, 64, 65
-  for (int i = 0; i < 10; ++i) dark.pixels[i * 97] = 4095;                                         // hot pixels
+  for (int i = 0; i < 10; ++i) dark.pixels[i * 97] = 4095;                                        // hot pixels
   const scan::DarkLevel level = scan::MeasureDarkLevel(dark);
   EXPECT_EQ(level.black_dn, 64);
   EXPECT_NEAR(level.noise_dn, 1.4826, 1e-9);  // MAD 1 of a spread whose std is 0.82: robust, not exact

@@ -32,7 +32,7 @@ Result<std::vector<std::string>> ExpandGlob(const std::string& pattern) {
 }
 
 Status CalibrateFromPhotos(const std::string& images, const std::string& board_text, const std::string& name,
-                  const std::string& out) {
+                           const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(const calibration::BoardSpec board, calibration::ParseBoardSpec(board_text));
   LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> files, ExpandGlob(images));
   std::cerr << "looking for " << board.ToString() << " in " << files.size() << " images\n";
@@ -62,7 +62,8 @@ Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(const calibration::GeometryCalibration result, calibration::CalibrateGeometryFromScan(scan_dir));
   LOOM_RETURN_IF_ERROR(result.Write(out));
   result.Report(std::cout);
-  std::cout << "written: " << out << " (one YAML per camera, geometry.json; light_positions.yaml, projector.yaml when the scan has what they need)\n";
+  std::cout << "written: " << out
+            << " (one YAML per camera, geometry.json; light_positions.yaml, projector.yaml when the scan has what they need)\n";
   return Status::Ok();
 }
 
@@ -102,24 +103,33 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--out", out, "Calibration YAML to write")->required();
   std::string scan;
   CLI::App* geometry = app.add_subcommand(
-      "geometry", "Every camera's pose in the turntable's frame from a calibration scan's target views; the LEDs' positions and "
-                  "the linear light's sweep from the chrome sphere; the projector's pose from its columns on the target (and its "
-                  "focal length and centre from the white tile at two heights, where the cameras see enough of its field)");
+      "geometry",
+      "Every camera's pose in the turntable's frame from a calibration scan's target views; the LEDs' positions and "
+      "the linear light's sweep from the chrome sphere; the projector's pose from its columns on the target (and its "
+      "focal length and centre from the white tile at two heights, where the cameras see enough of its field)");
   geometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
-  geometry->add_option("--out", out, "Calibration directory to write: CAMERA.yaml files, geometry.json, light_positions.yaml, "
-                                     "projector.yaml")->required();
+  geometry
+      ->add_option("--out", out,
+                   "Calibration directory to write: CAMERA.yaml files, geometry.json, light_positions.yaml, "
+                   "projector.yaml")
+      ->required();
   std::string calib, json, reference_camera;
   CLI::App* radiometry = app.add_subcommand(
-      "radiometry", "Light intensities, camera sensitivity and flat field, filter colour weights and camera linearity from a "
-                    "calibration scan's white reference and colour chart");
+      "radiometry",
+      "Light intensities, camera sensitivity and flat field, filter colour weights and camera linearity from a "
+      "calibration scan's white reference and colour chart");
   radiometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
-  radiometry->add_option("--calib", calib, "Calibration directory with the cameras (loom calibrate geometry); radiometry/ is written into it")
+  radiometry
+      ->add_option("--calib", calib,
+                   "Calibration directory with the cameras (loom calibrate geometry); radiometry/ is written into it")
       ->required();
-  radiometry->add_option("--reference-camera", reference_camera,
-                         "The camera that keeps its sensitivity and anchors the scale (default: the one looking most nearly straight down)");
-  CLI::App* check = app.add_subcommand(
-      "check", "How far a fresh calibration scan has drifted from a stored calibration; exit status " +
-                   std::to_string(kExitRecalibrate) + " when it is time to recalibrate (thresholds: the rig YAML's recalibration:)");
+  radiometry->add_option(
+      "--reference-camera", reference_camera,
+      "The camera that keeps its sensitivity and anchors the scale (default: the one looking most nearly straight down)");
+  CLI::App* check =
+      app.add_subcommand("check", "How far a fresh calibration scan has drifted from a stored calibration; exit status " +
+                                      std::to_string(kExitRecalibrate) +
+                                      " when it is time to recalibrate (thresholds: the rig YAML's recalibration:)");
   check->add_option("scan", scan, "Fresh calibration scan directory (loom scan --calibration)")->required();
   check->add_option("--calib", calib, "The stored calibration directory (loom calibrate geometry --out)")->required();
   check->add_option("--json", json, "Also write the measurements to this JSON file");

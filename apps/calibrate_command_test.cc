@@ -4,9 +4,9 @@
 // LED 7 10 % brighter, LED 4 20 mm aside; one filter's band 12 nm off; the projector 4 mm and
 // 0.5° away, its focal length 3 % longer and its centre 4 px aside; the linear light's arm
 // turned 1.5°. Calibration starts from
-// the YAML and must find the rig as built. Then loom calibrate check on the same scan: the fresh calibration holds, while one stored before
-// the side camera was knocked, LED 3 dimmed, LED 4 moved, the projector and the linear light turned is named for recalibration. Also: a missing frame
-// is named. One test: the calibration scan takes about 2 min.
+// the YAML and must find the rig as built. Then loom calibrate check on the same scan: the fresh calibration holds, while one
+// stored before the side camera was knocked, LED 3 dimmed, LED 4 moved, the projector and the linear light turned is named for
+// recalibration. Also: a missing frame is named. One test: the calibration scan takes about 2 min.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -14,8 +14,8 @@
 #include <fstream>
 #include <sstream>
 
-#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
+#include <nlohmann/json.hpp>
 
 #include "calibration/calibration_yaml.h"
 #include "calibration/light_positions.h"
@@ -74,7 +74,9 @@ void WriteStaleCalibration(const fs::path& calib, const fs::path& stale) {
   radiometry->lights[3].intensity = nominal.leds[3].intensity;
   ASSERT_TRUE(loom::calibration::WriteRadiometry(stale, *radiometry, "before LED 3 dimmed").ok());
   loom::calibration::LightPositions positions;
-  for (size_t l = 0; l < nominal.leds.size(); ++l) positions.leds.push_back({static_cast<int>(l), nominal.leds[l].position_mm, 0, 0, 0, 2});
+  for (size_t l = 0; l < nominal.leds.size(); ++l) {
+    positions.leds.push_back({static_cast<int>(l), nominal.leds[l].position_mm, 0, 0, 0, 2});
+  }
   ASSERT_TRUE(loom::calibration::WriteLightPositions(stale, positions, "before LED 4 moved").ok());
   loom::calibration::ProjectorCalibration projector;
   projector.projector = *nominal.projector;
@@ -129,7 +131,8 @@ void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
   // against 1.3 mm with perfect cameras (calibration/light_positions_test.cc): the camera poses'
   // own error (1.3-1.7 mm, 0.05-0.13°) moves the highlights' rays.
   for (size_t l = 0; l < nominal.leds.size(); ++l) {
-    const Eigen::Vector3d truth = nominal.leds[l].position_mm + (l == 4 ? Eigen::Vector3d(-17.3, 10, 0) : Eigen::Vector3d::Zero());
+    const Eigen::Vector3d truth =
+        nominal.leds[l].position_mm + (l == 4 ? Eigen::Vector3d(-17.3, 10, 0) : Eigen::Vector3d::Zero());
     EXPECT_LT((found.leds[l].position_mm - truth).norm(), 5.0) << "led " << l;
   }
   // The linear light's arm, built 1.5° turned. Measured (2026-11-22): -68.41° to 71.28° against
@@ -139,7 +142,8 @@ void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
 }
 
 void ExpectRadiometryFindsTheRigAsBuilt(const fs::path& dir) {
-  const auto radiometry = RunCommand(Loom("calibrate radiometry " + (dir / "scan").string() + " --calib " + (dir / "calib").string()));
+  const auto radiometry =
+      RunCommand(Loom("calibrate radiometry " + (dir / "scan").string() + " --calib " + (dir / "calib").string()));
   std::cout << radiometry.output;
   ASSERT_EQ(radiometry.exit_code, 0) << radiometry.output;
   const loom::RigModel nominal = NominalRig();
@@ -231,8 +235,8 @@ TEST(CalibrateCommandTest, FindsTheAsBuiltCamerasFromACalibrationScan) {
   std::stringstream text;
   text << nominal.rdbuf() << kAsBuilt;
   std::ofstream(dir / "rig.yaml") << text.str();
-  const auto scan = RunCommand(Loom("scan --rig " + (dir / "rig.yaml").string() + " --calibration --out " +
-                                    (dir / "scan").string() + " --quiet"));
+  const auto scan = RunCommand(
+      Loom("scan --rig " + (dir / "rig.yaml").string() + " --calibration --out " + (dir / "scan").string() + " --quiet"));
   ASSERT_EQ(scan.exit_code, 0) << scan.output;
   const auto calibrate = RunCommand(Loom("calibrate geometry " + (dir / "scan").string() + " --out " + (dir / "calib").string()));
   ASSERT_EQ(calibrate.exit_code, 0) << calibrate.output;

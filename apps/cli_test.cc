@@ -12,9 +12,7 @@ using LoomRun = loom::testing::CommandResult;
 
 LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(std::string(LOOM_BINARY) + " " + arguments); }
 
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
+bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 TEST(CliTest, HelpListsEveryCommand) {
   const LoomRun run = RunLoom("--help");

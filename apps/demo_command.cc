@@ -56,7 +56,9 @@ class Stages {
     const int exit = command(static_cast<int>(argv.size()), argv.data());
     times_.push_back({name, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
     std::cout.flush();
-    if (exit != kExitOk) return InternalError("demo stage '" + name + "'", "failed (exit " + std::to_string(exit) + "; its message is above)");
+    if (exit != kExitOk) {
+      return InternalError("demo stage '" + name + "'", "failed (exit " + std::to_string(exit) + "; its message is above)");
+    }
     return Status::Ok();
   }
 
@@ -76,25 +78,29 @@ Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stage
   const fs::path out(args.out);
   LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan,
                                    {"scan", "--rig", rig, "--calibration", "--out", (out / "calibration-scan").string()}));
-  LOOM_RETURN_IF_ERROR(stages->Run("calibrate geometry", RunCalibrate,
-                                   {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
-  LOOM_RETURN_IF_ERROR(stages->Run("calibrate radiometry", RunCalibrate,
-                                   {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()}));
-  LOOM_RETURN_IF_ERROR(stages->Run("material scan", RunScan,
-                                   {"scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out",
-                                    (out / "scan").string()}));
+  LOOM_RETURN_IF_ERROR(
+      stages->Run("calibrate geometry", RunCalibrate,
+                  {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
+  LOOM_RETURN_IF_ERROR(
+      stages->Run("calibrate radiometry", RunCalibrate,
+                  {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()}));
+  LOOM_RETURN_IF_ERROR(
+      stages->Run("material scan", RunScan,
+                  {"scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out", (out / "scan").string()}));
   return stages->Run("reconstruct", RunReconstruct,
                      WithSize({"reconstruct", (out / "scan").string(), "--calib", (out / "calib").string(), "--out",
-                               (out / "reconstruction").string()}, args.size_px));
+                               (out / "reconstruction").string()},
+                              args.size_px));
 }
 
 Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages* stages) {
   const fs::path out(args.out);
   const std::string stack = (out / "reconstruction" / "stack.exr").string();
-  LOOM_RETURN_IF_ERROR(stages->Run("ground truth", RunSim,
-                                   WithSize({"sim", "render", "--rig", rig, "--object", args.object, "--stack", "--preset",
-                                             args.preset, "--truth", (out / "truth.exr").string(), "--out",
-                                             (out / "fast-path-stack.exr").string()}, args.size_px)));
+  LOOM_RETURN_IF_ERROR(
+      stages->Run("ground truth", RunSim,
+                  WithSize({"sim", "render", "--rig", rig, "--object", args.object, "--stack", "--preset", args.preset, "--truth",
+                            (out / "truth.exr").string(), "--out", (out / "fast-path-stack.exr").string()},
+                           args.size_px)));
   for (const std::string& method : args.methods) {
     const std::string fit = (out / ("fit-" + method)).string();
     LOOM_RETURN_IF_ERROR(stages->Run("fit " + method, RunFit, {"fit", stack, "--method", method, "--out", fit}));
@@ -121,8 +127,8 @@ Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {
 // The evaluations and stage times as one document.
 Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::string& rig, const Stages& stages) {
   const fs::path out(args.out);
-  nlohmann::ordered_json summary = {{"rig", rig}, {"object", args.object}, {"preset", args.preset},
-                            {"loom_version", std::string(VersionWithCommit())}};
+  nlohmann::ordered_json summary = {
+      {"rig", rig}, {"object", args.object}, {"preset", args.preset}, {"loom_version", std::string(VersionWithCommit())}};
   LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json geometry, ReadJson(out / "calib" / "geometry.json"));
   summary["calibration_rms_px"] = geometry["rms_px"];
   for (const StageTime& stage : stages.times()) summary["stage_seconds"][stage.name] = stage.seconds;
@@ -154,8 +160,8 @@ void PrintSummary(const nlohmann::ordered_json& summary, const std::vector<std::
             << std::setprecision(3) << summary["calibration_rms_px"].get<double>() << " px\n";
   const nlohmann::ordered_json& first = summary["methods"][methods.front()];
   std::cout << "           normal error  parameter NRMSE against the ground truth" << std::string(20, ' ')
-            << "| re-render relative L1" << std::string(18, ' ') << "| map noise ÷ truth's\n" << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°"
-            << std::setw(7) << "p90°";
+            << "| re-render relative L1" << std::string(18, ' ') << "| map noise ÷ truth's\n"
+            << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°" << std::setw(7) << "p90°";
   for (const auto& [name, nrmse] : first["parameter_nrmse"].items()) {
     if (name.rfind("n_s", 0) != 0) std::cout << std::setw(9) << name;
   }
@@ -186,8 +192,8 @@ Status Demo(const DemoArguments& args) {
   LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json summary, Summarise(args, rig, stages));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "summary.json", summary.dump(2) + "\n"));
   PrintSummary(summary, args.methods);
-  std::cout << "\nsummary: " << (fs::path(args.out) / "summary.json").string() << "\nreport:  "
-            << summary["methods"][args.methods.back()]["report"].get<std::string>()
+  std::cout << "\nsummary: " << (fs::path(args.out) / "summary.json").string()
+            << "\nreport:  " << summary["methods"][args.methods.back()]["report"].get<std::string>()
             << "\nglTF:    " << (fs::path(args.out) / "gltf" / "material.gltf").string() << "\n";
   return Status::Ok();
 }
@@ -195,9 +201,10 @@ Status Demo(const DemoArguments& args) {
 }  // namespace
 
 int RunDemo(int argc, char** argv) {
-  CLI::App app("The main job on a simulated rig: calibration scan, calibrate, scan a procedural fabric, reconstruct, "
-               "fit, evaluate against the ground truth, summarise",
-               "loom demo");
+  CLI::App app(
+      "The main job on a simulated rig: calibration scan, calibrate, scan a procedural fabric, reconstruct, "
+      "fit, evaluate against the ground truth, summarise",
+      "loom demo");
   AddCommonOptions(app);
   DemoArguments args;
   app.add_option("--rig", args.rig, "Simulated rig: a name in configs/rig/ or a YAML file (default tac7-mini)");
@@ -206,7 +213,8 @@ int RunDemo(int argc, char** argv) {
   app.add_option("--methods", args.methods, "Fit methods, in order, the last being the main result (default cnn cnn+refine)")
       ->delimiter(',')
       ->check(CLI::IsMember({"ceres", "refine", "cnn", "cnn+ceres", "cnn+refine"}));
-  app.add_option("--size", args.size_px, "Stack size in pixels (square, centred; default: reconstruct's)")->check(CLI::Range(8, 8192));
+  app.add_option("--size", args.size_px, "Stack size in pixels (square, centred; default: reconstruct's)")
+      ->check(CLI::Range(8, 8192));
   app.add_option("--out", args.out, "Directory to write, new or empty (default loom-demo)");
   app.add_flag("--quiet", args.quiet, "No progress bars");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;

@@ -30,7 +30,8 @@ void PrintSummary(const fitting::Evaluation& e) {
     std::cout << "parameter NRMSE against the reference:";
     for (const fitting::ParameterError& p : e.parameters) std::cout << "  " << p.name << " " << p.nrmse;
     std::cout << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 "
-              << e.normal_p90_deg << " deg\n" << std::setprecision(4);
+              << e.normal_p90_deg << " deg\n"
+              << std::setprecision(4);
   }
   if (!e.map_noise.empty()) {
     std::cout << "map noise (mean squared Laplacian, fit" << (e.parameters.empty() ? "" : " / reference") << "):";
@@ -77,8 +78,8 @@ int RunEval(int argc, char** argv) {
   Result<fitting::Evaluation> evaluation = fitting::Evaluate(*maps, reference, *stack);
   if (!evaluation.ok()) return ReportFailure(evaluation.status());
   PrintSummary(*evaluation);
-  fitting::ReportInputs inputs{title.empty() ? maps_path : title, &*maps, reference ? &*reference : nullptr, &*stack,
-                               *evaluation, ""};
+  fitting::ReportInputs inputs{
+      title.empty() ? maps_path : title, &*maps, reference ? &*reference : nullptr, &*stack, *evaluation, ""};
   if (Status written = fitting::WriteReport(out, inputs); !written.ok()) return ReportFailure(written);
   std::cout << "report: " << (fs::path(out) / "index.html").string() << "\n";
   return kExitOk;

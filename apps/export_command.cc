@@ -24,7 +24,9 @@ Result<double> PixelMm(const ExrImage& maps, const std::string& path, double ove
 }
 
 Status Export(const std::string& maps_path, double pixel_mm_option, const std::string& gltf, const std::string& axf) {
-  if (gltf.empty() && axf.empty()) return InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE");
+  if (gltf.empty() && axf.empty()) {
+    return InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE");
+  }
   LOOM_ASSIGN_OR_RETURN(const ExrImage maps, ReadExr(maps_path));
   if (!fitting::HasSvbrdfLayout(maps.image)) {
     return InvalidArgumentError(maps_path, "not SVBRDF maps: the first channels must be n_s.X ... F0");
@@ -46,16 +48,18 @@ Status Export(const std::string& maps_path, double pixel_mm_option, const std::s
 }  // namespace
 
 int RunExport(int argc, char** argv) {
-  CLI::App app("Export fitted SVBRDF maps: glTF 2.0 with KHR_materials_anisotropy and KHR_materials_specular "
-               "for renderers, and/or an AxF-style HDF5 file with the model's own parameters",
-               "loom export");
+  CLI::App app(
+      "Export fitted SVBRDF maps: glTF 2.0 with KHR_materials_anisotropy and KHR_materials_specular "
+      "for renderers, and/or an AxF-style HDF5 file with the model's own parameters",
+      "loom export");
   AddCommonOptions(app);
   std::string maps, out, axf;
   double pixel_mm = 0;
   app.add_option("maps", maps, "Fitted maps (svbrdf.exr from loom fit)")->required();
   app.add_option("--gltf", out, "Directory to write: material.gltf, material.bin and its PNG textures");
-  app.add_option("--axf", axf, "AxF-style HDF5 file to write (DiffuseColor, SpecularColor, SpecularLobe, AnisoRotation, "
-                               "Fresnel, Normal, Height)");
+  app.add_option("--axf", axf,
+                 "AxF-style HDF5 file to write (DiffuseColor, SpecularColor, SpecularLobe, AnisoRotation, "
+                 "Fresnel, Normal, Height)");
   app.add_option("--pixel-mm", pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;

@@ -1,9 +1,9 @@
 // loom fit: an observation stack → SVBRDF maps (OpenEXR + PNG previews + fit.json).
 #include <chrono>
 #include <filesystem>
-#include <optional>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -40,8 +40,7 @@ struct FitArguments {
   bool quiet = false;
 };
 
-std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, double cnn_seconds,
-                        const Image& maps) {
+std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, double cnn_seconds, const Image& maps) {
   std::vector<std::string> uncertainty;
   for (const std::string& name : maps.channel_names()) {
     if (name.starts_with("unc.")) uncertainty.push_back(name);
@@ -68,8 +67,8 @@ std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& a
 Result<Image> CnnMaps(FitArguments& args, const ObservationStack& stack) {
   if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
   if (!fs::exists(fs::path(args.model) / "model.json")) {
-    return NotFoundError(args.model, "no CNN model here (model.json) for rig '" + stack.rig +
-                                         "': train one with loom train, or pass --model");
+    return NotFoundError(
+        args.model, "no CNN model here (model.json) for rig '" + stack.rig + "': train one with loom train, or pass --model");
   }
   LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(args.model));
   std::cerr << "CNN " << args.model << " (" << cnn.info().architecture.input_channels << " input channels, width 1/"
@@ -102,9 +101,9 @@ Status Fit(FitArguments args) {
     std::cout << "CNN: " << stack.image.width() << "x" << stack.image.height() << " px in " << FormatDuration(cnn_seconds)
               << "\n";
     if (args.method == "cnn") {
-      const nlohmann::json summary = {{"method", args.method}, {"model", args.model}, {"stack", args.stack},
-                                      {"pixels", stack.image.pixel_count()}, {"cnn_seconds", cnn_seconds},
-                                      {"loom_version", std::string(VersionWithCommit())}};
+      const nlohmann::json summary = {{"method", args.method},      {"model", args.model},
+                                      {"stack", args.stack},        {"pixels", stack.image.pixel_count()},
+                                      {"cnn_seconds", cnn_seconds}, {"loom_version", std::string(VersionWithCommit())}};
       return WriteMaps(args, stack, *cnn_maps, summary.dump(2) + "\n");
     }
   }
@@ -138,7 +137,10 @@ Status Fit(FitArguments args) {
     }
   }
   options.progress = [&](const fitting::StackFitProgress& p) {
-    ProgressBar& bar = p.stage == "clusters" ? clusters : p.stage == "pixels" ? pixels : p.stage == "retries" ? retries : smoothing;
+    ProgressBar& bar = p.stage == "clusters"  ? clusters
+                       : p.stage == "pixels"  ? pixels
+                       : p.stage == "retries" ? retries
+                                              : smoothing;
     bar.Update(p.done, p.total, p.stage);
   };
   if (cnn_maps) options.initial_maps = &*cnn_maps;
@@ -181,8 +183,9 @@ int RunFit(int argc, char** argv) {
   app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", args.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
-  app.add_option("--f0", args.f0, "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
-                                  "observations fix), or 'material': one F0 fitted per material");
+  app.add_option("--f0", args.f0,
+                 "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
+                 "observations fix), or 'material': one F0 fitted per material");
   app.add_option("--retry-above", args.retry_above,
                  "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
                  "stack's noise level (the best-fitted tenth's RMS; default 2.5)")

@@ -41,8 +41,8 @@ TEST_F(FitCommandTest, FitsAndEvaluatesAgainstTheTruth) {
     EXPECT_TRUE(fs::exists(dir_ / "fit" / file)) << file;
   }
   const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "fit/svbrdf.exr").string() + " --stack " +
-                               (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() +
-                               " --out " + (dir_ / "report").string());
+                               (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() + " --out " +
+                               (dir_ / "report").string());
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   EXPECT_NE(eval.output.find("report/index.html"), std::string::npos) << eval.output;
   std::ifstream summary(dir_ / "report/summary.json");
@@ -81,8 +81,8 @@ nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method, co
                               " --out " + out.string() + " --quiet " + options);
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
   const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (out / "svbrdf.exr").string() + " --stack " +
-                               (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() +
-                               " --out " + (out / "report").string());
+                               (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() + " --out " +
+                               (out / "report").string());
   EXPECT_EQ(eval.exit_code, 0) << eval.output;
   std::ifstream summary(out / "report/summary.json");
   return nlohmann::json::parse(summary);
@@ -129,8 +129,8 @@ TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
 
 TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
   const std::string model = (dir_ / "no-such-model").string();
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                              " --method cnn --model " + model + " --out " + (dir_ / "missing").string());
+  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method cnn --model " +
+                              model + " --out " + (dir_ / "missing").string());
   EXPECT_EQ(fit.exit_code, 1) << fit.output;
   EXPECT_NE(fit.output.find(model), std::string::npos) << fit.output;
   EXPECT_FALSE(fs::exists(dir_ / "missing" / "svbrdf.exr"));
@@ -139,12 +139,12 @@ TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
 // loom train end to end at toy size: renders its dataset, trains, and loom fit takes the model.
 TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   const fs::path model = dir_ / "model";
-  const auto train = RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR +
-                                "/configs/rig/tac7-mini.yaml --out " + model.string() +
-                                " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --radiance-noise 0.05 --quiet");
+  const auto train = RunCommand(
+      std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR + "/configs/rig/tac7-mini.yaml --out " + model.string() +
+      " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --radiance-noise 0.05 --quiet");
   ASSERT_EQ(train.exit_code, 0) << train.output;
-  for (const char* file : {"model.json", "weights.pt", "training.json", "data/fabric-1000.stack.exr",
-                           "checkpoints/last/history.json"}) {
+  for (const char* file :
+       {"model.json", "weights.pt", "training.json", "data/fabric-1000.stack.exr", "checkpoints/last/history.json"}) {
     EXPECT_TRUE(fs::exists(model / file)) << file;
   }
   std::ifstream training_file(model / "training.json");
@@ -152,21 +152,22 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_EQ(training["epochs"].size(), 2u);
   EXPECT_EQ(training["options"]["radiance_noise"], 0.05);  // what it was trained with, for whoever reuses it
   EXPECT_EQ(training["options"]["size_px"], 16);
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                              " --method cnn --model " + model.string() + " --out " + (dir_ / "toy").string());
+  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method cnn --model " +
+                              model.string() + " --out " + (dir_ / "toy").string());
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_TRUE(fs::exists(dir_ / "toy" / "svbrdf.exr"));
 
   // Fine-tuned from it, on a dataset half out of model, with the re-rendering loss, streamed from
   // disk one training material at a time.
   const fs::path tuned = dir_ / "tuned";
-  const auto tune = RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR +
-                               "/configs/rig/tac7-mini.yaml --out " + tuned.string() + " --init " + model.string() +
-                               " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4 --resident-materials 1 --steps-per-epoch 4"
-                               " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --quiet");
+  const auto tune =
+      RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR + "/configs/rig/tac7-mini.yaml --out " +
+                 tuned.string() + " --init " + model.string() +
+                 " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4 --resident-materials 1 --steps-per-epoch 4"
+                 " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --quiet");
   ASSERT_EQ(tune.exit_code, 0) << tune.output;
-  for (const char* file : {"data/fabric-1000.stack.exr", "data/fabric-1001-out-of-model.stack.exr",
-                           "data/fabric-1003-out-of-model.truth.exr"}) {
+  for (const char* file :
+       {"data/fabric-1000.stack.exr", "data/fabric-1001-out-of-model.stack.exr", "data/fabric-1003-out-of-model.truth.exr"}) {
     EXPECT_TRUE(fs::exists(tuned / file)) << file;
   }
   std::ifstream tuned_file(tuned / "training.json");

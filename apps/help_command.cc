@@ -10,8 +10,7 @@ void PrintOverview(std::ostream& out) {
       << "Usage: loom [--log-level LEVEL] <command> [options]\n\n"
       << "Commands:\n";
   for (const Command& command : Commands()) {
-    out << "  " << command.name << std::string(12 - command.name.size(), ' ') << command.summary
-        << "\n";
+    out << "  " << command.name << std::string(12 - command.name.size(), ' ') << command.summary << "\n";
   }
   out << "\nEvery command takes --help. Exit codes: 0 ok, 1 failure, 2 usage error.\n";
 }

@@ -14,9 +14,7 @@ namespace {
 using loom::apps::Command;
 using loom::apps::Commands;
 
-bool IsHelpFlag(const char* arg) {
-  return std::strcmp(arg, "--help") == 0 || std::strcmp(arg, "-h") == 0;
-}
+bool IsHelpFlag(const char* arg) { return std::strcmp(arg, "--help") == 0 || std::strcmp(arg, "-h") == 0; }
 
 int Dispatch(int argc, char** argv) {
   int first = 1;

@@ -22,7 +22,9 @@ void PrintStep(const Step& step) {
     if (step.leds.size() <= 3) std::cout << "  LED " << led.led << " @ " << led.current_ma << " mA";
   }
   if (step.leds.size() > 3) std::cout << "  " << step.leds.size() << " LEDs";
-  if (step.filter) std::cout << "  " << step.filter->wheel << " slot " << step.filter->slot << " (" << step.filter->center_nm << " nm)";
+  if (step.filter) {
+    std::cout << "  " << step.filter->wheel << " slot " << step.filter->slot << " (" << step.filter->center_nm << " nm)";
+  }
   if (step.linear_light_mm) std::cout << "  strip at " << *step.linear_light_mm << " mm";
   if (!step.projector_pattern.empty()) std::cout << "  pattern " << step.projector_pattern;
   std::cout << "  cameras";
@@ -58,22 +60,21 @@ int RunPlan(int argc, char** argv) {
     return kExitOk;
   }
 
-  std::cout << scan::PlanPurposeName(plan->purpose) << " scan of rig '" << plan->rig << "' with preset '" << plan->preset << "': "
-            << plan->steps.size() << " steps, " << plan->Images() << " images (before HDR bracketing)\n";
+  std::cout << scan::PlanPurposeName(plan->purpose) << " scan of rig '" << plan->rig << "' with preset '" << plan->preset
+            << "': " << plan->steps.size() << " steps, " << plan->Images() << " images (before HDR bracketing)\n";
   std::map<StepKind, std::pair<int, int>> by_kind;
   for (const Step& step : plan->steps) {
     ++by_kind[step.kind].first;
     by_kind[step.kind].second += step.images();
   }
   for (const auto& [kind, counts] : by_kind) {
-    std::cout << "  " << std::left << std::setw(17) << scan::StepKindName(kind) << std::right << std::setw(6)
-              << counts.first << " steps " << std::setw(6) << counts.second << " images\n";
+    std::cout << "  " << std::left << std::setw(17) << scan::StepKindName(kind) << std::right << std::setw(6) << counts.first
+              << " steps " << std::setw(6) << counts.second << " images\n";
   }
   const scan::DurationModel model;
   std::cout << "estimated duration: " << FormatDuration(scan::EstimateSeconds(*plan, model)) << " ("
-            << model.exposures_per_bracket << " exposures per bracket, " << model.frame_overhead_s
-            << " s per frame, turntable " << model.turntable_deg_s << " deg/s, strip " << model.linear_light_mm_s
-            << " mm/s)\n";
+            << model.exposures_per_bracket << " exposures per bracket, " << model.frame_overhead_s << " s per frame, turntable "
+            << model.turntable_deg_s << " deg/s, strip " << model.linear_light_mm_s << " mm/s)\n";
   if (steps) {
     for (const Step& step : plan->steps) PrintStep(step);
   }

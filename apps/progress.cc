@@ -29,8 +29,8 @@ void ProgressBar::Update(int64_t done, int64_t total, const std::string& unit, c
   const int width = 30;
   const int filled = width * percent / 100;
   std::cerr << (tty_ ? "\r" : "") << label_ << " [" << std::string(filled, '=') << std::string(width - filled, ' ') << "] "
-            << done << "/" << total << " " << unit << (detail.empty() ? "" : ", " + detail) << ", ETA "
-            << FormatDuration(*eta_s) << (tty_ ? "   " : "\n") << std::flush;
+            << done << "/" << total << " " << unit << (detail.empty() ? "" : ", " + detail) << ", ETA " << FormatDuration(*eta_s)
+            << (tty_ ? "   " : "\n") << std::flush;
   drawn_ = true;
 }
 

@@ -13,8 +13,8 @@
 #include "apps/progress.h"
 #include "apps/rig_loader.h"
 #include "calibration/calibration_directory.h"
-#include "core/rig_file.h"
 #include "core/file_io.h"
+#include "core/rig_file.h"
 #include "core/version.h"
 #include "reconstruction/reconstruct.h"
 
@@ -53,8 +53,8 @@ void NoteCoarseSampling(const std::vector<reconstruction::CameraSampling>& sampl
                "sharpen them (reconstruction/README.md)\n";
 }
 
-std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args, const calibration::AppliedCalibration& applied,
-                        double seconds) {
+std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args,
+                        const calibration::AppliedCalibration& applied, double seconds) {
   nlohmann::json json = {{"scan", args.scan},
                          {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
                          {"width_px", args.options.width_px},
@@ -75,12 +75,14 @@ std::string SummaryJson(const reconstruction::Reconstruction& r, const Reconstru
 Status Reconstruct(const ReconstructArguments& args) {
   const auto start = std::chrono::steady_clock::now();
   LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, scan::CaptureStore::Open(args.scan));
-  LOOM_ASSIGN_OR_RETURN(RigModel rig, RigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
+  LOOM_ASSIGN_OR_RETURN(RigModel rig,
+                        RigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
   calibration::AppliedCalibration applied;
   if (!args.calib.empty()) {
     LOOM_ASSIGN_OR_RETURN(applied, calibration::CalibrationDirectory(args.calib).Apply(&rig));
     if (!applied.radiometry) {
-      std::cerr << "note: " << args.calib << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";
+      std::cerr << "note: " << args.calib
+                << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";
     }
   } else {
     std::cerr << "note: no --calib: reconstructing with the rig YAML's nominal geometry and sensor model\n";
@@ -98,7 +100,8 @@ Status Reconstruct(const ReconstructArguments& args) {
     }
     bar->Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
   };
-  LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result, reconstruction::Reconstruct(store, rig, args.options, progress));
+  LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result,
+                        reconstruction::Reconstruct(store, rig, args.options, progress));
   bar.reset();
   NoteCoarseSampling(result.sampling, args.options.pixel_mm);
   std::error_code error;
@@ -107,10 +110,11 @@ Status Reconstruct(const ReconstructArguments& args) {
   const fs::path stack_path = fs::path(args.out) / "stack.exr";
   LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, result.stack));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "reconstruction.json", SummaryJson(result, args, applied, seconds)));
-  std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height() << " px at "
-            << args.options.pixel_mm << " mm, " << result.stack.observations.size() << " observations; heightmap from "
-            << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "
+  LOOM_RETURN_IF_ERROR(
+      WriteFileAtomically(fs::path(args.out) / "reconstruction.json", SummaryJson(result, args, applied, seconds)));
+  std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height()
+            << " px at " << args.options.pixel_mm << " mm, " << result.stack.observations.size()
+            << " observations; heightmap from " << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "
             << 100 * result.unseen_fraction << " % of samples unseen, " << FormatDuration(seconds) << "\n";
   return {};
 }
@@ -118,22 +122,25 @@ Status Reconstruct(const ReconstructArguments& args) {
 }  // namespace
 
 int RunReconstruct(int argc, char** argv) {
-  CLI::App app("Reconstruct a material scan: structured-light heightmap, every HDR image projected onto it in the "
-               "top-view frame → the observation stack that loom fit reads",
-               "loom reconstruct");
+  CLI::App app(
+      "Reconstruct a material scan: structured-light heightmap, every HDR image projected onto it in the "
+      "top-view frame → the observation stack that loom fit reads",
+      "loom reconstruct");
   AddCommonOptions(app);
   ReconstructArguments args;
   app.add_option("scan", args.scan, "Scan directory (from loom scan)")->required();
   app.add_option("--out", args.out, "Output directory: stack.exr, reconstruction.json")->required();
-  app.add_option("--calib", args.calib, "Calibration directory (CAMERA.yaml files, from loom calibrate); default: the "
-                                        "scan's rig YAML, nominal");
+  app.add_option("--calib", args.calib,
+                 "Calibration directory (CAMERA.yaml files, from loom calibrate); default: the "
+                 "scan's rig YAML, nominal");
   app.add_option("--size", args.options.width_px, "Stack size in pixels (square, centred on the turntable axis)")
       ->check(CLI::Range(1, 16384));
   app.add_option("--pixel-mm", args.options.pixel_mm, "Stack pixel size (mm)")->check(CLI::PositiveNumber);
   app.add_option("--normal-blur-mm", args.options.normal_blur_mm, "Blur of the heightmap for the geometric normals (mm)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--heightmap-camera", args.options.heightmap_camera, "Camera that decodes the structured light "
-                                                                       "(default: the one looking most nearly down)");
+  app.add_option("--heightmap-camera", args.options.heightmap_camera,
+                 "Camera that decodes the structured light "
+                 "(default: the one looking most nearly down)");
   app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;

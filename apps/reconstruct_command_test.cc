@@ -55,13 +55,13 @@ void ScanAndReconstruct(const fs::path& dir) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::ofstream(dir / "short.yaml") << "schema_version: 1\npreset: short\nturntable_deg: [0, 120, 240]\n"
-                                        "linear_light_positions: 4\nmax_exposures: 3\n";
+                                       "linear_light_positions: 4\nmax_exposures: 3\n";
   const std::string rig = (dir / "fine-cameras.yaml").string();
   WriteFineCameraRig(rig);
   if (::testing::Test::HasFatalFailure()) return;
   const std::string preset = (dir / "short.yaml").string();
-  const auto scan = RunCommand(Loom("scan --rig " + rig + " --preset " + preset + " --object fabric:1 --out " +
-                                    (dir / "scan").string() + " --quiet"));
+  const auto scan = RunCommand(
+      Loom("scan --rig " + rig + " --preset " + preset + " --object fabric:1 --out " + (dir / "scan").string() + " --quiet"));
   ASSERT_EQ(scan.exit_code, 0) << scan.output;
   const auto reconstruct =
       RunCommand(Loom("reconstruct " + (dir / "scan").string() + " --size 64 --out " + (dir / "rec").string() + " --quiet"));
@@ -109,7 +109,7 @@ void TheSamplingIsRecorded(const fs::path& dir) {
   std::ifstream file(dir / "rec/reconstruction.json");
   const nlohmann::json summary = nlohmann::json::parse(file, nullptr, false);
   ASSERT_FALSE(summary.is_discarded());
-  EXPECT_NEAR(summary["camera_px_per_stack_px"]["cam0"].get<double>(), 2.5, 0.01);   // 0.2 mm / 0.08 mm
+  EXPECT_NEAR(summary["camera_px_per_stack_px"]["cam0"].get<double>(), 2.5, 0.01);    // 0.2 mm / 0.08 mm
   EXPECT_NEAR(summary["camera_px_per_stack_px"]["cam1"].get<double>(), 1.768, 0.01);  // · cos 45°
 }
 

@@ -43,16 +43,16 @@ int List(const std::string& rig_path, bool discover) {
     std::cout << "rig '" << rig.name() << "' (" << rig_path << "): " << rig.devices().size() << " devices"
               << (loaded->sim ? ", simulated" : "") << "\n";
     for (Device* device : rig.devices()) {
-      std::cout << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11)
-                << device->address() << "\n";
+      std::cout << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11) << device->address()
+                << "\n";
     }
   }
   if (discover) {
     const std::vector<hal::DiscoveredCamera> cameras = hal::DiscoverAravisCameras();
     std::cout << "cameras found by Aravis discovery: " << cameras.size() << "\n";
     for (const hal::DiscoveredCamera& camera : cameras) {
-      std::cout << "  " << Pad(camera.id, 28) << Pad(camera.protocol, 12) << Pad(camera.address, 16)
-                << camera.vendor << " " << camera.model << " serial " << camera.serial << "\n";
+      std::cout << "  " << Pad(camera.id, 28) << Pad(camera.protocol, 12) << Pad(camera.address, 16) << camera.vendor << " "
+                << camera.model << " serial " << camera.serial << "\n";
     }
   }
   return kExitOk;
@@ -66,8 +66,8 @@ Result<std::string> Describe(Device* device) {
   out << id.vendor << (id.model.empty() ? "" : " " + id.model) << (id.serial.empty() ? "" : " serial " + id.serial);
   if (auto* camera = dynamic_cast<Camera*>(device)) {
     const hal::CameraCapabilities& caps = camera->capabilities();
-    out << "; sensor " << caps.sensor_width << "x" << caps.sensor_height << ", exposure " << caps.exposure_min_us
-        << ".." << caps.exposure_max_us << " us";
+    out << "; sensor " << caps.sensor_width << "x" << caps.sensor_height << ", exposure " << caps.exposure_min_us << ".."
+        << caps.exposure_max_us << " us";
   } else if (auto* leds = dynamic_cast<hal::LedArray*>(device)) {
     LOOM_ASSIGN_OR_RETURN(const hal::LedArrayReadback read, leds->Read());
     int lit = 0;
@@ -79,8 +79,7 @@ Result<std::string> Describe(Device* device) {
     out << "; at " << angle << " deg";
   } else if (auto* light = dynamic_cast<hal::LinearLight*>(device)) {
     LOOM_ASSIGN_OR_RETURN(const hal::LinearLightReadback read, light->Read());
-    out << "; at " << read.position_mm << " of " << light->travel_mm() << " mm, strip "
-        << (read.on ? "on" : "off");
+    out << "; at " << read.position_mm << " of " << light->travel_mm() << " mm, strip " << (read.on ? "on" : "off");
   } else if (auto* wheel = dynamic_cast<hal::FilterWheel*>(device)) {
     LOOM_ASSIGN_OR_RETURN(const int slot, wheel->Position());
     out << "; slot " << slot << " of " << wheel->slot_count();
@@ -133,9 +132,8 @@ Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
 
 Result<std::vector<scan::LedDrive>> ParseLeds(const std::string& text);
 
-Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& leds,
-            const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(Device* device, FindDevice(rig, camera_name));
+Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& leds, const std::string& out) {
+  LOOM_ASSIGN_OR_RETURN(Device* const device, FindDevice(rig, camera_name));
   auto* camera = dynamic_cast<Camera*>(device);
   if (camera == nullptr) return InvalidArgumentError("--camera " + camera_name, "is a " + device->kind() + ", not a camera");
   hal::SafeStateGuard guard(rig);
@@ -160,13 +158,13 @@ Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const 
   LOOM_ASSIGN_OR_RETURN(const scan::RawFrame frame, rig.Snap(*camera));
   LOOM_RETURN_IF_ERROR(WriteFrame(frame, out));
   std::cout << "wrote " << out << ": " << frame.width << "x" << frame.height << " "
-            << scan::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us
-            << " us, from " << camera->description() << "\n";
+            << scan::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us << " us, from "
+            << camera->description() << "\n";
   return camera->Close();
 }
 
 Status Move(Rig& rig, const std::string& name, double to) {
-  LOOM_ASSIGN_OR_RETURN(Device* device, FindDevice(rig, name));
+  LOOM_ASSIGN_OR_RETURN(Device* const device, FindDevice(rig, name));
   hal::SafeStateGuard guard(rig);
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(device));
   LOOM_RETURN_IF_ERROR(device->Start());

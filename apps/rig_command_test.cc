@@ -2,9 +2,9 @@
 // arv-fake-gv-camera-0.8 process on 127.0.0.1 (opened by address: unicast only), and the
 // recording projector.
 #include <gtest/gtest.h>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
-#include <csignal>
 #include <thread>
 
 #include "core/exr_io.h"
@@ -51,8 +51,7 @@ class RigCommandTest : public ::testing::Test {
     std::ofstream(path) << "schema_version: 1\nname: cli-peers\ndevices:\n"
                         << "  cameras:\n    - {name: cam0, backend: aravis, address: 127.0.0.1,\n"
                         << "       settings: {pixel_format: Mono16, roi: [0, 0, 64, 48], exposure_us: 3000}}\n"
-                        << "  leds: {name: leds, backend: modbus, endpoint: \"" << led_endpoint << "\""
-                        << extra << "}\n"
+                        << "  leds: {name: leds, backend: modbus, endpoint: \"" << led_endpoint << "\"" << extra << "}\n"
                         << "  turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1]
                         << "\", settings: {speed_deg_s: 60}}\n"
                         << "  linear_light: {name: strip, backend: modbus, endpoint: \"" << endpoints_[2] << "\"}\n"

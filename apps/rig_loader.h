@@ -14,8 +14,8 @@ namespace loom::apps {
 
 struct LoadedRig {
   std::unique_ptr<hal::Rig> rig;
-  std::optional<RigModel> model;    // from `geometry:`, when the file has one
-  std::optional<hal::SimRig> sim;   // with `model`: for the devices whose backend is `sim`
+  std::optional<RigModel> model;   // from `geometry:`, when the file has one
+  std::optional<hal::SimRig> sim;  // with `model`: for the devices whose backend is `sim`
 };
 
 // `object` replaces a simulated rig's `sample:` ("fabric:SEED", "white-tile", "chessboard",

@@ -15,7 +15,8 @@ namespace fs = std::filesystem;
 
 Result<scan::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_name, scan::PlanPurpose purpose) {
   if (!loaded.model) {
-    return InvalidArgumentError("rig '" + loaded.rig->name() + "'", "has no 'geometry:' section: a plan needs the rig's description");
+    return InvalidArgumentError("rig '" + loaded.rig->name() + "'",
+                                "has no 'geometry:' section: a plan needs the rig's description");
   }
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
   return purpose == scan::PlanPurpose::kCalibration ? scan::MakeCalibrationPlan(*loaded.model, preset)
@@ -34,8 +35,9 @@ Status AskOperator(scan::ScanObject placed, bool* first) {
   std::cerr << "place the " << object << " on the turntable, then press Enter: " << std::flush;
   std::string line;
   if (!std::getline(std::cin, line)) {
-    return FailedPreconditionError("the " + object, "must be placed on the turntable, but stdin is closed: run loom scan "
-                                                    "interactively (or --resume the scan once it is placed)");
+    return FailedPreconditionError("the " + object,
+                                   "must be placed on the turntable, but stdin is closed: run loom scan "
+                                   "interactively (or --resume the scan once it is placed)");
   }
   return Status::Ok();
 }
@@ -89,8 +91,9 @@ int RunScan(int argc, char** argv) {
   bool calibration = false, quiet = false;
   app.add_option("--rig", rig, "Rig YAML");
   app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
-  app.add_option("--object", object, "What lies on the turntable; on a simulated rig: fabric:SEED, "
-                                     "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
+  app.add_option("--object", object,
+                 "What lies on the turntable; on a simulated rig: fabric:SEED, "
+                 "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
   app.add_flag("--calibration", calibration, "Run the calibration plan");
   app.add_option("--out", out, "New scan directory");
   app.add_option("--resume", resume, "Continue the interrupted scan in this directory");

@@ -34,8 +34,9 @@ class ScanCommandTest : public ::testing::Test {
   }
 
   std::vector<std::string> ScanArgs(const fs::path& out) const {
-    return {LOOM_BINARY, "scan", "--rig", std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", "--preset",
-            preset_.string(), "--object", "fabric:5", "--out", out.string(), "--quiet"};
+    return {LOOM_BINARY, "scan",           "--rig",    std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml",
+            "--preset",  preset_.string(), "--object", "fabric:5",
+            "--out",     out.string(),     "--quiet"};
   }
 
   // key → checksum of every frame of a scan, verified on the way.
@@ -71,8 +72,9 @@ TEST_F(ScanCommandTest, KilledTenTimesAndResumedEqualsUninterrupted) {
   for (int run = 0; run < 60 && !complete; ++run) {
     // Killed before the scan directory existed, there is nothing to resume: start again.
     const bool started = fs::exists(interrupted / "scan.yaml");
-    std::vector<std::string> args = started ? std::vector<std::string>{LOOM_BINARY, "scan", "--resume", interrupted.string(), "--quiet"}
-                                            : ScanArgs(interrupted);
+    std::vector<std::string> args =
+        started ? std::vector<std::string>{LOOM_BINARY, "scan", "--resume", interrupted.string(), "--quiet"}
+                : ScanArgs(interrupted);
     auto scan = Subprocess::Start(args);
     ASSERT_TRUE(scan.ok());
     if (kills < 10) {

@@ -8,9 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-
 #include "apps/command.h"
-#include "sim/plan_observations.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
 #include "core/observation_stack.h"
@@ -18,6 +16,7 @@
 #include "fitting/model/svbrdf_maps.h"
 #include "scan/plan.h"
 #include "sim/fabric.h"
+#include "sim/plan_observations.h"
 #include "sim/sample.h"
 #include "sim/stack.h"
 
@@ -40,8 +39,8 @@ int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_m
   const fs::path maps = out / "svbrdf.exr";
   if (Status written = sim::WriteMaterial(*material, maps); !written.ok()) return ReportFailure(written);
   if (Status previews = fitting::WriteSvbrdfPreviews(material->maps, out); !previews.ok()) return ReportFailure(previews);
-  std::cout << material->name << " (" << material->width() << "x" << material->height() << " px of "
-            << material->pixel_mm << " mm): " << maps.string() << " and previews in " << out.string() << "\n";
+  std::cout << material->name << " (" << material->width() << "x" << material->height() << " px of " << material->pixel_mm
+            << " mm): " << maps.string() << " and previews in " << out.string() << "\n";
   return kExitOk;
 }
 
@@ -63,9 +62,10 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
       ++count;
     }
   };
-  std::vector<Histogram> histograms = {{"a_d (mean of RGB)", 0, 1}, {"a_s (mean of RGB)", 0, 1},   {"sigma_x", 0, 1},
-                                       {"sigma_y", 0, 1},           {"sigma_y / sigma_x", 1, 11}, {"alpha (deg)", -90, 90},
-                                       {"F0", 0, 1},                {"n_s tilt (deg)", 0, 45},    {"height (mm)", 0, 0.3}};
+  std::vector<Histogram> histograms = {
+      {"a_d (mean of RGB)", 0, 1},  {"a_s (mean of RGB)", 0, 1}, {"sigma_x", 0, 1}, {"sigma_y", 0, 1},
+      {"sigma_y / sigma_x", 1, 11}, {"alpha (deg)", -90, 90},    {"F0", 0, 1},      {"n_s tilt (deg)", 0, 45},
+      {"height (mm)", 0, 0.3}};
   std::map<std::string, int> weaves;
   sim::FabricOptions options;
   options.width_px = options.height_px = size_px;
@@ -76,9 +76,10 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
     for (int y = 0; y < m.height(); ++y) {
       for (int x = 0; x < m.width(); ++x) {
         const fitting::WardParams<double> p = fitting::GetParams(m.maps, x, y);
-        const double values[] = {p.a_d.mean(), p.a_s.mean(), p.sigma_x, p.sigma_y, p.sigma_y / p.sigma_x,
-                                 RadToDeg(p.alpha), p.f0, RadToDeg(std::acos(std::clamp(p.n_s.z(), -1.0, 1.0))),
-                                 m.maps.at(height, y, x)};
+        const double values[] = {
+            p.a_d.mean(),           p.a_s.mean(),      p.sigma_x, p.sigma_y,
+            p.sigma_y / p.sigma_x,  RadToDeg(p.alpha), p.f0,      RadToDeg(std::acos(std::clamp(p.n_s.z(), -1.0, 1.0))),
+            m.maps.at(height, y, x)};
         for (size_t i = 0; i < histograms.size(); ++i) histograms[i].Add(values[i]);
       }
     }
@@ -88,9 +89,8 @@ int Stats(int seeds, int size_px, const std::string& json_path) {
   std::cout << "\n" << std::fixed << std::setprecision(3);
   nlohmann::json json;
   for (const Histogram& h : histograms) {
-    std::cout << "  " << std::left << std::setw(20) << h.name << std::right << " min " << std::setw(8) << h.min
-              << " max " << std::setw(8) << h.max << " mean " << std::setw(8) << h.sum / h.count << "  [" << h.low
-              << ".." << h.high << "]:";
+    std::cout << "  " << std::left << std::setw(20) << h.name << std::right << " min " << std::setw(8) << h.min << " max "
+              << std::setw(8) << h.max << " mean " << std::setw(8) << h.sum / h.count << "  [" << h.low << ".." << h.high << "]:";
     for (int64_t b : h.bins) std::cout << " " << std::setw(4) << (1000 * b + h.count / 2) / h.count;
     std::cout << " per mille\n";
     json[h.name] = {{"min", h.min}, {"max", h.max}, {"mean", h.sum / h.count}, {"range", {h.low, h.high}}, {"bins", h.bins}};
@@ -159,8 +159,7 @@ int Render(const std::string& rig_path, const std::string& object, const std::st
   Image image(radiance.width(), radiance.height(), {"radiance", "raw"});
   std::copy(radiance.channel(0).begin(), radiance.channel(0).end(), image.channel(0).begin());
   std::copy(raw.begin(), raw.end(), image.channel(1).begin());
-  if (Status written = WriteExr(out, image, {{"loom.camera", camera_name}, {"loom.exposure_us", exposure_us}});
-      !written.ok()) {
+  if (Status written = WriteExr(out, image, {{"loom.camera", camera_name}, {"loom.exposure_us", exposure_us}}); !written.ok()) {
     return ReportFailure(written);
   }
   std::cout << "wrote " << out.string() << ": radiance and raw DN of " << camera_name << "\n";
@@ -190,12 +189,14 @@ int RunSim(int argc, char** argv) {
   double angle_deg = 0, exposure_us = 10000;
   bool stack = false;
   std::string preset = "low";
-  CLI::App* render = app.add_subcommand("render", "Render one camera frame (radiance + raw DN) or, with --stack, "
-                                                  "the fast-path observation stack");
+  CLI::App* render = app.add_subcommand("render",
+                                        "Render one camera frame (radiance + raw DN) or, with --stack, "
+                                        "the fast-path observation stack");
   render->add_option("--rig", rig_path, "Simulated rig YAML (with geometry:)")->required();
   std::string object;
-  render->add_option("--object", object, "What lies on the turntable instead of the rig's sample: fabric:SEED, "
-                                         "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
+  render->add_option("--object", object,
+                     "What lies on the turntable instead of the rig's sample: fabric:SEED, "
+                     "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
   render->add_option("--camera", camera, "Camera of the rig geometry");
   render->add_option("--leds", leds, "LED:MILLIAMPS[,...] lit for the frame");
   render->add_option("--turntable-deg", angle_deg, "Turntable angle");
@@ -216,7 +217,9 @@ int RunSim(int argc, char** argv) {
   stats->add_option("--json", json_path, "Also write the histograms as JSON");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (*stats) return Stats(seeds, size_px, json_path);
-  if (*render) return Render(rig_path, object, camera, leds, angle_deg, exposure_us, stack, preset, stack_size_px, truth_path, out);
+  if (*render) {
+    return Render(rig_path, object, camera, leds, angle_deg, exposure_us, stack, preset, stack_size_px, truth_path, out);
+  }
   return Material(kind, seed, size_px, pixel_mm, out);
 }
 

@@ -10,10 +10,10 @@
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
 //    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
 #include <algorithm>
-#include <memory>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -53,14 +53,17 @@ struct TrainArguments {
 // Renders the fabrics of --materials missing from `dir` (sim/training_set.h).
 Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
   LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig));
-  if (!loaded.sim) return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
+  if (!loaded.sim) {
+    return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
+  }
   const std::shared_ptr<const sim::Scene> rig_scene = loaded.sim->world->scene();
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
   LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, scan::MakeMaterialPlan(rig_scene->rig(), preset));
   LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PlanObservations(rig_scene->rig(), plan));
   ProgressBar bar("dataset", args.quiet);
-  return sim::RenderTrainingSet(*rig_scene, observations, args.dataset, dir,
-                                [&](int done, int total, const std::string& name) { bar.Update(done, total, "materials", name); });
+  return sim::RenderTrainingSet(*rig_scene, observations, args.dataset, dir, [&](int done, int total, const std::string& name) {
+    bar.Update(done, total, "materials", name);
+  });
 }
 
 std::string RmseLine(const std::array<double, 14>& rmse) {
@@ -98,8 +101,8 @@ Status Train(TrainArguments args) {
                 : fitting::CnnExampleSource{train_count, [&](int i) -> Result<fitting::CnnExample> { return sets[0][i]; }};
   std::cout << "dataset " << data.string() << ": " << train_count << " training"
             << (streaming ? " (read " + std::to_string(args.training.resident_materials) + " at a time)" : "") << ", "
-            << sets[1].size() << " validation, " << sets[2].size() << " test materials; "
-            << info.architecture.input_channels << " input channels; radiance scale " << info.radiance_scale << "\n";
+            << sets[1].size() << " validation, " << sets[2].size() << " test materials; " << info.architecture.input_channels
+            << " input channels; radiance scale " << info.radiance_scale << "\n";
 
   args.training.checkpoint_dir = out / "checkpoints";
   ProgressBar bar("training", args.quiet);
@@ -113,46 +116,50 @@ Status Train(TrainArguments args) {
                         fitting::TrainCnn(cnn, train_source, sets[1], args.training));
   for (const fitting::CnnEpoch& e : history) {
     std::cout << std::setprecision(4) << "epoch " << e.epoch << ": lr " << e.learning_rate << ", train " << e.train_loss
-              << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0)
-              << e.samples_per_second << " samples/s)" << std::defaultfloat << "\n";
+              << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0) << e.samples_per_second
+              << " samples/s)" << std::defaultfloat << "\n";
   }
   // The model is the epoch with the lowest validation loss: later ones may have overfitted.
   LOOM_ASSIGN_OR_RETURN(cnn, fitting::Cnn::Load(args.training.checkpoint_dir / "best"));
-  const auto best = std::min_element(history.begin(), history.end(), [](const auto& a, const auto& b) {
-    return a.validation_loss < b.validation_loss;
-  });
+  const auto best = std::min_element(history.begin(), history.end(),
+                                     [](const auto& a, const auto& b) { return a.validation_loss < b.validation_loss; });
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnScore test, fitting::ScoreCnn(cnn, sets[2], args.training.threads));
   std::ostringstream training;
-  training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of "
-           << history.size() << " epochs on " << train_count << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
-           << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << "), preset " << args.preset
-           << (args.init.empty() ? "" : ", from " + args.init) << "; test loss " << test.loss << " on "
+  training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of " << history.size()
+           << " epochs on " << train_count << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
+           << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << "), preset "
+           << args.preset << (args.init.empty() ? "" : ", from " + args.init) << "; test loss " << test.loss << " on "
            << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
-  const nlohmann::json report = {{"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
-                                 {"kept_epoch", best->epoch},
-                                 {"options", {{"first_seed", args.dataset.first_seed}, {"size_px", args.dataset.size_px},
-                                              {"width_divisor", args.width_divisor}, {"dropout", args.dropout},
-                                              {"epochs", args.training.epochs}, {"tile", args.training.tile},
-                                              {"tiles_per_step", args.training.tiles_per_step},
-                                              {"steps_per_epoch", args.training.steps_per_epoch},
-                                              {"lr_start", args.training.learning_rate_start},
-                                              {"lr_end", args.training.learning_rate_end},
-                                              {"weight_decay", args.training.weight_decay},
-                                              {"radiance_noise", args.training.radiance_noise},
-                                              {"out_of_model_share", args.dataset.out_of_model_share},
-                                              {"init", args.init},
-                                              {"rerender_weight", args.training.rerender_weight},
-                                              {"rerender_pixels", args.training.rerender_pixels},
-                                              {"rerender_strip_samples", args.training.rerender_strip_samples},
-                                              {"rerender_huber", args.training.rerender_huber},
-                                              {"resident_materials", args.training.resident_materials},
-                                              {"seed", args.training.seed}}},
-                                 {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
-                                 {"label_channels", fitting::kLabelChannelNames},
-                                 {"materials", {{"train", train_count}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
-                                 {"loom_version", std::string(VersionWithCommit())}};
+  const nlohmann::json report = {
+      {"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
+      {"kept_epoch", best->epoch},
+      {"options",
+       {{"first_seed", args.dataset.first_seed},
+        {"size_px", args.dataset.size_px},
+        {"width_divisor", args.width_divisor},
+        {"dropout", args.dropout},
+        {"epochs", args.training.epochs},
+        {"tile", args.training.tile},
+        {"tiles_per_step", args.training.tiles_per_step},
+        {"steps_per_epoch", args.training.steps_per_epoch},
+        {"lr_start", args.training.learning_rate_start},
+        {"lr_end", args.training.learning_rate_end},
+        {"weight_decay", args.training.weight_decay},
+        {"radiance_noise", args.training.radiance_noise},
+        {"out_of_model_share", args.dataset.out_of_model_share},
+        {"init", args.init},
+        {"rerender_weight", args.training.rerender_weight},
+        {"rerender_pixels", args.training.rerender_pixels},
+        {"rerender_strip_samples", args.training.rerender_strip_samples},
+        {"rerender_huber", args.training.rerender_huber},
+        {"resident_materials", args.training.resident_materials},
+        {"seed", args.training.seed}}},
+      {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
+      {"label_channels", fitting::kLabelChannelNames},
+      {"materials", {{"train", train_count}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
+      {"loom_version", std::string(VersionWithCommit())}};
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out / "training.json", report.dump(2) + "\n"));
   std::cout << "kept epoch " << best->epoch << " (lowest validation loss " << best->validation_loss << ")\n"
             << "test loss " << test.loss << "; RMSE per label channel:\n  " << RmseLine(test.rmse) << "\n"
@@ -174,11 +181,13 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--preset", args.preset, "Gloss preset whose material plan makes the observations");
   app.add_option("--out", args.out, "Model directory: model.json, weights.pt, training.json, checkpoints/")->required();
   app.add_option("--data", args.data, "Dataset directory (default OUT/data): NAME.stack.exr + NAME.truth.exr pairs");
-  app.add_option("--materials", args.dataset.materials, "Procedural fabrics to render into the dataset")->check(CLI::Range(3, 100000));
+  app.add_option("--materials", args.dataset.materials, "Procedural fabrics to render into the dataset")
+      ->check(CLI::Range(3, 100000));
   app.add_option("--validation", args.validation, "Materials held out for validation")->check(CLI::Range(1, 100000));
   app.add_option("--test", args.test, "Materials held out for the final test")->check(CLI::Range(1, 100000));
   app.add_option("--size", args.dataset.size_px, "Material size in pixels (square)")->check(CLI::Range(16, 4096));
-  app.add_option("--first-seed", args.dataset.first_seed, "Seed of the first fabric (the main job's fabric:1 is not among the defaults)");
+  app.add_option("--first-seed", args.dataset.first_seed,
+                 "Seed of the first fabric (the main job's fabric:1 is not among the defaults)");
   app.add_option("--width-divisor", args.width_divisor, "Network width: the paper's divided by this (1, 2, 4, 8, ...)")
       ->check(CLI::Range(1, 256));
   app.add_option("--dropout", args.dropout, "Dropout before the last layer")->check(CLI::Range(0.0, 0.9));
@@ -188,7 +197,8 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--steps-per-epoch", t.steps_per_epoch, "Steps per epoch (0: cover the training pixels once)")
       ->check(CLI::Range(0, 100000000));
   app.add_option("--lr-start", t.learning_rate_start, "Learning rate at the first epoch")->check(CLI::PositiveNumber);
-  app.add_option("--lr-end", t.learning_rate_end, "Learning rate at the last epoch (exponential decay)")->check(CLI::PositiveNumber);
+  app.add_option("--lr-end", t.learning_rate_end, "Learning rate at the last epoch (exponential decay)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--weight-decay", t.weight_decay, "Adam weight decay")->check(CLI::NonNegativeNumber);
   app.add_option("--radiance-noise", t.radiance_noise,
                  "Relative noise multiplied into the training tiles' radiance, as reconstructed stacks carry (0: none)")

@@ -11,8 +11,7 @@
 namespace loom::apps {
 
 int RunVersion(int argc, char** argv) {
-  CLI::App app("Print loom's version and the libraries it runs with (for bug reports)",
-               "loom version");
+  CLI::App app("Print loom's version and the libraries it runs with (for bug reports)", "loom version");
   bool short_form = false;
   app.add_flag("--short", short_form, "Print only loom's version number");
   AddCommonOptions(app);
@@ -24,14 +23,12 @@ int RunVersion(int argc, char** argv) {
   std::cout << "loom " << VersionWithCommit() << "\n";
   std::vector<LinkedLibrary> libraries = CoreLibraries();
   for (const LinkedLibrary& library :
-       {hal::AravisLibrary(), hal::ModbusLibrary(), hal::UsbLibrary(),
-        calibration::OpenCvLibrary()}) {
+       {hal::AravisLibrary(), hal::ModbusLibrary(), hal::UsbLibrary(), calibration::OpenCvLibrary()}) {
     libraries.push_back(library);
   }
   for (const LinkedLibrary& library : fitting::SolverLibraries()) libraries.push_back(library);
   for (const LinkedLibrary& library : libraries) {
-    std::cout << "  " << library.name << std::string(10 - library.name.size(), ' ')
-              << library.version << "\n";
+    std::cout << "  " << library.name << std::string(10 - library.name.size(), ' ') << library.version << "\n";
   }
   return kExitOk;
 }

@@ -36,10 +36,14 @@ class CollectingReporter : public benchmark::ConsoleReporter {
  private:
   static double UnitToNanoseconds(benchmark::TimeUnit unit) {
     switch (unit) {
-      case benchmark::kNanosecond: return 1;
-      case benchmark::kMicrosecond: return 1e3;
-      case benchmark::kMillisecond: return 1e6;
-      case benchmark::kSecond: return 1e9;
+      case benchmark::kNanosecond:
+        return 1;
+      case benchmark::kMicrosecond:
+        return 1e3;
+      case benchmark::kMillisecond:
+        return 1e6;
+      case benchmark::kSecond:
+        return 1e9;
     }
     return 1;
   }
@@ -55,8 +59,8 @@ double Rate(const Result& result) {
 
 }  // namespace
 
-int RunBenchmarks(int argc, char** argv, const std::string& bench_name,
-                  const std::string& description, const std::vector<Ratio>& ratios) {
+int RunBenchmarks(int argc, char** argv, const std::string& bench_name, const std::string& description,
+                  const std::vector<Ratio>& ratios) {
   std::string json_path = bench_name + ".json";
   std::vector<char*> args;
   for (int i = 0; i < argc; ++i) {
@@ -79,8 +83,7 @@ int RunBenchmarks(int argc, char** argv, const std::string& bench_name,
   out["cpu_cores"] = std::thread::hardware_concurrency();
   out["results"] = nlohmann::json::array();
   for (const auto& [name, result] : reporter.results()) {
-    nlohmann::json entry = {{"name", name}, {"real_time_ns", result.real_time_ns},
-                            {"iterations", result.iterations}};
+    nlohmann::json entry = {{"name", name}, {"real_time_ns", result.real_time_ns}, {"iterations", result.iterations}};
     for (const auto& [counter, value] : result.counters) entry[counter] = value;
     out["results"].push_back(entry);
   }

@@ -21,7 +21,7 @@ struct Ratio {
   std::string denominator;
 };
 
-int RunBenchmarks(int argc, char** argv, const std::string& bench_name,
-                  const std::string& description, const std::vector<Ratio>& ratios);
+int RunBenchmarks(int argc, char** argv, const std::string& bench_name, const std::string& description,
+                  const std::vector<Ratio>& ratios);
 
 }  // namespace loom::bench

@@ -14,8 +14,8 @@ namespace {
 using loom::Vec3;
 using loom::fitting::WardParams;
 
-constexpr size_t kDirections = 4096;        // per parameter set
-constexpr size_t kPixels = 64;              // SVBRDF batch
+constexpr size_t kDirections = 4096;  // per parameter set
+constexpr size_t kPixels = 64;        // SVBRDF batch
 constexpr size_t kObservationsPerPixel = 934;
 // Arithmetic of one valid f_r·cos evaluation in WardLobe::Terms + EvaluateCos, counted by hand:
 // 72 adds/multiplies/divides, 1 sqrt, 1 exp (each counted as one). Preparing the lobe (the
@@ -56,8 +56,7 @@ Workload<T> MakeWorkload(size_t num_params, size_t per_param) {
 void SetWork(benchmark::State& state, size_t evaluations_per_iteration) {
   const double evaluations = static_cast<double>(state.iterations()) * evaluations_per_iteration;
   state.SetItemsProcessed(static_cast<int64_t>(evaluations));
-  state.counters["flops_per_second"] =
-      benchmark::Counter(evaluations * kFlopsPerEvaluation, benchmark::Counter::kIsRate);
+  state.counters["flops_per_second"] = benchmark::Counter(evaluations * kFlopsPerEvaluation, benchmark::Counter::kIsRate);
 }
 
 template <typename T>
@@ -105,11 +104,10 @@ BENCHMARK(BM_SvbrdfBatched<float>);
 }  // namespace
 
 int main(int argc, char** argv) {
-  return loom::bench::RunBenchmarks(
-      argc, argv, "bench_brdf",
-      "GD10 Ward BRDF f_r*cos evaluations per second (items = evaluations, RGB), one thread",
-      {{"batched_vs_naive_double", "BM_WardBatched<double>", "BM_WardNaive<double>"},
-       {"batched_vs_naive_float", "BM_WardBatched<float>", "BM_WardNaive<float>"},
-       {"float_vs_double_batched", "BM_WardBatched<float>", "BM_WardBatched<double>"},
-       {"svbrdf_vs_naive_float", "BM_SvbrdfBatched<float>", "BM_WardNaive<float>"}});
+  return loom::bench::RunBenchmarks(argc, argv, "bench_brdf",
+                                    "GD10 Ward BRDF f_r*cos evaluations per second (items = evaluations, RGB), one thread",
+                                    {{"batched_vs_naive_double", "BM_WardBatched<double>", "BM_WardNaive<double>"},
+                                     {"batched_vs_naive_float", "BM_WardBatched<float>", "BM_WardNaive<float>"},
+                                     {"float_vs_double_batched", "BM_WardBatched<float>", "BM_WardBatched<double>"},
+                                     {"svbrdf_vs_naive_float", "BM_SvbrdfBatched<float>", "BM_WardNaive<float>"}});
 }

@@ -32,8 +32,7 @@ const loom::Image& Stack() {
       float* plane = image.channel(c).data();
       for (int y = 0; y < kHeight; ++y) {
         for (int x = 0; x < kWidth; ++x) {
-          plane[y * kWidth + x] = 0.5f + 0.4f * std::sin(0.05f * x + 0.01f * c) *
-                                             std::cos(0.07f * y) + noise(rng);
+          plane[y * kWidth + x] = 0.5f + 0.4f * std::sin(0.05f * x + 0.01f * c) * std::cos(0.07f * y) + noise(rng);
         }
       }
     }
@@ -87,8 +86,8 @@ void BM_WriteFilePerChannel(benchmark::State& state) {
     for (int c = 0; c < kChannels; ++c) {
       loom::Image one(kWidth, kHeight, {"Y"});
       std::copy(stack.channel(c).begin(), stack.channel(c).end(), one.channel(0).begin());
-      const loom::Status status = loom::WriteExr(dir / (stack.channel_name(c) + ".exr"), one, {},
-                                                 {.compression = loom::ExrCompression::kNone});
+      const loom::Status status =
+          loom::WriteExr(dir / (stack.channel_name(c) + ".exr"), one, {}, {.compression = loom::ExrCompression::kNone});
       if (!status.ok()) state.SkipWithError(status.ToString().c_str());
     }
   }
@@ -106,14 +105,11 @@ BENCHMARK(BM_WriteFilePerChannel)->Iterations(1)->Unit(benchmark::kSecond)->UseR
 
 int main(int argc, char** argv) {
   const int code = loom::bench::RunBenchmarks(
-      argc, argv, "bench_exr",
-      "OpenEXR write/read of a 630x630x934 float stack (bytes = float payload, 1.48 GB)",
+      argc, argv, "bench_exr", "OpenEXR write/read of a 630x630x934 float stack (bytes = float payload, 1.48 GB)",
       {{"one_file_vs_file_per_channel_write", "BM_WriteStack/none/iterations:2/real_time",
         "BM_WriteFilePerChannel/iterations:1/real_time"},
-       {"zip_vs_none_write", "BM_WriteStack/zip/iterations:1/real_time",
-        "BM_WriteStack/none/iterations:2/real_time"},
-       {"zip_vs_none_read", "BM_ReadStack/zip/iterations:2/real_time",
-        "BM_ReadStack/none/iterations:2/real_time"}});
+       {"zip_vs_none_write", "BM_WriteStack/zip/iterations:1/real_time", "BM_WriteStack/none/iterations:2/real_time"},
+       {"zip_vs_none_read", "BM_ReadStack/zip/iterations:2/real_time", "BM_ReadStack/none/iterations:2/real_time"}});
   fs::remove_all(BenchDir());
   return code;
 }

@@ -61,7 +61,6 @@ WardParams<double> RandomTruth(std::mt19937& rng) {
   return p;
 }
 
-
 // Observations of `truth`: `points` point-lit, `lines` of `emitters_per_line` each.
 Pixel MakePixel(std::mt19937& rng, int points, int lines, int emitters_per_line) {
   std::normal_distribution<double> noise(0.0, 0.01);
@@ -111,8 +110,8 @@ void BM_Fit(benchmark::State& state, bool automatic, int points, int lines) {
     if (angle < 2 * loom::kPi / 180 && (result->params.a_d - pixel.truth.a_d).cwiseAbs().maxCoeff() < 0.03) ++recovered;
   }
   state.SetItemsProcessed(fits);
-  state.counters["ms_per_pixel"] = benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate |
-                                                                                         benchmark::Counter::kInvert);
+  state.counters["ms_per_pixel"] =
+      benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["iterations"] = static_cast<double>(iterations) / fits;
   state.counters["recovered"] = static_cast<double>(recovered) / fits;
   state.counters["observations"] = points + lines;
@@ -126,8 +125,11 @@ BENCHMARK_CAPTURE(BM_Fit, linear_autodiff, true, 300, 100)->Unit(benchmark::kMil
 // Pixels given as lists, as the refiner takes them.
 loom::fitting::RefineProblem ListProblem(const std::vector<std::vector<PixelObservation>>& lists,
                                          const std::vector<WardParams<double>>& starts) {
-  return {static_cast<int>(lists.size()), loom::fitting::LightsPerObservation(lists),
-          [&lists](int i) { return lists[i]; }, [&starts](int i) { return starts[i]; }, {}};
+  return {static_cast<int>(lists.size()),
+          loom::fitting::LightsPerObservation(lists),
+          [&lists](int i) { return lists[i]; },
+          [&starts](int i) { return starts[i]; },
+          {}};
 }
 
 double Median(std::vector<double> values) {
@@ -176,8 +178,8 @@ void BM_Refine(benchmark::State& state, int points, int lines) {
     last = std::move(*refined);
   }
   state.SetItemsProcessed(fits);
-  state.counters["ms_per_pixel"] = benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate |
-                                                                                         benchmark::Counter::kInvert);
+  state.counters["ms_per_pixel"] =
+      benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["iterations"] = static_cast<double>(iterations) / fits;
   state.counters["recovered"] = static_cast<double>(recovered) / fits;
   state.counters["observations"] = points + lines;
@@ -233,8 +235,8 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
   options.threads = 1;
   options.fixed_f0 = f0;
   options.coarse_lights_per_observation = coarse;
-  const loom::fitting::RefineProblem problem{static_cast<int>(c.lists.size()), c.lights,
-                                             [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }, {}};
+  const loom::fitting::RefineProblem problem{
+      static_cast<int>(c.lists.size()), c.lights, [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }, {}};
   int64_t fits = 0, iterations = 0;
   std::vector<loom::fitting::RefinedPixel> last;
   for (auto _ : state) {
@@ -245,7 +247,8 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
       last = std::move(*refined);
     } else {
       for (size_t i = 0; i < c.lists.size(); ++i) {
-        const auto fit = loom::fitting::FitPixel(c.lists[i], c.starts[i], {.max_iterations = 30, .multi_start = false, .fixed_f0 = f0});
+        const auto fit =
+            loom::fitting::FitPixel(c.lists[i], c.starts[i], {.max_iterations = 30, .multi_start = false, .fixed_f0 = f0});
         LOOM_CHECK(fit.ok()) << fit.status().ToString();
         iterations += fit->iterations;
       }
@@ -253,8 +256,8 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
     fits += static_cast<int64_t>(c.lists.size());
   }
   state.SetItemsProcessed(fits);
-  state.counters["ms_per_pixel"] = benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate |
-                                                                                         benchmark::Counter::kInvert);
+  state.counters["ms_per_pixel"] =
+      benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["iterations"] = static_cast<double>(iterations) / fits;
   state.counters["observations"] = c.observations;
   if (refiner) state.counters["cost_vs_ceres"] = CostVsCeres(c.lists, c.starts, last, f0);
@@ -264,21 +267,27 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
 BENCHMARK_CAPTURE(BM_Refine, point900, 900, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Refine, linear, 300, 100)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_ceres, "tac7-mini", 70, Solver::kCeres, 0)
-    ->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_refine, "tac7-mini", 70, Solver::kRefiner, 0)
-    ->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK_CAPTURE(BM_StackFit, tac7_mini_low_refine_coarse8, "tac7-mini", 70, Solver::kRefiner, 8)
-    ->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK_CAPTURE(BM_StackFit, tac7_low_ceres, "tac7", 70, Solver::kCeres, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine, "tac7", 70, Solver::kRefiner, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine_coarse8, "tac7", 70, Solver::kRefiner, 8)
-    ->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 
 int main(int argc, char** argv) {
   return loom::bench::RunBenchmarks(
-      argc, argv, "fit", "Per-pixel fit of the GD10 Ward model on one core: Ceres with analytic vs autodiff Jacobians, and the batched refiner vs Ceres from the same starts",
+      argc, argv, "fit",
+      "Per-pixel fit of the GD10 Ward model on one core: Ceres with analytic vs autodiff Jacobians, and the batched refiner vs "
+      "Ceres from the same starts",
       {{"point900_analytic_vs_autodiff", "BM_Fit/point900_analytic/real_time", "BM_Fit/point900_autodiff"},
        {"linear_analytic_vs_autodiff", "BM_Fit/linear_analytic/real_time", "BM_Fit/linear_autodiff"},
        {"point900_refiner_vs_ceres", "BM_Refine/point900/real_time", "BM_Fit/point900_analytic/real_time"},

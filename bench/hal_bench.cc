@@ -7,9 +7,7 @@
 //   one block request vs 29 single-register requests (the naive way).
 #include <benchmark/benchmark.h>
 
-
 #include "bench/bench_report.h"
-#include "core/testing/subprocess.h"
 #include "bench/fake_camera_peers.h"
 #include "core/testing/subprocess.h"
 #include "hal/modbus/modbus_link.h"
@@ -57,8 +55,7 @@ bool Rearm(CameraPeers& peers, loom::hal::TriggerMode mode) {
 void BM_CameraFrames(benchmark::State& state) {
   CameraPeers& peers = Cameras();
   const bool triggered = state.range(1) == 1;
-  if (peers.error.empty() &&
-      !Rearm(peers, triggered ? loom::hal::TriggerMode::kSoftware : loom::hal::TriggerMode::kFreeRun)) {
+  if (peers.error.empty() && !Rearm(peers, triggered ? loom::hal::TriggerMode::kSoftware : loom::hal::TriggerMode::kFreeRun)) {
     peers.error = "cannot restart the cameras";
   }
   if (!peers.error.empty()) {
@@ -153,8 +150,7 @@ BENCHMARK_CAPTURE(BM_ModbusRead, rtu_single, true, false)->UseRealTime();
 
 int main(int argc, char** argv) {
   return loom::bench::RunBenchmarks(
-      argc, argv, "bench_hal",
-      "Hardware layer against peers: camera frames/s (items = frames), Modbus register reads/s",
+      argc, argv, "bench_hal", "Hardware layer against peers: camera frames/s (items = frames), Modbus register reads/s",
       {{"four_vs_one_camera_frames_triggered", "BM_CameraFrames/4/1/min_time:2.000/real_time",
         "BM_CameraFrames/1/1/min_time:2.000/real_time"},
        {"four_vs_one_camera_frames_free_run", "BM_CameraFrames/4/0/min_time:2.000/real_time",

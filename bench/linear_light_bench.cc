@@ -24,8 +24,8 @@
 
 #include "core/config.h"
 #include "core/rig_observation.h"
-#include "fitting/model/svbrdf_maps.h"
 #include "fitting/batch_refiner.h"
+#include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
 #include "sim/fabric.h"
 
@@ -192,11 +192,12 @@ int main(int argc, char** argv) {
                     {"observations", relative.size()}});
     std::cout << rows.back().dump() << std::endl;
   }
-  const nlohmann::json out = {{"bench", "linear_light"},
-                              {"description", "linear-light radiance with the strip as N point emitters vs 4096, tac7-mini, fabric parameters"},
-                              {"reference_emitters", kReferenceEmitters},
-                              {"materials", materials.size()},
-                              {"results", rows}};
+  const nlohmann::json out = {
+      {"bench", "linear_light"},
+      {"description", "linear-light radiance with the strip as N point emitters vs 4096, tac7-mini, fabric parameters"},
+      {"reference_emitters", kReferenceEmitters},
+      {"materials", materials.size()},
+      {"results", rows}};
   std::ofstream(json_path) << out.dump(2) << "\n";
   std::cout << "wrote " << json_path << "\n";
   return 0;

@@ -9,8 +9,8 @@
 #include "core/config.h"
 #include "core/heightmap.h"
 #include "core/rig_model.h"
-#include "sim/sample.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "sim/sample.h"
 #include "sim/stack.h"
 #include "sim/test_materials.h"
 
@@ -60,7 +60,8 @@ void BM_FastPathStack(benchmark::State& state) {
   const auto observations = loom::sim::DefaultObservations(scene.rig(), {0, 120, 240});
   int64_t values = 0;
   for (auto _ : state) {
-    const loom::ObservationStack stack = loom::sim::RenderStack(scene, observations, {.threads = static_cast<int>(state.range(0))});
+    const loom::ObservationStack stack =
+        loom::sim::RenderStack(scene, observations, {.threads = static_cast<int>(state.range(0))});
     benchmark::DoNotOptimize(stack.image.data());
     values += static_cast<int64_t>(stack.image.pixel_count() * observations.size());
   }
@@ -81,8 +82,8 @@ loom::Heightmap MarchedHeightmap(const benchmark::State& state) {
   const int block_px = static_cast<int>(state.range(0));
   const auto plane = material.maps.channel(*material.maps.FindChannel(loom::fitting::kHeightChannel));
   const int block = block_px > 0 ? block_px : std::max(material.width(), material.height()) + 1;
-  return loom::Heightmap(std::vector<float>(plane.begin(), plane.end()), material.width(), material.height(),
-                         material.pixel_mm, block);
+  return loom::Heightmap(std::vector<float>(plane.begin(), plane.end()), material.width(), material.height(), material.pixel_mm,
+                         block);
 }
 
 // Shadow tests from a 32 × 32 grid of surface points towards every LED of tac7-mini (sample

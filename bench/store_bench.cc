@@ -71,9 +71,9 @@ BENCHMARK(BM_FourCameras)->Arg(1)->Arg(0)->UseRealTime()->MinTime(3.0);
 }  // namespace
 
 int main(int argc, char** argv) {
-  return loom::bench::RunBenchmarks(argc, argv, "bench_store",
-                                    "4 fake GigE cameras (640x480 Mono16, triggered together) into the capture store; "
-                                    "items = frames, bytes = raw pixel payload",
-                                    {{"stored_vs_not_stored", "BM_FourCameras/1/min_time:3.000/real_time",
-                                      "BM_FourCameras/0/min_time:3.000/real_time"}});
+  return loom::bench::RunBenchmarks(
+      argc, argv, "bench_store",
+      "4 fake GigE cameras (640x480 Mono16, triggered together) into the capture store; "
+      "items = frames, bytes = raw pixel payload",
+      {{"stored_vs_not_stored", "BM_FourCameras/1/min_time:3.000/real_time", "BM_FourCameras/0/min_time:3.000/real_time"}});
 }

@@ -18,7 +18,7 @@ namespace loom::calibration {
 
 struct BoardSpec {
   std::string kind = "chessboard";
-  int inner_cols = 9;    // inner corners along a row
+  int inner_cols = 9;  // inner corners along a row
   int inner_rows = 6;
   double square_mm = 25;
 

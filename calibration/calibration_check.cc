@@ -33,7 +33,8 @@ Result<RigModel> StoredRig(const RigModel& nominal, const fs::path& calib) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> applied, ApplyCameraCalibrations(calib, &stored));
   for (const CameraModel& camera : nominal.cameras) {
     if (std::find(applied.begin(), applied.end(), camera.name) == applied.end()) {
-      return NotFoundError((calib / (camera.name + ".yaml")).string(), "no such file: the check compares every camera's stored calibration");
+      return NotFoundError((calib / (camera.name + ".yaml")).string(),
+                           "no such file: the check compares every camera's stored calibration");
     }
   }
   return stored;
@@ -42,7 +43,8 @@ Result<RigModel> StoredRig(const RigModel& nominal, const fs::path& calib) {
 // The lights against the stored calibration: fresh LED positions from the light probe, then a
 // fresh radiometry with them, both on the fresh geometry. Parts CALIB holds nothing of are not
 // compared.
-Status CheckLights(const scan::CaptureStore& store, const RigModel& fresh_cameras, const fs::path& calib, CalibrationCheck& check) {
+Status CheckLights(const scan::CaptureStore& store, const RigModel& fresh_cameras, const fs::path& calib,
+                   CalibrationCheck& check) {
   const std::string dir = calib.string();
   RigModel rig = fresh_cameras;
   LOOM_ASSIGN_OR_RETURN(const bool has_positions, ApplyLightPositionCalibration(calib, &rig));
@@ -54,7 +56,9 @@ Status CheckLights(const scan::CaptureStore& store, const RigModel& fresh_camera
     LOOM_ASSIGN_OR_RETURN(const LightPositions fresh, CalibrateLightPositions(rig, views));
     check.led_positions.changes = MeasureLightPositionDrift(fresh, check.thresholds);
     check.linear_light.changes = MeasureLinearLightDrift(fresh, check.thresholds);
-    if (!check.linear_light.changes) check.linear_light.not_compared = "the scan has no view of the light probe under the linear light";
+    if (!check.linear_light.changes) {
+      check.linear_light.not_compared = "the scan has no view of the light probe under the linear light";
+    }
     ApplyLightPositions(fresh, &rig);
   } else {
     check.led_positions.not_compared = dir + " holds none: loom calibrate geometry with a light_probe";
@@ -90,7 +94,8 @@ Status CheckProjector(const scan::CaptureStore& store, const RigModel& fresh_cam
     return Status::Ok();
   }
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<ProjectorCorrespondence> corners, TargetCornerColumns(scan, target, check.cameras.fresh.target));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<ProjectorCorrespondence> corners,
+                        TargetCornerColumns(scan, target, check.cameras.fresh.target));
   LOOM_ASSIGN_OR_RETURN(const ProjectorCalibration fresh, CalibrateProjector(*rig.projector, {corners, {}}));
   check.projector.title = "against the stored projector (" + std::to_string(fresh.correspondences) + " target corners decoded)";
   check.projector.changes = MeasureProjectorDrift(fresh, check.thresholds);
@@ -139,24 +144,37 @@ Result<CalibrationCheck> CheckCalibration(const fs::path& scan_dir, const fs::pa
 
 nlohmann::json CalibrationCheck::ToJson() const {
   const DriftThresholds& t = thresholds;
-  nlohmann::json json = {{"scan", scan}, {"calibration", calibration}, {"recalibrate", recalibrate},
-                         {"stored_rms_px", cameras.stored_rms_px}, {"fresh_rms_px", cameras.fresh_rms_px},
-                         {"target_placement", {{"offset_mm", {cameras.placement.offset_mm.x(), cameras.placement.offset_mm.y()}},
-                                               {"yaw_deg", cameras.placement.yaw_deg}}},
-                         {"rejected", cameras.rejected},
-                         {"thresholds", {{"reprojection_px", t.reprojection_px}, {"turntable_axis_deg", t.turntable_axis_deg},
-                                         {"turntable_axis_mm", t.turntable_axis_mm}, {"intensity_percent", t.intensity_percent},
-                                         {"led_position_mm", t.led_position_mm}, {"projector_column_px", t.projector_column_px},
-                                         {"linear_light_deg", t.linear_light_deg}}},
+  nlohmann::json json = {{"scan", scan},
+                         {"calibration", calibration},
+                         {"recalibrate", recalibrate},
+                         {"stored_rms_px", cameras.stored_rms_px},
+                         {"fresh_rms_px", cameras.fresh_rms_px},
+                         {"target_placement",
+                          {{"offset_mm", {cameras.placement.offset_mm.x(), cameras.placement.offset_mm.y()}},
+                           {"yaw_deg", cameras.placement.yaw_deg}}},
+                         {"rejected", scan::ViewNames(cameras.rejected)},
+                         {"thresholds",
+                          {{"reprojection_px", t.reprojection_px},
+                           {"turntable_axis_deg", t.turntable_axis_deg},
+                           {"turntable_axis_mm", t.turntable_axis_mm},
+                           {"intensity_percent", t.intensity_percent},
+                           {"led_position_mm", t.led_position_mm},
+                           {"projector_column_px", t.projector_column_px},
+                           {"linear_light_deg", t.linear_light_deg}}},
                          {"led_positions", PartJson(led_positions)},
                          {"linear_light", PartJson(linear_light)},
                          {"radiometry", PartJson(radiometry)},
                          {"projector", PartJson(projector)},
                          {"loom_version", std::string(VersionWithCommit())}};
   for (const CameraDrift& c : cameras.cameras) {
-    json["cameras"][c.name] = {{"views", c.views}, {"stored_rms_px", c.stored_rms_px}, {"fresh_rms_px", c.fresh_rms_px},
-                               {"drift_px", c.drift_px}, {"rotation_deg", c.rotation_deg}, {"centre_mm", c.centre_mm},
-                               {"turntable_axis_tilt_deg", c.axis_tilt_deg}, {"turntable_axis_shift_mm", c.axis_shift_mm},
+    json["cameras"][c.name] = {{"views", c.views},
+                               {"stored_rms_px", c.stored_rms_px},
+                               {"fresh_rms_px", c.fresh_rms_px},
+                               {"drift_px", c.drift_px},
+                               {"rotation_deg", c.rotation_deg},
+                               {"centre_mm", c.centre_mm},
+                               {"turntable_axis_tilt_deg", c.axis_tilt_deg},
+                               {"turntable_axis_shift_mm", c.axis_shift_mm},
                                {"exceeded", c.exceeded}};
   }
   return json;

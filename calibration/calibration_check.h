@@ -35,6 +35,7 @@ struct CalibrationCheck {
 };
 
 // Every camera of the scan's rig needs its stored CAMERA.yaml (an error names the first missing).
-Result<CalibrationCheck> CheckCalibration(const std::filesystem::path& scan_dir, const std::filesystem::path& calibration_directory);
+Result<CalibrationCheck> CheckCalibration(const std::filesystem::path& scan_dir,
+                                          const std::filesystem::path& calibration_directory);
 
 }  // namespace loom::calibration

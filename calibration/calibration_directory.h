@@ -18,8 +18,8 @@ namespace loom::calibration {
 
 // What a calibration directory replaced in a rig.
 struct AppliedCalibration {
-  std::vector<std::string> cameras;      // cameras with their calibrated intrinsics (and poses)
-  bool led_positions = false;            // LED positions and the linear light's sweep
+  std::vector<std::string> cameras;  // cameras with their calibrated intrinsics (and poses)
+  bool led_positions = false;        // LED positions and the linear light's sweep
   bool projector = false;
   std::optional<Radiometry> radiometry;  // light intensities, camera sensitivities, filter colours
 

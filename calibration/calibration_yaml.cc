@@ -14,7 +14,6 @@ namespace {
 constexpr int kCalibrationSchemaVersion = 1;
 constexpr char kCameraModel[] = "pinhole + OpenCV 5-term distortion (k1 k2 p1 p2 k3); pixel centres at integers";
 
-
 }  // namespace
 
 Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCalibration& calibration) {
@@ -43,8 +42,8 @@ Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCal
   out << YAML::Key << "views" << YAML::Value << YAML::BeginSeq;
   for (size_t i = 0; i < in.per_view_rms_px.size(); ++i) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "source" << YAML::Value
-        << (i < calibration.view_sources.size() ? calibration.view_sources[i] : "") << YAML::Key << "rms_px"
-        << YAML::Value << in.per_view_rms_px[i] << YAML::EndMap;
+        << (i < calibration.view_sources.size() ? calibration.view_sources[i] : "") << YAML::Key << "rms_px" << YAML::Value
+        << in.per_view_rms_px[i] << YAML::EndMap;
   }
   out << YAML::EndSeq;
   out << YAML::Key << "skipped" << YAML::Value << YAML::Flow << calibration.skipped;
@@ -123,9 +122,10 @@ Result<std::vector<std::string>> ApplyCameraCalibrations(const std::filesystem::
     LOOM_ASSIGN_OR_RETURN(const CameraCalibration calibration, ReadCameraCalibration(path));
     const Intrinsics& intrinsics = calibration.intrinsics;
     if (intrinsics.width != camera.width || intrinsics.height != camera.height) {
-      return InvalidArgumentError(path.string(), "is for " + std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height) +
-                                                     " px images, camera '" + camera.name + "' of rig '" + rig->name + "' has " +
-                                                     std::to_string(camera.width) + "x" + std::to_string(camera.height));
+      return InvalidArgumentError(path.string(), "is for " + std::to_string(intrinsics.width) + "x" +
+                                                     std::to_string(intrinsics.height) + " px images, camera '" + camera.name +
+                                                     "' of rig '" + rig->name + "' has " + std::to_string(camera.width) + "x" +
+                                                     std::to_string(camera.height));
     }
     camera.K = intrinsics.K;
     camera.distortion = intrinsics.distortion;

@@ -16,17 +16,15 @@ std::vector<TargetView> ViewsOf(const std::vector<TargetView>& views, int camera
   return own;
 }
 
-std::vector<TargetView> Without(const std::vector<TargetView>& views, const std::vector<std::string>& rejected) {
+std::vector<TargetView> Without(const std::vector<TargetView>& views, const std::vector<scan::ViewId>& rejected) {
   std::vector<TargetView> kept;
   for (const TargetView& view : views) {
-    if (std::find(rejected.begin(), rejected.end(), view.source) == rejected.end()) kept.push_back(view);
+    if (std::find(rejected.begin(), rejected.end(), view.view) == rejected.end()) kept.push_back(view);
   }
   return kept;
 }
 
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return RadToDeg(std::atan2(a.cross(b).norm(), a.dot(b)));
-}
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return RadToDeg(std::atan2(a.cross(b).norm(), a.dot(b))); }
 
 std::string Exceeded(const std::string& what, double value, const std::string& unit, double threshold) {
   std::ostringstream text;
@@ -92,7 +90,8 @@ Result<DriftReport> MeasureDrift(const RigModel& stored, const CalibrationTarget
     drift.views = static_cast<int>(own.size());
     drift.stored_rms_px = ReprojectionRms(stored, target, report.placement, own);
     drift.fresh_rms_px = fresh.cameras[c].intrinsics.rms_px;
-    drift.drift_px = std::sqrt(std::max(0.0, drift.stored_rms_px * drift.stored_rms_px - drift.fresh_rms_px * drift.fresh_rms_px));
+    drift.drift_px =
+        std::sqrt(std::max(0.0, drift.stored_rms_px * drift.stored_rms_px - drift.fresh_rms_px * drift.fresh_rms_px));
     ComparePoses(stored.cameras[c].cam_from_rig, fresh.cameras[c].cam_from_rig, report.placement.yaw_deg, &drift);
     Judge(thresholds, &drift);
     report.recalibrate = report.recalibrate || !drift.exceeded.empty();
@@ -107,8 +106,8 @@ void Judge(const std::string& what, double change, double threshold, const char*
   if (std::abs(change) <= threshold) return;
   std::ostringstream text;
   const int decimals = changes->unit == "px" ? 2 : 1;  // pixel thresholds are sub-pixel
-  text << std::fixed << std::setprecision(decimals) << what << " " << verb << " " << change << " " << changes->unit << " (threshold "
-       << threshold << " " << changes->unit << ")";
+  text << std::fixed << std::setprecision(decimals) << what << " " << verb << " " << change << " " << changes->unit
+       << " (threshold " << threshold << " " << changes->unit << ")";
   changes->exceeded.push_back(text.str());
 }
 
@@ -116,7 +115,9 @@ void Judge(const std::string& what, double change, double threshold, const char*
 
 Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& thresholds) {
   Changes changes{"%", {}, {}};
-  for (const LightRadiometry& light : fresh.lights) Judge(light.name, 100 * (light.change - 1), thresholds.intensity_percent, "changed", &changes);
+  for (const LightRadiometry& light : fresh.lights) {
+    Judge(light.name, 100 * (light.change - 1), thresholds.intensity_percent, "changed", &changes);
+  }
   for (const CameraRadiometry& camera : fresh.cameras) {
     if (camera.name == fresh.reference_camera) continue;
     Judge(camera.name + " sensitivity", 100 * (camera.sensitivity_change - 1), thresholds.intensity_percent, "changed", &changes);
@@ -126,7 +127,9 @@ Changes MeasureRadiometricDrift(const Radiometry& fresh, const DriftThresholds& 
 
 Changes MeasureLightPositionDrift(const LightPositions& fresh, const DriftThresholds& thresholds) {
   Changes changes{"mm", {}, {}};
-  for (const LightPosition& led : fresh.leds) Judge("led " + std::to_string(led.led), led.change_mm, thresholds.led_position_mm, "moved", &changes);
+  for (const LightPosition& led : fresh.leds) {
+    Judge("led " + std::to_string(led.led), led.change_mm, thresholds.led_position_mm, "moved", &changes);
+  }
   return changes;
 }
 

@@ -42,8 +42,8 @@ struct DriftThresholds {
   double reprojection_px = 0.25;  // drift: the stored model's RMS beyond the capture's noise
   double turntable_axis_deg = 0.5;
   double turntable_axis_mm = 1.0;
-  double intensity_percent = 3;   // a light's intensity or a camera's sensitivity, against the stored
-  double led_position_mm = 8;     // an LED's position: camera pose errors alone move it up to ~5 mm (light_positions.h)
+  double intensity_percent = 3;  // a light's intensity or a camera's sensitivity, against the stored
+  double led_position_mm = 8;    // an LED's position: camera pose errors alone move it up to ~5 mm (light_positions.h)
   // The projector's columns at the target's corners, fresh against stored: twice what separates
   // a calibration from the truth in the sample volume (0.074 px, projector.h). On tac7-mini a
   // column is ~1.5 mm of height (0.66 mm per column at the sample, planes tilted 24°).
@@ -59,13 +59,13 @@ DriftThresholds ReadDriftThresholds(const ConfigNode& node);
 struct CameraDrift {
   std::string name;
   int views = 0;
-  double stored_rms_px = 0;   // the stored calibration on the new views
-  double fresh_rms_px = 0;    // a fresh calibration on the same views: the capture's own noise
-  double drift_px = 0;        // √(stored² − fresh²), 0 when the stored model does as well
-  double rotation_deg = 0;    // fresh pose against stored, with the target's yaw taken out
+  double stored_rms_px = 0;  // the stored calibration on the new views
+  double fresh_rms_px = 0;   // a fresh calibration on the same views: the capture's own noise
+  double drift_px = 0;       // √(stored² − fresh²), 0 when the stored model does as well
+  double rotation_deg = 0;   // fresh pose against stored, with the target's yaw taken out
   double centre_mm = 0;
-  double axis_tilt_deg = 0;   // the turntable axis in this camera's frame, fresh against stored
-  double axis_shift_mm = 0;   // its origin, across the camera's view
+  double axis_tilt_deg = 0;           // the turntable axis in this camera's frame, fresh against stored
+  double axis_shift_mm = 0;           // its origin, across the camera's view
   std::vector<std::string> exceeded;  // what crossed its threshold, with the values
 };
 
@@ -74,9 +74,9 @@ struct DriftReport {
   double stored_rms_px = 0;   // over every camera
   double fresh_rms_px = 0;
   std::vector<CameraDrift> cameras;
-  std::vector<std::string> rejected;  // misdetected views, judged by neither
-  bool recalibrate = false;   // some camera exceeded a threshold
-  RigGeometry fresh;          // the fresh calibration of the new views (ApplyGeometry)
+  std::vector<scan::ViewId> rejected;  // misdetected views, judged by neither
+  bool recalibrate = false;            // some camera exceeded a threshold
+  RigGeometry fresh;                   // the fresh calibration of the new views (ApplyGeometry)
 };
 
 // `stored`: the rig with the stored calibration applied (ApplyCameraCalibrations), in the

@@ -21,8 +21,8 @@ constexpr double kCornerNoisePx = 0.25;
 std::string Describe(const DriftReport& report) {
   std::ostringstream text;
   for (const CameraDrift& c : report.cameras) {
-    text << c.name << ": stored " << c.stored_rms_px << " px, fresh " << c.fresh_rms_px << " px, drift " << c.drift_px << " px, " << c.rotation_deg << " deg, "
-         << c.centre_mm << " mm, axis " << c.axis_tilt_deg << " deg " << c.axis_shift_mm << " mm;";
+    text << c.name << ": stored " << c.stored_rms_px << " px, fresh " << c.fresh_rms_px << " px, drift " << c.drift_px << " px, "
+         << c.rotation_deg << " deg, " << c.centre_mm << " mm, axis " << c.axis_tilt_deg << " deg " << c.axis_shift_mm << " mm;";
     for (const std::string& e : c.exceeded) text << " [" << e << "]";
     text << "\n";
   }
@@ -48,7 +48,8 @@ TEST(DriftTest, ANudgedCameraIsNamedAndOnlyIt) {
   const RigModel stored = SyntheticNominalRig();
   const RigModel nudged = WithSideCameraNudged(stored);
   const CalibrationTargetModel target;
-  const Result<DriftReport> report = MeasureDrift(stored, target, SyntheticViews(nudged, target, kPlacedAgain, kCornerNoisePx), {});
+  const Result<DriftReport> report =
+      MeasureDrift(stored, target, SyntheticViews(nudged, target, kPlacedAgain, kCornerNoisePx), {});
   ASSERT_TRUE(report.ok()) << report.status().ToString();
   std::cout << Describe(*report);
   EXPECT_TRUE(report->recalibrate);
@@ -63,7 +64,8 @@ TEST(DriftTest, ATiltedTurntableShowsInEveryCamera) {
   RigModel tilted = stored;
   tilted.turntable.axis_direction = Eigen::Vector3d(DegToRad(0.6), 0, 1).normalized();
   const CalibrationTargetModel target;
-  const Result<DriftReport> report = MeasureDrift(stored, target, SyntheticViews(tilted, target, kPlacedAgain, kCornerNoisePx), {});
+  const Result<DriftReport> report =
+      MeasureDrift(stored, target, SyntheticViews(tilted, target, kPlacedAgain, kCornerNoisePx), {});
   ASSERT_TRUE(report.ok()) << report.status().ToString();
   std::cout << Describe(*report);
   EXPECT_TRUE(report->recalibrate);
@@ -78,7 +80,8 @@ TEST(DriftTest, ATiltedTurntableShowsInEveryCamera) {
 }
 
 TEST(DriftTest, ThresholdsComeFromTheRecalibrationSection) {
-  const auto doc = ConfigDocument::LoadString("schema_version: 1\nrecalibration: {reprojection_px: 0.8, turntable_axis_mm: 2}\n", "rig.yaml", 1);
+  const auto doc = ConfigDocument::LoadString("schema_version: 1\nrecalibration: {reprojection_px: 0.8, turntable_axis_mm: 2}\n",
+                                              "rig.yaml", 1);
   ASSERT_TRUE(doc.ok()) << doc.status().ToString();
   const DriftThresholds thresholds = ReadDriftThresholds(doc->root().Child("recalibration"));
   EXPECT_EQ(thresholds.reprojection_px, 0.8);

@@ -54,7 +54,7 @@ struct CornerResidual {
 };
 
 struct CameraBlock {
-  double pose[6];                        // angle-axis, translation (mm)
+  double pose[6];  // angle-axis, translation (mm)
   double intrinsics[kIntrinsicParams];
 };
 
@@ -108,15 +108,14 @@ std::vector<Eigen::Vector3d> InSample(const CalibrationTargetModel& target) {
 // One residual per corner of every view, on its camera's block and the shared placement.
 // `loss_scale_px` > 0: a Cauchy loss of that scale on each.
 void AddCornerResiduals(const std::vector<TargetView>& views, const std::vector<Eigen::Vector3d>& in_sample,
-                        std::vector<CameraBlock>* blocks, double* placement, ceres::Problem* problem,
-                        double loss_scale_px = 0) {
+                        std::vector<CameraBlock>* blocks, double* placement, ceres::Problem* problem, double loss_scale_px = 0) {
   for (const TargetView& view : views) {
     CameraBlock& block = blocks->at(view.camera);
     for (size_t k = 0; k < in_sample.size(); ++k) {
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 6, kIntrinsicParams, 3>(
                                     new CornerResidual(ResidualOf(view, in_sample[k], static_cast<int>(k)))),
-                                loss_scale_px > 0 ? new ceres::CauchyLoss(loss_scale_px) : nullptr, block.pose,
-                                block.intrinsics, placement);
+                                loss_scale_px > 0 ? new ceres::CauchyLoss(loss_scale_px) : nullptr, block.pose, block.intrinsics,
+                                placement);
     }
   }
 }
@@ -218,11 +217,11 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
     if (step.kind != scan::StepKind::kTarget) continue;
     for (const std::string& camera_name : step.cameras) {
       LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera_name));
-      const std::string source = "step " + std::to_string(step.index) + " " + camera_name;
+      const scan::ViewId id{step.index, camera_name};
       std::optional<std::vector<Eigen::Vector2d>> corners = FindBoardCorners(ToGrey(view.radiance), board);
       if (!corners) {
-        LOOM_LOG(Warning) << source << ": target not found, view skipped";
-        detected.skipped.push_back(source);
+        LOOM_LOG(Warning) << id.ToString() << ": target not found, view skipped";
+        detected.skipped.push_back(id);
         continue;
       }
       const CameraModel& camera = rig.cameras[view.camera];
@@ -234,8 +233,8 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
         camera.Project(cam_from_board * p, &pixel);
         expected.push_back(pixel);
       }
-      detected.views.push_back({view.camera, view.state.turntable_deg, source,
-                                OrderLike(*corners, expected, target.inner_cols, target.inner_rows)});
+      detected.views.push_back(
+          {view.camera, view.state.turntable_deg, id, OrderLike(*corners, expected, target.inner_cols, target.inner_rows)});
     }
   }
   return detected;
@@ -244,15 +243,15 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
 namespace {
 
 // Step 2 on the views given.
-Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel& target,
-                           const std::vector<TargetView>& views, const GeometryOptions& options) {
+Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel& target, const std::vector<TargetView>& views,
+                           const GeometryOptions& options) {
   const std::vector<Eigen::Vector3d> board = target.CornersInBoard();
   const std::vector<Eigen::Vector3d> in_sample = InSample(target);
   const int cameras = static_cast<int>(nominal.cameras.size());
   std::vector<std::vector<const TargetView*>> by_camera(cameras);
   for (const TargetView& view : views) {
     if (view.camera < 0 || view.camera >= cameras || view.corners.size() != board.size()) {
-      return InvalidArgumentError("target view " + view.source, "not a view of the rig's target by one of its cameras");
+      return InvalidArgumentError("target view " + view.view.ToString(), "not a view of the rig's target by one of its cameras");
     }
     by_camera[view.camera].push_back(&view);
   }
@@ -300,7 +299,7 @@ Result<RigGeometry> Adjust(const RigModel& nominal, const CalibrationTargetModel
         view_squares += r[0] * r[0] + r[1] * r[1];
       }
       intrinsics.per_view_rms_px.push_back(std::sqrt(view_squares / board.size()));
-      result.view_sources.push_back(view->source);
+      result.view_sources.push_back(view->view.ToString());
       camera_squares += view_squares;
     }
     intrinsics.rms_px = std::sqrt(camera_squares / (board.size() * by_camera[c].size()));
@@ -337,7 +336,7 @@ Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const Calibrat
                                          const std::vector<TargetView>& views, const GeometryOptions& options) {
   LOOM_RETURN_IF_ERROR(options.Check());
   std::vector<TargetView> kept = views;
-  std::vector<std::string> rejected;
+  std::vector<scan::ViewId> rejected;
   for (;;) {
     LOOM_ASSIGN_OR_RETURN(RigGeometry geometry, Adjust(nominal, target, kept, options));
     // The worst view alone: one misdetection drags the others' residuals up with it.
@@ -352,9 +351,9 @@ Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const Calibrat
       geometry.rejected = rejected;
       return geometry;
     }
-    LOOM_LOG(Warning) << kept[worst].source << ": target " << worst_rms
+    LOOM_LOG(Warning) << kept[worst].view.ToString() << ": target " << worst_rms
                       << " px RMS from where the calibration puts it, view rejected";
-    rejected.push_back(kept[worst].source);
+    rejected.push_back(kept[worst].view);
     kept.erase(kept.begin() + static_cast<long>(worst));
   }
 }

@@ -29,15 +29,15 @@
 namespace loom::calibration {
 
 struct TargetView {
-  int camera = 0;               // index into the rig's cameras
-  double turntable_deg = 0;     // as recorded with the frame
-  std::string source;           // the scan step and camera, for messages and reports
+  int camera = 0;                        // index into the rig's cameras
+  double turntable_deg = 0;              // as recorded with the frame
+  scan::ViewId view;                     // the scan step and camera
   std::vector<Eigen::Vector2d> corners;  // in CalibrationTargetModel::CornersInBoard order
 };
 
 struct CameraGeometry {
   std::string name;
-  Intrinsics intrinsics;        // K, distortion; rms and per-view residuals after the adjustment
+  Intrinsics intrinsics;  // K, distortion; rms and per-view residuals after the adjustment
   Rigid3d cam_from_rig = Rigid3d::Identity();
   std::vector<std::string> view_sources;  // in per_view_rms_px order
 };
@@ -55,7 +55,7 @@ struct RigGeometry {
   std::vector<CameraGeometry> cameras;  // in the rig's camera order
   TargetPlacement target;               // yaw 0: the target's rows define the rig's x
   double rms_px = 0;                    // over every corner of every camera
-  std::vector<std::string> rejected;    // views the adjustment could not explain (misdetected)
+  std::vector<scan::ViewId> rejected;   // views the adjustment could not explain (misdetected)
 };
 
 struct GeometryOptions {
@@ -78,7 +78,7 @@ Result<RigGeometry> CalibrateRigGeometry(const RigModel& nominal, const Calibrat
 // kept. A view without the whole board is skipped, named in `skipped` with a warning.
 struct DetectedTargetViews {
   std::vector<TargetView> views;
-  std::vector<std::string> skipped;
+  std::vector<scan::ViewId> skipped;
 };
 Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target);
 

@@ -33,7 +33,8 @@ TEST(GeometryTest, FindsTheAsBuiltCamerasFromTheNominalOnes) {
     const CameraModel& truth = as_built.cameras[c];
     CameraModel found = truth;
     found.cam_from_rig = geometry->cameras[c].cam_from_rig;
-    const double rotation_deg = RadToDeg(Eigen::AngleAxisd(found.cam_from_rig.rotation() * truth.cam_from_rig.rotation().transpose()).angle());
+    const double rotation_deg =
+        RadToDeg(Eigen::AngleAxisd(found.cam_from_rig.rotation() * truth.cam_from_rig.rotation().transpose()).angle());
     const double centre_mm = (found.CentreInRig() - truth.CentreInRig()).norm();
     // What reconstruction needs: where points of the sample volume land in the image.
     double worst_px = 0;

@@ -17,8 +17,8 @@ Status CheckBracket(const std::vector<scan::RawFrame>& bracket) {
     if (frame.width != bracket[0].width || frame.height != bracket[0].height ||
         frame.pixels.size() != static_cast<size_t>(frame.width) * frame.height) {
       return InvalidArgumentError(FrameName(frame), "is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
-                                                        ", the bracket's first frame " + std::to_string(bracket[0].width) +
-                                                        "x" + std::to_string(bracket[0].height));
+                                                        ", the bracket's first frame " + std::to_string(bracket[0].width) + "x" +
+                                                        std::to_string(bracket[0].height));
     }
     if (!(frame.metadata.exposure_us > 0)) return InvalidArgumentError(FrameName(frame), "has no positive exposure time");
   }
@@ -26,7 +26,7 @@ Status CheckBracket(const std::vector<scan::RawFrame>& bracket) {
 }
 
 struct Reading {
-  double signal_dn;   // above black
+  double signal_dn;  // above black
   double exposure_us;
 };
 

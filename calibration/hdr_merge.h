@@ -28,13 +28,13 @@ struct SensorNoise {
   double black_dn = 64;
   double read_noise_dn = 1;
   double electrons_per_dn = 2.5;
-  double saturation_dn = 4094;     // readings at or above are clipped
-  double floor_sigmas = 3;         // readings under floor_sigmas × read noise are too weak
+  double saturation_dn = 4094;  // readings at or above are clipped
+  double floor_sigmas = 3;      // readings under floor_sigmas × read noise are too weak
 };
 
 struct HdrImage {
-  Image image;              // channels "L" (DN/µs above black) and "L.sigma" (its standard deviation)
-  int saturated_pixels = 0; // saturated in every exposure (NaN)
+  Image image;               // channels "L" (DN/µs above black) and "L.sigma" (its standard deviation)
+  int saturated_pixels = 0;  // saturated in every exposure (NaN)
 };
 
 // `bracket`: frames of one camera and view, any exposure order; all the same size. An empty

@@ -41,7 +41,9 @@ std::vector<scan::RawFrame> Bracket(const Image& radiance, const SensorModel& se
 }
 
 // What the merge should give: DN per µs above black.
-double TrueDnPerUs(double radiance, const SensorModel& sensor) { return radiance * sensor.sensitivity * 1e-6 / sensor.ElectronsPerDn(); }
+double TrueDnPerUs(double radiance, const SensorModel& sensor) {
+  return radiance * sensor.sensitivity * 1e-6 / sensor.ElectronsPerDn();
+}
 
 TEST(HdrMergeTest, LinearWithinHalfAPercentOverTheSensorsRange) {
   // 4.5 decades of radiance, log-spaced, from ~10 DN at the longest exposure to the full well at
@@ -109,7 +111,8 @@ TEST(HdrMergeTest, LinearityOfASteadyScene) {
   Image radiance(64, 64, {"L"});
   const double reading_at_longest = 3000;  // DN above black at 4000 µs
   const auto grey = radiance.channel(0);
-  std::fill(grey.begin(), grey.end(), static_cast<float>(reading_at_longest * sensor.ElectronsPerDn() / (sensor.sensitivity * 4000e-6)));
+  std::fill(grey.begin(), grey.end(),
+            static_cast<float>(reading_at_longest * sensor.ElectronsPerDn() / (sensor.sensitivity * 4000e-6)));
   std::vector<scan::RawFrame> bracket = Bracket(radiance, sensor, {250, 1000, 4000});
   const Result<Linearity> linear = MeasureLinearity(bracket, NoiseOf(sensor));
   ASSERT_TRUE(linear.ok()) << linear.status().ToString();

@@ -9,11 +9,10 @@
 
 namespace loom::calibration {
 
-Result<Intrinsics> CalibrateIntrinsics(const BoardSpec& board, const std::vector<BoardView>& views, int width,
-                                       int height) {
+Result<Intrinsics> CalibrateIntrinsics(const BoardSpec& board, const std::vector<BoardView>& views, int width, int height) {
   if (views.size() < 3) {
-    return FailedPreconditionError("board " + board.ToString(), "found in " + std::to_string(views.size()) +
-                                                                    " views; intrinsics need at least 3");
+    return FailedPreconditionError("board " + board.ToString(),
+                                   "found in " + std::to_string(views.size()) + " views; intrinsics need at least 3");
   }
   std::vector<cv::Point3f> object;
   for (const Eigen::Vector3d& p : board.CornersInBoard()) object.emplace_back(p.x(), p.y(), p.z());
@@ -26,8 +25,8 @@ Result<Intrinsics> CalibrateIntrinsics(const BoardSpec& board, const std::vector
   }
   cv::Mat K, distortion, std_intrinsics, std_extrinsics, per_view;
   std::vector<cv::Mat> rvecs, tvecs;
-  const double rms = cv::calibrateCamera(objects, images, cv::Size(width, height), K, distortion, rvecs, tvecs,
-                                         std_intrinsics, std_extrinsics, per_view);
+  const double rms = cv::calibrateCamera(objects, images, cv::Size(width, height), K, distortion, rvecs, tvecs, std_intrinsics,
+                                         std_extrinsics, per_view);
   Intrinsics result;
   result.width = width;
   result.height = height;

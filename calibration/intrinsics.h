@@ -21,14 +21,13 @@ struct Intrinsics {
   int height = 0;
   Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
   Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();
-  double rms_px = 0;                        // over every corner of every view
-  std::vector<double> per_view_rms_px;      // in the order of the views
-  std::vector<Rigid3d> cam_from_board;      // per view
+  double rms_px = 0;                    // over every corner of every view
+  std::vector<double> per_view_rms_px;  // in the order of the views
+  std::vector<Rigid3d> cam_from_board;  // per view
 };
 
 // Needs at least 3 views (an error says how many were given).
-Result<Intrinsics> CalibrateIntrinsics(const BoardSpec& board, const std::vector<BoardView>& views, int width,
-                                       int height);
+Result<Intrinsics> CalibrateIntrinsics(const BoardSpec& board, const std::vector<BoardView>& views, int width, int height);
 
 // Views of a board in image files: each found board is a view; files without one are listed
 // in `skipped` (with why). An unreadable file is an error naming it.

@@ -70,8 +70,8 @@ TEST(IntrinsicsTest, FindsTheBoardInAllThirteenOpenCvPhotosWithOpenCvsRms) {
   EXPECT_NEAR(intrinsics->K(1, 1), intrinsics->K(0, 0), 5);
   EXPECT_NEAR(intrinsics->K(0, 2), 320, 30);
   EXPECT_NEAR(intrinsics->K(1, 2), 240, 30);
-  std::cout << "rms " << intrinsics->rms_px << " px (OpenCV sample recipe " << reference << " px), f "
-            << intrinsics->K(0, 0) << " px\n";
+  std::cout << "rms " << intrinsics->rms_px << " px (OpenCV sample recipe " << reference << " px), f " << intrinsics->K(0, 0)
+            << " px\n";
 }
 
 TEST(IntrinsicsTest, AnImageWithoutTheBoardIsSkippedAndTooFewViewsAreAnError) {
@@ -107,8 +107,8 @@ TEST(IntrinsicsTest, TheCalibrationFileRoundTrips) {
   calibration.intrinsics.per_view_rms_px = {0.2, 0.22};
   calibration.view_sources = {"a.jpg", "b.jpg"};
   calibration.skipped = {"c.jpg"};
-  calibration.cam_from_rig = MakeRigid(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
-                                       Eigen::Vector3d(1, -2, 600));
+  calibration.cam_from_rig =
+      MakeRigid(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(), Eigen::Vector3d(1, -2, 600));
   calibration.from = "photos/*.jpg";
   calibration.board = "chessboard:9x6:25";
   const fs::path path = fs::path(::testing::TempDir()) / "cam2.yaml";

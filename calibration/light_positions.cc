@@ -96,7 +96,9 @@ LightPosition Triangulate(const RigModel& rig, int led, const std::vector<LedRay
   result.led = led;
   result.views = static_cast<int>(rays.size());
   for (const LedRay& ray : rays) result.position_mm += AtDistance(ray, centre, (nominal - centre).norm()) / rays.size();
-  for (const LedRay& ray : rays) result.residual_deg = std::max(result.residual_deg, AngleDeg(ray.direction, result.position_mm - ray.origin));
+  for (const LedRay& ray : rays) {
+    result.residual_deg = std::max(result.residual_deg, AngleDeg(ray.direction, result.position_mm - ray.origin));
+  }
   result.change_deg = AngleDeg(result.position_mm - centre, nominal - centre);
   result.change_mm = (result.position_mm - nominal).norm();
   return result;
@@ -226,17 +228,18 @@ Status WriteLightPositions(const fs::path& directory, const LightPositions& posi
   out << YAML::Key << "probe_radius_mm" << YAML::Value << positions.probe_radius_mm;
   out << YAML::Key << "leds" << YAML::Value << YAML::BeginSeq;
   for (const LightPosition& led : positions.leds) {
-    out << YAML::Flow << YAML::BeginMap << YAML::Key << "index" << YAML::Value << led.led << YAML::Key << "position_mm" << YAML::Value
-        << YAML::Flow << std::vector<double>{led.position_mm.x(), led.position_mm.y(), led.position_mm.z()} << YAML::Key
-        << "change_deg" << YAML::Value << led.change_deg << YAML::Key << "change_mm" << YAML::Value << led.change_mm << YAML::Key
-        << "residual_deg" << YAML::Value << led.residual_deg << YAML::Key << "views" << YAML::Value << led.views << YAML::EndMap;
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "index" << YAML::Value << led.led << YAML::Key << "position_mm"
+        << YAML::Value << YAML::Flow << std::vector<double>{led.position_mm.x(), led.position_mm.y(), led.position_mm.z()}
+        << YAML::Key << "change_deg" << YAML::Value << led.change_deg << YAML::Key << "change_mm" << YAML::Value << led.change_mm
+        << YAML::Key << "residual_deg" << YAML::Value << led.residual_deg << YAML::Key << "views" << YAML::Value << led.views
+        << YAML::EndMap;
   }
   out << YAML::EndSeq;
   if (const std::optional<LinearLightSweep>& sweep = positions.linear_light) {
     out << YAML::Key << "linear_light" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "start_deg" << YAML::Value
-        << sweep->start_deg << YAML::Key << "end_deg" << YAML::Value << sweep->end_deg << YAML::Key << "change_deg"
-        << YAML::Value << sweep->change_deg << YAML::Key << "residual_deg" << YAML::Value << sweep->residual_deg << YAML::Key
-        << "views" << YAML::Value << sweep->views << YAML::EndMap;
+        << sweep->start_deg << YAML::Key << "end_deg" << YAML::Value << sweep->end_deg << YAML::Key << "change_deg" << YAML::Value
+        << sweep->change_deg << YAML::Key << "residual_deg" << YAML::Value << sweep->residual_deg << YAML::Key << "views"
+        << YAML::Value << sweep->views << YAML::EndMap;
   }
   internal::EmitSource(out, from);
   out << YAML::EndMap;

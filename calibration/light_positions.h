@@ -33,9 +33,9 @@ namespace loom::calibration {
 struct LightPosition {
   int led = 0;
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();  // rig frame
-  double change_deg = 0;   // the direction from the sphere against the rig's
-  double change_mm = 0;    // the position against the rig's
-  double residual_deg = 0; // the largest angle between a camera's ray and the position found
+  double change_deg = 0;                                  // the direction from the sphere against the rig's
+  double change_mm = 0;                                   // the position against the rig's
+  double residual_deg = 0;                                // the largest angle between a camera's ray and the position found
   int views = 0;
 };
 

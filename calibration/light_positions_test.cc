@@ -112,7 +112,8 @@ TEST_F(LightPositionsTest, FindsTheLinearLightsArmTurned) {
   const LinearLightSweep& sweep = *found->linear_light;
   const LinearLightModel built = *Built(nominal).linear_light;
   std::cout << "sweep: start " << sweep.start_deg << " deg (truth " << built.start_deg << "), end " << sweep.end_deg
-            << " deg (truth " << built.end_deg << "), residual " << sweep.residual_deg << " deg over " << sweep.views << " views\n";
+            << " deg (truth " << built.end_deg << "), residual " << sweep.residual_deg << " deg over " << sweep.views
+            << " views\n";
   EXPECT_EQ(sweep.views, 10);
   // Measured (2026-11-22): start -68.506° (truth -68.5), end 71.534° (71.5), residual 0.10°; a
   // centroid per view instead of every pixel of the streak was 0.4-0.7° off.
@@ -139,7 +140,8 @@ TEST_F(LightPositionsTest, FilesRoundTripAndMissingViewsAreNamed) {
   std::vector<LitView> views = *views_;
   const Result<LightPositions> found = CalibrateLightPositions(nominal, views);
   ASSERT_TRUE(found.ok()) << found.status().ToString();
-  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("light_positions_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / ("light_positions_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   ASSERT_TRUE(WriteLightPositions(dir, *found, "scan/").ok());
   RigModel direct = nominal, from_file = nominal;

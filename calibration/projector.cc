@@ -64,8 +64,8 @@ template <typename T>
 void OnPlane(const FlatBoardRay& ray, const T* plane, T* point) {
   const Eigen::Vector3d& o = ray.origin_mm;
   const Eigen::Vector3d& d = ray.direction;
-  const T t = (plane[0] + plane[1] * T(o.x()) + plane[2] * T(o.y()) - T(o.z())) /
-              (T(d.z()) - plane[1] * T(d.x()) - plane[2] * T(d.y()));
+  const T t =
+      (plane[0] + plane[1] * T(o.x()) + plane[2] * T(o.y()) - T(o.z())) / (T(d.z()) - plane[1] * T(d.x()) - plane[2] * T(d.y()));
   for (int i = 0; i < 3; ++i) point[i] = T(o[i]) + t * T(d[i]);
 }
 
@@ -123,7 +123,8 @@ Status CheckBoards(const std::vector<FlatBoardView>& boards) {
     for (const auto& [camera, rays] : rays_per_camera) cameras += rays >= kMinBoardRaysPerCamera;
     if (cameras < 2) {
       return FailedPreconditionError("projector board '" + board.name + "'",
-                                     "decoded in " + std::to_string(cameras) + " camera(s) at " + std::to_string(kMinBoardRaysPerCamera) +
+                                     "decoded in " + std::to_string(cameras) + " camera(s) at " +
+                                         std::to_string(kMinBoardRaysPerCamera) +
                                          " pixels or more: two must see it to place its plane");
     }
   }
@@ -156,7 +157,8 @@ struct BoardResiduals {
   int rays = 0;
 };
 
-BoardResiduals ResidualsOf(const FlatBoardView& board, const std::vector<bool>& kept, const ProjectorParameters& parameters, int index) {
+BoardResiduals ResidualsOf(const FlatBoardView& board, const std::vector<bool>& kept, const ProjectorParameters& parameters,
+                           int index) {
   BoardResiduals residuals;
   for (size_t r = 0; r < board.rays.size(); ++r) {
     if (!kept[r]) continue;
@@ -176,7 +178,9 @@ Result<Eigen::Vector2d> IntrinsicsSigma(ceres::Problem* problem, double* intrins
   options.null_space_rank = 0;  // the weak directions are what this measures: drop none
   ceres::Covariance covariance(options);
   const std::vector<std::pair<const double*, const double*>> blocks = {{intrinsics, intrinsics}};
-  if (!covariance.Compute(blocks, problem)) return Eigen::Vector2d(Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()));
+  if (!covariance.Compute(blocks, problem)) {
+    return Eigen::Vector2d(Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()));
+  }
   Eigen::Matrix2d block;
   covariance.GetCovarianceBlock(intrinsics, intrinsics, block.data());
   return Eigen::Vector2d(Eigen::Vector2d(std::sqrt(block(0, 0)), std::sqrt(block(1, 1))) * residual_rms);
@@ -184,8 +188,8 @@ Result<Eigen::Vector2d> IntrinsicsSigma(ceres::Problem* problem, double* intrins
 
 // Fits `parameters` to the corners and the kept board rays; with hold_intrinsics, fx and cx stay.
 // Returns the standard deviations of fx and cx when they were fitted (else zeros).
-Result<Eigen::Vector2d> Solve(const ProjectorModel& prior, const ProjectorObservations& observed, const std::vector<std::vector<bool>>& kept,
-                              bool hold_intrinsics, ProjectorParameters* parameters) {
+Result<Eigen::Vector2d> Solve(const ProjectorModel& prior, const ProjectorObservations& observed,
+                              const std::vector<std::vector<bool>>& kept, bool hold_intrinsics, ProjectorParameters* parameters) {
   ceres::Problem problem;
   for (const ProjectorCorrespondence& p : observed.corners) {
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 1, 6, 2>(new CornerResidual{p.point_mm, p.column}),
@@ -194,8 +198,9 @@ Result<Eigen::Vector2d> Solve(const ProjectorModel& prior, const ProjectorObserv
   for (size_t b = 0; b < observed.boards.size(); ++b) {
     for (size_t r = 0; r < observed.boards[b].rays.size(); ++r) {
       if (!kept[b][r]) continue;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BoardResidual, 1, 6, 2, 3>(new BoardResidual{observed.boards[b].rays[r]}),
-                               new ceres::CauchyLoss(1.0), parameters->pose, parameters->intrinsics, parameters->planes[b].data());
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<BoardResidual, 1, 6, 2, 3>(new BoardResidual{observed.boards[b].rays[r]}),
+          new ceres::CauchyLoss(1.0), parameters->pose, parameters->intrinsics, parameters->planes[b].data());
     }
   }
   const Rigid3d rig_from_prior = prior.proj_from_rig.inverse();
@@ -221,7 +226,8 @@ Result<Eigen::Vector2d> Solve(const ProjectorModel& prior, const ProjectorObserv
 }
 
 // Drops the board rays the fit leaves far out (robust σ from the median absolute residual).
-void DropBoardOutliers(const ProjectorObservations& observed, const ProjectorParameters& parameters, std::vector<std::vector<bool>>* kept) {
+void DropBoardOutliers(const ProjectorObservations& observed, const ProjectorParameters& parameters,
+                       std::vector<std::vector<bool>>* kept) {
   for (size_t b = 0; b < observed.boards.size(); ++b) {
     const std::vector<FlatBoardRay>& rays = observed.boards[b].rays;
     std::vector<double> residuals;
@@ -233,7 +239,8 @@ void DropBoardOutliers(const ProjectorObservations& observed, const ProjectorPar
   }
 }
 
-FlatBoardFit DescribeBoard(const FlatBoardView& board, const std::vector<bool>& kept, const ProjectorParameters& parameters, int index) {
+FlatBoardFit DescribeBoard(const FlatBoardView& board, const std::vector<bool>& kept, const ProjectorParameters& parameters,
+                           int index) {
   const std::array<double, 3>& plane = parameters.planes[index];
   FlatBoardFit fit;
   fit.name = board.name;
@@ -295,8 +302,9 @@ void DescribeCorners(const ProjectorModel& prior, const ProjectorObservations& o
 
 Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, const ProjectorObservations& observed) {
   if (static_cast<int>(observed.corners.size()) < kMinCorrespondences) {
-    return FailedPreconditionError("projector", "decoded at " + std::to_string(observed.corners.size()) + " target corners: at least " +
-                                                    std::to_string(kMinCorrespondences) + " are needed");
+    return FailedPreconditionError("projector", "decoded at " + std::to_string(observed.corners.size()) +
+                                                    " target corners: at least " + std::to_string(kMinCorrespondences) +
+                                                    " are needed");
   }
   LOOM_RETURN_IF_ERROR(CheckBoards(observed.boards));
   ProjectorParameters parameters;
@@ -321,7 +329,8 @@ Result<ProjectorCalibration> CalibrateProjector(const ProjectorModel& prior, con
   DescribeCorners(prior, observed, parameters, &result);
   result.rotation_change_deg =
       RadToDeg(Eigen::AngleAxisd(result.projector.proj_from_rig.rotation() * prior.proj_from_rig.rotation().transpose()).angle());
-  result.centre_change_mm = (result.projector.proj_from_rig.inverse().translation() - prior.proj_from_rig.inverse().translation()).norm();
+  result.centre_change_mm =
+      (result.projector.proj_from_rig.inverse().translation() - prior.proj_from_rig.inverse().translation()).norm();
   return result;
 }
 
@@ -348,18 +357,20 @@ Status WriteProjectorCalibration(const fs::path& directory, const ProjectorCalib
   out << YAML::Key << "rotation_change_deg" << YAML::Value << calibration.rotation_change_deg;
   out << YAML::Key << "centre_change_mm" << YAML::Value << calibration.centre_change_mm;
   out << YAML::Key << "intrinsics" << YAML::Value
-      << (calibration.intrinsics_fitted ? "fx and cx fitted to the boards' columns; fy, cy the rig YAML's (columns do not see them)"
-          : calibration.boards.empty() ? "the rig YAML's (the scan has no white tile on a spacer under the patterns)"
-                                       : "the rig YAML's (the boards do not pin fx and cx down: the cameras see too little of the projector's field)");
+      << (calibration.intrinsics_fitted
+              ? "fx and cx fitted to the boards' columns; fy, cy the rig YAML's (columns do not see them)"
+          : calibration.boards.empty()
+              ? "the rig YAML's (the scan has no white tile on a spacer under the patterns)"
+              : "the rig YAML's (the boards do not pin fx and cx down: the cameras see too little of the projector's field)");
   out << YAML::Key << "focal_sigma_percent" << YAML::Value << calibration.focal_sigma_percent;
   out << YAML::Key << "cx_sigma_px" << YAML::Value << calibration.cx_sigma_px;
   out << YAML::Key << "focal_change_percent" << YAML::Value << calibration.focal_change_percent;
   out << YAML::Key << "cx_change_px" << YAML::Value << calibration.cx_change_px;
   out << YAML::Key << "boards" << YAML::Value << YAML::BeginSeq;
   for (const FlatBoardFit& board : calibration.boards) {
-    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << board.name << YAML::Key << "height_mm" << YAML::Value
-        << board.height_mm << YAML::Key << "tilt_deg" << YAML::Value << board.tilt_deg << YAML::Key << "rays" << YAML::Value
-        << board.rays << YAML::Key << "rms_columns" << YAML::Value << board.rms_columns << YAML::EndMap;
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << board.name << YAML::Key << "height_mm"
+        << YAML::Value << board.height_mm << YAML::Key << "tilt_deg" << YAML::Value << board.tilt_deg << YAML::Key << "rays"
+        << YAML::Value << board.rays << YAML::Key << "rms_columns" << YAML::Value << board.rms_columns << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::EndMap;
   internal::EmitSource(out, from);
@@ -387,7 +398,8 @@ Result<bool> ApplyProjectorCalibration(const fs::path& directory, RigModel* rig)
   LOOM_RETURN_IF_ERROR(doc.Finish());
   if (size.size() != 2 || size[0] != rig->projector->width || size[1] != rig->projector->height) {
     return InvalidArgumentError(path.string(), "is for another projector resolution than rig '" + rig->name + "''s " +
-                                                   std::to_string(rig->projector->width) + "x" + std::to_string(rig->projector->height));
+                                                   std::to_string(rig->projector->width) + "x" +
+                                                   std::to_string(rig->projector->height));
   }
   const Rigid3d proj_from_rig = MakeRigid(rotation, translation);
   if (!IsRigid(proj_from_rig, 1e-6)) return InvalidArgumentError(path.string(), "proj_from_rig.rotation is not a rotation");

@@ -48,9 +48,9 @@ struct ProjectorCorrespondence {
 
 // A camera pixel that saw a flat board under the patterns: its ray and the column decoded there.
 struct FlatBoardRay {
-  int camera = 0;                                       // index into the rig's cameras
-  Eigen::Vector3d origin_mm = Eigen::Vector3d::Zero();  // the camera's centre, rig frame
-  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ(); // unit, rig frame
+  int camera = 0;                                        // index into the rig's cameras
+  Eigen::Vector3d origin_mm = Eigen::Vector3d::Zero();   // the camera's centre, rig frame
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // unit, rig frame
   double column = 0;
 };
 
@@ -71,19 +71,19 @@ struct FlatBoardFit {
   std::string name;
   double height_mm = 0;  // where the plane meets the turntable's axis
   double tilt_deg = 0;
-  int rays = 0;          // kept: rays the plane cannot explain (its edges, shadows) are dropped
+  int rays = 0;  // kept: rays the plane cannot explain (its edges, shadows) are dropped
   double rms_columns = 0;
 };
 
 struct ProjectorCalibration {
   ProjectorModel projector;
-  double rms_columns = 0;        // at the target's corners
+  double rms_columns = 0;  // at the target's corners
   int correspondences = 0;
   // With boards, fx and cx are fitted, and kept when the boards pin them down (1σ of fx within
   // 0.1 %, of cx within 0.5 px); else they stay at the prior's, and the boards still fit the
   // pose over the volume up to the spacer.
   bool intrinsics_fitted = false;
-  double focal_sigma_percent = 0;   // 1σ of the boards' fx and cx from the decoding noise (0 without boards)
+  double focal_sigma_percent = 0;  // 1σ of the boards' fx and cx from the decoding noise (0 without boards)
   double cx_sigma_px = 0;
   double focal_change_percent = 0;  // fx against the prior: 0 unless fitted
   double cx_change_px = 0;

@@ -56,7 +56,9 @@ std::vector<double> StructuredLightAngles(const scan::Plan& plan, scan::ScanObje
 Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& camera, scan::ScanObject object,
                                 double turntable_deg) {
   const RigModel& rig = scan.rig();
-  if (!rig.projector) return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
+  if (!rig.projector) {
+    return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
+  }
   std::map<std::string, Image> patterns;
   for (const Step& step : scan.plan().steps) {
     if (step.kind != StepKind::kStructuredLight || step.object != object || step.turntable_deg != turntable_deg) continue;
@@ -68,14 +70,14 @@ Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& cam
   decode.phase_steps = 0;
   while (patterns.contains("phase_x_" + std::to_string(decode.phase_steps))) ++decode.phase_steps;
   if (decode.phase_steps < 3) {
-    return NotFoundError("structured light", "needs at least 3 phase_x patterns, the scan has " + std::to_string(decode.phase_steps));
+    return NotFoundError("structured light",
+                         "needs at least 3 phase_x patterns, the scan has " + std::to_string(decode.phase_steps));
   }
   return DecodeProjectorColumns(patterns, decode);
 }
 
-Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadiance& scan,
-                                                                              const CalibrationTargetModel& target,
-                                                                              const TargetPlacement& placement) {
+Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadiance& scan, const CalibrationTargetModel& target,
+                                                                 const TargetPlacement& placement) {
   const RigModel& rig = scan.rig();
   const Eigen::Matrix3d yaw = Eigen::AngleAxisd(DegToRad(placement.yaw_deg), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d offset(placement.offset_mm.x(), placement.offset_mm.y(), 0);
@@ -97,8 +99,8 @@ Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadia
 
 Result<std::vector<FlatBoardView>> FlatBoardRays(const ScanRadiance& scan, int max_rays_per_camera) {
   const RigModel& rig = scan.rig();
-  const std::vector<std::pair<scan::ScanObject, double>> boards = {{scan::ScanObject::kWhiteTile, 0.0},
-                                                                   {scan::ScanObject::kWhiteTileOnSpacer, rig.white_reference.spacer_mm}};
+  const std::vector<std::pair<scan::ScanObject, double>> boards = {
+      {scan::ScanObject::kWhiteTile, 0.0}, {scan::ScanObject::kWhiteTileOnSpacer, rig.white_reference.spacer_mm}};
   std::vector<double> angles;
   for (const auto& [object, height] : boards) {
     const std::vector<double> at = StructuredLightAngles(scan.plan(), object);
@@ -113,7 +115,8 @@ Result<std::vector<FlatBoardView>> FlatBoardRays(const ScanRadiance& scan, int m
     for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
       const CameraModel& camera = rig.cameras[c];
       LOOM_ASSIGN_OR_RETURN(const Image columns, DecodeScanColumns(scan, camera, object, angle));
-      const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(double(camera.width) * camera.height / max_rays_per_camera))));
+      const int stride =
+          std::max(1, static_cast<int>(std::ceil(std::sqrt(double(camera.width) * camera.height / max_rays_per_camera))));
       // The board lies still at `angle`; rays in the rig frame are what the fit needs.
       const Rigid3d rig_from_cam = camera.cam_from_rig.inverse();
       for (int y = stride / 2; y < camera.height; y += stride) {

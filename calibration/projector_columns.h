@@ -28,9 +28,8 @@ Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& cam
 
 // Every camera, every structured-light angle: the target's corners (placed as loom calibrate
 // geometry found it; the scan's rig carries that calibration) with their decoded columns.
-Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadiance& scan,
-                                                                              const CalibrationTargetModel& target,
-                                                                              const TargetPlacement& placement);
+Result<std::vector<ProjectorCorrespondence>> TargetCornerColumns(const ScanRadiance& scan, const CalibrationTargetModel& target,
+                                                                 const TargetPlacement& placement);
 
 // The flat boards of a calibration scan under the patterns — the white tile on the table and on
 // its spacer (scan/plan.h), at their nominal heights; none when the scan has no spacer

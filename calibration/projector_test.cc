@@ -17,8 +17,9 @@ namespace {
 
 ProjectorModel Knocked(const ProjectorModel& prior) {
   ProjectorModel built = prior;
-  const Eigen::Matrix3d turn = (Eigen::AngleAxisd(DegToRad(0.6), Eigen::Vector3d::UnitX()) *
-                                Eigen::AngleAxisd(DegToRad(-0.4), Eigen::Vector3d::UnitZ())).toRotationMatrix();
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(DegToRad(0.6), Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(DegToRad(-0.4), Eigen::Vector3d::UnitZ()))
+          .toRotationMatrix();
   const Eigen::Vector3d centre = prior.proj_from_rig.inverse().translation() + Eigen::Vector3d(2, -1.5, 1.5);
   const Eigen::Matrix3d rotation = turn * prior.proj_from_rig.rotation();
   built.proj_from_rig = MakeRigid(rotation, -rotation * centre);
@@ -55,8 +56,8 @@ std::vector<ProjectorCorrespondence> Corners(const RigModel& rig, const Projecto
 // A level-ish board at `height_mm` (slopes along x and y), 25.6 mm square like tac7-mini's white
 // tile, seen by both cameras at every third pixel; every 50th ray decoded 5 columns off (the
 // board's edge, a shadow).
-FlatBoardView Board(const RigModel& rig, const ProjectorModel& built, const std::string& name, double nominal_mm, double height_mm,
-                Eigen::Vector2d slope, double noise_px, int stride = 3, double half_mm = 12.8) {
+FlatBoardView Board(const RigModel& rig, const ProjectorModel& built, const std::string& name, double nominal_mm,
+                    double height_mm, Eigen::Vector2d slope, double noise_px, int stride = 3, double half_mm = 12.8) {
   std::mt19937 rng(static_cast<unsigned>(height_mm * 100));
   std::normal_distribution<double> noise(0, noise_px);
   FlatBoardView board{name, nominal_mm, {}};
@@ -92,10 +93,11 @@ double WorstColumn(const ProjectorModel& found, const ProjectorModel& built, dou
 }
 
 void PrintBoards(const ProjectorCalibration& found) {
-  std::cout << "focal " << found.focal_change_percent << " % (1σ " << found.focal_sigma_percent << " %), cx " << found.cx_change_px
-            << " px (1σ " << found.cx_sigma_px << " px); boards at " << found.boards[0].height_mm << " and " << found.boards[1].height_mm
-            << " mm, tilts " << found.boards[0].tilt_deg << ", " << found.boards[1].tilt_deg << " deg, " << found.boards[0].rays << " and "
-            << found.boards[1].rays << " rays kept, RMS " << found.boards[0].rms_columns << ", " << found.boards[1].rms_columns << "\n";
+  std::cout << "focal " << found.focal_change_percent << " % (1σ " << found.focal_sigma_percent << " %), cx "
+            << found.cx_change_px << " px (1σ " << found.cx_sigma_px << " px); boards at " << found.boards[0].height_mm << " and "
+            << found.boards[1].height_mm << " mm, tilts " << found.boards[0].tilt_deg << ", " << found.boards[1].tilt_deg
+            << " deg, " << found.boards[0].rays << " and " << found.boards[1].rays << " rays kept, RMS "
+            << found.boards[0].rms_columns << ", " << found.boards[1].rms_columns << "\n";
 }
 
 // tac7's cameras see 150 mm of the projector's 210 mm wide field at the sample: enough.
@@ -141,7 +143,8 @@ TEST(ProjectorTest, HoldsTheFocalLengthWhereTheBoardsCoverTooLittleOfTheField) {
   EXPECT_NEAR(found->boards[1].height_mm, 30.4, 0.05);
   const double worst_corners_only = WorstColumn(corners_only->projector, built, 30);
   const double worst_found = WorstColumn(found->projector, built, 30);
-  std::cout << "columns up to 30 mm: corners alone off by up to " << worst_corners_only << " px, with the boards " << worst_found << " px\n";
+  std::cout << "columns up to 30 mm: corners alone off by up to " << worst_corners_only << " px, with the boards " << worst_found
+            << " px\n";
   EXPECT_LT(worst_found, worst_corners_only);
   EXPECT_LT(worst_found, 0.05);
 }
@@ -167,8 +170,9 @@ TEST(ProjectorTest, ASpacerLeftOutHoldsTheLens) {
 TEST(ProjectorTest, BoardsThatCannotSeparateFocalLengthAreAnErrorNamingThem) {
   const RigModel rig = loom::testing::ShippedRigModel("tac7-mini");
   const ProjectorModel built = WithOtherLens(Knocked(*rig.projector));
-  ProjectorObservations observed{Corners(rig, built, 0.05), {Board(rig, built, "white tile", 0, 0, {0, 0}, 0.05),
-                                                             Board(rig, built, "white tile on its spacer", 2, 2, {0, 0}, 0.05)}};
+  ProjectorObservations observed{
+      Corners(rig, built, 0.05),
+      {Board(rig, built, "white tile", 0, 0, {0, 0}, 0.05), Board(rig, built, "white tile on its spacer", 2, 2, {0, 0}, 0.05)}};
   const Result<ProjectorCalibration> too_close = CalibrateProjector(*rig.projector, observed);
   ASSERT_FALSE(too_close.ok());
   EXPECT_NE(too_close.status().ToString().find("span 2 mm"), std::string::npos) << too_close.status().ToString();

@@ -19,7 +19,8 @@ using scan::StepKind;
 
 // Where a camera pixel looks on the turntable's plane (z = 0 in the sample frame at the view's
 // angle), if it looks down at it.
-std::optional<Eigen::Vector3d> PointOnTurntable(const RigModel& rig, const CameraModel& camera, double turntable_deg, int x, int y) {
+std::optional<Eigen::Vector3d> PointOnTurntable(const RigModel& rig, const CameraModel& camera, double turntable_deg, int x,
+                                                int y) {
   const Rigid3d sample_from_cam = rig.turntable.RigFromSample(turntable_deg).inverse() * camera.cam_from_rig.inverse();
   const Eigen::Vector3d origin = sample_from_cam.translation();
   const Eigen::Vector3d direction = sample_from_cam.linear() * camera.Unproject(Eigen::Vector2d(x, y));
@@ -73,7 +74,7 @@ std::string LightName(int led) { return led < 0 ? "linear light" : "led " + std:
 // the rig model's prediction.
 struct TileView {
   int camera = 0;
-  int led = 0;  // −1: the linear light
+  int led = 0;              // −1: the linear light
   std::vector<int> pixels;  // y · width + x
   std::vector<double> ratio;
   double median = 0;
@@ -160,7 +161,8 @@ double ScaleOf(const CameraModel& camera, const TileView& view, double vignettin
   std::vector<double> scaled;
   for (size_t i = 0; i < view.pixels.size(); ++i) {
     const int x = view.pixels[i] % camera.width, y = view.pixels[i] / camera.width;
-    const double flat = (1 - vignetting * CornerRadius2(camera, x, y)) / camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
+    const double flat =
+        (1 - vignetting * CornerRadius2(camera, x, y)) / camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
     scaled.push_back(view.ratio[i] / flat);
   }
   return Median(scaled);
@@ -180,7 +182,8 @@ int ReferenceCamera(const RigModel& rig, const std::string& name) {
 }
 
 // The widest angle the tile spans from a light, seen over the reference camera's views.
-double TileSubtendsDeg(const RigModel& rig, const std::vector<TileView>& tiles, const std::vector<LitView>& white, int reference) {
+double TileSubtendsDeg(const RigModel& rig, const std::vector<TileView>& tiles, const std::vector<LitView>& white,
+                       int reference) {
   double widest = 0;
   for (size_t v = 0; v < tiles.size(); ++v) {
     if (tiles[v].camera != reference || tiles[v].led < 0) continue;
@@ -227,8 +230,8 @@ Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white,
   for (int light : lights) {
     const auto seen = scale.find({reference, light});
     if (seen == scale.end()) {
-      return NotFoundError(LightName(light), "has no white-reference view from the reference camera '" +
-                                                 rig.cameras[reference].name + "'");
+      return NotFoundError(LightName(light),
+                           "has no white-reference view from the reference camera '" + rig.cameras[reference].name + "'");
     }
     light_scale[light] = seen->second;
   }
@@ -292,7 +295,8 @@ Result<std::vector<double>> PatchRatios(const RigModel& rig, const LitView& char
   std::vector<double> ratios;
   for (int patch = 0; patch < ColourChartModel::kPatches; ++patch) {
     if (!(white_sum[patch] > 0)) {
-      return FailedPreconditionError(chart.source, "patch " + std::to_string(patch) + " of the colour chart is not seen on the white reference");
+      return FailedPreconditionError(
+          chart.source, "patch " + std::to_string(patch) + " of the colour chart is not seen on the white reference");
     }
     ratios.push_back(chart_sum[patch] / white_sum[patch]);
   }

@@ -48,23 +48,23 @@ struct RadiometryOptions {
 
 struct CameraRadiometry {
   std::string name;
-  double black_dn = 0;               // from the dark step
+  double black_dn = 0;  // from the dark step
   double read_noise_dn = 0;
-  double sensitivity = 0;            // electrons per (radiance unit · s) at the image centre
-  double sensitivity_change = 1;     // calibrated over the rig's
-  double vignetting = 0;             // v of 1 − v (r / r_corner)²
-  double flat_field_residual = 0;    // rms relative misfit of that model over the tile
-  int tile_pixels = 0;               // pixels that saw the tile (one view)
-  double linearity_deviation = 0;    // worst |reading / (radiance · t) − 1| of an exposure, over the tile
-  double linearity_max_dn = 0;       // the highest mean reading it was measured at
+  double sensitivity = 0;          // electrons per (radiance unit · s) at the image centre
+  double sensitivity_change = 1;   // calibrated over the rig's
+  double vignetting = 0;           // v of 1 − v (r / r_corner)²
+  double flat_field_residual = 0;  // rms relative misfit of that model over the tile
+  int tile_pixels = 0;             // pixels that saw the tile (one view)
+  double linearity_deviation = 0;  // worst |reading / (radiance · t) − 1| of an exposure, over the tile
+  double linearity_max_dn = 0;     // the highest mean reading it was measured at
 };
 
 struct LightRadiometry {
-  std::string name;                  // "led 3", "linear light"
-  int led = -1;                      // −1: the linear light
-  double intensity = 0;              // LedModel::intensity, or LinearLightModel::intensity_per_mm
-  double change = 1;                 // calibrated over the rig's
-  double camera_spread = 0;          // relative spread of the scale between cameras
+  std::string name;          // "led 3", "linear light"
+  int led = -1;              // −1: the linear light
+  double intensity = 0;      // LedModel::intensity, or LinearLightModel::intensity_per_mm
+  double change = 1;         // calibrated over the rig's
+  double camera_spread = 0;  // relative spread of the scale between cameras
 };
 
 struct FilterRadiometry {
@@ -78,16 +78,16 @@ struct FilterRadiometry {
 
 struct WheelColour {
   std::string wheel;
-  std::vector<int> slots;            // band-pass slots, the colour matrix's columns
-  Eigen::MatrixXd colour_matrix;     // 3 × slots: filter readings (albedo units) → linear sRGB
-  double chart_rms = 0;              // rms albedo error of the chart's patches recovered through it
-  double chart_max = 0;              // the worst channel of the worst patch
+  std::vector<int> slots;         // band-pass slots, the colour matrix's columns
+  Eigen::MatrixXd colour_matrix;  // 3 × slots: filter readings (albedo units) → linear sRGB
+  double chart_rms = 0;           // rms albedo error of the chart's patches recovered through it
+  double chart_max = 0;           // the worst channel of the worst patch
 };
 
 struct Radiometry {
   std::string reference_camera;
   double white_albedo = 0;
-  double tile_subtends_deg = 0;      // the widest angle the tile spans from a light (falloff)
+  double tile_subtends_deg = 0;  // the widest angle the tile spans from a light (falloff)
   std::vector<CameraRadiometry> cameras;
   std::vector<LightRadiometry> lights;
   std::vector<FilterRadiometry> filters;

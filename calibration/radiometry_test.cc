@@ -17,8 +17,8 @@
 
 #include "calibration/radiometry_yaml.h"
 #include "core/config.h"
-#include "core/testing/shipped_rig.h"
 #include "core/spectra.h"
+#include "core/testing/shipped_rig.h"
 #include "sim/renderer.h"
 #include "sim/test_materials.h"
 
@@ -92,13 +92,17 @@ class RadiometryTest : public ::testing::Test {
     white_ = new std::vector<LitView>;
     chart_ = new std::vector<LitView>;
     for (int c = 0; c < 2; ++c) {
-      for (int led = 0; led < static_cast<int>(nominal_->leds.size()); ++led) white_->push_back(tile.Render(c, Led(*nominal_, led, 0)));
+      for (int led = 0; led < static_cast<int>(nominal_->leds.size()); ++led) {
+        white_->push_back(tile.Render(c, Led(*nominal_, led, 0)));
+      }
       LightingState strip;
       strip.linear_light_on = true;
       strip.linear_light_mm = nominal_->linear_light->travel_mm / 2;
       white_->push_back(tile.Render(c, strip));
       for (const FilterWheelModel& wheel : nominal_->filter_wheels) {
-        for (int slot = 1; slot < static_cast<int>(wheel.filters.size()); ++slot) chart_->push_back(chart.Render(c, Led(*nominal_, wheel.led, slot)));
+        for (int slot = 1; slot < static_cast<int>(wheel.filters.size()); ++slot) {
+          chart_->push_back(chart.Render(c, Led(*nominal_, wheel.led, slot)));
+        }
       }
     }
   }
@@ -117,16 +121,20 @@ TEST_F(RadiometryTest, FindsTheLightsCamerasAndFiltersAsBuilt) {
   EXPECT_EQ(found->reference_camera, "cam0");
 
   ASSERT_EQ(found->lights.size(), nominal_->leds.size() + 1);
-  for (const LightRadiometry& light : found->lights) std::cout << light.name << " x" << light.change << " spread " << light.camera_spread << "\n";
+  for (const LightRadiometry& light : found->lights) {
+    std::cout << light.name << " x" << light.change << " spread " << light.camera_spread << "\n";
+  }
   for (const CameraRadiometry& camera : found->cameras) {
-    std::cout << camera.name << " sensitivity x" << camera.sensitivity_change << " vignetting " << camera.vignetting << " flat residual "
-              << camera.flat_field_residual << " on " << camera.tile_pixels << " px\n";
+    std::cout << camera.name << " sensitivity x" << camera.sensitivity_change << " vignetting " << camera.vignetting
+              << " flat residual " << camera.flat_field_residual << " on " << camera.tile_pixels << " px\n";
   }
   for (const FilterRadiometry& f : found->filters) {
-    std::cout << f.wheel << " slot " << f.slot << " weights " << f.weights.transpose() << " (nominal " << f.nominal_weights.transpose()
-              << ") residual " << f.fit_residual << "\n";
+    std::cout << f.wheel << " slot " << f.slot << " weights " << f.weights.transpose() << " (nominal "
+              << f.nominal_weights.transpose() << ") residual " << f.fit_residual << "\n";
   }
-  for (const WheelColour& wheel : found->wheels) std::cout << wheel.wheel << " chart rms " << wheel.chart_rms << " max " << wheel.chart_max << "\n";
+  for (const WheelColour& wheel : found->wheels) {
+    std::cout << wheel.wheel << " chart rms " << wheel.chart_rms << " max " << wheel.chart_max << "\n";
+  }
   std::cout << "tile subtends " << found->tile_subtends_deg << " deg\n";
   for (const LightRadiometry& light : found->lights) {
     const double truth = light.led == 3 ? kLed3 : light.led == 7 ? kLed7 : light.led < 0 ? kStrip : 1.0;
@@ -178,7 +186,8 @@ TEST_F(RadiometryTest, TheCalibratedRigPredictsWhatWasMeasured) {
 TEST_F(RadiometryTest, FilesRoundTripAndBadOnesAreNamed) {
   const Result<Radiometry> found = FitRadiometry(*nominal_, *white_, *chart_, {});
   ASSERT_TRUE(found.ok()) << found.status().ToString();
-  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("radiometry_yaml_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / ("radiometry_yaml_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   ASSERT_TRUE(WriteRadiometry(dir, *found, "scan/").ok());
   RigModel direct = *nominal_, from_files = *nominal_;

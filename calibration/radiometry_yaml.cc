@@ -18,9 +18,11 @@ namespace fs = std::filesystem;
 constexpr int kSchemaVersion = 1;
 constexpr char kCameraModel[] =
     "radiance = DN/us above black * electrons_per_dn / (gain * sensitivity * 1e-6 * (1 - vignetting * (r / r_corner)^2))";
-constexpr char kLedModel[] = "radiant intensity at 1000 mA along the axis * cos^falloff_exponent(angle to the axis), radiance units * mm^2";
+constexpr char kLedModel[] =
+    "radiant intensity at 1000 mA along the axis * cos^falloff_exponent(angle to the axis), radiance units * mm^2";
 constexpr char kLinearLightModel[] = "radiant intensity per mm of strip along its normal at full power, radiance units * mm";
-constexpr char kWheelModel[] = "a camera records weights . (R, G, B) of a linear-sRGB albedo through the slot; the open slot records 1";
+constexpr char kWheelModel[] =
+    "a camera records weights . (R, G, B) of a linear-sRGB albedo through the slot; the open slot records 1";
 
 fs::path Folder(const fs::path& directory) { return directory / "radiometry"; }
 
@@ -66,15 +68,16 @@ Status WriteLights(const fs::path& folder, const Radiometry& r, const std::strin
   YAML::Emitter leds;
   BeginFile(leds, "leds", "leds", kLedModel, r);
   std::ostringstream falloff;
-  falloff << "nominal (the rig YAML's): not observable, the white reference subtends " << r.tile_subtends_deg << " deg from an LED";
+  falloff << "nominal (the rig YAML's): not observable, the white reference subtends " << r.tile_subtends_deg
+          << " deg from an LED";
   leds << YAML::Key << "falloff" << YAML::Value << falloff.str();
   leds << YAML::Key << "tile_subtends_deg" << YAML::Value << r.tile_subtends_deg;
   leds << YAML::Key << "leds" << YAML::Value << YAML::BeginSeq;
   for (const LightRadiometry& light : r.lights) {
     if (light.led < 0) continue;
     leds << YAML::Flow << YAML::BeginMap << YAML::Key << "index" << YAML::Value << light.led << YAML::Key << "intensity"
-         << YAML::Value << light.intensity << YAML::Key << "change" << YAML::Value << light.change << YAML::Key
-         << "camera_spread" << YAML::Value << light.camera_spread << YAML::EndMap;
+         << YAML::Value << light.intensity << YAML::Key << "change" << YAML::Value << light.change << YAML::Key << "camera_spread"
+         << YAML::Value << light.camera_spread << YAML::EndMap;
   }
   leds << YAML::EndSeq;
   LOOM_RETURN_IF_ERROR(EndFile(leds, from, folder / "leds.yaml"));
@@ -125,7 +128,8 @@ struct OpenedFile {
   ConfigNode root;
 };
 
-Result<OpenedFile> Open(const fs::path& path, const std::string& device, const std::string& name, const char* model, Radiometry* r) {
+Result<OpenedFile> Open(const fs::path& path, const std::string& device, const std::string& name, const char* model,
+                        Radiometry* r) {
   if (!fs::exists(path)) return NotFoundError(path.string(), "no such file: the radiometric calibration needs every device's");
   LOOM_ASSIGN_OR_RETURN(ConfigDocument doc, ConfigDocument::LoadFile(path, kSchemaVersion));
   const ConfigNode root = doc.root();
@@ -179,7 +183,8 @@ Status ReadLeds(const fs::path& folder, const RigModel& rig, Radiometry* r) {
 }
 
 Status ReadLinearLight(const fs::path& folder, Radiometry* r) {
-  LOOM_ASSIGN_OR_RETURN(OpenedFile file, Open(folder / "linear_light.yaml", "linear_light", "linear_light", kLinearLightModel, r));
+  LOOM_ASSIGN_OR_RETURN(OpenedFile file,
+                        Open(folder / "linear_light.yaml", "linear_light", "linear_light", kLinearLightModel, r));
   LightRadiometry light;
   light.name = "linear light";
   file.root.Required("intensity_per_mm", &light.intensity);

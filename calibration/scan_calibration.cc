@@ -29,7 +29,8 @@ std::string TargetText(const CalibrationTargetModel& t) {
 struct AgainstNominal {
   double rotation_deg, centre_mm, focal_percent;
   AgainstNominal(const CameraModel& nominal, const CameraGeometry& camera)
-      : rotation_deg(RadToDeg(Eigen::AngleAxisd(camera.cam_from_rig.rotation() * nominal.cam_from_rig.rotation().transpose()).angle())),
+      : rotation_deg(
+            RadToDeg(Eigen::AngleAxisd(camera.cam_from_rig.rotation() * nominal.cam_from_rig.rotation().transpose()).angle())),
         centre_mm((camera.cam_from_rig.inverse().translation() - nominal.CentreInRig()).norm()),
         focal_percent(100 * (camera.intrinsics.K(0, 0) / nominal.K(0, 0) - 1)) {}
 };
@@ -70,7 +71,9 @@ void ReportLights(const std::optional<LightPositions>& positions, std::ostream& 
   for (const LightPosition& led : positions->leds) {
     worst_residual = std::max(worst_residual, led.residual_deg);
     worst_change = std::max(worst_change, led.change_mm);
-    if (led.change_mm > 2) out << "led " << led.led << ": " << led.change_mm << " mm (" << led.change_deg << " deg) from the rig YAML\n";
+    if (led.change_mm > 2) {
+      out << "led " << led.led << ": " << led.change_mm << " mm (" << led.change_deg << " deg) from the rig YAML\n";
+    }
   }
   out << "LED positions from the chrome sphere: " << positions->leds.size() << " LEDs, at most " << worst_change
       << " mm from the rig YAML, rays within " << worst_residual << " deg (light_positions.yaml)\n";
@@ -93,7 +96,8 @@ void ReportProjector(const std::optional<ProjectorCalibration>& projector, std::
         << " pixels, RMS " << board.rms_columns << " columns\n";
   }
   if (projector->boards.empty()) {
-    out << "projector: focal length and centre kept at the rig YAML's (the scan has no white tile on a spacer under the patterns)\n";
+    out << "projector: focal length and centre kept at the rig YAML's (the scan has no white tile on a spacer under the "
+           "patterns)\n";
   } else if (projector->intrinsics_fitted) {
     out << "projector: focal length " << std::showpos << projector->focal_change_percent << " % (1 sigma " << std::noshowpos
         << projector->focal_sigma_percent << " %), centre " << std::showpos << projector->cx_change_px << " px (1 sigma "
@@ -152,13 +156,13 @@ Status GeometryCalibration::Write(const fs::path& directory) const {
   if (ec) return IoError(directory.string(), "cannot create: " + ec.message());
   for (const CameraGeometry& camera : geometry.cameras) {
     std::vector<std::string> camera_skipped;
-    for (const std::vector<std::string>* list : {&skipped, &geometry.rejected}) {
-      for (const std::string& view : *list) {
-        if (view.ends_with(" " + camera.name)) camera_skipped.push_back(view);
+    for (const std::vector<scan::ViewId>* list : {&skipped, &geometry.rejected}) {
+      for (const scan::ViewId& view : *list) {
+        if (view.camera == camera.name) camera_skipped.push_back(view.ToString());
       }
     }
-    const CameraCalibration file{camera.name, camera.intrinsics, camera.cam_from_rig, camera.view_sources,
-                                 camera_skipped, scan, TargetText(target)};
+    const CameraCalibration file{camera.name, camera.intrinsics, camera.cam_from_rig, camera.view_sources, camera_skipped,
+                                 scan,        TargetText(target)};
     LOOM_RETURN_IF_ERROR(WriteCameraCalibration(directory / (camera.name + ".yaml"), file));
   }
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(directory / "geometry.json", ToJson().dump(2) + "\n"));
@@ -168,9 +172,13 @@ Status GeometryCalibration::Write(const fs::path& directory) const {
 }
 
 nlohmann::json GeometryCalibration::ToJson() const {
-  nlohmann::json json = {{"scan", scan}, {"target", TargetText(target)}, {"rms_px", geometry.rms_px},
+  nlohmann::json json = {{"scan", scan},
+                         {"target", TargetText(target)},
+                         {"rms_px", geometry.rms_px},
                          {"target_offset_mm", {geometry.target.offset_mm.x(), geometry.target.offset_mm.y()}},
-                         {"skipped", skipped}, {"rejected", geometry.rejected}, {"loom_version", std::string(VersionWithCommit())}};
+                         {"skipped", scan::ViewNames(skipped)},
+                         {"rejected", scan::ViewNames(geometry.rejected)},
+                         {"loom_version", std::string(VersionWithCommit())}};
   for (size_t c = 0; c < geometry.cameras.size(); ++c) {
     const CameraGeometry& camera = geometry.cameras[c];
     const AgainstNominal delta(nominal.cameras[c], camera);
@@ -180,9 +188,11 @@ nlohmann::json GeometryCalibration::ToJson() const {
     json["cameras"][camera.name] = {
         {"views", camera.view_sources.size()},
         {"rms_px", camera.intrinsics.rms_px},
-        {"turntable_axis_in_camera", {{"point_mm", {axis_point.x(), axis_point.y(), axis_point.z()}},
-                                      {"direction", {axis_direction.x(), axis_direction.y(), axis_direction.z()}}}},
-        {"against_nominal", {{"rotation_deg", delta.rotation_deg}, {"centre_mm", delta.centre_mm}, {"focal_percent", delta.focal_percent}}}};
+        {"turntable_axis_in_camera",
+         {{"point_mm", {axis_point.x(), axis_point.y(), axis_point.z()}},
+          {"direction", {axis_direction.x(), axis_direction.y(), axis_direction.z()}}}},
+        {"against_nominal",
+         {{"rotation_deg", delta.rotation_deg}, {"centre_mm", delta.centre_mm}, {"focal_percent", delta.focal_percent}}}};
   }
   return json;
 }
@@ -212,7 +222,9 @@ Result<RadiometryCalibration> CalibrateRadiometryFromScan(const fs::path& scan_d
   // Radiometry needs where each pixel looks and where each light shines from.
   LOOM_ASSIGN_OR_RETURN(const AppliedCalibration applied, CalibrationDirectory(calibration_directory).ApplyGeometry(&rig));
   const std::string calib = calibration_directory.string();
-  if (applied.cameras.empty()) result.notes.push_back("warning: " + calib + " holds no camera calibration: using the rig YAML's cameras");
+  if (applied.cameras.empty()) {
+    result.notes.push_back("warning: " + calib + " holds no camera calibration: using the rig YAML's cameras");
+  }
   if (!applied.led_positions) result.notes.push_back("note: " + calib + " holds no LED positions: using the rig YAML's");
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));
   RadiometryOptions options;
@@ -232,7 +244,8 @@ void RadiometryCalibration::Report(std::ostream& out) const {
   for (const CameraRadiometry& c : r.cameras) {
     out << std::left << std::setw(8) << c.name << std::setw(13) << c.sensitivity << std::setw(11)
         << (c.name == r.reference_camera ? std::string("reference") : std::to_string(c.sensitivity_change)) << std::setw(12)
-        << c.vignetting << std::setw(15) << c.flat_field_residual << std::setw(10) << c.black_dn << std::setw(15) << c.read_noise_dn;
+        << c.vignetting << std::setw(15) << c.flat_field_residual << std::setw(10) << c.black_dn << std::setw(15)
+        << c.read_noise_dn;
     if (std::isnan(c.linearity_deviation)) {
       out << "not measured\n";
     } else {
@@ -246,8 +259,8 @@ void RadiometryCalibration::Report(std::ostream& out) const {
   }
   out << "LED falloff: kept nominal (the white reference subtends " << r.tile_subtends_deg << " deg from an LED)\n";
   for (const FilterRadiometry& f : r.filters) {
-    out << f.wheel << " slot " << f.slot << " (" << f.center_nm << " nm): weights " << f.weights.transpose() << " (spectral model "
-        << f.nominal_weights.transpose() << "), fit residual " << 100 * f.fit_residual << " %\n";
+    out << f.wheel << " slot " << f.slot << " (" << f.center_nm << " nm): weights " << f.weights.transpose()
+        << " (spectral model " << f.nominal_weights.transpose() << "), fit residual " << 100 * f.fit_residual << " %\n";
   }
   for (const WheelColour& w : r.wheels) {
     out << w.wheel << " colour matrix: chart albedos recovered to " << w.chart_rms << " RMS, worst " << w.chart_max << "\n";

@@ -40,14 +40,14 @@ struct CalibrationScan {
 // the chrome sphere and the projector's pose (and focal length and centre, where the white tile's
 // two heights pin them down) from structured light.
 struct GeometryCalibration {
-  std::string scan;                                // the scan directory
+  std::string scan;  // the scan directory
   CalibrationTargetModel target;
-  RigModel nominal;                                // the scan's rig YAML
+  RigModel nominal;  // the scan's rig YAML
   RigGeometry geometry;
-  int target_views = 0;                            // views the target was found in
-  std::vector<std::string> skipped;                // target views without a usable board
-  std::optional<LightPositions> lights;            // when the scan has light-probe views
-  std::optional<ProjectorCalibration> projector;   // when it has structured light on the target
+  int target_views = 0;                           // views the target was found in
+  std::vector<scan::ViewId> skipped;              // target views without a usable board
+  std::optional<LightPositions> lights;           // when the scan has light-probe views
+  std::optional<ProjectorCalibration> projector;  // when it has structured light on the target
 
   // CAMERA.yaml files and geometry.json (ToJson), and light_positions.yaml and projector.yaml
   // when they were calibrated, into `directory` (created).

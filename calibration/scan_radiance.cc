@@ -3,7 +3,6 @@
 #include <cmath>
 #include <limits>
 
-
 namespace loom::calibration {
 
 using scan::FrameRecord;
@@ -15,9 +14,9 @@ Result<ScanRadiance> ScanRadiance::Open(const scan::CaptureStore& store, const R
   for (const Step& step : store.info().plan.steps) {
     for (const std::string& camera : step.cameras) {
       if (rig.FindCamera(camera) == nullptr) {
-        return NotFoundError("scan " + store.directory().string(),
-                             "step " + std::to_string(step.index) + " uses camera '" + camera + "', which rig '" + rig.name +
-                                 "' does not describe");
+        return NotFoundError("scan " + store.directory().string(), "step " + std::to_string(step.index) + " uses camera '" +
+                                                                       camera + "', which rig '" + rig.name +
+                                                                       "' does not describe");
       }
     }
   }
@@ -41,7 +40,8 @@ std::string ScanRadiance::Where(int step, const std::string& camera) const {
 
 Result<std::vector<scan::RawFrame>> ScanRadiance::Bracket(int step, const std::string& camera_name) const {
   if (!store_->StepDone(step)) {
-    return FailedPreconditionError(Where(step, camera_name), "the step was not captured to the end (resume the scan: loom scan --resume)");
+    return FailedPreconditionError(Where(step, camera_name),
+                                   "the step was not captured to the end (resume the scan: loom scan --resume)");
   }
   const auto bracket = brackets_.find({step, camera_name});
   if (bracket == brackets_.end()) return NotFoundError(Where(step, camera_name), "no frames recorded");

@@ -23,9 +23,9 @@
 namespace loom::calibration {
 
 struct RadianceView {
-  int camera = 0;           // index into the rig's cameras
-  scan::RigState state;      // what the devices did (the first frame's record)
-  Image radiance;           // channel "L"; NaN where every exposure saturated
+  int camera = 0;        // index into the rig's cameras
+  scan::RigState state;  // what the devices did (the first frame's record)
+  Image radiance;        // channel "L"; NaN where every exposure saturated
   int saturated_pixels = 0;
 };
 
@@ -39,7 +39,7 @@ struct LitView {
   LightingState lighting;
   Image radiance;  // channel "L", converted with rig's sensor model
   std::string source;
-  int step = -1;   // the scan's step it came from; −1 for a rendered one
+  int step = -1;  // the scan's step it came from; −1 for a rendered one
 };
 
 class ScanRadiance {
@@ -64,7 +64,7 @@ class ScanRadiance {
 
   const scan::CaptureStore* store_;
   const RigModel* rig_;
-  std::map<std::string, scan::DarkLevel> dark_;                      // by camera
+  std::map<std::string, scan::DarkLevel> dark_;                                            // by camera
   std::map<std::pair<int, std::string>, std::vector<const scan::FrameRecord*>> brackets_;  // (step, camera)
 };
 

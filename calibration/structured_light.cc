@@ -17,7 +17,8 @@ Result<const Image*> Pattern(const std::map<std::string, Image>& patterns, const
   const auto it = patterns.find(name);
   if (it == patterns.end()) return NotFoundError("structured-light pattern '" + name + "'", "no image of it in the scan");
   if (like != nullptr && (it->second.width() != like->width() || it->second.height() != like->height())) {
-    return InvalidArgumentError("structured-light pattern '" + name + "'", "its image differs in size from the white reference's");
+    return InvalidArgumentError("structured-light pattern '" + name + "'",
+                                "its image differs in size from the white reference's");
   }
   return &it->second;
 }

@@ -49,16 +49,14 @@ std::string FormatOperands(const A& a, const B& b) {
 }  // namespace internal
 }  // namespace loom
 
-#define LOOM_CHECK(condition)                 \
-  (condition) ? static_cast<void>(0)          \
-              : ::loom::internal::CheckThrower() & \
-                    ::loom::internal::CheckMessage(__FILE__, __LINE__, #condition)
+#define LOOM_CHECK(condition)        \
+  (condition) ? static_cast<void>(0) \
+              : ::loom::internal::CheckThrower() & ::loom::internal::CheckMessage(__FILE__, __LINE__, #condition)
 
-#define LOOM_CHECK_OP(a, op, b)                                                      \
-  ((a)op(b)) ? static_cast<void>(0)                                                  \
-             : ::loom::internal::CheckThrower() &                                    \
-                   ::loom::internal::CheckMessage(__FILE__, __LINE__, #a " " #op " " #b) \
-                       << ::loom::internal::FormatOperands((a), (b))
+#define LOOM_CHECK_OP(a, op, b)                                                                                         \
+  ((a)op(b)) ? static_cast<void>(0)                                                                                     \
+             : ::loom::internal::CheckThrower() & ::loom::internal::CheckMessage(__FILE__, __LINE__, #a " " #op " " #b) \
+                                                      << ::loom::internal::FormatOperands((a), (b))
 
 #define LOOM_CHECK_EQ(a, b) LOOM_CHECK_OP(a, ==, b)
 #define LOOM_CHECK_NE(a, b) LOOM_CHECK_OP(a, !=, b)

@@ -104,8 +104,7 @@ DecodeError DecodeFixed(const YAML::Node& node, Eigen::Matrix<double, N, 1>* out
   std::vector<double> values;
   if (DecodeError error = DecodeList(node, &values)) return error;
   if (values.size() != N) {
-    return "expected a list of " + std::to_string(N) + " numbers, got " +
-           std::to_string(values.size());
+    return "expected a list of " + std::to_string(N) + " numbers, got " + std::to_string(values.size());
   }
   *out = Eigen::Map<const Eigen::Matrix<double, N, 1>>(values.data());
   return std::nullopt;
@@ -186,13 +185,9 @@ std::string Suggestion(const ConfigNodeRecord& record, std::string_view unknown)
 
 }  // namespace
 
-#define LOOM_CONFIG_ACCESSORS(Type)                                          \
-  void ConfigNode::Required(std::string_view key, Type* out) const {         \
-    ReadValue(*state_, index_, key, out, /*required=*/true);                 \
-  }                                                                          \
-  void ConfigNode::Optional(std::string_view key, Type* out) const {         \
-    ReadValue(*state_, index_, key, out, /*required=*/false);                \
-  }
+#define LOOM_CONFIG_ACCESSORS(Type)                                                                                             \
+  void ConfigNode::Required(std::string_view key, Type* out) const { ReadValue(*state_, index_, key, out, /*required=*/true); } \
+  void ConfigNode::Optional(std::string_view key, Type* out) const { ReadValue(*state_, index_, key, out, /*required=*/false); }
 LOOM_CONFIG_ACCESSORS(bool)
 LOOM_CONFIG_ACCESSORS(int)
 LOOM_CONFIG_ACCESSORS(double)
@@ -234,8 +229,7 @@ std::optional<ConfigNode> ConfigNode::OptionalChild(std::string_view key) const 
   if (!value.IsDefined()) return std::nullopt;
   const std::string key_path = JoinPath(record.path, key);
   if (!value.IsMap()) {
-    state_->errors.push_back(
-        KeyMessage(key_path, LineOf(value), "expected a mapping, got " + DescribeKind(value)));
+    state_->errors.push_back(KeyMessage(key_path, LineOf(value), "expected a mapping, got " + DescribeKind(value)));
   }
   return ConfigNode(state_, AddRecord(*state_, value, key_path));
 }
@@ -255,8 +249,7 @@ std::vector<ConfigNode> ConfigNode::OptionalSequence(std::string_view key) const
   if (!value.IsDefined()) return {};
   const std::string key_path = JoinPath(record.path, key);
   if (!value.IsSequence()) {
-    state_->errors.push_back(
-        KeyMessage(key_path, LineOf(value), "expected a list, got " + DescribeKind(value)));
+    state_->errors.push_back(KeyMessage(key_path, LineOf(value), "expected a list, got " + DescribeKind(value)));
     return {};
   }
   std::vector<ConfigNode> items;
@@ -264,8 +257,7 @@ std::vector<ConfigNode> ConfigNode::OptionalSequence(std::string_view key) const
     const std::string item_path = key_path + "[" + std::to_string(i) + "]";
     const YAML::Node item = value[i];
     if (!item.IsMap()) {
-      state_->errors.push_back(
-          KeyMessage(item_path, LineOf(item), "expected a mapping, got " + DescribeKind(item)));
+      state_->errors.push_back(KeyMessage(item_path, LineOf(item), "expected a mapping, got " + DescribeKind(item)));
     }
     items.push_back(ConfigNode(state_, AddRecord(*state_, item, item_path)));
   }
@@ -281,8 +273,7 @@ void ConfigNode::AddError(std::string_view key, std::string_view message) const 
 
 const std::string& ConfigNode::path() const { return state_->nodes[index_].path; }
 
-Result<ConfigDocument> ConfigDocument::LoadFile(const std::filesystem::path& path,
-                                                int supported_schema_version) {
+Result<ConfigDocument> ConfigDocument::LoadFile(const std::filesystem::path& path, int supported_schema_version) {
   std::ifstream in(path);
   if (!in) {
     std::error_code ec;
@@ -294,18 +285,18 @@ Result<ConfigDocument> ConfigDocument::LoadFile(const std::filesystem::path& pat
   return LoadString(text.str(), path.string(), supported_schema_version);
 }
 
-Result<ConfigDocument> ConfigDocument::LoadString(std::string_view text, std::string source_name,
-                                                  int supported_schema_version) {
+Result<ConfigDocument> ConfigDocument::LoadString(std::string_view text, std::string source_name, int supported_schema_version) {
   YAML::Node root;
   try {
     root = YAML::Load(std::string(text));
   } catch (const YAML::ParserException& e) {
-    return InvalidArgumentError(source_name, "line " + std::to_string(e.mark.line + 1) +
-                                                 ": not valid YAML: " + e.msg);
+    return InvalidArgumentError(source_name, "line " + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
   }
   if (!root.IsMap()) {
-    return InvalidArgumentError(source_name, "expected a mapping with 'schema_version' at the "
-                                             "top, got " + DescribeKind(root));
+    return InvalidArgumentError(source_name,
+                                "expected a mapping with 'schema_version' at the "
+                                "top, got " +
+                                    DescribeKind(root));
   }
   ConfigDocument doc;
   doc.state_ = std::make_shared<ConfigState>();
@@ -317,10 +308,9 @@ Result<ConfigDocument> ConfigDocument::LoadString(std::string_view text, std::st
     return InvalidArgumentError(source_name, doc.state_->errors.front());
   }
   if (version < 1 || version > supported_schema_version) {
-    return InvalidArgumentError(
-        source_name, "key 'schema_version': version " + std::to_string(version) +
-                         " is not supported (this loom reads 1.." +
-                         std::to_string(supported_schema_version) + ")");
+    return InvalidArgumentError(source_name, "key 'schema_version': version " + std::to_string(version) +
+                                                 " is not supported (this loom reads 1.." +
+                                                 std::to_string(supported_schema_version) + ")");
   }
   doc.schema_version_ = version;
   return doc;
@@ -337,8 +327,7 @@ Status ConfigDocument::Finish() const {
     for (const auto& entry : record.node) {
       const std::string key = entry.first.as<std::string>();
       if (record.read_keys.contains(key)) continue;
-      problems.push_back(KeyMessage(JoinPath(record.path, key), LineOf(entry.first),
-                                    "unknown key" + Suggestion(record, key)));
+      problems.push_back(KeyMessage(JoinPath(record.path, key), LineOf(entry.first), "unknown key" + Suggestion(record, key)));
     }
   }
   if (problems.empty()) return Status::Ok();

@@ -38,7 +38,7 @@ class ConfigNode {
  public:
   // Scalars and lists. `Required` records an error if the key is absent; `Optional` leaves
   // `*out` (its default) untouched. A value of the wrong type is an error either way.
-#define LOOM_CONFIG_ACCESSORS(Type)                      \
+#define LOOM_CONFIG_ACCESSORS(Type)                     \
   void Required(std::string_view key, Type* out) const; \
   void Optional(std::string_view key, Type* out) const;
   LOOM_CONFIG_ACCESSORS(bool)
@@ -77,8 +77,7 @@ class ConfigNode {
 
  private:
   friend class ConfigDocument;
-  ConfigNode(std::shared_ptr<internal::ConfigState> state, size_t index)
-      : state_(std::move(state)), index_(index) {}
+  ConfigNode(std::shared_ptr<internal::ConfigState> state, size_t index) : state_(std::move(state)), index_(index) {}
 
   std::shared_ptr<internal::ConfigState> state_;
   size_t index_ = 0;  // into state_->nodes
@@ -87,11 +86,9 @@ class ConfigNode {
 class ConfigDocument {
  public:
   // Parses the file and checks `schema_version` (required, 1 ≤ v ≤ supported_schema_version).
-  static Result<ConfigDocument> LoadFile(const std::filesystem::path& path,
-                                         int supported_schema_version);
+  static Result<ConfigDocument> LoadFile(const std::filesystem::path& path, int supported_schema_version);
   // Same for text; `source_name` stands in for the file name in messages.
-  static Result<ConfigDocument> LoadString(std::string_view text, std::string source_name,
-                                           int supported_schema_version);
+  static Result<ConfigDocument> LoadString(std::string_view text, std::string source_name, int supported_schema_version);
 
   int schema_version() const { return schema_version_; }
   const std::string& source_name() const;

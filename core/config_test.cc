@@ -34,7 +34,8 @@ schema_version: 2
 cameras:
   - {name: cam0, exposure_us: 250}
   - {name: cam1, gain: 3}
-)", "rig.yaml", kSchema);
+)",
+                                              "rig.yaml", kSchema);
   ASSERT_TRUE(doc.ok()) << doc.status().ToString();
   EXPECT_EQ(doc->schema_version(), 2);
   std::vector<CameraOptions> cameras;
@@ -46,16 +47,14 @@ cameras:
 }
 
 TEST(ConfigTest, UnknownKeyNamesFileKeyLineAndSuggests) {
-  const auto doc = ConfigDocument::LoadString(
-      "schema_version: 1\ncameras:\n  - name: cam0\n    exposur_us: 250\n", "configs/rig/x.yaml",
-      kSchema);
+  const auto doc = ConfigDocument::LoadString("schema_version: 1\ncameras:\n  - name: cam0\n    exposur_us: 250\n",
+                                              "configs/rig/x.yaml", kSchema);
   ASSERT_TRUE(doc.ok());
   std::vector<CameraOptions> cameras;
   const Status status = ReadCameras(*doc, &cameras);
   ASSERT_FALSE(status.ok());
   EXPECT_EQ(status.subject(), "configs/rig/x.yaml");
-  EXPECT_NE(status.message().find("key 'cameras[0].exposur_us' (line 4): unknown key"),
-            std::string::npos) << status.message();
+  EXPECT_NE(status.message().find("key 'cameras[0].exposur_us' (line 4): unknown key"), std::string::npos) << status.message();
   EXPECT_NE(status.message().find("did you mean 'exposure_us'?"), std::string::npos);
 }
 
@@ -66,7 +65,8 @@ cameras:
   - {exposure_us: fast}
   - {name: cam1, exposure_us: -5}
 turntable: {}
-)", "rig.yaml", kSchema);
+)",
+                                              "rig.yaml", kSchema);
   ASSERT_TRUE(doc.ok());
   std::vector<CameraOptions> cameras;
   const Status status = ReadCameras(*doc, &cameras);
@@ -74,8 +74,7 @@ turntable: {}
   const std::string& m = status.message();
   EXPECT_NE(m.find("4 problems"), std::string::npos) << m;
   EXPECT_NE(m.find("key 'cameras[0].name' (line 4): missing required key"), std::string::npos) << m;
-  EXPECT_NE(m.find("key 'cameras[0].exposure_us' (line 4): expected a number, got 'fast'"),
-            std::string::npos) << m;
+  EXPECT_NE(m.find("key 'cameras[0].exposure_us' (line 4): expected a number, got 'fast'"), std::string::npos) << m;
   EXPECT_NE(m.find("key 'cameras[1].exposure_us' (line 5): must be > 0"), std::string::npos) << m;
   EXPECT_NE(m.find("key 'turntable' (line 6): unknown key"), std::string::npos) << m;
 }
@@ -97,7 +96,8 @@ position_mm: [1, 2.5, -3]
 rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
 names: [a, b]
 bad_vector: [1, 2]
-)", "t.yaml", 1);
+)",
+                                              "t.yaml", 1);
   ASSERT_TRUE(doc.ok());
   const ConfigNode root = doc->root();
   bool enabled = false;
@@ -116,8 +116,8 @@ bad_vector: [1, 2]
   EXPECT_EQ(names, (std::vector<std::string>{"a", "b"}));
   const Status status = doc->Finish();
   ASSERT_FALSE(status.ok());
-  EXPECT_NE(status.message().find("key 'bad_vector' (line 7): expected a list of 3 numbers, got 2"),
-            std::string::npos) << status.message();
+  EXPECT_NE(status.message().find("key 'bad_vector' (line 7): expected a list of 3 numbers, got 2"), std::string::npos)
+      << status.message();
 }
 
 TEST(ConfigTest, FileErrorsNameTheFile) {
@@ -145,8 +145,8 @@ TEST(ConfigTest, IgnoredSectionsAreNotUnknown) {
 }
 
 TEST(ConfigTest, NestedChildrenAndMissingChild) {
-  const auto doc = ConfigDocument::LoadString(
-      "schema_version: 1\nturntable:\n  backend: sim\n  axis: {point_mm: [0, 0, 0]}\n", "r.yaml", 1);
+  const auto doc =
+      ConfigDocument::LoadString("schema_version: 1\nturntable:\n  backend: sim\n  axis: {point_mm: [0, 0, 0]}\n", "r.yaml", 1);
   ASSERT_TRUE(doc.ok());
   const ConfigNode turntable = doc->root().Child("turntable");
   std::string backend;
@@ -158,8 +158,8 @@ TEST(ConfigTest, NestedChildrenAndMissingChild) {
   EXPECT_EQ(backend, "sim");
   const Status status = doc->Finish();
   ASSERT_FALSE(status.ok());
-  EXPECT_NE(status.message().find("key 'turntable.limits' (line 3): missing required key"),
-            std::string::npos) << status.message();
+  EXPECT_NE(status.message().find("key 'turntable.limits' (line 3): missing required key"), std::string::npos)
+      << status.message();
 }
 
 }  // namespace

@@ -39,9 +39,8 @@ constexpr char kChannelOrderAttribute[] = "loomChannelOrder";
 // Header fields every EXR has; they are not user attributes.
 const std::set<std::string, std::less<>>& StandardAttributeNames() {
   static const std::set<std::string, std::less<>> names = {
-      "channels",           "compression",       "dataWindow", "displayWindow", "lineOrder",
-      "pixelAspectRatio",   "screenWindowCenter", "screenWindowWidth", "tiles", "type",
-      "name",               "version",           "chunkCount", kChannelOrderAttribute};
+      "channels",          "compression", "dataWindow", "displayWindow", "lineOrder", "pixelAspectRatio", "screenWindowCenter",
+      "screenWindowWidth", "tiles",       "type",       "name",          "version",   "chunkCount",       kChannelOrderAttribute};
   return names;
 }
 
@@ -57,11 +56,16 @@ void EnsureThreadPool() {
 
 Imf::Compression ToImf(ExrCompression compression) {
   switch (compression) {
-    case ExrCompression::kNone: return Imf::NO_COMPRESSION;
-    case ExrCompression::kZip: return Imf::ZIP_COMPRESSION;
-    case ExrCompression::kZips: return Imf::ZIPS_COMPRESSION;
-    case ExrCompression::kPiz: return Imf::PIZ_COMPRESSION;
-    case ExrCompression::kRle: return Imf::RLE_COMPRESSION;
+    case ExrCompression::kNone:
+      return Imf::NO_COMPRESSION;
+    case ExrCompression::kZip:
+      return Imf::ZIP_COMPRESSION;
+    case ExrCompression::kZips:
+      return Imf::ZIPS_COMPRESSION;
+    case ExrCompression::kPiz:
+      return Imf::PIZ_COMPRESSION;
+    case ExrCompression::kRle:
+      return Imf::RLE_COMPRESSION;
   }
   return Imf::ZIP_COMPRESSION;
 }
@@ -93,15 +97,9 @@ void InsertAttribute(Imf::Header& header, const std::string& name, const ExrAttr
     void operator()(int v) { header.insert(name, Imf::IntAttribute(v)); }
     void operator()(float v) { header.insert(name, Imf::FloatAttribute(v)); }
     void operator()(double v) { header.insert(name, Imf::DoubleAttribute(v)); }
-    void operator()(const Eigen::Vector3d& v) {
-      header.insert(name, Imf::V3dAttribute(Imath::V3d(v.x(), v.y(), v.z())));
-    }
-    void operator()(const Eigen::Matrix3d& v) {
-      header.insert(name, Imf::M33dAttribute(ToImath<Imath::M33d>(v)));
-    }
-    void operator()(const Eigen::Matrix4d& v) {
-      header.insert(name, Imf::M44dAttribute(ToImath<Imath::M44d>(v)));
-    }
+    void operator()(const Eigen::Vector3d& v) { header.insert(name, Imf::V3dAttribute(Imath::V3d(v.x(), v.y(), v.z()))); }
+    void operator()(const Eigen::Matrix3d& v) { header.insert(name, Imf::M33dAttribute(ToImath<Imath::M33d>(v))); }
+    void operator()(const Eigen::Matrix4d& v) { header.insert(name, Imf::M44dAttribute(ToImath<Imath::M44d>(v))); }
   };
   std::visit(Inserter{header, name}, value);
 }
@@ -227,16 +225,13 @@ Status WriteAtomically(const fs::path& path, WriteFn write) {
 }
 
 fs::path TemporaryPathFor(const fs::path& path) {
-  return path.parent_path() /
-         ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
+  return path.parent_path() / ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
 }
 
-void WritePixels(const fs::path& file_path, const Image& image, const ExrAttributes& attributes,
-                 const ExrWriteOptions& options) {
+void WritePixels(const fs::path& file_path, const Image& image, const ExrAttributes& attributes, const ExrWriteOptions& options) {
   Imf::Header header(image.width(), image.height());
   header.compression() = ToImf(options.compression);
-  const Imf::PixelType stored =
-      options.pixel_type == ExrPixelType::kHalf ? Imf::HALF : Imf::FLOAT;
+  const Imf::PixelType stored = options.pixel_type == ExrPixelType::kHalf ? Imf::HALF : Imf::FLOAT;
   // OpenEXR's writer does not convert pixel types: half channels need half buffers.
   std::vector<half> half_pixels;
   if (stored == Imf::HALF) half_pixels.assign(image.data(), image.data() + image.pixel_count() * image.num_channels());
@@ -245,9 +240,8 @@ void WritePixels(const fs::path& file_path, const Image& image, const ExrAttribu
     const std::string& name = image.channel_name(c);
     header.channels().insert(name, Imf::Channel(stored));
     // The writer only reads from the slices.
-    char* base = stored == Imf::HALF
-                     ? reinterpret_cast<char*>(half_pixels.data() + c * image.pixel_count())
-                     : reinterpret_cast<char*>(const_cast<float*>(image.channel(c).data()));
+    char* base = stored == Imf::HALF ? reinterpret_cast<char*>(half_pixels.data() + c * image.pixel_count())
+                                     : reinterpret_cast<char*>(const_cast<float*>(image.channel(c).data()));
     const size_t pixel_size = stored == Imf::HALF ? sizeof(half) : sizeof(float);
     frame_buffer.insert(name, Imf::Slice(stored, base, pixel_size, pixel_size * image.width()));
   }
@@ -284,17 +278,13 @@ Status ExrReadOptions::Check() const {
 
 void SetExrThreadCount(int threads) {
   std::call_once(g_threads_once, [] {});
-  Imf::setGlobalThreadCount(threads > 0 ? threads
-                                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  Imf::setGlobalThreadCount(threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
 }
 
-Status WriteExr(const fs::path& path, const Image& image, const ExrAttributes& attributes,
-                const ExrWriteOptions& options) {
+Status WriteExr(const fs::path& path, const Image& image, const ExrAttributes& attributes, const ExrWriteOptions& options) {
   if (image.empty()) {
-    return InvalidArgumentError(path.string(), "refusing to write an empty image (" +
-                                                   std::to_string(image.width()) + "x" +
-                                                   std::to_string(image.height()) + ", " +
-                                                   std::to_string(image.num_channels()) +
+    return InvalidArgumentError(path.string(), "refusing to write an empty image (" + std::to_string(image.width()) + "x" +
+                                                   std::to_string(image.height()) + ", " + std::to_string(image.num_channels()) +
                                                    " channels)");
   }
   LOOM_RETURN_IF_ERROR(CheckAttributeNames(path, attributes));
@@ -342,9 +332,8 @@ Result<ExrImage> ReadExr(const fs::path& path, const ExrReadOptions& options) {
     ExrImage result{Image(width, height, std::move(names)), ReadAttributes(header)};
     Imf::FrameBuffer frame_buffer;
     for (int c = 0; c < result.image.num_channels(); ++c) {
-      frame_buffer.insert(result.image.channel_name(c),
-                          Imf::Slice::Make(Imf::FLOAT, result.image.channel(c).data(), window,
-                                           sizeof(float), sizeof(float) * width));
+      frame_buffer.insert(result.image.channel_name(c), Imf::Slice::Make(Imf::FLOAT, result.image.channel(c).data(), window,
+                                                                         sizeof(float), sizeof(float) * width));
     }
     file.setFrameBuffer(frame_buffer);
     file.readPixels(window.min.y, window.max.y);
@@ -354,8 +343,8 @@ Result<ExrImage> ReadExr(const fs::path& path, const ExrReadOptions& options) {
   }
 }
 
-Status WriteExrUint16(const fs::path& path, int width, int height, std::span<const uint16_t> pixels,
-                      const std::string& channel, const ExrAttributes& attributes) {
+Status WriteExrUint16(const fs::path& path, int width, int height, std::span<const uint16_t> pixels, const std::string& channel,
+                      const ExrAttributes& attributes) {
   if (width <= 0 || height <= 0 || pixels.size() != static_cast<size_t>(width) * height) {
     return InvalidArgumentError(path.string(), "frame of " + std::to_string(pixels.size()) + " pixels is not " +
                                                    std::to_string(width) + "x" + std::to_string(height));
@@ -369,8 +358,8 @@ Status WriteExrUint16(const fs::path& path, int width, int height, std::span<con
     header.channels().insert(channel, Imf::Channel(Imf::UINT));
     for (const auto& [name, value] : attributes) InsertAttribute(header, name, value);
     Imf::FrameBuffer frame_buffer;
-    frame_buffer.insert(channel, Imf::Slice(Imf::UINT, reinterpret_cast<char*>(values.data()), sizeof(uint32_t),
-                                            sizeof(uint32_t) * width));
+    frame_buffer.insert(
+        channel, Imf::Slice(Imf::UINT, reinterpret_cast<char*>(values.data()), sizeof(uint32_t), sizeof(uint32_t) * width));
     Imf::OutputFile file(temporary.c_str(), header);
     file.setFrameBuffer(frame_buffer);
     file.writePixels(height);
@@ -392,8 +381,8 @@ Result<ExrUint16Image> ReadExrUint16(const fs::path& path, const std::string& ch
     image.height = window.max.y - window.min.y + 1;
     std::vector<uint32_t> values(static_cast<size_t>(image.width) * image.height);
     Imf::FrameBuffer frame_buffer;
-    frame_buffer.insert(channel, Imf::Slice::Make(Imf::UINT, values.data(), window, sizeof(uint32_t),
-                                                  sizeof(uint32_t) * image.width));
+    frame_buffer.insert(channel,
+                        Imf::Slice::Make(Imf::UINT, values.data(), window, sizeof(uint32_t), sizeof(uint32_t) * image.width));
     file.setFrameBuffer(frame_buffer);
     file.readPixels(window.min.y, window.max.y);
     image.pixels.resize(values.size());

@@ -12,8 +12,8 @@
 //   other EXR tools read them as the same transform; the round trip returns the Eigen matrix.
 // Thread-safety: functions are reentrant; OpenEXR's internal thread pool is shared.
 
-#include <filesystem>
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <span>
 #include <string>
@@ -27,8 +27,7 @@
 
 namespace loom {
 
-using ExrAttribute =
-    std::variant<std::string, int, float, double, Eigen::Vector3d, Eigen::Matrix3d, Eigen::Matrix4d>;
+using ExrAttribute = std::variant<std::string, int, float, double, Eigen::Vector3d, Eigen::Matrix3d, Eigen::Matrix4d>;
 using ExrAttributes = std::map<std::string, ExrAttribute>;
 
 enum class ExrPixelType { kFloat, kHalf };
@@ -65,8 +64,8 @@ struct ExrHeader {
 // Sets the number of OpenEXR worker threads (0 = one per core, the default).
 void SetExrThreadCount(int threads);
 
-Status WriteExr(const std::filesystem::path& path, const Image& image,
-                const ExrAttributes& attributes = {}, const ExrWriteOptions& options = {});
+Status WriteExr(const std::filesystem::path& path, const Image& image, const ExrAttributes& attributes = {},
+                const ExrWriteOptions& options = {});
 
 Result<ExrImage> ReadExr(const std::filesystem::path& path, const ExrReadOptions& options = {});
 

@@ -68,8 +68,7 @@ TEST_F(ExrIoTest, HalfStorageKeepsHalfPrecision) {
   EXPECT_GT(max_relative, 0.0);         // and it really was stored as half
   const fs::path float_path = dir_ / "float.exr";
   ASSERT_TRUE(WriteExr(float_path, image, {}, {.compression = ExrCompression::kNone}).ok());
-  ASSERT_TRUE(WriteExr(path, image, {}, {.pixel_type = ExrPixelType::kHalf,
-                                         .compression = ExrCompression::kNone}).ok());
+  ASSERT_TRUE(WriteExr(path, image, {}, {.pixel_type = ExrPixelType::kHalf, .compression = ExrCompression::kNone}).ok());
   // 2 bytes per sample instead of 4, same header.
   EXPECT_EQ(fs::file_size(float_path) - fs::file_size(path), 16u * 8u * 2u);
 }
@@ -79,11 +78,13 @@ TEST_F(ExrIoTest, AttributesRoundTrip) {
   sample_from_cam << 1, 0, 0, 10, 0, 0, -1, 20, 0, 1, 0, 30, 0, 0, 0, 1;
   Eigen::Matrix3d k;
   k << 1200, 0, 320, 0, 1210, 240, 0, 0, 1;
-  const ExrAttributes attributes = {
-      {"loom.version", std::string("0.1.0")}, {"pixelSize_mm", 0.2},
-      {"observations", 934},                  {"exposure_us", 1250.5f},
-      {"sample_from_cam", sample_from_cam},   {"K", k},
-      {"lightPosition_mm", Eigen::Vector3d(1.5, -2, 300)}};
+  const ExrAttributes attributes = {{"loom.version", std::string("0.1.0")},
+                                    {"pixelSize_mm", 0.2},
+                                    {"observations", 934},
+                                    {"exposure_us", 1250.5f},
+                                    {"sample_from_cam", sample_from_cam},
+                                    {"K", k},
+                                    {"lightPosition_mm", Eigen::Vector3d(1.5, -2, 300)}};
   const fs::path path = dir_ / "attrs.exr";
   ASSERT_TRUE(WriteExr(path, RandomImage(4, 4, {"Y"}, 3), attributes).ok());
   const Result<ExrHeader> header = ReadExrHeader(path);
@@ -94,8 +95,7 @@ TEST_F(ExrIoTest, AttributesRoundTrip) {
 }
 
 TEST_F(ExrIoTest, ReservedAttributeNameIsRejected) {
-  const Status status = WriteExr(dir_ / "x.exr", RandomImage(2, 2, {"Y"}, 4),
-                                 {{"compression", std::string("none")}});
+  const Status status = WriteExr(dir_ / "x.exr", RandomImage(2, 2, {"Y"}, 4), {{"compression", std::string("none")}});
   EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
   EXPECT_FALSE(fs::exists(dir_ / "x.exr"));
 }
@@ -151,13 +151,11 @@ TEST_F(ExrIoTest, NonExrFileIsRejected) {
 
 TEST_F(ExrIoTest, TruncatedFileIsDataLossAtEveryCut) {
   const fs::path good = dir_ / "good.exr";
-  ASSERT_TRUE(WriteExr(good, RandomImage(64, 64, {"R", "G", "B"}, 7), {},
-                       {.compression = ExrCompression::kNone}).ok());
+  ASSERT_TRUE(WriteExr(good, RandomImage(64, 64, {"R", "G", "B"}, 7), {}, {.compression = ExrCompression::kNone}).ok());
   std::ifstream in(good, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   // Cuts inside the header, the offset table, the first scanlines and the last byte.
-  for (const size_t keep : {size_t{8}, size_t{100}, size_t{400}, bytes.size() / 3,
-                            bytes.size() / 2, bytes.size() - 1}) {
+  for (const size_t keep : {size_t{8}, size_t{100}, size_t{400}, bytes.size() / 3, bytes.size() / 2, bytes.size() - 1}) {
     const fs::path cut = dir_ / ("cut_" + std::to_string(keep) + ".exr");
     std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(keep));
     const Result<ExrImage> read = ReadExr(cut);

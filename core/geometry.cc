@@ -28,8 +28,7 @@ Eigen::Vector3d DirectionFromSpherical(double theta, double phi) {
 SphericalAngles SphericalFromDirection(const Eigen::Vector3d& direction) {
   const double norm = direction.norm();
   LOOM_CHECK(norm > 0.0) << "direction of a zero vector";
-  return {std::acos(std::clamp(direction.z() / norm, -1.0, 1.0)),
-          std::atan2(direction.y(), direction.x())};
+  return {std::acos(std::clamp(direction.z() / norm, -1.0, 1.0)), std::atan2(direction.y(), direction.x())};
 }
 
 Eigen::Matrix3d WorldFromLocal(const Eigen::Vector3d& normal, const Eigen::Vector3d& tangent_hint) {
@@ -52,8 +51,7 @@ Eigen::Matrix3d WorldFromLocal(const Eigen::Vector3d& normal, const Eigen::Vecto
   return world_from_local;
 }
 
-Rigid3d RotationAboutAxis(const Eigen::Vector3d& point_on_axis,
-                          const Eigen::Vector3d& axis_direction, double angle) {
+Rigid3d RotationAboutAxis(const Eigen::Vector3d& point_on_axis, const Eigen::Vector3d& axis_direction, double angle) {
   LOOM_CHECK(axis_direction.norm() > 0.0) << "rotation about a zero axis";
   const Eigen::Matrix3d r = Eigen::AngleAxisd(angle, axis_direction.normalized()).toRotationMatrix();
   // p' = R (p − c) + c

@@ -59,7 +59,6 @@ Eigen::Matrix3d WorldFromLocal(const Eigen::Vector3d& normal, const Eigen::Vecto
 
 // Rotation by `angle` (right-handed) about the axis through `point_on_axis` with direction
 // `axis_direction` (need not be unit), e.g. the turntable: rig_from_sample at a table angle.
-Rigid3d RotationAboutAxis(const Eigen::Vector3d& point_on_axis,
-                          const Eigen::Vector3d& axis_direction, double angle);
+Rigid3d RotationAboutAxis(const Eigen::Vector3d& point_on_axis, const Eigen::Vector3d& axis_direction, double angle);
 
 }  // namespace loom

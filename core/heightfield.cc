@@ -37,8 +37,8 @@ Eigen::Vector3d HeightfieldNormal(const std::vector<double>& h, int width, int h
   return Eigen::Vector3d(-dx, -dy, 1).normalized();
 }
 
-std::vector<Eigen::Vector3d> GeometricNormals(const std::vector<double>& heights, int width, int height,
-                                              double pixel_mm, double blur_mm) {
+std::vector<Eigen::Vector3d> GeometricNormals(const std::vector<double>& heights, int width, int height, double pixel_mm,
+                                              double blur_mm) {
   const std::vector<double> coarse = BlurHeights(heights, width, height, blur_mm / pixel_mm);
   std::vector<Eigen::Vector3d> normals(heights.size());
   for (int y = 0; y < height; ++y) {

@@ -13,11 +13,10 @@ namespace loom {
 std::vector<double> BlurHeights(const std::vector<double>& heights, int width, int height, double sigma_px);
 
 // Unit normal of a heightmap (mm) at a pixel, by central differences, in the sample frame.
-Eigen::Vector3d HeightfieldNormal(const std::vector<double>& heights, int width, int height, int x, int y,
-                                  double pixel_mm);
+Eigen::Vector3d HeightfieldNormal(const std::vector<double>& heights, int width, int height, int x, int y, double pixel_mm);
 
 // The geometric normals of a heightmap: its normals after blurring to `blur_mm`.
-std::vector<Eigen::Vector3d> GeometricNormals(const std::vector<double>& heights, int width, int height,
-                                              double pixel_mm, double blur_mm);
+std::vector<Eigen::Vector3d> GeometricNormals(const std::vector<double>& heights, int width, int height, double pixel_mm,
+                                              double blur_mm);
 
 }  // namespace loom

@@ -92,8 +92,8 @@ Heightmap::Block Heightmap::BlockAlong(const Eigen::Vector2d& g, double ux, doub
   const int bx = static_cast<int>(std::floor((gx + 1) / block_px_));
   const int by = static_cast<int>(std::floor((gy + 1) / block_px_));
   const double x_lo = bx * block_px_ - 1.0, y_lo = by * block_px_ - 1.0;
-  const double t_leave = std::min(leave(gx, ux, x_lo, std::min(x_lo + block_px_, w)),
-                                  leave(gy, uy, y_lo, std::min(y_lo + block_px_, h)));
+  const double t_leave =
+      std::min(leave(gx, ux, x_lo, std::min(x_lo + block_px_, w)), leave(gy, uy, y_lo, std::min(y_lo + block_px_, h)));
   return {block_max_mm_[static_cast<size_t>(by) * blocks_x_ + bx], t_leave};
 }
 

@@ -28,10 +28,10 @@ TEST(HeightmapTest, AWallCastsAShadowOnlyOnItsFarSide) {
     for (int x = 20; x < 24; ++x) heights[y * 40 + x] = 2.0f;
   }
   const Heightmap map(heights, 40, 40, 0.25);
-  const Eigen::Vector3d light(500, 0, 500);  // 45° from +x
-  EXPECT_TRUE(map.Shadowed({-1.0, 0, 0}, light));   // behind the wall, within its 2 mm shadow
-  EXPECT_FALSE(map.Shadowed({-3.0, 0, 0}, light));  // beyond the shadow
-  EXPECT_FALSE(map.Shadowed({2.0, 0, 0}, light));   // on the lit side
+  const Eigen::Vector3d light(500, 0, 500);               // 45° from +x
+  EXPECT_TRUE(map.Shadowed({-1.0, 0, 0}, light));         // behind the wall, within its 2 mm shadow
+  EXPECT_FALSE(map.Shadowed({-3.0, 0, 0}, light));        // beyond the shadow
+  EXPECT_FALSE(map.Shadowed({2.0, 0, 0}, light));         // on the lit side
   EXPECT_TRUE(map.Shadowed({2.0, 0, 0}, {-500, 0, -1}));  // below the horizon
 }
 
@@ -82,8 +82,8 @@ std::vector<float> RoughHeights(int w, int h, std::mt19937& random) {
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       float z = static_cast<float>(0.3 * std::sin(0.7 * x) * std::cos(0.5 * y) + 0.05 * unit(random));
-      if (x > 30 && y > 25) z = 1.5f;   // a plateau
-      if (x < 6 && y < 6) z = -0.4f;    // a pit
+      if (x > 30 && y > 25) z = 1.5f;  // a plateau
+      if (x < 6 && y < 6) z = -0.4f;   // a pit
       heights[y * w + x] = z;
     }
   }
@@ -107,9 +107,8 @@ TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsShadows) {
       const double y = (unit(random) - 0.5) * 1.4 * kH * kPixelMm;
       const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
       const double elevation = std::asin(unit(random) * 1.05 - 0.05), azimuth = 2 * M_PI * unit(random);
-      const Eigen::Vector3d light =
-          p + 400.0 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
-                                      std::sin(elevation));
+      const Eigen::Vector3d light = p + 400.0 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                                                std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
       const bool expected = ShadowedByMarchingEverySample(map, p, light, kPixelMm);
       ASSERT_EQ(map.Shadowed(p, light), expected) << "block " << block_px << ", ray " << k << " from " << p.transpose();
       shadowed += expected;

@@ -52,9 +52,7 @@ class Image {
   const float* data() const { return data_.data(); }
 
  private:
-  size_t Offset(int c, int y, int x) const {
-    return (static_cast<size_t>(c) * height_ + y) * width_ + x;
-  }
+  size_t Offset(int c, int y, int x) const { return (static_cast<size_t>(c) * height_ + y) * width_ + x; }
 
   int width_ = 0;
   int height_ = 0;

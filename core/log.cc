@@ -19,11 +19,16 @@ std::ostream* g_stream = nullptr;  // guarded by g_stream_mutex; nullptr = std::
 
 char LevelLetter(LogLevel level) {
   switch (level) {
-    case LogLevel::kDebug: return 'D';
-    case LogLevel::kInfo: return 'I';
-    case LogLevel::kWarning: return 'W';
-    case LogLevel::kError: return 'E';
-    case LogLevel::kOff: break;
+    case LogLevel::kDebug:
+      return 'D';
+    case LogLevel::kInfo:
+      return 'I';
+    case LogLevel::kWarning:
+      return 'W';
+    case LogLevel::kError:
+      return 'E';
+    case LogLevel::kOff:
+      break;
   }
   return '?';
 }
@@ -36,8 +41,7 @@ std::string_view BaseName(std::string_view path) {
 void WriteTimestamp(std::ostream& out) {
   const auto now = std::chrono::system_clock::now();
   const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
-  const auto millis =
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  const auto millis = std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
   std::tm local{};
   localtime_r(&seconds, &local);
   out << std::put_time(&local, "%H:%M:%S") << '.' << std::setw(3) << std::setfill('0') << millis;
@@ -50,15 +54,14 @@ LogLevel GetLogLevel() { return g_level.load(); }
 
 Result<LogLevel> ParseLogLevel(std::string_view name) {
   std::string lower(name);
-  std::transform(lower.begin(), lower.end(), lower.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (lower == "debug") return LogLevel::kDebug;
   if (lower == "info") return LogLevel::kInfo;
   if (lower == "warning" || lower == "warn") return LogLevel::kWarning;
   if (lower == "error") return LogLevel::kError;
   if (lower == "off") return LogLevel::kOff;
-  return InvalidArgumentError("--log-level", "unknown level '" + std::string(name) +
-                                                 "' (expected debug, info, warning, error, off)");
+  return InvalidArgumentError("--log-level",
+                              "unknown level '" + std::string(name) + "' (expected debug, info, warning, error, off)");
 }
 
 void SetLogStream(std::ostream* stream) {

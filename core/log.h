@@ -46,7 +46,6 @@ class LogLine {
 }  // namespace loom
 
 // A for-statement rather than if/else: safe inside an unbraced `if` (no dangling else).
-#define LOOM_LOG(level)                                                            \
-  for (bool loom_log_enabled = ::loom::ShouldLog(::loom::LogLevel::k##level);      \
-       loom_log_enabled; loom_log_enabled = false)                                 \
+#define LOOM_LOG(level)                                                                                                   \
+  for (bool loom_log_enabled = ::loom::ShouldLog(::loom::LogLevel::k##level); loom_log_enabled; loom_log_enabled = false) \
   ::loom::internal::LogLine(::loom::LogLevel::k##level, __FILE__, __LINE__).stream()

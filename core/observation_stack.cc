@@ -69,8 +69,8 @@ Status CheckFinite(const Image& image, int channel, bool allow_nan, const std::s
     for (int x = 0; x < image.width(); ++x) {
       const float v = image.at(channel, y, x);
       if (std::isinf(v) || (!allow_nan && std::isnan(v))) {
-        return DataLossError(file, "channel " + image.channel_name(channel) + " holds " + std::to_string(v) +
-                                       " at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+        return DataLossError(file, "channel " + image.channel_name(channel) + " holds " + std::to_string(v) + " at pixel (" +
+                                       std::to_string(x) + ", " + std::to_string(y) + ")");
       }
     }
   }
@@ -81,9 +81,12 @@ Status CheckFinite(const Image& image, int channel, bool allow_nan, const std::s
 
 std::string_view ObservationGroupName(ObservationGroup group) {
   switch (group) {
-    case ObservationGroup::kColour: return "colour";
-    case ObservationGroup::kMonochrome: return "monochrome";
-    case ObservationGroup::kLinearLight: return "linear";
+    case ObservationGroup::kColour:
+      return "colour";
+    case ObservationGroup::kMonochrome:
+      return "monochrome";
+    case ObservationGroup::kLinearLight:
+      return "linear";
   }
   return "?";
 }
@@ -104,9 +107,7 @@ Eigen::Vector3d ObservationStack::Position(int x, int y) const {
   return {image.at(0, y, x), image.at(1, y, x), image.at(2, y, x)};
 }
 
-Eigen::Vector3d ObservationStack::Normal(int x, int y) const {
-  return {image.at(3, y, x), image.at(4, y, x), image.at(5, y, x)};
-}
+Eigen::Vector3d ObservationStack::Normal(int x, int y) const { return {image.at(3, y, x), image.at(4, y, x), image.at(5, y, x)}; }
 
 std::vector<std::string> StackChannelNames(size_t observations) {
   std::vector<std::string> names = {"pos.X", "pos.Y", "pos.Z", "normal.X", "normal.Y", "normal.Z"};

@@ -61,10 +61,10 @@ struct StackObservation {
 inline constexpr int kStackGeometryChannels = 6;  // pos.XYZ, normal.XYZ come first
 
 struct ObservationStack {
-  Image image;                                  // StackChannelNames(observations.size())
+  Image image;  // StackChannelNames(observations.size())
   double pixel_mm = 0;
-  std::string rig;                              // the rig's name
-  std::string source;                           // what made it: "sim fast path", "reconstruction"
+  std::string rig;     // the rig's name
+  std::string source;  // what made it: "sim fast path", "reconstruction"
   std::vector<StackObservation> observations;
 
   static int ObservationChannel(int observation) { return kStackGeometryChannels + observation; }

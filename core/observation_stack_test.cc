@@ -79,8 +79,7 @@ TEST_F(ObservationStackTest, AMismatchedTableNamesTheFile) {
   ObservationStack stack = SmallStack();
   // Two observation channels but a table of one: written around WriteObservationStack's CHECK.
   ASSERT_TRUE(WriteExr(dir_ / "bad.exr", stack.image,
-                       {{"loom.observation_table", ObservationTableToJson({stack.observations[0]})},
-                        {"loom.pixel_mm", 0.25}})
+                       {{"loom.observation_table", ObservationTableToJson({stack.observations[0]})}, {"loom.pixel_mm", 0.25}})
                   .ok());
   const Result<ObservationStack> read = ReadObservationStack(dir_ / "bad.exr");
   ASSERT_FALSE(read.ok());

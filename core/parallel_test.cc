@@ -11,7 +11,8 @@ namespace {
 TEST(ParallelForTest, RunsEveryIndexOnceAndReportsTheEnd) {
   std::vector<std::atomic<int>> runs(1000);
   int last_progress = -1;
-  ParallelFor(1000, 3, [&](int i) { ++runs[i]; }, [&](int done) { last_progress = done; });
+  ParallelFor(
+      1000, 3, [&](int i) { ++runs[i]; }, [&](int done) { last_progress = done; });
   for (const std::atomic<int>& r : runs) EXPECT_EQ(r.load(), 1);
   EXPECT_EQ(last_progress, 1000);
 }

@@ -41,7 +41,8 @@ std::optional<ConfigNode> RigFile::Section(std::string_view key) const {
 Result<RigModel> RigFile::Model() const {
   const std::optional<ConfigNode> geometry = Section("geometry");
   if (!geometry) {
-    return InvalidArgumentError(source(), "has no 'geometry:' section: planning, calibration and reconstruction need the rig's description");
+    return InvalidArgumentError(
+        source(), "has no 'geometry:' section: planning, calibration and reconstruction need the rig's description");
   }
   RigModel model = ReadRigModel(*geometry);
   model.name = name_;

@@ -94,9 +94,7 @@ Eigen::Vector3d LinearLightModel::StripCentre(double position_mm) const {
   return arm_radius_mm * (Eigen::AngleAxisd(angle, sweep_axis.normalized()) * Eigen::Vector3d::UnitZ());
 }
 
-Eigen::Vector3d LinearLightModel::StripNormal(double position_mm) const {
-  return -StripCentre(position_mm).normalized();
-}
+Eigen::Vector3d LinearLightModel::StripNormal(double position_mm) const { return -StripCentre(position_mm).normalized(); }
 
 Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
   return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));

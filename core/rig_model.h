@@ -15,19 +15,19 @@
 #include <string>
 #include <vector>
 
-#include "core/reference_objects.h"
 #include "core/config.h"
 #include "core/geometry.h"
+#include "core/reference_objects.h"
 
 namespace loom {
 
 struct SensorModel {
   int adc_bits = 12;
   double dark_offset_dn = 64;
-  double read_noise_e = 2.5;       // electrons rms
-  double full_well_e = 10000;      // electrons
-  double sensitivity = 2.0e6;      // electrons per (radiance unit · s)
-  double vignetting = 0.25;        // relative loss at the image corner: 1 − v (r / r_corner)²
+  double read_noise_e = 2.5;   // electrons rms
+  double full_well_e = 10000;  // electrons
+  double sensitivity = 2.0e6;  // electrons per (radiance unit · s)
+  double vignetting = 0.25;    // relative loss at the image corner: 1 − v (r / r_corner)²
   // Electrons per DN at unit gain: the ADC range spans the full well above the dark offset.
   double ElectronsPerDn() const { return full_well_e / ((1 << adc_bits) - 1 - dark_offset_dn); }
   // Vignetting: the response at pixel (x, y) of a width × height image relative to the centre's.
@@ -38,7 +38,7 @@ struct CameraModel {
   std::string name;
   int width = 0;
   int height = 0;
-  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();   // pixels
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();                               // pixels
   Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();  // k1 k2 p1 p2 k3
   Rigid3d cam_from_rig = Rigid3d::Identity();
   SensorModel sensor;
@@ -105,7 +105,7 @@ struct LinearLightModel {
   double travel_mm = 400;
   double intensity_per_mm = 4000;  // radiant intensity per mm of strip, along its normal, at full power
   double falloff_exponent = 1;
-  int segments = 32;               // point sources the strip is integrated with
+  int segments = 32;  // point sources the strip is integrated with
 
   // Centre of the strip and its emitting direction (unit, towards the sweep axis) at a carriage position.
   Eigen::Vector3d StripCentre(double position_mm) const;
@@ -134,7 +134,7 @@ struct TurntableModel {
 // constrains no focal length). Board frame: origin at the board's centre, x along its rows,
 // y up the slope, z out of the board.
 struct CalibrationTargetModel {
-  int inner_cols = 7;       // inner corners along a row
+  int inner_cols = 7;  // inner corners along a row
   int inner_rows = 5;
   double square_mm = 2.5;
   double tilt_deg = 23.07;  // of the board against the turntable, rising towards +y

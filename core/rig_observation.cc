@@ -51,7 +51,9 @@ Status CheckIndices(const RigModel& rig, int camera, const LightingState& lighti
       return OutOfRangeError(what, "no filter wheel " + std::to_string(wheel) + " slot " + std::to_string(slot));
     }
   }
-  if (lighting.linear_light_on && !rig.linear_light) return FailedPreconditionError(what, "the linear light is on, the rig has none");
+  if (lighting.linear_light_on && !rig.linear_light) {
+    return FailedPreconditionError(what, "the linear light is on, the rig has none");
+  }
   return {};
 }
 
@@ -80,7 +82,9 @@ Result<StackObservation> DescribeRigObservation(const RigModel& rig, int camera,
   }
   o.group = o.rgb_weights == PanchromaticWeights() ? ObservationGroup::kMonochrome : ObservationGroup::kColour;
   if (lighting.linear_light_on && lighting.linear_light_intensity > 0) {
-    if (o.group == ObservationGroup::kColour) return InvalidArgumentError(o.description, "the linear light is on with a filtered LED");
+    if (o.group == ObservationGroup::kColour) {
+      return InvalidArgumentError(o.description, "the linear light is on with a filtered LED");
+    }
     o.group = ObservationGroup::kLinearLight;
     const LinearLightModel& strip = *rig.linear_light;
     const Eigen::Vector3d centre = strip.StripCentre(lighting.linear_light_mm);

@@ -20,8 +20,8 @@ struct LightingState {
   std::map<int, int> filter_slots;           // filter wheel index in RigModel → slot
   double turntable_deg = 0;
   bool linear_light_on = false;
-  double linear_light_mm = 0;                // carriage position
-  double linear_light_intensity = 1;         // 0..1
+  double linear_light_mm = 0;         // carriage position
+  double linear_light_intensity = 1;  // 0..1
 };
 
 // The table entry: group (colour if a band-pass filter is in front of a lit LED, linear if the

@@ -17,9 +17,12 @@ double SensorResponse(double nm) { return Gaussian(nm, 560, 110) * (nm > 390 && 
 // Reflectance basis of linear-sRGB albedo (red, green, blue).
 double Basis(int channel, double nm) {
   switch (channel) {
-    case 0: return Gaussian(nm, 610, 45) + 0.35 * Gaussian(nm, 700, 40);
-    case 1: return Gaussian(nm, 545, 38);
-    default: return Gaussian(nm, 455, 32);
+    case 0:
+      return Gaussian(nm, 610, 45) + 0.35 * Gaussian(nm, 700, 40);
+    case 1:
+      return Gaussian(nm, 545, 38);
+    default:
+      return Gaussian(nm, 455, 32);
   }
 }
 
@@ -40,14 +43,15 @@ double Normaliser() {
 
 }  // namespace
 
-Eigen::Vector3d PanchromaticWeights() { return Integrate([](double) { return 1.0; }) / Normaliser(); }
+Eigen::Vector3d PanchromaticWeights() {
+  return Integrate([](double) { return 1.0; }) / Normaliser();
+}
 
 Eigen::Vector3d FilterWeights(const FilterModel& filter) {
   if (filter.open) return PanchromaticWeights();
   if (filter.measured_weights) return *filter.measured_weights;
   const double sigma = filter.fwhm_nm / (2 * std::sqrt(2 * std::log(2.0)));
-  return Integrate([&](double nm) { return filter.peak_transmission * Gaussian(nm, filter.center_nm, sigma); }) /
-         Normaliser();
+  return Integrate([&](double nm) { return filter.peak_transmission * Gaussian(nm, filter.center_nm, sigma); }) / Normaliser();
 }
 
 }  // namespace loom

@@ -6,19 +6,32 @@ namespace loom {
 
 std::string_view StatusCodeName(StatusCode code) {
   switch (code) {
-    case StatusCode::kOk: return "ok";
-    case StatusCode::kInvalidArgument: return "invalid argument";
-    case StatusCode::kNotFound: return "not found";
-    case StatusCode::kAlreadyExists: return "already exists";
-    case StatusCode::kFailedPrecondition: return "failed precondition";
-    case StatusCode::kOutOfRange: return "out of range";
-    case StatusCode::kDataLoss: return "data loss";
-    case StatusCode::kIoError: return "i/o error";
-    case StatusCode::kTimeout: return "timeout";
-    case StatusCode::kUnavailable: return "unavailable";
-    case StatusCode::kCancelled: return "cancelled";
-    case StatusCode::kUnimplemented: return "unimplemented";
-    case StatusCode::kInternal: return "internal";
+    case StatusCode::kOk:
+      return "ok";
+    case StatusCode::kInvalidArgument:
+      return "invalid argument";
+    case StatusCode::kNotFound:
+      return "not found";
+    case StatusCode::kAlreadyExists:
+      return "already exists";
+    case StatusCode::kFailedPrecondition:
+      return "failed precondition";
+    case StatusCode::kOutOfRange:
+      return "out of range";
+    case StatusCode::kDataLoss:
+      return "data loss";
+    case StatusCode::kIoError:
+      return "i/o error";
+    case StatusCode::kTimeout:
+      return "timeout";
+    case StatusCode::kUnavailable:
+      return "unavailable";
+    case StatusCode::kCancelled:
+      return "cancelled";
+    case StatusCode::kUnimplemented:
+      return "unimplemented";
+    case StatusCode::kInternal:
+      return "internal";
   }
   return "unknown";
 }
@@ -43,8 +56,8 @@ Status Status::WithContext(std::string_view context) const {
   return Status(code_, subject_, std::string(context) + ": " + message_);
 }
 
-#define LOOM_DEFINE_STATUS_FACTORY(Name, code)                    \
-  Status Name(std::string subject, std::string message) {         \
+#define LOOM_DEFINE_STATUS_FACTORY(Name, code)                               \
+  Status Name(std::string subject, std::string message) {                    \
     return Status(StatusCode::code, std::move(subject), std::move(message)); \
   }
 LOOM_DEFINE_STATUS_FACTORY(InvalidArgumentError, kInvalidArgument)
@@ -70,13 +83,9 @@ Status ProblemsStatus(std::string subject, const std::vector<std::string>& probl
 
 namespace internal {
 
-void ThrowBadResultAccess(const Status& status) {
-  throw CheckError("value() of a failed Result: " + status.ToString());
-}
+void ThrowBadResultAccess(const Status& status) { throw CheckError("value() of a failed Result: " + status.ToString()); }
 
-void ThrowOkStatusInResult() {
-  throw CheckError("Result constructed from an OK status without a value");
-}
+void ThrowOkStatusInResult() { throw CheckError("Result constructed from an OK status without a value"); }
 
 }  // namespace internal
 }  // namespace loom

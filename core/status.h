@@ -11,10 +11,10 @@
 
 #include <optional>
 #include <string>
-#include <vector>
 #include <string_view>
 #include <utility>
 #include <variant>
+#include <vector>
 
 namespace loom {
 
@@ -139,16 +139,15 @@ T&& Result<T>::value() && {
 #define LOOM_STATUS_CONCAT(a, b) LOOM_STATUS_CONCAT_INNER(a, b)
 
 // Returns the status from the enclosing function if `expr` is not OK.
-#define LOOM_RETURN_IF_ERROR(expr)                 \
-  do {                                             \
-    ::loom::Status loom_status_ = (expr);          \
-    if (!loom_status_.ok()) return loom_status_;   \
+#define LOOM_RETURN_IF_ERROR(expr)               \
+  do {                                           \
+    ::loom::Status loom_status_ = (expr);        \
+    if (!loom_status_.ok()) return loom_status_; \
   } while (false)
 
 // `LOOM_ASSIGN_OR_RETURN(auto image, ReadExr(path));` — declares/assigns on success,
 // returns the status from the enclosing function on failure.
-#define LOOM_ASSIGN_OR_RETURN(lhs, expr) \
-  LOOM_ASSIGN_OR_RETURN_IMPL(LOOM_STATUS_CONCAT(loom_result_, __LINE__), lhs, expr)
+#define LOOM_ASSIGN_OR_RETURN(lhs, expr) LOOM_ASSIGN_OR_RETURN_IMPL(LOOM_STATUS_CONCAT(loom_result_, __LINE__), lhs, expr)
 #define LOOM_ASSIGN_OR_RETURN_IMPL(result, lhs, expr) \
   auto result = (expr);                               \
   if (!result.ok()) return result.status();           \

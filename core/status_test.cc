@@ -21,11 +21,9 @@ TEST(StatusTest, MessageNamesSubject) {
 }
 
 TEST(StatusTest, ContextKeepsSubject) {
-  const Status status = TimeoutError("camera cam2 (192.168.1.12)", "no frame within 500 ms")
-                            .WithContext("capturing step 17");
+  const Status status = TimeoutError("camera cam2 (192.168.1.12)", "no frame within 500 ms").WithContext("capturing step 17");
   EXPECT_EQ(status.subject(), "camera cam2 (192.168.1.12)");
-  EXPECT_EQ(status.ToString(),
-            "timeout: camera cam2 (192.168.1.12): capturing step 17: no frame within 500 ms");
+  EXPECT_EQ(status.ToString(), "timeout: camera cam2 (192.168.1.12): capturing step 17: no frame within 500 ms");
 }
 
 Result<int> Half(int x) {

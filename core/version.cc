@@ -2,8 +2,8 @@
 
 #include <string>
 
-#include <Eigen/Core>
 #include <OpenEXR/OpenEXRConfig.h>
+#include <Eigen/Core>
 
 namespace loom {
 
@@ -18,8 +18,8 @@ std::string_view VersionWithCommit() {
 
 std::vector<LinkedLibrary> CoreLibraries() {
   return {{"OpenEXR", OPENEXR_VERSION_STRING},
-          {"Eigen", std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
-                        "." + std::to_string(EIGEN_MINOR_VERSION)}};
+          {"Eigen", std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) + "." +
+                        std::to_string(EIGEN_MINOR_VERSION)}};
 }
 
 }  // namespace loom

@@ -69,7 +69,8 @@ Status WriteTexture(hid_t group, const char* name, int width, int height, int co
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) value(x, y, &data[(static_cast<size_t>(y) * width + x) * components]);
   }
-  const std::array<hsize_t, 3> dims = {static_cast<hsize_t>(height), static_cast<hsize_t>(width), static_cast<hsize_t>(components)};
+  const std::array<hsize_t, 3> dims = {static_cast<hsize_t>(height), static_cast<hsize_t>(width),
+                                       static_cast<hsize_t>(components)};
   const Handle space(H5Screate_simple(components == 1 ? 2 : 3, dims.data(), nullptr), H5Sclose);
   const Handle set(H5Dcreate2(group, name, H5T_IEEE_F32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
   if (!set.ok() || H5Dwrite(set.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0) {
@@ -84,29 +85,41 @@ Status WriteTextures(hid_t group, const Image& maps, double pixel_mm, const fs::
   const auto put3 = [](const Eigen::Vector3d& v, float* out) {
     for (int i = 0; i < 3; ++i) out[i] = static_cast<float>(v[i]);
   };
-  LOOM_RETURN_IF_ERROR(WriteTexture(group, "DiffuseColor", w, h, 3, [&](int x, int y, float* o) { put3(params(x, y).a_d, o); }, file));
-  LOOM_RETURN_IF_ERROR(WriteTexture(group, "SpecularColor", w, h, 3, [&](int x, int y, float* o) { put3(params(x, y).a_s, o); }, file));
-  LOOM_RETURN_IF_ERROR(WriteTexture(group, "SpecularLobe", w, h, 2, [&](int x, int y, float* o) {
-    o[0] = static_cast<float>(params(x, y).sigma_x);
-    o[1] = static_cast<float>(params(x, y).sigma_y);
-  }, file));
-  LOOM_RETURN_IF_ERROR(WriteTexture(group, "AnisoRotation", w, h, 1, [&](int x, int y, float* o) {
-    // The same lobe at α and α ± π: AxF keeps (−π/2, π/2].
-    double alpha = std::remainder(params(x, y).alpha, M_PI);
-    if (alpha <= -M_PI / 2) alpha += M_PI;
-    o[0] = static_cast<float>(alpha);
-  }, file));
-  LOOM_RETURN_IF_ERROR(WriteTexture(group, "Fresnel", w, h, 1, [&](int x, int y, float* o) { o[0] = static_cast<float>(params(x, y).f0); }, file));
-  LOOM_RETURN_IF_ERROR(WriteTexture(group, "Normal", w, h, 3, [&](int x, int y, float* o) {
-    put3((internal::SampleFromLocal(maps, x, y, pixel_mm) * params(x, y).n_s).normalized(), o);
-  }, file));
+  LOOM_RETURN_IF_ERROR(WriteTexture(
+      group, "DiffuseColor", w, h, 3, [&](int x, int y, float* o) { put3(params(x, y).a_d, o); }, file));
+  LOOM_RETURN_IF_ERROR(WriteTexture(
+      group, "SpecularColor", w, h, 3, [&](int x, int y, float* o) { put3(params(x, y).a_s, o); }, file));
+  LOOM_RETURN_IF_ERROR(WriteTexture(
+      group, "SpecularLobe", w, h, 2,
+      [&](int x, int y, float* o) {
+        o[0] = static_cast<float>(params(x, y).sigma_x);
+        o[1] = static_cast<float>(params(x, y).sigma_y);
+      },
+      file));
+  LOOM_RETURN_IF_ERROR(WriteTexture(
+      group, "AnisoRotation", w, h, 1,
+      [&](int x, int y, float* o) {
+        // The same lobe at α and α ± π: AxF keeps (−π/2, π/2].
+        double alpha = std::remainder(params(x, y).alpha, M_PI);
+        if (alpha <= -M_PI / 2) alpha += M_PI;
+        o[0] = static_cast<float>(alpha);
+      },
+      file));
+  LOOM_RETURN_IF_ERROR(WriteTexture(
+      group, "Fresnel", w, h, 1, [&](int x, int y, float* o) { o[0] = static_cast<float>(params(x, y).f0); }, file));
+  LOOM_RETURN_IF_ERROR(WriteTexture(
+      group, "Normal", w, h, 3,
+      [&](int x, int y, float* o) { put3((internal::SampleFromLocal(maps, x, y, pixel_mm) * params(x, y).n_s).normalized(), o); },
+      file));
   if (const std::optional<int> height = maps.FindChannel(kHeightChannel)) {
-    LOOM_RETURN_IF_ERROR(WriteTexture(group, "Height", w, h, 1, [&](int x, int y, float* o) { o[0] = maps.at(*height, y, x); }, file));
+    LOOM_RETURN_IF_ERROR(WriteTexture(
+        group, "Height", w, h, 1, [&](int x, int y, float* o) { o[0] = maps.at(*height, y, x); }, file));
   }
   // The refiner's 1σ maps, one dataset each (not an AxF texture: AxF has none for uncertainty).
   for (int channel : maps.ChannelsWithPrefix("unc.")) {
     const std::string name = "Uncertainty_" + maps.channel_name(channel).substr(4);
-    LOOM_RETURN_IF_ERROR(WriteTexture(group, name.c_str(), w, h, 1, [&](int x, int y, float* o) { o[0] = maps.at(channel, y, x); }, file));
+    LOOM_RETURN_IF_ERROR(WriteTexture(
+        group, name.c_str(), w, h, 1, [&](int x, int y, float* o) { o[0] = maps.at(channel, y, x); }, file));
   }
   return Status::Ok();
 }
@@ -183,7 +196,9 @@ Result<AxfStyleMaps> ReadAxfStyle(const fs::path& path) {
   if (!fs::exists(path)) return NotFoundError(path.string(), "no such file");
   const Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.ok()) return InvalidArgumentError(path.string(), "not an HDF5 file (or a damaged one)");
-  if (H5Lexists(file.get(), "svbrdf", H5P_DEFAULT) <= 0) return NotFoundError(path.string(), "no /svbrdf group: not an AxF-style file");
+  if (H5Lexists(file.get(), "svbrdf", H5P_DEFAULT) <= 0) {
+    return NotFoundError(path.string(), "no /svbrdf group: not an AxF-style file");
+  }
   const Handle group(H5Gopen2(file.get(), "svbrdf", H5P_DEFAULT), H5Gclose);
   AxfStyleMaps result;
   const Handle pixel(H5Aopen(group.get(), "pixel_mm", H5P_DEFAULT), H5Aclose);

@@ -96,8 +96,8 @@ TEST_F(AxfExportTest, WritesTheSvbrdfTexturesWithAxfNamesAndUnits) {
   EXPECT_EQ((Shape(group, "Height")), (std::vector<hsize_t>{2, 3}));
 
   const std::vector<float> diffuse = Values(group, "DiffuseColor", 18);
-  EXPECT_FLOAT_EQ(diffuse[(1 * 3 + 2) * 3 + 0], 0.3f);   // pixel (2, 1), red
-  EXPECT_FLOAT_EQ(diffuse[(1 * 3 + 2) * 3 + 2], 0.1f);   // its blue
+  EXPECT_FLOAT_EQ(diffuse[(1 * 3 + 2) * 3 + 0], 0.3f);  // pixel (2, 1), red
+  EXPECT_FLOAT_EQ(diffuse[(1 * 3 + 2) * 3 + 2], 0.1f);  // its blue
   const std::vector<float> specular = Values(group, "SpecularColor", 18);
   EXPECT_FLOAT_EQ(specular[(0 * 3 + 1) * 3 + 1], 0.3f);  // a_s, not a_s · F0
   const std::vector<float> lobe = Values(group, "SpecularLobe", 12);

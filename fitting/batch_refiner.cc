@@ -112,13 +112,13 @@ struct Prior {
 struct Lane {
   int pixel = -1;
   Params start{}, x{}, trial{};
-  Params prior_mean{};           // the start unless the problem names another
+  Params prior_mean{};  // the start unless the problem names another
   TangentBasis basis, trial_basis;
-  bool at_start = true;          // the pending evaluation is of the start
+  bool at_start = true;  // the pending evaluation is of the start
   bool converged = false;
   double cost = 0, data_cost = 0, squares = 0;
   Vector12 jtr = Vector12::Zero();
-  Matrix12 jtj = Matrix12::Zero();  // data + prior
+  Matrix12 jtj = Matrix12::Zero();    // data + prior
   Matrix12 bread = Matrix12::Zero();  // Σ ψ'(r) g gᵀ (+ the prior)
   Matrix12 meat = Matrix12::Zero();   // Σ ψ(r)² g gᵀ
   double predicted_decrease = 0;
@@ -133,8 +133,8 @@ struct Evaluation {
   Matrix12 jtj, bread, meat;
 };
 
-Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior, const Params& x,
-                    const TangentBasis& basis, const Params& start) {
+Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior, const Params& x, const TangentBasis& basis,
+                    const Params& start) {
   Evaluation e;
   e.data_cost = eq.cost[p];
   e.squares = eq.squares[p];
@@ -222,7 +222,7 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
       double x_norm = 0;
       for (double v : lane.x) x_norm += v * v;
       if (taken.norm() <= options.parameter_tolerance * (std::sqrt(x_norm) + options.parameter_tolerance)) {
-            return StepOutcome::kConverged;
+        return StepOutcome::kConverged;
       }
       lane.predicted_decrease = -(taken.dot(lane.jtr) + 0.5 * taken.dot(lane.jtj * taken));
       if (lane.predicted_decrease > 0) {
@@ -280,8 +280,8 @@ ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
   const int n = kTangentParams - (options.fixed_f0 ? 1 : 0);
   const double small_sample = static_cast<double>(lane.used) / std::max(1, lane.used - n);
   const Matrix12 inverse = FreeInverse(lane.bread, options);
-  const Matrix12 covariance = inverse.allFinite() ? Matrix12(inverse * lane.meat * inverse * small_sample)
-                                                  : Matrix12::Constant(NAN);
+  const Matrix12 covariance =
+      inverse.allFinite() ? Matrix12(inverse * lane.meat * inverse * small_sample) : Matrix12::Constant(NAN);
   const auto sd = [&](int i) { return std::sqrt(std::max(0.0, covariance(i, i))); };
   ParamSigma s;
   const double deg = 180 / kPi;
@@ -311,10 +311,16 @@ Params ClampedStart(const WardParams<double>& start, const RefineOptions& option
 // One worker: kLanes pixels in flight, each finished one replaced by the next from `next`.
 class Batch {
  public:
-  Batch(const RefineProblem& problem, const RefineOptions& options, std::vector<RefinedPixel>& results,
-        std::atomic<int>& next, std::atomic<int>& done)
-      : problem_(problem), options_(options), prior_(options.prior), results_(results), next_(next), done_(done),
-        data_(problem.lights_per_observation), parked_data_(problem.lights_per_observation) {
+  Batch(const RefineProblem& problem, const RefineOptions& options, std::vector<RefinedPixel>& results, std::atomic<int>& next,
+        std::atomic<int>& done)
+      : problem_(problem),
+        options_(options),
+        prior_(options.prior),
+        results_(results),
+        next_(next),
+        done_(done),
+        data_(problem.lights_per_observation),
+        parked_data_(problem.lights_per_observation) {
     inputs_.huber_scale = parked_inputs_.huber_scale = options.huber_scale;
     // A lane that never holds a pixel still runs through the kernel: give it finite parameters
     // (zeros would make n_s NaN, which sends libmvec's whole vector down its scalar path).
@@ -624,8 +630,7 @@ std::vector<RefinedPixel> RefineInOnePass(const RefineProblem& problem, const Re
 // Whether a coarse pass would evaluate fewer light samples than the fine one somewhere.
 bool CoarsensSomething(const RefineProblem& problem, const RefineOptions& options) {
   const int coarse = options.coarse_lights_per_observation;
-  const int fine = options.max_lights_per_observation > 0 ? options.max_lights_per_observation
-                                                          : std::numeric_limits<int>::max();
+  const int fine = options.max_lights_per_observation > 0 ? options.max_lights_per_observation : std::numeric_limits<int>::max();
   return coarse > 0 && coarse < fine &&
          std::any_of(problem.lights_per_observation.begin(), problem.lights_per_observation.end(),
                      [&](int lights) { return lights > coarse; });

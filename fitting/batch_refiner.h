@@ -48,16 +48,16 @@ namespace loom::fitting {
 struct RefinePrior {
   double weight = 0;
   double normal_deg = 6;
-  double diffuse_albedo = 0.3;   // a_d, each channel
-  double specular_albedo = 0.09; // a_s, each channel
-  double sigma = 0.05;           // σx, σy
+  double diffuse_albedo = 0.3;    // a_d, each channel
+  double specular_albedo = 0.09;  // a_s, each channel
+  double sigma = 0.05;            // σx, σy
   double alpha_deg = 30;
 };
 
 struct RefineOptions {
-  int max_iterations = 30;          // LM steps (accepted or not) per pixel
-  double huber_scale = 0.5;         // as PixelFitOptions::huber_scale
-  std::optional<double> fixed_f0;   // F0 held at this value instead of fitted
+  int max_iterations = 30;            // LM steps (accepted or not) per pixel
+  double huber_scale = 0.5;           // as PixelFitOptions::huber_scale
+  std::optional<double> fixed_f0;     // F0 held at this value instead of fitted
   double function_tolerance = 1e-6;   // |Δcost| / cost of an accepted step; Ceres' default
   double gradient_tolerance = 1e-10;  // max-norm of the projected gradient; Ceres' default
   double parameter_tolerance = 1e-8;  // |step| / (|x| + tol); Ceres' default
@@ -74,8 +74,8 @@ struct RefineOptions {
   // The 1σ of each refined pixel (RefinedPixel::sigma): one more evaluation per pixel, and a copy
   // of its data. Off, sigma stays zero.
   bool uncertainty = true;
-  int threads = 0;                  // 0: one per core
-  Status Check() const;             // every problem, naming the field
+  int threads = 0;       // 0: one per core
+  Status Check() const;  // every problem, naming the field
 };
 
 // 1σ of a refined pixel's parameters (NaN where the data and prior leave one undetermined).
@@ -89,11 +89,11 @@ struct ParamSigma {
 
 struct RefinedPixel {
   WardParams<double> params;
-  double cost = 0;          // ½ Σ ρ(r²) of the data, as Ceres' final cost (the prior not included)
-  double rms = 0;           // √(Σ r² / m): the RMS residual relative to the pixel's mean radiance
+  double cost = 0;  // ½ Σ ρ(r²) of the data, as Ceres' final cost (the prior not included)
+  double rms = 0;   // √(Σ r² / m): the RMS residual relative to the pixel's mean radiance
   int observations_used = 0;
   int iterations = 0;
-  bool fitted = false;      // false: too few usable observations; params = start
+  bool fitted = false;  // false: too few usable observations; params = start
   bool converged = false;
   ParamSigma sigma;
 };

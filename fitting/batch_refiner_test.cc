@@ -52,14 +52,16 @@ std::vector<int> LightsPerStackObservation(const ObservationStack& stack) {
 }
 
 // The tangent-space Jacobian (rows: observations) from ceres::Jet through WardLobe.
-Eigen::MatrixXd JetJacobian(const std::vector<PixelObservation>& observations, const WardParams<double>& p,
-                            double inverse_scale, const Eigen::Vector3d& u, const Eigen::Vector3d& v,
-                            Eigen::VectorXd& residuals) {
+Eigen::MatrixXd JetJacobian(const std::vector<PixelObservation>& observations, const WardParams<double>& p, double inverse_scale,
+                            const Eigen::Vector3d& u, const Eigen::Vector3d& v, Eigen::VectorXd& residuals) {
   std::unique_ptr<ceres::CostFunction> cost(internal::MakeAutodiffPixelCost(observations, inverse_scale));
   const int rows = static_cast<int>(observations.size());
-  std::vector<std::vector<double>> values = {{p.n_s.x(), p.n_s.y(), p.n_s.z()}, {p.a_d.x(), p.a_d.y(), p.a_d.z()},
-                                             {p.a_s.x(), p.a_s.y(), p.a_s.z()}, {p.sigma_x, p.sigma_y},
-                                             {p.alpha},                        {p.f0}};
+  std::vector<std::vector<double>> values = {{p.n_s.x(), p.n_s.y(), p.n_s.z()},
+                                             {p.a_d.x(), p.a_d.y(), p.a_d.z()},
+                                             {p.a_s.x(), p.a_s.y(), p.a_s.z()},
+                                             {p.sigma_x, p.sigma_y},
+                                             {p.alpha},
+                                             {p.f0}};
   std::vector<const double*> blocks;
   for (const std::vector<double>& block : values) blocks.push_back(block.data());
   std::vector<std::vector<double>> jacobians;
@@ -102,7 +104,8 @@ TEST(BatchRefinerTest, TheKernelsNormalEquationsEqualThoseOfCeresJets) {
     LaneCase c;
     c.observations = pixels.Observations(lane % 4, lane / 4);
     // Truth and starts off it: the derivatives away from the optimum matter as much.
-    c.params = lane == 0 ? GetParams(simulated.fabric.maps, 0, 0) : NearStart(GetParams(simulated.fabric.maps, lane % 4, lane / 4), rng);
+    c.params =
+        lane == 0 ? GetParams(simulated.fabric.maps, 0, 0) : NearStart(GetParams(simulated.fabric.maps, lane % 4, lane / 4), rng);
     c.params.n_s.normalize();  // the kernel normalises n_s, the Jets take it as given (float maps: |n| = 1 ± 1e-7)
     c.inverse_scale = internal::LoadLane(internal::Usable(c.observations), lane, data);
     const Eigen::Vector3d a = Eigen::Vector3d::UnitX();
@@ -170,8 +173,12 @@ TEST(BatchRefinerTest, TheKernelsRobustCostIsCeresHuberCost) {
   for (const PixelObservation& o : observations) usable.push_back(o);
   std::unique_ptr<ceres::CostFunction> ceres_cost(
       internal::MakeRobustPixelCost(internal::MakeAnalyticPixelCost(usable, inverse_scale), inputs.huber_scale));
-  const double blocks[6][3] = {{p.n_s.x(), p.n_s.y(), p.n_s.z()}, {p.a_d.x(), p.a_d.y(), p.a_d.z()},
-                               {p.a_s.x(), p.a_s.y(), p.a_s.z()}, {p.sigma_x, p.sigma_y}, {p.alpha}, {p.f0}};
+  const double blocks[6][3] = {{p.n_s.x(), p.n_s.y(), p.n_s.z()},
+                               {p.a_d.x(), p.a_d.y(), p.a_d.z()},
+                               {p.a_s.x(), p.a_s.y(), p.a_s.z()},
+                               {p.sigma_x, p.sigma_y},
+                               {p.alpha},
+                               {p.f0}};
   const double* pointers[6] = {blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5]};
   std::vector<double> residuals(usable.size());
   ASSERT_TRUE(ceres_cost->Evaluate(pointers, residuals.data(), nullptr));
@@ -205,9 +212,11 @@ TEST(BatchRefinerTest, EndsWithinOnePercentOfCeresCostFromTheSameStarts) {
     RefineOptions options;
     options.fixed_f0 = f0;
     options.coarse_lights_per_observation = coarse;
-    const RefineProblem problem{count, LightsPerStackObservation(simulated.stack),
+    const RefineProblem problem{count,
+                                LightsPerStackObservation(simulated.stack),
                                 [&](int i) { return pixels.Observations(i % width, i / width); },
-                                [&](int i) { return starts[i]; }, {}};
+                                [&](int i) { return starts[i]; },
+                                {}};
     const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
     ASSERT_TRUE(refined.ok()) << refined.status().ToString();
     std::vector<double> relative;
@@ -220,8 +229,7 @@ TEST(BatchRefinerTest, EndsWithinOnePercentOfCeresCostFromTheSameStarts) {
     std::sort(relative.begin(), relative.end());
     const double median = relative[relative.size() / 2];
     std::cout << "refiner (coarse " << coarse << ") cost vs Ceres': median " << 100 * median << " %, p10 "
-              << 100 * relative[relative.size() / 10] << " %, p90 " << 100 * relative[relative.size() * 9 / 10]
-              << " %\n";
+              << 100 * relative[relative.size() / 10] << " %, p90 " << 100 * relative[relative.size() * 9 / 10] << " %\n";
     EXPECT_LT(std::abs(median), 0.01);
     // Not a worse optimiser in the tail either: nine pixels in ten end at most 5 % above Ceres.
     EXPECT_LT(relative[relative.size() * 9 / 10], 0.05);
@@ -248,8 +256,8 @@ TEST(BatchRefinerTest, MasksBoundsAndTooFewObservationsAreAsInTheCeresFit) {
   starts.push_back(GetParams(simulated.fabric.maps, 0, 1));
   RefineOptions options;
   options.fixed_f0 = starts[0].f0;
-  const RefineProblem problem{3, LightsPerStackObservation(simulated.stack), [&](int i) { return lists[i]; },
-                              [&](int i) { return starts[i]; }, {}};
+  const RefineProblem problem{
+      3, LightsPerStackObservation(simulated.stack), [&](int i) { return lists[i]; }, [&](int i) { return starts[i]; }, {}};
   const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
   ASSERT_TRUE(refined.ok()) << refined.status().ToString();
   const PixelFitOptions ceres_options{.max_iterations = 30, .multi_start = false, .fixed_f0 = options.fixed_f0};
@@ -284,9 +292,11 @@ TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaSh
   }
   RefineOptions options;
   options.fixed_f0 = truths.front().f0;
-  const RefineProblem problem{count, LightsPerStackObservation(simulated.stack),
+  const RefineProblem problem{count,
+                              LightsPerStackObservation(simulated.stack),
                               [&](int i) { return pixels.Observations(i % width, i / width); },
-                              [&](int i) { return starts[i]; }, {}};
+                              [&](int i) { return starts[i]; },
+                              {}};
   const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
   ASSERT_TRUE(refined.ok()) << refined.status().ToString();
   struct Coverage {
@@ -319,8 +329,11 @@ TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaSh
   // the normal and σx fall to 42–45 %, with half the pixels' σ unstated: Huber's loss rejects
   // their highlights, which then no longer count (docs/benchmarks.md). The band, 55–80 %,
   // with a_s's 2 % over it allowed.
-  for (const auto& [name, coverage, high] : {std::tuple{"a_d", a_d, 0.80}, {"a_s", a_s, 0.82}, {"normal", normal, 0.80},
-                                             {"sigma_x", sigma_x, 0.80}, {"sigma_y", sigma_y, 0.80}}) {
+  for (const auto& [name, coverage, high] : {std::tuple{"a_d", a_d, 0.80},
+                                             {"a_s", a_s, 0.82},
+                                             {"normal", normal, 0.80},
+                                             {"sigma_x", sigma_x, 0.80},
+                                             {"sigma_y", sigma_y, 0.80}}) {
     EXPECT_GE(coverage.total, count * 9 / 10) << name;
     EXPECT_GE(coverage.fraction(), 0.55) << name;
     EXPECT_LE(coverage.fraction(), high) << name;
@@ -381,8 +394,11 @@ TEST(BatchRefinerTest, APriorHoldsTheFitNearItsMean) {
     RefineOptions options;
     options.fixed_f0 = truth.f0;
     options.prior.weight = weight;
-    RefineProblem problem{1, LightsPerStackObservation(simulated.stack), [&](int) { return pixels.Observations(0, 0); },
-                          [&](int) { return off; }, {}};
+    RefineProblem problem{1,
+                          LightsPerStackObservation(simulated.stack),
+                          [&](int) { return pixels.Observations(0, 0); },
+                          [&](int) { return off; },
+                          {}};
     if (mean_is_truth) problem.prior_mean = [&](int) { return truth; };
     const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
     EXPECT_TRUE(refined.ok()) << refined.status().ToString();
@@ -392,12 +408,12 @@ TEST(BatchRefinerTest, APriorHoldsTheFitNearItsMean) {
     return RadToDeg(std::acos(std::clamp(a.n_s.normalized().dot(b.n_s.normalized()), -1.0, 1.0)));
   };
   const WardParams<double> free = refine(0, false);
-  EXPECT_LT(angle_deg(free, truth), 1.0);          // the data alone find the normal
+  EXPECT_LT(angle_deg(free, truth), 1.0);  // the data alone find the normal
   const WardParams<double> held = refine(1e8, false);
-  EXPECT_LT(angle_deg(held, off), 0.1);            // a dominant prior keeps the start's
+  EXPECT_LT(angle_deg(held, off), 0.1);  // a dominant prior keeps the start's
   EXPECT_LT((held.a_s - off.a_s).cwiseAbs().maxCoeff(), 1e-3);
   const WardParams<double> pulled = refine(1e8, true);
-  EXPECT_LT(angle_deg(pulled, truth), 0.1);        // ... or its own mean's
+  EXPECT_LT(angle_deg(pulled, truth), 0.1);  // ... or its own mean's
 }
 
 TEST(BatchRefinerTest, OptionsAreCheckedNamingEachField) {
@@ -412,7 +428,8 @@ TEST(BatchRefinerTest, OptionsAreCheckedNamingEachField) {
   for (const char* field : {"max_iterations", "huber_scale", "fixed_f0", "prior.weight", "coarse_lights_per_observation"}) {
     EXPECT_NE(status.message().find(field), std::string::npos) << field << " in " << status.message();
   }
-  const RefineProblem empty{0, {}, [](int) { return std::vector<PixelObservation>{}; }, [](int) { return WardParams<double>{}; }, {}};
+  const RefineProblem empty{
+      0, {}, [](int) { return std::vector<PixelObservation>{}; }, [](int) { return WardParams<double>{}; }, {}};
   const Result<std::vector<RefinedPixel>> none = RefinePixels(empty, {});
   ASSERT_TRUE(none.ok());
   EXPECT_TRUE(none->empty());

@@ -30,9 +30,7 @@ CnnNetImpl::CnnNetImpl(const CnnArchitecture& architecture) {
   width4_ = w[3];
 }
 
-torch::Tensor CnnNetImpl::Leaky(const torch::Tensor& x) const {
-  return torch::leaky_relu(x, kLeakySlope);
-}
+torch::Tensor CnnNetImpl::Leaky(const torch::Tensor& x) const { return torch::leaky_relu(x, kLeakySlope); }
 
 torch::Tensor CnnNetImpl::ForwardPatches(const torch::Tensor& patches) {
   torch::Tensor x = Leaky(conv1_->forward(patches.contiguous(at::MemoryFormat::ChannelsLast)));
@@ -113,8 +111,7 @@ Status CheckInput(const Cnn& cnn, const CnnTensor& input) {
   if (input.values.size() != static_cast<size_t>(input.channels) * input.height * input.width || input.height < 1 ||
       input.width < 1) {
     return InvalidArgumentError("CNN input", "values do not match its " + std::to_string(input.channels) + " x " +
-                                                 std::to_string(input.height) + " x " + std::to_string(input.width) +
-                                                 " shape");
+                                                 std::to_string(input.height) + " x " + std::to_string(input.width) + " shape");
   }
   return {};
 }
@@ -160,15 +157,15 @@ std::array<int, 4> CnnArchitecture::HiddenWidths() const {
 
 double CnnArchitecture::SlidingFlopsPerPixel() const {
   const std::array<int, 4> w = HiddenWidths();
-  const double macs = 225.0 * input_channels * w[0] + 225.0 * w[0] * w[1] + 49.0 * 9 * w[1] * w[2] +
-                      9.0 * 9 * w[2] * w[3] + 9.0 * w[3] * kLabelSize;
+  const double macs = 225.0 * input_channels * w[0] + 225.0 * w[0] * w[1] + 49.0 * 9 * w[1] * w[2] + 9.0 * 9 * w[2] * w[3] +
+                      9.0 * w[3] * kLabelSize;
   return 2 * macs;
 }
 
 double CnnArchitecture::DenseFlopsPerPixel() const {
   const std::array<int, 4> w = HiddenWidths();
-  const double macs = 1.0 * input_channels * w[0] + 1.0 * w[0] * w[1] + 9.0 * w[1] * w[2] + 9.0 * w[2] * w[3] +
-                      9.0 * w[3] * kLabelSize;
+  const double macs =
+      1.0 * input_channels * w[0] + 1.0 * w[0] * w[1] + 9.0 * w[1] * w[2] + 9.0 * w[2] * w[3] + 9.0 * w[3] * kLabelSize;
   return 2 * macs;
 }
 
@@ -185,10 +182,9 @@ Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnMode
   bool same_layout = n == static_cast<int>(info.observation_groups.size());
   for (int k = 0; same_layout && k < n; ++k) same_layout = stack.observations[k].group == info.observation_groups[k];
   if (!same_layout || info.architecture.input_channels != kCnnGeometryChannels + n) {
-    return FailedPreconditionError(stack.source, "its " + std::to_string(n) +
-                                                     " observations are not the layout the model was trained on (" +
-                                                     std::to_string(info.observation_groups.size()) +
-                                                     " observations of rig '" + info.rig + "')");
+    return FailedPreconditionError(
+        stack.source, "its " + std::to_string(n) + " observations are not the layout the model was trained on (" +
+                          std::to_string(info.observation_groups.size()) + " observations of rig '" + info.rig + "')");
   }
   const int width = stack.image.width(), height = stack.image.height();
   const size_t plane = stack.image.pixel_count();
@@ -205,7 +201,9 @@ Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnMode
   for (int k = 0; k < n; ++k) {
     const auto values = stack.image.channel(ObservationStack::ObservationChannel(k));
     float* out = input.values.data() + (kCnnGeometryChannels + k) * plane;
-    for (size_t i = 0; i < plane; ++i) out[i] = std::isfinite(values[i]) ? std::log1p(std::max(0.0f, values[i]) * inverse_scale) : 0.0f;
+    for (size_t i = 0; i < plane; ++i) {
+      out[i] = std::isfinite(values[i]) ? std::log1p(std::max(0.0f, values[i]) * inverse_scale) : 0.0f;
+    }
   }
   return input;
 }
@@ -273,8 +271,7 @@ Result<Cnn> Cnn::Load(const std::filesystem::path& directory) {
   for (size_t i = 0; i < loaded.size(); ++i) {
     if (loaded[i].sizes().vec() != expected[i]) {
       return InvalidArgumentError(weights.string(), "its weights do not have the shapes of " + info_path.string() +
-                                                        "'s architecture (" +
-                                                        std::to_string(info.architecture.input_channels) +
+                                                        "'s architecture (" + std::to_string(info.architecture.input_channels) +
                                                         " input channels, width divisor " +
                                                         std::to_string(info.architecture.width_divisor) + ")");
     }
@@ -328,7 +325,8 @@ Result<Image> Cnn::PredictMaps(const ObservationStack& stack, int threads) const
   const Image decoded = MapsFromLabels(*labels);
   Image maps = MakeSvbrdfImage(decoded.width(), decoded.height(), /*with_height=*/true);
   for (int c = 0; c < decoded.num_channels(); ++c) {
-    std::copy(decoded.channel(c).begin(), decoded.channel(c).end(), maps.channel(*maps.ChannelIndex(decoded.channel_name(c))).begin());
+    std::copy(decoded.channel(c).begin(), decoded.channel(c).end(),
+              maps.channel(*maps.ChannelIndex(decoded.channel_name(c))).begin());
   }
   const auto height = stack.image.channel(2);  // pos.Z
   std::copy(height.begin(), height.end(), maps.channel(*maps.ChannelIndex(kHeightChannel)).begin());
@@ -339,9 +337,8 @@ Result<CnnTensor> Cnn::PredictSliding(const CnnTensor& input, int first, int cou
   LOOM_RETURN_IF_ERROR(CheckInput(*this, input));
   const int pixels = input.height * input.width;
   if (first < 0 || count < 1 || first + count > pixels || batch < 1) {
-    return InvalidArgumentError("CNN sliding window", "pixels [" + std::to_string(first) + ", " +
-                                                          std::to_string(first + count) + ") of " +
-                                                          std::to_string(pixels) + ", batch " + std::to_string(batch));
+    return InvalidArgumentError("CNN sliding window", "pixels [" + std::to_string(first) + ", " + std::to_string(first + count) +
+                                                          ") of " + std::to_string(pixels) + ", batch " + std::to_string(batch));
   }
   torch::set_num_threads(ThreadCount(threads));
   internal::KeepFreedMemoryForReuse();

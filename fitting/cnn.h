@@ -42,7 +42,7 @@
 namespace loom::fitting {
 
 inline constexpr int kPatchSize = 15;
-inline constexpr int kPatchHalo = 7;  // (kPatchSize − 1) / 2
+inline constexpr int kPatchHalo = 7;            // (kPatchSize − 1) / 2
 inline constexpr int kCnnGeometryChannels = 4;  // height, normal.XYZ
 inline constexpr int kDenseTile = 256;          // Cnn::PredictDense's largest tile side
 
@@ -61,10 +61,10 @@ struct CnnArchitecture {
 // What a trained model expects of its input and how it was made: written next to its weights.
 struct CnnModelInfo {
   CnnArchitecture architecture;
-  double radiance_scale = 1;                     // L ↦ log(1 + L / radiance_scale)
-  std::string rig;                               // the stacks' rig, e.g. "tac7-mini"
+  double radiance_scale = 1;                         // L ↦ log(1 + L / radiance_scale)
+  std::string rig;                                   // the stacks' rig, e.g. "tac7-mini"
   std::vector<ObservationGroup> observation_groups;  // the stack layout it was trained on
-  std::string training;                          // free text: data, epochs, validation errors
+  std::string training;                              // free text: data, epochs, validation errors
 };
 
 // Planar C × H × W floats.
@@ -115,8 +115,7 @@ class Cnn {
   Result<CnnTensor> PredictDense(const CnnTensor& input, int max_tile = kDenseTile, int threads = 0) const;
   // The same outputs the sliding-window way, for pixels [first, first + count) in row-major
   // order (14 × count, as a 14 × 1 × count tensor), `batch` patches per forward pass.
-  Result<CnnTensor> PredictSliding(const CnnTensor& input, int first, int count, int batch = 256,
-                                   int threads = 0) const;
+  Result<CnnTensor> PredictSliding(const CnnTensor& input, int first, int count, int batch = 256, int threads = 0) const;
 
   // SVBRDF maps of a whole stack (svbrdf_maps.h layout with the stack's height): input, dense
   // prediction, decoded labels.

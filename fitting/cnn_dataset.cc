@@ -71,7 +71,8 @@ Result<CnnExample> CnnDataset::Example(int i, const CnnModelInfo& info, bool kee
     return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack->source);
   }
   LOOM_ASSIGN_OR_RETURN(CnnTensor input, CnnInputFromStack(*stack, info));
-  return CnnExample{truth_path.string(), std::move(input), CnnLabelsFromMaps(truth.image), keep_stack ? std::move(stack) : nullptr};
+  return CnnExample{truth_path.string(), std::move(input), CnnLabelsFromMaps(truth.image),
+                    keep_stack ? std::move(stack) : nullptr};
 }
 
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed) {

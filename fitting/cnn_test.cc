@@ -95,7 +95,9 @@ TEST(CnnTest, TheDenseOutputOfAPixelDependsOnlyOnIts15x15Neighbourhood) {
     for (int x = 0; x < 31; ++x) {
       const bool inside = std::abs(y - 15) <= kPatchHalo && std::abs(x - 15) <= kPatchHalo;
       double change = 0;
-      for (int c = 0; c < kLabelSize; ++c) change = std::max(change, static_cast<double>(std::abs(after.at(c, y, x) - before.at(c, y, x))));
+      for (int c = 0; c < kLabelSize; ++c) {
+        change = std::max(change, static_cast<double>(std::abs(after.at(c, y, x) - before.at(c, y, x))));
+      }
       if (!inside) {
         EXPECT_EQ(change, 0) << "pixel " << x << "," << y;
       } else if (y == 15 && x == 15) {
@@ -157,8 +159,8 @@ ObservationStack TinyStack(int observations) {
   stack.source = "cnn_test";
   for (int y = 0; y < 3; ++y) {
     for (int x = 0; x < 4; ++x) {
-      stack.image.at(2, y, x) = 0.1f * x;   // pos.Z
-      stack.image.at(5, y, x) = 1;          // normal.Z
+      stack.image.at(2, y, x) = 0.1f * x;  // pos.Z
+      stack.image.at(5, y, x) = 1;         // normal.Z
       for (int k = 0; k < observations; ++k) stack.image.at(ObservationStack::ObservationChannel(k), y, x) = 0.5f * k;
     }
   }

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <numeric>
 #include <cmath>
+#include <numeric>
 #include <random>
 
 #include <nlohmann/json.hpp>
@@ -17,9 +17,9 @@
 
 namespace loom::fitting {
 
-const std::array<const char*, 14> kLabelChannelNames = {"a_d.R", "a_d.G", "a_d.B", "a_s.R", "a_s.G", "a_s.B", "n_s.X",
-                                                        "n_s.Y", "n_s.Z", "sigma_x'", "sigma_y'", "cos2alpha",
-                                                        "sin2alpha", "F0"};
+const std::array<const char*, 14> kLabelChannelNames = {"a_d.R",    "a_d.G",     "a_d.B",     "a_s.R", "a_s.G",
+                                                        "a_s.B",    "n_s.X",     "n_s.Y",     "n_s.Z", "sigma_x'",
+                                                        "sigma_y'", "cos2alpha", "sin2alpha", "F0"};
 
 namespace {
 
@@ -87,8 +87,13 @@ Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& 
     // takes the few shadowed observations as outliers.
     pixels = std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false});
   }
-  return Material{internal::PaddedInput(e.input), AsTensor(e.labels.labels).clone(), ValidTensor(e.labels),
-                  e.input.height, e.input.width, e.stack, std::move(pixels)};
+  return Material{internal::PaddedInput(e.input),
+                  AsTensor(e.labels.labels).clone(),
+                  ValidTensor(e.labels),
+                  e.input.height,
+                  e.input.width,
+                  e.stack,
+                  std::move(pixels)};
 }
 
 struct TileOrigin {
@@ -199,8 +204,7 @@ std::string CnnHistoryJson(const std::vector<CnnEpoch>& history) {
 
 namespace {
 
-Status SaveCheckpoint(const Cnn& cnn, torch::optim::Adam& optimizer, const std::vector<CnnEpoch>& history,
-                      const fs::path& dir) {
+Status SaveCheckpoint(const Cnn& cnn, torch::optim::Adam& optimizer, const std::vector<CnnEpoch>& history, const fs::path& dir) {
   const fs::path next = dir / kNextCheckpoint, last = dir / kLastCheckpoint;
   std::error_code error;
   fs::remove_all(next, error);
@@ -334,8 +338,8 @@ std::vector<std::vector<int>> EpochWindows(int count, const CnnTrainingOptions& 
 
 }  // namespace
 
-Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
-                                       const std::vector<CnnExample>& validation, const CnnTrainingOptions& options) {
+Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train, const std::vector<CnnExample>& validation,
+                                       const CnnTrainingOptions& options) {
   const CnnExampleSource source{static_cast<int>(train.size()),
                                 [&](int i) -> Result<CnnExample> { return train[static_cast<size_t>(i)]; }};
   return TrainCnn(cnn, source, validation, options);
@@ -344,7 +348,9 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& 
 Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, const std::vector<CnnExample>& validation,
                                        const CnnTrainingOptions& options) {
   LOOM_RETURN_IF_ERROR(options.Check());
-  if (train.count == 0 || validation.empty()) return InvalidArgumentError("CNN training", "needs training and validation examples");
+  if (train.count == 0 || validation.empty()) {
+    return InvalidArgumentError("CNN training", "needs training and validation examples");
+  }
   LOOM_RETURN_IF_ERROR(CheckExamples(cnn, validation, 1, "validation"));
   const bool streaming = options.resident_materials > 0 && options.resident_materials < train.count;
   if (streaming && options.steps_per_epoch == 0) {
@@ -398,8 +404,8 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
         LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, windows[w], options));
       }
       // The epoch's steps shared out among the windows by their size.
-      const int window_end = static_cast<int>(static_cast<int64_t>(steps) *
-                                              (static_cast<int64_t>(w + 1) * windows.front().size()) / train.count);
+      const int window_end =
+          static_cast<int>(static_cast<int64_t>(steps) * (static_cast<int64_t>(w + 1) * windows.front().size()) / train.count);
       for (; step < std::min(steps, w + 1 == windows.size() ? steps : window_end); ++step) {
         const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
         const torch::Tensor count = batch.valid.sum();

@@ -28,9 +28,9 @@
 namespace loom::fitting {
 
 struct CnnExample {
-  std::string name;   // for messages: the stack it came from
-  CnnTensor input;    // CnnInputFromStack
-  CnnLabels labels;   // CnnLabelsFromMaps of its reference maps, same height and width
+  std::string name;  // for messages: the stack it came from
+  CnnTensor input;   // CnnInputFromStack
+  CnnLabels labels;  // CnnLabelsFromMaps of its reference maps, same height and width
   // The stack itself, for the re-rendering loss (CnnTrainingOptions::rerender_weight); may be
   // null otherwise.
   std::shared_ptr<const ObservationStack> stack;
@@ -44,11 +44,11 @@ struct CnnExampleSource {
 };
 
 struct CnnTrainingProgress {
-  int epoch = 0;      // 1-based
+  int epoch = 0;  // 1-based
   int epochs = 0;
-  int step = 0;       // within the epoch, 1-based
+  int step = 0;  // within the epoch, 1-based
   int steps = 0;
-  double loss = 0;    // the epoch's running mean
+  double loss = 0;  // the epoch's running mean
 };
 
 struct CnnTrainingOptions {
@@ -79,15 +79,15 @@ struct CnnTrainingOptions {
   // shared out among those windows by size, tiles drawn from the window's materials; needs
   // steps_per_epoch.
   int resident_materials = 0;
-  int threads = 0;                    // torch threads; 0: one per core
+  int threads = 0;  // torch threads; 0: one per core
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
   // loadable by Cnn::Load), optimizer.pt and history.json, replaced whole; and DIR/best/, the
   // model of the epoch with the lowest validation loss so far.
   std::filesystem::path checkpoint_dir;
-  bool resume = false;                // continue after the last epoch in checkpoint_dir
+  bool resume = false;                                       // continue after the last epoch in checkpoint_dir
   std::function<void(const CnnTrainingProgress&)> progress;  // after every step
-  Status Check() const;               // every problem, naming the field
+  Status Check() const;                                      // every problem, naming the field
 };
 
 // The label's 14 channels in order, for reports: a_d.R … F0.
@@ -96,19 +96,19 @@ extern const std::array<const char*, 14> kLabelChannelNames;
 struct CnnEpoch {
   int epoch = 0;
   double learning_rate = 0;
-  double train_loss = 0;                   // mean over the epoch's steps (label + weighted re-rendering loss)
-  double train_rerender_loss = 0;          // the re-rendering loss alone, unweighted (0 when off)
-  double validation_loss = 0;              // over every valid pixel of the validation materials
+  double train_loss = 0;                     // mean over the epoch's steps (label + weighted re-rendering loss)
+  double train_rerender_loss = 0;            // the re-rendering loss alone, unweighted (0 when off)
+  double validation_loss = 0;                // over every valid pixel of the validation materials
   std::array<double, 14> validation_rmse{};  // per label channel
-  double seconds = 0;                      // training and validation
-  double samples_per_second = 0;           // patch samples (valid tile outputs) trained per second
+  double seconds = 0;                        // training and validation
+  double samples_per_second = 0;             // patch samples (valid tile outputs) trained per second
 };
 
 // Trains `cnn` in place and returns every epoch's record (with resume: from the first epoch,
 // the earlier ones read from the checkpoint). Every example must have the model's input
 // channels and be at least `tile` pixels on each side.
-Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train,
-                                       const std::vector<CnnExample>& validation, const CnnTrainingOptions& options);
+Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const std::vector<CnnExample>& train, const std::vector<CnnExample>& validation,
+                                       const CnnTrainingOptions& options);
 // The same with the training examples read as needed (options.resident_materials at a time).
 Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, const std::vector<CnnExample>& validation,
                                        const CnnTrainingOptions& options);

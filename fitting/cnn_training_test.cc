@@ -132,7 +132,7 @@ TEST(CnnTrainingTest, RadianceNoiseMultipliesTheObservationsAndLeavesTheGeometry
     }
   }
   const double mean = sum / count, sigma = std::sqrt(sum2 / count - mean * mean);
-  EXPECT_NEAR(mean, 1, 0.02) << count;    // 1128 factors: the mean's own spread is 0.003
+  EXPECT_NEAR(mean, 1, 0.02) << count;  // 1128 factors: the mean's own spread is 0.003
   EXPECT_NEAR(sigma, 0.1, 0.01) << count;
   EXPECT_NE(WithRadianceNoise(input, 0.1, 8).values, noisy.values);  // the seed draws anew
 
@@ -159,8 +159,8 @@ CnnExample SimulatedExample(uint64_t seed, CnnModelInfo& info) {
   const sim::Material fabric = sim::GenerateFabric(seed, {.width_px = 12, .height_px = 12, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
   auto stack = std::make_shared<ObservationStack>(sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 8), {}));
-  info.architecture = {.input_channels = kCnnGeometryChannels + static_cast<int>(stack->observations.size()),
-                       .width_divisor = 32, .dropout = 0};
+  info.architecture = {
+      .input_channels = kCnnGeometryChannels + static_cast<int>(stack->observations.size()), .width_divisor = 32, .dropout = 0};
   info.observation_groups.clear();
   for (const StackObservation& o : stack->observations) info.observation_groups.push_back(o.group);
   info.radiance_scale = 0.05;

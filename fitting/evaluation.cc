@@ -29,8 +29,8 @@ struct LabelGroup {
   int count;
   double range;
 };
-constexpr std::array<LabelGroup, 6> kLabelGroups = {{{"a_d", 0, 3, 1}, {"a_s", 3, 3, 1}, {"n_s", 6, 3, 2},
-                                                     {"sigma", 9, 2, 1}, {"alpha", 11, 2, 2}, {"F0", 13, 1, 1}}};
+constexpr std::array<LabelGroup, 6> kLabelGroups = {
+    {{"a_d", 0, 3, 1}, {"a_s", 3, 3, 1}, {"n_s", 6, 3, 2}, {"sigma", 9, 2, 1}, {"alpha", 11, 2, 2}, {"F0", 13, 1, 1}}};
 
 double Percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
@@ -92,7 +92,8 @@ void AddMapNoise(const Image& maps, const std::optional<Image>& reference, Evalu
   for (const LabelGroup& group : kLabelGroups) {
     const std::string name = group.name;
     if (name != "a_s" && name != "sigma" && name != "alpha") continue;
-    evaluation.map_noise.push_back({name, MeanSquaredLaplacian(maps, group), reference ? MeanSquaredLaplacian(*reference, group) : 0});
+    evaluation.map_noise.push_back(
+        {name, MeanSquaredLaplacian(maps, group), reference ? MeanSquaredLaplacian(*reference, group) : 0});
   }
 }
 
@@ -100,13 +101,14 @@ void AddMapNoise(const Image& maps, const std::optional<Image>& reference, Evalu
 // (their shadow tests the costly part) are built once for all of them. Rows run in parallel,
 // each summed on its own and the rows added in order, so the sums do not depend on the threads.
 std::vector<std::vector<RenderError>> RenderErrors(const std::vector<const Image*>& maps, const ObservationStack& stack,
-                                                  const StackPixels& pixels) {
+                                                   const StackPixels& pixels) {
   struct Sums {
     double error = 0;
     double measured = 0;
     int64_t values = 0;
   };
-  constexpr ObservationGroup kGroups[] = {ObservationGroup::kColour, ObservationGroup::kMonochrome, ObservationGroup::kLinearLight};
+  constexpr ObservationGroup kGroups[] = {ObservationGroup::kColour, ObservationGroup::kMonochrome,
+                                          ObservationGroup::kLinearLight};
   using GroupSums = std::array<Sums, std::size(kGroups)>;
   const int width = stack.image.width(), height = stack.image.height();
   std::vector<GroupSums> rows(static_cast<size_t>(height) * maps.size());  // [row][maps]

@@ -23,14 +23,14 @@
 namespace loom::fitting {
 
 struct ParameterError {
-  std::string name;   // a_d, a_s, n_s, sigma, alpha, F0, a_s*F0
+  std::string name;  // a_d, a_s, n_s, sigma, alpha, F0, a_s*F0
   double nrmse = 0;
 };
 
 struct MapNoise {
-  std::string name;       // a_s, sigma, alpha
-  double fit = 0;         // mean squared Laplacian, label units²
-  double reference = 0;   // 0 without a reference
+  std::string name;      // a_s, sigma, alpha
+  double fit = 0;        // mean squared Laplacian, label units²
+  double reference = 0;  // 0 without a reference
 };
 
 struct RenderError {

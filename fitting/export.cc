@@ -72,8 +72,8 @@ Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const Sv
 Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, const std::string& prefix) {
   const int w = maps.width();
   const int h = maps.height();
-  cv::Mat diffuse(h, w, CV_8UC3), specular(h, w, CV_8UC3), normal(h, w, CV_8UC3), sigma(h, w, CV_8UC3),
-      alpha(h, w, CV_8UC3), height(h, w, CV_8UC1);
+  cv::Mat diffuse(h, w, CV_8UC3), specular(h, w, CV_8UC3), normal(h, w, CV_8UC3), sigma(h, w, CV_8UC3), alpha(h, w, CV_8UC3),
+      height(h, w, CV_8UC1);
   const std::optional<int> height_channel = maps.FindChannel(kHeightChannel);
   float max_height = 1e-6f;
   if (height_channel) {

@@ -87,9 +87,11 @@ std::vector<uint8_t> QuadBuffer(double half_width_m, double half_height_m) {
   const float uvs[] = {0, 0, 1, 0, 1, 1, 0, 1};
   const uint16_t indices[] = {0, 1, 2, 0, 2, 3};  // counter-clockwise seen from above (+y)
   std::vector<uint8_t> buffer;
-  for (const auto& [data, bytes] : std::initializer_list<std::pair<const void*, size_t>>{
-           {positions, sizeof positions}, {normals, sizeof normals}, {tangents, sizeof tangents}, {uvs, sizeof uvs},
-           {indices, sizeof indices}}) {
+  for (const auto& [data, bytes] : std::initializer_list<std::pair<const void*, size_t>>{{positions, sizeof positions},
+                                                                                         {normals, sizeof normals},
+                                                                                         {tangents, sizeof tangents},
+                                                                                         {uvs, sizeof uvs},
+                                                                                         {indices, sizeof indices}}) {
     const size_t at = buffer.size();
     buffer.resize(at + bytes);
     std::memcpy(buffer.data() + at, data, bytes);
@@ -107,7 +109,9 @@ nlohmann::json GltfDocument(double half_width_m, double half_height_m, double sp
   const size_t sizes[] = {48, 48, 64, 32, 12};
   size_t offset = 0;
   for (int v = 0; v < 5; ++v) {
-    views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", sizes[v]},
+    views.push_back({{"buffer", 0},
+                     {"byteOffset", offset},
+                     {"byteLength", sizes[v]},
                      {"target", v == 4 ? kElementArrayBuffer : kArrayBuffer}});
     offset += sizes[v];
   }
@@ -126,24 +130,32 @@ nlohmann::json GltfDocument(double half_width_m, double half_height_m, double sp
       {"scene", 0},
       {"scenes", {{{"nodes", {0}}}}},
       {"nodes", {{{"mesh", 0}, {"name", "sample"}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TANGENT", 2}, {"TEXCOORD_0", 3}}},
-                                    {"indices", 4}, {"material", 0}}}}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TANGENT", 2}, {"TEXCOORD_0", 3}}},
+            {"indices", 4},
+            {"material", 0}}}}}}},
       {"materials",
        {{{"name", "loom SVBRDF (GD10-Ward approximated: see loom's fitting/gltf_export.h)"},
-         {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicRoughnessTexture", {{"index", 1}}},
-                                   {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
+         {"pbrMetallicRoughness",
+          {{"baseColorTexture", {{"index", 0}}},
+           {"metallicRoughnessTexture", {{"index", 1}}},
+           {"metallicFactor", 0.0},
+           {"roughnessFactor", 1.0}}},
          {"normalTexture", {{"index", 2}}},
-         {"extensions", {{"KHR_materials_specular", {{"specularFactor", 1.0}, {"specularColorFactor", {f, f, f}},
-                                                     {"specularColorTexture", {{"index", 3}}}}},
-                         {"KHR_materials_anisotropy", {{"anisotropyStrength", 1.0}, {"anisotropyRotation", 0.0},
-                                                       {"anisotropyTexture", {{"index", 4}}}}}}}}}},
+         {"extensions",
+          {{"KHR_materials_specular",
+            {{"specularFactor", 1.0}, {"specularColorFactor", {f, f, f}}, {"specularColorTexture", {{"index", 3}}}}},
+           {"KHR_materials_anisotropy",
+            {{"anisotropyStrength", 1.0}, {"anisotropyRotation", 0.0}, {"anisotropyTexture", {{"index", 4}}}}}}}}}},
       {"textures", textures},
       {"images", images},
       {"samplers", {{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}}},
       {"buffers", {{{"uri", "material.bin"}, {"byteLength", buffer_bytes}}}},
       {"bufferViews", views},
-      {"accessors", {position, Accessor(1, kFloat, "VEC3"), Accessor(2, kFloat, "VEC4"), Accessor(3, kFloat, "VEC2"),
-                     Accessor(4, kUnsignedShort, "SCALAR")}},
+      {"accessors",
+       {position, Accessor(1, kFloat, "VEC3"), Accessor(2, kFloat, "VEC4"), Accessor(3, kFloat, "VEC2"),
+        Accessor(4, kUnsignedShort, "SCALAR")}},
   };
 }
 
@@ -164,8 +176,10 @@ Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path
   std::filesystem::create_directories(dir, error);
   if (error) return IoError(dir.string(), "cannot create: " + error.message());
   const Textures t = MakeTextures(maps, pixel_mm);
-  for (const auto& [name, image] : {std::pair{"base_color", &t.base_color}, {"specular_color", &t.specular_color},
-                                    {"metallic_roughness", &t.metallic_roughness}, {"normal", &t.normal},
+  for (const auto& [name, image] : {std::pair{"base_color", &t.base_color},
+                                    {"specular_color", &t.specular_color},
+                                    {"metallic_roughness", &t.metallic_roughness},
+                                    {"normal", &t.normal},
                                     {"anisotropy", &t.anisotropy}}) {
     LOOM_RETURN_IF_ERROR(internal::WritePng(dir / (std::string(name) + ".png"), *image));
   }

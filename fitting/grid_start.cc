@@ -122,8 +122,7 @@ std::vector<WardParams<double>> GridCandidates(double f0) {
 
 }  // namespace internal
 
-std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0,
-                                                  int count) {
+std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0, int count) {
   std::vector<PixelObservation> usable;
   for (const PixelObservation& o : observations) {
     if (!std::isnan(o.radiance) && !o.lights.empty()) usable.push_back(o);

@@ -75,17 +75,17 @@ struct Gradient {
 // once per fit instead of once per evaluation.
 struct FixedLight {
   Eigen::Vector3d l;
-  Eigen::Vector3d h;              // normalize(l + v)
+  Eigen::Vector3d h;  // normalize(l + v)
   double irradiance;
-  double inv_c2;                  // 1 / (l·h)²
-  double schlick;                 // (1 − l·h)⁵
+  double inv_c2;   // 1 / (l·h)²
+  double schlick;  // (1 − l·h)⁵
 };
 
 struct FixedObservation {
   Eigen::Vector3d v;
   Eigen::Vector3d rgb_weights;
   double radiance;
-  int first_light, end_light;     // into the cost's light list
+  int first_light, end_light;  // into the cost's light list
 };
 
 // Beyond this exponent the lobe's exp(−e) (< 1e-26) times its largest normalisation (σ at its
@@ -95,8 +95,7 @@ constexpr double kNegligibleLobeExponent = 60;
 
 // The radiance the model predicts for observation `o` with lights [first, end); with
 // `gradient`, also its derivatives.
-double Radiance(const PreparedLobe& lobe, const FixedObservation& o, const std::vector<FixedLight>& lights,
-                Gradient* gradient) {
+double Radiance(const PreparedLobe& lobe, const FixedObservation& o, const std::vector<FixedLight>& lights, Gradient* gradient) {
   const Eigen::Vector3d& n = lobe.n;
   if (n.dot(o.v) <= 0) return 0;
   const double diffuse_albedo = o.rgb_weights.dot(lobe.a_d);
@@ -150,8 +149,7 @@ double Radiance(const PreparedLobe& lobe, const FixedObservation& o, const std::
 
 class AnalyticPixelCost : public ceres::CostFunction {
  public:
-  AnalyticPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale)
-      : inverse_scale_(inverse_scale) {
+  AnalyticPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale) : inverse_scale_(inverse_scale) {
     for (int size : kParameterBlockSizes) mutable_parameter_block_sizes()->push_back(size);
     set_num_residuals(static_cast<int>(observations.size()));
     for (const PixelObservation& o : observations) Add(o);

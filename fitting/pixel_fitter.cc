@@ -49,10 +49,10 @@ struct Start {
 Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
               const PixelFitOptions& options) {
   Blocks blocks(initial);
-  ceres::CostFunction* cost = internal::MakeRobustPixelCost(
-      options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
-                                    : internal::MakeAnalyticPixelCost(usable, inverse_scale),
-      options.huber_scale);
+  ceres::CostFunction* cost =
+      internal::MakeRobustPixelCost(options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
+                                                                  : internal::MakeAnalyticPixelCost(usable, inverse_scale),
+                                    options.huber_scale);
   ceres::Problem problem;
   problem.AddResidualBlock(cost, nullptr, blocks.n_s, blocks.a_d, blocks.a_s, blocks.sigma, blocks.alpha, blocks.f0);
   problem.SetManifold(blocks.n_s, new ceres::SphereManifold<3>());
@@ -141,8 +141,8 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
     sum += std::abs(o.radiance);
   }
   if (usable.size() < kNumWardParams) {
-    return FailedPreconditionError("pixel fit", std::to_string(usable.size()) + " usable observations, need at least " +
-                                                    std::to_string(kNumWardParams));
+    return FailedPreconditionError(
+        "pixel fit", std::to_string(usable.size()) + " usable observations, need at least " + std::to_string(kNumWardParams));
   }
   const double mean = sum / usable.size();
   const double inverse_scale = mean > 0 ? 1 / mean : 1;

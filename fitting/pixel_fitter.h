@@ -14,11 +14,10 @@
 // between the observations), (σx, σy) in
 // [kMinSigma, kMaxSigma], α (free; wrapped to (−π/2, π/2] after), F0 ∈ [0, 1]. Residuals are
 // radiances relative to the pixel's mean observed radiance, each under a Huber loss, so a shadowed or
-// mis-registered observation cannot drag the fit (internal/pixel_cost.h: MakeRobustPixelCost). Observations with NaN radiance are skipped.
-// Derivatives: hand-derived (fitting/pixel_cost.cc), one residual block per pixel (the
-// formulation measured fastest in shared/docs/build-notes.md); checked by ceres::GradientChecker
-// and against ceres::Jet in tests.
-// Reentrant: fit different pixels on different threads.
+// mis-registered observation cannot drag the fit (internal/pixel_cost.h: MakeRobustPixelCost). Observations with NaN radiance are
+// skipped. Derivatives: hand-derived (fitting/pixel_cost.cc), one residual block per pixel (the formulation measured fastest in
+// shared/docs/build-notes.md); checked by ceres::GradientChecker and against ceres::Jet in tests. Reentrant: fit different pixels
+// on different threads.
 
 #include <optional>
 #include <vector>
@@ -31,13 +30,13 @@ namespace loom::fitting {
 inline constexpr double kMaxAlbedo = 1.0;
 
 struct LightSample {
-  Eigen::Vector3d l_local;   // unit, towards the light
-  double irradiance = 0;     // I / d² at the pixel, radiance units
+  Eigen::Vector3d l_local;  // unit, towards the light
+  double irradiance = 0;    // I / d² at the pixel, radiance units
 };
 
 struct PixelObservation {
-  double radiance = 0;                                      // NaN: masked (unseen, shadowed)
-  Eigen::Vector3d v_local = Eigen::Vector3d::UnitZ();       // unit, towards the camera
+  double radiance = 0;                                 // NaN: masked (unseen, shadowed)
+  Eigen::Vector3d v_local = Eigen::Vector3d::UnitZ();  // unit, towards the camera
   Eigen::Vector3d rgb_weights = Eigen::Vector3d::Constant(1.0 / 3);
   std::vector<LightSample> lights;
   int source = -1;  // the stack observation it came from (−1: not from a stack)
@@ -59,9 +58,9 @@ T PredictRadiance(const WardLobe<T>& lobe, const PixelObservation& observation) 
 }
 
 struct PixelFitOptions {
-  int max_iterations = 50;       // per start
-  double huber_scale = 0.5;      // of the residual, in units of the pixel's mean radiance
-  bool multi_start = true;       // also start from 3 more anisotropy angles (α local minima)
+  int max_iterations = 50;   // per start
+  double huber_scale = 0.5;  // of the residual, in units of the pixel's mean radiance
+  bool multi_start = true;   // also start from 3 more anisotropy angles (α local minima)
   // F0 held at this value instead of fitted. Away from grazing angles the observations fix
   // only a_s · F(l·h) ≈ a_s · F0, so Pantora fits one F0 per material; so can we.
   std::optional<double> fixed_f0;
@@ -74,9 +73,9 @@ struct PixelFitOptions {
 
 struct PixelFitResult {
   WardParams<double> params;
-  double cost = 0;           // Ceres' final cost (½ Σ ρ(r²)) of the best start
+  double cost = 0;  // Ceres' final cost (½ Σ ρ(r²)) of the best start
   int observations_used = 0;
-  int iterations = 0;        // over all starts
+  int iterations = 0;  // over all starts
   bool converged = false;
 };
 
@@ -94,7 +93,6 @@ WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& obs
 // albedos (the model is linear in them), F0 = `f0`. About 360 shapes; for pixels and clusters
 // where a neighbour's parameters are no start: a narrow highlight far from the start's lobe
 // gives no gradient, and the fit falls into a_s = 0 (grid_start.cc).
-std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0,
-                                                  int count);
+std::vector<WardParams<double>> GridInitialParams(const std::vector<PixelObservation>& observations, double f0, int count);
 
 }  // namespace loom::fitting

@@ -10,9 +10,9 @@
 
 #include <random>
 
+#include "core/spectra.h"
 #include "fitting/internal/pixel_cost.h"
 #include "fitting/testing/tac7_mini.h"
-#include "core/spectra.h"
 
 namespace loom::fitting {
 namespace {
@@ -30,7 +30,9 @@ std::vector<PixelObservation> Geometry(const RigModel& rig) {
     for (const CameraModel& camera : rig.cameras) {
       const Eigen::Vector3d v = (sample_from_rig * camera.CentreInRig()).normalized();
       for (const LedModel& led : rig.leds) {
-        observations.push_back({0, v, PanchromaticWeights(),
+        observations.push_back({0,
+                                v,
+                                PanchromaticWeights(),
                                 {PointLight(sample_from_rig * led.position_mm, led.IntensityTowards(origin_in_rig, 1000))}});
       }
       if (angle == 0) {
@@ -38,7 +40,9 @@ std::vector<PixelObservation> Geometry(const RigModel& rig) {
           const LedModel& led = rig.leds[wheel.led];
           for (const FilterModel& filter : wheel.filters) {
             if (filter.open) continue;
-            observations.push_back({0, v, FilterWeights(filter),
+            observations.push_back({0,
+                                    v,
+                                    FilterWeights(filter),
                                     {PointLight(sample_from_rig * led.position_mm, led.IntensityTowards(origin_in_rig, 1000))}});
           }
         }
@@ -49,12 +53,12 @@ std::vector<PixelObservation> Geometry(const RigModel& rig) {
         PixelObservation o{0, v, PanchromaticWeights(), {}};
         const double segment_mm = strip.strip_length_mm / strip.segments;
         for (int s = 0; s < strip.segments; ++s) {
-          const Eigen::Vector3d source = strip.StripCentre(position) +
-                                         strip.sweep_axis * ((s + 0.5) * segment_mm - strip.strip_length_mm / 2);
+          const Eigen::Vector3d source =
+              strip.StripCentre(position) + strip.sweep_axis * ((s + 0.5) * segment_mm - strip.strip_length_mm / 2);
           const double c = strip.StripNormal(position).dot((origin_in_rig - source).normalized());
           if (c <= 0) continue;
-          o.lights.push_back(PointLight(sample_from_rig * source,
-                                        strip.intensity_per_mm * segment_mm * std::pow(c, strip.falloff_exponent)));
+          o.lights.push_back(
+              PointLight(sample_from_rig * source, strip.intensity_per_mm * segment_mm * std::pow(c, strip.falloff_exponent)));
         }
         observations.push_back(std::move(o));
       }

@@ -22,10 +22,17 @@ std::string Escape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '&': out += "&amp;"; break;
-      default: out += c;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -72,7 +79,9 @@ std::string ErrorTable(const Evaluation& e) {
   std::ostringstream html;
   if (!e.parameters.empty()) {
     html << "<h2>Parameters against the reference</h2>\n<table><tr><th>parameter</th><th>NRMSE</th></tr>\n";
-    for (const ParameterError& p : e.parameters) html << "<tr><td>" << p.name << "</td><td>" << Fixed(p.nrmse, 4) << "</td></tr>\n";
+    for (const ParameterError& p : e.parameters) {
+      html << "<tr><td>" << p.name << "</td><td>" << Fixed(p.nrmse, 4) << "</td></tr>\n";
+    }
     html << "<tr><td>shading normal angle</td><td>median " << Fixed(e.normal_median_deg, 2) << "°, p90 "
          << Fixed(e.normal_p90_deg, 2) << "°</td></tr></table>\n";
   }
@@ -138,7 +147,8 @@ Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostr
   const std::vector<int> shown = ShowcaseObservations(*in.stack);
   const Image rendered = RenderObservations(*in.maps, *in.stack, shown);
   html << "<h2>Measured and re-rendered</h2>\n<p>Same exposure in each pair (white = the measured 99th percentile); "
-          "magenta: not used (unseen or in a cast shadow).</p>\n<table><tr><th>observation</th><th>measured</th><th>fit</th></tr>\n";
+          "magenta: not used (unseen or in a cast "
+          "shadow).</p>\n<table><tr><th>observation</th><th>measured</th><th>fit</th></tr>\n";
   for (size_t i = 0; i < shown.size(); ++i) {
     const int channel = ObservationStack::ObservationChannel(shown[i]);
     const std::string name = in.stack->image.channel_name(channel);
@@ -147,8 +157,7 @@ Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostr
     LOOM_RETURN_IF_ERROR(WriteRadiancePng(dir / (name + "-fit.png"), rendered, static_cast<int>(i), white));
     const StackObservation& o = in.stack->observations[shown[i]];
     html << "<tr><td>" << name << " (" << ObservationGroupName(o.group) << ")<br><small>" << Escape(o.description)
-         << "</small></td><td><img src=\"" << name << "-measured.png\"></td><td><img src=\"" << name
-         << "-fit.png\"></td></tr>\n";
+         << "</small></td><td><img src=\"" << name << "-measured.png\"></td><td><img src=\"" << name << "-fit.png\"></td></tr>\n";
   }
   html << "</table>\n";
   return Status::Ok();
@@ -161,10 +170,12 @@ std::string EvaluationJson(const Evaluation& e) {
   for (const ParameterError& p : e.parameters) json["parameter_nrmse"][p.name] = p.nrmse;
   if (!e.parameters.empty()) json["normal_error_deg"] = {{"median", e.normal_median_deg}, {"p90", e.normal_p90_deg}};
   for (const MapNoise& n : e.map_noise) {
-    json["map_noise"][n.name] = {{"fit", n.fit}, {"reference", n.reference},
-                                 {"ratio", n.reference > 0 ? n.fit / n.reference : 0.0}};
+    json["map_noise"][n.name] = {
+        {"fit", n.fit}, {"reference", n.reference}, {"ratio", n.reference > 0 ? n.fit / n.reference : 0.0}};
   }
-  for (const RenderError& r : e.fit_vs_measured) json["rerender_l1"]["fit"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};
+  for (const RenderError& r : e.fit_vs_measured) {
+    json["rerender_l1"]["fit"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};
+  }
   for (const RenderError& r : e.reference_vs_measured) {
     json["rerender_l1"]["reference"][r.group] = {{"relative_l1", r.relative_l1}, {"values", r.values}};
   }
@@ -180,7 +191,9 @@ Status WriteReport(const fs::path& dir, const ReportInputs& in) {
   html << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>loom: " << Escape(in.title) << "</title>\n"
        << "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{padding:4px 10px;"
           "border-bottom:1px solid #ccc;text-align:left;vertical-align:top}img{width:192px;image-rendering:pixelated}"
-          "</style></head><body>\n<h1>" << Escape(in.title) << "</h1>\n" << in.notes_html << ErrorTable(in.evaluation);
+          "</style></head><body>\n<h1>"
+       << Escape(in.title) << "</h1>\n"
+       << in.notes_html << ErrorTable(in.evaluation);
   LOOM_RETURN_IF_ERROR(WriteMapSection(dir, in, html));
   LOOM_RETURN_IF_ERROR(WriteUncertaintySection(dir, in, html));
   LOOM_RETURN_IF_ERROR(WriteRenderSection(dir, in, html));

@@ -15,12 +15,12 @@
 namespace loom::fitting {
 
 struct ReportInputs {
-  std::string title;              // "fabric:1 on tac7-mini"
+  std::string title;  // "fabric:1 on tac7-mini"
   const Image* maps = nullptr;
   const Image* reference = nullptr;  // optional
   const ObservationStack* stack = nullptr;
   Evaluation evaluation;
-  std::string notes_html;         // extra lines (timings, fit summary), already escaped
+  std::string notes_html;  // extra lines (timings, fit summary), already escaped
 };
 
 Status WriteReport(const std::filesystem::path& dir, const ReportInputs& inputs);

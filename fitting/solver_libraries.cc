@@ -5,8 +5,6 @@
 
 namespace loom::fitting {
 
-std::vector<LinkedLibrary> SolverLibraries() {
-  return {{"Ceres", CERES_VERSION_STRING}, {"LibTorch", TORCH_VERSION}};
-}
+std::vector<LinkedLibrary> SolverLibraries() { return {{"Ceres", CERES_VERSION_STRING}, {"LibTorch", TORCH_VERSION}}; }
 
 }  // namespace loom::fitting

@@ -19,7 +19,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-
 // log(1 + L / typical): compresses highlights so that k-means groups by appearance, not by
 // the few brightest observations.
 cv::Mat AppearanceFeatures(const ObservationStack& stack) {
@@ -120,8 +119,13 @@ PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, co
   Result<PixelFitResult> again =
       FitFromStarts(observations, GridInitialParams(observations, fit.fixed_f0.value_or(1.0), options.retry_grid_starts), fit);
   if (!again.ok() || again->cost >= first.cost) return first;
-  return {again->params,     again->cost, RelativeRms(again->params, observations), first.iterations + again->iterations,
-          first.observations, true,        std::nullopt};
+  return {again->params,
+          again->cost,
+          RelativeRms(again->params, observations),
+          first.iterations + again->iterations,
+          first.observations,
+          true,
+          std::nullopt};
 }
 
 std::vector<int> EmittersPerObservation(const ObservationStack& stack) {
@@ -149,8 +153,8 @@ PixelOutcome OutcomeOf(const RefinedPixel& r) {
 
 // Step 4 on the refiner: every pixel from start_of(i).
 Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const ObservationStack& stack,
-                                            const std::function<WardParams<double>(int)>& start_of,
-                                            const RefineOptions& refine, const std::function<void(int)>& progress) {
+                                            const std::function<WardParams<double>(int)>& start_of, const RefineOptions& refine,
+                                            const std::function<void(int)>& progress) {
   const int width = pixels.width();
   const int count = width * pixels.height();
   const RefineProblem problem{.pixels = count,
@@ -178,8 +182,7 @@ constexpr int kGridLights = 4;
 // Returns how many were finished.
 Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                              const RefineOptions& refine, const StackFitOptions& options,
-                             const std::function<WardParams<double>(int)>& start_of,
-                             std::vector<PixelOutcome>& outcomes) {
+                             const std::function<WardParams<double>(int)>& start_of, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();
   const int grid_starts = options.retry_grid_starts;
   const int per_pixel = grid_starts + 1;  // the grid's starts, then the first fit
@@ -241,16 +244,15 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
 // the fit when repeated), about 150 KB a pixel on tac7-mini. Returns how many were finished.
 Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                           const RefineOptions& refine, const StackFitOptions& options,
-                          const std::function<WardParams<double>(int)>& start_of,
-                          const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
+                          const std::function<WardParams<double>(int)>& start_of, const std::function<void(int)>& progress,
+                          std::vector<PixelOutcome>& outcomes) {
   constexpr size_t kChunk = 512;
   int finished = 0;
   for (size_t first = 0; first < retry.size(); first += kChunk) {
     const size_t end = std::min(retry.size(), first + kChunk);
     const std::vector<int> chunk(retry.begin() + static_cast<std::ptrdiff_t>(first),
                                  retry.begin() + static_cast<std::ptrdiff_t>(end));
-    LOOM_ASSIGN_OR_RETURN(const int chunk_finished,
-                          RefineRetryChunk(pixels, stack, chunk, refine, options, start_of, outcomes));
+    LOOM_ASSIGN_OR_RETURN(const int chunk_finished, RefineRetryChunk(pixels, stack, chunk, refine, options, start_of, outcomes));
     finished += chunk_finished;
     progress(static_cast<int>(end));
   }
@@ -272,7 +274,7 @@ std::vector<WardParams<double>> NeighbourMedians(const std::vector<PixelOutcome>
           WardParams<double> p = outcomes[static_cast<size_t>(ny) * width + nx].params;
           if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
           const double v[13] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
-                                p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, 0,           p.f0};
+                                p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, 0,         p.f0};
           for (int i = 0; i < 13; ++i) values[i].push_back(v[i]);
           c2 += std::cos(2 * p.alpha), s2 += std::sin(2 * p.alpha);
         }
@@ -309,15 +311,15 @@ WardParams<double> InTheConventionOf(WardParams<double> p, const WardParams<doub
 
 // The smoothing pass: every fitted pixel again from its first fit, pulled toward its
 // neighbourhood's median; the pixel keeps what its data say where they say it.
-Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine,
-                     const RefinePrior& smoothing, const std::function<void(int)>& progress,
-                     std::vector<PixelOutcome>& outcomes) {
+Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine, const RefinePrior& smoothing,
+                     const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();
   const std::vector<WardParams<double>> medians = NeighbourMedians(outcomes, width, pixels.height());
   refine.prior = smoothing;
   const RefineProblem problem{static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
                               [&](int i) { return pixels.Observations(i % width, i / width); },
-                              [&](int i) { return outcomes[i].params; }, [&](int i) { return InTheConventionOf(medians[i], outcomes[i].params); }};
+                              [&](int i) { return outcomes[i].params; },
+                              [&](int i) { return InTheConventionOf(medians[i], outcomes[i].params); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
   ParallelFor(static_cast<int>(outcomes.size()), refine.threads, [&](int i) {
     if (!outcomes[i].fitted || !refined[i].fitted) return;
@@ -365,8 +367,8 @@ Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters
 
 // Steps 1–3: every cluster's fit, and the material's F0.
 template <typename Report>
-Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, const StackFitOptions& options,
-                   const Report& report, StackFitSummary& summary) {
+Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, const StackFitOptions& options, const Report& report,
+                   StackFitSummary& summary) {
   std::vector<Result<PixelFitResult>> cluster_fits(clusters.count, InternalError("cluster", "not fitted"));
   ParallelFor(
       clusters.count, options.threads, [&](int c) { cluster_fits[c] = FitCluster(pixels, clusters, c, options); },
@@ -490,8 +492,8 @@ PixelClusters ClusterPixels(const ObservationStack& stack, int clusters, uint64_
   if (result.count <= 1) return result;
   cv::Mat labels, centres;
   cv::theRNG().state = seed;  // k-means++ seeding draws from OpenCV's thread-local generator
-  cv::kmeans(features, result.count, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4),
-             3, cv::KMEANS_PP_CENTERS, centres);
+  cv::kmeans(features, result.count, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4), 3,
+             cv::KMEANS_PP_CENTERS, centres);
   for (int i = 0; i < features.rows; ++i) {
     result.labels[i] = labels.at<int>(i);
     result.distances[i] = static_cast<float>(cv::norm(features.row(i), centres.row(result.labels[i])));
@@ -519,8 +521,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     const Image& initial = *options.initial_maps;
     if (initial.width() != width || initial.height() != height || !HasSvbrdfLayout(initial)) {
       return InvalidArgumentError("initial maps", std::to_string(initial.width()) + "x" + std::to_string(initial.height()) +
-                                                      " px, not SVBRDF maps of the stack's " + std::to_string(width) +
-                                                      "x" + std::to_string(height));
+                                                      " px, not SVBRDF maps of the stack's " + std::to_string(width) + "x" +
+                                                      std::to_string(height));
     }
     clusters.labels.assign(pixel_count, -1);
     std::vector<std::pair<double, int>> f0s;
@@ -570,8 +572,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     LOOM_ASSIGN_OR_RETURN(summary.pixels_retry_finished,
                           RefineRetries(pixels, stack, retry, refine, options, start_of, retry_progress, outcomes));
     if (options.smoothing.weight > 0) {
-      LOOM_RETURN_IF_ERROR(SmoothingPass(pixels, stack, refine, options.smoothing,
-                                         [&](int done) { report("smoothing", done, pixel_count); }, outcomes));
+      LOOM_RETURN_IF_ERROR(SmoothingPass(
+          pixels, stack, refine, options.smoothing, [&](int done) { report("smoothing", done, pixel_count); }, outcomes));
     }
   } else {
     ParallelFor(

@@ -52,7 +52,7 @@ struct StackFitOptions {
   int pixels_per_cluster_fit = 12;  // most typical pixels pooled into a cluster's fit
   PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false, .fixed_f0 = std::nullopt};
   PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false, .fixed_f0 = std::nullopt};
-  int grid_starts = 4;              // best grid-searched starts of a cluster's fit (GridInitialParams)
+  int grid_starts = 4;  // best grid-searched starts of a cluster's fit (GridInitialParams)
   // Step 5: a fit is poor above both a floor and a multiple of the stack's noise level (the
   // relative RMS of the best-fitted tenth of its pixels).
   bool retry_poor_fits = true;         // step 5 at all
@@ -88,26 +88,26 @@ struct StackFitOptions {
   // cnn+ceres). No clusters are formed; with fixed_f0 unset the material's F0 is the maps'
   // median. Not owned; must outlive FitStack.
   const Image* initial_maps = nullptr;
-  int threads = 0;                  // 0: one per core
-  uint64_t seed = 1;                // k-means initialisation
+  int threads = 0;                                        // 0: one per core
+  uint64_t seed = 1;                                      // k-means initialisation
   std::function<void(const StackFitProgress&)> progress;  // on the calling thread
-  Status Check() const;             // every problem, naming the field
+  Status Check() const;                                   // every problem, naming the field
 };
 
 struct StackFitSummary {
   int pixels = 0;
   int pixels_fitted = 0;
-  int pixels_kept_at_cluster = 0;   // too few usable observations
-  int pixels_retried = 0;           // redone from grid starts
-  int pixels_retry_finished = 0;    // of those, fitted from a grid start with every light sample
-                                    // (the refiner explores with fewer and finishes only the
-                                    // pixels where a grid start wins; Ceres finishes all)
-  double retry_threshold_rms = 0;   // relative RMS above which they were
+  int pixels_kept_at_cluster = 0;  // too few usable observations
+  int pixels_retried = 0;          // redone from grid starts
+  int pixels_retry_finished = 0;   // of those, fitted from a grid start with every light sample
+                                   // (the refiner explores with fewer and finishes only the
+                                   // pixels where a grid start wins; Ceres finishes all)
+  double retry_threshold_rms = 0;  // relative RMS above which they were
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
-  double f0 = 0;                    // the material's
-  double mean_iterations = 0;       // per pixel fit
-  double mean_observations = 0;     // usable per pixel
+  double f0 = 0;                 // the material's
+  double mean_iterations = 0;    // per pixel fit
+  double mean_observations = 0;  // usable per pixel
   double cluster_seconds = 0;
   double pixel_seconds = 0;
   int threads = 0;
@@ -127,9 +127,9 @@ inline constexpr const char* kFitClusterChannel = "fit.cluster";
 inline constexpr const char* kFitObservationsChannel = "fit.observations";
 inline constexpr const char* kFitRmsChannel = "fit.rms";
 // 1σ of the normal's angle (degrees), a_d, a_s, σx, σy and α (degrees).
-inline constexpr std::array<const char*, 10> kUncertaintyChannels = {
-    "unc.normal_deg", "unc.a_d.R", "unc.a_d.G", "unc.a_d.B", "unc.a_s.R",
-    "unc.a_s.G",      "unc.a_s.B", "unc.sigma_x", "unc.sigma_y", "unc.alpha_deg"};
+inline constexpr std::array<const char*, 10> kUncertaintyChannels = {"unc.normal_deg", "unc.a_d.R",    "unc.a_d.G", "unc.a_d.B",
+                                                                     "unc.a_s.R",      "unc.a_s.G",    "unc.a_s.B", "unc.sigma_x",
+                                                                     "unc.sigma_y",    "unc.alpha_deg"};
 
 Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& options = {});
 

@@ -53,10 +53,9 @@ TEST(StackFitterTest, RecoversAFabricFromItsFastPathStack) {
             << s.mean_iterations << " it/px, clusters " << s.cluster_seconds << " s, pixels " << s.pixel_seconds
             << " s = " << s.ms_per_pixel_per_thread() << " ms/px/thread; F0 " << s.f0 << " (truth "
             << GetParams(fabric.maps, 0, 0).f0 << ")\n"
-            << "normal deg median " << Percentile(normal_deg, 0.5) << " p90 " << Percentile(normal_deg, 0.9)
-            << "; a_d median " << Percentile(a_d, 0.5) << " p90 " << Percentile(a_d, 0.9) << "; a_s*F0 median "
-            << Percentile(a_s_f0, 0.5) << " p90 " << Percentile(a_s_f0, 0.9) << "; rms median " << Percentile(rms, 0.5)
-            << " p90 " << Percentile(rms, 0.9) << "\n";
+            << "normal deg median " << Percentile(normal_deg, 0.5) << " p90 " << Percentile(normal_deg, 0.9) << "; a_d median "
+            << Percentile(a_d, 0.5) << " p90 " << Percentile(a_d, 0.9) << "; a_s*F0 median " << Percentile(a_s_f0, 0.5) << " p90 "
+            << Percentile(a_s_f0, 0.9) << "; rms median " << Percentile(rms, 0.5) << " p90 " << Percentile(rms, 0.9) << "\n";
   // Measured at 1 % noise (2026-11-22): normal median 0.085° p90 0.29°, a_d median 0.0014 p90
   // 0.0051, a_s·F0 median 0.0065, relative RMS median 0.019. Bounds ~3× those. The a_s·F0 tail
   // (p90 0.17) is where a sharp highlight falls between the observations; F0 itself is not
@@ -238,8 +237,8 @@ TEST(StackFitterTest, TheRefinersRetriesBringPixelsOutOfAWrongBasin) {
   }
   EXPECT_GE(stuck, 4) << "the wrong starts should trap the first fit, or this test shows nothing";
   const StackFitSummary& s = retried->summary;
-  std::cout << stuck << " of " << misled.size() << " misled pixels stuck without retries; " << s.pixels_retried
-            << " retried, " << s.pixels_retry_finished << " refitted from a grid start\n";
+  std::cout << stuck << " of " << misled.size() << " misled pixels stuck without retries; " << s.pixels_retried << " retried, "
+            << s.pixels_retry_finished << " refitted from a grid start\n";
   EXPECT_GE(s.pixels_retried, stuck);
   EXPECT_GE(s.pixels_retry_finished, stuck);
   EXPECT_LE(s.pixels_retry_finished, s.pixels_retried);

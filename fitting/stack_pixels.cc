@@ -6,11 +6,10 @@
 
 namespace loom::fitting {
 
-StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions& options)
-    : stack_(stack), options_(options) {
+StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions& options) : stack_(stack), options_(options) {
   const auto heights = stack.image.channel(2);  // pos.Z
-  heightmap_ = Heightmap(std::vector<float>(heights.begin(), heights.end()), stack.image.width(), stack.image.height(),
-                         stack.pixel_mm);
+  heightmap_ =
+      Heightmap(std::vector<float>(heights.begin(), heights.end()), stack.image.width(), stack.image.height(), stack.pixel_mm);
 }
 
 Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {

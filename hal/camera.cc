@@ -12,25 +12,20 @@ namespace {
 using internal::FormatNumber;
 
 std::string Format(const scan::Roi& roi) {
-  return std::to_string(roi.x) + "," + std::to_string(roi.y) + " " + std::to_string(roi.width) +
-         "x" + std::to_string(roi.height);
+  return std::to_string(roi.x) + "," + std::to_string(roi.y) + " " + std::to_string(roi.width) + "x" + std::to_string(roi.height);
 }
 
 bool Offers(const CameraCapabilities& caps, scan::PixelFormat format) {
-  return std::find(caps.pixel_formats.begin(), caps.pixel_formats.end(), format) !=
-         caps.pixel_formats.end();
+  return std::find(caps.pixel_formats.begin(), caps.pixel_formats.end(), format) != caps.pixel_formats.end();
 }
 
-void NegotiateRoi(const CameraCapabilities& caps, const scan::Roi& requested, scan::Roi* applied,
-                  ConfigureReport* report) {
+void NegotiateRoi(const CameraCapabilities& caps, const scan::Roi& requested, scan::Roi* applied, ConfigureReport* report) {
   scan::Roi roi = requested;
   if (roi.width == 0) roi.width = caps.sensor_width - roi.x;
   if (roi.height == 0) roi.height = caps.sensor_height - roi.y;
-  if (roi.x < 0 || roi.y < 0 || roi.width <= 0 || roi.height <= 0 || roi.x >= caps.sensor_width ||
-      roi.y >= caps.sensor_height) {
-    report->Reject("roi " + Format(requested) + " is outside the " +
-                   std::to_string(caps.sensor_width) + "x" + std::to_string(caps.sensor_height) +
-                   " sensor");
+  if (roi.x < 0 || roi.y < 0 || roi.width <= 0 || roi.height <= 0 || roi.x >= caps.sensor_width || roi.y >= caps.sensor_height) {
+    report->Reject("roi " + Format(requested) + " is outside the " + std::to_string(caps.sensor_width) + "x" +
+                   std::to_string(caps.sensor_height) + " sensor");
     return;
   }
   scan::Roi clipped = roi;
@@ -42,8 +37,7 @@ void NegotiateRoi(const CameraCapabilities& caps, const scan::Roi& requested, sc
   *applied = clipped;
 }
 
-double Clamp(const char* setting, double value, double low, double high, const char* unit,
-             ConfigureReport* report) {
+double Clamp(const char* setting, double value, double low, double high, const char* unit, ConfigureReport* report) {
   const double clamped = std::clamp(value, low, high);
   if (clamped != value) {
     report->Adjust(setting, FormatNumber(value), FormatNumber(clamped),
@@ -58,9 +52,12 @@ bool Differs(double a, double b) { return std::abs(a - b) > 1e-9 * std::max(1.0,
 
 std::string_view TriggerModeName(TriggerMode mode) {
   switch (mode) {
-    case TriggerMode::kFreeRun: return "free-run";
-    case TriggerMode::kSoftware: return "software";
-    case TriggerMode::kHardware: return "hardware";
+    case TriggerMode::kFreeRun:
+      return "free-run";
+    case TriggerMode::kSoftware:
+      return "software";
+    case TriggerMode::kHardware:
+      return "hardware";
   }
   return "unknown";
 }
@@ -79,13 +76,11 @@ ConfigureReport Camera::Negotiate(const CameraSettings& requested, CameraSetting
     }
   }
   NegotiateRoi(caps, requested.roi, &applied->roi, &report);
-  applied->exposure_us = Clamp("exposure_us", requested.exposure_us, caps.exposure_min_us,
-                               caps.exposure_max_us, "µs", &report);
+  applied->exposure_us = Clamp("exposure_us", requested.exposure_us, caps.exposure_min_us, caps.exposure_max_us, "µs", &report);
   applied->gain = Clamp("gain", requested.gain, caps.gain_min, caps.gain_max, "", &report);
   if (requested.buffer_count < 2) {
     applied->buffer_count = 2;
-    report.Adjust("buffer_count", std::to_string(requested.buffer_count), "2",
-                  "acquisition needs at least 2 buffers");
+    report.Adjust("buffer_count", std::to_string(requested.buffer_count), "2", "acquisition needs at least 2 buffers");
   }
   if (requested.frame_timeout_ms <= 0) {
     report.Reject("frame_timeout_ms must be > 0, got " + std::to_string(requested.frame_timeout_ms));
@@ -102,8 +97,7 @@ Result<ConfigureReport> Camera::Configure(const CameraSettings& requested) {
   LOOM_RETURN_IF_ERROR(DoConfigure(&applied));
   // The camera may round further (exposure steps, gain steps): record what it really applied.
   if (Differs(applied.exposure_us, negotiated.exposure_us)) {
-    report.Adjust("exposure_us", FormatNumber(negotiated.exposure_us), FormatNumber(applied.exposure_us),
-                  "set by the camera");
+    report.Adjust("exposure_us", FormatNumber(negotiated.exposure_us), FormatNumber(applied.exposure_us), "set by the camera");
   }
   if (Differs(applied.gain, negotiated.gain)) {
     report.Adjust("gain", FormatNumber(negotiated.gain), FormatNumber(applied.gain), "set by the camera");
@@ -116,9 +110,8 @@ Result<ConfigureReport> Camera::Configure(const CameraSettings& requested) {
 Status Camera::TriggerSoftware() {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "TriggerSoftware"));
   if (settings_.trigger != TriggerMode::kSoftware) {
-    return Error(StatusCode::kFailedPrecondition,
-                 "software trigger needs trigger mode 'software', it is '" +
-                     std::string(TriggerModeName(settings_.trigger)) + "'");
+    return Error(StatusCode::kFailedPrecondition, "software trigger needs trigger mode 'software', it is '" +
+                                                      std::string(TriggerModeName(settings_.trigger)) + "'");
   }
   return DoTriggerSoftware();
 }

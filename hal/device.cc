@@ -6,25 +6,31 @@ namespace loom::hal {
 
 std::string_view DeviceStateName(DeviceState state) {
   switch (state) {
-    case DeviceState::kClosed: return "closed";
-    case DeviceState::kOpen: return "open";
-    case DeviceState::kConfigured: return "configured";
-    case DeviceState::kRunning: return "running";
+    case DeviceState::kClosed:
+      return "closed";
+    case DeviceState::kOpen:
+      return "open";
+    case DeviceState::kConfigured:
+      return "configured";
+    case DeviceState::kRunning:
+      return "running";
   }
   return "unknown";
 }
 
 std::string_view NegotiationName(Negotiation negotiation) {
   switch (negotiation) {
-    case Negotiation::kValid: return "valid";
-    case Negotiation::kAdjusted: return "adjusted";
-    case Negotiation::kInvalid: return "invalid";
+    case Negotiation::kValid:
+      return "valid";
+    case Negotiation::kAdjusted:
+      return "adjusted";
+    case Negotiation::kInvalid:
+      return "invalid";
   }
   return "unknown";
 }
 
-void ConfigureReport::Adjust(std::string setting, std::string requested, std::string applied,
-                             std::string reason) {
+void ConfigureReport::Adjust(std::string setting, std::string requested, std::string applied, std::string reason) {
   adjustments.push_back({std::move(setting), std::move(requested), std::move(applied), std::move(reason)});
   if (outcome == Negotiation::kValid) outcome = Negotiation::kAdjusted;
 }
@@ -52,10 +58,7 @@ Status ConfigureReport::ToStatus(const std::string& device) const {
 }
 
 Device::Device(std::string kind, std::string name, std::string backend, std::string address)
-    : kind_(std::move(kind)),
-      name_(std::move(name)),
-      backend_(std::move(backend)),
-      address_(std::move(address)) {
+    : kind_(std::move(kind)), name_(std::move(name)), backend_(std::move(backend)), address_(std::move(address)) {
   description_ = kind_ + " '" + name_ + "' (" + backend_ + (address_.empty() ? "" : " " + address_) + ")";
 }
 
@@ -63,14 +66,11 @@ Status Device::ExpectState(std::initializer_list<DeviceState> allowed, std::stri
   if (std::find(allowed.begin(), allowed.end(), state_) != allowed.end()) return Status::Ok();
   std::string expected;
   for (DeviceState s : allowed) expected += (expected.empty() ? "" : " or ") + std::string(DeviceStateName(s));
-  return FailedPreconditionError(description_, std::string(call) + "() needs the device " +
-                                                   expected + ", but it is " +
+  return FailedPreconditionError(description_, std::string(call) + "() needs the device " + expected + ", but it is " +
                                                    std::string(DeviceStateName(state_)));
 }
 
-Status Device::Error(StatusCode code, std::string message) const {
-  return Status(code, description_, std::move(message));
-}
+Status Device::Error(StatusCode code, std::string message) const { return Status(code, description_, std::move(message)); }
 
 Status Device::Open() {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kClosed}, "Open"));

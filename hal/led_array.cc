@@ -16,8 +16,8 @@ Result<ConfigureReport> LedArray::Configure(const LedArraySettings& requested) {
   }
   if (requested.current_limit_ma > max_current_ma_) {
     applied.current_limit_ma = max_current_ma_;
-    report.Adjust("current_limit_ma", FormatNumber(requested.current_limit_ma),
-                  FormatNumber(max_current_ma_), "the controller's maximum");
+    report.Adjust("current_limit_ma", FormatNumber(requested.current_limit_ma), FormatNumber(max_current_ma_),
+                  "the controller's maximum");
   }
   LOOM_RETURN_IF_ERROR(DoConfigure(applied));
   settings_ = applied;
@@ -29,28 +29,25 @@ Status LedArray::Drive(std::span<const scan::LedDrive> leds) {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "Drive"));
   for (const scan::LedDrive& drive : leds) {
     if (drive.led < 0 || drive.led >= led_count_) {
-      return Error(StatusCode::kInvalidArgument, "LED " + std::to_string(drive.led) +
-                                                     " does not exist (0.." +
-                                                     std::to_string(led_count_ - 1) + ")");
+      return Error(StatusCode::kInvalidArgument,
+                   "LED " + std::to_string(drive.led) + " does not exist (0.." + std::to_string(led_count_ - 1) + ")");
     }
     if (drive.current_ma < 0 || drive.current_ma > settings_.current_limit_ma) {
-      return Error(StatusCode::kInvalidArgument,
-                   "LED " + std::to_string(drive.led) + ": current " + FormatNumber(drive.current_ma) +
-                       " mA is outside [0, " + FormatNumber(settings_.current_limit_ma) + "] mA");
+      return Error(StatusCode::kInvalidArgument, "LED " + std::to_string(drive.led) + ": current " +
+                                                     FormatNumber(drive.current_ma) + " mA is outside [0, " +
+                                                     FormatNumber(settings_.current_limit_ma) + "] mA");
     }
   }
   return DoDrive(leds);
 }
 
 Status LedArray::AllOff() {
-  LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured, DeviceState::kRunning},
-                                   "AllOff"));
+  LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured, DeviceState::kRunning}, "AllOff"));
   return DoAllOff();
 }
 
 Result<LedArrayReadback> LedArray::Read() {
-  LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured, DeviceState::kRunning},
-                                   "Read"));
+  LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured, DeviceState::kRunning}, "Read"));
   return DoRead();
 }
 

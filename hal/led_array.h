@@ -31,7 +31,7 @@ class LedArray : public Device {
   LedArray(std::string name, std::string backend, std::string address)
       : Device("LED array", std::move(name), std::move(backend), std::move(address)) {}
 
-  int led_count() const { return led_count_; }  // after Open()
+  int led_count() const { return led_count_; }               // after Open()
   double max_current_ma() const { return max_current_ma_; }  // after Open()
   const LedArraySettings& settings() const { return settings_; }
 

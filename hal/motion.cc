@@ -9,14 +9,13 @@ namespace {
 
 using internal::FormatNumber;
 
-constexpr std::initializer_list<DeviceState> kAnyOpenState = {
-    DeviceState::kOpen, DeviceState::kConfigured, DeviceState::kRunning};
+constexpr std::initializer_list<DeviceState> kAnyOpenState = {DeviceState::kOpen, DeviceState::kConfigured,
+                                                              DeviceState::kRunning};
 
 // Speeds and timeouts are negotiated the same way for every motion device.
 template <typename Settings>
-void NegotiateMotion(const Settings& requested, double requested_speed, double max_speed,
-                     const char* speed_name, const char* unit, ConfigureReport* report,
-                     double* applied_speed) {
+void NegotiateMotion(const Settings& requested, double requested_speed, double max_speed, const char* speed_name,
+                     const char* unit, ConfigureReport* report, double* applied_speed) {
   *applied_speed = requested_speed;
   if (requested_speed <= 0) {
     report->Reject(std::string(speed_name) + " must be > 0, got " + FormatNumber(requested_speed));
@@ -36,8 +35,7 @@ Result<ConfigureReport> Turntable::Configure(const TurntableSettings& requested)
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured}, "Configure"));
   ConfigureReport report;
   TurntableSettings applied = requested;
-  NegotiateMotion(requested, requested.speed_deg_s, max_speed_deg_s_, "speed_deg_s", "°/s",
-                  &report, &applied.speed_deg_s);
+  NegotiateMotion(requested, requested.speed_deg_s, max_speed_deg_s_, "speed_deg_s", "°/s", &report, &applied.speed_deg_s);
   if (report.outcome == Negotiation::kInvalid) return report;
   LOOM_RETURN_IF_ERROR(DoConfigure(applied));
   settings_ = applied;
@@ -69,8 +67,7 @@ Result<ConfigureReport> LinearLight::Configure(const LinearLightSettings& reques
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured}, "Configure"));
   ConfigureReport report;
   LinearLightSettings applied = requested;
-  NegotiateMotion(requested, requested.speed_mm_s, max_speed_mm_s_, "speed_mm_s", "mm/s", &report,
-                  &applied.speed_mm_s);
+  NegotiateMotion(requested, requested.speed_mm_s, max_speed_mm_s_, "speed_mm_s", "mm/s", &report, &applied.speed_mm_s);
   if (report.outcome == Negotiation::kInvalid) return report;
   LOOM_RETURN_IF_ERROR(DoConfigure(applied));
   settings_ = applied;
@@ -86,9 +83,8 @@ Status LinearLight::Home() {
 Status LinearLight::MoveTo(double position_mm) {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "MoveTo"));
   if (!(position_mm >= 0 && position_mm <= travel_mm_)) {
-    return Error(StatusCode::kOutOfRange, "position " + FormatNumber(position_mm) +
-                                              " mm is outside the travel [0, " +
-                                              FormatNumber(travel_mm_) + "] mm");
+    return Error(StatusCode::kOutOfRange,
+                 "position " + FormatNumber(position_mm) + " mm is outside the travel [0, " + FormatNumber(travel_mm_) + "] mm");
   }
   return DoMoveTo(position_mm);
 }
@@ -96,8 +92,7 @@ Status LinearLight::MoveTo(double position_mm) {
 Status LinearLight::SetStrip(bool on, double intensity) {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "SetStrip"));
   if (!(intensity >= 0 && intensity <= 1)) {
-    return Error(StatusCode::kInvalidArgument,
-                 "intensity " + FormatNumber(intensity) + " is outside [0, 1]");
+    return Error(StatusCode::kInvalidArgument, "intensity " + FormatNumber(intensity) + " is outside [0, 1]");
   }
   return DoSetStrip(on, intensity);
 }
@@ -123,8 +118,8 @@ Result<ConfigureReport> FilterWheel::Configure(const FilterWheelSettings& reques
 Status FilterWheel::MoveTo(int slot) {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "MoveTo"));
   if (slot < 0 || slot >= slot_count_) {
-    return Error(StatusCode::kOutOfRange, "slot " + std::to_string(slot) + " does not exist (0.." +
-                                              std::to_string(slot_count_ - 1) + ")");
+    return Error(StatusCode::kOutOfRange,
+                 "slot " + std::to_string(slot) + " does not exist (0.." + std::to_string(slot_count_ - 1) + ")");
   }
   return DoMoveTo(slot);
 }

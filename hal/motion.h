@@ -30,9 +30,9 @@ class Turntable : public Device {
   double max_speed_deg_s() const { return max_speed_deg_s_; }  // after Open()
 
   Result<ConfigureReport> Configure(const TurntableSettings& requested);
-  Status Home();                      // running
-  Status MoveTo(double angle_deg);    // running; any angle, reduced to [0, 360)
-  Result<double> Angle();             // any open state
+  Status Home();                    // running
+  Status MoveTo(double angle_deg);  // running; any angle, reduced to [0, 360)
+  Result<double> Angle();           // any open state
 
  protected:
   void set_max_speed(double max_speed_deg_s) { max_speed_deg_s_ = max_speed_deg_s; }
@@ -67,10 +67,10 @@ class LinearLight : public Device {
   double max_speed_mm_s() const { return max_speed_mm_s_; }  // after Open()
 
   Result<ConfigureReport> Configure(const LinearLightSettings& requested);
-  Status Home();                          // running
-  Status MoveTo(double position_mm);      // running; within [0, travel_mm]
+  Status Home();                               // running
+  Status MoveTo(double position_mm);           // running; within [0, travel_mm]
   Status SetStrip(bool on, double intensity);  // running; intensity in [0, 1]
-  Result<LinearLightReadback> Read();     // any open state
+  Result<LinearLightReadback> Read();          // any open state
 
  protected:
   void set_limits(double travel_mm, double max_speed_mm_s) {
@@ -102,8 +102,8 @@ class FilterWheel : public Device {
   int slot_count() const { return slot_count_; }  // after Open()
 
   Result<ConfigureReport> Configure(const FilterWheelSettings& requested);
-  Status MoveTo(int slot);   // running; 0 .. slot_count − 1
-  Result<int> Position();    // any open state
+  Status MoveTo(int slot);  // running; 0 .. slot_count − 1
+  Result<int> Position();   // any open state
 
  protected:
   void set_slot_count(int slot_count) { slot_count_ = slot_count; }

@@ -49,8 +49,7 @@ class BackendRegistry {
       for (const auto& [name, factory] : table) known += (known.empty() ? "" : ", ") + name;
       return InvalidArgumentError(
           "key '" + (config.node.path().empty() ? "" : config.node.path() + ".") + "backend'",
-          "device '" + config.name + "': no backend '" + config.backend + "' (known: " +
-              (known.empty() ? "none" : known) + ")");
+          "device '" + config.name + "': no backend '" + config.backend + "' (known: " + (known.empty() ? "none" : known) + ")");
     }
     return it->second(config);
   }
@@ -67,12 +66,16 @@ class BackendRegistry {
   using TableOf = std::map<std::string, DeviceFactory<D>>;
 
   template <typename D>
-  TableOf<D>& Table() { return std::get<TableOf<D>>(tables_); }
+  TableOf<D>& Table() {
+    return std::get<TableOf<D>>(tables_);
+  }
   template <typename D>
-  const TableOf<D>& Table() const { return std::get<TableOf<D>>(tables_); }
+  const TableOf<D>& Table() const {
+    return std::get<TableOf<D>>(tables_);
+  }
 
-  std::tuple<TableOf<Camera>, TableOf<LedArray>, TableOf<FilterWheel>, TableOf<Turntable>,
-             TableOf<LinearLight>, TableOf<Projector>>
+  std::tuple<TableOf<Camera>, TableOf<LedArray>, TableOf<FilterWheel>, TableOf<Turntable>, TableOf<LinearLight>,
+             TableOf<Projector>>
       tables_;
 };
 

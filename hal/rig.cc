@@ -70,29 +70,25 @@ Result<std::unique_ptr<D>> CreateDevice(const ConfigNode& node, const BackendReg
 
 }  // namespace
 
-Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const BackendRegistry& registry,
-                                         std::string name) {
+Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const BackendRegistry& registry, std::string name) {
   std::unique_ptr<Rig> rig(new Rig());
   rig->name_ = std::move(name);
   for (const ConfigNode& node : devices.OptionalSequence("cameras")) {
     LOOM_ASSIGN_OR_RETURN(std::unique_ptr<Camera> camera, CreateDevice<Camera>(node, registry));
     rig->cameras_.push_back(std::move(camera));
-    rig->camera_settings_.push_back(ReadSettings<CameraSettings>(
-        node, [](const ConfigNode& n, CameraSettings* s) { *s = ReadCameraSettings(n); }));
+    rig->camera_settings_.push_back(
+        ReadSettings<CameraSettings>(node, [](const ConfigNode& n, CameraSettings* s) { *s = ReadCameraSettings(n); }));
   }
   for (const ConfigNode& node : devices.OptionalSequence("filter_wheels")) {
     LOOM_ASSIGN_OR_RETURN(std::unique_ptr<FilterWheel> wheel, CreateDevice<FilterWheel>(node, registry));
     rig->filter_wheels_.push_back(std::move(wheel));
     rig->filter_wheel_settings_.push_back(ReadSettings<FilterWheelSettings>(
-        node, [](const ConfigNode& n, FilterWheelSettings* s) {
-          n.Optional("move_timeout_ms", &s->move_timeout_ms);
-        }));
+        node, [](const ConfigNode& n, FilterWheelSettings* s) { n.Optional("move_timeout_ms", &s->move_timeout_ms); }));
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("leds")) {
     LOOM_ASSIGN_OR_RETURN(rig->leds_, CreateDevice<LedArray>(*node, registry));
-    rig->led_settings_ = ReadSettings<LedArraySettings>(*node, [](const ConfigNode& n, LedArraySettings* s) {
-      n.Optional("current_limit_ma", &s->current_limit_ma);
-    });
+    rig->led_settings_ = ReadSettings<LedArraySettings>(
+        *node, [](const ConfigNode& n, LedArraySettings* s) { n.Optional("current_limit_ma", &s->current_limit_ma); });
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("turntable")) {
     LOOM_ASSIGN_OR_RETURN(rig->turntable_, CreateDevice<Turntable>(*node, registry));
@@ -103,11 +99,10 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("linear_light")) {
     LOOM_ASSIGN_OR_RETURN(rig->linear_light_, CreateDevice<LinearLight>(*node, registry));
-    rig->linear_light_settings_ = ReadSettings<LinearLightSettings>(
-        *node, [](const ConfigNode& n, LinearLightSettings* s) {
-          n.Optional("speed_mm_s", &s->speed_mm_s);
-          n.Optional("move_timeout_ms", &s->move_timeout_ms);
-        });
+    rig->linear_light_settings_ = ReadSettings<LinearLightSettings>(*node, [](const ConfigNode& n, LinearLightSettings* s) {
+      n.Optional("speed_mm_s", &s->speed_mm_s);
+      n.Optional("move_timeout_ms", &s->move_timeout_ms);
+    });
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("projector")) {
     LOOM_ASSIGN_OR_RETURN(rig->projector_, CreateDevice<Projector>(*node, registry));
@@ -119,8 +114,7 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
   std::set<std::string> names;
   for (Device* device : rig->devices()) {
     if (!names.insert(device->name()).second) {
-      return InvalidArgumentError("key '" + devices.path() + "'",
-                                  "two devices are named '" + device->name() + "'");
+      return InvalidArgumentError("key '" + devices.path() + "'", "two devices are named '" + device->name() + "'");
     }
   }
   return rig;

@@ -35,11 +35,9 @@ class Rig {
   // Reads `devices` (the mapping under the `devices:` key) and creates every device. Problems
   // in the YAML are recorded in the document (call its Finish()); a backend that cannot create
   // its device is returned as an error naming the device.
-  static Result<std::unique_ptr<Rig>> Create(const ConfigNode& devices,
-                                             const BackendRegistry& registry, std::string name = "");
+  static Result<std::unique_ptr<Rig>> Create(const ConfigNode& devices, const BackendRegistry& registry, std::string name = "");
   // Loads a rig YAML (core/rig_file.h) and creates the devices of its `devices:`.
-  static Result<std::unique_ptr<Rig>> Load(const std::filesystem::path& path,
-                                           const BackendRegistry& registry);
+  static Result<std::unique_ptr<Rig>> Load(const std::filesystem::path& path, const BackendRegistry& registry);
 
   const std::string& name() const { return name_; }
 

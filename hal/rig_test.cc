@@ -41,8 +41,7 @@ class RigTest : public ::testing::Test {
                         << "\", settings: {current_limit_ma: 400}" << extra_device_keys << "}\n"
                         << "  turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1]
                         << "\", settings: {speed_deg_s: 60, move_timeout_ms: 5000}}\n"
-                        << "  linear_light: {name: linear_light, backend: modbus, endpoint: \"" << endpoints_[2]
-                        << "\"}\n";
+                        << "  linear_light: {name: linear_light, backend: modbus, endpoint: \"" << endpoints_[2] << "\"}\n";
     return path;
   }
 
@@ -103,25 +102,26 @@ TEST_F(RigTest, GuardMakesTheRigSafeOnReturnAndOnException) {
 TEST_F(RigTest, ErrorsNameTheKeyOrTheDevice) {
   const Result<std::unique_ptr<Rig>> typo = Rig::Load(WriteRig(", curent_limit: 3"), registry_);
   ASSERT_FALSE(typo.ok());
-  EXPECT_NE(typo.status().ToString().find("key 'devices.leds.curent_limit'"), std::string::npos)
-      << typo.status().ToString();
+  EXPECT_NE(typo.status().ToString().find("key 'devices.leds.curent_limit'"), std::string::npos) << typo.status().ToString();
 
   const std::filesystem::path path = dir_ / "bad_backend.yaml";
-  std::ofstream(path) << "schema_version: 1\nname: x\ndevices:\n  turntable: {name: tt, backend: modbuss, endpoint: \"tcp://127.0.0.1:1\"}\n";
+  std::ofstream(path)
+      << "schema_version: 1\nname: x\ndevices:\n  turntable: {name: tt, backend: modbuss, endpoint: \"tcp://127.0.0.1:1\"}\n";
   const Result<std::unique_ptr<Rig>> backend = Rig::Load(path, registry_);
   ASSERT_FALSE(backend.ok());
   EXPECT_NE(backend.status().ToString().find("key 'devices.turntable.backend'"), std::string::npos)
       << backend.status().ToString();
   EXPECT_NE(backend.status().ToString().find("no backend 'modbuss' (known: modbus)"), std::string::npos);
 
-  std::ofstream(path) << "schema_version: 1\nname: x\ndevices:\n  turntable: {name: tt, backend: modbus, endpoint: \"tcp://127.0.0.1\"}\n";
+  std::ofstream(path)
+      << "schema_version: 1\nname: x\ndevices:\n  turntable: {name: tt, backend: modbus, endpoint: \"tcp://127.0.0.1\"}\n";
   const Result<std::unique_ptr<Rig>> endpoint = Rig::Load(path, registry_);
   ASSERT_FALSE(endpoint.ok());
-  EXPECT_NE(endpoint.status().ToString().find("devices.turntable.endpoint"), std::string::npos)
-      << endpoint.status().ToString();
+  EXPECT_NE(endpoint.status().ToString().find("devices.turntable.endpoint"), std::string::npos) << endpoint.status().ToString();
 
   // A controller that is not there: Open() fails naming the device, nothing hangs.
-  std::ofstream(path) << "schema_version: 1\nname: x\ndevices:\n  turntable: {name: tt, backend: modbus, endpoint: \"tcp://127.0.0.1:1\"}\n";
+  std::ofstream(path)
+      << "schema_version: 1\nname: x\ndevices:\n  turntable: {name: tt, backend: modbus, endpoint: \"tcp://127.0.0.1:1\"}\n";
   Result<std::unique_ptr<Rig>> absent = Rig::Load(path, registry_);
   ASSERT_TRUE(absent.ok());
   const Status opened = (*absent)->OpenAndConfigure();

@@ -68,9 +68,12 @@ Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& 
     return std::vector<float>(pixels, 0.0f);
   }
   if (angles.size() > 1) return InvalidArgumentError("structured-light steps", "turntable angles differ within the sequence");
-  LOOM_ASSIGN_OR_RETURN(const Image columns, calibration::DecodeScanColumns(scan, camera, scan::ScanObject::kSample, angles.front()));
-  const calibration::HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm, options.max_height_mm};
-  LOOM_ASSIGN_OR_RETURN(calibration::TriangulatedHeights heights, calibration::TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
+  LOOM_ASSIGN_OR_RETURN(const Image columns,
+                        calibration::DecodeScanColumns(scan, camera, scan::ScanObject::kSample, angles.front()));
+  const calibration::HeightmapGrid grid{options.width_px, options.height_px, options.pixel_mm, options.min_height_mm,
+                                        options.max_height_mm};
+  LOOM_ASSIGN_OR_RETURN(calibration::TriangulatedHeights heights,
+                        calibration::TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
   *filled = heights.filled;
   return std::move(heights.heights_mm);
 }

@@ -61,9 +61,9 @@ struct Reconstruction {
   ObservationStack stack;
   std::vector<CameraSampling> sampling;  // every camera of the rig, StackSampling
   std::string heightmap_camera;
-  int heightmap_filled = 0;     // grid pixels without a triangulated height (filled from neighbours)
-  int saturated_pixels = 0;     // camera pixels saturated in every exposure, over all views
-  double unseen_fraction = 0;   // of observation samples: NaN (hidden or off the camera's image)
+  int heightmap_filled = 0;    // grid pixels without a triangulated height (filled from neighbours)
+  int saturated_pixels = 0;    // camera pixels saturated in every exposure, over all views
+  double unseen_fraction = 0;  // of observation samples: NaN (hidden or off the camera's image)
 };
 
 Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,

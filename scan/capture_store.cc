@@ -87,13 +87,14 @@ Json ToJson(const FrameRecord& r) {
           {"frame_id", m.frame_id},
           {"device_timestamp_ns", m.device_timestamp_ns},
           {"host_timestamp_ns", m.host_timestamp_ns},
-          {"rig", {{"leds", leds},
-                   {"filter_slots", m.rig_state.filter_slots},
-                   {"turntable_deg", m.rig_state.turntable_deg},
-                   {"linear_light_mm", m.rig_state.linear_light_mm},
-                   {"linear_light_on", m.rig_state.linear_light_on},
-                   {"linear_light_intensity", m.rig_state.linear_light_intensity},
-                   {"projector_pattern", m.rig_state.projector_pattern}}}};
+          {"rig",
+           {{"leds", leds},
+            {"filter_slots", m.rig_state.filter_slots},
+            {"turntable_deg", m.rig_state.turntable_deg},
+            {"linear_light_mm", m.rig_state.linear_light_mm},
+            {"linear_light_on", m.rig_state.linear_light_on},
+            {"linear_light_intensity", m.rig_state.linear_light_intensity},
+            {"projector_pattern", m.rig_state.projector_pattern}}}};
 }
 
 FrameRecord FromJson(const Json& j) {
@@ -158,9 +159,10 @@ Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
   const fs::path plan_path = directory / plan_file;
   LOOM_ASSIGN_OR_RETURN(const std::string plan_text, ReadFile(plan_path));
   LOOM_ASSIGN_OR_RETURN(info.plan, ParsePlanYaml(plan_text, plan_path.string()));
-  if (static_cast<int>(info.plan.steps.size()) != steps || PlanPurposeName(info.plan.purpose) != purpose || info.plan.preset != preset) {
-    return DataLossError(plan_path.string(), "does not match " + path.string() + " (" + std::to_string(steps) +
-                                                 " steps of a " + purpose + " scan with preset '" + preset + "')");
+  if (static_cast<int>(info.plan.steps.size()) != steps || PlanPurposeName(info.plan.purpose) != purpose ||
+      info.plan.preset != preset) {
+    return DataLossError(plan_path.string(), "does not match " + path.string() + " (" + std::to_string(steps) + " steps of a " +
+                                                 purpose + " scan with preset '" + preset + "')");
   }
   return info;
 }

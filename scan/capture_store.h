@@ -40,8 +40,8 @@ struct FrameKey {
 
 struct FrameRecord {
   FrameKey key;
-  std::string file;        // relative to the scan directory
-  std::string checksum;    // FNV-1a 64 of the pixels, hex
+  std::string file;      // relative to the scan directory
+  std::string checksum;  // FNV-1a 64 of the pixels, hex
   int width = 0;
   int height = 0;
   FrameMetadata metadata;

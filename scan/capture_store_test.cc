@@ -43,7 +43,8 @@ Plan TwoStepPlan() {
 class CaptureStoreTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) / ("store_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ = fs::path(::testing::TempDir()) /
+           ("store_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -153,8 +154,7 @@ TEST_F(CaptureStoreTest, CorruptJournalAndExistingScanAreErrors) {
   const Result<CaptureStore> opened = CaptureStore::Open(dir_);
   ASSERT_FALSE(opened.ok());
   EXPECT_EQ(opened.status().code(), StatusCode::kDataLoss);
-  EXPECT_NE(opened.status().ToString().find("journal.jsonl: line 1 is corrupt"), std::string::npos)
-      << opened.status().ToString();
+  EXPECT_NE(opened.status().ToString().find("journal.jsonl: line 1 is corrupt"), std::string::npos) << opened.status().ToString();
   const Result<CaptureStore> again = CaptureStore::Create(dir_, {});
   EXPECT_EQ(again.status().code(), StatusCode::kAlreadyExists);
   // An existing file, even an empty one, is never replaced by a scan.

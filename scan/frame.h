@@ -27,16 +27,16 @@ struct Roi {
 };
 
 struct FrameMetadata {
-  std::string camera;          // rig name of the camera
+  std::string camera;  // rig name of the camera
   std::string camera_serial;
   PixelFormat pixel_format = PixelFormat::kMono16;
-  Roi roi;                     // as applied (full-sensor ROI spelled out)
-  double exposure_us = 0;      // as the camera reports it applied
+  Roi roi;                 // as applied (full-sensor ROI spelled out)
+  double exposure_us = 0;  // as the camera reports it applied
   double gain = 0;
-  uint64_t frame_id = 0;       // the camera's frame counter
+  uint64_t frame_id = 0;  // the camera's frame counter
   uint64_t device_timestamp_ns = 0;
   int64_t host_timestamp_ns = 0;  // system clock, ns since the Unix epoch, when received
-  RigState rig_state;          // filled by the Rig
+  RigState rig_state;             // filled by the Rig
 };
 
 struct RawFrame {

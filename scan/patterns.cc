@@ -37,7 +37,8 @@ Result<Pattern> MakePattern(const std::string& name, int width, int height, int 
   if (name.starts_with("phase_x_")) {
     const int k = std::stoi(name.substr(8));
     fill([&](int x) {
-      const double phase = 2 * 3.14159265358979323846 * (static_cast<double>(x) / kPhasePeriodColumns + static_cast<double>(k) / phase_steps);
+      const double phase =
+          2 * 3.14159265358979323846 * (static_cast<double>(x) / kPhasePeriodColumns + static_cast<double>(k) / phase_steps);
       return static_cast<uint8_t>(std::lround(127.5 + 127.5 * std::cos(phase)));
     });
     return pattern;

@@ -44,9 +44,9 @@ std::vector<std::string> ColourCameras(const RigModel& rig, const std::vector<do
 Status CheckOpenSlots(const RigModel& rig) {
   for (const FilterWheelModel& wheel : rig.filter_wheels) {
     if (!wheel.OpenSlot()) {
-      return FailedPreconditionError("rig '" + rig.name + "', filter wheel '" + wheel.name + "'",
-                                     "has no open slot for LED " + std::to_string(wheel.led) +
-                                         "'s monochrome steps: add {open: true} to its filters");
+      return FailedPreconditionError(
+          "rig '" + rig.name + "', filter wheel '" + wheel.name + "'",
+          "has no open slot for LED " + std::to_string(wheel.led) + "'s monochrome steps: add {open: true} to its filters");
     }
   }
   return {};
@@ -110,7 +110,8 @@ class PlanBuilder {
     const int n = preset_.linear_light_positions;
     const double travel = rig_.linear_light->travel_mm;
     for (int k = 0; k < n; ++k) {
-      Add(StepKind::kLinearLight, AllCameras(rig_), angle, ScanObject::kSample).linear_light_mm = n == 1 ? travel / 2 : travel * k / (n - 1);
+      Add(StepKind::kLinearLight, AllCameras(rig_), angle, ScanObject::kSample).linear_light_mm =
+          n == 1 ? travel / 2 : travel * k / (n - 1);
     }
   }
 
@@ -130,7 +131,8 @@ class PlanBuilder {
     Step* highest = nullptr;
     for (Step& step : plan_.steps) {
       if (step.kind != StepKind::kWhiteReference || step.leds.size() != 1) continue;
-      if (highest == nullptr || rig_.leds[step.leds[0].led].position_mm.normalized().z() > rig_.leds[highest->leds[0].led].position_mm.normalized().z()) {
+      if (highest == nullptr || rig_.leds[step.leds[0].led].position_mm.normalized().z() >
+                                    rig_.leds[highest->leds[0].led].position_mm.normalized().z()) {
         highest = &step;
       }
     }
@@ -149,28 +151,52 @@ class PlanBuilder {
 
 std::string_view StepKindName(StepKind kind) {
   switch (kind) {
-    case StepKind::kDark: return "dark";
-    case StepKind::kTarget: return "target";
-    case StepKind::kLightProbe: return "light probe";
-    case StepKind::kWhiteReference: return "white reference";
-    case StepKind::kColourChart: return "colour chart";
-    case StepKind::kStructuredLight: return "structured light";
-    case StepKind::kColour: return "colour";
-    case StepKind::kMonochrome: return "monochrome";
-    case StepKind::kLinearLight: return "linear light";
+    case StepKind::kDark:
+      return "dark";
+    case StepKind::kTarget:
+      return "target";
+    case StepKind::kLightProbe:
+      return "light probe";
+    case StepKind::kWhiteReference:
+      return "white reference";
+    case StepKind::kColourChart:
+      return "colour chart";
+    case StepKind::kStructuredLight:
+      return "structured light";
+    case StepKind::kColour:
+      return "colour";
+    case StepKind::kMonochrome:
+      return "monochrome";
+    case StepKind::kLinearLight:
+      return "linear light";
   }
   return "unknown";
 }
 
+std::string ViewId::ToString() const { return "step " + std::to_string(step) + " " + camera; }
+
+std::vector<std::string> ViewNames(const std::vector<ViewId>& views) {
+  std::vector<std::string> names;
+  for (const ViewId& view : views) names.push_back(view.ToString());
+  return names;
+}
+
 std::string_view ScanObjectName(ScanObject object) {
   switch (object) {
-    case ScanObject::kNothing: return "nothing (lights off)";
-    case ScanObject::kSample: return "sample";
-    case ScanObject::kTarget: return "target";
-    case ScanObject::kChromeSphere: return "chrome sphere";
-    case ScanObject::kWhiteTile: return "white tile";
-    case ScanObject::kWhiteTileOnSpacer: return "white tile on its spacer";
-    case ScanObject::kColourChart: return "colour chart";
+    case ScanObject::kNothing:
+      return "nothing (lights off)";
+    case ScanObject::kSample:
+      return "sample";
+    case ScanObject::kTarget:
+      return "target";
+    case ScanObject::kChromeSphere:
+      return "chrome sphere";
+    case ScanObject::kWhiteTile:
+      return "white tile";
+    case ScanObject::kWhiteTileOnSpacer:
+      return "white tile on its spacer";
+    case ScanObject::kColourChart:
+      return "colour chart";
   }
   return "unknown";
 }
@@ -195,8 +221,9 @@ std::optional<PlanPurpose> ParsePlanPurpose(std::string_view name) {
 }
 
 std::optional<StepKind> ParseStepKind(std::string_view name) {
-  for (StepKind kind : {StepKind::kDark, StepKind::kTarget, StepKind::kLightProbe, StepKind::kWhiteReference, StepKind::kColourChart,
-                        StepKind::kStructuredLight, StepKind::kColour, StepKind::kMonochrome, StepKind::kLinearLight}) {
+  for (StepKind kind :
+       {StepKind::kDark, StepKind::kTarget, StepKind::kLightProbe, StepKind::kWhiteReference, StepKind::kColourChart,
+        StepKind::kStructuredLight, StepKind::kColour, StepKind::kMonochrome, StepKind::kLinearLight}) {
     if (StepKindName(kind) == name) return kind;
   }
   return std::nullopt;
@@ -270,7 +297,9 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
   builder.Filtered(StepKind::kColour, ColourCameras(rig, preset.colour_views_deg), ScanObject::kSample);
   builder.EveryLed(StepKind::kMonochrome, first, ScanObject::kSample);
   if (preset.linear_light_positions > 0) builder.LinearLight(first);
-  for (size_t a = 1; a < preset.turntable_deg.size(); ++a) builder.EveryLed(StepKind::kMonochrome, preset.turntable_deg[a], ScanObject::kSample);
+  for (size_t a = 1; a < preset.turntable_deg.size(); ++a) {
+    builder.EveryLed(StepKind::kMonochrome, preset.turntable_deg[a], ScanObject::kSample);
+  }
   return builder.Finish();
 }
 
@@ -292,7 +321,10 @@ Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   }
   builder.EveryLed(StepKind::kWhiteReference, 0, ScanObject::kWhiteTile);
   builder.LinearitySeries();
-  if (rig.linear_light) builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, ScanObject::kWhiteTile).linear_light_mm = rig.linear_light->travel_mm / 2;
+  if (rig.linear_light) {
+    builder.Add(StepKind::kWhiteReference, AllCameras(rig), 0, ScanObject::kWhiteTile).linear_light_mm =
+        rig.linear_light->travel_mm / 2;
+  }
   // The projector's patterns on the tile lying on the table and raised on the spacer: a flat
   // board at two heights, for the projector's focal length (calibration/projector.h).
   if (rig.white_reference.spacer_mm > 0) {

@@ -12,9 +12,9 @@
 // | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
 // A calibration scan: dark frames, the calibration target at several turntable angles (at three
 // of them with the structured-light patterns on it), the
-// light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear light (mid-travel)
-// — and, when the rig gives a spacer for it, under the projector's patterns lying on the table
-// and raised on the spacer — the colour chart through every filter.
+// light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear
+// light (mid-travel) — and, when the rig gives a spacer for it, under the projector's patterns lying on the table and raised on
+// the spacer — the colour chart through every filter.
 //
 // Steps come in capture order, grouped to keep slow moves few: one turntable angle at a time,
 // wheel slots in order, the strip swept in one direction. Every step carries an HDR bracket
@@ -31,7 +31,17 @@
 
 namespace loom::scan {
 
-enum class StepKind { kDark, kTarget, kLightProbe, kWhiteReference, kColourChart, kStructuredLight, kColour, kMonochrome, kLinearLight };
+enum class StepKind {
+  kDark,
+  kTarget,
+  kLightProbe,
+  kWhiteReference,
+  kColourChart,
+  kStructuredLight,
+  kColour,
+  kMonochrome,
+  kLinearLight
+};
 std::string_view StepKindName(StepKind kind);
 std::optional<StepKind> ParseStepKind(std::string_view name);
 
@@ -69,15 +79,25 @@ enum class PlanPurpose { kMaterial, kCalibration };
 std::string_view PlanPurposeName(PlanPurpose purpose);  // "material", "calibration"
 std::optional<PlanPurpose> ParsePlanPurpose(std::string_view name);
 
+// One camera's images of one plan step: a view, as calibration reports and files name it
+// ("step 12 cam0").
+struct ViewId {
+  int step = 0;
+  std::string camera;
+  std::string ToString() const;
+  bool operator==(const ViewId&) const = default;
+};
+std::vector<std::string> ViewNames(const std::vector<ViewId>& views);
+
 struct Step {
   int index = 0;
   StepKind kind = StepKind::kMonochrome;
-  std::vector<std::string> cameras;     // triggered together
-  std::vector<LedDrive> leds;      // lit; all others off
+  std::vector<std::string> cameras;  // triggered together
+  std::vector<LedDrive> leds;        // lit; all others off
   std::optional<FilterSetting> filter;
   double turntable_deg = 0;
-  std::optional<double> linear_light_mm;  // strip on at this position
-  std::string projector_pattern;          // empty: projector dark
+  std::optional<double> linear_light_mm;    // strip on at this position
+  std::string projector_pattern;            // empty: projector dark
   ScanObject object = ScanObject::kSample;  // what must lie on the turntable
   ExposureBracket exposure;
 
@@ -87,13 +107,13 @@ struct Step {
 };
 
 struct Preset {
-  std::string name;                                // low, medium, high
+  std::string name;  // low, medium, high
   std::vector<double> turntable_deg = {0, 120, 240};
   std::vector<double> colour_views_deg = {0, 45};  // colour from the cameras nearest these
   int linear_light_positions = 70;
   double led_current_ma = 1000;
   ExposureBracket exposure;
-  int gray_bits = 0;                               // 0: enough for the projector width
+  int gray_bits = 0;  // 0: enough for the projector width
   int phase_steps = 4;
 };
 
@@ -129,7 +149,7 @@ struct DurationModel {
   double turntable_deg_s = 30;
   double wheel_s_per_slot = 0.25;
   double linear_light_mm_s = 50;
-  double frame_overhead_s = 0.4;   // readout and storage of one frame of every camera (GigE, 3 MP)
+  double frame_overhead_s = 0.4;  // readout and storage of one frame of every camera (GigE, 3 MP)
   double exposures_per_bracket = 3;
 };
 double EstimateSeconds(const Plan& plan, const DurationModel& model = {});

@@ -117,8 +117,7 @@ TEST(PlanTest, ARigWithoutALinearLightCannotScanWithIt) {
   rig.linear_light.reset();
   const Result<Plan> plan = MakeMaterialPlan(rig, LoadShippedPreset("low"));
   ASSERT_FALSE(plan.ok());
-  EXPECT_NE(plan.status().ToString().find("needs a linear light (70 positions)"), std::string::npos)
-      << plan.status().ToString();
+  EXPECT_NE(plan.status().ToString().find("needs a linear light (70 positions)"), std::string::npos) << plan.status().ToString();
 }
 
 TEST(PlanTest, PresetTyposAreErrors) {

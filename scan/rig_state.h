@@ -9,20 +9,20 @@
 namespace loom::scan {
 
 struct LedDrive {
-  int led = 0;             // index on the LED controller, 0-based
-  double current_ma = 0;   // drive current, mA
+  int led = 0;            // index on the LED controller, 0-based
+  double current_ma = 0;  // drive current, mA
 
   bool operator==(const LedDrive&) const = default;
 };
 
 struct RigState {
-  std::vector<LedDrive> leds_on;             // every LED that was lit, with its current
-  std::map<std::string, int> filter_slots;   // filter wheel name → slot (0-based)
-  double turntable_deg = 0;                  // turntable angle
-  double linear_light_mm = 0;                // linear-light carriage position along its travel
+  std::vector<LedDrive> leds_on;            // every LED that was lit, with its current
+  std::map<std::string, int> filter_slots;  // filter wheel name → slot (0-based)
+  double turntable_deg = 0;                 // turntable angle
+  double linear_light_mm = 0;               // linear-light carriage position along its travel
   bool linear_light_on = false;
-  double linear_light_intensity = 0;         // 0..1
-  std::string projector_pattern;             // name of the pattern shown, empty when blank
+  double linear_light_intensity = 0;  // 0..1
+  std::string projector_pattern;      // name of the pattern shown, empty when blank
 
   bool operator==(const RigState&) const = default;
 };

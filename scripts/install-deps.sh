@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   # toolchain
-  cmake ninja-build g++ pkg-config ccache iproute2
+  cmake ninja-build g++ pkg-config ccache iproute2 clang-format
   # hardware backends
   libaravis-dev aravis-tools libusb-1.0-0-dev libmodbus-dev
   # algorithms and data

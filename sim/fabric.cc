@@ -1,6 +1,7 @@
 #include "sim/fabric.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
@@ -17,15 +18,18 @@ namespace {
 
 using internal::Hash01;
 
-
 int Mod(int64_t a, int m) { return static_cast<int>(((a % m) + m) % m); }
 
 bool WarpOnTop(Weave weave, int64_t c, int64_t r) {
   switch (weave) {
-    case Weave::kPlain: return Mod(c + r, 2) == 0;
-    case Weave::kTwill21: return Mod(c + r, 3) != 2;
-    case Weave::kTwill31: return Mod(c + r, 4) != 3;
-    case Weave::kSatin5: return Mod(2 * c + r, 5) != 0;  // move number 2: no two binding points touch
+    case Weave::kPlain:
+      return Mod(c + r, 2) == 0;
+    case Weave::kTwill21:
+      return Mod(c + r, 3) != 2;
+    case Weave::kTwill31:
+      return Mod(c + r, 4) != 3;
+    case Weave::kSatin5:
+      return Mod(2 * c + r, 5) != 0;  // move number 2: no two binding points touch
   }
   return true;
 }
@@ -37,10 +41,10 @@ constexpr int kMaxFloat = 6;
 struct ThreadSample {
   bool visible = false;  // false: a hole between threads
   bool warp = false;
-  int64_t index = 0;     // thread number
-  double across = 0;     // −1 .. 1 across the thread
-  double along = 0;      // position along the fibre direction, in pitches (for streaks)
-  double height = 0;     // relative: 0 .. 1
+  int64_t index = 0;  // thread number
+  double across = 0;  // −1 .. 1 across the thread
+  double along = 0;   // position along the fibre direction, in pitches (for streaks)
+  double height = 0;  // relative: 0 .. 1
 };
 
 // Rise and fall of a thread over its float (0 at the binding points, 1 mid-float).
@@ -137,13 +141,10 @@ Eigen::Vector3d HsvToLinearRgb(double h, double s, double v) {
   const double c = v * s;
   const double hp = h * 6;
   const double x = c * (1 - std::abs(std::fmod(hp, 2.0) - 1));
-  Eigen::Vector3d rgb;
-  if (hp < 1) rgb = {c, x, 0};
-  else if (hp < 2) rgb = {x, c, 0};
-  else if (hp < 3) rgb = {0, c, x};
-  else if (hp < 4) rgb = {0, x, c};
-  else if (hp < 5) rgb = {x, 0, c};
-  else rgb = {c, 0, x};
+  // The hue's sextant picks which channel gets c, x and 0.
+  const std::array<Eigen::Vector3d, 6> sextants = {Eigen::Vector3d(c, x, 0), Eigen::Vector3d(x, c, 0), Eigen::Vector3d(0, c, x),
+                                                   Eigen::Vector3d(0, x, c), Eigen::Vector3d(x, 0, c), Eigen::Vector3d(c, 0, x)};
+  Eigen::Vector3d rgb = sextants[std::clamp(static_cast<int>(hp), 0, 5)];
   rgb.array() += v - c;
   // HSV values are display (sRGB-encoded) values: decode to linear.
   for (int i = 0; i < 3; ++i) {
@@ -156,10 +157,14 @@ Eigen::Vector3d HsvToLinearRgb(double h, double s, double v) {
 
 std::string_view WeaveName(Weave weave) {
   switch (weave) {
-    case Weave::kPlain: return "plain";
-    case Weave::kTwill21: return "twill 2/1";
-    case Weave::kTwill31: return "twill 3/1";
-    case Weave::kSatin5: return "satin 5";
+    case Weave::kPlain:
+      return "plain";
+    case Weave::kTwill21:
+      return "twill 2/1";
+    case Weave::kTwill31:
+      return "twill 3/1";
+    case Weave::kSatin5:
+      return "satin 5";
   }
   return "unknown";
 }
@@ -173,8 +178,8 @@ FabricDescription RandomFabric(uint64_t seed) {
   f.rotation_rad = kPi * rng.Uniform();
   const double hue = rng.Uniform();
   f.warp_colour = HsvToLinearRgb(hue, 0.9 * rng.Uniform(), 0.1 + 0.8 * rng.Uniform());
-  f.weft_colour = rng.Uniform() < 0.5 ? f.warp_colour
-                                      : HsvToLinearRgb(rng.Uniform(), 0.9 * rng.Uniform(), 0.1 + 0.8 * rng.Uniform());
+  f.weft_colour =
+      rng.Uniform() < 0.5 ? f.warp_colour : HsvToLinearRgb(rng.Uniform(), 0.9 * rng.Uniform(), 0.1 + 0.8 * rng.Uniform());
   f.a_s = 0.02 + 0.43 * rng.Uniform();
   // Keep a_d + a_s ≤ 1 (with room for the per-thread variation).
   const double room = (1 - f.a_s) / 1.2;
@@ -259,9 +264,7 @@ Material MakeFabric(const FabricDescription& f, const FabricOptions& options) {
   return material;
 }
 
-Material GenerateFabric(uint64_t seed, const FabricOptions& options) {
-  return MakeFabric(RandomFabric(seed), options);
-}
+Material GenerateFabric(uint64_t seed, const FabricOptions& options) { return MakeFabric(RandomFabric(seed), options); }
 
 FabricBeyond RandomFabricBeyond(uint64_t seed) {
   // A stream apart from RandomFabric's (whose draws stay as they were for every seed).
@@ -299,9 +302,8 @@ Material MakeOutOfModelFabric(const FabricDescription& fabric, const FabricBeyon
     }
   }
   material.provenance["loom.generator"] = std::string("sim::MakeOutOfModelFabric");
-  material.provenance["loom.beyond.specular_tint"] = std::to_string(b.specular_tint.x()) + " " +
-                                                     std::to_string(b.specular_tint.y()) + " " +
-                                                     std::to_string(b.specular_tint.z());
+  material.provenance["loom.beyond.specular_tint"] =
+      std::to_string(b.specular_tint.x()) + " " + std::to_string(b.specular_tint.y()) + " " + std::to_string(b.specular_tint.z());
   material.provenance["loom.beyond.coat"] = b.coat;
   material.provenance["loom.beyond.coat_roughness"] = b.coat_roughness;
   material.provenance["loom.beyond.fibre_masking"] = b.fibre_masking;

@@ -64,12 +64,12 @@ BeyondLayout AddBeyondChannels(Image& maps) {
 }
 
 void SetBeyond(Image& maps, const BeyondLayout& layout, int x, int y, const BeyondGd10& beyond) {
-  const double values[] = {beyond.coat.x(), beyond.coat.y(), beyond.coat.z(), beyond.coat_roughness, beyond.fibre_masking, beyond.meso_deg};
+  const double values[] = {beyond.coat.x(),       beyond.coat.y(),      beyond.coat.z(),
+                           beyond.coat_roughness, beyond.fibre_masking, beyond.meso_deg};
   for (size_t i = 0; i < kBeyondChannels.size(); ++i) maps.at(layout.channel[i], y, x) = static_cast<float>(values[i]);
 }
 
-Reflectance::Reflectance(const fitting::WardParams<double>& params, const BeyondGd10& beyond)
-    : beyond_(beyond), lobe_(params) {
+Reflectance::Reflectance(const fitting::WardParams<double>& params, const BeyondGd10& beyond) : beyond_(beyond), lobe_(params) {
   if (!(beyond.meso_deg > 0)) return;
   const fitting::AnisotropyFrame<double> frame = fitting::MakeAnisotropyFrame(params.n_s, params.alpha);
   const double tilt = DegToRad(beyond.meso_deg);

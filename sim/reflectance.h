@@ -30,9 +30,8 @@
 
 namespace loom::sim {
 
-inline constexpr std::array<const char*, 6> kBeyondChannels = {"beyond.coat.R",        "beyond.coat.G",
-                                                               "beyond.coat.B",        "beyond.coat_roughness",
-                                                               "beyond.fibre_masking", "beyond.meso_deg"};
+inline constexpr std::array<const char*, 6> kBeyondChannels = {
+    "beyond.coat.R", "beyond.coat.G", "beyond.coat.B", "beyond.coat_roughness", "beyond.fibre_masking", "beyond.meso_deg"};
 
 struct BeyondGd10 {
   Eigen::Vector3d coat = Eigen::Vector3d::Zero();

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <thread>
 
-#include "fitting/model/svbrdf_maps.h"
 #include "core/check.h"
 #include "core/heightfield.h"
-#include "sim/internal/noise.h"
 #include "core/spectra.h"
+#include "fitting/model/svbrdf_maps.h"
+#include "sim/internal/noise.h"
 
 namespace loom::sim {
 namespace {
@@ -132,8 +132,7 @@ bool Scene::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) con
 
 double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
                                   const Eigen::Vector3d& weights, const Reflectance& reflectance,
-                                  const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local,
-                                  bool shadows) const {
+                                  const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local, bool shadows) const {
   if (intensity <= 0) return 0;
   const Eigen::Vector3d to_light = light - p;
   const double distance2 = to_light.squaredNorm();
@@ -143,8 +142,7 @@ double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3
   return intensity / distance2 * reflected;
 }
 
-double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state,
-                         bool shadows) const {
+double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const {
   Surface surface;
   if (const std::optional<int> pixel = MapPixel(p.x(), p.y())) {
     const int x = *pixel % material_.width(), y = *pixel / material_.width();
@@ -174,8 +172,8 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
         weights = filter_weights_[w][slot->second];
       }
     }
-    radiance += PointSourceRadiance(p, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma),
-                                    weights, reflectance, local_from_world, v_local, shadows);
+    radiance += PointSourceRadiance(p, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma), weights,
+                                    reflectance, local_from_world, v_local, shadows);
   }
   if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
     // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
@@ -187,8 +185,8 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       const Eigen::Vector3d source = centre + strip.sweep_axis * ((k + 0.5) * segment_mm - strip.strip_length_mm / 2);
       const double c = normal.dot((p_in_rig - source).normalized());
       if (c <= 0) continue;
-      const double intensity = strip.intensity_per_mm * segment_mm * state.linear_light_intensity *
-                               CosinePower(c, strip.falloff_exponent);
+      const double intensity =
+          strip.intensity_per_mm * segment_mm * state.linear_light_intensity * CosinePower(c, strip.falloff_exponent);
       radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, reflectance, local_from_world,
                                       v_local, shadows);
     }
@@ -206,9 +204,9 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       const int rows = std::min(image.height, projector.height);
       if (uv.x() > -0.5 && uv.y() > -0.5 && uv.x() < columns - 0.5 && uv.y() < rows - 0.5) {
         const double level = ProjectedLevel(image, std::clamp(uv.x(), 0.0, columns - 1.0), std::clamp(uv.y(), 0.0, rows - 1.0));
-        radiance += PointSourceRadiance(p, sample_from_rig * projector.proj_from_rig.inverse().translation(),
-                                        projector.max_intensity * level, panchromatic_, reflectance, local_from_world,
-                                        v_local, shadows);
+        radiance +=
+            PointSourceRadiance(p, sample_from_rig * projector.proj_from_rig.inverse().translation(),
+                                projector.max_intensity * level, panchromatic_, reflectance, local_from_world, v_local, shadows);
       }
     }
   }

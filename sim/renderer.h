@@ -18,9 +18,9 @@
 
 #include "core/heightmap.h"
 #include "core/image.h"
-#include "fitting/model/ward_gd10.h"
 #include "core/rig_model.h"
 #include "core/status.h"
+#include "fitting/model/ward_gd10.h"
 #include "sim/material.h"
 #include "sim/reflectance.h"
 
@@ -45,7 +45,7 @@ struct SceneState {
   std::map<int, int> filter_slots = {};  // filter wheel index (in RigModel) → slot
   double turntable_deg = 0;
   bool linear_light_on = false;
-  double linear_light_mm = 0;       // carriage position
+  double linear_light_mm = 0;  // carriage position
   double linear_light_intensity = 1;
   std::shared_ptr<const ProjectedImage> projector_image = nullptr;  // null: projector dark
   // The same image is the same pointer: a pattern shown anew compares unequal (conservative).
@@ -58,10 +58,10 @@ struct CaptureSettings {
 };
 
 struct RenderOptions {
-  int supersampling = 2;   // rays per pixel per axis
+  int supersampling = 2;  // rays per pixel per axis
   bool shadows = true;
-  int threads = 0;         // 0 = one per core
-  Status Check() const;    // every problem, naming the field (RenderRadiance throws on one)
+  int threads = 0;       // 0 = one per core
+  Status Check() const;  // every problem, naming the field (RenderRadiance throws on one)
 };
 
 class Scene {
@@ -77,8 +77,7 @@ class Scene {
 
   // Radiance leaving the sample at sample-frame point `p` (on the surface) towards `eye` (a
   // sample-frame position), under `state`; also used by tests and by the fast path.
-  double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state,
-                    bool shadows) const;
+  double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const;
   // First surface point along a sample-frame ray (direction unit), or nothing if it misses the
   // holder.
   std::optional<Eigen::Vector3d> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
@@ -95,9 +94,9 @@ class Scene {
 
   RigModel rig_;
   Material material_;
-  Heightmap heightmap_;                     // from the material's height channel
-  std::vector<Eigen::Matrix3d> frames_;     // world_from_local per map pixel (geometric frame)
-  std::optional<BeyondLayout> beyond_;      // the material's beyond-GD10 channels, if it has them
+  Heightmap heightmap_;                  // from the material's height channel
+  std::vector<Eigen::Matrix3d> frames_;  // world_from_local per map pixel (geometric frame)
+  std::optional<BeyondLayout> beyond_;   // the material's beyond-GD10 channels, if it has them
   Eigen::Vector3d panchromatic_;
   // FilterWeights of every wheel's every slot, [wheel][slot]: a spectral integral, once per scene
   // rather than once per ray.
@@ -107,8 +106,7 @@ class Scene {
   // `intensity` towards p, with `weights` for the albedos.
   double PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
                              const Eigen::Vector3d& weights, const Reflectance& reflectance,
-                             const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local,
-                             bool shadows) const;
+                             const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local, bool shadows) const;
 };
 
 // The sensor: electrons → DN with noise, 16-bit container holding adc_bits values.

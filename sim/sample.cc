@@ -55,7 +55,9 @@ Result<Material> MakeSample(const SampleSpec& spec) {
   }
   if (spec.kind == "white-tile") return WhiteTile(grid, spec.white.albedo);
   if (spec.kind == "white-tile-on-spacer") {
-    if (!(spec.white.spacer_mm > 0)) return InvalidArgumentError("sample kind 'white-tile-on-spacer'", "the rig's white_reference has no spacer_mm");
+    if (!(spec.white.spacer_mm > 0)) {
+      return InvalidArgumentError("sample kind 'white-tile-on-spacer'", "the rig's white_reference has no spacer_mm");
+    }
     return WhiteTileOnSpacer(grid, spec.white.albedo, spec.white.spacer_mm);
   }
   if (spec.kind == "chessboard") return Chessboard(9, 6, side_mm / 14, grid);
@@ -66,7 +68,8 @@ Result<Material> MakeSample(const SampleSpec& spec) {
   }
   if (spec.kind == "chrome-sphere") return ChromeSphere(spec.probe);
   return InvalidArgumentError("sample kind '" + spec.kind + "'",
-                              "unknown (expected fabric, fabric-out-of-model, white-tile, white-tile-on-spacer, chessboard, colour-chart, target, chrome-sphere)");
+                              "unknown (expected fabric, fabric-out-of-model, white-tile, white-tile-on-spacer, chessboard, "
+                              "colour-chart, target, chrome-sphere)");
 }
 
 }  // namespace loom::sim

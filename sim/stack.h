@@ -16,17 +16,17 @@
 namespace loom::sim {
 
 struct Observation {
-  int camera = 0;           // index into RigModel::cameras
-  SceneState state;         // lights, filter slots, turntable angle
+  int camera = 0;    // index into RigModel::cameras
+  SceneState state;  // lights, filter slots, turntable angle
 };
 
 struct StackOptions {
-  int width_px = 0;         // 0: the material's grid
+  int width_px = 0;  // 0: the material's grid
   int height_px = 0;
-  double pixel_mm = 0;      // 0: the material's pixel size
+  double pixel_mm = 0;  // 0: the material's pixel size
   bool shadows = true;
-  int threads = 0;          // 0: one per core
-  Status Check() const;     // every problem, naming the field (RenderStack throws on one)
+  int threads = 0;       // 0: one per core
+  Status Check() const;  // every problem, naming the field (RenderStack throws on one)
 };
 
 // Every camera × every LED at 1000 mA × each turntable angle, then every filtered LED through

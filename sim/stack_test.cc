@@ -95,7 +95,10 @@ TEST(StackTest, PointsTheCameraCannotSeeAreNaN) {
 
 TEST(StackTest, DefaultObservationsCoverCamerasLightsAnglesAndFilters) {
   RigModel rig = TwoCameraRig();
-  rig.filter_wheels.push_back({"wheel0", 1, {FilterModel::Open(), FilterModel::BandPass(450, 30), FilterModel::BandPass(550, 30), FilterModel::BandPass(650, 30)}});
+  rig.filter_wheels.push_back(
+      {"wheel0",
+       1,
+       {FilterModel::Open(), FilterModel::BandPass(450, 30), FilterModel::BandPass(550, 30), FilterModel::BandPass(650, 30)}});
   const std::vector<Observation> observations = DefaultObservations(rig, {0, 120, 240});
   EXPECT_EQ(observations.size(), 2u * 2u * 3u + 3u * 2u);
   const StackObservation side = DescribeObservation(rig, observations[3]);  // angle 0, side camera, LED 1

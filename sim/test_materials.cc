@@ -86,8 +86,8 @@ Material Chessboard(int inner_cols, int inner_rows, double square_mm, const Grid
     const int row = static_cast<int>(std::floor((y + half_h) / square_mm));
     return Eigen::Vector3d::Constant((col + row) % 2 == 0 ? 0.04 : 0.85);
   });
-  m.provenance["loom.board"] = "chessboard:" + std::to_string(inner_cols) + "x" + std::to_string(inner_rows) + ":" +
-                               std::to_string(square_mm);
+  m.provenance["loom.board"] =
+      "chessboard:" + std::to_string(inner_cols) + "x" + std::to_string(inner_rows) + ":" + std::to_string(square_mm);
   return m;
 }
 
@@ -127,7 +127,8 @@ Material ChromeSphere(const LightProbeModel& probe) {
   chrome.sigma_x = chrome.sigma_y = 0.05;
   chrome.f0 = 1;
   const GridOptions grid{size, size, kPixelMm};
-  Material m = FlatLambertian("chrome sphere", grid, [](double, double) -> Eigen::Vector3d { return Eigen::Vector3d::Constant(0.02); });
+  Material m =
+      FlatLambertian("chrome sphere", grid, [](double, double) -> Eigen::Vector3d { return Eigen::Vector3d::Constant(0.02); });
   const int height_channel = *m.maps.ChannelIndex(fitting::kHeightChannel);
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {

@@ -28,8 +28,7 @@ struct GridOptions {
   Status Check() const;  // every problem, naming the field (the makers below throw on one)
 };
 
-Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params,
-                         const GridOptions& grid);
+Material UniformMaterial(const std::string& name, const fitting::WardParams<double>& params, const GridOptions& grid);
 Material WhiteTile(const GridOptions& grid, double albedo = WhiteReferenceModel{}.albedo);
 Material WhiteTileOnSpacer(const GridOptions& grid, double albedo, double spacer_mm);
 // A board of (inner_cols + 1) × (inner_rows + 1) squares of square_mm, centred, on white.

@@ -20,10 +20,10 @@ fitting::WardParams<double> At(const Material& m, double x_mm, double y_mm) {
 TEST(TestMaterialsTest, ChessboardSquaresWhereTheBoardSaysSo) {
   // 9 x 6 inner corners → 10 x 7 squares of 10 mm, centred: the top-left square is dark.
   const Material board = Chessboard(9, 6, 10.0, {.width_px = 240, .height_px = 200, .pixel_mm = 0.5});
-  EXPECT_NEAR(At(board, -45, -30).a_d.x(), 0.04, 1e-6);   // square (0, 0)
-  EXPECT_NEAR(At(board, -35, -30).a_d.x(), 0.85, 1e-6);   // square (1, 0)
-  EXPECT_NEAR(At(board, -35, -20).a_d.x(), 0.04, 1e-6);   // square (1, 1)
-  EXPECT_NEAR(At(board, 0, 45).a_d.x(), 0.85, 1e-6);      // margin
+  EXPECT_NEAR(At(board, -45, -30).a_d.x(), 0.04, 1e-6);  // square (0, 0)
+  EXPECT_NEAR(At(board, -35, -30).a_d.x(), 0.85, 1e-6);  // square (1, 0)
+  EXPECT_NEAR(At(board, -35, -20).a_d.x(), 0.04, 1e-6);  // square (1, 1)
+  EXPECT_NEAR(At(board, 0, 45).a_d.x(), 0.85, 1e-6);     // margin
   EXPECT_EQ(std::get<std::string>(board.provenance.at("loom.board")).substr(0, 15), "chessboard:9x6:");
 }
 

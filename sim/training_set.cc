@@ -11,7 +11,9 @@ namespace fs = std::filesystem;
 Status TrainingSetSpec::Check() const {
   std::vector<std::string> problems;
   if (!(materials >= 1)) problems.push_back("materials must be >= 1");
-  if (!(size_px >= 8 && size_px <= kMaxSampleSide)) problems.push_back("size_px must be in [8, " + std::to_string(kMaxSampleSide) + "]");
+  if (!(size_px >= 8 && size_px <= kMaxSampleSide)) {
+    problems.push_back("size_px must be in [8, " + std::to_string(kMaxSampleSide) + "]");
+  }
   if (!(out_of_model_share >= 0 && out_of_model_share <= 1)) problems.push_back("out_of_model_share must be in [0, 1]");
   return ProblemsStatus("training set", problems);
 }

@@ -33,8 +33,9 @@ TEST(TrainingSetTest, RendersEachFabricOnceWithItsTruthAndTheOutOfModelShareSpre
   spec.size_px = 16;
   spec.out_of_model_share = 1.0 / 3;
   std::vector<std::string> names;
-  ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, dir,
-                                [&](int, int, const std::string& name) { names.push_back(name); }).ok());
+  ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, dir, [&](int, int, const std::string& name) {
+                names.push_back(name);
+              }).ok());
   EXPECT_EQ(names, (std::vector<std::string>{"fabric-1000", "fabric-1001", "fabric-1002-out-of-model"}));
   for (const std::string& name : names) {
     const Result<ObservationStack> stack = ReadObservationStack(dir / (name + ".stack.exr"));

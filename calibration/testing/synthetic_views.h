@@ -50,7 +50,7 @@ inline std::vector<TargetView> SyntheticViews(const RigModel& rig, const Calibra
   std::vector<TargetView> views;
   for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
     for (int k = 0; k < 8; ++k) {
-      TargetView view{c, 45.0 * k, "view " + std::to_string(k) + " " + rig.cameras[c].name, {}};
+      TargetView view{c, 45.0 * k, scan::ViewId{k, rig.cameras[c].name}, {}};
       const Rigid3d cam_from_sample = rig.cameras[c].cam_from_rig * rig.turntable.RigFromSample(view.turntable_deg);
       for (const Eigen::Vector3d& p : target.CornersInBoard()) {
         Eigen::Vector2d pixel;

@@ -52,8 +52,7 @@ Result<std::string> Subprocess::ReadLine(std::chrono::milliseconds timeout) {
       buffer_.erase(0, newline + 1);
       return line;
     }
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-        deadline - std::chrono::steady_clock::now());
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) return TimeoutError("pid " + std::to_string(pid_), "no line on stdout in time");
     pollfd fd{stdout_fd_, POLLIN, 0};
     if (poll(&fd, 1, static_cast<int>(left.count())) <= 0) continue;

@@ -50,8 +50,7 @@ struct AutodiffPixelResidual {
   }
 };
 
-inline ceres::CostFunction* MakeAutodiffPixelCost(const std::vector<PixelObservation>& observations,
-                                                  double inverse_scale) {
+inline ceres::CostFunction* MakeAutodiffPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale) {
   auto* cost = new ceres::DynamicAutoDiffCostFunction<AutodiffPixelResidual, kStride>(
       new AutodiffPixelResidual{&observations, inverse_scale});
   for (int size : kParameterBlockSizes) cost->AddParameterBlock(size);

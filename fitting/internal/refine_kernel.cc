@@ -26,15 +26,15 @@ constexpr double kNegligibleLobeExponent = 60;
 
 // A light slot's parameter-free arrays as restrict pointers to its kLanes values, named as
 // LaneData's members (locals, so that the vectoriser sees they do not alias).
-#define SLOT_POINTERS(data, offset)                               \
-  const double* __restrict lx = &(data).lx[offset];               \
-  const double* __restrict ly = &(data).ly[offset];               \
-  const double* __restrict lz = &(data).lz[offset];               \
-  const double* __restrict hx = &(data).hx[offset];               \
-  const double* __restrict hy = &(data).hy[offset];               \
-  const double* __restrict hz = &(data).hz[offset];               \
+#define SLOT_POINTERS(data, offset)                                 \
+  const double* __restrict lx = &(data).lx[offset];                 \
+  const double* __restrict ly = &(data).ly[offset];                 \
+  const double* __restrict lz = &(data).lz[offset];                 \
+  const double* __restrict hx = &(data).hx[offset];                 \
+  const double* __restrict hy = &(data).hy[offset];                 \
+  const double* __restrict hz = &(data).hz[offset];                 \
   const double* __restrict irradiance = &(data).irradiance[offset]; \
-  const double* __restrict inv_c2 = &(data).inv_c2[offset];       \
+  const double* __restrict inv_c2 = &(data).inv_c2[offset];         \
   const double* __restrict schlick = &(data).schlick[offset]
 
 #define LANES _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kLanes; ++p)
@@ -229,12 +229,14 @@ typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
 
 }  // namespace
 
-[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
-void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) {
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void EvaluateLanes(const LaneData& d, const LaneInputs& in,
+                                                                                         LaneEquations& out) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
   LANES { out.cost[p] = out.squares[p] = 0; }
-  for (int i = 0; i < kNormalEntries; ++i) LANES { out.bread[i][p] = out.meat[i][p] = 0; }
+  for (int i = 0; i < kNormalEntries; ++i) LANES {
+      out.bread[i][p] = out.meat[i][p] = 0;
+    }
   const double a = in.huber_scale;
   bool any_leverage = false;
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
@@ -285,7 +287,9 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
     }
     // Kept per observation; the sums over observations below (Gram) run on them at the end.
     double* __restrict gk = &d.gradients[static_cast<size_t>(k) * kTangentParams * kLanes];
-    for (int i = 0; i < kTangentParams; ++i) LANES { gk[i * kLanes + p] = g[i][p]; }
+    for (int i = 0; i < kTangentParams; ++i) LANES {
+        gk[i * kLanes + p] = g[i][p];
+      }
     LANES {
       const double leverage = in.leverage[p] * weight[p] * h[p];
       const double kept = 1 - (leverage < 0.99 ? leverage : 0.99);
@@ -303,8 +307,8 @@ void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) 
   }
 }
 
-[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
-void SumTermsLanes(const LaneData& d, const LaneInputs& in, double* diffuse, double* specular) {
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void SumTermsLanes(const LaneData& d, const LaneInputs& in,
+                                                                                         double* diffuse, double* specular) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
   for (int k = 0; k < d.observations; ++k) {
@@ -350,8 +354,7 @@ const char* RefineKernelIsa() {
   return "x86-64 baseline (SSE2)";
 }
 
-LaneData::LaneData(const std::vector<int>& slots_per_observation)
-    : observations(static_cast<int>(slots_per_observation.size())) {
+LaneData::LaneData(const std::vector<int>& slots_per_observation) : observations(static_cast<int>(slots_per_observation.size())) {
   first_slot.push_back(0);
   for (int slots : slots_per_observation) first_slot.push_back(first_slot.back() + slots);
   const size_t per_observation = static_cast<size_t>(observations) * kLanes;

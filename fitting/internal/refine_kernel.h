@@ -36,11 +36,11 @@ struct LaneData {
   std::vector<double> vx, vy, vz;        // towards the camera, local frame
   std::vector<double> wr, wg, wb;        // colour weights
   // Per light slot × lane: what does not depend on the parameters.
-  std::vector<double> lx, ly, lz;        // towards the light
-  std::vector<double> hx, hy, hz;        // normalize(l + v)
-  std::vector<double> irradiance;        // 0: empty slot
-  std::vector<double> inv_c2;            // 1 / (l·h)²
-  std::vector<double> schlick;           // (1 − l·h)⁵
+  std::vector<double> lx, ly, lz;  // towards the light
+  std::vector<double> hx, hy, hz;  // normalize(l + v)
+  std::vector<double> irradiance;  // 0: empty slot
+  std::vector<double> inv_c2;      // 1 / (l·h)²
+  std::vector<double> schlick;     // (1 − l·h)⁵
   // The kernel's scratch: per observation × lane, the gradient (12 each) and the weights of the
   // sums over observations. Written by EvaluateLanes (hence mutable): one LaneData per thread.
   mutable std::vector<double> gradients, weights, weighted_residuals, inlier_weights, meat_weights;

@@ -26,7 +26,8 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
   for (size_t u = 0; u < usable.observations.size(); ++u) {
     const PixelObservation& o = *usable.observations[u];
     const int slot = usable.slots[u];
-    LOOM_CHECK(slot >= 0 && slot < data.observations) << "observation slot " << slot << " outside the batch's " << data.observations;
+    LOOM_CHECK(slot >= 0 && slot < data.observations)
+        << "observation slot " << slot << " outside the batch's " << data.observations;
     const size_t i = static_cast<size_t>(slot) * kLanes + lane;
     data.radiance[i] = o.radiance;
     data.weight[i] = 1;

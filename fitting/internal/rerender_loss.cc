@@ -102,7 +102,8 @@ at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& bat
   const at::Tensor specular_albedo = Dot(batch.weights, a_s.index_select(0, pixel));
   const at::Tensor& o = batch.sample_observation;
   const at::Tensor sample_pixel = pixel.index_select(0, o);
-  const at::Tensor ns = n.index_select(0, sample_pixel), ts = t.index_select(0, sample_pixel), bs = b.index_select(0, sample_pixel);
+  const at::Tensor ns = n.index_select(0, sample_pixel), ts = t.index_select(0, sample_pixel),
+                   bs = b.index_select(0, sample_pixel);
   const at::Tensor v = batch.v.index_select(0, o);
   const at::Tensor& l = batch.l;
   const at::Tensor n_dot_l = Dot(ns, l), n_dot_v = Dot(ns, v);
@@ -115,8 +116,8 @@ at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& bat
                               h_n.square();
   const at::Tensor kept = (exponent <= kNegligibleLobeExponent).to(at::kDouble);
   const at::Tensor ward = kept * at::exp(-at::clamp_max(exponent, kNegligibleLobeExponent)) /
-                          (4 * kPi * sigma_x.index_select(0, sample_pixel) * sigma_y.index_select(0, sample_pixel) *
-                           c.square() * h_n.square().square());
+                          (4 * kPi * sigma_x.index_select(0, sample_pixel) * sigma_y.index_select(0, sample_pixel) * c.square() *
+                           h_n.square().square());
   const at::Tensor f0s = f0.index_select(0, sample_pixel);
   const at::Tensor fresnel = f0s + (1 - f0s) * at::pow(1 - c, 5);
   const at::Tensor shading = diffuse_albedo.index_select(0, o) / kPi + specular_albedo.index_select(0, o) * fresnel * ward;

@@ -62,7 +62,8 @@ TEST(RerenderLossTest, RendersWhatPredictRadianceDoes) {
         if (!std::isfinite(o.radiance) || o.lights.empty()) continue;
         if (max_lights > 0) o.lights = MergeLightSamples(o.lights, max_lights);
         const double expected = PredictRadiance(lobe, o);
-        ASSERT_NEAR(rendered[k].item<double>(), expected, 1e-9 * (1 + std::abs(expected))) << "pixel " << p << ", observation " << k;
+        ASSERT_NEAR(rendered[k].item<double>(), expected, 1e-9 * (1 + std::abs(expected)))
+            << "pixel " << p << ", observation " << k;
         ++k;
       }
     }

@@ -11,9 +11,7 @@ constexpr double kMinNormalZ = 1e-3;
 
 }  // namespace
 
-double EncodeSigma(double sigma) {
-  return (std::log(sigma + 0.01) - std::log(0.01)) / (std::log(1.01) - std::log(0.01));
-}
+double EncodeSigma(double sigma) { return (std::log(sigma + 0.01) - std::log(0.01)) / (std::log(1.01) - std::log(0.01)); }
 
 double DecodeSigma(double encoded) { return 0.01 * (std::pow(101.0, encoded) - 1.0); }
 

@@ -25,8 +25,7 @@
 namespace loom::fitting {
 
 inline constexpr std::array<const char*, kNumWardParams> kSvbrdfChannels = {
-    "n_s.X", "n_s.Y", "n_s.Z", "a_d.R", "a_d.G", "a_d.B", "a_s.R",
-    "a_s.G", "a_s.B", "sigma_x", "sigma_y", "alpha", "F0"};
+    "n_s.X", "n_s.Y", "n_s.Z", "a_d.R", "a_d.G", "a_d.B", "a_s.R", "a_s.G", "a_s.B", "sigma_x", "sigma_y", "alpha", "F0"};
 inline constexpr const char* kHeightChannel = "height";
 
 // An image with the 13 parameter channels (and `height` when `with_height`), zero-filled.

@@ -5,8 +5,7 @@
 namespace loom::fitting {
 namespace {
 
-void CheckRange(std::vector<std::string>& problems, const std::string& name, double value,
-                double low, double high) {
+void CheckRange(std::vector<std::string>& problems, const std::string& name, double value, double low, double high) {
   if (std::isfinite(value) && value >= low && value <= high) return;
   std::ostringstream out;
   out << name << " = " << value << " is outside [" << low << ", " << high << "]";

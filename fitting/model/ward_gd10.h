@@ -55,9 +55,7 @@ struct WardParams {
 
   template <typename U>
   WardParams<U> Cast() const {
-    return {n_s.template cast<U>(), a_d.template cast<U>(), a_s.template cast<U>(),
-            U(sigma_x),             U(sigma_y),             U(alpha),
-            U(f0)};
+    return {n_s.template cast<U>(), a_d.template cast<U>(), a_s.template cast<U>(), U(sigma_x), U(sigma_y), U(alpha), U(f0)};
   }
 };
 
@@ -97,8 +95,7 @@ struct WardTerms {
 template <typename T>
 class WardLobe {
  public:
-  explicit WardLobe(const WardParams<T>& params)
-      : params_(params), frame_(MakeAnisotropyFrame(params.n_s, params.alpha)) {
+  explicit WardLobe(const WardParams<T>& params) : params_(params), frame_(MakeAnisotropyFrame(params.n_s, params.alpha)) {
     const T sigma_x = params.sigma_x < T(kSigmaFloor) ? T(kSigmaFloor) : params.sigma_x;
     const T sigma_y = params.sigma_y < T(kSigmaFloor) ? T(kSigmaFloor) : params.sigma_y;
     inv_sigma_x2_ = T(1) / (sigma_x * sigma_x);
@@ -170,8 +167,8 @@ Vec3<T> EvaluateWardCos(const WardParams<T>& params, const Vec3<T>& l, const Vec
 
 // One parameter set × many directions: out[i] = f_r(l[i], v[i]) · (n_s·l[i]).
 template <typename T>
-void EvaluateWardCosBatch(const WardParams<T>& params, std::span<const Vec3<T>> l,
-                          std::span<const Vec3<T>> v, std::span<Vec3<T>> out) {
+void EvaluateWardCosBatch(const WardParams<T>& params, std::span<const Vec3<T>> l, std::span<const Vec3<T>> v,
+                          std::span<Vec3<T>> out) {
   LOOM_CHECK(l.size() == v.size() && l.size() == out.size())
       << "batch sizes l " << l.size() << ", v " << v.size() << ", out " << out.size();
   const WardLobe<T> lobe(params);
@@ -182,17 +179,16 @@ void EvaluateWardCosBatch(const WardParams<T>& params, std::span<const Vec3<T>> 
 // element [p * num_observations + k] is observation k of pixel p (each pixel has its own
 // directions, as after rectification onto a heightmap).
 template <typename T>
-void EvaluateSvbrdfCosBatch(std::span<const WardParams<T>> pixels, size_t num_observations,
-                            std::span<const Vec3<T>> l, std::span<const Vec3<T>> v,
-                            std::span<Vec3<T>> out) {
+void EvaluateSvbrdfCosBatch(std::span<const WardParams<T>> pixels, size_t num_observations, std::span<const Vec3<T>> l,
+                            std::span<const Vec3<T>> v, std::span<Vec3<T>> out) {
   const size_t total = pixels.size() * num_observations;
   LOOM_CHECK(l.size() == total && v.size() == total && out.size() == total)
-      << pixels.size() << " pixels x " << num_observations << " observations vs l " << l.size()
-      << ", v " << v.size() << ", out " << out.size();
+      << pixels.size() << " pixels x " << num_observations << " observations vs l " << l.size() << ", v " << v.size() << ", out "
+      << out.size();
   for (size_t p = 0; p < pixels.size(); ++p) {
     const size_t begin = p * num_observations;
-    EvaluateWardCosBatch<T>(pixels[p], l.subspan(begin, num_observations),
-                            v.subspan(begin, num_observations), out.subspan(begin, num_observations));
+    EvaluateWardCosBatch<T>(pixels[p], l.subspan(begin, num_observations), v.subspan(begin, num_observations),
+                            out.subspan(begin, num_observations));
   }
 }
 

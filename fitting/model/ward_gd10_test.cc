@@ -41,8 +41,7 @@ WardParams<double> ParamsOf(const Json& c) {
 
 // |actual − expected| ≤ tolerance · |expected|, and exactly 0 where expected is 0.
 template <typename T>
-void ExpectRelativeNear(const Vec3<T>& actual, const Eigen::Vector3d& expected, double tolerance,
-                        const std::string& what) {
+void ExpectRelativeNear(const Vec3<T>& actual, const Eigen::Vector3d& expected, double tolerance, const std::string& what) {
   for (int i = 0; i < 3; ++i) {
     const double a = static_cast<double>(actual[i]);
     if (expected[i] == 0.0) {
@@ -63,8 +62,7 @@ void CheckAllReferenceCases(double tolerance) {
     const WardParams<T> params = ParamsOf(c).Cast<T>();
     const Vec3<T> l = Vec(c["l"]).cast<T>();
     const Vec3<T> v = Vec(c["v"]).cast<T>();
-    const std::string what = "case " + std::to_string(c["id"].get<int>()) + " (" +
-                             c["category"].get<std::string>() + ")";
+    const std::string what = "case " + std::to_string(c["id"].get<int>()) + " (" + c["category"].get<std::string>() + ")";
     ExpectRelativeNear(EvaluateWard(params, l, v), Vec(c["f"]), tolerance, what + " f");
     ExpectRelativeNear(EvaluateWardCos(params, l, v), Vec(c["f_cos"]), tolerance, what + " f_cos");
     if (!c["valid"].get<bool>()) {
@@ -225,8 +223,8 @@ TEST(WardGd10Test, DirectionalAlbedoTableAndBoundedEnergy) {
     const double theta = DegToRad(row["theta_v_deg"].get<double>());
     const double phi = DegToRad(row["phi_v_deg"].get<double>());
     const double albedo = DirectionalAlbedo(sx, sy, theta, phi, 600);
-    EXPECT_NEAR(albedo, row["albedo_gd10"].get<double>(), 2e-3) << "σ = (" << sx << ", " << sy
-        << "), θ_v = " << row["theta_v_deg"] << ", φ_v = " << row["phi_v_deg"];
+    EXPECT_NEAR(albedo, row["albedo_gd10"].get<double>(), 2e-3)
+        << "σ = (" << sx << ", " << sy << "), θ_v = " << row["theta_v_deg"] << ", φ_v = " << row["phi_v_deg"];
     EXPECT_LE(albedo, 1.0);
   }
 }
@@ -256,9 +254,8 @@ TEST(WardGd10Test, JetDerivativesMatchFiniteDifferences) {
     const Eigen::Vector3d l = RandomUpperDirection(rng);
     const Eigen::Vector3d v = RandomUpperDirection(rng);
     if (EvaluateWardCos(p, l, v).maxCoeff() <= 0) continue;
-    const double x[kNumWardParams] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(),
-                                      p.a_d.z(), p.a_s.x(), p.a_s.y(), p.a_s.z(), p.sigma_x,
-                                      p.sigma_y, p.alpha,   p.f0};
+    const double x[kNumWardParams] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
+                                      p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, p.alpha,   p.f0};
     Jet13 jets[kNumWardParams];
     for (int i = 0; i < kNumWardParams; ++i) jets[i] = Jet13(x[i], i);
     const Vec3<Jet13> l_jet = l.cast<Jet13>();
@@ -271,8 +268,7 @@ TEST(WardGd10Test, JetDerivativesMatchFiniteDifferences) {
       const double step = 1e-6 * std::max(1.0, std::abs(x[i]));
       plus[i] += step;
       minus[i] -= step;
-      const Eigen::Vector3d fd = (EvaluateWardCos(Unpack(plus), l, v) -
-                                  EvaluateWardCos(Unpack(minus), l, v)) / (2 * step);
+      const Eigen::Vector3d fd = (EvaluateWardCos(Unpack(plus), l, v) - EvaluateWardCos(Unpack(minus), l, v)) / (2 * step);
       for (int k = 0; k < 3; ++k) {
         ASSERT_NEAR(f[k].v[i], fd[k], 1e-5 * std::max(1.0, std::abs(fd[k])))
             << "trial " << trial << " d f[" << k << "] / d x[" << i << "]";

@@ -19,7 +19,7 @@ namespace loom::hal {
 void RegisterAravisBackend(BackendRegistry& registry);
 
 struct DiscoveredCamera {
-  std::string id;        // Aravis device id, usable as `address:`
+  std::string id;  // Aravis device id, usable as `address:`
   std::string vendor;
   std::string model;
   std::string serial;

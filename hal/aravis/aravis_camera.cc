@@ -13,39 +13,54 @@ namespace {
 
 Result<ArvPixelFormat> ToArv(scan::PixelFormat format) {
   switch (format) {
-    case scan::PixelFormat::kMono8: return ARV_PIXEL_FORMAT_MONO_8;
-    case scan::PixelFormat::kMono12: return ARV_PIXEL_FORMAT_MONO_12;
-    case scan::PixelFormat::kMono16: return ARV_PIXEL_FORMAT_MONO_16;
+    case scan::PixelFormat::kMono8:
+      return ARV_PIXEL_FORMAT_MONO_8;
+    case scan::PixelFormat::kMono12:
+      return ARV_PIXEL_FORMAT_MONO_12;
+    case scan::PixelFormat::kMono16:
+      return ARV_PIXEL_FORMAT_MONO_16;
   }
   return InternalError("pixel format", "unknown");
 }
 
 std::optional<scan::PixelFormat> FromArv(ArvPixelFormat format) {
   switch (format) {
-    case ARV_PIXEL_FORMAT_MONO_8: return scan::PixelFormat::kMono8;
-    case ARV_PIXEL_FORMAT_MONO_12: return scan::PixelFormat::kMono12;
-    case ARV_PIXEL_FORMAT_MONO_16: return scan::PixelFormat::kMono16;
-    default: return std::nullopt;
+    case ARV_PIXEL_FORMAT_MONO_8:
+      return scan::PixelFormat::kMono8;
+    case ARV_PIXEL_FORMAT_MONO_12:
+      return scan::PixelFormat::kMono12;
+    case ARV_PIXEL_FORMAT_MONO_16:
+      return scan::PixelFormat::kMono16;
+    default:
+      return std::nullopt;
   }
 }
 
 std::string_view BufferStatusName(ArvBufferStatus status) {
   switch (status) {
-    case ARV_BUFFER_STATUS_SUCCESS: return "success";
-    case ARV_BUFFER_STATUS_CLEARED: return "cleared";
-    case ARV_BUFFER_STATUS_TIMEOUT: return "timeout";
-    case ARV_BUFFER_STATUS_MISSING_PACKETS: return "missing packets";
-    case ARV_BUFFER_STATUS_WRONG_PACKET_ID: return "wrong packet id";
-    case ARV_BUFFER_STATUS_SIZE_MISMATCH: return "size mismatch";
-    case ARV_BUFFER_STATUS_FILLING: return "filling";
-    case ARV_BUFFER_STATUS_ABORTED: return "aborted";
-    default: return "unknown";
+    case ARV_BUFFER_STATUS_SUCCESS:
+      return "success";
+    case ARV_BUFFER_STATUS_CLEARED:
+      return "cleared";
+    case ARV_BUFFER_STATUS_TIMEOUT:
+      return "timeout";
+    case ARV_BUFFER_STATUS_MISSING_PACKETS:
+      return "missing packets";
+    case ARV_BUFFER_STATUS_WRONG_PACKET_ID:
+      return "wrong packet id";
+    case ARV_BUFFER_STATUS_SIZE_MISMATCH:
+      return "size mismatch";
+    case ARV_BUFFER_STATUS_FILLING:
+      return "filling";
+    case ARV_BUFFER_STATUS_ABORTED:
+      return "aborted";
+    default:
+      return "unknown";
   }
 }
 
 int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch()).count();
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace
@@ -119,9 +134,15 @@ Status AravisCamera::ApplySettings(CameraSettings* applied) {
   arv_camera_set_acquisition_mode(camera_, ARV_ACQUISITION_MODE_CONTINUOUS, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "setting continuous acquisition"));
   switch (applied->trigger) {
-    case TriggerMode::kFreeRun: arv_camera_clear_triggers(camera_, &error); break;
-    case TriggerMode::kSoftware: arv_camera_set_trigger(camera_, "Software", &error); break;
-    case TriggerMode::kHardware: arv_camera_set_trigger(camera_, "Line0", &error); break;
+    case TriggerMode::kFreeRun:
+      arv_camera_clear_triggers(camera_, &error);
+      break;
+    case TriggerMode::kSoftware:
+      arv_camera_set_trigger(camera_, "Software", &error);
+      break;
+    case TriggerMode::kHardware:
+      arv_camera_set_trigger(camera_, "Line0", &error);
+      break;
   }
   LOOM_RETURN_IF_ERROR(FromGError(error, "setting the trigger"));
   // Record what the camera really applied (exposure and gain come in steps).
@@ -215,8 +236,8 @@ bool AravisCamera::KeepsSettings() {
     g_error_free(error);
     return false;
   }
-  return std::abs(exposure_us - settings().exposure_us) <= 1e-6 * std::max(1.0, exposure_us) &&
-         roi == settings().roi && FromArv(format) == settings().pixel_format;
+  return std::abs(exposure_us - settings().exposure_us) <= 1e-6 * std::max(1.0, exposure_us) && roi == settings().roi &&
+         FromArv(format) == settings().pixel_format;
 }
 
 Status AravisCamera::Reconnect() {
@@ -239,8 +260,8 @@ Status AravisCamera::Reconnect() {
 Result<scan::RawFrame> AravisCamera::ToRawFrame(ArvBuffer* buffer) const {
   const std::optional<scan::PixelFormat> format = FromArv(arv_buffer_get_image_pixel_format(buffer));
   if (!format) {
-    return Error(StatusCode::kDataLoss, "frame in an unsupported pixel format 0x" +
-                                            std::to_string(arv_buffer_get_image_pixel_format(buffer)));
+    return Error(StatusCode::kDataLoss,
+                 "frame in an unsupported pixel format 0x" + std::to_string(arv_buffer_get_image_pixel_format(buffer)));
   }
   scan::RawFrame frame;
   frame.width = arv_buffer_get_image_width(buffer);
@@ -297,22 +318,21 @@ Result<scan::RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeo
     if (answers && KeepsSettings()) {
       return Error(StatusCode::kTimeout, "no frame within " + std::to_string(timeout.count()) + " ms");
     }
-    const std::string what = answers ? "camera restarted mid-acquisition (it lost its settings)"
-                                     : "camera dropped out mid-acquisition";
+    const std::string what =
+        answers ? "camera restarted mid-acquisition (it lost its settings)" : "camera dropped out mid-acquisition";
     const Status reconnected = Reconnect();
     if (!reconnected.ok()) {
-      return Error(StatusCode::kUnavailable,
-                   what + " and could not be reconnected (" + reconnected.message() + ")");
+      return Error(StatusCode::kUnavailable, what + " and could not be reconnected (" + reconnected.message() + ")");
     }
     return Error(StatusCode::kUnavailable,
                  what + "; reconnected and acquiring again, but this frame is lost: repeat the capture");
   }
   const ArvBufferStatus status = arv_buffer_get_status(buffer);
-  Result<scan::RawFrame> frame = status == ARV_BUFFER_STATUS_SUCCESS
-                               ? ToRawFrame(buffer)
-                               : Result<scan::RawFrame>(Error(StatusCode::kDataLoss,
-                                                        "frame arrived incomplete (" +
-                                                            std::string(BufferStatusName(status)) + ")"));
+  Result<scan::RawFrame> frame =
+      status == ARV_BUFFER_STATUS_SUCCESS
+          ? ToRawFrame(buffer)
+          : Result<scan::RawFrame>(
+                Error(StatusCode::kDataLoss, "frame arrived incomplete (" + std::string(BufferStatusName(status)) + ")"));
   arv_stream_push_buffer(stream_, buffer);
   return frame;
 }
@@ -323,8 +343,7 @@ std::vector<DiscoveredCamera> DiscoverAravisCameras() {
   const auto text = [](const char* value) { return std::string(value ? value : ""); };
   for (unsigned i = 0; i < arv_get_n_devices(); ++i) {
     cameras.push_back({text(arv_get_device_id(i)), text(arv_get_device_vendor(i)), text(arv_get_device_model(i)),
-                       text(arv_get_device_serial_nbr(i)), text(arv_get_device_address(i)),
-                       text(arv_get_device_protocol(i))});
+                       text(arv_get_device_serial_nbr(i)), text(arv_get_device_address(i)), text(arv_get_device_protocol(i))});
   }
   return cameras;
 }

@@ -99,9 +99,9 @@ TEST_F(FakeInterfaceTest, CapturesTestSuppliedFramesWithMetadata) {
 TEST_F(FakeInterfaceTest, NegotiatesMono12AndOutOfRangeValues) {
   AravisCamera camera("cam0", {.address = "Fake_1"});
   ASSERT_TRUE(camera.Open().ok());
-  CameraSettings settings = SmallMono16(1e12);  // beyond the fake's maximum exposure
+  CameraSettings settings = SmallMono16(1e12);         // beyond the fake's maximum exposure
   settings.pixel_format = scan::PixelFormat::kMono12;  // the fake offers Mono8 and Mono16 only
-  settings.roi = {2000, 0, 100, 100};            // runs off the 2048-wide sensor
+  settings.roi = {2000, 0, 100, 100};                  // runs off the 2048-wide sensor
   const Result<ConfigureReport> report = camera.Configure(settings);
   ASSERT_TRUE(report.ok()) << report.status().ToString();
   EXPECT_EQ(report->outcome, Negotiation::kAdjusted) << report->ToString();

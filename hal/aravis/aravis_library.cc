@@ -5,8 +5,7 @@
 namespace loom::hal {
 
 LinkedLibrary AravisLibrary() {
-  return {"Aravis", std::to_string(arv_get_major_version()) + "." +
-                        std::to_string(arv_get_minor_version()) + "." +
+  return {"Aravis", std::to_string(arv_get_major_version()) + "." + std::to_string(arv_get_minor_version()) + "." +
                         std::to_string(arv_get_micro_version())};
 }
 

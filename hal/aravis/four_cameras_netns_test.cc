@@ -42,8 +42,7 @@ class FourCamerasTest : public ::testing::Test {
       fakes_.push_back(std::move(*fake));
     }
     for (int i = 0; i < kCameras; ++i) {
-      cameras_.push_back(std::make_unique<AravisCamera>("cam" + std::to_string(i),
-                                                        AravisCameraOptions{Address(i), 1}));
+      cameras_.push_back(std::make_unique<AravisCamera>("cam" + std::to_string(i), AravisCameraOptions{Address(i), 1}));
       // The fake exits 0 even when it failed to bind, and needs a moment to start: retry.
       Status opened;
       for (int attempt = 0; attempt < 50; ++attempt) {

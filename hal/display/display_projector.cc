@@ -28,8 +28,9 @@ class DisplayProjector : public Projector {
   Result<DeviceIdentity> DoOpen() override {
     const char* display = std::getenv("DISPLAY");
     if (display == nullptr || *display == '\0') {
-      return Error(StatusCode::kUnavailable, "no graphical display ($DISPLAY is not set): the projector "
-                                             "is a screen of a desktop session");
+      return Error(StatusCode::kUnavailable,
+                   "no graphical display ($DISPLAY is not set): the projector "
+                   "is a screen of a desktop session");
     }
     try {
       cv::namedWindow(window_, cv::WINDOW_NORMAL | cv::WINDOW_GUI_NORMAL);
@@ -53,9 +54,7 @@ class DisplayProjector : public Projector {
     const cv::Mat image(pattern.height, pattern.width, CV_8UC1, const_cast<uint8_t*>(pattern.pixels.data()));
     return Present(image);
   }
-  Status DoBlank() override {
-    return Present(cv::Mat::zeros(options_.height, options_.width, CV_8UC1));
-  }
+  Status DoBlank() override { return Present(cv::Mat::zeros(options_.height, options_.width, CV_8UC1)); }
 
  private:
   Status Present(const cv::Mat& image) {

@@ -41,41 +41,48 @@ Result<ModbusOptions> ReadOptions(const DeviceConfig& config) {
 
 std::string_view TypeName(uint16_t type) {
   switch (type) {
-    case map::kTypeTurntable: return "turntable";
-    case map::kTypeLeds: return "LED controller";
-    case map::kTypeLinearLight: return "linear light";
-    default: return "unknown device";
+    case map::kTypeTurntable:
+      return "turntable";
+    case map::kTypeLeds:
+      return "LED controller";
+    case map::kTypeLinearLight:
+      return "linear light";
+    default:
+      return "unknown device";
   }
 }
 
 std::string_view FaultName(uint16_t code) {
   switch (code) {
-    case map::kFaultNone: return "none";
-    case map::kFaultMotorStall: return "motor stall";
-    case map::kFaultOverTemperature: return "over-temperature";
-    case map::kFaultLimitSwitch: return "limit switch";
-    default: return "unknown fault";
+    case map::kFaultNone:
+      return "none";
+    case map::kFaultMotorStall:
+      return "motor stall";
+    case map::kFaultOverTemperature:
+      return "over-temperature";
+    case map::kFaultLimitSwitch:
+      return "limit switch";
+    default:
+      return "unknown fault";
   }
 }
 
 // Connects, checks the device type and returns the identity from the common block.
-Result<DeviceIdentity> OpenController(ModbusLink& link, uint16_t expected_type,
-                                      const std::string& description) {
+Result<DeviceIdentity> OpenController(ModbusLink& link, uint16_t expected_type, const std::string& description) {
   LOOM_RETURN_IF_ERROR(link.Connect());
   LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> common, link.Read(0, map::kSerialLow + 1));
   if (common[map::kDeviceType] != expected_type) {
     link.Close();
-    return InvalidArgumentError(description, "the controller at " + link.endpoint().ToString() +
-                                                 " is a " + std::string(TypeName(common[map::kDeviceType])) +
-                                                 ", not a " + std::string(TypeName(expected_type)));
+    return InvalidArgumentError(description, "the controller at " + link.endpoint().ToString() + " is a " +
+                                                 std::string(TypeName(common[map::kDeviceType])) + ", not a " +
+                                                 std::string(TypeName(expected_type)));
   }
   DeviceIdentity identity;
   identity.vendor = "loom Modbus controller";
   identity.model = std::string(TypeName(expected_type));
-  identity.serial = std::to_string((static_cast<uint32_t>(common[map::kSerialHigh]) << 16) |
-                                   common[map::kSerialLow]);
-  identity.firmware = std::to_string(common[map::kFirmwareVersion] >> 8) + "." +
-                      std::to_string(common[map::kFirmwareVersion] & 0xFF);
+  identity.serial = std::to_string((static_cast<uint32_t>(common[map::kSerialHigh]) << 16) | common[map::kSerialLow]);
+  identity.firmware =
+      std::to_string(common[map::kFirmwareVersion] >> 8) + "." + std::to_string(common[map::kFirmwareVersion] & 0xFF);
   return identity;
 }
 
@@ -91,8 +98,7 @@ class Axis {
   }
 
   Status MoveTo(double target, int timeout_ms) {
-    LOOM_RETURN_IF_ERROR(link_.Write32(map::kTurntableTarget,
-                                       static_cast<int32_t>(std::lround(target * counts_per_unit_))));
+    LOOM_RETURN_IF_ERROR(link_.Write32(map::kTurntableTarget, static_cast<int32_t>(std::lround(target * counts_per_unit_))));
     LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandMove));
     return WaitUntilSettled("move to " + FormatNumber(target) + " " + unit_, timeout_ms, map::kStatusInPosition);
   }
@@ -114,8 +120,8 @@ class Axis {
       const uint16_t status = block[0];
       if (status & map::kStatusFault) {
         return Status(StatusCode::kUnavailable, description_,
-                      what + " failed: the controller reports fault " + std::to_string(block[1]) +
-                          " (" + std::string(FaultName(block[1])) + ")");
+                      what + " failed: the controller reports fault " + std::to_string(block[1]) + " (" +
+                          std::string(FaultName(block[1])) + ")");
       }
       if (!(status & map::kStatusBusy) && (status & done_bit)) return Status::Ok();
       if (InterruptRequested() || Clock::now() > deadline) {
@@ -205,8 +211,7 @@ class ModbusLinearLight : public LinearLight {
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
   Status DoMoveTo(double position_mm) override { return axis_.MoveTo(position_mm, settings().move_timeout_ms); }
   Status DoSetStrip(bool on, double intensity) override {
-    const uint16_t values[2] = {static_cast<uint16_t>(on ? 1 : 0),
-                                static_cast<uint16_t>(std::lround(intensity * 1000))};
+    const uint16_t values[2] = {static_cast<uint16_t>(on ? 1 : 0), static_cast<uint16_t>(std::lround(intensity * 1000))};
     return link_.Write(map::kLinearStripOn, values);
   }
   Result<LinearLightReadback> DoRead() override {

@@ -5,8 +5,7 @@
 namespace loom::hal {
 
 LinkedLibrary ModbusLibrary() {
-  return {"libmodbus", std::to_string(libmodbus_version_major) + "." +
-                           std::to_string(libmodbus_version_minor) + "." +
+  return {"libmodbus", std::to_string(libmodbus_version_major) + "." + std::to_string(libmodbus_version_minor) + "." +
                            std::to_string(libmodbus_version_micro)};
 }
 

@@ -18,8 +18,7 @@ std::map<std::string, std::string> ParseQuery(std::string_view query) {
     const size_t amp = query.find('&');
     const std::string_view pair = query.substr(0, amp);
     const size_t eq = pair.find('=');
-    values[std::string(pair.substr(0, eq))] =
-        eq == std::string_view::npos ? "" : std::string(pair.substr(eq + 1));
+    values[std::string(pair.substr(0, eq))] = eq == std::string_view::npos ? "" : std::string(pair.substr(eq + 1));
     if (amp == std::string_view::npos) break;
     query.remove_prefix(amp + 1);
   }
@@ -32,18 +31,23 @@ bool ParseInt(const std::string& text, int* out) {
 }
 
 bool IsConnectionLost(int error) {
-  return error == EPIPE || error == ECONNRESET || error == EBADF || error == ENOTCONN ||
-         error == ECONNREFUSED || error == EIO;
+  return error == EPIPE || error == ECONNRESET || error == EBADF || error == ENOTCONN || error == ECONNREFUSED || error == EIO;
 }
 
 std::string_view ExceptionMeaning(int error) {
   switch (error) {
-    case EMBXILFUN: return "illegal function";
-    case EMBXILADD: return "illegal register address";
-    case EMBXILVAL: return "illegal value (refused by the device)";
-    case EMBXSFAIL: return "device failure";
-    case EMBXSBUSY: return "device busy";
-    default: return "exception";
+    case EMBXILFUN:
+      return "illegal function";
+    case EMBXILADD:
+      return "illegal register address";
+    case EMBXILVAL:
+      return "illegal value (refused by the device)";
+    case EMBXSFAIL:
+      return "device failure";
+    case EMBXSBUSY:
+      return "device busy";
+    default:
+      return "exception";
   }
 }
 
@@ -59,8 +63,7 @@ std::string ModbusEndpoint::ToString() const {
 
 Result<ModbusEndpoint> ParseModbusEndpoint(const std::string& text) {
   const auto invalid = [&](const std::string& why) {
-    return InvalidArgumentError("endpoint '" + text + "'",
-                                why + " (expected tcp://HOST:PORT or rtu:///dev/ttyX?baud=N)");
+    return InvalidArgumentError("endpoint '" + text + "'", why + " (expected tcp://HOST:PORT or rtu:///dev/ttyX?baud=N)");
   };
   ModbusEndpoint endpoint;
   std::string_view rest = text;
@@ -95,8 +98,7 @@ Result<ModbusEndpoint> ParseModbusEndpoint(const std::string& text) {
     const size_t colon = where.rfind(':');
     if (colon == std::string_view::npos || colon == 0) return invalid("missing host or port");
     endpoint.host = std::string(where.substr(0, colon));
-    if (!ParseInt(std::string(where.substr(colon + 1)), &endpoint.port) || endpoint.port <= 0 ||
-        endpoint.port > 65535) {
+    if (!ParseInt(std::string(where.substr(colon + 1)), &endpoint.port) || endpoint.port <= 0 || endpoint.port > 65535) {
       return invalid("bad port");
     }
   } else {
@@ -106,30 +108,25 @@ Result<ModbusEndpoint> ParseModbusEndpoint(const std::string& text) {
   return endpoint;
 }
 
-ModbusLink::ModbusLink(std::string device, ModbusEndpoint endpoint,
-                       std::chrono::milliseconds response_timeout)
+ModbusLink::ModbusLink(std::string device, ModbusEndpoint endpoint, std::chrono::milliseconds response_timeout)
     : device_(std::move(device)), endpoint_(std::move(endpoint)), response_timeout_(response_timeout) {}
 
 ModbusLink::~ModbusLink() { Close(); }
 
-Status ModbusLink::Error(StatusCode code, const std::string& message) const {
-  return Status(code, device_, message);
-}
+Status ModbusLink::Error(StatusCode code, const std::string& message) const { return Status(code, device_, message); }
 
 Status ModbusLink::Connect() {
   Close();
-  modbus_t* context = endpoint_.transport == ModbusEndpoint::Transport::kTcp
-                          ? modbus_new_tcp(endpoint_.host.c_str(), endpoint_.port)
-                          : modbus_new_rtu(endpoint_.device.c_str(), endpoint_.baud, endpoint_.parity,
-                                           endpoint_.data_bits, endpoint_.stop_bits);
+  modbus_t* context =
+      endpoint_.transport == ModbusEndpoint::Transport::kTcp
+          ? modbus_new_tcp(endpoint_.host.c_str(), endpoint_.port)
+          : modbus_new_rtu(endpoint_.device.c_str(), endpoint_.baud, endpoint_.parity, endpoint_.data_bits, endpoint_.stop_bits);
   if (context == nullptr) {
-    return Error(StatusCode::kInvalidArgument,
-                 std::string("cannot create Modbus context: ") + modbus_strerror(errno));
+    return Error(StatusCode::kInvalidArgument, std::string("cannot create Modbus context: ") + modbus_strerror(errno));
   }
   modbus_set_slave(context, endpoint_.unit);
   const auto micros = std::chrono::duration_cast<std::chrono::microseconds>(response_timeout_).count();
-  modbus_set_response_timeout(context, static_cast<uint32_t>(micros / 1000000),
-                              static_cast<uint32_t>(micros % 1000000));
+  modbus_set_response_timeout(context, static_cast<uint32_t>(micros / 1000000), static_cast<uint32_t>(micros % 1000000));
   if (modbus_connect(context) == -1) {
     const int error = errno;
     modbus_free(context);
@@ -162,9 +159,9 @@ Status ModbusLink::Transact(const std::string& what, Request request) {
       // Over TCP a new connection leaves them behind; on a serial line, wait them out and
       // discard them.
       last = Error(error == ETIMEDOUT ? StatusCode::kTimeout : StatusCode::kDataLoss,
-                   what + ": " + (error == ETIMEDOUT
-                                      ? "no reply within " + std::to_string(response_timeout_.count()) + " ms"
-                                      : std::string("invalid reply (") + modbus_strerror(error) + ")"));
+                   what + ": " +
+                       (error == ETIMEDOUT ? "no reply within " + std::to_string(response_timeout_.count()) + " ms"
+                                           : std::string("invalid reply (") + modbus_strerror(error) + ")"));
       if (endpoint_.transport == ModbusEndpoint::Transport::kTcp) {
         Close();
       } else {
@@ -188,8 +185,7 @@ Status ModbusLink::Transact(const std::string& what, Request request) {
 
 Result<std::vector<uint16_t>> ModbusLink::Read(int address, int count) {
   std::vector<uint16_t> values(count);
-  LOOM_RETURN_IF_ERROR(Transact("reading registers " + std::to_string(address) + ".." +
-                                    std::to_string(address + count - 1),
+  LOOM_RETURN_IF_ERROR(Transact("reading registers " + std::to_string(address) + ".." + std::to_string(address + count - 1),
                                 [&](modbus_t* c) { return modbus_read_registers(c, address, count, values.data()); }));
   return values;
 }
@@ -210,11 +206,9 @@ Status ModbusLink::Write(int address, uint16_t value) {
 }
 
 Status ModbusLink::Write(int address, std::span<const uint16_t> values) {
-  return Transact("writing registers " + std::to_string(address) + ".." +
-                      std::to_string(address + static_cast<int>(values.size()) - 1),
-                  [&](modbus_t* c) {
-                    return modbus_write_registers(c, address, static_cast<int>(values.size()), values.data());
-                  });
+  return Transact(
+      "writing registers " + std::to_string(address) + ".." + std::to_string(address + static_cast<int>(values.size()) - 1),
+      [&](modbus_t* c) { return modbus_write_registers(c, address, static_cast<int>(values.size()), values.data()); });
 }
 
 Status ModbusLink::Write32(int address, int32_t value) {

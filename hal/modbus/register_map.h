@@ -29,7 +29,7 @@ inline constexpr uint16_t kStatusEnabled = 1 << 0;     // drives energised / out
 inline constexpr uint16_t kStatusBusy = 1 << 1;        // a move or homing is in progress
 inline constexpr uint16_t kStatusInPosition = 1 << 2;  // at the target, settled
 inline constexpr uint16_t kStatusHomed = 1 << 3;
-inline constexpr uint16_t kStatusFault = 1 << 4;       // see kFaultCode; cleared by kCommandClearFault
+inline constexpr uint16_t kStatusFault = 1 << 4;  // see kFaultCode; cleared by kCommandClearFault
 inline constexpr uint16_t kStatusOverTemperature = 1 << 5;
 
 inline constexpr uint16_t kFaultNone = 0;
@@ -38,40 +38,40 @@ inline constexpr uint16_t kFaultOverTemperature = 2;  // LED driver too hot: eve
 inline constexpr uint16_t kFaultLimitSwitch = 3;
 
 inline constexpr uint16_t kCommandEnable = 1;
-inline constexpr uint16_t kCommandDisable = 2;     // stop motion, outputs off, de-energise
+inline constexpr uint16_t kCommandDisable = 2;  // stop motion, outputs off, de-energise
 inline constexpr uint16_t kCommandHome = 3;
-inline constexpr uint16_t kCommandMove = 4;        // move to the target register's value
-inline constexpr uint16_t kCommandStop = 5;        // stop motion where it is
+inline constexpr uint16_t kCommandMove = 4;  // move to the target register's value
+inline constexpr uint16_t kCommandStop = 5;  // stop motion where it is
 inline constexpr uint16_t kCommandClearFault = 6;
 
 inline constexpr uint16_t kInjectNone = 0;
-inline constexpr uint16_t kInjectStall = 1;           // the axis stops moving (busy forever)
+inline constexpr uint16_t kInjectStall = 1;  // the axis stops moving (busy forever)
 inline constexpr uint16_t kInjectOverTemperature = 2;
-inline constexpr uint16_t kInjectMotorFault = 3;      // fault now, kFaultMotorStall
+inline constexpr uint16_t kInjectMotorFault = 3;  // fault now, kFaultMotorStall
 
 // ---- Turntable (kTypeTurntable) ----
-inline constexpr int kTurntableTarget = 10;      // RW, 2 regs: millidegrees [0, 360000)
-inline constexpr int kTurntablePosition = 12;    // R, 2 regs: millidegrees
-inline constexpr int kTurntableSpeed = 14;       // RW: 0.01 °/s
-inline constexpr int kTurntableMaxSpeed = 15;    // R: 0.01 °/s
+inline constexpr int kTurntableTarget = 10;    // RW, 2 regs: millidegrees [0, 360000)
+inline constexpr int kTurntablePosition = 12;  // R, 2 regs: millidegrees
+inline constexpr int kTurntableSpeed = 14;     // RW: 0.01 °/s
+inline constexpr int kTurntableMaxSpeed = 15;  // R: 0.01 °/s
 
 // ---- Linear light (kTypeLinearLight) ----
-inline constexpr int kLinearTarget = 10;         // RW, 2 regs: µm along the travel
-inline constexpr int kLinearPosition = 12;       // R, 2 regs: µm
-inline constexpr int kLinearSpeed = 14;          // RW: 0.1 mm/s
-inline constexpr int kLinearMaxSpeed = 15;       // R: 0.1 mm/s
-inline constexpr int kLinearTravel = 16;         // R, 2 regs: µm
-inline constexpr int kLinearStripOn = 18;        // RW: 0 off, 1 on
-inline constexpr int kLinearStripIntensity = 19; // RW: per mille, 0..1000
+inline constexpr int kLinearTarget = 10;          // RW, 2 regs: µm along the travel
+inline constexpr int kLinearPosition = 12;        // R, 2 regs: µm
+inline constexpr int kLinearSpeed = 14;           // RW: 0.1 mm/s
+inline constexpr int kLinearMaxSpeed = 15;        // R: 0.1 mm/s
+inline constexpr int kLinearTravel = 16;          // R, 2 regs: µm
+inline constexpr int kLinearStripOn = 18;         // RW: 0 off, 1 on
+inline constexpr int kLinearStripIntensity = 19;  // RW: per mille, 0..1000
 
 // ---- LED controller (kTypeLeds) ----
-inline constexpr int kLedCount = 10;             // R
-inline constexpr int kLedMaxCurrent = 11;        // R: mA
-inline constexpr int kLedTemperature = 12;       // R: 0.1 °C
-inline constexpr int kLedCurrentLimit = 13;      // RW: mA, ≤ kLedMaxCurrent
-inline constexpr int kLedCurrents = 100;         // RW, one per LED: mA, 0 = off. A value above
-                                                 // the limit, or any non-zero value while over
-                                                 // temperature, is refused (exception 0x03 / 0x04).
+inline constexpr int kLedCount = 10;         // R
+inline constexpr int kLedMaxCurrent = 11;    // R: mA
+inline constexpr int kLedTemperature = 12;   // R: 0.1 °C
+inline constexpr int kLedCurrentLimit = 13;  // RW: mA, ≤ kLedMaxCurrent
+inline constexpr int kLedCurrents = 100;     // RW, one per LED: mA, 0 = off. A value above
+                                             // the limit, or any non-zero value while over
+                                             // temperature, is refused (exception 0x03 / 0x04).
 inline constexpr int kMaxLeds = 64;
 
 inline constexpr int kRegisterCount = kLedCurrents + kMaxLeds;

@@ -14,8 +14,7 @@ uint64_t PatternChecksum(const scan::Pattern& pattern) {
 }
 
 RecordingProjector::RecordingProjector(std::string name, int width, int height, std::string log_path)
-    : Projector(std::move(name), "recording", log_path), width_(width), height_(height),
-      log_path_(std::move(log_path)) {}
+    : Projector(std::move(name), "recording", log_path), width_(width), height_(height), log_path_(std::move(log_path)) {}
 
 Result<DeviceIdentity> RecordingProjector::DoOpen() {
   set_native_size(width_, height_);
@@ -35,9 +34,7 @@ Status RecordingProjector::Append(const RecordedPattern& entry) {
   return log ? Status::Ok() : Error(StatusCode::kIoError, "cannot append to " + log_path_);
 }
 
-Status RecordingProjector::DoShow(const scan::Pattern& pattern) {
-  return Append({pattern.name, PatternChecksum(pattern)});
-}
+Status RecordingProjector::DoShow(const scan::Pattern& pattern) { return Append({pattern.name, PatternChecksum(pattern)}); }
 
 Status RecordingProjector::DoBlank() { return Append({"", 0}); }
 

@@ -33,7 +33,9 @@ uint64_t FrameSeed(uint64_t world_seed, int camera, const sim::SceneState& state
 class SimCamera : public Camera {
  public:
   SimCamera(const DeviceConfig& config, std::shared_ptr<SimWorld> world, std::string model, int supersampling)
-      : Camera(config.name, "sim", "virtual " + model), world_(std::move(world)), model_(std::move(model)),
+      : Camera(config.name, "sim", "virtual " + model),
+        world_(std::move(world)),
+        model_(std::move(model)),
         supersampling_(supersampling) {}
 
  protected:
@@ -121,8 +123,8 @@ class SimCamera : public Camera {
     meta.exposure_us = s.exposure_us;
     meta.gain = s.gain;
     meta.frame_id = ++frames_;
-    meta.host_timestamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                 std::chrono::system_clock::now().time_since_epoch()).count();
+    meta.host_timestamp_ns =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
     return frame;
   }
 

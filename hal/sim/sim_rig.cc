@@ -13,7 +13,8 @@ Rigid3d Moved(const ConfigNode& node, const Rigid3d& from_rig) {
   node.Optional("rotate_deg", &rotate_deg);
   const Eigen::Matrix3d turn = (Eigen::AngleAxisd(DegToRad(rotate_deg.z()), Eigen::Vector3d::UnitZ()) *
                                 Eigen::AngleAxisd(DegToRad(rotate_deg.y()), Eigen::Vector3d::UnitY()) *
-                                Eigen::AngleAxisd(DegToRad(rotate_deg.x()), Eigen::Vector3d::UnitX())).toRotationMatrix();
+                                Eigen::AngleAxisd(DegToRad(rotate_deg.x()), Eigen::Vector3d::UnitX()))
+                                   .toRotationMatrix();
   const Eigen::Vector3d centre = from_rig.inverse().translation() + move;
   const Eigen::Matrix3d rotation = turn * from_rig.rotation();
   return MakeRigid(rotation, -rotation * centre);
@@ -125,13 +126,25 @@ Status PlaceObject(const SimRig& rig, scan::ScanObject object) {
   if (rig.world->object() == object) return Status::Ok();  // e.g. a scan's first step: the sample is there
   sim::SampleSpec spec = rig.sample;
   switch (object) {
-    case scan::ScanObject::kSample: break;
-    case scan::ScanObject::kTarget: spec.kind = "target"; break;
-    case scan::ScanObject::kWhiteTile: spec.kind = "white-tile"; break;
-    case scan::ScanObject::kWhiteTileOnSpacer: spec.kind = "white-tile-on-spacer"; break;
-    case scan::ScanObject::kColourChart: spec.kind = "colour-chart"; break;
-    case scan::ScanObject::kChromeSphere: spec.kind = "chrome-sphere"; break;
-    case scan::ScanObject::kNothing: return Status::Ok();  // what lies there may stay
+    case scan::ScanObject::kSample:
+      break;
+    case scan::ScanObject::kTarget:
+      spec.kind = "target";
+      break;
+    case scan::ScanObject::kWhiteTile:
+      spec.kind = "white-tile";
+      break;
+    case scan::ScanObject::kWhiteTileOnSpacer:
+      spec.kind = "white-tile-on-spacer";
+      break;
+    case scan::ScanObject::kColourChart:
+      spec.kind = "colour-chart";
+      break;
+    case scan::ScanObject::kChromeSphere:
+      spec.kind = "chrome-sphere";
+      break;
+    case scan::ScanObject::kNothing:
+      return Status::Ok();  // what lies there may stay
   }
   LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(spec));
   const std::shared_ptr<const sim::Scene> current = rig.world->scene();

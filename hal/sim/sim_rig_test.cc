@@ -52,8 +52,9 @@ TEST(SimRigTest, AsBuiltMovesAndTurnsDevicesAboutTheirOwnCentres) {
 }
 
 TEST(SimRigTest, AsBuiltNamesWhatTheGeometryDoesNotHave) {
-  const RigFile file = Parse(ShippedRigText("tac7-mini") + "as_built:\n  cameras: [{name: cam7, move_mm: [1, 0, 0]}]\n"
-                                                           "  leds: [{index: 999, intensity_scale: 2}]\n");
+  const RigFile file = Parse(ShippedRigText("tac7-mini") +
+                             "as_built:\n  cameras: [{name: cam7, move_mm: [1, 0, 0]}]\n"
+                             "  leds: [{index: 999, intensity_scale: 2}]\n");
   AsBuilt(file, *file.Model());
   const std::string problems = file.Finish().ToString();
   EXPECT_NE(problems.find("no camera 'cam7'"), std::string::npos) << problems;

@@ -20,15 +20,14 @@ constexpr uint8_t kStringDescriptor = 0x03;
 
 // Device (18 bytes), configuration (9) and interface (9) descriptors, as sysfs holds them.
 std::string DescriptorsHex() {
-  const uint8_t bytes[] = {
-      // device: USB 2.0, vendor class, EP0 64 bytes, VID, PID, bcdDevice 1.00, strings 1/2/3
-      0x12, 0x01, 0x00, 0x02, 0xFF, 0x00, 0x00, 0x40, proto::kDefaultVendorId & 0xFF,
-      proto::kDefaultVendorId >> 8, proto::kDefaultProductId & 0xFF, proto::kDefaultProductId >> 8, 0x00,
-      0x01, proto::kManufacturerString, proto::kProductString, proto::kSerialString, 0x01,
-      // configuration 1: one interface, bus-powered, 100 mA
-      0x09, 0x02, 0x12, 0x00, 0x01, 0x01, 0x00, 0x80, 0x32,
-      // interface 0: vendor class, no endpoints besides EP0
-      0x09, 0x04, 0x00, 0x00, 0x00, 0xFF, 0x00, 0x00, 0x00};
+  const uint8_t bytes[] = {// device: USB 2.0, vendor class, EP0 64 bytes, VID, PID, bcdDevice 1.00, strings 1/2/3
+                           0x12, 0x01, 0x00, 0x02, 0xFF, 0x00, 0x00, 0x40, proto::kDefaultVendorId & 0xFF,
+                           proto::kDefaultVendorId >> 8, proto::kDefaultProductId & 0xFF, proto::kDefaultProductId >> 8, 0x00,
+                           0x01, proto::kManufacturerString, proto::kProductString, proto::kSerialString, 0x01,
+                           // configuration 1: one interface, bus-powered, 100 mA
+                           0x09, 0x02, 0x12, 0x00, 0x01, 0x01, 0x00, 0x80, 0x32,
+                           // interface 0: vendor class, no endpoints besides EP0
+                           0x09, 0x04, 0x00, 0x00, 0x00, 0xFF, 0x00, 0x00, 0x00};
   std::string hex;
   char byte[3];
   for (uint8_t b : bytes) {
@@ -49,8 +48,8 @@ std::vector<uint8_t> StringDescriptor(const std::string& text) {
 
 }  // namespace
 
-EmulatedFilterWheel::EmulatedFilterWheel(UMockdevTestbed* testbed, int device_number, std::string serial,
-                                         int slots, int ms_per_slot)
+EmulatedFilterWheel::EmulatedFilterWheel(UMockdevTestbed* testbed, int device_number, std::string serial, int slots,
+                                         int ms_per_slot)
     : serial_(std::move(serial)), slots_(slots), per_slot_(ms_per_slot) {
   char number[4];
   std::snprintf(number, sizeof(number), "%03d", device_number);
@@ -59,15 +58,26 @@ EmulatedFilterWheel::EmulatedFilterWheel(UMockdevTestbed* testbed, int device_nu
   g_signal_connect(handler_, "handle-ioctl", G_CALLBACK(&EmulatedFilterWheel::OnIoctl), this);
   // The ioctl handler first: the device must answer as soon as it appears.
   umockdev_testbed_attach_ioctl(testbed, node.c_str(), handler_, nullptr);
-  const std::string description =
-      "P: /devices/usb1/1-" + std::to_string(device_number) + "\n"
-      "N: bus/usb/001/" + number + "\n"
-      "E: SUBSYSTEM=usb\nE: DEVTYPE=usb_device\nE: DEVNAME=" + node + "\n"
-      "E: BUSNUM=001\nE: DEVNUM=" + number + "\n"
-      "A: busnum=1\\n\nA: devnum=" + std::to_string(device_number) + "\\n\n"
-      "A: speed=12\\n\nA: bConfigurationValue=1\\n\n"
-      "A: serial=" + serial_ + "\\n\n"
-      "H: descriptors=" + DescriptorsHex() + "\n";
+  const std::string description = "P: /devices/usb1/1-" + std::to_string(device_number) +
+                                  "\n"
+                                  "N: bus/usb/001/" +
+                                  number +
+                                  "\n"
+                                  "E: SUBSYSTEM=usb\nE: DEVTYPE=usb_device\nE: DEVNAME=" +
+                                  node +
+                                  "\n"
+                                  "E: BUSNUM=001\nE: DEVNUM=" +
+                                  number +
+                                  "\n"
+                                  "A: busnum=1\\n\nA: devnum=" +
+                                  std::to_string(device_number) +
+                                  "\\n\n"
+                                  "A: speed=12\\n\nA: bConfigurationValue=1\\n\n"
+                                  "A: serial=" +
+                                  serial_ +
+                                  "\\n\n"
+                                  "H: descriptors=" +
+                                  DescriptorsHex() + "\n";
   umockdev_testbed_add_from_string(testbed, description.c_str(), nullptr);
 }
 
@@ -116,11 +126,20 @@ bool EmulatedFilterWheel::Answer(const uint8_t* setup, std::vector<uint8_t>* in_
   AdvanceMotion();
   if (type == kStandardIn && request == kGetDescriptor && (value >> 8) == kStringDescriptor) {
     switch (value & 0xFF) {
-      case 0: *in_data = {4, kStringDescriptor, 0x09, 0x04}; return true;  // English (US)
-      case proto::kManufacturerString: *in_data = StringDescriptor("loom"); return true;
-      case proto::kProductString: *in_data = StringDescriptor("loom filter wheel"); return true;
-      case proto::kSerialString: *in_data = StringDescriptor(serial_); return true;
-      default: return false;
+      case 0:
+        *in_data = {4, kStringDescriptor, 0x09, 0x04};
+        return true;  // English (US)
+      case proto::kManufacturerString:
+        *in_data = StringDescriptor("loom");
+        return true;
+      case proto::kProductString:
+        *in_data = StringDescriptor("loom filter wheel");
+        return true;
+      case proto::kSerialString:
+        *in_data = StringDescriptor(serial_);
+        return true;
+      default:
+        return false;
     }
   }
   if (type == proto::kRequestTypeIn && request == proto::kGetStatus) {

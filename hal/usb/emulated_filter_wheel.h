@@ -18,8 +18,7 @@ namespace loom::hal::testing {
 
 class EmulatedFilterWheel {
  public:
-  EmulatedFilterWheel(UMockdevTestbed* testbed, int device_number, std::string serial, int slots = 10,
-                      int ms_per_slot = 5);
+  EmulatedFilterWheel(UMockdevTestbed* testbed, int device_number, std::string serial, int slots = 10, int ms_per_slot = 5);
   ~EmulatedFilterWheel();
 
   // The next move stops short with error "jammed"; later moves STALL until the error is cleared.

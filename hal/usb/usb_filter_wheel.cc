@@ -40,8 +40,9 @@ std::string Hex4(int value) {
 class UsbFilterWheel : public FilterWheel {
  public:
   UsbFilterWheel(const std::string& name, UsbWheelOptions options)
-      : FilterWheel(name, "usb", "usb:" + Hex4(options.vendor_id) + ":" + Hex4(options.product_id) +
-                                     (options.serial.empty() ? "" : "/" + options.serial)),
+      : FilterWheel(name, "usb",
+                    "usb:" + Hex4(options.vendor_id) + ":" + Hex4(options.product_id) +
+                        (options.serial.empty() ? "" : "/" + options.serial)),
         options_(std::move(options)) {}
   ~UsbFilterWheel() override { Release(); }
 
@@ -121,8 +122,8 @@ class UsbFilterWheel : public FilterWheel {
     Status failure = Error(StatusCode::kNotFound, "no filter wheel with these ids is connected");
     for (ssize_t i = 0; i < count && handle_ == nullptr; ++i) {
       libusb_device_descriptor descriptor;
-      if (libusb_get_device_descriptor(list[i], &descriptor) != 0 ||
-          descriptor.idVendor != options_.vendor_id || descriptor.idProduct != options_.product_id) {
+      if (libusb_get_device_descriptor(list[i], &descriptor) != 0 || descriptor.idVendor != options_.vendor_id ||
+          descriptor.idProduct != options_.product_id) {
         continue;
       }
       libusb_device_handle* handle = nullptr;
@@ -148,8 +149,7 @@ class UsbFilterWheel : public FilterWheel {
         std::sort(seen.begin(), seen.end());
         std::string serials;
         for (const std::string& s : seen) serials += (serials.empty() ? "" : ", ") + s;
-        return Error(StatusCode::kNotFound, "no wheel with serial '" + options_.serial +
-                                                "' (connected: " + serials + ")");
+        return Error(StatusCode::kNotFound, "no wheel with serial '" + options_.serial + "' (connected: " + serials + ")");
       }
       return failure;
     }
@@ -165,8 +165,8 @@ class UsbFilterWheel : public FilterWheel {
 
   Result<WheelStatus> ReadStatus() {
     std::array<unsigned char, 4> data{};
-    const int rc = libusb_control_transfer(handle_, proto::kRequestTypeIn, proto::kGetStatus, 0, 0, data.data(),
-                                           data.size(), static_cast<unsigned>(options_.request_timeout_ms));
+    const int rc = libusb_control_transfer(handle_, proto::kRequestTypeIn, proto::kGetStatus, 0, 0, data.data(), data.size(),
+                                           static_cast<unsigned>(options_.request_timeout_ms));
     if (rc < 0) return UsbError(rc, "reading the status");
     if (rc != 4) return Error(StatusCode::kDataLoss, "status reply of " + std::to_string(rc) + " bytes, expected 4");
     return WheelStatus{data[0], data[1] != 0, data[2], data[3]};

@@ -26,14 +26,13 @@ class UsbFilterWheelTest : public ::testing::Test {
   }
 
   testing::EmulatedFilterWheel& AddWheel(const std::string& serial, int slots = 10) {
-    wheels_.push_back(std::make_unique<testing::EmulatedFilterWheel>(
-        testbed_, static_cast<int>(wheels_.size()) + 2, serial, slots));
+    wheels_.push_back(
+        std::make_unique<testing::EmulatedFilterWheel>(testbed_, static_cast<int>(wheels_.size()) + 2, serial, slots));
     return *wheels_.back();
   }
 
   std::unique_ptr<FilterWheel> MakeWheel(const std::string& keys) {
-    auto doc = ConfigDocument::LoadString("schema_version: 1\nwheel: {name: wheel0, backend: usb" + keys + "}\n",
-                                          "test.yaml", 1);
+    auto doc = ConfigDocument::LoadString("schema_version: 1\nwheel: {name: wheel0, backend: usb" + keys + "}\n", "test.yaml", 1);
     EXPECT_TRUE(doc.ok());
     const ConfigNode node = doc->root().Child("wheel");
     DeviceConfig config{"wheel0", "usb", node};

@@ -6,8 +6,7 @@ namespace loom::hal {
 
 LinkedLibrary UsbLibrary() {
   const libusb_version* v = libusb_get_version();
-  return {"libusb", std::to_string(v->major) + "." + std::to_string(v->minor) + "." +
-                        std::to_string(v->micro)};
+  return {"libusb", std::to_string(v->major) + "." + std::to_string(v->minor) + "." + std::to_string(v->micro)};
 }
 
 }  // namespace loom::hal

@@ -16,8 +16,7 @@ bool Overlaps(int address, int count, int reg) { return reg >= address && reg < 
 
 }  // namespace
 
-ControllerModel::ControllerModel(const ControllerSpec& spec, uint16_t* registers)
-    : spec_(spec), registers_(registers) {
+ControllerModel::ControllerModel(const ControllerSpec& spec, uint16_t* registers) : spec_(spec), registers_(registers) {
   std::fill(registers_, registers_ + map::kRegisterCount, 0);
   reg(map::kFirmwareVersion) = 0x0102;
   reg(map::kSerialHigh) = static_cast<uint16_t>(spec.serial >> 16);
@@ -68,8 +67,7 @@ void ControllerModel::Fault(uint16_t code) {
 
 double ControllerModel::CountsPerSecond() const {
   // Turntable: 0.01 °/s → millidegrees/s ×10; linear light: 0.1 mm/s → µm/s ×100.
-  return spec_.kind == ControllerKind::kTurntable ? reg(map::kTurntableSpeed) * 10.0
-                                                  : reg(map::kLinearSpeed) * 100.0;
+  return spec_.kind == ControllerKind::kTurntable ? reg(map::kTurntableSpeed) * 10.0 : reg(map::kLinearSpeed) * 100.0;
 }
 
 void ControllerModel::Advance(double seconds) {
@@ -165,8 +163,7 @@ int ControllerModel::CheckWrite(int address, std::span<const uint16_t> values) c
   if (address == map::kSimInjectFault && count == 1) return 0;
   const bool writable_common = address == map::kCommand && count == 1;
   if (writable_common) {
-    return values[0] >= map::kCommandEnable && values[0] <= map::kCommandClearFault
-               ? 0 : MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+    return values[0] >= map::kCommandEnable && values[0] <= map::kCommandClearFault ? 0 : MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
   }
   switch (spec_.kind) {
     case ControllerKind::kTurntable:

@@ -16,10 +16,10 @@ enum class ControllerKind { kTurntable, kLeds, kLinearLight };
 struct ControllerSpec {
   ControllerKind kind = ControllerKind::kTurntable;
   uint32_t serial = 1;
-  int led_count = 29;             // LEDs
-  int max_current_ma = 1000;      // LEDs
-  double max_speed = 60;          // turntable: °/s; linear light: mm/s
-  double travel_mm = 400;         // linear light
+  int led_count = 29;         // LEDs
+  int max_current_ma = 1000;  // LEDs
+  double max_speed = 60;      // turntable: °/s; linear light: mm/s
+  double travel_mm = 400;     // linear light
 };
 
 class ControllerModel {

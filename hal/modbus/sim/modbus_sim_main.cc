@@ -7,13 +7,13 @@
 // TCP serves several clients at once (select loop). RTU creates a pty pair and serves its
 // master side; clients open the printed slave path like a USB serial adapter. It only ever
 // binds to the address given (tests use 127.0.0.1). Runs until killed.
+#include <arpa/inet.h>
 #include <modbus.h>
+#include <netinet/in.h>
 #include <pty.h>
 #include <sys/select.h>
 #include <termios.h>
 #include <unistd.h>
-#include <arpa/inet.h>
-#include <netinet/in.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
