@@ -12,6 +12,7 @@
 
 #include "acquisition/sequencer.h"
 #include "core/config.h"
+#include "core/testing/shipped_rig.h"
 #include "core/testing/subprocess.h"
 #include "hal/aravis/aravis_backend.h"
 #include "hal/modbus/modbus_backends.h"
@@ -86,9 +87,7 @@ class PeerScanTest : public ::testing::Test {
 };
 
 TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
-  auto geometry_doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7.yaml", 1);
-  ASSERT_TRUE(geometry_doc.ok());
-  RigModel model = ReadRigModel(geometry_doc->root().Child("geometry"));
+  RigModel model = testing::ShippedRigModel("tac7");
   model.name = "tac7-peers";
   scan::Preset preset;
   preset.name = "peer";

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "core/config.h"
+#include "core/testing/shipped_rig.h"
 #include "hal/sim/sim_backends.h"
 #include "sim/test_materials.h"
 
@@ -23,10 +23,7 @@ class SequencerTest : public ::testing::Test {
     dir_ = fs::path(::testing::TempDir()) /
            ("sequencer_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
-    auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-    ASSERT_TRUE(doc.ok());
-    model_ = ReadRigModel(doc->root().Child("geometry"));
-    model_.name = "tac7-mini";
+    model_ = testing::ShippedRigModel("tac7-mini");
     world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
     rig_ = MakeRig();
     ASSERT_NE(rig_, nullptr);
@@ -43,10 +40,9 @@ class SequencerTest : public ::testing::Test {
 
   // The sim rig on world_, as a new `loom scan` process would load it.
   std::unique_ptr<hal::Rig> MakeRig() {
-    auto doc = ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
     hal::BackendRegistry registry;
     hal::RegisterSimBackends(registry, world_);
-    auto rig = hal::Rig::Create(doc->root().Child("devices"), registry, "tac7-mini");
+    auto rig = hal::Rig::Load(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", registry);
     EXPECT_TRUE(rig.ok()) << rig.status().ToString();
     return rig.ok() ? std::move(*rig) : nullptr;
   }

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "bench/bench_report.h"
-#include "core/config.h"
+#include "core/rig_file.h"
 #include "fitting/batch_refiner.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
@@ -196,9 +196,9 @@ struct StackCase {
 };
 
 StackCase MakeStackCase(const std::string& rig_name, int strip_positions) {
-  auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig_name + ".yaml", 1);
-  LOOM_CHECK(doc.ok()) << doc.status().ToString();
-  const loom::RigModel rig = loom::ReadRigModel(doc->root().Child("geometry"));
+  const auto loaded = loom::LoadRigModel(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig_name + ".yaml");
+  LOOM_CHECK(loaded.ok()) << loaded.status().ToString();
+  const loom::RigModel& rig = *loaded;
   const loom::sim::Material fabric = loom::sim::GenerateFabric(5, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
   const loom::sim::Scene scene(rig, fabric);
   std::vector<loom::sim::Observation> observations = loom::sim::DefaultObservations(rig, {0, 120, 240});

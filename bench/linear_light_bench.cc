@@ -22,7 +22,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/config.h"
+#include "core/rig_file.h"
 #include "core/rig_observation.h"
 #include "fitting/batch_refiner.h"
 #include "fitting/model/svbrdf_maps.h"
@@ -99,9 +99,9 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strncmp(argv[i], "--json=", 7) == 0) json_path = argv[i] + 7;
   }
-  auto doc = loom::ConfigDocument::LoadFile(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", 1);
-  LOOM_CHECK(doc.ok()) << doc.status().ToString();
-  const loom::RigModel rig = loom::ReadRigModel(doc->root().Child("geometry"));
+  const auto loaded = loom::LoadRigModel(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  LOOM_CHECK(loaded.ok()) << loaded.status().ToString();
+  const loom::RigModel& rig = *loaded;
   std::vector<WardParams<double>> materials;
   for (uint64_t seed = 1; seed <= 8; ++seed) {
     const loom::sim::Material fabric = loom::sim::GenerateFabric(seed, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});

@@ -6,8 +6,8 @@
 #include <benchmark/benchmark.h>
 
 #include "bench/bench_report.h"
-#include "core/config.h"
 #include "core/heightmap.h"
+#include "core/rig_file.h"
 #include "core/rig_model.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/sample.h"
@@ -20,12 +20,14 @@ using loom::sim::Scene;
 
 std::unique_ptr<Scene> LoadScene(const std::string& rig) {
   const std::string path = std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig + ".yaml";
-  auto doc = loom::ConfigDocument::LoadFile(path, 1);
-  if (!doc.ok()) return nullptr;
-  loom::RigModel model = loom::ReadRigModel(doc->root().Child("geometry"));
-  auto material = loom::sim::MakeSample(loom::sim::ReadSampleSpec(doc->root().Child("sample")));
+  auto file = loom::RigFile::Load(path);
+  if (!file.ok()) return nullptr;
+  auto model = file->Model();
+  const std::optional<loom::ConfigNode> sample = file->Section("sample");
+  if (!model.ok() || !sample) return nullptr;
+  auto material = loom::sim::MakeSample(loom::sim::ReadSampleSpec(*sample));
   if (!material.ok()) return nullptr;
-  return std::make_unique<Scene>(std::move(model), std::move(*material));
+  return std::make_unique<Scene>(std::move(*model), std::move(*material));
 }
 
 const Scene& Scenes(int which) {
