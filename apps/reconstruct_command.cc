@@ -11,7 +11,6 @@
 
 #include "apps/command.h"
 #include "apps/progress.h"
-#include "apps/rig_loader.h"
 #include "calibration/calibration_directory.h"
 #include "core/file_io.h"
 #include "core/rig_file.h"

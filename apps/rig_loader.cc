@@ -16,12 +16,7 @@ Result<LoadedRig> LoadRigFile(const RigFile& file, const std::string& object) {
     LOOM_ASSIGN_OR_RETURN(loaded.sim, hal::MakeSimRig(file, *loaded.model, object));
     hal::RegisterSimBackends(registry, loaded.sim->world);
   }
-  const std::optional<ConfigNode> devices = file.Section("devices");
-  if (!devices) return InvalidArgumentError(file.source(), "has no 'devices:' section");
-  Result<std::unique_ptr<hal::Rig>> rig = hal::Rig::Create(*devices, registry, file.name());
-  if (!rig.ok()) return rig.status().WithContext(file.source());
-  LOOM_RETURN_IF_ERROR(file.Finish());
-  loaded.rig = std::move(*rig);
+  LOOM_ASSIGN_OR_RETURN(loaded.rig, hal::Rig::Load(file, registry));
   return loaded;
 }
 

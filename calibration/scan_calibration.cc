@@ -35,30 +35,28 @@ struct AgainstNominal {
         focal_percent(100 * (camera.intrinsics.K(0, 0) / nominal.K(0, 0) - 1)) {}
 };
 
-// The LEDs' positions from the scan's light-probe views, with the cameras just calibrated;
-// nothing when the scan has none.
-Result<std::optional<LightPositions>> CalibrateLights(const scan::CaptureStore& store, const RigModel& calibrated) {
-  LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, calibrated));
+// The LEDs' positions from the scan's light-probe views (`scan`: over the cameras just
+// calibrated); nothing when the scan has none.
+Result<std::optional<LightPositions>> CalibrateLights(const ScanRadiance& scan) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<LitView> views, scan.LitViews(scan::StepKind::kLightProbe));
   if (views.empty()) return std::optional<LightPositions>();
-  LOOM_ASSIGN_OR_RETURN(LightPositions positions, CalibrateLightPositions(calibrated, views));
+  LOOM_ASSIGN_OR_RETURN(LightPositions positions, CalibrateLightPositions(scan.rig(), views));
   return std::optional<LightPositions>(std::move(positions));
 }
 
 // The projector's pose from its columns at the target's corners, and its focal length and centre
-// from the white tile at two heights, with the cameras just calibrated; nothing when the scan
-// has no structured light on the target.
-Result<std::optional<ProjectorCalibration>> CalibrateProjectorPose(const scan::CaptureStore& store, const RigModel& calibrated,
-                                                                   const CalibrationTargetModel& target,
+// from the white tile at two heights (`scan`: over the cameras just calibrated); nothing when the
+// scan has no structured light on the target.
+Result<std::optional<ProjectorCalibration>> CalibrateProjectorPose(const ScanRadiance& scan, const CalibrationTargetModel& target,
                                                                    const TargetPlacement& placement) {
-  if (!calibrated.projector || StructuredLightAngles(store.info().plan, scan::ScanObject::kTarget).empty()) {
+  const std::optional<ProjectorModel>& projector_model = scan.rig().projector;
+  if (!projector_model || StructuredLightAngles(scan.plan(), scan::ScanObject::kTarget).empty()) {
     return std::optional<ProjectorCalibration>();
   }
-  LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, calibrated));
   ProjectorObservations observed;
   LOOM_ASSIGN_OR_RETURN(observed.corners, TargetCornerColumns(scan, target, placement));
   LOOM_ASSIGN_OR_RETURN(observed.boards, FlatBoardRays(scan));
-  LOOM_ASSIGN_OR_RETURN(ProjectorCalibration projector, CalibrateProjector(*calibrated.projector, observed));
+  LOOM_ASSIGN_OR_RETURN(ProjectorCalibration projector, CalibrateProjector(*projector_model, observed));
   return std::optional<ProjectorCalibration>(std::move(projector));
 }
 
@@ -145,8 +143,10 @@ Result<GeometryCalibration> CalibrateGeometryFromScan(const fs::path& scan_dir) 
   result.skipped = opened.detected.skipped;
   LOOM_ASSIGN_OR_RETURN(result.geometry, CalibrateRigGeometry(opened.nominal, opened.target, opened.detected.views));
   const RigModel calibrated = ApplyGeometry(opened.nominal, result.geometry);
-  LOOM_ASSIGN_OR_RETURN(result.lights, CalibrateLights(store, calibrated));
-  LOOM_ASSIGN_OR_RETURN(result.projector, CalibrateProjectorPose(store, calibrated, opened.target, result.geometry.target));
+  // One opening of the scan over the calibrated cameras serves the lights and the projector.
+  LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, calibrated));
+  LOOM_ASSIGN_OR_RETURN(result.lights, CalibrateLights(scan));
+  LOOM_ASSIGN_OR_RETURN(result.projector, CalibrateProjectorPose(scan, opened.target, result.geometry.target));
   return result;
 }
 

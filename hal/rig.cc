@@ -4,7 +4,6 @@
 
 #include "core/interrupt.h"
 #include "core/log.h"
-#include "core/rig_file.h"
 
 namespace loom::hal {
 namespace {
@@ -122,12 +121,16 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
 
 Result<std::unique_ptr<Rig>> Rig::Load(const std::filesystem::path& path, const BackendRegistry& registry) {
   LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(path));
+  return Load(file, registry);
+}
+
+Result<std::unique_ptr<Rig>> Rig::Load(const RigFile& file, const BackendRegistry& registry) {
   // Factories only read their keys (they connect in Open()), so a failure here is a bad value;
   // after one, later keys are unread and Finish() would wrongly call them unknown.
   const std::optional<ConfigNode> devices = file.Section("devices");
-  if (!devices) return InvalidArgumentError(path.string(), "has no 'devices:' section");
+  if (!devices) return InvalidArgumentError(file.source(), "has no 'devices:' section");
   Result<std::unique_ptr<Rig>> rig = Create(*devices, registry, file.name());
-  if (!rig.ok()) return rig.status().WithContext(path.string());
+  if (!rig.ok()) return rig.status().WithContext(file.source());
   LOOM_RETURN_IF_ERROR(file.Finish());
   return rig;
 }

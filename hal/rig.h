@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/config.h"
+#include "core/rig_file.h"
 #include "hal/registry.h"
 #include "scan/rig_state.h"
 
@@ -38,6 +39,8 @@ class Rig {
   static Result<std::unique_ptr<Rig>> Create(const ConfigNode& devices, const BackendRegistry& registry, std::string name = "");
   // Loads a rig YAML (core/rig_file.h) and creates the devices of its `devices:`.
   static Result<std::unique_ptr<Rig>> Load(const std::filesystem::path& path, const BackendRegistry& registry);
+  // The same for a rig file already open, whose other sections their owners have read; Finish()es it.
+  static Result<std::unique_ptr<Rig>> Load(const RigFile& file, const BackendRegistry& registry);
 
   const std::string& name() const { return name_; }
 
