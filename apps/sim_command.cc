@@ -11,6 +11,7 @@
 #include "apps/command.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
+#include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "fitting/export.h"
 #include "fitting/model/svbrdf_maps.h"
@@ -18,6 +19,7 @@
 #include "sim/fabric.h"
 #include "sim/plan_observations.h"
 #include "sim/sample.h"
+#include "sim/scan_emulation.h"
 #include "sim/stack.h"
 
 namespace loom::apps {
@@ -166,6 +168,30 @@ int Render(const std::string& rig_path, const std::string& object, const std::st
   return kExitOk;
 }
 
+// How a reconstruction degrades a fast-path stack of the same material: blur, gains, noise.
+int MatchScan(const std::string& fast_path, const std::string& reconstructed_path, const std::string& emulation_path,
+              const std::string& json_path) {
+  Result<ObservationStack> fast = ReadObservationStack(fast_path);
+  if (!fast.ok()) return ReportFailure(fast.status());
+  Result<ObservationStack> reconstructed = ReadObservationStack(reconstructed_path);
+  if (!reconstructed.ok()) return ReportFailure(reconstructed.status());
+  Result<sim::ScanEmulationMatch> match = sim::MatchScanEmulation(*fast, *reconstructed);
+  if (!match.ok()) return ReportFailure(match.status());
+  match->Report(std::cout);
+  if (!emulation_path.empty()) {
+    if (Status written = WriteFileAtomically(emulation_path, match->emulation.ToYaml()); !written.ok()) {
+      return ReportFailure(written);
+    }
+    std::cout << "wrote " << emulation_path << ": the emulation, for loom train --scan-emulation\n";
+  }
+  if (!json_path.empty()) {
+    if (Status written = WriteFileAtomically(json_path, match->ToJson().dump(2) + "\n"); !written.ok()) {
+      return ReportFailure(written);
+    }
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunSim(int argc, char** argv) {
@@ -215,7 +241,18 @@ int RunSim(int argc, char** argv) {
   stats->add_option("--seeds", seeds, "Seeds 0..N-1")->check(CLI::Range(1, 100000));
   stats->add_option("--size", size_px, "Map size per fabric")->check(CLI::Range(8, 4096));
   stats->add_option("--json", json_path, "Also write the histograms as JSON");
+  std::string fast_path, reconstructed_path;
+  CLI::App* match_scan = app.add_subcommand("match-scan",
+                                            "Measure how a reconstructed stack differs from the fast path of the same "
+                                            "material (camera blur, gains, noise): the training data's scan emulation");
+  match_scan->add_option("--fast", fast_path, "Fast-path stack (sim render --stack)")->required();
+  match_scan->add_option("--reconstructed", reconstructed_path, "Reconstructed stack of a scan of the same material, same grid")
+      ->required();
+  std::string emulation_path;
+  match_scan->add_option("--out", emulation_path, "Write the fitted emulation (YAML) for loom train --scan-emulation");
+  match_scan->add_option("--json", json_path, "Also write the measurement as JSON");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (*match_scan) return MatchScan(fast_path, reconstructed_path, emulation_path, json_path);
   if (*stats) return Stats(seeds, size_px, json_path);
   if (*render) {
     return Render(rig_path, object, camera, leds, angle_deg, exposure_us, stack, preset, stack_size_px, truth_path, out);

@@ -43,7 +43,8 @@ struct TrainArguments {
   sim::TrainingSetSpec dataset;
   int validation = 3;
   int test = 3;
-  std::string init;  // a model to start from
+  std::string init;            // a model to start from
+  std::string scan_emulation;  // a sim match-scan file, for dataset.scan_like_share
   int width_divisor = 8;
   double dropout = 0.02;
   fitting::CnnTrainingOptions training;
@@ -51,7 +52,11 @@ struct TrainArguments {
 };
 
 // Renders the fabrics of --materials missing from `dir` (sim/training_set.h).
-Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
+Status RenderDataset(TrainArguments args, const fs::path& dir) {
+  if (args.dataset.scan_like_share > 0) {
+    if (args.scan_emulation.empty()) return InvalidArgumentError("--scan-like-share", "needs --scan-emulation FILE");
+    LOOM_ASSIGN_OR_RETURN(args.dataset.scan_emulation, sim::LoadScanEmulation(args.scan_emulation));
+  }
   LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig));
   if (!loaded.sim) {
     return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
@@ -127,9 +132,9 @@ Status Train(TrainArguments args) {
   std::ostringstream training;
   training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of " << history.size()
            << " epochs on " << train_count << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
-           << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << "), preset "
-           << args.preset << (args.init.empty() ? "" : ", from " + args.init) << "; test loss " << test.loss << " on "
-           << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
+           << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << ", scan-like share "
+           << args.dataset.scan_like_share << "), preset " << args.preset << (args.init.empty() ? "" : ", from " + args.init)
+           << "; test loss " << test.loss << " on " << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   const nlohmann::json report = {
@@ -149,6 +154,8 @@ Status Train(TrainArguments args) {
         {"weight_decay", args.training.weight_decay},
         {"radiance_noise", args.training.radiance_noise},
         {"out_of_model_share", args.dataset.out_of_model_share},
+        {"scan_like_share", args.dataset.scan_like_share},
+        {"scan_emulation", args.scan_emulation},
         {"init", args.init},
         {"rerender_weight", args.training.rerender_weight},
         {"rerender_pixels", args.training.rerender_pixels},
@@ -206,6 +213,12 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--out-of-model-share", args.dataset.out_of_model_share,
                  "Share of the fabrics made out of model: with what GD10 cannot represent (sim/fabric.h)")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--scan-like-share", args.dataset.scan_like_share,
+                 "Share of the fabrics degraded as a scan's reconstruction would be (needs --scan-emulation)")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--scan-emulation", args.scan_emulation,
+                 "How scans degrade the fast path on this rig: a loom sim match-scan --out file (sim/scan_emulation.h)")
+      ->check(CLI::ExistingFile);
   app.add_option("--init", args.init, "Start from this model (fine-tuning): its weights, architecture and input normalisation")
       ->check(CLI::ExistingDirectory);
   app.add_option("--rerender-weight", t.rerender_weight,

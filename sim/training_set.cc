@@ -8,6 +8,10 @@ namespace loom::sim {
 
 namespace fs = std::filesystem;
 
+// Whether item i of a sequence is among a `share` of it spread evenly: i · share crosses an
+// integer before (i + 1) · share.
+bool Chosen(int i, double share) { return std::floor((i + 1) * share) > std::floor(i * share); }
+
 Status TrainingSetSpec::Check() const {
   std::vector<std::string> problems;
   if (!(materials >= 1)) problems.push_back("materials must be >= 1");
@@ -15,6 +19,10 @@ Status TrainingSetSpec::Check() const {
     problems.push_back("size_px must be in [8, " + std::to_string(kMaxSampleSide) + "]");
   }
   if (!(out_of_model_share >= 0 && out_of_model_share <= 1)) problems.push_back("out_of_model_share must be in [0, 1]");
+  if (!(scan_like_share >= 0 && scan_like_share <= 1)) problems.push_back("scan_like_share must be in [0, 1]");
+  if (scan_like_share > 0) {
+    if (Status checked = scan_emulation.Check(); !checked.ok()) problems.push_back(checked.message());
+  }
   return ProblemsStatus("training set", problems);
 }
 
@@ -26,9 +34,11 @@ Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& obser
   if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
   for (int i = 0; i < spec.materials; ++i) {
     const uint64_t seed = spec.first_seed + i;
-    // Material i is out of model when i · share crosses an integer before (i + 1) · share.
-    const bool out_of_model = std::floor((i + 1) * spec.out_of_model_share) > std::floor(i * spec.out_of_model_share);
-    const std::string name = "fabric-" + std::to_string(seed) + (out_of_model ? "-out-of-model" : "");
+    // Scan-likeness is chosen by pairs of materials, so that with out_of_model_share 0.5 (every
+    // other material) half of each kind is scan-like.
+    const bool out_of_model = Chosen(i, spec.out_of_model_share), scan_like = Chosen(i / 2, spec.scan_like_share);
+    const std::string name =
+        "fabric-" + std::to_string(seed) + (out_of_model ? "-out-of-model" : "") + (scan_like ? "-scan-like" : "");
     const fs::path stack_path = dir / (name + ".stack.exr"), truth_path = dir / (name + ".truth.exr");
     if (!fs::exists(stack_path) || !fs::exists(truth_path)) {
       SampleSpec sample;
@@ -38,7 +48,8 @@ Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& obser
       sample.pixel_mm = rig.material().pixel_mm;
       LOOM_ASSIGN_OR_RETURN(Material material, MakeSample(sample));
       const Scene scene(rig.rig(), std::move(material));
-      const ObservationStack stack = RenderStack(scene, observations, {});
+      ObservationStack stack = RenderStack(scene, observations, {});
+      if (scan_like) LOOM_RETURN_IF_ERROR(EmulateScan(spec.scan_emulation, seed, stack));
       LOOM_RETURN_IF_ERROR(WriteMaterial(TruthOnStackGrid(scene, {}), truth_path));
       LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, stack));
     }

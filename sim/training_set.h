@@ -2,7 +2,9 @@
 // A CNN's training set rendered on the simulated rig: procedural fabrics (seeds first_seed,
 // first_seed + 1, …), each rendered with the fast path (stack.h) into DIR/fabric-SEED.stack.exr
 // with its ground truth on the stack's grid in DIR/fabric-SEED.truth.exr; an out_of_model_share
-// of the seeds, spread evenly, are fabric.h's out-of-model fabrics (fabric-SEED-out-of-model.*).
+// of the seeds, spread evenly, are fabric.h's out-of-model fabrics (fabric-SEED-out-of-model.*),
+// and a scan_like_share of them are degraded as a scan's reconstruction would be
+// (scan_emulation.h; NAME-scan-like.*: the truth stays the sharp one).
 // Pairs already in DIR are kept, not rendered again, so a set is built once and grown later.
 
 #include <cstdint>
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "sim/renderer.h"
+#include "sim/scan_emulation.h"
 #include "sim/stack.h"
 
 namespace loom::sim {
@@ -21,7 +24,9 @@ struct TrainingSetSpec {
   int size_px = 64;
   uint64_t first_seed = 1000;
   double out_of_model_share = 0;
-  Status Check() const;  // every problem, naming the field
+  double scan_like_share = 0;
+  ScanEmulation scan_emulation;  // needed when scan_like_share > 0
+  Status Check() const;          // every problem, naming the field
 };
 
 // Called after each material with how many are done, of how many, and its name.

@@ -55,15 +55,48 @@ TEST(TrainingSetTest, RendersEachFabricOnceWithItsTruthAndTheOutOfModelShareSpre
   fs::remove_all(dir);
 }
 
+TEST(TrainingSetTest, AScanLikeShareDegradesItsStacksAndKeepsTheirTruth) {
+  const fs::path plain_dir = FreshDir("training_set_plain"), scan_like_dir = FreshDir("training_set_scan_like");
+  TrainingSetSpec spec;
+  spec.materials = 4;
+  spec.size_px = 16;
+  ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, plain_dir).ok());
+  spec.scan_like_share = 0.5;
+  spec.scan_emulation = {.footprints = {{"cam0", 0.4, 0.4}, {"cam1", 0.8, 0.5}}, .gain_spread = 0.1, .noise = 0.2};
+  std::vector<std::string> names;
+  ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, scan_like_dir, [&](int, int, const std::string& name) {
+                names.push_back(name);
+              }).ok());
+  EXPECT_EQ(names, (std::vector<std::string>{"fabric-1000", "fabric-1001", "fabric-1002-scan-like", "fabric-1003-scan-like"}));
+  const auto radiance = [](const fs::path& path) {
+    const Result<ObservationStack> stack = ReadObservationStack(path);
+    EXPECT_TRUE(stack.ok()) << stack.status().ToString();
+    const auto values = stack->image.channel(ObservationStack::ObservationChannel(0));
+    return std::vector<float>(values.begin(), values.end());
+  };
+  const auto truth = [](const fs::path& path) {
+    const Result<Material> material = ReadMaterial(path);
+    EXPECT_TRUE(material.ok()) << material.status().ToString();
+    const float* data = material->maps.data();
+    return std::vector<float>(data, data + material->maps.pixel_count() * material->maps.num_channels());
+  };
+  EXPECT_EQ(radiance(plain_dir / "fabric-1001.stack.exr"), radiance(scan_like_dir / "fabric-1001.stack.exr"));
+  EXPECT_NE(radiance(plain_dir / "fabric-1002.stack.exr"), radiance(scan_like_dir / "fabric-1002-scan-like.stack.exr"));
+  EXPECT_EQ(truth(plain_dir / "fabric-1002.truth.exr"), truth(scan_like_dir / "fabric-1002-scan-like.truth.exr"));
+  fs::remove_all(plain_dir);
+  fs::remove_all(scan_like_dir);
+}
+
 TEST(TrainingSetTest, ABadSpecNamesEveryFieldAndRendersNothing) {
   const fs::path dir = FreshDir("training_set_bad");
   TrainingSetSpec spec;
   spec.materials = 0;
   spec.size_px = 2;
   spec.out_of_model_share = NAN;
+  spec.scan_like_share = 0.5;  // with no emulation
   const Status status = RenderTrainingSet(MiniRig(), kObservations, spec, dir);
   ASSERT_FALSE(status.ok());
-  for (const char* field : {"materials", "size_px", "out_of_model_share"}) {
+  for (const char* field : {"materials", "size_px", "out_of_model_share", "footprints"}) {
     EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();
   }
   EXPECT_FALSE(fs::exists(dir));
