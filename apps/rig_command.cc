@@ -15,6 +15,7 @@
 #include "core/exr_io.h"
 #include "core/interrupt.h"
 #include "hal/aravis/aravis_backend.h"
+#include "hal/device_status.h"
 #include "hal/rig.h"
 
 namespace loom::apps {
@@ -58,43 +59,12 @@ int List(const std::string& rig_path, bool discover) {
   return kExitOk;
 }
 
-// One line about what a device reports now.
-Result<std::string> Describe(Device* device) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(3);
-  const hal::DeviceIdentity& id = device->identity();
-  out << id.vendor << (id.model.empty() ? "" : " " + id.model) << (id.serial.empty() ? "" : " serial " + id.serial);
-  if (auto* camera = dynamic_cast<Camera*>(device)) {
-    const hal::CameraCapabilities& caps = camera->capabilities();
-    out << "; sensor " << caps.sensor_width << "x" << caps.sensor_height << ", exposure " << caps.exposure_min_us << ".."
-        << caps.exposure_max_us << " us";
-  } else if (auto* leds = dynamic_cast<hal::LedArray*>(device)) {
-    LOOM_ASSIGN_OR_RETURN(const hal::LedArrayReadback read, leds->Read());
-    int lit = 0;
-    for (double current : read.current_ma) lit += current > 0;
-    out << "; " << leds->led_count() << " LEDs, " << lit << " lit, " << read.temperature_c << " C"
-        << (read.over_temperature ? ", OVER TEMPERATURE" : "");
-  } else if (auto* turntable = dynamic_cast<hal::Turntable*>(device)) {
-    LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
-    out << "; at " << angle << " deg";
-  } else if (auto* light = dynamic_cast<hal::LinearLight*>(device)) {
-    LOOM_ASSIGN_OR_RETURN(const hal::LinearLightReadback read, light->Read());
-    out << "; at " << read.position_mm << " of " << light->travel_mm() << " mm, strip " << (read.on ? "on" : "off");
-  } else if (auto* wheel = dynamic_cast<hal::FilterWheel*>(device)) {
-    LOOM_ASSIGN_OR_RETURN(const int slot, wheel->Position());
-    out << "; slot " << slot << " of " << wheel->slot_count();
-  } else if (auto* projector = dynamic_cast<hal::Projector*>(device)) {
-    out << "; " << projector->native_width() << "x" << projector->native_height();
-  }
-  return out.str();
-}
-
 int StatusOfAll(Rig& rig) {
   hal::SafeStateGuard guard(rig);
   int failures = 0;
   for (Device* device : rig.devices()) {
     const Status opened = device->Open();
-    Result<std::string> line = opened.ok() ? Describe(device) : Result<std::string>(opened);
+    Result<std::string> line = opened.ok() ? hal::DescribeDeviceState(*device) : Result<std::string>(opened);
     std::cout << "  " << Pad(device->name(), 14);
     if (line.ok()) {
       std::cout << "ok      " << *line << "\n";
@@ -130,8 +100,6 @@ Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
                    {"loom.units", std::string("raw sensor counts (DN)")}});
 }
 
-Result<std::vector<scan::LedDrive>> ParseLeds(const std::string& text);
-
 Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& leds, const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(Device* const device, FindDevice(rig, camera_name));
   auto* camera = dynamic_cast<Camera*>(device);
@@ -139,7 +107,7 @@ Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const 
   hal::SafeStateGuard guard(rig);
   if (!leds.empty()) {
     if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
-    LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, ParseLeds(leds));
+    LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, scan::ParseLedDrives(leds, "--leds"));
     LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
     LOOM_RETURN_IF_ERROR(rig.leds()->Start());
     LOOM_RETURN_IF_ERROR(rig.leds()->Drive(drives));
@@ -168,46 +136,14 @@ Status Move(Rig& rig, const std::string& name, double to) {
   hal::SafeStateGuard guard(rig);
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(device));
   LOOM_RETURN_IF_ERROR(device->Start());
-  std::ostringstream where;
-  if (auto* turntable = dynamic_cast<hal::Turntable*>(device)) {
-    LOOM_RETURN_IF_ERROR(turntable->MoveTo(to));
-    LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
-    where << angle << " deg";
-  } else if (auto* light = dynamic_cast<hal::LinearLight*>(device)) {
-    LOOM_RETURN_IF_ERROR(light->MoveTo(to));
-    LOOM_ASSIGN_OR_RETURN(const hal::LinearLightReadback read, light->Read());
-    where << read.position_mm << " mm";
-  } else if (auto* wheel = dynamic_cast<hal::FilterWheel*>(device)) {
-    if (to != static_cast<int>(to)) return InvalidArgumentError("--to", "a filter wheel slot is a whole number");
-    LOOM_RETURN_IF_ERROR(wheel->MoveTo(static_cast<int>(to)));
-    LOOM_ASSIGN_OR_RETURN(const int slot, wheel->Position());
-    where << "slot " << slot;
-  } else {
-    return InvalidArgumentError("--device " + name, "is a " + device->kind() + ", which does not move");
-  }
-  std::cout << device->name() << " is at " << where.str() << "\n";
+  LOOM_ASSIGN_OR_RETURN(const std::string where, hal::MoveDevice(*device, to));
+  std::cout << device->name() << " is at " << where << "\n";
   return device->Close();
-}
-
-Result<std::vector<scan::LedDrive>> ParseLeds(const std::string& text) {
-  std::vector<scan::LedDrive> leds;
-  std::stringstream items(text);
-  std::string item;
-  while (std::getline(items, item, ',')) {
-    const size_t colon = item.find(':');
-    try {
-      if (colon == std::string::npos) throw std::invalid_argument(item);
-      leds.push_back({std::stoi(item.substr(0, colon)), std::stod(item.substr(colon + 1))});
-    } catch (const std::exception&) {
-      return InvalidArgumentError("--on '" + text + "'", "expected LED:MILLIAMPS[,LED:MILLIAMPS...], got '" + item + "'");
-    }
-  }
-  return leds;
 }
 
 Status Leds(Rig& rig, const std::string& on, double hold_s) {
   if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
-  LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> leds, ParseLeds(on));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> leds, scan::ParseLedDrives(on, "--on"));
   hal::SafeStateGuard guard(rig);
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
   LOOM_RETURN_IF_ERROR(rig.leds()->Start());

@@ -1,12 +1,8 @@
-// loom sim material: procedural materials (and the known test materials) as SVBRDF maps with
-// preview PNGs. (`loom sim render` arrives with the renderer.)
+// loom sim material | render | stats | match-scan: the simulator's materials (SVBRDF maps with
+// preview PNGs), a simulated camera's frame or the fast-path stack, the fabrics' parameter
+// statistics, and how a scan's reconstruction differs from the fast path (sim/scan_emulation.h).
 #include <filesystem>
-#include <fstream>
-#include <iomanip>
 #include <iostream>
-#include <map>
-#include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "apps/command.h"
 #include "apps/rig_loader.h"
@@ -14,9 +10,9 @@
 #include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "fitting/export.h"
-#include "fitting/model/svbrdf_maps.h"
 #include "scan/plan.h"
-#include "sim/fabric.h"
+#include "scan/rig_state.h"
+#include "sim/fabric_stats.h"
 #include "sim/plan_observations.h"
 #include "sim/sample.h"
 #include "sim/scan_emulation.h"
@@ -46,59 +42,14 @@ int Material(const std::string& kind, uint64_t seed, int size_px, double pixel_m
   return kExitOk;
 }
 
-// Histograms of the generated fabrics' parameters over many seeds: what a CNN trained on them
-// has seen.
+// Histograms of the generated fabrics' parameters over many seeds (sim/fabric_stats.h).
 int Stats(int seeds, int size_px, const std::string& json_path) {
-  struct Histogram {
-    std::string name;
-    double low, high;
-    std::vector<int64_t> bins = std::vector<int64_t>(10, 0);
-    double min = 1e300, max = -1e300, sum = 0;
-    int64_t count = 0;
-    void Add(double v) {
-      const int bin = std::clamp(static_cast<int>((v - low) / (high - low) * bins.size()), 0, static_cast<int>(bins.size()) - 1);
-      ++bins[bin];
-      min = std::min(min, v);
-      max = std::max(max, v);
-      sum += v;
-      ++count;
-    }
-  };
-  std::vector<Histogram> histograms = {
-      {"a_d (mean of RGB)", 0, 1},  {"a_s (mean of RGB)", 0, 1}, {"sigma_x", 0, 1}, {"sigma_y", 0, 1},
-      {"sigma_y / sigma_x", 1, 11}, {"alpha (deg)", -90, 90},    {"F0", 0, 1},      {"n_s tilt (deg)", 0, 45},
-      {"height (mm)", 0, 0.3}};
-  std::map<std::string, int> weaves;
-  sim::FabricOptions options;
-  options.width_px = options.height_px = size_px;
-  for (int seed = 0; seed < seeds; ++seed) {
-    const sim::Material m = sim::GenerateFabric(static_cast<uint64_t>(seed), options);
-    ++weaves[std::get<std::string>(m.provenance.at("loom.weave"))];
-    const int height = *m.maps.ChannelIndex(fitting::kHeightChannel);
-    for (int y = 0; y < m.height(); ++y) {
-      for (int x = 0; x < m.width(); ++x) {
-        const fitting::WardParams<double> p = fitting::GetParams(m.maps, x, y);
-        const double values[] = {
-            p.a_d.mean(),           p.a_s.mean(),      p.sigma_x, p.sigma_y,
-            p.sigma_y / p.sigma_x,  RadToDeg(p.alpha), p.f0,      RadToDeg(std::acos(std::clamp(p.n_s.z(), -1.0, 1.0))),
-            m.maps.at(height, y, x)};
-        for (size_t i = 0; i < histograms.size(); ++i) histograms[i].Add(values[i]);
-      }
-    }
-  }
-  std::cout << seeds << " fabrics of " << size_px << "x" << size_px << " px; weaves:";
-  for (const auto& [weave, count] : weaves) std::cout << " " << weave << " " << count;
-  std::cout << "\n" << std::fixed << std::setprecision(3);
-  nlohmann::json json;
-  for (const Histogram& h : histograms) {
-    std::cout << "  " << std::left << std::setw(20) << h.name << std::right << " min " << std::setw(8) << h.min << " max "
-              << std::setw(8) << h.max << " mean " << std::setw(8) << h.sum / h.count << "  [" << h.low << ".." << h.high << "]:";
-    for (int64_t b : h.bins) std::cout << " " << std::setw(4) << (1000 * b + h.count / 2) / h.count;
-    std::cout << " per mille\n";
-    json[h.name] = {{"min", h.min}, {"max", h.max}, {"mean", h.sum / h.count}, {"range", {h.low, h.high}}, {"bins", h.bins}};
-  }
+  const sim::FabricStatistics stats = sim::MeasureFabrics(seeds, size_px);
+  stats.Report(std::cout);
   if (!json_path.empty()) {
-    std::ofstream(json_path) << json.dump(2) << "\n";
+    if (Status written = WriteFileAtomically(json_path, stats.ToJson().dump(2) + "\n"); !written.ok()) {
+      return ReportFailure(written);
+    }
     std::cout << "wrote " << json_path << "\n";
   }
   return kExitOk;
@@ -148,13 +99,9 @@ int Render(const std::string& rig_path, const std::string& object, const std::st
   if (camera < 0) return ReportFailure(NotFoundError("--camera " + camera_name, "not in the rig geometry"));
   sim::SceneState state;
   state.turntable_deg = angle_deg;
-  std::stringstream items(leds);
-  std::string item;
-  while (std::getline(items, item, ',')) {
-    const size_t colon = item.find(':');
-    if (colon == std::string::npos) return ReportFailure(InvalidArgumentError("--leds " + leds, "expected LED:MILLIAMPS,..."));
-    state.leds.push_back({std::stoi(item.substr(0, colon)), std::stod(item.substr(colon + 1))});
-  }
+  Result<std::vector<scan::LedDrive>> drives = scan::ParseLedDrives(leds, "--leds");
+  if (!drives.ok()) return ReportFailure(drives.status());
+  for (const scan::LedDrive& drive : *drives) state.leds.push_back({drive.led, drive.current_ma});
   const Image radiance = scene.RenderRadiance(camera, state);
   const CameraModel& model = scene.rig().cameras[camera];
   const std::vector<uint16_t> raw = sim::CaptureRaw(radiance, model.sensor, {exposure_us, 0}, loaded->sim->world->seed);

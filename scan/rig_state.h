@@ -4,7 +4,10 @@
 
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
+
+#include "core/status.h"
 
 namespace loom::scan {
 
@@ -14,6 +17,10 @@ struct LedDrive {
 
   bool operator==(const LedDrive&) const = default;
 };
+
+// "LED:MILLIAMPS[,LED:MILLIAMPS...]" as an operator types it ("3:500,7:1000"): whole LED
+// numbers from 0, finite currents from 0, each LED once. `what` names the text in errors ("--on").
+Result<std::vector<LedDrive>> ParseLedDrives(std::string_view text, std::string_view what);
 
 struct RigState {
   std::vector<LedDrive> leds_on;            // every LED that was lit, with its current

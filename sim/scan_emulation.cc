@@ -222,6 +222,7 @@ void FitGainsAndNoise(const StackPair& pair, ScanEmulationMatch& match) {
   double log_mean = 0, log_squares = 0;
   for (double g : log_gains) log_mean += g / log_gains.size();
   for (double g : log_gains) log_squares += (g - log_mean) * (g - log_mean);
+  match.gain_mean = std::exp(log_mean);
   match.emulation.gain_spread = log_gains.size() > 1 ? std::sqrt(log_squares / (log_gains.size() - 1)) : 0;
   match.emulation.noise = law > 0 ? std::sqrt(squares / law) : 0;
   for (size_t b = 0; b < match.noise_bins.size(); ++b) {
@@ -396,6 +397,7 @@ nlohmann::json ScanEmulationMatch::ToJson() const {
                     {"predicted", bin.predicted}});
   }
   return {{"emulation", emulation.ToJson()},
+          {"gain_mean", gain_mean},
           {"cameras", fits},
           {"noise_bins", bins},
           {"distance_emulated_over_scan", distance_emulated},
@@ -411,7 +413,8 @@ void ScanEmulationMatch::Report(std::ostream& out) const {
     out << "  " << fit.footprint.camera << ": along " << fit.footprint.along_px << ", across " << fit.footprint.across_px
         << "; residual " << fit.residual_unblurred << " unblurred, " << fit.residual_blurred << " blurred\n";
   }
-  out << "gains: log spread " << emulation.gain_spread << "; noise: " << emulation.noise << " at the mean radiance\n";
+  out << "gains: geometric mean " << gain_mean << " (left out of the emulation), log spread " << emulation.gain_spread
+      << "; noise: " << emulation.noise << " at the mean radiance\n";
   out << "residual RMS / mean radiance, by radiance / mean: measured (the noise law's)\n";
   for (const NoiseBin& bin : noise_bins) {
     out << "  [" << bin.low << ", " << bin.high << "): " << bin.measured << " (" << bin.predicted << "), " << bin.pixels

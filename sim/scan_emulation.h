@@ -66,6 +66,9 @@ struct NoiseBin {
 
 struct ScanEmulationMatch {
   ScanEmulation emulation;
+  // The gains' geometric mean: a reconstruction brighter or darker than the truth throughout (a
+  // radiometric bias, which the emulation leaves out: it is for calibration to remove).
+  double gain_mean = 1;
   std::vector<FootprintFit> cameras;
   std::vector<NoiseBin> noise_bins;
   // The check, medians over observations of an emulation of the fast path with the fitted values:
