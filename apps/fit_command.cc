@@ -40,26 +40,29 @@ struct FitArguments {
   bool quiet = false;
 };
 
-std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, double cnn_seconds, const Image& maps) {
+std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, fitting::PixelSolver solver,
+                        double cnn_seconds, const Image& maps) {
   std::vector<std::string> uncertainty;
   for (const std::string& name : maps.channel_names()) {
     if (name.starts_with("unc.")) uncertainty.push_back(name);
   }
   nlohmann::json json = s.ToJson();
-  json.update({{"method", args.method},
-               {"model", args.model},
-               {"cnn_seconds", cnn_seconds},
-               {"stack", args.stack},
-               {"f0_option", args.f0},
-               {"solver", args.method.ends_with("refine") ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
-               {"prior_weight", args.prior_weight},
-               {"smoothing_weight", args.smoothing_weight},
-               {"strip_samples", args.strip_samples},
-               {"coarse_samples", args.coarse_samples},
-               {"retries", !args.no_retries},
-               {"retry_above", args.retry_above},
-               {"uncertainty_channels", uncertainty},
-               {"loom_version", std::string(VersionWithCommit())}});
+  json.update(
+      {{"method", args.method},
+       {"model", args.model},
+       {"cnn_seconds", cnn_seconds},
+       {"stack", args.stack},
+       {"f0_option", args.f0},
+       {"solver",
+        solver == fitting::PixelSolver::kBatchRefiner ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
+       {"prior_weight", args.prior_weight},
+       {"smoothing_weight", args.smoothing_weight},
+       {"strip_samples", args.strip_samples},
+       {"coarse_samples", args.coarse_samples},
+       {"retries", !args.no_retries},
+       {"retry_above", args.retry_above},
+       {"uncertainty_channels", uncertainty},
+       {"loom_version", std::string(VersionWithCommit())}});
   return json.dump(2) + "\n";
 }
 
@@ -84,11 +87,9 @@ Status WriteMaps(const FitArguments& args, const ObservationStack& stack, const 
 }
 
 Status Fit(FitArguments args) {
-  if (args.method != "ceres" && args.method != "refine" && args.method != "cnn" && args.method != "cnn+ceres" &&
-      args.method != "cnn+refine") {
-    return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres or cnn+refine");
-  }
-  const bool with_cnn = args.method.starts_with("cnn");
+  const std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
+  if (!method) return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres or cnn+refine");
+  const bool with_cnn = fitting::StartsFromCnn(*method);
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << stack.observations.size() << " observations (" << stack.source << ")\n";
@@ -100,7 +101,7 @@ Status Fit(FitArguments args) {
     cnn_seconds = SecondsSince(start);
     std::cout << "CNN: " << stack.image.width() << "x" << stack.image.height() << " px in " << FormatDuration(cnn_seconds)
               << "\n";
-    if (args.method == "cnn") {
+    if (*method == fitting::FitMethod::kCnn) {
       const nlohmann::json summary = {{"method", args.method},      {"model", args.model},
                                       {"stack", args.stack},        {"pixels", stack.image.pixel_count()},
                                       {"cnn_seconds", cnn_seconds}, {"loom_version", std::string(VersionWithCommit())}};
@@ -116,8 +117,8 @@ Status Fit(FitArguments args) {
   options.threads = args.threads;
   options.retry_poor_fits = !args.no_retries;
   options.retry_above_noise_rms = args.retry_above;
-  if (args.method.ends_with("refine")) {
-    options.solver = fitting::PixelSolver::kBatchRefiner;
+  options.solver = fitting::SolverOf(*method);
+  if (options.solver == fitting::PixelSolver::kBatchRefiner) {
     options.prior.weight = args.prior_weight;
     options.smoothing.weight = args.smoothing_weight;
     options.max_lights_per_observation = args.strip_samples;
@@ -146,7 +147,7 @@ Status Fit(FitArguments args) {
   if (cnn_maps) options.initial_maps = &*cnn_maps;
   LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
   fit.summary.Report(std::cout);
-  return WriteMaps(args, stack, fit.maps, SummaryJson(fit.summary, args, cnn_seconds, fit.maps));
+  return WriteMaps(args, stack, fit.maps, SummaryJson(fit.summary, args, options.solver, cnn_seconds, fit.maps));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "core/config.h"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -78,8 +79,19 @@ DecodeError DecodeScalar(const YAML::Node& node, std::string_view type_name, T* 
 
 DecodeError Decode(const YAML::Node& n, bool* out) { return DecodeScalar(n, "true or false", out); }
 DecodeError Decode(const YAML::Node& n, int* out) { return DecodeScalar(n, "an integer", out); }
-DecodeError Decode(const YAML::Node& n, double* out) { return DecodeScalar(n, "a number", out); }
-DecodeError Decode(const YAML::Node& n, float* out) { return DecodeScalar(n, "a number", out); }
+// No loom setting means anything when infinite or NaN, and a NaN slips through every range check
+// written as `x <= 0`: such values are refused where they are read.
+template <typename T>
+DecodeError DecodeFinite(const YAML::Node& node, T* out) {
+  T value = 0;
+  if (DecodeError error = DecodeScalar(node, "a number", &value)) return error;
+  if (!std::isfinite(value)) return "expected a finite number, got '" + node.Scalar() + "'";
+  *out = value;
+  return std::nullopt;
+}
+
+DecodeError Decode(const YAML::Node& n, double* out) { return DecodeFinite(n, out); }
+DecodeError Decode(const YAML::Node& n, float* out) { return DecodeFinite(n, out); }
 DecodeError Decode(const YAML::Node& n, std::string* out) { return DecodeScalar(n, "a string", out); }
 
 template <typename T>

@@ -120,6 +120,44 @@ bad_vector: [1, 2]
       << status.message();
 }
 
+TEST(ConfigTest, NumbersThatAreNotFiniteAreRefusedWhereverTheyAre) {
+  const auto doc = ConfigDocument::LoadString(R"(
+schema_version: 1
+pixel_mm: .nan
+limit_ma: -.inf
+position_mm: [.nan, 0, 600]
+weights: [1, .inf]
+rotation: [[1, 0, 0], [0, .NaN, 0], [0, 0, 1]]
+fine: 1e-3
+)",
+                                              "t.yaml", 1);
+  ASSERT_TRUE(doc.ok());
+  const ConfigNode root = doc->root();
+  double pixel_mm = 0.2, fine = 0;
+  float limit_ma = 1000;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  std::vector<double> weights;
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  root.Required("pixel_mm", &pixel_mm);
+  root.Required("limit_ma", &limit_ma);
+  root.Required("position_mm", &position);
+  root.Required("weights", &weights);
+  root.Required("rotation", &rotation);
+  root.Required("fine", &fine);
+  EXPECT_EQ(pixel_mm, 0.2);  // the defaults are kept
+  EXPECT_EQ(limit_ma, 1000);
+  EXPECT_EQ(fine, 1e-3);
+  const Status status = doc->Finish();
+  ASSERT_FALSE(status.ok());
+  for (const char* expected : {"key 'pixel_mm' (line 3): expected a finite number, got '.nan'",
+                               "key 'limit_ma' (line 4): expected a finite number, got '-.inf'",
+                               "key 'position_mm' (line 5): element 0: expected a finite number",
+                               "key 'weights' (line 6): element 1: expected a finite number",
+                               "key 'rotation' (line 7): row 1: element 1: expected a finite number"}) {
+    EXPECT_NE(status.message().find(expected), std::string::npos) << expected << "\n" << status.message();
+  }
+}
+
 TEST(ConfigTest, FileErrorsNameTheFile) {
   const auto missing = ConfigDocument::LoadFile("/nonexistent/rig.yaml", 1);
   ASSERT_FALSE(missing.ok());

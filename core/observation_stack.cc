@@ -1,5 +1,6 @@
 #include "core/observation_stack.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <set>
@@ -77,6 +78,22 @@ Status CheckFinite(const Image& image, int channel, bool allow_nan, const std::s
   return Status::Ok();
 }
 
+// The geometric normals are directions: a zero or scaled one is a damaged file, which every
+// fitter would otherwise meet deep inside a worker thread.
+Status CheckUnitNormals(const ObservationStack& stack, const std::string& file) {
+  constexpr float kTolerance = 1e-2f;
+  for (int y = 0; y < stack.image.height(); ++y) {
+    for (int x = 0; x < stack.image.width(); ++x) {
+      const float length = static_cast<float>(stack.Normal(x, y).norm());
+      if (!(std::abs(length - 1) <= kTolerance)) {
+        return DataLossError(file, "the geometric normal at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                       ") has length " + std::to_string(length) + ", not 1");
+      }
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 std::string_view ObservationGroupName(ObservationGroup group) {
@@ -122,6 +139,8 @@ std::vector<std::string> StackChannelNames(size_t observations) {
 ObservationStack MakeObservationStack(int width, int height, double pixel_mm, std::vector<StackObservation> observations) {
   ObservationStack stack;
   stack.image = Image(width, height, StackChannelNames(observations.size()));
+  const auto normal_z = stack.image.channel(5);
+  std::fill(normal_z.begin(), normal_z.end(), 1.0f);
   stack.pixel_mm = pixel_mm;
   stack.observations = std::move(observations);
   return stack;
@@ -204,8 +223,9 @@ Result<ObservationStack> ReadObservationStack(const std::filesystem::path& path)
   }
   const auto pixel_mm = exr->attributes.find("loom.pixel_mm");
   if (pixel_mm == exr->attributes.end() || !std::holds_alternative<double>(pixel_mm->second) ||
-      !(std::get<double>(pixel_mm->second) > 0)) {
-    return DataLossError(file, "loom.pixel_mm is missing or not a positive number");
+      !(std::get<double>(pixel_mm->second) >= kMinStackPixelMm && std::get<double>(pixel_mm->second) <= kMaxStackPixelMm)) {
+    return DataLossError(file, "loom.pixel_mm is missing or not a pixel size in [" + std::to_string(kMinStackPixelMm) + ", " +
+                                   std::to_string(kMaxStackPixelMm) + "] mm");
   }
   stack.pixel_mm = std::get<double>(pixel_mm->second);
   if (Result<std::string> rig = text("loom.rig"); rig.ok()) stack.rig = *rig;
@@ -213,6 +233,7 @@ Result<ObservationStack> ReadObservationStack(const std::filesystem::path& path)
   for (int c = 0; c < stack.image.num_channels(); ++c) {
     LOOM_RETURN_IF_ERROR(CheckFinite(stack.image, c, c >= kStackGeometryChannels, file));
   }
+  LOOM_RETURN_IF_ERROR(CheckUnitNormals(stack, file));
   return stack;
 }
 

@@ -59,6 +59,8 @@ struct StackObservation {
 };
 
 inline constexpr int kStackGeometryChannels = 6;  // pos.XYZ, normal.XYZ come first
+// The pixel sizes a stack may have, in mm: a micrometre to a metre.
+inline constexpr double kMinStackPixelMm = 1e-3, kMaxStackPixelMm = 1e3;
 
 struct ObservationStack {
   Image image;  // StackChannelNames(observations.size())
@@ -74,14 +76,16 @@ struct ObservationStack {
 
 std::vector<std::string> StackChannelNames(size_t observations);
 
-// An empty stack of the right shape: channels named, observations described.
+// An empty stack of the right shape: channels named, observations described, the geometric
+// normals up (0, 0, 1), everything else 0.
 ObservationStack MakeObservationStack(int width, int height, double pixel_mm, std::vector<StackObservation> observations);
 
 // Uncompressed float EXR (radiance noise does not compress), atomically.
 Status WriteObservationStack(const std::filesystem::path& path, const ObservationStack& stack);
 
 // Strict: the channels must be exactly StackChannelNames(n) for the n observations of the
-// table; the table must parse with every key; positions and normals must be finite; an
+// table; the table must parse with every key; the pixel size must lie in [kMinStackPixelMm,
+// kMaxStackPixelMm]; positions must be finite and normals unit vectors; an
 // observation value may be NaN (unseen) but not ±Inf. Errors name the file and the channel,
 // pixel or table entry.
 Result<ObservationStack> ReadObservationStack(const std::filesystem::path& path);

@@ -30,6 +30,7 @@ class ObservationStackTest : public ::testing::Test {
     stack.rig = "tiny";
     stack.source = "test";
     for (int c = 0; c < stack.image.num_channels(); ++c) {
+      if (c >= 3 && c < kStackGeometryChannels) continue;  // the normals stay (0, 0, 1)
       for (int y = 0; y < 2; ++y) {
         for (int x = 0; x < 3; ++x) stack.image.at(c, y, x) = static_cast<float>(c + 0.5 * x + 0.25 * y);
       }
@@ -96,6 +97,26 @@ TEST_F(ObservationStackTest, ACorruptTableNamesTheEntryAndKey) {
   EXPECT_NE(parsed.status().ToString().find("entry 0"), std::string::npos) << parsed.status().ToString();
   EXPECT_NE(parsed.status().ToString().find("turntable_dgr"), std::string::npos) << parsed.status().ToString();
   EXPECT_FALSE(ParseObservationTable("[{\"group\": ", "stack.exr").ok());
+}
+
+TEST_F(ObservationStackTest, ADegenerateNormalOrPixelSizeIsAnErrorNamingIt) {
+  ObservationStack stack = SmallStack();
+  EXPECT_EQ(stack.Normal(2, 1), Eigen::Vector3d::UnitZ());
+  stack.image.at(5, 1, 2) = 0;  // a zero normal at (2, 1)
+  ASSERT_TRUE(WriteObservationStack(dir_ / "zero_normal.exr", stack).ok());
+  Result<ObservationStack> read = ReadObservationStack(dir_ / "zero_normal.exr");
+  ASSERT_FALSE(read.ok());
+  for (const char* expected : {"zero_normal.exr", "normal at pixel (2, 1)", "length 0"}) {
+    EXPECT_NE(read.status().ToString().find(expected), std::string::npos) << read.status().ToString();
+  }
+  for (double pixel_mm : {1e-300, 0.0, -1.0, 1e6}) {
+    stack = SmallStack();
+    stack.pixel_mm = pixel_mm;
+    ASSERT_TRUE(WriteObservationStack(dir_ / "pixel.exr", stack).ok());
+    read = ReadObservationStack(dir_ / "pixel.exr");
+    ASSERT_FALSE(read.ok()) << pixel_mm;
+    EXPECT_NE(read.status().ToString().find("loom.pixel_mm"), std::string::npos) << read.status().ToString();
+  }
 }
 
 TEST_F(ObservationStackTest, InfinityAndNanGeometryAreErrorsNamingChannelAndPixel) {

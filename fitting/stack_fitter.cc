@@ -593,4 +593,35 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   return fit;
 }
 
+std::string_view FitMethodName(FitMethod method) {
+  switch (method) {
+    case FitMethod::kCeres:
+      return "ceres";
+    case FitMethod::kRefine:
+      return "refine";
+    case FitMethod::kCnn:
+      return "cnn";
+    case FitMethod::kCnnCeres:
+      return "cnn+ceres";
+    case FitMethod::kCnnRefine:
+      return "cnn+refine";
+  }
+  return "?";
+}
+
+std::optional<FitMethod> ParseFitMethod(std::string_view name) {
+  for (FitMethod method : kFitMethods) {
+    if (FitMethodName(method) == name) return method;
+  }
+  return std::nullopt;
+}
+
+bool StartsFromCnn(FitMethod method) {
+  return method == FitMethod::kCnn || method == FitMethod::kCnnCeres || method == FitMethod::kCnnRefine;
+}
+
+PixelSolver SolverOf(FitMethod method) {
+  return method == FitMethod::kRefine || method == FitMethod::kCnnRefine ? PixelSolver::kBatchRefiner : PixelSolver::kCeres;
+}
+
 }  // namespace loom::fitting

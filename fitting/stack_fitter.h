@@ -23,6 +23,7 @@
 #include <functional>
 #include <optional>
 #include <ostream>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -46,6 +47,16 @@ enum class PixelSolver {
   kCeres,         // one Ceres solve per pixel (pixel_fitter.h)
   kBatchRefiner,  // batch_refiner.h
 };
+
+// The methods of `loom fit`: what starts each pixel (the clusters' fits, or the CNN's maps) and
+// what fits it; kCnn keeps the CNN's maps as they are.
+enum class FitMethod { kCeres, kRefine, kCnn, kCnnCeres, kCnnRefine };
+inline constexpr FitMethod kFitMethods[] = {FitMethod::kCeres, FitMethod::kRefine, FitMethod::kCnn, FitMethod::kCnnCeres,
+                                            FitMethod::kCnnRefine};
+std::string_view FitMethodName(FitMethod method);  // "ceres", "refine", "cnn", "cnn+ceres", "cnn+refine"
+std::optional<FitMethod> ParseFitMethod(std::string_view name);
+bool StartsFromCnn(FitMethod method);
+PixelSolver SolverOf(FitMethod method);  // for the methods that fit pixels
 
 struct StackFitOptions {
   int clusters = 8;                 // k-means clusters (1: one start for the whole material)

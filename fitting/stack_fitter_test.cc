@@ -69,6 +69,15 @@ TEST(StackFitterTest, RecoversAFabricFromItsFastPathStack) {
   EXPECT_LT(Percentile(rms, 0.5), 0.05);
 }
 
+TEST(StackFitterTest, FitMethodsAreReadByTheNamesTheyAreWrittenWith) {
+  for (FitMethod method : kFitMethods) EXPECT_EQ(ParseFitMethod(FitMethodName(method)), method) << FitMethodName(method);
+  EXPECT_EQ(ParseFitMethod("cnn+Ceres"), std::nullopt);
+  EXPECT_TRUE(StartsFromCnn(FitMethod::kCnnRefine));
+  EXPECT_FALSE(StartsFromCnn(FitMethod::kRefine));
+  EXPECT_EQ(SolverOf(FitMethod::kRefine), PixelSolver::kBatchRefiner);
+  EXPECT_EQ(SolverOf(FitMethod::kCnnCeres), PixelSolver::kCeres);
+}
+
 TEST(StackFitterTest, BadOptionsNameEveryField) {
   StackFitOptions options;
   options.clusters = 0;

@@ -144,11 +144,13 @@ TEST(PlanTest, ABadPlanFileNamesTheStepAndKey) {
   const std::string text =
       "schema_version: 1\nrig: r\npreset: low\npurpose: materials\nsteps:\n"
       "  - {index: 0, kind: dark, cameras: [c], turntable_deg: 0, object: sample, probe_exposure_us: 1, max_exposures: 1}\n"
-      "  - {index: 1, kind: sparkle, cameras: [c], turntable_deg: 0, object: teapot, probe_exposure_us: 1, max_exposures: 1}\n";
+      "  - {index: 1, kind: sparkle, cameras: [c], turntable_deg: 0, object: teapot, probe_exposure_us: 1, max_exposures: 1}\n"
+      "  - {index: 2, kind: dark, cameras: [], turntable_deg: 0, object: sample, probe_exposure_us: .nan, max_exposures: 0}\n";
   const Result<Plan> plan = ParsePlanYaml(text, "SCAN/plan.yaml");
   ASSERT_FALSE(plan.ok());
   const std::string message = plan.status().ToString();
-  for (const char* part : {"SCAN/plan.yaml", "steps[1].kind", "sparkle", "steps[1].object", "teapot", "'purpose'", "materials"}) {
+  for (const char* part : {"SCAN/plan.yaml", "steps[1].kind", "sparkle", "steps[1].object", "teapot", "'purpose'", "materials",
+                           "steps[2].cameras", "steps[2].probe_exposure_us", "steps[2].max_exposures"}) {
     EXPECT_NE(message.find(part), std::string::npos) << part << " in " << message;
   }
 }

@@ -52,6 +52,7 @@ Step ReadStep(const ConfigNode& node, int expected_index) {
     node.AddError("kind", "unknown step kind '" + kind + "'");
   }
   node.Required("cameras", &step.cameras);
+  if (node.Has("cameras") && step.cameras.empty()) node.AddError("cameras", "is empty: every step is taken by a camera");
   std::vector<int> leds;
   std::vector<double> currents;
   node.Optional("leds", &leds);
@@ -80,8 +81,11 @@ Step ReadStep(const ConfigNode& node, int expected_index) {
     node.AddError("object", "unknown object '" + object + "'");
   }
   node.Required("probe_exposure_us", &step.exposure.probe_us);
+  if (!(step.exposure.probe_us > 0)) node.AddError("probe_exposure_us", "must be > 0");
   node.Required("max_exposures", &step.exposure.max_exposures);
+  if (step.exposure.max_exposures < 1) node.AddError("max_exposures", "must be >= 1");
   node.Optional("linearity_series", &step.exposure.linearity_series);
+  if (step.exposure.linearity_series < 0) node.AddError("linearity_series", "must be >= 0");
   return step;
 }
 

@@ -107,7 +107,7 @@ TEST(ScanEmulationTest, TheFileRoundTripsAndABadOneNamesItsKeys) {
   for (const char* key : {"noize", "noise", path.string().c_str()}) {
     EXPECT_NE(bad.status().ToString().find(key), std::string::npos) << bad.status().ToString();
   }
-  std::ofstream(path) << "schema_version: 1\nfootprints:\n  - {camera: cam0, along_px: .nan, across_px: 9}\n"
+  std::ofstream(path) << "schema_version: 1\nfootprints:\n  - {camera: cam0, along_px: -1, across_px: 9}\n"
                          "gain_spread: 0.1\nnoise: 0.2\n";
   const Result<ScanEmulation> out_of_range = LoadScanEmulation(path);
   ASSERT_FALSE(out_of_range.ok());

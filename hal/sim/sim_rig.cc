@@ -1,6 +1,7 @@
 #include "hal/sim/sim_rig.h"
 
 #include <algorithm>
+#include <charconv>
 
 namespace loom::hal {
 namespace {
@@ -106,10 +107,12 @@ Result<SimRig> MakeSimRig(const RigFile& file, const RigModel& model, const std:
   if (!object.empty()) {
     const size_t colon = object.find(':');
     sample.kind = object.substr(0, colon);
-    try {
-      if (colon != std::string::npos) sample.seed = std::stoull(object.substr(colon + 1));
-    } catch (const std::exception&) {
-      return InvalidArgumentError("object '" + object + "'", "expected KIND or fabric:SEED");
+    if (colon != std::string::npos) {
+      const std::string_view seed = std::string_view(object).substr(colon + 1);
+      const auto [end, error] = std::from_chars(seed.data(), seed.data() + seed.size(), sample.seed);
+      if (error != std::errc() || end != seed.data() + seed.size()) {
+        return InvalidArgumentError("object '" + object + "'", "expected KIND or KIND:SEED, SEED a whole number >= 0");
+      }
     }
   }
   sample.target = model.calibration_target;

@@ -72,7 +72,11 @@ TEST(SimRigTest, PlacesWhatAPlanStepNeedsAndRefusesABadObject) {
   EXPECT_EQ(rig->world->scene()->material().name, "white tile on its spacer");
   ASSERT_TRUE(PlaceObject(*rig, scan::ScanObject::kSample).ok());
   EXPECT_EQ(rig->world->scene()->material().name.find("fabric"), 0u) << rig->world->scene()->material().name;
-  EXPECT_FALSE(MakeSimRig(file, *file.Model(), "fabric:x").ok());
+  for (const char* bad : {"fabric:x", "fabric:5x", "fabric:-1", "fabric:", "fabric:99999999999999999999999"}) {
+    const Result<SimRig> refused = MakeSimRig(file, *file.Model(), bad);
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_NE(refused.status().ToString().find(bad), std::string::npos) << refused.status().ToString();
+  }
 }
 
 }  // namespace
