@@ -286,9 +286,18 @@ void ConfigNode::AddError(std::string_view key, std::string_view message) const 
 const std::string& ConfigNode::path() const { return state_->nodes[index_].path; }
 
 Result<ConfigDocument> ConfigDocument::LoadFile(const std::filesystem::path& path, int supported_schema_version) {
+  // A config is a small text file: not a device (--rig /dev/zero reads without end) and not a
+  // data file given by mistake.
+  constexpr std::uintmax_t kMaxConfigBytes = 16 << 20;
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    return InvalidArgumentError(path.string(), "not a regular file");
+  }
+  if (const std::uintmax_t bytes = std::filesystem::file_size(path, ec); !ec && bytes > kMaxConfigBytes) {
+    return InvalidArgumentError(path.string(), std::to_string(bytes) + " bytes: too large for a config file (at most 16 MiB)");
+  }
   std::ifstream in(path);
   if (!in) {
-    std::error_code ec;
     if (!std::filesystem::exists(path, ec)) return NotFoundError(path.string(), "no such file");
     return IoError(path.string(), "cannot open for reading");
   }

@@ -170,6 +170,18 @@ TEST(ConfigTest, FileErrorsNameTheFile) {
   ASSERT_FALSE(broken.ok());
   EXPECT_EQ(broken.status().subject(), path.string());
   EXPECT_NE(broken.status().message().find("not valid YAML"), std::string::npos);
+
+  for (const char* not_a_config : {"/dev/zero", "/tmp"}) {
+    const auto device = ConfigDocument::LoadFile(not_a_config, 1);
+    ASSERT_FALSE(device.ok()) << not_a_config;
+    EXPECT_EQ(device.status().subject(), not_a_config);
+    EXPECT_NE(device.status().message().find("not a regular file"), std::string::npos) << device.status().ToString();
+  }
+  std::filesystem::resize_file(path, (16 << 20) + 1);  // a data file given by mistake
+  const auto huge = ConfigDocument::LoadFile(path, 1);
+  ASSERT_FALSE(huge.ok());
+  EXPECT_NE(huge.status().message().find("too large"), std::string::npos) << huge.status().ToString();
+  std::filesystem::remove(path);
 }
 
 TEST(ConfigTest, IgnoredSectionsAreNotUnknown) {

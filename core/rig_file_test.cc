@@ -53,6 +53,17 @@ TEST(RigFileTest, ATypoInsideASectionThatWasReadIsAnError) {
   EXPECT_TRUE(Contains(model.status(), "geometry.cameras[0].focal_pz")) << model.status().ToString();
 }
 
+TEST(RigFileTest, AnLedRingOfImpossibleSizeIsAnErrorNotAnAllocation) {
+  for (const char* ring :
+       {"{radius_mm: 650, elevation_deg: 45, count: 2000000000}", "{radius_mm: 0, elevation_deg: 45, count: 0}"}) {
+    std::string text = kRig;
+    text.replace(text.find("  leds:"), 0, std::string("  led_rings: [") + ring + "]\n");
+    const Result<RigModel> model = RigModelFromText(text, "bench.yaml");
+    ASSERT_FALSE(model.ok()) << ring;
+    EXPECT_TRUE(Contains(model.status(), "geometry.led_rings[0].count")) << model.status().ToString();
+  }
+}
+
 TEST(RigFileTest, ARigWithoutGeometryHasNoModelAndSaysWhichFile) {
   const Result<RigModel> model = RigModelFromText("schema_version: 1\nname: real\ndevices: {}\n", "real.yaml");
   ASSERT_FALSE(model.ok());

@@ -5,6 +5,10 @@
 namespace loom {
 namespace {
 
+// More LEDs than any dome holds: a bound so that a typo (count: 2000000000) is an error, not an
+// allocation without end.
+constexpr int kMaxLedsPerRing = 4096;
+
 // cam_from_rig for a camera at `position` looking at `target`, with `up` appearing up in the
 // image (OpenCV axes: x right, y down, z forward).
 Rigid3d LookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target, const Eigen::Vector3d& up) {
@@ -176,6 +180,11 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     node.Optional("azimuth_offset_deg", &azimuth_offset_deg);
     node.Optional("intensity", &intensity);
     node.Optional("falloff_exponent", &falloff);
+    if (count < 1 || count > kMaxLedsPerRing) {
+      node.AddError("count", "must be in [1, " + std::to_string(kMaxLedsPerRing) + "]");
+      count = 0;
+    }
+    if (!(radius_mm > 0)) node.AddError("radius_mm", "must be > 0");
     for (int i = 0; i < count; ++i) {
       LedModel led;
       const double azimuth = DegToRad(azimuth_offset_deg + 360.0 * i / count);
