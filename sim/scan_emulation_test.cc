@@ -100,20 +100,18 @@ TEST(ScanEmulationTest, TheFileRoundTripsAndABadOneNamesItsKeys) {
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_EQ(read->ToJson(), written.ToJson());
 
-  std::ofstream(path) << "schema_version: 1\nfootprints:\n  - {camera: cam0, along_px: .nan, across_px: 9}\n"
-                         "gain_spread: 0.1\nnoize: 0.2\n";
-  const Result<ScanEmulation> bad = LoadScanEmulation(path);
-  ASSERT_FALSE(bad.ok());
-  for (const char* key : {"noize", "noise", path.string().c_str()}) {
-    EXPECT_NE(bad.status().ToString().find(key), std::string::npos) << bad.status().ToString();
-  }
-  std::ofstream(path) << "schema_version: 1\nfootprints:\n  - {camera: cam0, along_px: -1, across_px: 9}\n"
-                         "gain_spread: 0.1\nnoise: 0.2\n";
-  const Result<ScanEmulation> out_of_range = LoadScanEmulation(path);
-  ASSERT_FALSE(out_of_range.ok());
-  for (const char* key : {"footprints[0].along_px", "footprints[0].across_px", path.string().c_str()}) {
-    EXPECT_NE(out_of_range.status().ToString().find(key), std::string::npos) << out_of_range.status().ToString();
-  }
+  // A file with `footprint` and `rest` is refused with an error naming each of `keys` and the file.
+  const auto expect_refused = [&](const std::string& footprint, const std::string& rest, std::vector<std::string> keys) {
+    std::ofstream(path) << "schema_version: 1\nfootprints:\n  - {camera: cam0, " << footprint << "}\n" << rest;
+    const Result<ScanEmulation> bad = LoadScanEmulation(path);
+    ASSERT_FALSE(bad.ok()) << footprint << rest;
+    keys.push_back(path.string());
+    for (const std::string& key : keys)
+      EXPECT_NE(bad.status().ToString().find(key), std::string::npos) << bad.status().ToString();
+  };
+  expect_refused("along_px: .nan, across_px: 9", "gain_spread: 0.1\nnoize: 0.2\n", {"noize", "noise", "along_px"});
+  expect_refused("along_px: -1, across_px: 9", "gain_spread: 0.1\nnoise: 0.2\n",
+                 {"footprints[0].along_px", "footprints[0].across_px"});
   std::filesystem::remove(path);
 }
 
