@@ -52,11 +52,7 @@ struct TrainArguments {
 };
 
 // Renders the fabrics of --materials missing from `dir` (sim/training_set.h).
-Status RenderDataset(TrainArguments args, const fs::path& dir) {
-  if (args.dataset.scan_like_share > 0) {
-    if (args.scan_emulation.empty()) return InvalidArgumentError("--scan-like-share", "needs --scan-emulation FILE");
-    LOOM_ASSIGN_OR_RETURN(args.dataset.scan_emulation, sim::LoadScanEmulation(args.scan_emulation));
-  }
+Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
   LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig));
   if (!loaded.sim) {
     return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
@@ -84,6 +80,10 @@ Status Train(TrainArguments args) {
   if (args.validation + args.test >= args.dataset.materials) {
     return InvalidArgumentError("--validation/--test", "leave at least one of the --materials " +
                                                            std::to_string(args.dataset.materials) + " for training");
+  }
+  if (args.dataset.scan_like_share > 0) {
+    if (args.scan_emulation.empty()) return InvalidArgumentError("--scan-like-share", "needs --scan-emulation FILE");
+    LOOM_ASSIGN_OR_RETURN(args.dataset.scan_emulation, sim::LoadScanEmulation(args.scan_emulation));
   }
   LOOM_RETURN_IF_ERROR(RenderDataset(args, data));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(data, args.validation, args.test));
@@ -137,32 +137,16 @@ Status Train(TrainArguments args) {
            << "; test loss " << test.loss << " on " << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
   cnn.mutable_info().training = training.str();
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
+  nlohmann::json options = args.training.ToJson();
+  options.update(args.dataset.ToJson());
+  options.update({{"width_divisor", args.width_divisor},
+                  {"dropout", args.dropout},
+                  {"init", args.init},
+                  {"scan_emulation_file", args.scan_emulation}});
   const nlohmann::json report = {
       {"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
       {"kept_epoch", best->epoch},
-      {"options",
-       {{"first_seed", args.dataset.first_seed},
-        {"size_px", args.dataset.size_px},
-        {"width_divisor", args.width_divisor},
-        {"dropout", args.dropout},
-        {"epochs", args.training.epochs},
-        {"tile", args.training.tile},
-        {"tiles_per_step", args.training.tiles_per_step},
-        {"steps_per_epoch", args.training.steps_per_epoch},
-        {"lr_start", args.training.learning_rate_start},
-        {"lr_end", args.training.learning_rate_end},
-        {"weight_decay", args.training.weight_decay},
-        {"radiance_noise", args.training.radiance_noise},
-        {"out_of_model_share", args.dataset.out_of_model_share},
-        {"scan_like_share", args.dataset.scan_like_share},
-        {"scan_emulation", args.scan_emulation},
-        {"init", args.init},
-        {"rerender_weight", args.training.rerender_weight},
-        {"rerender_pixels", args.training.rerender_pixels},
-        {"rerender_strip_samples", args.training.rerender_strip_samples},
-        {"rerender_huber", args.training.rerender_huber},
-        {"resident_materials", args.training.resident_materials},
-        {"seed", args.training.seed}}},
+      {"options", options},
       {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
       {"label_channels", fitting::kLabelChannelNames},
       {"materials", {{"train", train_count}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},

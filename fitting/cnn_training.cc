@@ -258,6 +258,23 @@ Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::Ad
 
 }  // namespace
 
+nlohmann::json CnnTrainingOptions::ToJson() const {
+  return {{"epochs", epochs},
+          {"tile", tile},
+          {"tiles_per_step", tiles_per_step},
+          {"steps_per_epoch", steps_per_epoch},
+          {"lr_start", learning_rate_start},
+          {"lr_end", learning_rate_end},
+          {"weight_decay", weight_decay},
+          {"radiance_noise", radiance_noise},
+          {"rerender_weight", rerender_weight},
+          {"rerender_pixels", rerender_pixels},
+          {"rerender_strip_samples", rerender_strip_samples},
+          {"rerender_huber", rerender_huber},
+          {"resident_materials", resident_materials},
+          {"seed", seed}};
+}
+
 Status CnnTrainingOptions::Check() const {
   std::vector<std::string> problems;
   if (epochs < 1) problems.push_back("epochs must be ≥ 1");

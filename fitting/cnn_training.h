@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/observation_stack.h"
 #include "fitting/cnn.h"
 
@@ -88,6 +90,7 @@ struct CnnTrainingOptions {
   bool resume = false;                                       // continue after the last epoch in checkpoint_dir
   std::function<void(const CnnTrainingProgress&)> progress;  // after every step
   Status Check() const;                                      // every problem, naming the field
+  nlohmann::json ToJson() const;                             // the settings (not the callbacks or paths)
 };
 
 // The label's 14 channels in order, for reports: a_d.R … F0.

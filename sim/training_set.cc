@@ -26,6 +26,16 @@ Status TrainingSetSpec::Check() const {
   return ProblemsStatus("training set", problems);
 }
 
+nlohmann::json TrainingSetSpec::ToJson() const {
+  nlohmann::json json = {{"materials", materials},
+                         {"size_px", size_px},
+                         {"first_seed", first_seed},
+                         {"out_of_model_share", out_of_model_share},
+                         {"scan_like_share", scan_like_share}};
+  if (scan_like_share > 0) json["scan_emulation"] = scan_emulation.ToJson();
+  return json;
+}
+
 Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& observations, const TrainingSetSpec& spec,
                          const fs::path& dir, const TrainingSetProgress& progress) {
   LOOM_RETURN_IF_ERROR(spec.Check());

@@ -26,7 +26,8 @@ struct TrainingSetSpec {
   double out_of_model_share = 0;
   double scan_like_share = 0;
   ScanEmulation scan_emulation;  // needed when scan_like_share > 0
-  Status Check() const;          // every problem, naming the field
+  Status Check() const;
+  nlohmann::json ToJson() const;  // every problem, naming the field
 };
 
 // Called after each material with how many are done, of how many, and its name.
