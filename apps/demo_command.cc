@@ -17,6 +17,7 @@
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
 #include "core/version.h"
+#include "fitting/stack_fitter.h"
 
 namespace loom::apps {
 namespace {
@@ -198,6 +199,12 @@ Status Demo(const DemoArguments& args) {
   return Status::Ok();
 }
 
+std::vector<std::string> FitMethodNames() {
+  std::vector<std::string> names;
+  for (fitting::FitMethod method : fitting::kFitMethods) names.emplace_back(fitting::FitMethodName(method));
+  return names;
+}
+
 }  // namespace
 
 int RunDemo(int argc, char** argv) {
@@ -212,7 +219,7 @@ int RunDemo(int argc, char** argv) {
   app.add_option("--preset", args.preset, "Gloss preset of the material scan (default low)");
   app.add_option("--methods", args.methods, "Fit methods, in order, the last being the main result (default cnn cnn+refine)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"ceres", "refine", "cnn", "cnn+ceres", "cnn+refine"}));
+      ->check(CLI::IsMember(FitMethodNames()));
   app.add_option("--size", args.size_px, "Stack size in pixels (square, centred; default: reconstruct's)")
       ->check(CLI::Range(8, 8192));
   app.add_option("--out", args.out, "Directory to write, new or empty (default loom-demo)");

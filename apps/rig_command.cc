@@ -2,9 +2,7 @@
 // check the wiring of a new scanner or to recalibrate by hand. Every subcommand holds a
 // safe-state guard: LEDs go off and motion stops when it ends, Ctrl-C included.
 #include <chrono>
-#include <iomanip>
 #include <iostream>
-#include <sstream>
 #include <thread>
 
 #include <opencv2/core.hpp>

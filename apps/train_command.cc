@@ -81,6 +81,9 @@ Status Train(TrainArguments args) {
     return InvalidArgumentError("--validation/--test", "leave at least one of the --materials " +
                                                            std::to_string(args.dataset.materials) + " for training");
   }
+  if (!args.scan_emulation.empty() && !(args.dataset.scan_like_share > 0)) {
+    return InvalidArgumentError("--scan-emulation " + args.scan_emulation, "is used only with --scan-like-share > 0");
+  }
   if (args.dataset.scan_like_share > 0) {
     if (args.scan_emulation.empty()) return InvalidArgumentError("--scan-like-share", "needs --scan-emulation FILE");
     LOOM_ASSIGN_OR_RETURN(args.dataset.scan_emulation, sim::LoadScanEmulation(args.scan_emulation));

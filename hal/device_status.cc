@@ -53,7 +53,10 @@ Result<std::string> MoveDevice(Device& device, double to) {
     LOOM_ASSIGN_OR_RETURN(const LinearLightReadback read, light->Read());
     where << read.position_mm << " mm";
   } else if (auto* wheel = dynamic_cast<FilterWheel*>(&device)) {
-    if (to != static_cast<int>(to)) return InvalidArgumentError(device.name(), "a filter wheel slot is a whole number");
+    if (to != std::floor(to) || to < 0 || to >= wheel->slot_count()) {
+      return InvalidArgumentError(
+          device.name(), "a filter wheel slot is a whole number in [0, " + std::to_string(wheel->slot_count() - 1) + "]");
+    }
     LOOM_RETURN_IF_ERROR(wheel->MoveTo(static_cast<int>(to)));
     LOOM_ASSIGN_OR_RETURN(const int slot, wheel->Position());
     where << "slot " << slot;

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "hal/device_status.h"
 #include "hal/rig.h"
 #include "sim/test_materials.h"
 
@@ -119,6 +122,26 @@ TEST_F(SimBackendsTest, FilterWheelColoursTheLight) {
   const int px = static_cast<int>(std::lround(23.5 + 1.2 * x_mm));
   const int py = static_cast<int>(std::lround(23.5 - 1.2 * y_mm));
   EXPECT_GT(red.at(py, px) - 64, 3 * (blue.at(py, px) - 64)) << red.at(py, px) << " vs " << blue.at(py, px);
+}
+
+// hal/device_status.h on real (simulated) devices: what moves ends where it reports, and a
+// target that is no slot, no number or on a device that does not move is refused naming it.
+TEST_F(SimBackendsTest, DevicesMoveAndDescribeThemselvesAndBadTargetsAreNamed) {
+  const Result<std::string> turned = MoveDevice(*rig_->turntable(), 30);
+  ASSERT_TRUE(turned.ok()) << turned.status().ToString();
+  EXPECT_EQ(*turned, "30 deg");
+  EXPECT_NE(DescribeDeviceState(*rig_->turntable())->find("at 30.000 deg"), std::string::npos);
+  FilterWheel& wheel = *rig_->filter_wheels()[0];
+  EXPECT_EQ(*MoveDevice(wheel, 1), "slot 1");
+  for (double bad : {1.5, -1.0, 1e20, static_cast<double>(wheel.slot_count()), std::nan("")}) {
+    const Result<std::string> refused = MoveDevice(wheel, bad);
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_NE(refused.status().ToString().find(wheel.name()), std::string::npos) << refused.status().ToString();
+  }
+  EXPECT_EQ(*wheel.Position(), 1);
+  const Result<std::string> camera = MoveDevice(*rig_->cameras()[0], 1);
+  ASSERT_FALSE(camera.ok());
+  EXPECT_NE(camera.status().ToString().find("does not move"), std::string::npos) << camera.status().ToString();
 }
 
 TEST_F(SimBackendsTest, LinearLightAndProjectorLightTheSample) {
