@@ -17,6 +17,7 @@
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
 #include "core/version.h"
+#include "fitting/report.h"
 #include "fitting/stack_fitter.h"
 
 namespace loom::apps {
@@ -141,37 +142,11 @@ Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::s
   return summary;
 }
 
-void PrintMethod(const std::string& method, const nlohmann::ordered_json& e) {
-  std::cout << std::left << std::setw(11) << method << std::right << std::fixed << std::setprecision(1) << std::setw(7)
-            << e["normal_error_deg"]["median"].get<double>() << std::setw(7) << e["normal_error_deg"]["p90"].get<double>()
-            << std::setprecision(3);
-  for (const auto& [name, nrmse] : e["parameter_nrmse"].items()) {
-    if (name.rfind("n_s", 0) != 0) std::cout << std::setw(9) << nrmse.get<double>();
-  }
-  std::cout << "  |";
-  for (const auto& [group, l1] : e["rerender_l1"]["fit"].items()) std::cout << std::setw(8) << l1["relative_l1"].get<double>();
-  std::cout << "  |" << std::setprecision(2);
-  for (const auto& [name, noise] : e["map_noise"].items()) std::cout << std::setw(7) << noise["ratio"].get<double>();
-  std::cout << "\n";
-}
-
-void PrintSummary(const nlohmann::ordered_json& summary, const std::vector<std::string>& methods) {
+void PrintSummary(const nlohmann::ordered_json& summary) {
   std::cout << "\n== summary: " << summary["object"].get<std::string>() << " on " << summary["rig"].get<std::string>()
             << ", preset " << summary["preset"].get<std::string>() << "; camera calibration RMS " << std::fixed
             << std::setprecision(3) << summary["calibration_rms_px"].get<double>() << " px\n";
-  const nlohmann::ordered_json& first = summary["methods"][methods.front()];
-  std::cout << "           normal error  parameter NRMSE against the ground truth" << std::string(20, ' ')
-            << "| re-render relative L1" << std::string(18, ' ') << "| map noise ÷ truth's\n"
-            << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°" << std::setw(7) << "p90°";
-  for (const auto& [name, nrmse] : first["parameter_nrmse"].items()) {
-    if (name.rfind("n_s", 0) != 0) std::cout << std::setw(9) << name;
-  }
-  std::cout << "  |";
-  for (const auto& [group, l1] : first["rerender_l1"]["fit"].items()) std::cout << std::setw(8) << group.substr(0, 7);
-  std::cout << "  |";
-  for (const auto& [name, noise] : first["map_noise"].items()) std::cout << std::setw(7) << name;
-  std::cout << "\n";
-  for (const std::string& method : methods) PrintMethod(method, summary["methods"][method]);
+  fitting::PrintEvaluationTable(std::cout, summary["methods"]);
   std::cout << "\ntime per stage:";
   double total = 0;
   for (const auto& [stage, seconds] : summary["stage_seconds"].items()) total += seconds.get<double>();
@@ -192,7 +167,7 @@ Status Demo(const DemoArguments& args) {
   LOOM_RETURN_IF_ERROR(FitAndEvaluate(args, rig, &stages));
   LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json summary, Summarise(args, rig, stages));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "summary.json", summary.dump(2) + "\n"));
-  PrintSummary(summary, args.methods);
+  PrintSummary(summary);
   std::cout << "\nsummary: " << (fs::path(args.out) / "summary.json").string()
             << "\nreport:  " << summary["methods"][args.methods.back()]["report"].get<std::string>()
             << "\nglTF:    " << (fs::path(args.out) / "gltf" / "material.gltf").string() << "\n";

@@ -21,48 +21,37 @@ namespace {
 
 namespace fs = std::filesystem;
 
+fitting::StackFitOptions DefaultOptions() {
+  fitting::StackFitOptions options;
+  // Picked on a training fabric's reconstructed stack (fabric:1003; docs/benchmarks.md): every
+  // parameter's NRMSE below the CNN's, re-render L1 within 1 % of CNN + Ceres.
+  options.prior.weight = 0.1;
+  return options;
+}
+
 struct FitArguments {
   std::string stack;
   std::string out;
   std::string method = "ceres";
   std::string model;  // empty: configs/models/<the stack's rig>
-  int clusters = 8;
-  int threads = 0;
   std::string f0 = "1";
-  // Picked on a training fabric's reconstructed stack (fabric:1003; docs/benchmarks.md): every
-  // parameter's NRMSE below the CNN's, re-render L1 within 1 % of CNN + Ceres.
-  double prior_weight = 0.1;
-  double smoothing_weight = 0;
-  int strip_samples = 0;
-  int coarse_samples = 0;
   bool no_retries = false;
-  double retry_above = 2.5;
+  fitting::StackFitOptions options = DefaultOptions();
   bool quiet = false;
 };
 
-std::string SummaryJson(const fitting::StackFitSummary& s, const FitArguments& args, fitting::PixelSolver solver,
-                        double cnn_seconds, const Image& maps) {
+std::string SummaryJson(const nlohmann::json& fit, const FitArguments& args, double cnn_seconds, const Image& maps) {
   std::vector<std::string> uncertainty;
   for (const std::string& name : maps.channel_names()) {
     if (name.starts_with("unc.")) uncertainty.push_back(name);
   }
-  nlohmann::json json = s.ToJson();
-  json.update(
-      {{"method", args.method},
-       {"model", args.model},
-       {"cnn_seconds", cnn_seconds},
-       {"stack", args.stack},
-       {"f0_option", args.f0},
-       {"solver",
-        solver == fitting::PixelSolver::kBatchRefiner ? "batch refiner (" + fitting::RefinerInstructionSet() + ")" : "ceres"},
-       {"prior_weight", args.prior_weight},
-       {"smoothing_weight", args.smoothing_weight},
-       {"strip_samples", args.strip_samples},
-       {"coarse_samples", args.coarse_samples},
-       {"retries", !args.no_retries},
-       {"retry_above", args.retry_above},
-       {"uncertainty_channels", uncertainty},
-       {"loom_version", std::string(VersionWithCommit())}});
+  nlohmann::json json = fit;
+  json.update({{"method", args.method},
+               {"model", args.model},
+               {"cnn_seconds", cnn_seconds},
+               {"stack", args.stack},
+               {"uncertainty_channels", uncertainty},
+               {"loom_version", std::string(VersionWithCommit())}});
   return json.dump(2) + "\n";
 }
 
@@ -76,7 +65,7 @@ Result<Image> CnnMaps(FitArguments& args, const ObservationStack& stack) {
   LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(args.model));
   std::cerr << "CNN " << args.model << " (" << cnn.info().architecture.input_channels << " input channels, width 1/"
             << cnn.info().architecture.width_divisor << ")\n";
-  return cnn.PredictMaps(stack, args.threads);
+  return cnn.PredictMaps(stack, args.options.threads);
 }
 
 Status WriteMaps(const FitArguments& args, const ObservationStack& stack, const Image& maps, const std::string& summary) {
@@ -102,41 +91,18 @@ Status Fit(FitArguments args) {
     std::cout << "CNN: " << stack.image.width() << "x" << stack.image.height() << " px in " << FormatDuration(cnn_seconds)
               << "\n";
     if (*method == fitting::FitMethod::kCnn) {
-      const nlohmann::json summary = {{"method", args.method},      {"model", args.model},
-                                      {"stack", args.stack},        {"pixels", stack.image.pixel_count()},
-                                      {"cnn_seconds", cnn_seconds}, {"loom_version", std::string(VersionWithCommit())}};
-      return WriteMaps(args, stack, *cnn_maps, summary.dump(2) + "\n");
+      return WriteMaps(args, stack, *cnn_maps,
+                       SummaryJson({{"pixels", stack.image.pixel_count()}}, args, cnn_seconds, *cnn_maps));
     }
   }
   ProgressBar clusters("clusters", args.quiet);
   ProgressBar pixels("pixels  ", args.quiet);
   ProgressBar retries("retries ", args.quiet);
   ProgressBar smoothing("smoothing", args.quiet);
-  fitting::StackFitOptions options;
-  options.clusters = args.clusters;
-  options.threads = args.threads;
+  fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
-  options.retry_above_noise_rms = args.retry_above;
   options.solver = fitting::SolverOf(*method);
-  if (options.solver == fitting::PixelSolver::kBatchRefiner) {
-    options.prior.weight = args.prior_weight;
-    options.smoothing.weight = args.smoothing_weight;
-    options.max_lights_per_observation = args.strip_samples;
-    options.coarse_lights_per_observation = args.coarse_samples;
-  }
-  if (args.f0 == "material") {
-    options.fixed_f0.reset();
-  } else {
-    size_t parsed = 0;
-    try {
-      options.fixed_f0 = std::stod(args.f0, &parsed);
-    } catch (const std::exception&) {
-      parsed = 0;
-    }
-    if (parsed == 0 || parsed != args.f0.size()) {
-      return InvalidArgumentError("--f0 " + args.f0, "expected a number in [0, 1] or 'material'");
-    }
-  }
+  LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
   options.progress = [&](const fitting::StackFitProgress& p) {
     ProgressBar& bar = p.stage == "clusters"  ? clusters
                        : p.stage == "pixels"  ? pixels
@@ -147,7 +113,9 @@ Status Fit(FitArguments args) {
   if (cnn_maps) options.initial_maps = &*cnn_maps;
   LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
   fit.summary.Report(std::cout);
-  return WriteMaps(args, stack, fit.maps, SummaryJson(fit.summary, args, options.solver, cnn_seconds, fit.maps));
+  nlohmann::json summary = fit.summary.ToJson();
+  summary.update(options.ToJson());
+  return WriteMaps(args, stack, fit.maps, SummaryJson(summary, args, cnn_seconds, fit.maps));
 }
 
 }  // namespace
@@ -164,30 +132,30 @@ int RunFit(int argc, char** argv) {
                  "refiner), cnn (the network alone), cnn+ceres (the CNN's maps start every pixel's Ceres fit) or "
                  "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
                  "uncertainty maps)");
-  app.add_option("--prior-weight", args.prior_weight,
+  app.add_option("--prior-weight", args.options.prior.weight,
                  "cnn+refine: weight of the prior toward the CNN's maps (default 0.1; 0: none; 1: the CNN's "
                  "measured errors as its 1 sigma)")
       ->check(CLI::Range(0.0, 1e6));
-  app.add_option("--smoothing-weight", args.smoothing_weight,
+  app.add_option("--smoothing-weight", args.options.smoothing.weight,
                  "refine methods: weight of a second pass's prior toward each pixel's 3x3 neighbourhood median (0: no "
                  "second pass)")
       ->check(CLI::Range(0.0, 1e6));
-  app.add_option("--strip-samples", args.strip_samples,
+  app.add_option("--strip-samples", args.options.max_lights_per_observation,
                  "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
                  "strip (0: all of them)")
       ->check(CLI::Range(0, 4096));
-  app.add_option("--coarse-samples", args.coarse_samples,
+  app.add_option("--coarse-samples", args.options.coarse_lights_per_observation,
                  "refine methods: coarse to fine, each pixel first converged with its strips merged into this many "
                  "light samples, then finished with all of them (0: one pass)")
       ->check(CLI::Range(0, 4096));
   app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
-  app.add_option("--clusters", args.clusters, "Appearance clusters that initialise the per-pixel fits")
+  app.add_option("--clusters", args.options.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
-  app.add_option("--threads", args.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
+  app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_option("--f0", args.f0,
                  "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
                  "observations fix), or 'material': one F0 fitted per material");
-  app.add_option("--retry-above", args.retry_above,
+  app.add_option("--retry-above", args.options.retry_above_noise_rms,
                  "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
                  "stack's noise level (the best-fitted tenth's RMS; default 2.5)")
       ->check(CLI::Range(1.0, 1e6));

@@ -1,11 +1,8 @@
 // loom reconstruct: a scan → the calibrated observation stack (stack.exr) + reconstruction.json.
-#include <algorithm>
 #include <chrono>
 #include <filesystem>
-#include <iomanip>
 #include <iostream>
 #include <memory>
-#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -30,43 +27,13 @@ struct ReconstructArguments {
   bool quiet = false;
 };
 
-nlohmann::json SamplingJson(const std::vector<reconstruction::CameraSampling>& sampling) {
-  nlohmann::json json = nlohmann::json::object();
-  for (const reconstruction::CameraSampling& s : sampling) json[s.camera] = s.camera_px_per_stack_px;
-  return json;
-}
-
-// A note when a camera samples the stack coarsely: the stack is then blurred, not wrong.
-void NoteCoarseSampling(const std::vector<reconstruction::CameraSampling>& sampling, double pixel_mm) {
-  const bool coarse = std::any_of(sampling.begin(), sampling.end(), [](const reconstruction::CameraSampling& s) {
-    return s.camera_px_per_stack_px < reconstruction::kFineSampling;
-  });
-  if (!coarse) return;
-  std::cerr << "note: the stack's " << pixel_mm << " mm pixels span";
-  for (size_t i = 0; i < sampling.size(); ++i) {
-    std::cerr << (i == 0 ? " " : ", ") << std::fixed << std::setprecision(2) << sampling[i].camera_px_per_stack_px << " ("
-              << sampling[i].camera << ")";
-  }
-  std::cerr << std::defaultfloat << " camera pixels at the coarsest; below " << reconstruction::kFineSampling
-            << " the observations are blurred over neighbouring stack pixels: a larger --pixel-mm or finer cameras "
-               "sharpen them (reconstruction/README.md)\n";
-}
-
 std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args,
                         const calibration::AppliedCalibration& applied, double seconds) {
-  nlohmann::json json = {{"scan", args.scan},
-                         {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
-                         {"width_px", args.options.width_px},
-                         {"height_px", args.options.height_px},
-                         {"pixel_mm", args.options.pixel_mm},
-                         {"observations", r.stack.observations.size()},
-                         {"camera_px_per_stack_px", SamplingJson(r.sampling)},
-                         {"heightmap_camera", r.heightmap_camera},
-                         {"heightmap_filled_pixels", r.heightmap_filled},
-                         {"saturated_pixels", r.saturated_pixels},
-                         {"unseen_fraction", r.unseen_fraction},
-                         {"seconds", seconds},
-                         {"loom_version", std::string(VersionWithCommit())}};
+  nlohmann::json json = r.ToJson();
+  json.update({{"scan", args.scan},
+               {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
+               {"seconds", seconds},
+               {"loom_version", std::string(VersionWithCommit())}});
   json.update(applied.ToJson());
   return json.dump(2) + "\n";
 }
@@ -102,7 +69,7 @@ Status Reconstruct(const ReconstructArguments& args) {
   LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result,
                         reconstruction::Reconstruct(store, rig, args.options, progress));
   bar.reset();
-  NoteCoarseSampling(result.sampling, args.options.pixel_mm);
+  if (const std::string note = result.CoarseSamplingNote(); !note.empty()) std::cerr << "note: " << note << "\n";
   std::error_code error;
   fs::create_directories(args.out, error);
   if (error) return IoError(args.out, "cannot create the directory: " + error.message());

@@ -19,19 +19,11 @@
 namespace loom::apps {
 namespace {
 
-using hal::Camera;
 using hal::Device;
 using hal::Rig;
 
 std::string Pad(const std::string& text, size_t width) {
   return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
-}
-
-Result<Device*> FindDevice(const Rig& rig, const std::string& name) {
-  if (Device* device = rig.FindDevice(name)) return device;
-  std::string names;
-  for (Device* device : rig.devices()) names += (names.empty() ? "" : ", ") + device->name();
-  return NotFoundError("device '" + name + "'", "not in rig '" + rig.name() + "' (devices: " + names + ")");
 }
 
 int List(const std::string& rig_path, bool discover) {
@@ -98,39 +90,22 @@ Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
                    {"loom.units", std::string("raw sensor counts (DN)")}});
 }
 
-Status Snap(Rig& rig, const std::string& camera_name, double exposure_us, const std::string& leds, const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(Device* const device, FindDevice(rig, camera_name));
-  auto* camera = dynamic_cast<Camera*>(device);
-  if (camera == nullptr) return InvalidArgumentError("--camera " + camera_name, "is a " + device->kind() + ", not a camera");
-  hal::SafeStateGuard guard(rig);
+Status Snap(Rig& rig, const std::string& camera, double exposure_us, const std::string& leds, const std::string& out) {
+  std::vector<scan::LedDrive> drives;
   if (!leds.empty()) {
-    if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
-    LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, scan::ParseLedDrives(leds, "--leds"));
-    LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
-    LOOM_RETURN_IF_ERROR(rig.leds()->Start());
-    LOOM_RETURN_IF_ERROR(rig.leds()->Drive(drives));
+    LOOM_ASSIGN_OR_RETURN(drives, scan::ParseLedDrives(leds, "--leds"));
   }
-  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(camera));
-  if (exposure_us > 0 || camera->settings().trigger != hal::TriggerMode::kSoftware) {
-    hal::CameraSettings settings = camera->settings();
-    if (exposure_us > 0) settings.exposure_us = exposure_us;
-    settings.trigger = hal::TriggerMode::kSoftware;
-    LOOM_ASSIGN_OR_RETURN(const hal::ConfigureReport report, camera->Configure(settings));
-    LOOM_RETURN_IF_ERROR(report.ToStatus(camera->description()));
-  }
-  LOOM_RETURN_IF_ERROR(camera->Start());
-  // The other devices are read for the frame's rig state only where they are open: snap does not
-  // move anything, so the state recorded is what the open devices report.
-  LOOM_ASSIGN_OR_RETURN(const scan::RawFrame frame, rig.Snap(*camera));
+  hal::SafeStateGuard guard(rig);
+  LOOM_ASSIGN_OR_RETURN(const scan::RawFrame frame, hal::SnapFrame(rig, camera, exposure_us, drives));
   LOOM_RETURN_IF_ERROR(WriteFrame(frame, out));
   std::cout << "wrote " << out << ": " << frame.width << "x" << frame.height << " "
             << scan::PixelFormatName(frame.metadata.pixel_format) << ", exposure " << frame.metadata.exposure_us << " us, from "
-            << camera->description() << "\n";
-  return camera->Close();
+            << camera << "\n";
+  return rig.FindDevice(camera)->Close();  // the LEDs stay open for the guard to switch off
 }
 
 Status Move(Rig& rig, const std::string& name, double to) {
-  LOOM_ASSIGN_OR_RETURN(Device* const device, FindDevice(rig, name));
+  LOOM_ASSIGN_OR_RETURN(Device* const device, hal::FindNamedDevice(rig, name));
   hal::SafeStateGuard guard(rig);
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(device));
   LOOM_RETURN_IF_ERROR(device->Start());
@@ -140,12 +115,9 @@ Status Move(Rig& rig, const std::string& name, double to) {
 }
 
 Status Leds(Rig& rig, const std::string& on, double hold_s) {
-  if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> leds, scan::ParseLedDrives(on, "--on"));
   hal::SafeStateGuard guard(rig);
-  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
-  LOOM_RETURN_IF_ERROR(rig.leds()->Start());
-  LOOM_RETURN_IF_ERROR(rig.leds()->Drive(leds));
+  LOOM_RETURN_IF_ERROR(hal::LightLeds(rig, leds));
   std::cout << leds.size() << " LEDs on for " << hold_s << " s (Ctrl-C ends it)" << std::endl;
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(hold_s);
   while (std::chrono::steady_clock::now() < until && !InterruptRequested()) {

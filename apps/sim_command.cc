@@ -90,25 +90,15 @@ int Render(const std::string& rig_path, const std::string& object, const std::st
     return ReportFailure(InvalidArgumentError(rig_path, "not a simulated rig (it has no 'geometry:' section)"));
   }
   if (stack) return RenderStack(*loaded, preset, size_px, truth_path, out);
-  const std::shared_ptr<const sim::Scene> scene_owner = loaded->sim->world->scene();
-  const sim::Scene& scene = *scene_owner;
-  int camera = -1;
-  for (size_t i = 0; i < scene.rig().cameras.size(); ++i) {
-    if (scene.rig().cameras[i].name == camera_name) camera = static_cast<int>(i);
-  }
-  if (camera < 0) return ReportFailure(NotFoundError("--camera " + camera_name, "not in the rig geometry"));
   sim::SceneState state;
   state.turntable_deg = angle_deg;
   Result<std::vector<scan::LedDrive>> drives = scan::ParseLedDrives(leds, "--leds");
   if (!drives.ok()) return ReportFailure(drives.status());
   for (const scan::LedDrive& drive : *drives) state.leds.push_back({drive.led, drive.current_ma});
-  const Image radiance = scene.RenderRadiance(camera, state);
-  const CameraModel& model = scene.rig().cameras[camera];
-  const std::vector<uint16_t> raw = sim::CaptureRaw(radiance, model.sensor, {exposure_us, 0}, loaded->sim->world->seed);
-  Image image(radiance.width(), radiance.height(), {"radiance", "raw"});
-  std::copy(radiance.channel(0).begin(), radiance.channel(0).end(), image.channel(0).begin());
-  std::copy(raw.begin(), raw.end(), image.channel(1).begin());
-  if (Status written = WriteExr(out, image, {{"loom.camera", camera_name}, {"loom.exposure_us", exposure_us}}); !written.ok()) {
+  const Result<Image> image =
+      sim::RenderCameraFrame(*loaded->sim->world->scene(), camera_name, state, {exposure_us, 0}, loaded->sim->world->seed);
+  if (!image.ok()) return ReportFailure(image.status());
+  if (Status written = WriteExr(out, *image, {{"loom.camera", camera_name}, {"loom.exposure_us", exposure_us}}); !written.ok()) {
     return ReportFailure(written);
   }
   std::cout << "wrote " << out.string() << ": radiance and raw DN of " << camera_name << "\n";

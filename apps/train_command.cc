@@ -9,7 +9,6 @@
 //    random ones; --rerender-weight adds the re-rendering loss.
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
 //    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
-#include <algorithm>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -25,7 +24,6 @@
 #include "core/version.h"
 #include "fitting/cnn_dataset.h"
 #include "fitting/cnn_training.h"
-#include "fitting/model/svbrdf_maps.h"
 #include "scan/plan.h"
 #include "sim/plan_observations.h"
 #include "sim/training_set.h"
@@ -67,16 +65,18 @@ Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
   });
 }
 
-std::string RmseLine(const std::array<double, 14>& rmse) {
-  std::ostringstream line;
-  line << std::fixed << std::setprecision(3);
-  for (int c = 0; c < 14; ++c) line << (c ? "  " : "") << fitting::kLabelChannelNames[c] << " " << rmse[c];
-  return line.str();
+// What the dataset's stacks are and where the model came from, kept in model.json.
+std::string TrainingDescription(const TrainArguments& args, const fitting::CnnDatasetTraining& run) {
+  std::ostringstream text;
+  text << "epoch " << run.kept.epoch << " (lowest validation loss, " << run.kept.validation_loss << ") of " << run.history.size()
+       << " epochs on " << run.train_materials << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
+       << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << ", scan-like share "
+       << args.dataset.scan_like_share << "), preset " << args.preset << (args.init.empty() ? "" : ", from " + args.init)
+       << "; test loss " << run.test.loss << " on " << run.test_materials << " held-out fabrics; loom " << VersionWithCommit();
+  return text.str();
 }
 
-Status Train(TrainArguments args) {
-  const fs::path out(args.out);
-  const fs::path data = args.data.empty() ? out / "data" : fs::path(args.data);
+Status CheckDatasetArguments(TrainArguments& args) {
   if (args.validation + args.test >= args.dataset.materials) {
     return InvalidArgumentError("--validation/--test", "leave at least one of the --materials " +
                                                            std::to_string(args.dataset.materials) + " for training");
@@ -88,30 +88,15 @@ Status Train(TrainArguments args) {
     if (args.scan_emulation.empty()) return InvalidArgumentError("--scan-like-share", "needs --scan-emulation FILE");
     LOOM_ASSIGN_OR_RETURN(args.dataset.scan_emulation, sim::LoadScanEmulation(args.scan_emulation));
   }
+  return Status::Ok();
+}
+
+Status Train(TrainArguments args) {
+  const fs::path out(args.out);
+  const fs::path data = args.data.empty() ? out / "data" : fs::path(args.data);
+  LOOM_RETURN_IF_ERROR(CheckDatasetArguments(args));
   LOOM_RETURN_IF_ERROR(RenderDataset(args, data));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(data, args.validation, args.test));
-  const int train_count = dataset.train_count();
-  const bool streaming = args.training.resident_materials > 0 && args.training.resident_materials < train_count;
-  // The input normalisation from the training stacks: all of them, or streaming the first 64.
-  LOOM_ASSIGN_OR_RETURN(const fitting::CnnModelInfo new_info,
-                        dataset.ModelInfo({0, args.width_divisor, args.dropout}, streaming ? 64 : train_count));
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::StartingCnn(new_info, args.init, args.training.seed));
-  const fitting::CnnModelInfo info = cnn.info();
-  const bool keep_stacks = args.training.rerender_weight > 0;
-  const auto example = [&](int i) { return dataset.Example(i, info, keep_stacks); };
-  std::vector<fitting::CnnExample> sets[3];  // train (when in memory), validation, test
-  for (int i = streaming ? train_count : 0; i < dataset.size(); ++i) {
-    LOOM_ASSIGN_OR_RETURN(fitting::CnnExample e, example(i));
-    sets[i < train_count ? 0 : i < train_count + args.validation ? 1 : 2].push_back(std::move(e));
-  }
-  const fitting::CnnExampleSource train_source =
-      streaming ? fitting::CnnExampleSource{train_count, example}
-                : fitting::CnnExampleSource{train_count, [&](int i) -> Result<fitting::CnnExample> { return sets[0][i]; }};
-  std::cout << "dataset " << data.string() << ": " << train_count << " training"
-            << (streaming ? " (read " + std::to_string(args.training.resident_materials) + " at a time)" : "") << ", "
-            << sets[1].size() << " validation, " << sets[2].size() << " test materials; " << info.architecture.input_channels
-            << " input channels; radiance scale " << info.radiance_scale << "\n";
-
   args.training.checkpoint_dir = out / "checkpoints";
   ProgressBar bar("training", args.quiet);
   args.training.progress = [&](const fitting::CnnTrainingProgress& p) {
@@ -120,44 +105,26 @@ Status Train(TrainArguments args) {
     bar.Update(static_cast<int64_t>(p.epoch - 1) * p.steps + p.step, static_cast<int64_t>(p.epochs) * p.steps, "steps",
                detail.str());
   };
-  LOOM_ASSIGN_OR_RETURN(const std::vector<fitting::CnnEpoch> history,
-                        fitting::TrainCnn(cnn, train_source, sets[1], args.training));
-  for (const fitting::CnnEpoch& e : history) {
-    std::cout << std::setprecision(4) << "epoch " << e.epoch << ": lr " << e.learning_rate << ", train " << e.train_loss
-              << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0) << e.samples_per_second
-              << " samples/s)" << std::defaultfloat << "\n";
-  }
-  // The model is the epoch with the lowest validation loss: later ones may have overfitted.
-  LOOM_ASSIGN_OR_RETURN(cnn, fitting::Cnn::Load(args.training.checkpoint_dir / "best"));
-  const auto best = std::min_element(history.begin(), history.end(),
-                                     [](const auto& a, const auto& b) { return a.validation_loss < b.validation_loss; });
-  LOOM_ASSIGN_OR_RETURN(const fitting::CnnScore test, fitting::ScoreCnn(cnn, sets[2], args.training.threads));
-  std::ostringstream training;
-  training << "epoch " << best->epoch << " (lowest validation loss, " << best->validation_loss << ") of " << history.size()
-           << " epochs on " << train_count << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
-           << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << ", scan-like share "
-           << args.dataset.scan_like_share << "), preset " << args.preset << (args.init.empty() ? "" : ", from " + args.init)
-           << "; test loss " << test.loss << " on " << sets[2].size() << " held-out fabrics; loom " << VersionWithCommit();
-  cnn.mutable_info().training = training.str();
+  LOOM_ASSIGN_OR_RETURN(fitting::CnnDatasetTraining run,
+                        fitting::TrainOnDataset(dataset, {0, args.width_divisor, args.dropout}, args.init, args.training));
+  fitting::Cnn& cnn = *run.model;
+  std::cout << "dataset " << data.string() << ": " << run.train_materials << " training"
+            << (run.streamed ? " (read " + std::to_string(args.training.resident_materials) + " at a time)" : "") << ", "
+            << run.validation_materials << " validation, " << run.test_materials << " test materials; "
+            << cnn.info().architecture.input_channels << " input channels; radiance scale " << cnn.info().radiance_scale << "\n";
+  run.Report(std::cout);
+  cnn.mutable_info().training = TrainingDescription(args, run);
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
-  nlohmann::json options = args.training.ToJson();
-  options.update(args.dataset.ToJson());
-  options.update({{"width_divisor", args.width_divisor},
-                  {"dropout", args.dropout},
-                  {"init", args.init},
-                  {"scan_emulation_file", args.scan_emulation}});
-  const nlohmann::json report = {
-      {"epochs", nlohmann::json::parse(fitting::CnnHistoryJson(history))},
-      {"kept_epoch", best->epoch},
-      {"options", options},
-      {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
-      {"label_channels", fitting::kLabelChannelNames},
-      {"materials", {{"train", train_count}, {"validation", sets[1].size()}, {"test", sets[2].size()}}},
-      {"loom_version", std::string(VersionWithCommit())}};
+  nlohmann::json report = run.ToJson();
+  report["options"] = args.training.ToJson();
+  report["options"].update(args.dataset.ToJson());
+  report["options"].update({{"width_divisor", args.width_divisor},
+                            {"dropout", args.dropout},
+                            {"init", args.init},
+                            {"scan_emulation_file", args.scan_emulation}});
+  report["loom_version"] = std::string(VersionWithCommit());
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out / "training.json", report.dump(2) + "\n"));
-  std::cout << "kept epoch " << best->epoch << " (lowest validation loss " << best->validation_loss << ")\n"
-            << "test loss " << test.loss << "; RMSE per label channel:\n  " << RmseLine(test.rmse) << "\n"
-            << "wrote " << out.string() << "/model.json, weights.pt and training.json\n";
+  std::cout << "wrote " << out.string() << "/model.json, weights.pt and training.json\n";
   return Status::Ok();
 }
 
@@ -168,9 +135,6 @@ int RunTrain(int argc, char** argv) {
   AddCommonOptions(app);
   TrainArguments args;
   fitting::CnnTrainingOptions& t = args.training;
-  t.epochs = 30;
-  t.learning_rate_start = 1e-3;  // the paper's 1e-5 → 1e-6 is for 768,000 steps of batch 64
-  t.learning_rate_end = 1e-4;
   app.add_option("--rig", args.rig, "Simulated rig YAML (its geometry renders the dataset)")->required();
   app.add_option("--preset", args.preset, "Gloss preset whose material plan makes the observations");
   app.add_option("--out", args.out, "Model directory: model.json, weights.pt, training.json, checkpoints/")->required();

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 
 #include "core/exr_io.h"
+#include "fitting/model/label.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -86,6 +88,79 @@ Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint6
                                           std::to_string(info.architecture.input_channels) + ")");
   }
   return cnn;
+}
+
+namespace {
+
+// The radiance scale is a median: 64 stacks measure it as well as all of them.
+constexpr int kNormalisationStacks = 64;
+
+Result<std::vector<CnnExample>> ReadExamples(const CnnDataset& dataset, int first, int count, const CnnModelInfo& info,
+                                             bool keep_stacks) {
+  std::vector<CnnExample> examples;
+  for (int i = first; i < first + count; ++i) {
+    LOOM_ASSIGN_OR_RETURN(CnnExample e, dataset.Example(i, info, keep_stacks));
+    examples.push_back(std::move(e));
+  }
+  return examples;
+}
+
+}  // namespace
+
+Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnArchitecture& architecture, const std::string& init,
+                                          const CnnTrainingOptions& options) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  if (options.checkpoint_dir.empty()) {
+    return InvalidArgumentError("CnnTrainingOptions.checkpoint_dir", "is needed: the kept epoch is reloaded from it");
+  }
+  CnnDatasetTraining run;
+  run.train_materials = dataset.train_count();
+  run.validation_materials = dataset.validation_count();
+  run.test_materials = dataset.test_count();
+  run.streamed = options.resident_materials > 0 && options.resident_materials < run.train_materials;
+  LOOM_ASSIGN_OR_RETURN(const CnnModelInfo new_info, dataset.ModelInfo(architecture, kNormalisationStacks));
+  LOOM_ASSIGN_OR_RETURN(Cnn cnn, StartingCnn(new_info, init, options.seed));
+  const CnnModelInfo info = cnn.info();
+  const bool keep_stacks = options.rerender_weight > 0;
+  const auto example = [&](int i) { return dataset.Example(i, info, keep_stacks); };
+  std::vector<CnnExample> train;
+  if (!run.streamed) {
+    LOOM_ASSIGN_OR_RETURN(train, ReadExamples(dataset, 0, run.train_materials, info, keep_stacks));
+  }
+  LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> validation,
+                        ReadExamples(dataset, run.train_materials, run.validation_materials, info, keep_stacks));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> test,
+                        ReadExamples(dataset, run.train_materials + run.validation_materials, run.test_materials, info, false));
+  const CnnExampleSource source =
+      run.streamed ? CnnExampleSource{run.train_materials, example}
+                   : CnnExampleSource{run.train_materials, [&](int i) -> Result<CnnExample> { return train[i]; }};
+  LOOM_ASSIGN_OR_RETURN(run.history, TrainCnn(cnn, source, validation, options));
+  run.kept = *std::min_element(run.history.begin(), run.history.end(),
+                               [](const CnnEpoch& a, const CnnEpoch& b) { return a.validation_loss < b.validation_loss; });
+  LOOM_ASSIGN_OR_RETURN(run.model, Cnn::Load(options.checkpoint_dir / "best"));
+  LOOM_ASSIGN_OR_RETURN(run.test, ScoreCnn(*run.model, test, options.threads));
+  return run;
+}
+
+nlohmann::json CnnDatasetTraining::ToJson() const {
+  return {{"epochs", nlohmann::json::parse(CnnHistoryJson(history))},
+          {"kept_epoch", kept.epoch},
+          {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
+          {"label_channels", kLabelChannelNames},
+          {"materials", {{"train", train_materials}, {"validation", validation_materials}, {"test", test_materials}}}};
+}
+
+void CnnDatasetTraining::Report(std::ostream& out) const {
+  for (const CnnEpoch& e : history) {
+    out << std::setprecision(4) << "epoch " << e.epoch << ": lr " << e.learning_rate << ", train " << e.train_loss
+        << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0) << e.samples_per_second
+        << " samples/s)" << std::defaultfloat << "\n";
+  }
+  out << std::setprecision(4) << "kept epoch " << kept.epoch << " (lowest validation loss " << kept.validation_loss
+      << ")\ntest loss " << test.loss << " on " << test_materials << " materials; RMSE per label channel:\n " << std::fixed
+      << std::setprecision(3);
+  for (int c = 0; c < kLabelSize; ++c) out << "  " << kLabelChannelNames[c] << " " << test.rmse[c];
+  out << std::defaultfloat << "\n";
 }
 
 }  // namespace loom::fitting

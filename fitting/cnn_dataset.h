@@ -7,8 +7,12 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "fitting/cnn.h"
 #include "fitting/cnn_training.h"
@@ -50,5 +54,29 @@ class CnnDataset {
 // What training starts from: a new model for `info` (weights from `seed`), or the model in
 // `init` (fine-tuning, its input normalisation kept) when it takes the same stacks.
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed);
+
+// What TrainOnDataset did: every epoch, the one kept and its score on the test materials.
+struct CnnDatasetTraining {
+  std::vector<CnnEpoch> history;
+  CnnEpoch kept;  // the epoch with the lowest validation loss
+  CnnScore test;  // of the kept epoch, on the test materials
+  int train_materials = 0;
+  int validation_materials = 0;
+  int test_materials = 0;
+  bool streamed = false;     // the training stacks were read from disk a window at a time
+  std::optional<Cnn> model;  // the kept epoch's
+
+  nlohmann::json ToJson() const;         // epochs, kept_epoch, test, label_channels, materials
+  void Report(std::ostream& out) const;  // one line per epoch, the kept one, the test RMSE per channel
+};
+
+// Trains a model on `dataset` (what loom train does between rendering the dataset and saving):
+// a new model of `architecture` for the dataset's stacks, or the one in `init` (fine-tuning);
+// the training stacks in memory, or streamed options.resident_materials at a time when that is
+// fewer; then the epoch with the lowest validation loss, reloaded from
+// options.checkpoint_dir/best (later epochs may have overfitted) and scored on the test set.
+// The input normalisation comes from the first 64 training stacks.
+Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnArchitecture& architecture, const std::string& init,
+                                          const CnnTrainingOptions& options);
 
 }  // namespace loom::fitting

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
+
 #include "fitting/model/label.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/test_materials.h"
@@ -86,6 +88,46 @@ TEST(CnnDatasetTest, FineTuningNeedsAModelForTheSameStacks) {
   const Result<Cnn> mismatched = StartingCnn(other, dir.string(), 1);
   ASSERT_FALSE(mismatched.ok());
   EXPECT_TRUE(Contains(mismatched.status(), "other stacks")) << mismatched.status().ToString();
+  fs::remove_all(dir);
+}
+
+// The whole of loom train between rendering and saving, in memory and streamed: the kept model
+// is the epoch with the lowest validation loss, scored on the test fabric.
+TEST(CnnDatasetTest, TrainsKeepsTheBestEpochAndScoresItOnTheTestSet) {
+  const fs::path dir = FourPairs("cnn_dataset_train");
+  const Result<CnnDataset> dataset = CnnDataset::Open(dir, 1, 1);
+  ASSERT_TRUE(dataset.ok()) << dataset.status().ToString();
+  CnnTrainingOptions options;
+  options.epochs = 2;
+  options.tile = 8;
+  options.steps_per_epoch = 3;
+  options.threads = 1;
+  EXPECT_FALSE(TrainOnDataset(*dataset, {0, 32, 0.02}, "", options).ok());  // no checkpoint_dir to keep the best in
+  options.checkpoint_dir = dir / "in-memory";
+  const Result<CnnDatasetTraining> resident = TrainOnDataset(*dataset, {0, 32, 0.02}, "", options);
+  ASSERT_TRUE(resident.ok()) << resident.status().ToString();
+  options.checkpoint_dir = dir / "streamed";
+  options.resident_materials = 1;
+  const Result<CnnDatasetTraining> streamed = TrainOnDataset(*dataset, {0, 32, 0.02}, "", options);
+  ASSERT_TRUE(streamed.ok()) << streamed.status().ToString();
+
+  EXPECT_FALSE(resident->streamed);
+  EXPECT_TRUE(streamed->streamed);
+  ASSERT_EQ(resident->history.size(), 2u);
+  const CnnEpoch& best =
+      resident->history[0].validation_loss < resident->history[1].validation_loss ? resident->history[0] : resident->history[1];
+  EXPECT_EQ(resident->kept.epoch, best.epoch);
+  ASSERT_TRUE(resident->model.has_value());
+  EXPECT_EQ(resident->model->info().architecture.input_channels, kCnnGeometryChannels + 3);
+  EXPECT_EQ(resident->test_materials, 1);
+  EXPECT_EQ(resident->test.pixels, 16 * 16);
+  EXPECT_GT(resident->test.loss, 0);
+  const nlohmann::json json = resident->ToJson();
+  EXPECT_EQ(json["materials"]["train"], 2);
+  EXPECT_EQ(json["epochs"].size(), 2u);
+  EXPECT_EQ(json["kept_epoch"], best.epoch);
+  ASSERT_EQ(streamed->history.size(), 2u);  // its tiles come a window of materials at a time: other steps
+  EXPECT_TRUE(std::isfinite(streamed->test.loss));
   fs::remove_all(dir);
 }
 

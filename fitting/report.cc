@@ -202,4 +202,39 @@ Status WriteReport(const fs::path& dir, const ReportInputs& in) {
   return WriteFileAtomically(dir / "summary.json", EvaluationJson(in.evaluation));
 }
 
+namespace {
+
+void PrintEvaluationRow(std::ostream& out, const std::string& method, const nlohmann::ordered_json& e) {
+  out << std::left << std::setw(11) << method << std::right << std::fixed << std::setprecision(1) << std::setw(7)
+      << e["normal_error_deg"]["median"].get<double>() << std::setw(7) << e["normal_error_deg"]["p90"].get<double>()
+      << std::setprecision(3);
+  for (const auto& [name, nrmse] : e["parameter_nrmse"].items()) {
+    if (name.rfind("n_s", 0) != 0) out << std::setw(9) << nrmse.get<double>();
+  }
+  out << "  |";
+  for (const auto& [group, l1] : e["rerender_l1"]["fit"].items()) out << std::setw(8) << l1["relative_l1"].get<double>();
+  out << "  |" << std::setprecision(2);
+  for (const auto& [name, noise] : e["map_noise"].items()) out << std::setw(7) << noise["ratio"].get<double>();
+  out << std::defaultfloat << "\n";
+}
+
+}  // namespace
+
+void PrintEvaluationTable(std::ostream& out, const nlohmann::ordered_json& methods) {
+  if (methods.empty()) return;
+  const nlohmann::ordered_json& first = methods.begin().value();
+  out << "           normal error  parameter NRMSE against the ground truth" << std::string(20, ' ') << "| re-render relative L1"
+      << std::string(18, ' ') << "| map noise ÷ truth's\n"
+      << std::left << std::setw(11) << "method" << std::right << std::setw(7) << "med°" << std::setw(7) << "p90°";
+  for (const auto& [name, nrmse] : first["parameter_nrmse"].items()) {
+    if (name.rfind("n_s", 0) != 0) out << std::setw(9) << name;
+  }
+  out << "  |";
+  for (const auto& [group, l1] : first["rerender_l1"]["fit"].items()) out << std::setw(8) << group.substr(0, 7);
+  out << "  |";
+  for (const auto& [name, noise] : first["map_noise"].items()) out << std::setw(7) << name;
+  out << "\n";
+  for (const auto& [method, evaluation] : methods.items()) PrintEvaluationRow(out, method, evaluation);
+}
+
 }  // namespace loom::fitting

@@ -6,7 +6,10 @@
 
 #include <filesystem>
 #include <optional>
+#include <ostream>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "core/image.h"
 #include "core/observation_stack.h"
@@ -27,5 +30,9 @@ Status WriteReport(const std::filesystem::path& dir, const ReportInputs& inputs)
 
 // The evaluation as JSON (the report's summary.json).
 std::string EvaluationJson(const Evaluation& evaluation);
+
+// Several methods' evaluations (their summary.json documents by method name, in order) side by
+// side for a terminal: normal error, parameter NRMSE, re-render L1 per group, map noise.
+void PrintEvaluationTable(std::ostream& out, const nlohmann::ordered_json& methods);
 
 }  // namespace loom::fitting

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -431,6 +432,29 @@ void Summarise(const std::vector<PixelOutcome>& outcomes, StackFitSummary& summa
 }
 
 }  // namespace
+
+nlohmann::json StackFitOptions::ToJson() const {
+  const bool refiner = solver == PixelSolver::kBatchRefiner;
+  return {{"solver", refiner ? "batch refiner (" + RefinerInstructionSet() + ")" : "ceres"},
+          {"clusters", clusters},
+          {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
+          {"retries", retry_poor_fits},
+          {"retry_above", retry_above_noise_rms},
+          {"prior_weight", refiner ? prior.weight : 0},
+          {"smoothing_weight", refiner ? smoothing.weight : 0},
+          {"strip_samples", max_lights_per_observation},
+          {"coarse_samples", coarse_lights_per_observation}};
+}
+
+Result<std::optional<double>> ParseFixedF0(const std::string& text, const std::string& what) {
+  if (text == "material") return std::optional<double>();
+  double f0 = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), f0);
+  if (error != std::errc() || end != text.data() + text.size() || !(f0 >= 0 && f0 <= 1)) {
+    return InvalidArgumentError(what + " " + text, "expected a number in [0, 1] or 'material'");
+  }
+  return std::optional<double>(f0);
+}
 
 nlohmann::json StackFitSummary::ToJson() const {
   return {{"pixels", pixels},

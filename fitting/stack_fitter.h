@@ -103,7 +103,12 @@ struct StackFitOptions {
   uint64_t seed = 1;                                      // k-means initialisation
   std::function<void(const StackFitProgress&)> progress;  // on the calling thread
   Status Check() const;                                   // every problem, naming the field
+  nlohmann::json ToJson() const;                          // the settings a user chooses (fit.json)
 };
+
+// F0 as a user states it: a number in [0, 1] held for every pixel, or "material" (nullopt: one
+// F0 fitted per material). `what` names the option in errors.
+Result<std::optional<double>> ParseFixedF0(const std::string& text, const std::string& what);
 
 struct StackFitSummary {
   int pixels = 0;

@@ -66,4 +66,38 @@ Result<std::string> MoveDevice(Device& device, double to) {
   return where.str();
 }
 
+Result<Device*> FindNamedDevice(const Rig& rig, const std::string& name) {
+  if (Device* device = rig.FindDevice(name)) return device;
+  std::string names;
+  for (Device* device : rig.devices()) names += (names.empty() ? "" : ", ") + device->name();
+  return NotFoundError("device '" + name + "'", "not in rig '" + rig.name() + "' (devices: " + names + ")");
+}
+
+Status LightLeds(Rig& rig, const std::vector<scan::LedDrive>& leds) {
+  if (rig.leds() == nullptr) return FailedPreconditionError("rig '" + rig.name() + "'", "has no LED array");
+  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(rig.leds()));
+  LOOM_RETURN_IF_ERROR(rig.leds()->Start());
+  return rig.leds()->Drive(leds);
+}
+
+Result<scan::RawFrame> SnapFrame(Rig& rig, const std::string& camera_name, double exposure_us,
+                                 const std::vector<scan::LedDrive>& leds) {
+  LOOM_ASSIGN_OR_RETURN(Device* const device, FindNamedDevice(rig, camera_name));
+  auto* camera = dynamic_cast<Camera*>(device);
+  if (camera == nullptr) return InvalidArgumentError("camera '" + camera_name + "'", "is a " + device->kind() + ", not a camera");
+  if (!leds.empty()) LOOM_RETURN_IF_ERROR(LightLeds(rig, leds));
+  LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(camera));
+  if (exposure_us > 0 || camera->settings().trigger != TriggerMode::kSoftware) {
+    CameraSettings settings = camera->settings();
+    if (exposure_us > 0) settings.exposure_us = exposure_us;
+    settings.trigger = TriggerMode::kSoftware;
+    LOOM_ASSIGN_OR_RETURN(const ConfigureReport report, camera->Configure(settings));
+    LOOM_RETURN_IF_ERROR(report.ToStatus(camera->description()));
+  }
+  LOOM_RETURN_IF_ERROR(camera->Start());
+  // The other devices are read for the frame's rig state only where they are open: a snap moves
+  // nothing, so the state recorded is what the open devices report.
+  return rig.Snap(*camera);
+}
+
 }  // namespace loom::hal

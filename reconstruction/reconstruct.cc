@@ -1,10 +1,13 @@
 #include "reconstruction/reconstruct.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <mutex>
+#include <sstream>
 
 #include <Eigen/SVD>
 
@@ -196,6 +199,36 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
   result.saturated_pixels = saturated;
   result.unseen_fraction = views.empty() ? 0.0 : static_cast<double>(unseen) / (static_cast<double>(views.size()) * w * h);
   return result;
+}
+
+nlohmann::json Reconstruction::ToJson() const {
+  nlohmann::json per_camera = nlohmann::json::object();
+  for (const CameraSampling& s : sampling) per_camera[s.camera] = s.camera_px_per_stack_px;
+  return {{"width_px", stack.image.width()},
+          {"height_px", stack.image.height()},
+          {"pixel_mm", stack.pixel_mm},
+          {"observations", stack.observations.size()},
+          {"camera_px_per_stack_px", per_camera},
+          {"heightmap_camera", heightmap_camera},
+          {"heightmap_filled_pixels", heightmap_filled},
+          {"saturated_pixels", saturated_pixels},
+          {"unseen_fraction", unseen_fraction}};
+}
+
+std::string Reconstruction::CoarseSamplingNote() const {
+  const bool coarse = std::any_of(sampling.begin(), sampling.end(),
+                                  [](const CameraSampling& s) { return s.camera_px_per_stack_px < kFineSampling; });
+  if (!coarse) return "";
+  std::ostringstream note;
+  note << "the stack's " << stack.pixel_mm << " mm pixels span";
+  for (size_t i = 0; i < sampling.size(); ++i) {
+    note << (i == 0 ? " " : ", ") << std::fixed << std::setprecision(2) << sampling[i].camera_px_per_stack_px << " ("
+         << sampling[i].camera << ")";
+  }
+  note << std::defaultfloat << " camera pixels at the coarsest; below " << kFineSampling
+       << " the observations are blurred over neighbouring stack pixels: a larger --pixel-mm or finer cameras "
+          "sharpen them (reconstruction/README.md)";
+  return note.str();
 }
 
 }  // namespace loom::reconstruction

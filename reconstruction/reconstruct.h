@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/observation_stack.h"
 #include "core/rig_model.h"
 #include "scan/capture_store.h"
@@ -64,6 +66,12 @@ struct Reconstruction {
   int heightmap_filled = 0;    // grid pixels without a triangulated height (filled from neighbours)
   int saturated_pixels = 0;    // camera pixels saturated in every exposure, over all views
   double unseen_fraction = 0;  // of observation samples: NaN (hidden or off the camera's image)
+
+  // The stack's size and what the fields above say, as reconstruction.json keeps them.
+  nlohmann::json ToJson() const;
+  // A note for the operator when a camera samples the stack coarsely (below kFineSampling: the
+  // stack is then blurred, not wrong), and how to sharpen it; empty otherwise.
+  std::string CoarseSamplingNote() const;
 };
 
 Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,

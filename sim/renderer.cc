@@ -273,4 +273,17 @@ std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& senso
   return raw;
 }
 
+Result<Image> RenderCameraFrame(const Scene& scene, const std::string& camera, const SceneState& state,
+                                const CaptureSettings& settings, uint64_t noise_seed) {
+  const std::vector<CameraModel>& cameras = scene.rig().cameras;
+  const auto found = std::find_if(cameras.begin(), cameras.end(), [&](const CameraModel& c) { return c.name == camera; });
+  if (found == cameras.end()) return NotFoundError("camera '" + camera + "'", "not in rig '" + scene.rig().name + "'");
+  const Image radiance = scene.RenderRadiance(static_cast<int>(found - cameras.begin()), state);
+  const std::vector<uint16_t> raw = CaptureRaw(radiance, found->sensor, settings, noise_seed);
+  Image frame(radiance.width(), radiance.height(), {"radiance", "raw"});
+  std::copy(radiance.channel(0).begin(), radiance.channel(0).end(), frame.channel(0).begin());
+  std::copy(raw.begin(), raw.end(), frame.channel(1).begin());
+  return frame;
+}
+
 }  // namespace loom::sim

@@ -113,4 +113,9 @@ class Scene {
 std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
                                  uint64_t noise_seed, bool noise = true);
 
+// The frame of the rig camera named `camera` under `state`: channel "radiance" and channel "raw"
+// (CaptureRaw's DN). An unknown camera is an error naming it.
+Result<Image> RenderCameraFrame(const Scene& scene, const std::string& camera, const SceneState& state,
+                                const CaptureSettings& settings, uint64_t noise_seed);
+
 }  // namespace loom::sim

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/test_materials.h"
 
@@ -57,6 +59,21 @@ TEST(RendererTest, WhiteLambertianHasTheAnalyticRadiance) {
   EXPECT_NEAR(radiance.at(0, 50, 70), AnalyticRadiance(led, {10, 0, 0}), 1e-5 * AnalyticRadiance(led, {10, 0, 0}));
   EXPECT_NEAR(radiance.at(0, 30, 50), AnalyticRadiance(led, {0, 10, 0}), 1e-5 * AnalyticRadiance(led, {0, 10, 0}));
   EXPECT_GT(radiance.at(0, 50, 70), radiance.at(0, 50, 30));  // nearer the LED
+}
+
+TEST(RendererTest, ACameraFrameIsItsRadianceAndTheSensorsCountsAndAnUnknownCameraIsNamed) {
+  const Scene scene(TestRig(), WhiteLambertian());
+  const SceneState state{.leds = {{0, 1000}}};
+  const Result<Image> frame = RenderCameraFrame(scene, "top", state, {.exposure_us = 5000}, 7);
+  ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+  ASSERT_EQ(frame->channel_names(), (std::vector<std::string>{"radiance", "raw"}));
+  const Image radiance = scene.RenderRadiance(0, state);
+  EXPECT_TRUE(std::equal(radiance.channel(0).begin(), radiance.channel(0).end(), frame->channel(0).begin()));
+  const std::vector<uint16_t> raw = CaptureRaw(radiance, scene.rig().cameras[0].sensor, {.exposure_us = 5000}, 7);
+  EXPECT_TRUE(std::equal(raw.begin(), raw.end(), frame->channel(1).begin()));
+  const Result<Image> unknown = RenderCameraFrame(scene, "side", state, {}, 7);
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.status().ToString().find("camera 'side'"), std::string::npos) << unknown.status().ToString();
 }
 
 // A tile raised 30 mm: near-vertical rays find its top to within the shadow test's tolerance,
