@@ -1,14 +1,12 @@
 // loom eval: fitted maps against the measured stack (re-render L1) and, given one, a reference
 // (parameter NRMSE); an HTML report and summary.json.
 #include <filesystem>
-#include <iomanip>
 #include <iostream>
 
 #include "apps/command.h"
-#include "core/exr_io.h"
 #include "core/observation_stack.h"
 #include "fitting/evaluation.h"
-#include "fitting/model/svbrdf_maps.h"
+#include "fitting/export.h"
 #include "fitting/report.h"
 
 namespace loom::apps {
@@ -16,39 +14,22 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Result<Image> ReadMaps(const std::string& path) {
-  LOOM_ASSIGN_OR_RETURN(ExrImage exr, ReadExr(path));
-  if (!fitting::HasSvbrdfLayout(exr.image)) {
-    return InvalidArgumentError(path, "not SVBRDF maps: the first channels must be n_s.X ... F0");
+Status Evaluate(const std::string& maps_path, const std::string& stack_path, const std::string& reference_path,
+                const std::string& out, const std::string& title) {
+  LOOM_ASSIGN_OR_RETURN(const fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
+  LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(stack_path));
+  std::optional<Image> reference;
+  if (!reference_path.empty()) {
+    LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile read, fitting::ReadSvbrdf(reference_path));
+    reference = std::move(read.maps);
   }
-  return std::move(exr.image);
-}
-
-void PrintSummary(const fitting::Evaluation& e) {
-  std::cout << std::fixed << std::setprecision(4);
-  if (!e.parameters.empty()) {
-    std::cout << "parameter NRMSE against the reference:";
-    for (const fitting::ParameterError& p : e.parameters) std::cout << "  " << p.name << " " << p.nrmse;
-    std::cout << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 "
-              << e.normal_p90_deg << " deg\n"
-              << std::setprecision(4);
-  }
-  if (!e.map_noise.empty()) {
-    std::cout << "map noise (mean squared Laplacian, fit" << (e.parameters.empty() ? "" : " / reference") << "):";
-    for (const fitting::MapNoise& n : e.map_noise) {
-      std::cout << "  " << n.name << " " << n.fit;
-      if (!e.parameters.empty()) std::cout << " / " << n.reference;
-    }
-    std::cout << "\n";
-  }
-  std::cout << "re-render relative L1 against the measured values (fit";
-  if (!e.reference_vs_measured.empty()) std::cout << " / reference";
-  std::cout << "):";
-  for (size_t i = 0; i < e.fit_vs_measured.size(); ++i) {
-    std::cout << "  " << e.fit_vs_measured[i].group << " " << e.fit_vs_measured[i].relative_l1;
-    if (i < e.reference_vs_measured.size()) std::cout << " / " << e.reference_vs_measured[i].relative_l1;
-  }
-  std::cout << "\n";
+  LOOM_ASSIGN_OR_RETURN(const fitting::Evaluation evaluation, fitting::Evaluate(maps.maps, reference, stack));
+  evaluation.Report(std::cout);
+  const fitting::ReportInputs inputs{
+      title.empty() ? maps_path : title, &maps.maps, reference ? &*reference : nullptr, &stack, evaluation, ""};
+  LOOM_RETURN_IF_ERROR(fitting::WriteReport(out, inputs));
+  std::cout << "report: " << (fs::path(out) / "index.html").string() << "\n";
+  return Status::Ok();
 }
 
 }  // namespace
@@ -65,24 +46,8 @@ int RunEval(int argc, char** argv) {
   app.add_option("--title", title, "Title of the report");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
 
-  Result<Image> maps = ReadMaps(maps_path);
-  if (!maps.ok()) return ReportFailure(maps.status());
-  Result<ObservationStack> stack = ReadObservationStack(stack_path);
-  if (!stack.ok()) return ReportFailure(stack.status());
-  std::optional<Image> reference;
-  if (!reference_path.empty()) {
-    Result<Image> read = ReadMaps(reference_path);
-    if (!read.ok()) return ReportFailure(read.status());
-    reference = std::move(*read);
-  }
-  Result<fitting::Evaluation> evaluation = fitting::Evaluate(*maps, reference, *stack);
-  if (!evaluation.ok()) return ReportFailure(evaluation.status());
-  PrintSummary(*evaluation);
-  fitting::ReportInputs inputs{
-      title.empty() ? maps_path : title, &*maps, reference ? &*reference : nullptr, &*stack, *evaluation, ""};
-  if (Status written = fitting::WriteReport(out, inputs); !written.ok()) return ReportFailure(written);
-  std::cout << "report: " << (fs::path(out) / "index.html").string() << "\n";
-  return kExitOk;
+  const Status done = Evaluate(maps_path, stack_path, reference_path, out, title);
+  return done.ok() ? kExitOk : ReportFailure(done);
 }
 
 }  // namespace loom::apps

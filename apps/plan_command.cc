@@ -1,8 +1,5 @@
 // loom plan: what a scan of a rig with a gloss preset captures, and how long it will take.
-#include <filesystem>
-#include <iomanip>
 #include <iostream>
-#include <map>
 
 #include "apps/command.h"
 #include "apps/rig_loader.h"
@@ -11,25 +8,20 @@
 namespace loom::apps {
 namespace {
 
-using scan::Plan;
-using scan::Step;
-using scan::StepKind;
-
-void PrintStep(const Step& step) {
-  std::cout << "  " << std::setw(5) << step.index << "  " << std::left << std::setw(17) << scan::StepKindName(step.kind)
-            << std::right << " table " << std::setw(5) << step.turntable_deg << " deg";
-  for (const scan::LedDrive& led : step.leds) {
-    if (step.leds.size() <= 3) std::cout << "  LED " << led.led << " @ " << led.current_ma << " mA";
+Status ShowPlan(const std::string& rig_path, const std::string& preset_name, bool calibration, bool steps, bool yaml) {
+  LOOM_ASSIGN_OR_RETURN(const RigModel rig, LoadRigModel(rig_path));
+  LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
+  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan,
+                        calibration ? scan::MakeCalibrationPlan(rig, preset) : scan::MakeMaterialPlan(rig, preset));
+  if (yaml) {
+    std::cout << scan::PlanToYaml(plan);
+    return Status::Ok();
   }
-  if (step.leds.size() > 3) std::cout << "  " << step.leds.size() << " LEDs";
-  if (step.filter) {
-    std::cout << "  " << step.filter->wheel << " slot " << step.filter->slot << " (" << step.filter->center_nm << " nm)";
+  scan::ReportPlan(std::cout, plan);
+  if (steps) {
+    for (const scan::Step& step : plan.steps) std::cout << scan::DescribeStep(step) << "\n";
   }
-  if (step.linear_light_mm) std::cout << "  strip at " << *step.linear_light_mm << " mm";
-  if (!step.projector_pattern.empty()) std::cout << "  pattern " << step.projector_pattern;
-  std::cout << "  cameras";
-  for (const std::string& camera : step.cameras) std::cout << " " << camera;
-  std::cout << "  [" << scan::ScanObjectName(step.object) << "]\n";
+  return Status::Ok();
 }
 
 }  // namespace
@@ -49,36 +41,8 @@ int RunPlan(int argc, char** argv) {
   app.add_flag("--yaml", yaml, "Print the expanded plan as YAML (what a scan keeps in SCAN/plan.yaml)");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
 
-  Result<RigModel> rig = LoadRigModel(rig_path);
-  if (!rig.ok()) return ReportFailure(rig.status());
-  Result<scan::Preset> preset = scan::LoadPreset(ResolvePresetPath(preset_name));
-  if (!preset.ok()) return ReportFailure(preset.status());
-  Result<Plan> plan = calibration ? scan::MakeCalibrationPlan(*rig, *preset) : scan::MakeMaterialPlan(*rig, *preset);
-  if (!plan.ok()) return ReportFailure(plan.status());
-  if (yaml) {
-    std::cout << scan::PlanToYaml(*plan);
-    return kExitOk;
-  }
-
-  std::cout << scan::PlanPurposeName(plan->purpose) << " scan of rig '" << plan->rig << "' with preset '" << plan->preset
-            << "': " << plan->steps.size() << " steps, " << plan->Images() << " images (before HDR bracketing)\n";
-  std::map<StepKind, std::pair<int, int>> by_kind;
-  for (const Step& step : plan->steps) {
-    ++by_kind[step.kind].first;
-    by_kind[step.kind].second += step.images();
-  }
-  for (const auto& [kind, counts] : by_kind) {
-    std::cout << "  " << std::left << std::setw(17) << scan::StepKindName(kind) << std::right << std::setw(6) << counts.first
-              << " steps " << std::setw(6) << counts.second << " images\n";
-  }
-  const scan::DurationModel model;
-  std::cout << "estimated duration: " << FormatDuration(scan::EstimateSeconds(*plan, model)) << " ("
-            << model.exposures_per_bracket << " exposures per bracket, " << model.frame_overhead_s << " s per frame, turntable "
-            << model.turntable_deg_s << " deg/s, strip " << model.linear_light_mm_s << " mm/s)\n";
-  if (steps) {
-    for (const Step& step : plan->steps) PrintStep(step);
-  }
-  return kExitOk;
+  const Status done = ShowPlan(rig_path, preset_name, calibration, steps, yaml);
+  return done.ok() ? kExitOk : ReportFailure(done);
 }
 
 }  // namespace loom::apps

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iomanip>
 #include <map>
 
 #include "core/geometry.h"
@@ -204,6 +205,34 @@ Image RenderObservations(const Image& maps, const ObservationStack& stack, const
     }
   });
   return rendered;
+}
+
+void Evaluation::Report(std::ostream& out) const {
+  const Evaluation& e = *this;
+  out << std::fixed << std::setprecision(4);
+  if (!e.parameters.empty()) {
+    out << "parameter NRMSE against the reference:";
+    for (const ParameterError& p : e.parameters) out << "  " << p.name << " " << p.nrmse;
+    out << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 " << e.normal_p90_deg
+        << " deg\n"
+        << std::setprecision(4);
+  }
+  if (!e.map_noise.empty()) {
+    out << "map noise (mean squared Laplacian, fit" << (e.parameters.empty() ? "" : " / reference") << "):";
+    for (const MapNoise& n : e.map_noise) {
+      out << "  " << n.name << " " << n.fit;
+      if (!e.parameters.empty()) out << " / " << n.reference;
+    }
+    out << "\n";
+  }
+  out << "re-render relative L1 against the measured values (fit";
+  if (!e.reference_vs_measured.empty()) out << " / reference";
+  out << "):";
+  for (size_t i = 0; i < e.fit_vs_measured.size(); ++i) {
+    out << "  " << e.fit_vs_measured[i].group << " " << e.fit_vs_measured[i].relative_l1;
+    if (i < e.reference_vs_measured.size()) out << " / " << e.reference_vs_measured[i].relative_l1;
+  }
+  out << std::defaultfloat << "\n";
 }
 
 }  // namespace loom::fitting

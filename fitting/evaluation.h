@@ -14,6 +14,7 @@
 // Both maps and the stack must share the grid (same width and height): an error otherwise.
 
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,7 @@ struct Evaluation {
   std::vector<RenderError> reference_vs_measured;  // empty without a reference
   double FitL1() const;                            // the "all" group
   double ReferenceL1() const;
+  void Report(std::ostream& out) const;  // a few lines: parameter NRMSE, normal error, map noise, re-render L1
 };
 
 Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& reference, const ObservationStack& stack);

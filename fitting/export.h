@@ -2,8 +2,8 @@
 // Export of SVBRDF maps: linear OpenEXR (svbrdf_maps.h's channels, with provenance attributes)
 // and PNG previews a person can look at — albedos in sRGB, the shading normal as RGB, σx and σy
 // as red and green, α as a hue wheel, height as grey — plus tone-mapped radiance images for
-// reports. The renderer-ready glTF export is gltf_export.h; the AxF-style HDF5 export is not
-// built yet (issue #7).
+// reports. The renderer-ready glTF export is gltf_export.h; the AxF-style HDF5 export is
+// axf_export.h.
 
 #include <filesystem>
 #include <string>
@@ -25,6 +25,15 @@ struct SvbrdfProvenance {
 // DIR/svbrdf.exr (the maps, linear, svbrdf_maps.h's channels, with `provenance` and units as
 // attributes) and its previews (WriteSvbrdfPreviews); DIR is created.
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance);
+
+// Maps in svbrdf_maps.h's layout read back (svbrdf.exr, a simulator's truth), with their pixel
+// size when the file states it (loom.pixel_mm; 0 when it does not). A file in another layout is
+// an error naming it.
+struct SvbrdfFile {
+  Image maps;
+  double pixel_mm = 0;
+};
+Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path);
 
 // The previews' file names, in the order WriteSvbrdfPreviews writes them (without ".png").
 const std::vector<std::string>& SvbrdfPreviewNames();

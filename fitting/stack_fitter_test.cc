@@ -78,6 +78,27 @@ TEST(StackFitterTest, FitMethodsAreReadByTheNamesTheyAreWrittenWith) {
   EXPECT_EQ(SolverOf(FitMethod::kCnnCeres), PixelSolver::kCeres);
 }
 
+TEST(StackFitterTest, F0IsANumberInTheUnitIntervalOrMaterialAndTheOptionsSayWhatTheyChose) {
+  EXPECT_EQ(*ParseFixedF0("0.25", "--f0"), 0.25);
+  EXPECT_EQ(*ParseFixedF0("material", "--f0"), std::nullopt);
+  for (const std::string bad : {"", "1.5", "-0.1", "nan", "0.5x", "Material"}) {
+    const Result<std::optional<double>> parsed = ParseFixedF0(bad, "--f0");
+    ASSERT_FALSE(parsed.ok()) << bad;
+    EXPECT_NE(parsed.status().ToString().find("--f0 " + bad), std::string::npos) << parsed.status().ToString();
+  }
+  StackFitOptions options;
+  options.solver = PixelSolver::kBatchRefiner;
+  options.prior.weight = 0.1;
+  options.fixed_f0.reset();
+  const nlohmann::json json = options.ToJson();
+  EXPECT_EQ(json["f0"], "material");
+  EXPECT_EQ(json["prior_weight"], 0.1);
+  EXPECT_NE(json["solver"].get<std::string>().find("batch refiner"), std::string::npos);
+  options.solver = PixelSolver::kCeres;  // the prior is the refiner's: Ceres does not use it
+  EXPECT_EQ(options.ToJson()["prior_weight"], 0);
+  EXPECT_EQ(options.ToJson()["solver"], "ceres");
+}
+
 TEST(StackFitterTest, BadOptionsNameEveryField) {
   StackFitOptions options;
   options.clusters = 0;

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <set>
+#include <sstream>
 
 #include "core/config.h"
+#include "core/duration.h"
 #include "scan/patterns.h"
 
 namespace loom::scan {
@@ -355,6 +358,42 @@ double EstimateSeconds(const Plan& plan, const DurationModel& model) {
     seconds += move + model.exposures_per_bracket * (step.exposure.probe_us * 1e-6 + model.frame_overhead_s);
   }
   return seconds;
+}
+
+std::string DescribeStep(const Step& step) {
+  std::ostringstream out;
+  out << "  " << std::setw(5) << step.index << "  " << std::left << std::setw(17) << StepKindName(step.kind) << std::right
+      << " table " << std::setw(5) << step.turntable_deg << " deg";
+  for (const LedDrive& led : step.leds) {
+    if (step.leds.size() <= 3) out << "  LED " << led.led << " @ " << led.current_ma << " mA";
+  }
+  if (step.leds.size() > 3) out << "  " << step.leds.size() << " LEDs";
+  if (step.filter) {
+    out << "  " << step.filter->wheel << " slot " << step.filter->slot << " (" << step.filter->center_nm << " nm)";
+  }
+  if (step.linear_light_mm) out << "  strip at " << *step.linear_light_mm << " mm";
+  if (!step.projector_pattern.empty()) out << "  pattern " << step.projector_pattern;
+  out << "  cameras";
+  for (const std::string& camera : step.cameras) out << " " << camera;
+  out << "  [" << ScanObjectName(step.object) << "]";
+  return out.str();
+}
+
+void ReportPlan(std::ostream& out, const Plan& plan, const DurationModel& model) {
+  out << PlanPurposeName(plan.purpose) << " scan of rig '" << plan.rig << "' with preset '" << plan.preset
+      << "': " << plan.steps.size() << " steps, " << plan.Images() << " images (before HDR bracketing)\n";
+  std::map<StepKind, std::pair<int, int>> by_kind;
+  for (const Step& step : plan.steps) {
+    ++by_kind[step.kind].first;
+    by_kind[step.kind].second += step.images();
+  }
+  for (const auto& [kind, counts] : by_kind) {
+    out << "  " << std::left << std::setw(17) << StepKindName(kind) << std::right << std::setw(6) << counts.first << " steps "
+        << std::setw(6) << counts.second << " images\n";
+  }
+  out << "estimated duration: " << FormatDuration(EstimateSeconds(plan, model)) << " (" << model.exposures_per_bracket
+      << " exposures per bracket, " << model.frame_overhead_s << " s per frame, turntable " << model.turntable_deg_s
+      << " deg/s, strip " << model.linear_light_mm_s << " mm/s)\n";
 }
 
 }  // namespace loom::scan

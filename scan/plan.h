@@ -22,6 +22,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -153,5 +154,11 @@ struct DurationModel {
   double exposures_per_bracket = 3;
 };
 double EstimateSeconds(const Plan& plan, const DurationModel& model = {});
+
+// A step in one line: kind, turntable angle, lights, filter, strip, pattern, cameras, object.
+std::string DescribeStep(const Step& step);
+// What a plan captures and how long it will take: steps and images per kind, the duration
+// estimated with `model` and the speeds it assumed.
+void ReportPlan(std::ostream& out, const Plan& plan, const DurationModel& model = {});
 
 }  // namespace loom::scan

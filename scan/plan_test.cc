@@ -2,9 +2,10 @@
 
 #include <gtest/gtest.h>
 
-#include <map>
-
+#include <algorithm>
 #include <fstream>
+#include <map>
+#include <sstream>
 
 #include "core/config.h"
 #include "core/testing/shipped_rig.h"
@@ -65,6 +66,25 @@ TEST(PlanTest, StructuredLightPatternsCoverTheProjectorWidth) {
   EXPECT_EQ(patterns[2], "gray_x_00");
   EXPECT_EQ(patterns[3], "gray_x_00_inv");
   EXPECT_EQ(patterns.back(), "phase_x_3");
+}
+
+TEST(PlanTest, APlanReportsItsCountsAndDurationAndEachStepInALine) {
+  const RigModel rig = ShippedRigModel("tac7-mini");
+  const Plan plan = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
+  std::ostringstream report;
+  ReportPlan(report, plan);
+  EXPECT_NE(report.str().find("material scan of rig 'tac7-mini' with preset 'low'"), std::string::npos) << report.str();
+  EXPECT_NE(report.str().find(std::to_string(plan.Images(StepKind::kLinearLight)) + " images"), std::string::npos)
+      << report.str();
+  EXPECT_NE(report.str().find("estimated duration: "), std::string::npos) << report.str();
+  const auto strip =
+      std::find_if(plan.steps.begin(), plan.steps.end(), [](const Step& step) { return step.kind == StepKind::kLinearLight; });
+  ASSERT_NE(strip, plan.steps.end());
+  const std::string line = DescribeStep(*strip);
+  EXPECT_NE(line.find("linear light"), std::string::npos) << line;
+  EXPECT_NE(line.find("strip at"), std::string::npos) << line;
+  EXPECT_NE(line.find("[sample]"), std::string::npos) << line;
+  EXPECT_EQ(line.find('\n'), std::string::npos) << line;
 }
 
 TEST(PlanTest, MiniRigAndCalibrationPlan) {

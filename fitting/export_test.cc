@@ -1,0 +1,38 @@
+// svbrdf.exr written and read back: the maps, their pixel size, and files that are not maps.
+#include "fitting/export.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::fitting {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndOtherFilesAreNamed) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("export_test_" + std::to_string(::getpid()));
+  Image maps = MakeSvbrdfImage(6, 4, false);
+  WardParams<double> params;
+  params.a_d = {0.2, 0.3, 0.4};
+  params.sigma_x = 0.25;
+  SetParams(maps, 5, 3, params);
+  ASSERT_TRUE(WriteSvbrdf(dir, maps, {"cnn+refine", "stack.exr", "tac7-mini", 0.2}).ok());
+  const Result<SvbrdfFile> read = ReadSvbrdf(dir / "svbrdf.exr");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->pixel_mm, 0.2);
+  EXPECT_EQ(read->maps.width(), 6);
+  EXPECT_NEAR(GetParams(read->maps, 5, 3).a_d.y(), 0.3, 1e-6);
+  EXPECT_NEAR(GetParams(read->maps, 5, 3).sigma_x, 0.25, 1e-6);
+
+  ASSERT_TRUE(WriteExr(dir / "grey.exr", Image(2, 2, {"Y"})).ok());
+  const Result<SvbrdfFile> grey = ReadSvbrdf(dir / "grey.exr");
+  ASSERT_FALSE(grey.ok());
+  EXPECT_NE(grey.status().ToString().find("grey.exr"), std::string::npos) << grey.status().ToString();
+  EXPECT_FALSE(ReadSvbrdf(dir / "missing.exr").ok());
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace loom::fitting
