@@ -3,53 +3,27 @@
 //   geometry    every camera's intrinsics and pose in the turntable's frame from a calibration scan
 //   radiometry  light intensities, camera sensitivity and flat field, filter colours from a calibration scan
 //   check       how far a fresh calibration scan has drifted from a stored calibration (calibrate_check.cc)
-#include <glob.h>
-
-#include <algorithm>
 #include <filesystem>
-#include <iomanip>
 #include <iostream>
 
 #include "apps/command.h"
 #include "calibration/calibration_check.h"
 #include "calibration/calibration_yaml.h"
-#include "calibration/intrinsics.h"
+#include "calibration/photo_intrinsics.h"
 #include "calibration/scan_calibration.h"
 #include "core/file_io.h"
 
 namespace loom::apps {
 namespace {
 
-Result<std::vector<std::string>> ExpandGlob(const std::string& pattern) {
-  glob_t matches{};
-  const int code = ::glob(pattern.c_str(), 0, nullptr, &matches);
-  std::vector<std::string> files(matches.gl_pathv, matches.gl_pathv + matches.gl_pathc);
-  ::globfree(&matches);
-  if (code == GLOB_NOMATCH || files.empty()) return NotFoundError("--images '" + pattern + "'", "matches no file");
-  if (code != 0) return IoError("--images '" + pattern + "'", "cannot be expanded");
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
 Status CalibrateFromPhotos(const std::string& images, const std::string& board_text, const std::string& name,
                            const std::string& out) {
   LOOM_ASSIGN_OR_RETURN(const calibration::BoardSpec board, calibration::ParseBoardSpec(board_text));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> files, ExpandGlob(images));
-  std::cerr << "looking for " << board.ToString() << " in " << files.size() << " images\n";
-  LOOM_ASSIGN_OR_RETURN(const calibration::DetectedViews detected, calibration::DetectBoardInFiles(files, board));
-  LOOM_ASSIGN_OR_RETURN(const calibration::Intrinsics intrinsics,
-                        calibration::CalibrateIntrinsics(board, detected.views, detected.width, detected.height));
-  calibration::CameraCalibration result{name, intrinsics, std::nullopt, {}, detected.skipped, images, board.ToString()};
-  for (const calibration::BoardView& view : detected.views) result.view_sources.push_back(view.source);
+  std::cerr << "looking for " << board.ToString() << " in " << images << "\n";
+  LOOM_ASSIGN_OR_RETURN(const calibration::CameraCalibration result, calibration::CalibrateFromPhotos(images, board, name));
   LOOM_RETURN_IF_ERROR(calibration::WriteCameraCalibration(out, result));
-  std::cout << std::fixed << std::setprecision(3) << "board found in " << detected.views.size() << " of " << files.size()
-            << " images; RMS reprojection error " << intrinsics.rms_px << " px\n"
-            << "fx " << intrinsics.K(0, 0) << "  fy " << intrinsics.K(1, 1) << "  cx " << intrinsics.K(0, 2) << "  cy "
-            << intrinsics.K(1, 2) << " px;  k1 " << intrinsics.distortion[0] << "  k2 " << intrinsics.distortion[1]
-            << "\nworst view: ";
-  const auto worst = std::max_element(intrinsics.per_view_rms_px.begin(), intrinsics.per_view_rms_px.end());
-  std::cout << result.view_sources[worst - intrinsics.per_view_rms_px.begin()] << " (" << *worst << " px)\n"
-            << "written: " << out << "\n";
+  calibration::ReportPhotoCalibration(std::cout, result);
+  std::cout << "written: " << out << "\n";
   return Status::Ok();
 }
 

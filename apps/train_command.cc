@@ -57,8 +57,7 @@ Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
   }
   const std::shared_ptr<const sim::Scene> rig_scene = loaded.sim->world->scene();
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
-  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, scan::MakeMaterialPlan(rig_scene->rig(), preset));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PlanObservations(rig_scene->rig(), plan));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PresetObservations(rig_scene->rig(), preset));
   ProgressBar bar("dataset", args.quiet);
   return sim::RenderTrainingSet(*rig_scene, observations, args.dataset, dir, [&](int done, int total, const std::string& name) {
     bar.Update(done, total, "materials", name);

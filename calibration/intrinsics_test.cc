@@ -8,8 +8,10 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
 #include "calibration/calibration_yaml.h"
+#include "calibration/photo_intrinsics.h"
 
 namespace loom::calibration {
 namespace {
@@ -86,6 +88,27 @@ TEST(IntrinsicsTest, AnImageWithoutTheBoardIsSkippedAndTooFewViewsAreAnError) {
   const Result<Intrinsics> intrinsics = CalibrateIntrinsics(board, detected->views, 640, 480);
   ASSERT_FALSE(intrinsics.ok());
   EXPECT_NE(intrinsics.status().message().find("2 views"), std::string::npos) << intrinsics.status().ToString();
+}
+
+TEST(IntrinsicsTest, PhotosFoundByAGlobCalibrateACameraAndAGlobWithoutFilesIsNamed) {
+  const std::string dir = std::string(LOOM_SOURCE_DIR) + "/calibration/testdata/opencv-left/";
+  const BoardSpec board = *ParseBoardSpec("chessboard:9x6:25");
+  const Result<CameraCalibration> calibration = CalibrateFromPhotos(dir + "left0[1-5].jpg", board, "cam7");
+  ASSERT_TRUE(calibration.ok()) << calibration.status().ToString();
+  EXPECT_EQ(calibration->name, "cam7");
+  EXPECT_EQ(calibration->from, dir + "left0[1-5].jpg");
+  ASSERT_EQ(calibration->view_sources.size(), 5u);
+  EXPECT_EQ(calibration->view_sources.front(), dir + "left01.jpg");  // sorted
+  EXPECT_LT(calibration->intrinsics.rms_px, 1.0);
+  std::ostringstream report;
+  ReportPhotoCalibration(report, *calibration);
+  EXPECT_NE(report.str().find("board found in 5 of 5 images"), std::string::npos) << report.str();
+  EXPECT_NE(report.str().find("worst view: " + dir + "left0"), std::string::npos) << report.str();
+
+  const Result<CameraCalibration> none = CalibrateFromPhotos(dir + "*.png", board, "cam7");
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().ToString().find("images '" + dir + "*.png': matches no file"), std::string::npos)
+      << none.status().ToString();
 }
 
 TEST(IntrinsicsTest, AnUnreadableFileIsAnErrorNamingIt) {

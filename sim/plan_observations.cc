@@ -44,4 +44,9 @@ Result<std::vector<Observation>> PlanObservations(const RigModel& rig, const sca
   return observations;
 }
 
+Result<std::vector<Observation>> PresetObservations(const RigModel& rig, const scan::Preset& preset) {
+  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, scan::MakeMaterialPlan(rig, preset));
+  return PlanObservations(rig, plan);
+}
+
 }  // namespace loom::sim

@@ -13,4 +13,7 @@ namespace loom::sim {
 // Cameras and wheels are looked up by name in `rig`; a name it lacks is an error naming it.
 Result<std::vector<Observation>> PlanObservations(const RigModel& rig, const scan::Plan& plan);
 
+// Those of the material plan `preset` makes on `rig` (what loom train and sim render --stack render).
+Result<std::vector<Observation>> PresetObservations(const RigModel& rig, const scan::Preset& preset);
+
 }  // namespace loom::sim
