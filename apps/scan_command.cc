@@ -19,8 +19,7 @@ Result<scan::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_n
                                 "has no 'geometry:' section: a plan needs the rig's description");
   }
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
-  return purpose == scan::PlanPurpose::kCalibration ? scan::MakeCalibrationPlan(*loaded.model, preset)
-                                                    : scan::MakeMaterialPlan(*loaded.model, preset);
+  return scan::MakePlan(*loaded.model, preset, purpose);
 }
 
 // A real rig's operator places each object: the first before the scan starts (it is named),
@@ -82,12 +81,20 @@ Status ResumeScan(const fs::path& directory, bool quiet) {
   return RunScan(loaded, info.plan, store, quiet);
 }
 
+// Exit 0 when every recorded frame is intact (complete or not), 1 otherwise.
+int Verify(const fs::path& directory) {
+  const Result<scan::ScanIntegrity> integrity = scan::VerifyScan(directory);
+  if (!integrity.ok()) return ReportFailure(integrity.status());
+  integrity->Report(std::cout);
+  return integrity->intact() ? kExitOk : kExitFailure;
+}
+
 }  // namespace
 
 int RunScan(int argc, char** argv) {
-  CLI::App app("Scan: run a measurement plan on a rig into a scan directory, or resume one", "loom scan");
+  CLI::App app("Scan: run a measurement plan on a rig into a scan directory, resume one, or verify one", "loom scan");
   AddCommonOptions(app);
-  std::string rig, preset = "low", object, out, resume;
+  std::string rig, preset = "low", object, out, resume, verify;
   bool calibration = false, quiet = false;
   app.add_option("--rig", rig, "Rig YAML");
   app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
@@ -97,8 +104,11 @@ int RunScan(int argc, char** argv) {
   app.add_flag("--calibration", calibration, "Run the calibration plan");
   app.add_option("--out", out, "New scan directory");
   app.add_option("--resume", resume, "Continue the interrupted scan in this directory");
+  app.add_option("--verify", verify,
+                 "Check the scan in this directory and change nothing: its journal, and every frame against its checksum");
   app.add_flag("--quiet", quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (!verify.empty()) return Verify(verify);
   if (resume.empty() && (rig.empty() || out.empty())) {
     std::cerr << "error: loom scan needs --rig and --out (or --resume DIR)\n";
     return kExitUsage;

@@ -1,6 +1,6 @@
 // loom scan on the simulated tac7-mini: a scan killed with SIGKILL at random points and resumed
 // each time ends identical to an uninterrupted scan of the same seed — same frames, same pixels,
-// none lost, none twice.
+// none lost, none twice — and `loom scan --verify` finds it intact, then names a frame altered.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -92,6 +92,17 @@ TEST_F(ScanCommandTest, KilledTenTimesAndResumedEqualsUninterrupted) {
   ASSERT_TRUE(complete);
   EXPECT_GE(kills, 10);
   EXPECT_EQ(Frames(interrupted), expected);
+
+  // loom scan --verify: the resumed scan is intact; a frame altered afterwards is named, exit 1.
+  const std::string verify = std::string(LOOM_BINARY) + " scan --verify ";
+  const auto intact = loom::testing::RunCommand(verify + interrupted.string());
+  EXPECT_EQ(intact.exit_code, 0) << intact.output;
+  EXPECT_NE(intact.output.find("intact"), std::string::npos) << intact.output;
+  const std::string altered = (interrupted / Frames(interrupted).begin()->first).string();
+  fs::copy_file(interrupted / std::prev(expected.end())->first, altered, fs::copy_options::overwrite_existing);
+  const auto damaged = loom::testing::RunCommand(verify + interrupted.string());
+  EXPECT_EQ(damaged.exit_code, 1) << damaged.output;
+  EXPECT_NE(damaged.output.find("DAMAGED data loss: " + altered), std::string::npos) << damaged.output;
 }
 
 }  // namespace

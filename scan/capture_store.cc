@@ -4,6 +4,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -67,6 +68,40 @@ std::string FrameFileName(const FrameKey& key) {
   char name[160];
   std::snprintf(name, sizeof(name), "frames/s%05d_%s_e%02d.exr", key.step, key.camera.c_str(), key.exposure);
   return name;
+}
+
+// The journal is a hash chain: every line ends in "chain", the FNV-1a 64 of the previous line's
+// chain and this line's record, so an edited, inserted, removed or reordered line breaks the
+// chain at that line. (Not a defence against someone who recomputes it: against slips, tools
+// and bit rot.) Lines of scans from before the chain have none, and stay readable.
+constexpr std::string_view kChainKey = R"(,"chain":")";
+constexpr size_t kChainHexDigits = 16;
+
+std::string ChainAfter(const std::string& previous, std::string_view record) {
+  uint64_t hash = 0xcbf29ce484222325ull;
+  for (std::string_view part : {std::string_view(previous), record}) {
+    for (unsigned char byte : part) {
+      hash ^= byte;
+      hash *= 0x100000001b3ull;
+    }
+  }
+  char text[kChainHexDigits + 1];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+// `record` (a JSON object's text) with its chain link appended as the object's last member.
+std::string ChainedLine(const std::string& record, const std::string& chain) {
+  return record.substr(0, record.size() - 1) + std::string(kChainKey) + chain + "\"}";
+}
+
+// A line's record text and its chain link (empty for a line from before the chain).
+std::pair<std::string, std::string> SplitChain(const std::string& line) {
+  const size_t at = line.rfind(kChainKey);
+  if (at == std::string::npos || line.size() != at + kChainKey.size() + kChainHexDigits + 2 || !line.ends_with("\"}")) {
+    return {line, ""};
+  }
+  return {line.substr(0, at) + "}", line.substr(at + kChainKey.size(), kChainHexDigits)};
 }
 
 Json ToJson(const FrameRecord& r) {
@@ -235,31 +270,7 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
   if (fs::exists(store.JournalPath())) {
     LOOM_ASSIGN_OR_RETURN(journal, ReadFile(store.JournalPath()));
   }
-  size_t good_bytes = 0;
-  int line_number = 0;
-  for (size_t begin = 0; begin < journal.size();) {
-    ++line_number;
-    const size_t end = journal.find('\n', begin);
-    const bool torn = end == std::string::npos;  // the last append never completed
-    const std::string line = journal.substr(begin, torn ? std::string::npos : end - begin);
-    try {
-      if (torn) throw std::runtime_error("no newline");
-      const Json record = Json::parse(line);
-      if (record.contains("step_done")) {
-        store.done_steps_.insert(record.at("step_done").get<int>());
-      } else {
-        store.records_.push_back(FromJson(record));
-      }
-      good_bytes = end + 1;
-    } catch (const std::exception& e) {
-      if (!torn) {
-        return DataLossError(store.JournalPath().string(),
-                             "line " + std::to_string(line_number) + " is corrupt (" + e.what() + ")");
-      }
-    }
-    if (torn) break;
-    begin = end + 1;
-  }
+  LOOM_ASSIGN_OR_RETURN(const size_t good_bytes, store.ReadJournal(journal));
   if (repair) {
     if (good_bytes < journal.size()) {
       fs::resize_file(store.JournalPath(), good_bytes);
@@ -282,6 +293,85 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
   return store;
 }
 
+Result<size_t> CaptureStore::ReadJournal(const std::string& journal) {
+  size_t good_bytes = 0;
+  int line_number = 0;
+  for (size_t begin = 0; begin < journal.size();) {
+    ++line_number;
+    const size_t end = journal.find('\n', begin);
+    if (end == std::string::npos) break;  // torn: the last append never completed
+    if (const Status read = ReadJournalLine(journal.substr(begin, end - begin)); !read.ok()) {
+      return DataLossError(JournalPath().string() + ", line " + std::to_string(line_number), read.message());
+    }
+    good_bytes = end + 1;
+    begin = end + 1;
+  }
+  return good_bytes;
+}
+
+Status CaptureStore::ReadJournalLine(const std::string& line) {
+  const auto [record_text, link] = SplitChain(line);
+  if (link.empty() && chained_) return DataLossError("journal", "has lost its chain link here: the line was edited");
+  if (!link.empty() && link != ChainAfter(chain_, record_text)) {
+    return DataLossError("journal", "breaks its hash chain here: a line was edited, inserted, removed or reordered");
+  }
+  chained_ = chained_ || !link.empty();
+  chain_ = link.empty() ? ChainAfter(chain_, line) : link;
+  Json json;
+  FrameRecord record;
+  try {
+    json = Json::parse(record_text);
+    if (!json.contains("step_done")) record = FromJson(json);
+  } catch (const std::exception& e) {
+    return DataLossError("journal", std::string("is corrupt (") + e.what() + ")");
+  }
+  if (json.contains("step_done")) {
+    const int step = json.at("step_done").is_number_integer() ? json.at("step_done").get<int>() : -1;
+    if (step < 0 || step >= static_cast<int>(info_.plan.steps.size())) {
+      return DataLossError("journal", "marks done a step the plan does not have (" + json.at("step_done").dump() + ")");
+    }
+    if (!done_steps_.insert(step).second) return DataLossError("journal", "marks step " + std::to_string(step) + " done twice");
+    return Status::Ok();
+  }
+  LOOM_RETURN_IF_ERROR(CheckRecordAgainstPlan(record));
+  if (Has(record.key)) return DataLossError("journal", "records " + record.file + " a second time");
+  records_.push_back(std::move(record));
+  return Status::Ok();
+}
+
+// A record the sequencer could have written: a step of the plan, one of its cameras, an exposure
+// within its bracket, and the file name the store gives that frame.
+Status CaptureStore::CheckRecordAgainstPlan(const FrameRecord& record) const {
+  const FrameKey& key = record.key;
+  const std::vector<Step>& steps = info_.plan.steps;
+  if (key.step < 0 || key.step >= static_cast<int>(steps.size())) {
+    return DataLossError("journal", "records a frame of step " + std::to_string(key.step) + ", which the plan (" +
+                                        std::to_string(steps.size()) + " steps) does not have");
+  }
+  const Step& step = steps[static_cast<size_t>(key.step)];
+  if (std::find(step.cameras.begin(), step.cameras.end(), key.camera) == step.cameras.end()) {
+    return DataLossError(
+        "journal", "records a frame of camera '" + key.camera + "', which step " + std::to_string(key.step) + " does not use");
+  }
+  if (key.exposure < 0 || key.exposure >= step.exposure.max_exposures + step.exposure.linearity_series) {
+    return DataLossError("journal", "records exposure " + std::to_string(key.exposure) + " of step " + std::to_string(key.step) +
+                                        ", beyond its bracket");
+  }
+  if (record.file != FrameFileName(key)) {
+    return DataLossError("journal", "names the frame's file '" + record.file + "', not " + FrameFileName(key));
+  }
+  return Status::Ok();
+}
+
+Status CaptureStore::AppendToJournal(const nlohmann::json& record) {
+  const std::string text = record.dump();
+  const std::string chain = ChainAfter(chain_, text);
+  LOOM_RETURN_IF_ERROR(AppendLineDurably(JournalPath(), ChainedLine(text, chain)));
+  chain_ = chain;
+  chained_ = true;
+  return Status::Ok();
+}
+
 bool CaptureStore::Has(const FrameKey& key) const {
   for (const FrameRecord& record : records_) {
     if (record.key == key) return true;
@@ -293,6 +383,9 @@ Status CaptureStore::Append(const FrameKey& key, const RawFrame& frame) {
   if (Has(key)) {
     return AlreadyExistsError(directory_.string(), "frame " + FrameFileName(key) + " is already stored");
   }
+  if (const Status possible = CheckRecordAgainstPlan({key, FrameFileName(key)}); !possible.ok()) {
+    return InvalidArgumentError(directory_.string(), "frame " + FrameFileName(key) + ": " + possible.message());
+  }
   FrameRecord record;
   record.key = key;
   record.file = FrameFileName(key);
@@ -302,13 +395,13 @@ Status CaptureStore::Append(const FrameKey& key, const RawFrame& frame) {
   record.metadata = frame.metadata;
   LOOM_RETURN_IF_ERROR(WriteExrUint16(directory_ / record.file, frame.width, frame.height, frame.pixels, kPixelChannel,
                                       {{"loom.camera", key.camera}, {"loom.step", key.step}}));
-  LOOM_RETURN_IF_ERROR(AppendLineDurably(JournalPath(), ToJson(record).dump()));
+  LOOM_RETURN_IF_ERROR(AppendToJournal(ToJson(record)));
   records_.push_back(std::move(record));
   return Status::Ok();
 }
 
 Status CaptureStore::MarkStepDone(int step) {
-  LOOM_RETURN_IF_ERROR(AppendLineDurably(JournalPath(), Json{{"step_done", step}}.dump()));
+  LOOM_RETURN_IF_ERROR(AppendToJournal(Json{{"step_done", step}}));
   done_steps_.insert(step);
   return Status::Ok();
 }
@@ -332,6 +425,46 @@ Result<RawFrame> CaptureStore::ReadFrame(const FrameRecord& record) const {
   frame.pixels = std::move(image.pixels);
   frame.metadata = record.metadata;
   return frame;
+}
+
+Result<ScanIntegrity> VerifyScan(const fs::path& directory) {
+  LOOM_ASSIGN_OR_RETURN(const CaptureStore store, CaptureStore::Open(directory));
+  ScanIntegrity integrity;
+  integrity.frames = static_cast<int>(store.records().size());
+  integrity.steps_done = store.steps_done();
+  integrity.steps_planned = static_cast<int>(store.info().plan.steps.size());
+  std::set<std::string> recorded;
+  for (const FrameRecord& record : store.records()) {
+    recorded.insert(record.file);
+    if (Result<RawFrame> frame = store.ReadFrame(record); frame.ok()) {
+      ++integrity.frames_verified;
+    } else {
+      integrity.damaged.push_back(frame.status());
+    }
+  }
+  if (fs::exists(directory / "journal.jsonl")) {
+    LOOM_ASSIGN_OR_RETURN(const std::string journal, ReadFile(directory / "journal.jsonl"));
+    integrity.torn_last_line = !journal.empty() && journal.back() != '\n';
+  }
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(directory / "frames", ec)) {
+    const std::string name = entry.path().filename().string();
+    if (recorded.contains("frames/" + name)) continue;
+    (IsStoreFrameName(name) ? integrity.partial_frames : integrity.foreign_files).push_back(entry.path().string());
+  }
+  std::sort(integrity.partial_frames.begin(), integrity.partial_frames.end());
+  std::sort(integrity.foreign_files.begin(), integrity.foreign_files.end());
+  return integrity;
+}
+
+void ScanIntegrity::Report(std::ostream& out) const {
+  out << frames_verified << " of " << frames << " recorded frames verified against their checksums; " << steps_done << " of "
+      << steps_planned << " steps done" << (complete() ? "" : " (incomplete: loom scan --resume continues it)") << "\n";
+  for (const Status& frame : damaged) out << "  DAMAGED " << frame.ToString() << "\n";
+  if (torn_last_line) out << "  the journal's last line is torn (a crash mid-append): a resume drops it\n";
+  for (const std::string& file : partial_frames) out << "  partial (no record; a resume redoes it): " << file << "\n";
+  for (const std::string& file : foreign_files) out << "  not written by the scan (left as it is): " << file << "\n";
+  out << (intact() ? "intact" : "DAMAGED: the frames above no longer hold what was captured") << "\n";
 }
 
 }  // namespace loom::scan

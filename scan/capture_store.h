@@ -7,23 +7,31 @@
 //   SCAN/frames/         raw frames, s<step>_<camera>_e<exposure>.exr: one UINT channel "DN",
 //                        lossless, never rewritten
 //   SCAN/journal.jsonl   one JSON record per frame: what the devices really did, the file and a
-//                        checksum of its pixels
+//                        checksum of its pixels; and one per completed step. A hash chain runs
+//                        through the lines (each ends in "chain", the FNV-1a 64 of the previous
+//                        link and its record)
 //   SCAN/writer.lock     held (flock, exclusive) by the one process writing the scan; the kernel
 //                        releases it when that process ends, however it ends
 //
 // Order of a write: the frame file (temporary name, fsync, rename, fsync of the directory),
 // then its journal record (appended, fsync). A frame without a record is partial and is redone
-// on resume; a torn last journal line (a crash mid-append) is dropped. Reading verifies every
-// frame against its record: a missing, truncated or altered frame is an error naming the file.
+// on resume; a torn last journal line (a crash mid-append) is dropped. Reading checks every
+// journal line: a broken chain (an edited, inserted, removed or reordered line), a frame
+// recorded twice, a step done twice, or a record the plan cannot have made (a step, camera or
+// exposure it lacks) is an error naming the journal and the line. Reading a frame verifies it
+// against its record: a missing, truncated or altered frame is an error naming the file.
 // One writer per scan: Create and Open(repair) take the writer lock, and a second writer (a
 // second `loom scan --resume` on the same directory) is refused naming the directory. Not
 // thread-safe.
 
 #include <filesystem>
 #include <memory>
+#include <ostream>
 #include <set>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/status.h"
 #include "scan/frame.h"
@@ -80,14 +88,40 @@ class CaptureStore {
  private:
   explicit CaptureStore(std::filesystem::path directory) : directory_(std::move(directory)) {}
   std::filesystem::path JournalPath() const { return directory_ / "journal.jsonl"; }
+  // Reads the journal's complete lines into records_ and done_steps_; returns their length in bytes.
+  Result<size_t> ReadJournal(const std::string& journal);
+  Status ReadJournalLine(const std::string& line);
+  Status CheckRecordAgainstPlan(const FrameRecord& record) const;
+  Status AppendToJournal(const nlohmann::json& record);
 
   std::filesystem::path directory_;
   std::shared_ptr<void> writer_lock_;  // while this store writes (empty when read-only)
   ScanInfo info_;
   std::vector<FrameRecord> records_;
   std::set<int> done_steps_;
+  std::string chain_;     // the last line's chain link ("" before the first)
+  bool chained_ = false;  // a chained line has been read or written: every later one must be
 };
 
 std::string FrameChecksum(const std::vector<uint16_t>& pixels);
+
+// A scan checked as `loom scan --verify` does, changing nothing: the journal read as Open reads it
+// (a broken chain or an impossible record is the returned error), then every recorded frame
+// read back against its checksum.
+struct ScanIntegrity {
+  int frames = 0;                           // recorded in the journal
+  int frames_verified = 0;                  // read back, matching their records
+  std::vector<Status> damaged;              // the others, each naming its file
+  int steps_done = 0;                       // of
+  int steps_planned = 0;                    //
+  bool torn_last_line = false;              // a crash mid-append: a resume drops it
+  std::vector<std::string> partial_frames;  // in frames/ without a record: a resume redoes them
+  std::vector<std::string> foreign_files;   // in frames/ and not the store's: a resume leaves them
+
+  bool intact() const { return damaged.empty(); }
+  bool complete() const { return steps_done == steps_planned; }
+  void Report(std::ostream& out) const;
+};
+Result<ScanIntegrity> VerifyScan(const std::filesystem::path& directory);
 
 }  // namespace loom::scan

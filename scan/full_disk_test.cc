@@ -13,7 +13,10 @@ namespace {
 // the frames that made it. The writer, and its lock, end with the function, as a scan's
 // process does.
 Status FillUntilFull(const std::filesystem::path& dir, int& stored) {
-  Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", {}});
+  // One step with a long bracket: 64 frames of 8 KiB do not fit in 256 KiB.
+  Plan plan{"r", "low", PlanPurpose::kMaterial, {Step{.cameras = {"cam0"}}}};
+  plan.steps[0].exposure.max_exposures = 64;
+  Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", plan});
   if (!store.ok()) return store.status();
   RawFrame frame;
   frame.width = frame.height = 64;
@@ -22,8 +25,8 @@ Status FillUntilFull(const std::filesystem::path& dir, int& stored) {
     state = state * 1664525u + 1013904223u;  // noise: does not compress
     frame.pixels.push_back(static_cast<uint16_t>(state >> 20));
   }
-  for (int step = 0; step < 1000; ++step) {
-    if (Status appended = store->Append({step, "cam0", 0}, frame); !appended.ok()) return appended;
+  for (int exposure = 0; exposure < 64; ++exposure) {
+    if (Status appended = store->Append({0, "cam0", exposure}, frame); !appended.ok()) return appended;
     ++stored;
   }
   return Status::Ok();
