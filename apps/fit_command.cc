@@ -1,8 +1,7 @@
 // loom fit: an observation stack → SVBRDF maps (OpenEXR + PNG previews + fit.json).
-#include <chrono>
 #include <filesystem>
-#include <iomanip>
 #include <iostream>
+#include <map>
 #include <optional>
 
 #include <nlohmann/json.hpp>
@@ -12,8 +11,8 @@
 #include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "core/version.h"
-#include "fitting/cnn.h"
 #include "fitting/export.h"
+#include "fitting/method_fit.h"
 #include "fitting/stack_fitter.h"
 
 namespace loom::apps {
@@ -40,82 +39,33 @@ struct FitArguments {
   bool quiet = false;
 };
 
-std::string SummaryJson(const nlohmann::json& fit, const FitArguments& args, double cnn_seconds, const Image& maps) {
-  std::vector<std::string> uncertainty;
-  for (const std::string& name : maps.channel_names()) {
-    if (name.starts_with("unc.")) uncertainty.push_back(name);
-  }
-  nlohmann::json json = fit;
-  json.update({{"method", args.method},
-               {"model", args.model},
-               {"cnn_seconds", cnn_seconds},
-               {"stack", args.stack},
-               {"uncertainty_channels", uncertainty},
-               {"loom_version", std::string(VersionWithCommit())}});
-  return json.dump(2) + "\n";
-}
-
-// The CNN's maps of the stack, with the model of --model or the rig's shipped one.
-Result<Image> CnnMaps(FitArguments& args, const ObservationStack& stack) {
-  if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
-  if (!fs::exists(fs::path(args.model) / "model.json")) {
-    return NotFoundError(
-        args.model, "no CNN model here (model.json) for rig '" + stack.rig + "': train one with loom train, or pass --model");
-  }
-  LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(args.model));
-  std::cerr << "CNN " << args.model << " (" << cnn.info().architecture.input_channels << " input channels, width 1/"
-            << cnn.info().architecture.width_divisor << ")\n";
-  return cnn.PredictMaps(stack, args.options.threads);
-}
-
-Status WriteMaps(const FitArguments& args, const ObservationStack& stack, const Image& maps, const std::string& summary) {
-  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(args.out, maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", summary));
-  std::cout << "wrote " << (fs::path(args.out) / "svbrdf.exr").string() << ", previews and fit.json in " << args.out << "\n";
-  return Status::Ok();
-}
-
 Status Fit(FitArguments args) {
   const std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
   if (!method) return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres or cnn+refine");
-  const bool with_cnn = fitting::StartsFromCnn(*method);
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << stack.observations.size() << " observations (" << stack.source << ")\n";
-  std::optional<Image> cnn_maps;
-  double cnn_seconds = 0;
-  if (with_cnn) {
-    const auto start = std::chrono::steady_clock::now();
-    LOOM_ASSIGN_OR_RETURN(cnn_maps, CnnMaps(args, stack));
-    cnn_seconds = SecondsSince(start);
-    std::cout << "CNN: " << stack.image.width() << "x" << stack.image.height() << " px in " << FormatDuration(cnn_seconds)
-              << "\n";
-    if (*method == fitting::FitMethod::kCnn) {
-      return WriteMaps(args, stack, *cnn_maps,
-                       SummaryJson({{"pixels", stack.image.pixel_count()}}, args, cnn_seconds, *cnn_maps));
-    }
-  }
-  ProgressBar clusters("clusters", args.quiet);
-  ProgressBar pixels("pixels  ", args.quiet);
-  ProgressBar retries("retries ", args.quiet);
-  ProgressBar smoothing("smoothing", args.quiet);
+  if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
-  options.solver = fitting::SolverOf(*method);
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
+  std::map<std::string, ProgressBar> bars;
   options.progress = [&](const fitting::StackFitProgress& p) {
-    ProgressBar& bar = p.stage == "clusters"  ? clusters
-                       : p.stage == "pixels"  ? pixels
-                       : p.stage == "retries" ? retries
-                                              : smoothing;
-    bar.Update(p.done, p.total, p.stage);
+    bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
   };
-  if (cnn_maps) options.initial_maps = &*cnn_maps;
-  LOOM_ASSIGN_OR_RETURN(const fitting::StackFit fit, fitting::FitStack(stack, options));
-  fit.summary.Report(std::cout);
-  nlohmann::json summary = fit.summary.ToJson();
-  summary.update(options.ToJson());
-  return WriteMaps(args, stack, fit.maps, SummaryJson(summary, args, cnn_seconds, fit.maps));
+  LOOM_ASSIGN_OR_RETURN(const fitting::MethodFit fit, fitting::FitWithMethod(stack, *method, args.model, options));
+  bars.clear();
+  if (!fit.cnn.empty()) std::cout << "CNN " << fit.cnn << ": " << FormatDuration(fit.cnn_seconds) << "\n";
+  if (fit.summary) fit.summary->Report(std::cout);
+  nlohmann::json summary = fit.ToJson();
+  summary.update({{"method", args.method},
+                  {"model", fit.cnn.empty() ? "" : args.model},
+                  {"stack", args.stack},
+                  {"loom_version", std::string(VersionWithCommit())}});
+  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(args.out, fit.maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", summary.dump(2) + "\n"));
+  std::cout << "wrote " << (fs::path(args.out) / "svbrdf.exr").string() << ", previews and fit.json in " << args.out << "\n";
+  return Status::Ok();
 }
 
 }  // namespace

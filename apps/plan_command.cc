@@ -11,8 +11,9 @@ namespace {
 Status ShowPlan(const std::string& rig_path, const std::string& preset_name, bool calibration, bool steps, bool yaml) {
   LOOM_ASSIGN_OR_RETURN(const RigModel rig, LoadRigModel(rig_path));
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
-  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan,
-                        calibration ? scan::MakeCalibrationPlan(rig, preset) : scan::MakeMaterialPlan(rig, preset));
+  LOOM_ASSIGN_OR_RETURN(
+      const scan::Plan plan,
+      scan::MakePlan(rig, preset, calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial));
   if (yaml) {
     std::cout << scan::PlanToYaml(plan);
     return Status::Ok();

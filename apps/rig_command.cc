@@ -75,19 +75,7 @@ Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
     return Status::Ok();
   }
   if (!path.ends_with(".exr")) return InvalidArgumentError("--out " + path, "must end in .exr or .png");
-  Image image(frame.width, frame.height, {"Y"});
-  std::copy(frame.pixels.begin(), frame.pixels.end(), image.channel(0).begin());
-  const scan::FrameMetadata& meta = frame.metadata;
-  return WriteExr(path, image,
-                  {{"loom.camera", meta.camera},
-                   {"loom.cameraSerial", meta.camera_serial},
-                   {"loom.pixelFormat", std::string(scan::PixelFormatName(meta.pixel_format))},
-                   {"loom.exposure_us", meta.exposure_us},
-                   {"loom.gain", meta.gain},
-                   {"loom.frameId", static_cast<int>(meta.frame_id)},
-                   {"loom.turntable_deg", meta.rig_state.turntable_deg},
-                   {"loom.ledsOn", static_cast<int>(meta.rig_state.leds_on.size())},
-                   {"loom.units", std::string("raw sensor counts (DN)")}});
+  return scan::WriteFrameExr(frame, path);
 }
 
 Status Snap(Rig& rig, const std::string& camera, double exposure_us, const std::string& leds, const std::string& out) {

@@ -8,7 +8,8 @@
 namespace loom {
 namespace {
 
-constexpr std::array<std::string_view, 6> kSections = {"geometry", "devices", "sample", "seed", "as_built", "recalibration"};
+// The mappings other modules read; `seed` is a scalar that Seed() reads.
+constexpr std::array<std::string_view, 5> kSections = {"geometry", "devices", "sample", "as_built", "recalibration"};
 
 void CheckIsSection(std::string_view key) {
   LOOM_CHECK(std::find(kSections.begin(), kSections.end(), key) != kSections.end()) << "no rig file section '" << key << "'";
@@ -57,6 +58,7 @@ int RigFile::Seed() const {
 
 Status RigFile::Finish() const {
   for (std::string_view section : kSections) doc_.root().Ignore(section);
+  doc_.root().Ignore("seed");
   return doc_.Finish();
 }
 

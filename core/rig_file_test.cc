@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "core/check.h"
+
 namespace loom {
 namespace {
 
@@ -33,6 +35,9 @@ TEST(RigFileTest, EachPartReadsItsSectionAndLeavesTheOthers) {
   EXPECT_TRUE(file->Finish().ok()) << file->Finish().ToString();
   EXPECT_TRUE(file->Has("devices"));
   EXPECT_FALSE(file->Has("as_built"));
+  // A key that is no section is a bug in the caller, the scalar seed: included.
+  EXPECT_THROW(file->Section("seed"), CheckError);
+  EXPECT_THROW(file->Has("geometri"), CheckError);
 }
 
 TEST(RigFileTest, AnUnknownTopLevelKeyIsAnErrorWhateverWasRead) {

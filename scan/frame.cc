@@ -1,5 +1,9 @@
 #include "scan/frame.h"
 
+#include <algorithm>
+
+#include "core/exr_io.h"
+
 namespace loom::scan {
 
 std::string_view PixelFormatName(PixelFormat format) {
@@ -31,6 +35,22 @@ int BitDepth(PixelFormat format) {
       return 16;
   }
   return 16;
+}
+
+Status WriteFrameExr(const RawFrame& frame, const std::filesystem::path& path) {
+  Image image(frame.width, frame.height, {"Y"});
+  std::copy(frame.pixels.begin(), frame.pixels.end(), image.channel(0).begin());
+  const FrameMetadata& meta = frame.metadata;
+  return WriteExr(path, image,
+                  {{"loom.camera", meta.camera},
+                   {"loom.cameraSerial", meta.camera_serial},
+                   {"loom.pixelFormat", std::string(PixelFormatName(meta.pixel_format))},
+                   {"loom.exposure_us", meta.exposure_us},
+                   {"loom.gain", meta.gain},
+                   {"loom.frameId", static_cast<int>(meta.frame_id)},
+                   {"loom.turntable_deg", meta.rig_state.turntable_deg},
+                   {"loom.ledsOn", static_cast<int>(meta.rig_state.leds_on.size())},
+                   {"loom.units", std::string("raw sensor counts (DN)")}});
 }
 
 }  // namespace loom::scan

@@ -4,6 +4,7 @@
 // calibration and reconstruction read it.
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -47,5 +48,10 @@ struct RawFrame {
 
   uint16_t at(int y, int x) const { return pixels[static_cast<size_t>(y) * width + x]; }
 };
+
+// A frame as an OpenEXR image for a person to look at (loom rig snap): its DN as floats in
+// channel "Y", its metadata (camera, serial, format, exposure, gain, frame id, turntable angle,
+// LEDs lit) as attributes. The capture store keeps frames its own way (capture_store.h).
+Status WriteFrameExr(const RawFrame& frame, const std::filesystem::path& path);
 
 }  // namespace loom::scan

@@ -306,6 +306,10 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
   return builder.Finish();
 }
 
+Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose) {
+  return purpose == PlanPurpose::kCalibration ? MakeCalibrationPlan(rig, preset) : MakeMaterialPlan(rig, preset);
+}
+
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   if (rig.cameras.empty()) return FailedPreconditionError("rig '" + rig.name + "'", "calibration needs cameras");
   LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));

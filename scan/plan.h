@@ -140,6 +140,7 @@ Result<Plan> ParsePlanYaml(std::string_view text, const std::string& source_name
 
 Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset);
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset);
+Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose);  // one of the two
 
 // The structured-light pattern names for a projector width: gray_x_NN and their inverses,
 // phase_x_K, plus "white" and "black" references.

@@ -95,6 +95,8 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   EXPECT_EQ(plan.Images(StepKind::kLinearLight), 70 * 2);
   const Plan calibration = *MakeCalibrationPlan(rig, LoadShippedPreset("low"));
   EXPECT_EQ(calibration.purpose, PlanPurpose::kCalibration);
+  EXPECT_EQ(*MakePlan(rig, LoadShippedPreset("low"), PlanPurpose::kCalibration), calibration);
+  EXPECT_EQ(*MakePlan(rig, LoadShippedPreset("low"), PlanPurpose::kMaterial), plan);
   EXPECT_EQ(calibration.Images(StepKind::kWhiteReference), (12 + 1) * 2);  // every LED and the linear light
   EXPECT_EQ(calibration.Images(StepKind::kTarget), 8 * 2);
   EXPECT_EQ(calibration.Images(StepKind::kDark), 2);

@@ -25,9 +25,9 @@ struct TrainingSetSpec {
   uint64_t first_seed = 1000;
   double out_of_model_share = 0;
   double scan_like_share = 0;
-  ScanEmulation scan_emulation;  // needed when scan_like_share > 0
-  Status Check() const;
-  nlohmann::json ToJson() const;  // every problem, naming the field
+  ScanEmulation scan_emulation;   // needed when scan_like_share > 0
+  Status Check() const;           // every problem, naming the field
+  nlohmann::json ToJson() const;  // every field, the emulation's when it is used
 };
 
 // Called after each material with how many are done, of how many, and its name.

@@ -1,0 +1,36 @@
+#pragma once
+// What `loom fit --method` does, in one call: for the cnn methods the CNN's maps of the stack
+// (cnn.h), then, unless the method is the CNN alone, the whole-stack fit the method names
+// (stack_fitter.h) started from those maps or from the clusters' fits.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "core/image.h"
+#include "core/observation_stack.h"
+#include "fitting/stack_fitter.h"
+
+namespace loom::fitting {
+
+struct MethodFit {
+  Image maps;                              // svbrdf_maps.h's layout, plus the fit's channels
+  std::optional<StackFitSummary> summary;  // none for the CNN alone
+  nlohmann::json settings;                 // the options the fit ran with (StackFitOptions::ToJson)
+  std::string cnn;                         // the model used, described in a line ("" without one)
+  double cnn_seconds = 0;
+
+  // fit.json's content: the summary's fields and the settings, the CNN's time and the maps'
+  // uncertainty channels.
+  nlohmann::json ToJson() const;
+};
+
+// `model_dir` holds the CNN (a loom train model directory) for the cnn methods; a directory
+// without model.json is an error naming it. `options.solver` and `options.initial_maps` are
+// set from the method.
+Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
+                                StackFitOptions options);
+
+}  // namespace loom::fitting
