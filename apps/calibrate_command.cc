@@ -117,7 +117,7 @@ int RunCalibrate(int argc, char** argv) {
     if (recalibrate.ok()) return *recalibrate ? kExitRecalibrate : kExitOk;
     done = recalibrate.status();
   }
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(done);
 }
 
 }  // namespace loom::apps

@@ -52,7 +52,8 @@ std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
   return std::nullopt;
 }
 
-int ReportFailure(const Status& status) {
+int ExitCode(const Status& status) {
+  if (status.ok()) return kExitOk;
   std::cerr << "error: " << status.ToString() << "\n";
   return kExitFailure;
 }

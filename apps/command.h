@@ -35,8 +35,8 @@ void AddCommonOptions(CLI::App& app);
 // kExitOk after --help, kExitUsage after a usage error (message on stderr).
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv);
 
-// Prints "error: <status>" on stderr and returns kExitFailure.
-int ReportFailure(const Status& status);
+// kExitOk for an ok status; otherwise prints "error: <status>" on stderr and returns kExitFailure.
+int ExitCode(const Status& status);
 
 // The commands.
 int RunCalibrate(int argc, char** argv);

@@ -6,10 +6,8 @@
 // demo does a user can repeat by hand.
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -117,13 +115,10 @@ Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages*
 }
 
 Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {
-  std::ifstream file(path);
-  if (!file) return NotFoundError(path.string(), "cannot be read");
-  try {
-    return nlohmann::ordered_json::parse(file);
-  } catch (const nlohmann::ordered_json::exception& e) {
-    return InvalidArgumentError(path.string(), std::string("not JSON: ") + e.what());
-  }
+  LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(path));
+  nlohmann::ordered_json json = nlohmann::ordered_json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (json.is_discarded()) return InvalidArgumentError(path.string(), "not JSON");
+  return json;
 }
 
 // The evaluations and stage times as one document.
@@ -200,8 +195,7 @@ int RunDemo(int argc, char** argv) {
   app.add_option("--out", args.out, "Directory to write, new or empty (default loom-demo)");
   app.add_flag("--quiet", args.quiet, "No progress bars");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  const Status done = Demo(args);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(Demo(args));
 }
 
 }  // namespace loom::apps

@@ -46,8 +46,7 @@ int RunEval(int argc, char** argv) {
   app.add_option("--title", title, "Title of the report");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
 
-  const Status done = Evaluate(maps_path, stack_path, reference_path, out, title);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(Evaluate(maps_path, stack_path, reference_path, out, title));
 }
 
 }  // namespace loom::apps

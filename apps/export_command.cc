@@ -52,8 +52,7 @@ int RunExport(int argc, char** argv) {
   app.add_option("--pixel-mm", pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  const Status done = Export(maps, pixel_mm, out, axf);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(Export(maps, pixel_mm, out, axf));
 }
 
 }  // namespace loom::apps

@@ -113,8 +113,7 @@ int RunFit(int argc, char** argv) {
                "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  if (Status status = Fit(args); !status.ok()) return ReportFailure(status);
-  return kExitOk;
+  return ExitCode(Fit(args));
 }
 
 }  // namespace loom::apps

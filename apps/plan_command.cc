@@ -42,8 +42,7 @@ int RunPlan(int argc, char** argv) {
   app.add_flag("--yaml", yaml, "Print the expanded plan as YAML (what a scan keeps in SCAN/plan.yaml)");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
 
-  const Status done = ShowPlan(rig_path, preset_name, calibration, steps, yaml);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(ShowPlan(rig_path, preset_name, calibration, steps, yaml));
 }
 
 }  // namespace loom::apps

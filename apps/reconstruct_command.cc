@@ -70,9 +70,7 @@ Status Reconstruct(const ReconstructArguments& args) {
                         reconstruction::Reconstruct(store, rig, args.options, progress));
   bar.reset();
   if (const std::string note = result.CoarseSamplingNote(); !note.empty()) std::cerr << "note: " << note << "\n";
-  std::error_code error;
-  fs::create_directories(args.out, error);
-  if (error) return IoError(args.out, "cannot create the directory: " + error.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(args.out));
   const fs::path stack_path = fs::path(args.out) / "stack.exr";
   LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, result.stack));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -111,8 +109,7 @@ int RunReconstruct(int argc, char** argv) {
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   args.options.height_px = args.options.width_px;
-  if (Status status = Reconstruct(args); !status.ok()) return ReportFailure(status);
-  return kExitOk;
+  return ExitCode(Reconstruct(args));
 }
 
 }  // namespace loom::apps

@@ -10,11 +10,11 @@
 
 #include "apps/command.h"
 #include "apps/rig_loader.h"
-#include "core/exr_io.h"
 #include "core/interrupt.h"
 #include "hal/aravis/aravis_backend.h"
 #include "hal/device_status.h"
 #include "hal/rig.h"
+#include "scan/frame.h"
 
 namespace loom::apps {
 namespace {
@@ -29,7 +29,7 @@ std::string Pad(const std::string& text, size_t width) {
 int List(const std::string& rig_path, bool discover) {
   if (!rig_path.empty()) {
     Result<LoadedRig> loaded = LoadRig(rig_path);
-    if (!loaded.ok()) return ReportFailure(loaded.status());
+    if (!loaded.ok()) return ExitCode(loaded.status());
     const Rig& rig = *loaded->rig;
     std::cout << "rig '" << rig.name() << "' (" << rig_path << "): " << rig.devices().size() << " devices"
               << (loaded->sim ? ", simulated" : "") << "\n";
@@ -55,13 +55,9 @@ int StatusOfAll(Rig& rig) {
   for (Device* device : rig.devices()) {
     const Status opened = device->Open();
     Result<std::string> line = opened.ok() ? hal::DescribeDeviceState(*device) : Result<std::string>(opened);
-    std::cout << "  " << Pad(device->name(), 14);
-    if (line.ok()) {
-      std::cout << "ok      " << *line << "\n";
-    } else {
-      ++failures;
-      std::cout << "FAILED  " << line.status().ToString() << "\n";
-    }
+    std::cout << "  " << Pad(device->name(), 14) << (line.ok() ? "ok      " + *line : "FAILED  " + line.status().ToString())
+              << "\n";
+    failures += line.ok() ? 0 : 1;
   }
   rig.MakeSafe().ok();
   rig.CloseAll().ok();
@@ -160,14 +156,14 @@ int RunRig(int argc, char** argv) {
     return List(rig_path, discover);
   }
   Result<LoadedRig> loaded = LoadRig(rig_path);
-  if (!loaded.ok()) return ReportFailure(loaded.status());
+  if (!loaded.ok()) return ExitCode(loaded.status());
   Rig& rig = *loaded->rig;
   if (*status) return StatusOfAll(rig);
   Status done;
   if (*snap) done = Snap(rig, camera, exposure_us, snap_leds, out);
   if (*move) done = Move(rig, device, to);
   if (*leds) done = Leds(rig, on, hold_s);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(done);
 }
 
 }  // namespace loom::apps

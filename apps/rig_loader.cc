@@ -1,7 +1,5 @@
 #include "apps/rig_loader.h"
 
-#include <algorithm>
-
 #include "apps/backends.h"
 
 namespace loom::apps {

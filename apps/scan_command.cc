@@ -84,7 +84,7 @@ Status ResumeScan(const fs::path& directory, bool quiet) {
 // Exit 0 when every recorded frame is intact (complete or not), 1 otherwise.
 int Verify(const fs::path& directory) {
   const Result<scan::ScanIntegrity> integrity = scan::VerifyScan(directory);
-  if (!integrity.ok()) return ReportFailure(integrity.status());
+  if (!integrity.ok()) return ExitCode(integrity.status());
   integrity->Report(std::cout);
   return integrity->intact() ? kExitOk : kExitFailure;
 }
@@ -113,8 +113,7 @@ int RunScan(int argc, char** argv) {
     std::cerr << "error: loom scan needs --rig and --out (or --resume DIR)\n";
     return kExitUsage;
   }
-  const Status done = resume.empty() ? NewScan(rig, preset, object, calibration, out, quiet) : ResumeScan(resume, quiet);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(resume.empty() ? NewScan(rig, preset, object, calibration, out, quiet) : ResumeScan(resume, quiet));
 }
 
 }  // namespace loom::apps

@@ -25,9 +25,7 @@ namespace fs = std::filesystem;
 
 Status Material(const sim::SampleSpec& spec, const fs::path& out) {
   LOOM_ASSIGN_OR_RETURN(const sim::Material material, sim::MakeSample(spec));
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) return IoError(out.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(out));
   LOOM_RETURN_IF_ERROR(sim::WriteMaterial(material, out / "svbrdf.exr"));
   LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(material.maps, out));
   std::cout << material.name << " (" << material.width() << "x" << material.height() << " px of " << material.pixel_mm
@@ -156,7 +154,7 @@ int RunSim(int argc, char** argv) {
   if (*stats) done = Stats(seeds, stats_size_px, json_path);
   if (*render) done = Render(r);
   if (*material) done = Material(sample, out);
-  return done.ok() ? kExitOk : ReportFailure(done);
+  return ExitCode(done);
 }
 
 }  // namespace loom::apps

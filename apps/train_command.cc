@@ -185,8 +185,7 @@ int RunTrain(int argc, char** argv) {
   app.add_flag("--resume", t.resume, "Go on from OUT/checkpoints (same options as the interrupted run)");
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  if (Status status = Train(args); !status.ok()) return ReportFailure(status);
-  return kExitOk;
+  return ExitCode(Train(args));
 }
 
 }  // namespace loom::apps

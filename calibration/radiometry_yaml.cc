@@ -219,9 +219,7 @@ Status ReadWheel(const fs::path& folder, const FilterWheelModel& wheel, Radiomet
 
 Status WriteRadiometry(const fs::path& directory, const Radiometry& radiometry, const std::string& from) {
   const fs::path folder = Folder(directory);
-  std::error_code ec;
-  fs::create_directories(folder, ec);
-  if (ec) return IoError(folder.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(folder));
   for (const CameraRadiometry& camera : radiometry.cameras) LOOM_RETURN_IF_ERROR(WriteCamera(folder, camera, radiometry, from));
   LOOM_RETURN_IF_ERROR(WriteLights(folder, radiometry, from));
   std::vector<std::string> wheels;

@@ -151,9 +151,7 @@ Result<GeometryCalibration> CalibrateGeometryFromScan(const fs::path& scan_dir) 
 }
 
 Status GeometryCalibration::Write(const fs::path& directory) const {
-  std::error_code ec;
-  fs::create_directories(directory, ec);
-  if (ec) return IoError(directory.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(directory));
   for (const CameraGeometry& camera : geometry.cameras) {
     std::vector<std::string> camera_skipped;
     for (const std::vector<scan::ViewId>* list : {&skipped, &geometry.rejected}) {

@@ -70,6 +70,13 @@ Status AppendLineDurably(const fs::path& path, std::string_view line) {
   return written.ok() ? closed : written;
 }
 
+Status CreateDirectories(const fs::path& directory) {
+  std::error_code error;
+  fs::create_directories(directory, error);
+  if (error) return IoError(directory.string(), "cannot create the directory: " + error.message());
+  return Status::Ok();
+}
+
 Result<std::string> ReadFile(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {

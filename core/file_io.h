@@ -20,4 +20,7 @@ Status AppendLineDurably(const std::filesystem::path& path, std::string_view lin
 
 Result<std::string> ReadFile(const std::filesystem::path& path);
 
+// Creates `directory` and its parents where missing; an error names it.
+Status CreateDirectories(const std::filesystem::path& directory);
+
 }  // namespace loom

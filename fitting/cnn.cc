@@ -281,9 +281,7 @@ Result<Cnn> Cnn::Load(const std::filesystem::path& directory) {
 }
 
 Status Cnn::Save(const std::filesystem::path& directory) const {
-  std::error_code error;
-  std::filesystem::create_directories(directory, error);
-  if (error) return IoError(directory.string(), "cannot create: " + error.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(directory));
   // Weights first, to a temporary name: model.json names a complete model or none.
   const std::filesystem::path weights = directory / kWeightsFile;
   const std::filesystem::path partial = directory / (std::string(kWeightsFile) + ".partial");
@@ -292,6 +290,7 @@ Status Cnn::Save(const std::filesystem::path& directory) const {
   } catch (const std::exception& e) {
     return IoError(partial.string(), e.what());
   }
+  std::error_code error;
   std::filesystem::rename(partial, weights, error);
   if (error) return IoError(weights.string(), "cannot rename into place: " + error.message());
   return WriteFileAtomically(directory / kInfoFile, InfoToJson(info_).dump(2) + "\n");

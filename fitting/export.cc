@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/file_io.h"
 #include "core/geometry.h"
 #include "core/version.h"
 #include "fitting/internal/png.h"
@@ -55,9 +56,7 @@ const std::vector<std::string>& SvbrdfPreviewNames() {
 }
 
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
   LOOM_RETURN_IF_ERROR(WriteExr(dir / "svbrdf.exr", maps,
                                 {{"loom.kind", std::string("svbrdf maps")},
                                  {"loom.method", provenance.method},

@@ -172,9 +172,7 @@ GltfRoughness GltfRoughnessOf(double sigma_x, double sigma_y) {
 Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir) {
   if (!HasSvbrdfLayout(maps)) return InvalidArgumentError("glTF export", "the maps are not in the SVBRDF layout");
   if (!(pixel_mm > 0)) return InvalidArgumentError("glTF export", "needs the maps' pixel size (loom.pixel_mm)");
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  if (error) return IoError(dir.string(), "cannot create: " + error.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
   const Textures t = MakeTextures(maps, pixel_mm);
   for (const auto& [name, image] : {std::pair{"base_color", &t.base_color},
                                     {"specular_color", &t.specular_color},

@@ -184,9 +184,7 @@ std::string EvaluationJson(const Evaluation& e) {
 }
 
 Status WriteReport(const fs::path& dir, const ReportInputs& in) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>loom: " << Escape(in.title) << "</title>\n"
        << "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{padding:4px 10px;"

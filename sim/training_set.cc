@@ -1,5 +1,7 @@
 #include "sim/training_set.h"
 
+#include "core/file_io.h"
+
 #include <cmath>
 
 #include "sim/sample.h"
@@ -39,9 +41,7 @@ nlohmann::json TrainingSetSpec::ToJson() const {
 Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& observations, const TrainingSetSpec& spec,
                          const fs::path& dir, const TrainingSetProgress& progress) {
   LOOM_RETURN_IF_ERROR(spec.Check());
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return IoError(dir.string(), "cannot create: " + ec.message());
+  LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
   for (int i = 0; i < spec.materials; ++i) {
     const uint64_t seed = spec.first_seed + i;
     // Scan-likeness is chosen by pairs of materials, so that with out_of_model_share 0.5 (every
