@@ -31,6 +31,19 @@ Result<hal::Camera*> Sequencer::FindCamera(const std::string& name) const {
   return camera;
 }
 
+Status Sequencer::PlaceWheels(const scan::Step& step) {
+  for (const auto& wheel : rig_.filter_wheels()) {
+    int slot = 0;
+    for (const scan::Step& earlier : plan_.steps) {
+      if (earlier.index >= step.index) break;
+      if (earlier.filter && earlier.filter->wheel == wheel->name()) slot = earlier.filter->slot;
+    }
+    LOOM_RETURN_IF_ERROR(wheel->MoveTo(slot));
+  }
+  wheels_placed_ = true;
+  return Status::Ok();
+}
+
 Status Sequencer::ApplyStep(const scan::Step& step) {
   const std::string where = "step " + std::to_string(step.index);
   if (hal::Turntable* turntable = rig_.turntable()) {
@@ -39,6 +52,7 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
   } else if (step.turntable_deg != 0) {
     return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a turntable");
   }
+  if (!wheels_placed_) LOOM_RETURN_IF_ERROR(PlaceWheels(step));
   if (step.filter) {
     hal::FilterWheel* wheel = nullptr;
     for (const auto& candidate : rig_.filter_wheels()) {
@@ -56,9 +70,9 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
     hal::LinearLight* strip = rig_.linear_light();
     if (strip == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a linear light");
     LOOM_RETURN_IF_ERROR(strip->MoveTo(*step.linear_light_mm));
-    if (!strip_on_) LOOM_RETURN_IF_ERROR(strip->SetStrip(true, 1.0));
+    if (strip_on_ != true) LOOM_RETURN_IF_ERROR(strip->SetStrip(true, 1.0));
     strip_on_ = true;
-  } else if (strip_on_) {
+  } else if (rig_.linear_light() != nullptr && strip_on_ != false) {
     LOOM_RETURN_IF_ERROR(rig_.linear_light()->SetStrip(false, 0));
     strip_on_ = false;
   }
@@ -69,7 +83,7 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
                                                                          projector->settings().height, options_.phase_steps));
     LOOM_RETURN_IF_ERROR(projector->Show(pattern));
     projector_showing_ = true;
-  } else if (projector_showing_) {
+  } else if (rig_.projector() != nullptr && projector_showing_ != false) {
     LOOM_RETURN_IF_ERROR(rig_.projector()->Blank());
     projector_showing_ = false;
   }

@@ -58,6 +58,9 @@ class Sequencer {
  private:
   Status PlaceObject(const scan::Step& step);
   Status ApplyStep(const scan::Step& step);
+  // Every filter wheel to the slot the plan last gave it before `step` (slot 0 when none has):
+  // what an uninterrupted scan would have it in, whatever a killed process left.
+  Status PlaceWheels(const scan::Step& step);
   Status CaptureStep(const scan::Step& step);
   // A dark step's one exposure (no bracket), captured or read back from the store: sets the
   // cameras' black levels and noise floors.
@@ -79,8 +82,12 @@ class Sequencer {
   scan::CaptureStore& store_;
   SequencerOptions options_;
   std::map<std::string, scan::DarkLevel> dark_;  // by camera
-  bool strip_on_ = false;
-  bool projector_showing_ = false;
+  // What the sequencer knows the strip and projector are doing. Unknown (nullopt) until its first
+  // step sets them: a resumed scan finds the rig as a killed process left it (the strip on, a
+  // pattern showing, a wheel in a filter).
+  std::optional<bool> strip_on_;
+  std::optional<bool> projector_showing_;
+  bool wheels_placed_ = false;  // every wheel set where the plan has it at the first step
   std::optional<scan::ScanObject> object_placed_;
 };
 

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 
+#include "core/interrupt.h"
 #include "core/testing/shipped_rig.h"
 #include "hal/sim/sim_backends.h"
 #include "sim/test_materials.h"
@@ -155,6 +157,61 @@ TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
   const Status done = resumed.Run();
   ASSERT_TRUE(done.ok()) << done.ToString();
   EXPECT_EQ(resumed.dark_levels().size(), model_.cameras.size());
+}
+
+// A killed process leaves the rig as it was: a wheel in a filter, the strip lit, a pattern on the
+// projector. The resumed scan sets every device where the plan has it, so its frames equal an
+// uninterrupted scan's — pixels and recorded rig state — wherever the scan was stopped. (The sim
+// world outlives the rig objects here, as real hardware outlives the process.)
+TEST_F(SequencerTest, AScanResumedOnARigLeftAsItWasEqualsAnUninterruptedOne) {
+  // Two turntable angles: the first angle's strip positions are followed by point-lit steps.
+  scan::Preset preset;
+  preset.name = "tiny";
+  preset.turntable_deg = {0, 180};
+  preset.colour_views_deg = {0};
+  preset.linear_light_positions = 2;
+  preset.exposure.max_exposures = 2;
+  preset.gray_bits = 1;
+  preset.phase_steps = 1;
+  const scan::Plan plan = *scan::MakeMaterialPlan(model_, preset);
+  std::map<std::string, std::pair<std::string, scan::RigState>> expected;
+  {
+    scan::CaptureStore reference = *scan::CaptureStore::Create(dir_ / "reference", {"rig", "white tile", plan});
+    ASSERT_TRUE(Sequencer(*rig_, plan, reference).Run().ok());
+    for (const scan::FrameRecord& r : reference.records()) expected[r.file] = {r.checksum, r.metadata.rig_state};
+  }
+  // Stopped after the last step of a run of each of these kinds (the next step is of another
+  // kind), then resumed by a "new process".
+  for (const scan::StepKind kind : {scan::StepKind::kStructuredLight, scan::StepKind::kColour, scan::StepKind::kLinearLight}) {
+    SCOPED_TRACE(std::string(scan::StepKindName(kind)));
+    world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
+    const fs::path dir = dir_ / std::string(scan::StepKindName(kind));
+    {
+      const std::unique_ptr<hal::Rig> killed = MakeRig();
+      scan::CaptureStore store = *scan::CaptureStore::Create(dir, {"rig", "white tile", plan});
+      Sequencer sequencer(*killed, plan, store);
+      const Status stopped = sequencer.Run([&](const ScanProgress& p) {
+        const size_t done = static_cast<size_t>(p.steps_done);
+        if (plan.steps[done - 1].kind == kind && done < plan.steps.size() && plan.steps[done].kind != kind) {
+          SetInterruptRequested(true);
+        }
+      });
+      SetInterruptRequested(false);
+      ASSERT_EQ(stopped.code(), StatusCode::kCancelled) << stopped.ToString();
+    }
+    Result<scan::CaptureStore> store = scan::CaptureStore::Open(dir, /*repair=*/true);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    const std::unique_ptr<hal::Rig> resumed = MakeRig();
+    ASSERT_TRUE(Sequencer(*resumed, plan, *store).Run().ok());
+    ASSERT_EQ(store->records().size(), expected.size());
+    for (const scan::FrameRecord& r : store->records()) {
+      ASSERT_TRUE(expected.contains(r.file)) << r.file;
+      EXPECT_EQ(r.checksum, expected[r.file].first) << r.file;
+      EXPECT_EQ(r.metadata.rig_state.filter_slots, expected[r.file].second.filter_slots) << r.file;
+      EXPECT_EQ(r.metadata.rig_state.linear_light_on, expected[r.file].second.linear_light_on) << r.file;
+      EXPECT_EQ(r.metadata.rig_state.projector_pattern, expected[r.file].second.projector_pattern) << r.file;
+    }
+  }
 }
 
 TEST(SequencerOptionsTest, EveryBadValueIsRefusedNamingItsField) {
