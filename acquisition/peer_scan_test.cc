@@ -70,10 +70,11 @@ class PeerScanTest : public ::testing::Test {
       yaml << "  - {name: cam" << i << ", backend: aravis, address: 127.0.0." << i + 1
            << ", settings: {pixel_format: Mono16, roi: [0, 0, 64, 48], trigger: software, frame_timeout_ms: 2000}}\n";
     }
-    yaml << "leds: {name: leds, backend: modbus, endpoint: \"" << endpoints_[0] << "\"}\n"
-         << "turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1] << "\"}\n"
+    // The controllers' watchdogs armed, as a lab's rig has them: the scan keeps them fed.
+    yaml << "leds: {name: leds, backend: modbus, endpoint: \"" << endpoints_[0] << "\", watchdog_ms: 1500}\n"
+         << "turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1] << "\", watchdog_ms: 1500}\n"
          << "linear_light: {name: linear_light, backend: modbus, endpoint: \"" << endpoints_[2]
-         << "\", settings: {speed_mm_s: 4000}}\n"
+         << "\", watchdog_ms: 1500, settings: {speed_mm_s: 4000}}\n"
          << "filter_wheels:\n";
     for (int w = 0; w < 5; ++w) yaml << "  - {name: wheel" << w << ", backend: usb, serial: W" << w << "}\n";
     yaml << "projector: {name: projector, backend: recording, native_width: 1280, native_height: 800}\n";

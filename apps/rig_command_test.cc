@@ -117,6 +117,26 @@ TEST_F(RigCommandTest, CtrlCEndsPromptlyWithTheLedsOff) {
   EXPECT_TRUE(Contains(RunLoom("rig status --rig " + rig_.string()).output, "29 LEDs, 0 lit"));
 }
 
+// A loom killed with SIGKILL runs no safe-state guard: only the controller can switch its LEDs
+// off. With watchdog_ms in the rig YAML it does so within that time; without, the LED stays lit.
+TEST_F(RigCommandTest, AKilledLoomLeavesNoLedLitWhenTheControllersWatchdogIsArmed) {
+  for (const bool armed : {false, true}) {
+    SCOPED_TRACE(armed ? "watchdog armed" : "no watchdog");
+    const fs::path rig = armed ? WriteRig(endpoints_[0], ", response_timeout_ms: 100, watchdog_ms: 300") : rig_;
+    auto loom = Subprocess::Start({LOOM_BINARY, "rig", "leds", "--rig", rig.string(), "--on", "4:120", "--hold-s", "60"});
+    ASSERT_TRUE(loom.ok());
+    const auto line = loom->ReadLine(10s);
+    ASSERT_TRUE(line.ok()) << line.status().ToString();
+    std::this_thread::sleep_for(700ms);  // past the watchdog's time: the heartbeat keeps it lit
+    loom->Signal(SIGKILL);
+    EXPECT_EQ(loom->Wait(), 128 + SIGKILL);
+    std::this_thread::sleep_for(600ms);
+    // (loom rig status reads the LEDs, then makes the rig safe: the next round starts dark.)
+    const LoomRun after = RunLoom("rig status --rig " + rig_.string());
+    EXPECT_TRUE(Contains(after.output, armed ? "29 LEDs, 0 lit" : "29 LEDs, 1 lit")) << after.output;
+  }
+}
+
 TEST_F(RigCommandTest, ErrorsNameTheKeyOrTheDevice) {
   const LoomRun typo = RunLoom("rig status --rig " + WriteRig(endpoints_[0], ", setings: {}").string());
   EXPECT_EQ(typo.exit_code, 1);

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <thread>
 
 #include "core/interrupt.h"
+#include "core/log.h"
 #include "hal/internal/format.h"
 #include "hal/modbus/modbus_link.h"
 #include "hal/modbus/register_map.h"
@@ -21,15 +24,26 @@ constexpr std::chrono::milliseconds kPollInterval(5);
 struct ModbusOptions {
   ModbusEndpoint endpoint;
   std::chrono::milliseconds response_timeout{500};
+  std::chrono::milliseconds watchdog{0};  // 0: the controller's watchdog stays off
 };
 
 Result<ModbusOptions> ReadOptions(const DeviceConfig& config) {
   std::string endpoint;
   int timeout_ms = 500;
+  int watchdog_ms = 0;
   config.node.Required("endpoint", &endpoint);
   config.node.Optional("response_timeout_ms", &timeout_ms);
+  config.node.Optional("watchdog_ms", &watchdog_ms);
+  // A request and its one retry may hold the link for twice the response timeout, and the
+  // heartbeat waits behind it: a shorter watchdog would trip while loom is alive.
+  if (watchdog_ms != 0 && (watchdog_ms < 3 * timeout_ms || watchdog_ms > map::kMaxWatchdogMs)) {
+    return InvalidArgumentError("key '" + config.node.path() + ".watchdog_ms'",
+                                std::to_string(watchdog_ms) + " must be 0 (off) or in [3 × response_timeout_ms = " +
+                                    std::to_string(3 * timeout_ms) + ", " + std::to_string(map::kMaxWatchdogMs) + "]");
+  }
   ModbusOptions options;
   options.response_timeout = std::chrono::milliseconds(timeout_ms);
+  options.watchdog = std::chrono::milliseconds(watchdog_ms);
   if (endpoint.empty()) return options;  // the missing key is recorded in the document
   Result<ModbusEndpoint> parsed = ParseModbusEndpoint(endpoint);
   if (!parsed.ok()) {
@@ -85,6 +99,62 @@ Result<DeviceIdentity> OpenController(ModbusLink& link, uint16_t expected_type, 
       std::to_string(common[map::kFirmwareVersion] >> 8) + "." + std::to_string(common[map::kFirmwareVersion] & 0xFF);
   return identity;
 }
+
+// The controller's watchdog (register_map.h, kWatchdogMs), armed while the device runs: a thread
+// writes a heartbeat every quarter of the timeout. A loom that is killed or hangs stops feeding
+// it, and the controller goes safe by itself.
+class Watchdog {
+ public:
+  Watchdog(ModbusLink& link, std::chrono::milliseconds timeout) : link_(link), timeout_(timeout) {}
+  ~Watchdog() { StopFeeding(); }
+  Watchdog(const Watchdog&) = delete;
+  Watchdog& operator=(const Watchdog&) = delete;
+
+  Status Arm() {
+    if (timeout_.count() == 0) return Status::Ok();
+    StopFeeding();
+    LOOM_RETURN_IF_ERROR(link_.Write(map::kWatchdogMs, static_cast<uint16_t>(timeout_.count())));
+    stop_ = false;
+    feeder_ = std::thread([this] { Feed(); });
+    return Status::Ok();
+  }
+
+  Status Disarm() {
+    if (!feeder_.joinable()) return Status::Ok();
+    StopFeeding();
+    return link_.Write(map::kWatchdogMs, 0);
+  }
+
+ private:
+  void Feed() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    uint16_t beat = 0;
+    bool warned = false;
+    while (!wake_.wait_for(lock, timeout_ / 4, [this] { return stop_; })) {
+      lock.unlock();
+      const Status fed = link_.Write(map::kHeartbeat, ++beat);
+      if (!fed.ok() && !warned) LOOM_LOG(Warning) << "watchdog heartbeat: " << fed.ToString();
+      warned = !fed.ok();
+      lock.lock();
+    }
+  }
+
+  void StopFeeding() {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    if (feeder_.joinable()) feeder_.join();
+  }
+
+  ModbusLink& link_;
+  std::chrono::milliseconds timeout_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stop_ = false;
+  std::thread feeder_;
+};
 
 // A Modbus axis (turntable or linear carriage): commands and the wait for a move to finish.
 class Axis {
@@ -151,7 +221,8 @@ class ModbusTurntable : public Turntable {
   ModbusTurntable(const DeviceConfig& config, ModbusOptions options)
       : Turntable(config.name, config.backend, options.endpoint.ToString()),
         link_(description(), options.endpoint, options.response_timeout),
-        axis_(link_, description(), "deg", 1000.0) {}
+        axis_(link_, description(), "deg", 1000.0),
+        watchdog_(link_, options.watchdog) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -163,11 +234,19 @@ class ModbusTurntable : public Turntable {
   Status DoConfigure(const TurntableSettings& applied) override {
     return link_.Write(map::kTurntableSpeed, static_cast<uint16_t>(std::lround(applied.speed_deg_s * 100)));
   }
-  Status DoStart() override { return link_.Write(map::kCommand, map::kCommandEnable); }
-  Status DoStop() override { return link_.Write(map::kCommand, map::kCommandDisable); }
+  Status DoStart() override {
+    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandEnable));
+    return watchdog_.Arm();
+  }
+  Status DoStop() override {
+    const Status disarmed = watchdog_.Disarm();
+    const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
+    return disarmed.ok() ? disabled : disarmed;
+  }
   Status DoClose() override {
+    const Status disarmed = watchdog_.Disarm();
     link_.Close();
-    return Status::Ok();
+    return disarmed;
   }
   Status DoMakeSafe() override { return axis_.Stop(); }
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
@@ -177,6 +256,7 @@ class ModbusTurntable : public Turntable {
  private:
   ModbusLink link_;
   Axis axis_;
+  Watchdog watchdog_;  // after link_: stops feeding before the link goes
 };
 
 class ModbusLinearLight : public LinearLight {
@@ -184,7 +264,8 @@ class ModbusLinearLight : public LinearLight {
   ModbusLinearLight(const DeviceConfig& config, ModbusOptions options)
       : LinearLight(config.name, config.backend, options.endpoint.ToString()),
         link_(description(), options.endpoint, options.response_timeout),
-        axis_(link_, description(), "mm", 1000.0) {}
+        axis_(link_, description(), "mm", 1000.0),
+        watchdog_(link_, options.watchdog) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -197,11 +278,19 @@ class ModbusLinearLight : public LinearLight {
   Status DoConfigure(const LinearLightSettings& applied) override {
     return link_.Write(map::kLinearSpeed, static_cast<uint16_t>(std::lround(applied.speed_mm_s * 10)));
   }
-  Status DoStart() override { return link_.Write(map::kCommand, map::kCommandEnable); }
-  Status DoStop() override { return link_.Write(map::kCommand, map::kCommandDisable); }
+  Status DoStart() override {
+    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandEnable));
+    return watchdog_.Arm();
+  }
+  Status DoStop() override {
+    const Status disarmed = watchdog_.Disarm();
+    const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
+    return disarmed.ok() ? disabled : disarmed;
+  }
   Status DoClose() override {
+    const Status disarmed = watchdog_.Disarm();
     link_.Close();
-    return Status::Ok();
+    return disarmed;
   }
   Status DoMakeSafe() override {
     const Status stopped = axis_.Stop();
@@ -223,13 +312,15 @@ class ModbusLinearLight : public LinearLight {
  private:
   ModbusLink link_;
   Axis axis_;
+  Watchdog watchdog_;  // after link_: stops feeding before the link goes
 };
 
 class ModbusLedArray : public LedArray {
  public:
   ModbusLedArray(const DeviceConfig& config, ModbusOptions options)
       : LedArray(config.name, config.backend, options.endpoint.ToString()),
-        link_(description(), options.endpoint, options.response_timeout) {}
+        link_(description(), options.endpoint, options.response_timeout),
+        watchdog_(link_, options.watchdog) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -241,15 +332,20 @@ class ModbusLedArray : public LedArray {
   Status DoConfigure(const LedArraySettings& applied) override {
     return link_.Write(map::kLedCurrentLimit, static_cast<uint16_t>(std::lround(applied.current_limit_ma)));
   }
-  Status DoStart() override { return link_.Write(map::kCommand, map::kCommandEnable); }
+  Status DoStart() override {
+    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandEnable));
+    return watchdog_.Arm();
+  }
   Status DoStop() override {
     const Status dark = DoAllOff();
+    const Status disarmed = watchdog_.Disarm();
     const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
-    return dark.ok() ? disabled : dark;
+    return !dark.ok() ? dark : !disarmed.ok() ? disarmed : disabled;
   }
   Status DoClose() override {
+    const Status disarmed = watchdog_.Disarm();
     link_.Close();
-    return Status::Ok();
+    return disarmed;
   }
   Status DoDrive(std::span<const scan::LedDrive> leds) override {
     std::vector<uint16_t> currents(led_count(), 0);
@@ -280,6 +376,7 @@ class ModbusLedArray : public LedArray {
 
  private:
   ModbusLink link_;
+  Watchdog watchdog_;  // after link_: stops feeding before the link goes
 };
 
 template <typename Base, typename Concrete>

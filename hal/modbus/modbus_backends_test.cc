@@ -251,6 +251,48 @@ TEST(ModbusLedArrayTest, OverTemperatureSwitchesOffAndIsReported) {
   EXPECT_EQ(read->current_ma[0], 0);
 }
 
+// The controller's watchdog: a device armed with watchdog_ms feeds it while it runs, so its LEDs
+// stay lit well past the timeout; a client that stops feeding (as a killed loom does) finds the
+// controller dark, disabled and saying why; an orderly stop disarms it.
+TEST(ModbusWatchdogTest, ARunningDeviceFeedsItAndASilentClientIsSwitchedOff) {
+  Simulator sim = StartSimulator("leds");
+  auto leds = MakeDevice<LedArray>(DeviceYaml("leds", sim.endpoint, ", response_timeout_ms: 100, watchdog_ms: 300"));
+  Bringup(*leds, LedArraySettings{.current_limit_ma = 500});
+  const scan::LedDrive drive[] = {{5, 200}};
+  ASSERT_TRUE(leds->Drive(drive).ok());
+  std::this_thread::sleep_for(900ms);  // three timeouts: fed by the device's heartbeat thread
+  ModbusLink observer("test observer", *ParseModbusEndpoint(sim.endpoint), 500ms);
+  ASSERT_TRUE(observer.Connect().ok());
+  EXPECT_EQ(*observer.Read(map::kLedCurrents + 5), 200);
+  EXPECT_EQ(*observer.Read(map::kWatchdogMs), 300);
+  ASSERT_TRUE(leds->Stop().ok());  // an orderly stop disarms it
+  EXPECT_EQ(*observer.Read(map::kWatchdogMs), 0);
+
+  // A client that arms it, lights an LED and falls silent.
+  ASSERT_TRUE(observer.Write(map::kCommand, map::kCommandEnable).ok());
+  ASSERT_TRUE(observer.Write(map::kWatchdogMs, 200).ok());
+  ASSERT_TRUE(observer.Write(map::kLedCurrents + 5, 200).ok());
+  EXPECT_EQ(*observer.Read(map::kLedCurrents + 5), 200);
+  std::this_thread::sleep_for(350ms);
+  EXPECT_EQ(*observer.Read(map::kLedCurrents + 5), 0);
+  const uint16_t status = *observer.Read(map::kStatus);
+  EXPECT_TRUE(status & map::kStatusWatchdogTripped);
+  EXPECT_FALSE(status & map::kStatusEnabled);
+  EXPECT_EQ(*observer.Read(map::kWatchdogMs), 0);  // disarmed once tripped
+
+  // A watchdog shorter than a request and its retry could trip while loom is alive: refused.
+  BackendRegistry registry;
+  RegisterModbusBackends(registry);
+  auto doc = ConfigDocument::LoadString("schema_version: 1\ndevice: " + DeviceYaml("leds", sim.endpoint, ", watchdog_ms: 1000"),
+                                        "test.yaml", 1);
+  ASSERT_TRUE(doc.ok());
+  const Result<std::unique_ptr<LedArray>> short_watchdog =
+      registry.Create<LedArray>({"leds", "modbus", doc->root().Child("device")});
+  ASSERT_FALSE(short_watchdog.ok());
+  EXPECT_NE(short_watchdog.status().ToString().find("device.watchdog_ms"), std::string::npos)
+      << short_watchdog.status().ToString();
+}
+
 TEST(ModbusLinearLightTest, MovesWithinItsTravelAndSwitchesTheStrip) {
   Simulator sim = StartSimulator("linear-light", "tcp:127.0.0.1:0", {"--travel-mm", "300", "--max-speed", "500"});
   auto light = MakeDevice<LinearLight>(DeviceYaml("strip", sim.endpoint));

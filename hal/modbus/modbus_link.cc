@@ -116,6 +116,7 @@ ModbusLink::~ModbusLink() { Close(); }
 Status ModbusLink::Error(StatusCode code, const std::string& message) const { return Status(code, device_, message); }
 
 Status ModbusLink::Connect() {
+  const std::lock_guard<std::recursive_mutex> lock(mutex_);
   Close();
   modbus_t* context =
       endpoint_.transport == ModbusEndpoint::Transport::kTcp
@@ -137,6 +138,7 @@ Status ModbusLink::Connect() {
 }
 
 void ModbusLink::Close() {
+  const std::lock_guard<std::recursive_mutex> lock(mutex_);
   if (context_ == nullptr) return;
   modbus_close(context_);
   modbus_free(context_);
@@ -145,6 +147,7 @@ void ModbusLink::Close() {
 
 template <typename Request>
 Status ModbusLink::Transact(const std::string& what, Request request) {
+  const std::lock_guard<std::recursive_mutex> lock(mutex_);
   Status last;
   for (int attempt = 0; attempt < 2; ++attempt) {
     if (context_ == nullptr) {

@@ -6,10 +6,11 @@
 //   one retry;
 // - a reset connection (a restarted device): reconnect and retry once;
 // - a Modbus exception from the device: no retry (it would answer the same).
-// Not thread-safe: one device, one thread.
+// Thread-safe: requests are serialised (a device's watchdog heartbeat comes from its own thread).
 
 #include <chrono>
 #include <cstdint>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -68,6 +69,7 @@ class ModbusLink {
   ModbusEndpoint endpoint_;
   std::chrono::milliseconds response_timeout_;
   modbus_t* context_ = nullptr;
+  std::recursive_mutex mutex_;  // Transact reconnects through Connect
 };
 
 }  // namespace loom::hal

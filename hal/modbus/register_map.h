@@ -17,6 +17,13 @@ inline constexpr int kFaultCode = 3;        // R: kFault*
 inline constexpr int kCommand = 4;          // W: kCommand*; reads back the last command
 inline constexpr int kSerialHigh = 5;       // R: serial number, 32 bits
 inline constexpr int kSerialLow = 6;
+// The watchdog: with kWatchdogMs > 0, a controller that receives no write to kHeartbeat for that
+// long goes safe by itself — motion stopped, LEDs and strip off, outputs disabled — sets
+// kStatusWatchdogTripped and disarms (kWatchdogMs back to 0). A killed client leaves no light
+// on. Enable, or arming again, clears the bit.
+inline constexpr int kWatchdogMs = 7;  // RW: 0 off, else 1..kMaxWatchdogMs
+inline constexpr int kHeartbeat = 8;   // W: any value feeds the watchdog
+inline constexpr int kMaxWatchdogMs = 60000;
 // Simulator only: writing here injects a fault (kInject*). Real firmware has no such register.
 inline constexpr int kSimInjectFault = 90;
 inline constexpr int kCommonBlockSize = 100;
@@ -31,6 +38,7 @@ inline constexpr uint16_t kStatusInPosition = 1 << 2;  // at the target, settled
 inline constexpr uint16_t kStatusHomed = 1 << 3;
 inline constexpr uint16_t kStatusFault = 1 << 4;  // see kFaultCode; cleared by kCommandClearFault
 inline constexpr uint16_t kStatusOverTemperature = 1 << 5;
+inline constexpr uint16_t kStatusWatchdogTripped = 1 << 6;  // see kWatchdogMs
 
 inline constexpr uint16_t kFaultNone = 0;
 inline constexpr uint16_t kFaultMotorStall = 1;       // following error: the axis stopped moving

@@ -70,7 +70,24 @@ double ControllerModel::CountsPerSecond() const {
   return spec_.kind == ControllerKind::kTurntable ? reg(map::kTurntableSpeed) * 10.0 : reg(map::kLinearSpeed) * 100.0;
 }
 
+void ControllerModel::GoSafe() {
+  moving_ = homing_ = false;
+  SetStatus(map::kStatusBusy, false);
+  SetStatus(map::kStatusEnabled, false);
+  if (spec_.kind == ControllerKind::kLeds) {
+    std::fill(registers_ + map::kLedCurrents, registers_ + map::kLedCurrents + map::kMaxLeds, 0);
+    UpdateTemperature();
+  }
+  if (spec_.kind == ControllerKind::kLinearLight) reg(map::kLinearStripOn) = 0;
+}
+
 void ControllerModel::Advance(double seconds) {
+  since_heartbeat_s_ += seconds;
+  if (reg(map::kWatchdogMs) > 0 && since_heartbeat_s_ * 1000 > reg(map::kWatchdogMs)) {
+    GoSafe();
+    SetStatus(map::kStatusWatchdogTripped, true);
+    reg(map::kWatchdogMs) = 0;
+  }
   if (!moving_ || stall_next_move_) return;  // a stalled axis stays busy where it is
   const double step = CountsPerSecond() * seconds;
   const double remaining = target_ - position_;
@@ -99,14 +116,10 @@ void ControllerModel::Command(uint16_t command) {
   switch (command) {
     case map::kCommandEnable:
       SetStatus(map::kStatusEnabled, true);
+      SetStatus(map::kStatusWatchdogTripped, false);
       break;
     case map::kCommandDisable:
-      moving_ = homing_ = false;
-      SetStatus(map::kStatusBusy, false);
-      SetStatus(map::kStatusEnabled, false);
-      if (spec_.kind == ControllerKind::kLeds) {
-        std::fill(registers_ + map::kLedCurrents, registers_ + map::kLedCurrents + map::kMaxLeds, 0);
-      }
+      GoSafe();
       break;
     case map::kCommandHome:
       homing_ = true;
@@ -161,6 +174,10 @@ void ControllerModel::UpdateTemperature() {
 int ControllerModel::CheckWrite(int address, std::span<const uint16_t> values) const {
   const int count = static_cast<int>(values.size());
   if (address == map::kSimInjectFault && count == 1) return 0;
+  if (address == map::kHeartbeat && count == 1) return 0;
+  if (address == map::kWatchdogMs && count == 1) {
+    return values[0] <= map::kMaxWatchdogMs ? 0 : MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+  }
   const bool writable_common = address == map::kCommand && count == 1;
   if (writable_common) {
     return values[0] >= map::kCommandEnable && values[0] <= map::kCommandClearFault ? 0 : MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
@@ -209,6 +226,10 @@ void ControllerModel::OnWritten(int address, int count) {
   if (Overlaps(address, count, map::kSimInjectFault)) {
     InjectFault(reg(map::kSimInjectFault));
     reg(map::kSimInjectFault) = 0;
+  }
+  if (Overlaps(address, count, map::kHeartbeat) || Overlaps(address, count, map::kWatchdogMs)) since_heartbeat_s_ = 0;
+  if (Overlaps(address, count, map::kWatchdogMs) && reg(map::kWatchdogMs) > 0) {
+    SetStatus(map::kStatusWatchdogTripped, false);
   }
   if (Overlaps(address, count, map::kCommand)) Command(reg(map::kCommand));
   if (spec_.kind == ControllerKind::kLeds && address >= map::kLedCurrents) UpdateTemperature();

@@ -2,7 +2,10 @@
 // The behaviour of loom's Modbus controllers (turntable, LED controller, linear light) on their
 // register maps: what loom-modbus-sim serves. Motion runs at the configured speed in real time,
 // homing, busy / in-position / fault status, LED currents with a limit and an over-temperature
-// fault, and fault injection through the simulator-only register 90.
+// fault, the heartbeat watchdog, and fault injection through the simulator-only register 90.
+// Time passes only as Advance says: the watchdog trips when the time since the last heartbeat,
+// measured at the next request, exceeds its timeout — which no client can tell from tripping on
+// time.
 // The model works directly on the server's register array. Not thread-safe.
 
 #include <cstdint>
@@ -46,6 +49,7 @@ class ControllerModel {
   double CountsPerSecond() const;  // current speed in position counts per second
   void InjectFault(uint16_t what);
   void UpdateTemperature();
+  void GoSafe();  // motion stopped, outputs off and disabled
 
   ControllerSpec spec_;
   uint16_t* registers_;
@@ -54,6 +58,7 @@ class ControllerModel {
   bool moving_ = false;
   bool homing_ = false;
   bool stall_next_move_ = false;
+  double since_heartbeat_s_ = 0;
 };
 
 }  // namespace loom::hal::sim
