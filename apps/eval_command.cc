@@ -5,6 +5,7 @@
 
 #include "apps/command.h"
 #include "core/observation_stack.h"
+#include "core/output_directory.h"
 #include "fitting/evaluation.h"
 #include "fitting/export.h"
 #include "fitting/report.h"
@@ -16,6 +17,7 @@ namespace fs = std::filesystem;
 
 Status Evaluate(const std::string& maps_path, const std::string& stack_path, const std::string& reference_path,
                 const std::string& out, const std::string& title) {
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory report, OutputDirectory::Create(out, "--out"));
   LOOM_ASSIGN_OR_RETURN(const fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(stack_path));
   std::optional<Image> reference;
@@ -27,7 +29,8 @@ Status Evaluate(const std::string& maps_path, const std::string& stack_path, con
   evaluation.Report(std::cout);
   const fitting::ReportInputs inputs{
       title.empty() ? maps_path : title, &maps.maps, reference ? &*reference : nullptr, &stack, evaluation, ""};
-  LOOM_RETURN_IF_ERROR(fitting::WriteReport(out, inputs));
+  LOOM_RETURN_IF_ERROR(fitting::WriteReport(report.partial(), inputs));
+  LOOM_RETURN_IF_ERROR(report.Commit());
   std::cout << "report: " << (fs::path(out) / "index.html").string() << "\n";
   return Status::Ok();
 }

@@ -10,6 +10,7 @@
 #include "apps/progress.h"
 #include "core/file_io.h"
 #include "core/observation_stack.h"
+#include "core/output_directory.h"
 #include "core/version.h"
 #include "fitting/export.h"
 #include "fitting/method_fit.h"
@@ -49,6 +50,7 @@ Status Fit(FitArguments args) {
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
   options.progress = [&](const fitting::StackFitProgress& p) {
     bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
@@ -62,8 +64,9 @@ Status Fit(FitArguments args) {
                   {"model", fit.cnn.empty() ? "" : args.model},
                   {"stack", args.stack},
                   {"loom_version", std::string(VersionWithCommit())}});
-  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(args.out, fit.maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "fit.json", summary.dump(2) + "\n"));
+  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(out.partial(), fit.maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "fit.json", summary.dump(2) + "\n"));
+  LOOM_RETURN_IF_ERROR(out.Commit());
   std::cout << "wrote " << (fs::path(args.out) / "svbrdf.exr").string() << ", previews and fit.json in " << args.out << "\n";
   return Status::Ok();
 }

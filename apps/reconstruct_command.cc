@@ -2,7 +2,7 @@
 #include <chrono>
 #include <filesystem>
 #include <iostream>
-#include <memory>
+#include <map>
 
 #include <nlohmann/json.hpp>
 
@@ -10,6 +10,7 @@
 #include "apps/progress.h"
 #include "calibration/calibration_directory.h"
 #include "core/file_io.h"
+#include "core/output_directory.h"
 #include "core/rig_file.h"
 #include "core/version.h"
 #include "reconstruction/reconstruct.h"
@@ -53,29 +54,21 @@ Status Reconstruct(const ReconstructArguments& args) {
   } else {
     std::cerr << "note: no --calib: reconstructing with the rig YAML's nominal geometry and sensor model\n";
   }
-  if (store.info().plan.purpose != scan::PlanPurpose::kMaterial) {
-    return InvalidArgumentError(args.scan, "is a " + std::string(scan::PlanPurposeName(store.info().plan.purpose)) +
-                                               " scan; loom reconstruct takes material scans");
-  }
-  std::unique_ptr<ProgressBar> bar;
-  std::string stage;
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
+  std::map<std::string, ProgressBar> bars;
   const auto progress = [&](const reconstruction::ReconstructProgress& p) {
-    if (p.stage != stage) {
-      bar = std::make_unique<ProgressBar>("reconstruct: " + p.stage, args.quiet);
-      stage = p.stage;
-    }
-    bar->Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
+    const auto bar = bars.try_emplace(p.stage, "reconstruct: " + p.stage, args.quiet).first;
+    bar->second.Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
   };
   LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result,
                         reconstruction::Reconstruct(store, rig, args.options, progress));
-  bar.reset();
+  bars.clear();
   if (const std::string note = result.CoarseSamplingNote(); !note.empty()) std::cerr << "note: " << note << "\n";
-  LOOM_RETURN_IF_ERROR(CreateDirectories(args.out));
-  const fs::path stack_path = fs::path(args.out) / "stack.exr";
-  LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, result.stack));
+  LOOM_RETURN_IF_ERROR(WriteObservationStack(out.partial() / "stack.exr", result.stack));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  LOOM_RETURN_IF_ERROR(
-      WriteFileAtomically(fs::path(args.out) / "reconstruction.json", SummaryJson(result, args, applied, seconds)));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "reconstruction.json", SummaryJson(result, args, applied, seconds)));
+  LOOM_RETURN_IF_ERROR(out.Commit());
+  const fs::path stack_path = fs::path(args.out) / "stack.exr";
   std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height()
             << " px at " << args.options.pixel_mm << " mm, " << result.stack.observations.size()
             << " observations; heightmap from " << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "

@@ -55,7 +55,27 @@ const std::vector<std::string>& SvbrdfPreviewNames() {
   return names;
 }
 
+namespace {
+
+// A parameter that is not a number would reach a renderer as garbage: such maps are refused.
+Status CheckFiniteParameters(const Image& maps, const std::filesystem::path& path) {
+  for (int c = 0; c < kNumWardParams; ++c) {
+    const std::span<const float> values = maps.channel(c);
+    const auto bad = std::find_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); });
+    if (bad != values.end()) {
+      const int pixel = static_cast<int>(bad - values.begin());
+      return InvalidArgumentError(path.string(), std::string("not written: ") + kSvbrdfChannels[c] + " at pixel (" +
+                                                     std::to_string(pixel % maps.width()) + ", " +
+                                                     std::to_string(pixel / maps.width()) + ") is not a finite number");
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance) {
+  LOOM_RETURN_IF_ERROR(CheckFiniteParameters(maps, dir / "svbrdf.exr"));
   LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
   LOOM_RETURN_IF_ERROR(WriteExr(dir / "svbrdf.exr", maps,
                                 {{"loom.kind", std::string("svbrdf maps")},

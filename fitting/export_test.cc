@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <limits>
+
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -11,7 +13,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndOtherFilesAreNamed) {
+TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndNanMapsAndOtherFilesAreRefused) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("export_test_" + std::to_string(::getpid()));
   Image maps = MakeSvbrdfImage(6, 4, false);
   WardParams<double> params;
@@ -25,6 +27,14 @@ TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndOtherFilesAreNamed) {
   EXPECT_EQ(read->maps.width(), 6);
   EXPECT_NEAR(GetParams(read->maps, 5, 3).a_d.y(), 0.3, 1e-6);
   EXPECT_NEAR(GetParams(read->maps, 5, 3).sigma_x, 0.25, 1e-6);
+
+  // Maps with a parameter that is not a number are refused, not written.
+  Image broken = maps;
+  broken.at(9, 2, 4) = std::numeric_limits<float>::quiet_NaN();  // sigma_x
+  const Status refused = WriteSvbrdf(dir / "broken", broken, {"cnn", "stack.exr", "tac7-mini", 0.2});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.ToString().find("sigma_x at pixel (4, 2) is not a finite number"), std::string::npos) << refused.ToString();
+  EXPECT_FALSE(std::filesystem::exists(dir / "broken" / "svbrdf.exr"));
 
   ASSERT_TRUE(WriteExr(dir / "grey.exr", Image(2, 2, {"Y"})).ok());
   const Result<SvbrdfFile> grey = ReadSvbrdf(dir / "grey.exr");

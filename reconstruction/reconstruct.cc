@@ -123,6 +123,11 @@ Status ReconstructOptions::Check() const {
 Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
                                    const std::function<void(const ReconstructProgress&)>& progress) {
   LOOM_RETURN_IF_ERROR(options.Check());
+  if (store.info().plan.purpose != scan::PlanPurpose::kMaterial) {
+    return InvalidArgumentError(
+        store.directory().string(),
+        "is a " + std::string(scan::PlanPurposeName(store.info().plan.purpose)) + " scan; reconstruction takes material scans");
+  }
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));
   const CameraModel* camera = options.heightmap_camera.empty() ? TopCamera(rig) : rig.FindCamera(options.heightmap_camera);
   if (camera == nullptr) return NotFoundError("camera '" + options.heightmap_camera + "'", "not in rig '" + rig.name + "'");

@@ -1,0 +1,51 @@
+#include "core/output_directory.h"
+
+#include <unistd.h>
+
+#include <string>
+
+namespace loom {
+
+namespace fs = std::filesystem;
+
+Result<OutputDirectory> OutputDirectory::Create(const fs::path& directory, const std::string& what) {
+  std::error_code error;
+  const fs::path final_path = directory.has_filename() ? directory : directory.parent_path();
+  if (fs::exists(final_path, error) && !(fs::is_directory(final_path, error) && fs::is_empty(final_path, error))) {
+    return AlreadyExistsError(what + " " + final_path.string(),
+                              "exists and is not an empty directory: outputs never replace what is there (remove it, "
+                              "or pick another)");
+  }
+  const fs::path parent = final_path.parent_path().empty() ? fs::path(".") : final_path.parent_path();
+  const std::string prefix = "." + final_path.filename().string() + ".partial-";
+  // Partial directories of earlier runs that failed or were killed.
+  for (const fs::directory_entry& entry : fs::directory_iterator(parent, error)) {
+    if (entry.path().filename().string().starts_with(prefix)) fs::remove_all(entry.path(), error);
+  }
+  const fs::path partial = parent / (prefix + std::to_string(::getpid()));
+  fs::create_directories(partial, error);
+  if (error) return IoError(partial.string(), "cannot create the output directory: " + error.message());
+  return OutputDirectory(final_path, partial);
+}
+
+OutputDirectory::OutputDirectory(OutputDirectory&& other) noexcept
+    : final_(std::move(other.final_)), partial_(std::move(other.partial_)), committed_(other.committed_) {
+  other.committed_ = true;  // the moved-from object owns nothing
+}
+
+OutputDirectory::~OutputDirectory() {
+  if (committed_) return;
+  std::error_code error;
+  fs::remove_all(partial_, error);
+}
+
+Status OutputDirectory::Commit() {
+  std::error_code error;
+  fs::remove(final_, error);  // empty, if it exists
+  fs::rename(partial_, final_, error);
+  if (error) return IoError(final_.string(), "cannot move the finished output into place: " + error.message());
+  committed_ = true;
+  return Status::Ok();
+}
+
+}  // namespace loom
