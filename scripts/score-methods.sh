@@ -57,6 +57,7 @@ for seed in "${seeds[@]}"; do
     cp "$dir/reconstruction/stack.exr" "$dir/stack.exr"  # the truth stays the fast path's: same grid
   fi
   for method in "${methods[@]}"; do
+    rm -rf "${dir:?}/$method"  # an earlier run's (loom never writes into a non-empty --out)
     "$loom" fit "$dir/stack.exr" --method "$method" "${model_option[@]}" --out "$dir/$method/fit" --quiet > /dev/null
     report=$("$loom" eval "$dir/$method/fit/svbrdf.exr" --stack "$dir/stack.exr" --reference "$dir/truth.exr" \
       --out "$dir/$method/report")

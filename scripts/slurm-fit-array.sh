@@ -40,13 +40,14 @@ if [[ -f "$out/fit/fit.json" ]]; then
 fi
 mkdir -p "$out"
 echo "$name: task $task on $(hostname), $threads threads, method $method"
+# What an earlier, failed attempt at this task left (loom never writes into a non-empty --out).
+rm -rf "$out/reconstruction" "$out/report"
 "$loom" reconstruct "$scan" --calib "$calib" --out "$out/reconstruction" --threads "$threads" --quiet
 model_option=()
 if [[ -n "${LOOM_MODEL:-}" ]]; then model_option=(--model "$LOOM_MODEL"); fi
-# The fit goes to a temporary directory and is renamed when complete: fit.json marks a finished task.
-rm -rf "$out/fit.partial"
+# loom fit writes under a partial name and renames its directory when complete: fit/fit.json
+# marks a finished task.
 "$loom" fit "$out/reconstruction/stack.exr" --method "$method" "${model_option[@]}" --threads "$threads" \
-  --out "$out/fit.partial" --quiet
-rm -rf "$out/fit" && mv "$out/fit.partial" "$out/fit"
+  --out "$out/fit" --quiet
 "$loom" eval "$out/fit/svbrdf.exr" --stack "$out/reconstruction/stack.exr" --out "$out/report" --title "$name ($method)"
 echo "$name: done → $out/report/index.html"
