@@ -9,6 +9,7 @@
 #include "core/exr_io.h"
 #include "core/file_io.h"
 #include "core/observation_stack.h"
+#include "core/output_directory.h"
 #include "fitting/export.h"
 #include "scan/plan.h"
 #include "scan/rig_state.h"
@@ -25,9 +26,10 @@ namespace fs = std::filesystem;
 
 Status Material(const sim::SampleSpec& spec, const fs::path& out) {
   LOOM_ASSIGN_OR_RETURN(const sim::Material material, sim::MakeSample(spec));
-  LOOM_RETURN_IF_ERROR(CreateDirectories(out));
-  LOOM_RETURN_IF_ERROR(sim::WriteMaterial(material, out / "svbrdf.exr"));
-  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(material.maps, out));
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory staged, OutputDirectory::Create(out, "--out"));
+  LOOM_RETURN_IF_ERROR(sim::WriteMaterial(material, staged.partial() / "svbrdf.exr"));
+  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdfPreviews(material.maps, staged.partial()));
+  LOOM_RETURN_IF_ERROR(staged.Commit());
   std::cout << material.name << " (" << material.width() << "x" << material.height() << " px of " << material.pixel_mm
             << " mm): " << (out / "svbrdf.exr").string() << " and previews in " << out.string() << "\n";
   return Status::Ok();

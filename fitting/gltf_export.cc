@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/file_io.h"
+#include "core/output_directory.h"
 #include "core/version.h"
 #include "fitting/export.h"
 #include "fitting/internal/geometric_frame.h"
@@ -172,20 +173,21 @@ GltfRoughness GltfRoughnessOf(double sigma_x, double sigma_y) {
 Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir) {
   if (!HasSvbrdfLayout(maps)) return InvalidArgumentError("glTF export", "the maps are not in the SVBRDF layout");
   if (!(pixel_mm > 0)) return InvalidArgumentError("glTF export", "needs the maps' pixel size (loom.pixel_mm)");
-  LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(dir, "glTF directory"));
   const Textures t = MakeTextures(maps, pixel_mm);
   for (const auto& [name, image] : {std::pair{"base_color", &t.base_color},
                                     {"specular_color", &t.specular_color},
                                     {"metallic_roughness", &t.metallic_roughness},
                                     {"normal", &t.normal},
                                     {"anisotropy", &t.anisotropy}}) {
-    LOOM_RETURN_IF_ERROR(internal::WritePng(dir / (std::string(name) + ".png"), *image));
+    LOOM_RETURN_IF_ERROR(internal::WritePng(out.partial() / (std::string(name) + ".png"), *image));
   }
   const double half_width_m = maps.width() * pixel_mm / 2000, half_height_m = maps.height() * pixel_mm / 2000;
   const std::vector<uint8_t> buffer = QuadBuffer(half_width_m, half_height_m);
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "material.bin", std::string(buffer.begin(), buffer.end())));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "material.bin", std::string(buffer.begin(), buffer.end())));
   const nlohmann::json document = GltfDocument(half_width_m, half_height_m, t.specular_color_factor, buffer.size());
-  return WriteFileAtomically(dir / "material.gltf", document.dump(2) + "\n");
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "material.gltf", document.dump(2) + "\n"));
+  return out.Commit();
 }
 
 }  // namespace loom::fitting

@@ -25,6 +25,7 @@
 namespace loom::fitting {
 
 // `maps`: svbrdf_maps.h's layout; `pixel_mm`: the grid (the quad is width · pixel_mm wide).
+// `dir` (new or empty) appears complete or not at all (core/output_directory.h).
 Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir);
 
 // The GGX roughness that stands for one pixel's Ward lobe (the mapping above); the anisotropy
