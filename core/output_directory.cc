@@ -1,7 +1,10 @@
 #include "core/output_directory.h"
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstdlib>
 #include <string>
 
 namespace loom {
@@ -18,9 +21,14 @@ Result<OutputDirectory> OutputDirectory::Create(const fs::path& directory, const
   }
   const fs::path parent = final_path.parent_path().empty() ? fs::path(".") : final_path.parent_path();
   const std::string prefix = "." + final_path.filename().string() + ".partial-";
-  // Partial directories of earlier runs that failed or were killed.
+  // Partial directories of earlier runs that failed or were killed (not those of a process still
+  // writing this output).
   for (const fs::directory_entry& entry : fs::directory_iterator(parent, error)) {
-    if (entry.path().filename().string().starts_with(prefix)) fs::remove_all(entry.path(), error);
+    const std::string name = entry.path().filename().string();
+    if (!name.starts_with(prefix)) continue;
+    const pid_t writer = static_cast<pid_t>(std::atol(name.c_str() + prefix.size()));
+    if (writer > 0 && (::kill(writer, 0) == 0 || errno == EPERM)) continue;
+    fs::remove_all(entry.path(), error);
   }
   const fs::path partial = parent / (prefix + std::to_string(::getpid()));
   fs::create_directories(partial, error);

@@ -2,8 +2,8 @@
 // A command's output directory, written whole or not at all. The files go into a hidden sibling
 // (".NAME.partial-PID"); Commit() renames it to NAME. A run that fails or is killed leaves no NAME
 // that looks complete — only the partial directory, which the next run of the same output
-// removes. NAME must not exist or be empty: an output never replaces earlier results (or anything
-// else a user keeps there).
+// removes (unless the process that wrote it is still running). NAME must not exist or be empty: an output never replaces earlier
+// results (or anything else a user keeps there).
 
 #include <filesystem>
 

@@ -51,11 +51,14 @@ TEST_F(OutputDirectoryTest, NeverReplacesWhatIsThereAndTidiesAKilledRunsPartialD
   std::ofstream(root_ / "file") << "x";
   EXPECT_FALSE(OutputDirectory::Create(root_ / "file", "--out").ok());
 
-  fs::create_directories(root_ / ".rec.partial-99999");  // a killed run's
-  fs::create_directories(root_ / "rec");                 // empty: fine
+  fs::create_directories(root_ / ".rec.partial-2147483646");                      // a killed run's (no such process)
+  const fs::path live = root_ / (".rec.partial-" + std::to_string(::getppid()));  // a live process's
+  fs::create_directories(live);
+  fs::create_directories(root_ / "rec");  // empty: fine
   Result<OutputDirectory> out = OutputDirectory::Create(root_ / "rec/", "--out");
   ASSERT_TRUE(out.ok()) << out.status().ToString();
-  EXPECT_FALSE(fs::exists(root_ / ".rec.partial-99999"));
+  EXPECT_FALSE(fs::exists(root_ / ".rec.partial-2147483646"));
+  EXPECT_TRUE(fs::exists(live));
   ASSERT_TRUE(out->Commit().ok());
   EXPECT_TRUE(fs::is_directory(root_ / "rec"));
 }
