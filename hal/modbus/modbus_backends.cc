@@ -156,6 +156,33 @@ class Watchdog {
   std::thread feeder_;
 };
 
+// One controller's connection and watchdog, started, stopped and closed alike by every device.
+class Controller {
+ public:
+  Controller(const std::string& device, const ModbusOptions& options)
+      : link(device, options.endpoint, options.response_timeout), watchdog_(link, options.watchdog) {}
+
+  Status Enable() {
+    LOOM_RETURN_IF_ERROR(link.Write(map::kCommand, map::kCommandEnable));
+    return watchdog_.Arm();
+  }
+  Status Disable() {
+    const Status disarmed = watchdog_.Disarm();
+    const Status disabled = link.Write(map::kCommand, map::kCommandDisable);
+    return disarmed.ok() ? disabled : disarmed;
+  }
+  Status Close() {
+    const Status disarmed = watchdog_.Disarm();
+    link.Close();
+    return disarmed;
+  }
+
+  ModbusLink link;
+
+ private:
+  Watchdog watchdog_;  // after link: stops feeding before the link goes
+};
+
 // A Modbus axis (turntable or linear carriage): commands and the wait for a move to finish.
 class Axis {
  public:
@@ -220,9 +247,8 @@ class ModbusTurntable : public Turntable {
  public:
   ModbusTurntable(const DeviceConfig& config, ModbusOptions options)
       : Turntable(config.name, config.backend, options.endpoint.ToString()),
-        link_(description(), options.endpoint, options.response_timeout),
-        axis_(link_, description(), "deg", 1000.0),
-        watchdog_(link_, options.watchdog) {}
+        controller_(description(), options),
+        axis_(controller_.link, description(), "deg", 1000.0) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -234,38 +260,26 @@ class ModbusTurntable : public Turntable {
   Status DoConfigure(const TurntableSettings& applied) override {
     return link_.Write(map::kTurntableSpeed, static_cast<uint16_t>(std::lround(applied.speed_deg_s * 100)));
   }
-  Status DoStart() override {
-    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandEnable));
-    return watchdog_.Arm();
-  }
-  Status DoStop() override {
-    const Status disarmed = watchdog_.Disarm();
-    const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
-    return disarmed.ok() ? disabled : disarmed;
-  }
-  Status DoClose() override {
-    const Status disarmed = watchdog_.Disarm();
-    link_.Close();
-    return disarmed;
-  }
+  Status DoStart() override { return controller_.Enable(); }
+  Status DoStop() override { return controller_.Disable(); }
+  Status DoClose() override { return controller_.Close(); }
   Status DoMakeSafe() override { return axis_.Stop(); }
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
   Status DoMoveTo(double angle_deg) override { return axis_.MoveTo(angle_deg, settings().move_timeout_ms); }
   Result<double> DoAngle() override { return axis_.Position(); }
 
  private:
-  ModbusLink link_;
+  Controller controller_;
+  ModbusLink& link_ = controller_.link;
   Axis axis_;
-  Watchdog watchdog_;  // after link_: stops feeding before the link goes
 };
 
 class ModbusLinearLight : public LinearLight {
  public:
   ModbusLinearLight(const DeviceConfig& config, ModbusOptions options)
       : LinearLight(config.name, config.backend, options.endpoint.ToString()),
-        link_(description(), options.endpoint, options.response_timeout),
-        axis_(link_, description(), "mm", 1000.0),
-        watchdog_(link_, options.watchdog) {}
+        controller_(description(), options),
+        axis_(controller_.link, description(), "mm", 1000.0) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -278,20 +292,9 @@ class ModbusLinearLight : public LinearLight {
   Status DoConfigure(const LinearLightSettings& applied) override {
     return link_.Write(map::kLinearSpeed, static_cast<uint16_t>(std::lround(applied.speed_mm_s * 10)));
   }
-  Status DoStart() override {
-    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandEnable));
-    return watchdog_.Arm();
-  }
-  Status DoStop() override {
-    const Status disarmed = watchdog_.Disarm();
-    const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
-    return disarmed.ok() ? disabled : disarmed;
-  }
-  Status DoClose() override {
-    const Status disarmed = watchdog_.Disarm();
-    link_.Close();
-    return disarmed;
-  }
+  Status DoStart() override { return controller_.Enable(); }
+  Status DoStop() override { return controller_.Disable(); }
+  Status DoClose() override { return controller_.Close(); }
   Status DoMakeSafe() override {
     const Status stopped = axis_.Stop();
     const Status dark = link_.Write(map::kLinearStripOn, 0);
@@ -310,17 +313,15 @@ class ModbusLinearLight : public LinearLight {
   }
 
  private:
-  ModbusLink link_;
+  Controller controller_;
+  ModbusLink& link_ = controller_.link;
   Axis axis_;
-  Watchdog watchdog_;  // after link_: stops feeding before the link goes
 };
 
 class ModbusLedArray : public LedArray {
  public:
   ModbusLedArray(const DeviceConfig& config, ModbusOptions options)
-      : LedArray(config.name, config.backend, options.endpoint.ToString()),
-        link_(description(), options.endpoint, options.response_timeout),
-        watchdog_(link_, options.watchdog) {}
+      : LedArray(config.name, config.backend, options.endpoint.ToString()), controller_(description(), options) {}
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -332,21 +333,13 @@ class ModbusLedArray : public LedArray {
   Status DoConfigure(const LedArraySettings& applied) override {
     return link_.Write(map::kLedCurrentLimit, static_cast<uint16_t>(std::lround(applied.current_limit_ma)));
   }
-  Status DoStart() override {
-    LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandEnable));
-    return watchdog_.Arm();
-  }
+  Status DoStart() override { return controller_.Enable(); }
   Status DoStop() override {
     const Status dark = DoAllOff();
-    const Status disarmed = watchdog_.Disarm();
-    const Status disabled = link_.Write(map::kCommand, map::kCommandDisable);
-    return !dark.ok() ? dark : !disarmed.ok() ? disarmed : disabled;
+    const Status disabled = controller_.Disable();
+    return dark.ok() ? disabled : dark;
   }
-  Status DoClose() override {
-    const Status disarmed = watchdog_.Disarm();
-    link_.Close();
-    return disarmed;
-  }
+  Status DoClose() override { return controller_.Close(); }
   Status DoDrive(std::span<const scan::LedDrive> leds) override {
     std::vector<uint16_t> currents(led_count(), 0);
     for (const scan::LedDrive& drive : leds) currents[drive.led] = static_cast<uint16_t>(std::lround(drive.current_ma));
@@ -375,8 +368,8 @@ class ModbusLedArray : public LedArray {
   }
 
  private:
-  ModbusLink link_;
-  Watchdog watchdog_;  // after link_: stops feeding before the link goes
+  Controller controller_;
+  ModbusLink& link_ = controller_.link;
 };
 
 template <typename Base, typename Concrete>
