@@ -2,7 +2,9 @@
 // ParallelFor: indices 0..count-1 handed out one at a time to `threads` workers (0 = one per
 // core), so uneven work (pixels whose fits take longer) balances itself. `on_progress(done)` is
 // called on the calling thread about every `progress_period_s` and once at the end. `body` must
-// be safe to run concurrently for different indices and must not throw.
+// be safe to run concurrently for different indices. If it throws (a failed LOOM_CHECK, say), no
+// further index is started and the first exception is rethrown on the calling thread once every
+// worker has stopped — an error for the caller, not std::terminate.
 
 #include <functional>
 

@@ -3,7 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <stdexcept>
+#include <string>
 #include <vector>
+
+#include "core/check.h"
 
 namespace loom {
 namespace {
@@ -21,6 +25,25 @@ TEST(ParallelForTest, NothingToDoIsFine) {
   int calls = 0;
   ParallelFor(0, 2, [&](int) { ++calls; });
   EXPECT_EQ(calls, 0);
+}
+
+// A worker that throws (a failed check) must not take the process down with std::terminate:
+// the exception reaches the caller, and no index starts after it.
+TEST(ParallelForTest, AThrowInAWorkerIsRethrownOnTheCallingThread) {
+  std::atomic<int> started{0};
+  EXPECT_THROW(ParallelFor(1000, 2,
+                           [&](int i) {
+                             ++started;
+                             if (i == 10) throw std::runtime_error("pixel 10");
+                           }),
+               std::runtime_error);
+  EXPECT_LT(started.load(), 1000);
+  try {
+    ParallelFor(4, 1, [](int i) { LOOM_CHECK(i < 2) << "index " << i; });
+    ADD_FAILURE() << "no exception";
+  } catch (const CheckError& e) {
+    EXPECT_NE(std::string(e.what()).find("index 2"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
