@@ -42,3 +42,15 @@ function(loom_test name)
   endif()
   gtest_discover_tests(${name} PROPERTIES ${properties} DISCOVERY_TIMEOUT 60)
 endfunction()
+
+# loom_fuzzer(NAME SOURCE DEPS ...): a libFuzzer target, only with LOOM_BUILD_FUZZERS=ON (clang;
+# scripts/fuzz.sh builds and runs them, seeded from the source's corpus/ folder beside it).
+function(loom_fuzzer name source)
+  if(NOT LOOM_BUILD_FUZZERS)
+    return()
+  endif()
+  add_executable(${name} ${source})
+  target_link_libraries(${name} PRIVATE ${ARGN})
+  target_link_options(${name} PRIVATE -fsanitize=fuzzer,address,undefined)
+  target_compile_options(${name} PRIVATE -fsanitize=fuzzer,address,undefined)
+endfunction()

@@ -148,6 +148,16 @@ std::string KeyMessage(const std::string& key_path, int line, std::string_view m
 size_t AddRecord(ConfigState& state, YAML::Node node, std::string path) {
   ConfigNodeRecord record;
   record.is_map = node.IsMap();
+  if (record.is_map) {
+    for (const auto& entry : node) {
+      // `? [a, b]: x` is valid YAML, but no loom key is a list or a map.
+      if (!entry.first.IsScalar()) {
+        const std::string problem = "a key must be a plain name, not " + DescribeKind(entry.first);
+        state.errors.push_back(path.empty() ? "line " + std::to_string(LineOf(entry.first)) + ": " + problem
+                                            : KeyMessage(path, LineOf(entry.first), problem));
+      }
+    }
+  }
   record.node = std::move(node);
   record.path = std::move(path);
   state.nodes.push_back(std::move(record));
@@ -224,7 +234,9 @@ std::vector<std::string> ConfigNode::Keys() const {
   const ConfigNodeRecord& record = state_->nodes[index_];
   std::vector<std::string> keys;
   if (!record.is_map) return keys;
-  for (const auto& entry : record.node) keys.push_back(entry.first.as<std::string>());
+  for (const auto& entry : record.node) {
+    if (entry.first.IsScalar()) keys.push_back(entry.first.as<std::string>());
+  }
   return keys;
 }
 
@@ -346,6 +358,7 @@ Status ConfigDocument::Finish() const {
   for (const ConfigNodeRecord& record : state_->nodes) {
     if (!record.is_map) continue;
     for (const auto& entry : record.node) {
+      if (!entry.first.IsScalar()) continue;  // AddRecord reported it
       const std::string key = entry.first.as<std::string>();
       if (record.read_keys.contains(key)) continue;
       problems.push_back(KeyMessage(JoinPath(record.path, key), LineOf(entry.first), "unknown key" + Suggestion(record, key)));

@@ -58,6 +58,22 @@ TEST(ConfigTest, UnknownKeyNamesFileKeyLineAndSuggests) {
   EXPECT_NE(status.message().find("did you mean 'exposure_us'?"), std::string::npos);
 }
 
+// Found by fuzzing (core/fuzz): a key that is a list or a map is valid YAML, and converting it to
+// a name threw from Finish() — an exception where a message naming the line belongs.
+TEST(ConfigTest, AKeyThatIsAListOrAMapIsNamedNotThrown) {
+  const auto top = ConfigDocument::LoadString("schema_version: 1\n? [a, b]\n: 3\n", "rig.yaml", 1);
+  ASSERT_FALSE(top.ok());
+  EXPECT_NE(top.status().ToString().find("line 2: a key must be a plain name, not a list"), std::string::npos)
+      << top.status().ToString();
+  const auto nested = ConfigDocument::LoadString("schema_version: 1\ncamera:\n  {x: 1}: 2\n", "rig.yaml", 1);
+  ASSERT_TRUE(nested.ok()) << nested.status().ToString();
+  EXPECT_TRUE(nested->root().Child("camera").Keys().empty());
+  Status finished;
+  EXPECT_NO_THROW(finished = nested->Finish());
+  EXPECT_NE(finished.ToString().find("key 'camera' (line 3): a key must be a plain name"), std::string::npos)
+      << finished.ToString();
+}
+
 TEST(ConfigTest, ReportsEveryProblemAtOnce) {
   const auto doc = ConfigDocument::LoadString(R"(
 schema_version: 2

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Builds loom's libFuzzer targets with clang (ASan + UBSan) in build-fuzz/ and runs each for
+# SECONDS (default 60), seeded from the corpus/ folder beside its source; crashes and slow inputs
+# land in build-fuzz/findings/. Not part of CI (issue #24): CI has no clang build.
+#   scripts/fuzz.sh [SECONDS]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-60}
+cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+  -DLOOM_BUILD_FUZZERS=ON -DLOOM_BUILD_TESTS=OFF -DLOOM_BUILD_BENCH=OFF \
+  -DCMAKE_CXX_FLAGS="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" > /dev/null
+declare -A corpus=([rig_model_fuzzer]=core/fuzz/corpus [plan_fuzzer]=scan/fuzz/corpus)
+cmake --build build-fuzz -j "$(nproc)" --target "${!corpus[@]}"
+mkdir -p build-fuzz/findings
+failed=0
+for fuzzer in "${!corpus[@]}"; do
+  work="build-fuzz/corpus-$fuzzer"
+  mkdir -p "$work"
+  echo "== $fuzzer, $seconds s"
+  binary=$(find build-fuzz -name "$fuzzer" -type f -executable | head -1)
+  "$binary" "$work" "${corpus[$fuzzer]}" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+    -artifact_prefix=build-fuzz/findings/"$fuzzer"- -print_final_stats=1 2>&1 | tail -12 || failed=1
+done
+exit "$failed"
