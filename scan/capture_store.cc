@@ -277,20 +277,31 @@ Result<CaptureStore> CaptureStore::Open(const fs::path& directory, bool repair) 
     }
     // Frames without a record never completed: remove them, and any temporary files. A file
     // the store would never have written is someone else's: it stays.
-    std::set<std::string> recorded;
-    for (const FrameRecord& record : store.records_) recorded.insert(record.file);
+    const UnrecordedFiles unrecorded = store.Unrecorded();
     std::error_code ec;
-    for (const auto& entry : fs::directory_iterator(directory / "frames", ec)) {
-      const std::string name = entry.path().filename().string();
-      if (recorded.contains("frames/" + name)) continue;
-      if (IsStoreFrameName(name)) {
-        fs::remove(entry.path(), ec);
-      } else {
-        LOOM_LOG(Warning) << entry.path().string() << ": not a file this scan wrote; left as it is";
-      }
+    for (const fs::path& partial : unrecorded.partial) fs::remove(partial, ec);
+    for (const fs::path& foreign : unrecorded.foreign) {
+      LOOM_LOG(Warning) << foreign.string() << ": not a file this scan wrote; left as it is";
     }
+  } else {
+    store.torn_last_line_ = good_bytes < journal.size();
   }
   return store;
+}
+
+CaptureStore::UnrecordedFiles CaptureStore::Unrecorded() const {
+  std::set<std::string> recorded;
+  for (const FrameRecord& record : records_) recorded.insert(record.file);
+  UnrecordedFiles unrecorded;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(directory_ / "frames", ec)) {
+    const std::string name = entry.path().filename().string();
+    if (recorded.contains("frames/" + name)) continue;
+    (IsStoreFrameName(name) ? unrecorded.partial : unrecorded.foreign).push_back(entry.path());
+  }
+  std::sort(unrecorded.partial.begin(), unrecorded.partial.end());
+  std::sort(unrecorded.foreign.begin(), unrecorded.foreign.end());
+  return unrecorded;
 }
 
 Result<size_t> CaptureStore::ReadJournal(const std::string& journal) {
@@ -333,16 +344,18 @@ Status CaptureStore::ReadJournalLine(const std::string& line) {
     if (!done_steps_.insert(step).second) return DataLossError("journal", "marks step " + std::to_string(step) + " done twice");
     return Status::Ok();
   }
-  LOOM_RETURN_IF_ERROR(CheckRecordAgainstPlan(record));
+  LOOM_RETURN_IF_ERROR(CheckKeyAgainstPlan(record.key));
+  if (record.file != FrameFileName(record.key)) {
+    return DataLossError("journal", "names the frame's file '" + record.file + "', not " + FrameFileName(record.key));
+  }
   if (Has(record.key)) return DataLossError("journal", "records " + record.file + " a second time");
   records_.push_back(std::move(record));
   return Status::Ok();
 }
 
-// A record the sequencer could have written: a step of the plan, one of its cameras, an exposure
-// within its bracket, and the file name the store gives that frame.
-Status CaptureStore::CheckRecordAgainstPlan(const FrameRecord& record) const {
-  const FrameKey& key = record.key;
+// A frame the sequencer could have taken: a step of the plan, one of its cameras, an exposure
+// within its bracket.
+Status CaptureStore::CheckKeyAgainstPlan(const FrameKey& key) const {
   const std::vector<Step>& steps = info_.plan.steps;
   if (key.step < 0 || key.step >= static_cast<int>(steps.size())) {
     return DataLossError("journal", "records a frame of step " + std::to_string(key.step) + ", which the plan (" +
@@ -356,9 +369,6 @@ Status CaptureStore::CheckRecordAgainstPlan(const FrameRecord& record) const {
   if (key.exposure < 0 || key.exposure >= step.exposure.max_exposures + step.exposure.linearity_series) {
     return DataLossError("journal", "records exposure " + std::to_string(key.exposure) + " of step " + std::to_string(key.step) +
                                         ", beyond its bracket");
-  }
-  if (record.file != FrameFileName(key)) {
-    return DataLossError("journal", "names the frame's file '" + record.file + "', not " + FrameFileName(key));
   }
   return Status::Ok();
 }
@@ -383,7 +393,7 @@ Status CaptureStore::Append(const FrameKey& key, const RawFrame& frame) {
   if (Has(key)) {
     return AlreadyExistsError(directory_.string(), "frame " + FrameFileName(key) + " is already stored");
   }
-  if (const Status possible = CheckRecordAgainstPlan({key, FrameFileName(key)}); !possible.ok()) {
+  if (const Status possible = CheckKeyAgainstPlan(key); !possible.ok()) {
     return InvalidArgumentError(directory_.string(), "frame " + FrameFileName(key) + ": " + possible.message());
   }
   FrameRecord record;
@@ -433,27 +443,17 @@ Result<ScanIntegrity> VerifyScan(const fs::path& directory) {
   integrity.frames = static_cast<int>(store.records().size());
   integrity.steps_done = store.steps_done();
   integrity.steps_planned = static_cast<int>(store.info().plan.steps.size());
-  std::set<std::string> recorded;
   for (const FrameRecord& record : store.records()) {
-    recorded.insert(record.file);
     if (Result<RawFrame> frame = store.ReadFrame(record); frame.ok()) {
       ++integrity.frames_verified;
     } else {
       integrity.damaged.push_back(frame.status());
     }
   }
-  if (fs::exists(directory / "journal.jsonl")) {
-    LOOM_ASSIGN_OR_RETURN(const std::string journal, ReadFile(directory / "journal.jsonl"));
-    integrity.torn_last_line = !journal.empty() && journal.back() != '\n';
-  }
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(directory / "frames", ec)) {
-    const std::string name = entry.path().filename().string();
-    if (recorded.contains("frames/" + name)) continue;
-    (IsStoreFrameName(name) ? integrity.partial_frames : integrity.foreign_files).push_back(entry.path().string());
-  }
-  std::sort(integrity.partial_frames.begin(), integrity.partial_frames.end());
-  std::sort(integrity.foreign_files.begin(), integrity.foreign_files.end());
+  integrity.torn_last_line = store.torn_last_line();
+  const CaptureStore::UnrecordedFiles unrecorded = store.Unrecorded();
+  for (const fs::path& file : unrecorded.partial) integrity.partial_frames.push_back(file.string());
+  for (const fs::path& file : unrecorded.foreign) integrity.foreign_files.push_back(file.string());
   return integrity;
 }
 

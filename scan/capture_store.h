@@ -84,6 +84,15 @@ class CaptureStore {
 
   // The frame of a record, verified against its checksum.
   Result<RawFrame> ReadFrame(const FrameRecord& record) const;
+  // The journal ended in a torn line when it was opened read-only (a repairing Open drops it).
+  bool torn_last_line() const { return torn_last_line_; }
+  // Files in frames/ that no record names: partial frames of the store's (a resume deletes
+  // them) and files the store never writes (left alone). Sorted.
+  struct UnrecordedFiles {
+    std::vector<std::filesystem::path> partial;
+    std::vector<std::filesystem::path> foreign;
+  };
+  UnrecordedFiles Unrecorded() const;
 
  private:
   explicit CaptureStore(std::filesystem::path directory) : directory_(std::move(directory)) {}
@@ -91,7 +100,7 @@ class CaptureStore {
   // Reads the journal's complete lines into records_ and done_steps_; returns their length in bytes.
   Result<size_t> ReadJournal(const std::string& journal);
   Status ReadJournalLine(const std::string& line);
-  Status CheckRecordAgainstPlan(const FrameRecord& record) const;
+  Status CheckKeyAgainstPlan(const FrameKey& key) const;
   Status AppendToJournal(const nlohmann::json& record);
 
   std::filesystem::path directory_;
@@ -101,6 +110,7 @@ class CaptureStore {
   std::set<int> done_steps_;
   std::string chain_;     // the last line's chain link ("" before the first)
   bool chained_ = false;  // a chained line has been read or written: every later one must be
+  bool torn_last_line_ = false;
 };
 
 std::string FrameChecksum(const std::vector<uint16_t>& pixels);

@@ -14,8 +14,10 @@ namespace {
 // process does.
 Status FillUntilFull(const std::filesystem::path& dir, int& stored) {
   // One step with a long bracket: 64 frames of 8 KiB do not fit in 256 KiB.
-  Plan plan{"r", "low", PlanPurpose::kMaterial, {Step{.cameras = {"cam0"}}}};
-  plan.steps[0].exposure.max_exposures = 64;
+  Step step;
+  step.cameras = {"cam0"};
+  step.exposure.max_exposures = 64;
+  const Plan plan{"r", "low", PlanPurpose::kMaterial, {step}};
   Result<CaptureStore> store = CaptureStore::Create(dir, {"name: r\n", "sample", plan});
   if (!store.ok()) return store.status();
   RawFrame frame;
