@@ -116,7 +116,7 @@ struct Lane {
   TangentBasis basis, trial_basis;
   bool at_start = true;  // the pending evaluation is of the start
   bool converged = false;
-  double cost = 0, data_cost = 0, squares = 0;
+  double cost = 0, data_cost = 0, squares = 0, cost_resolution = 0;
   Vector12 jtr = Vector12::Zero();
   Matrix12 jtj = Matrix12::Zero();    // data + prior
   Matrix12 bread = Matrix12::Zero();  // Σ ψ'(r) g gᵀ (+ the prior)
@@ -128,7 +128,7 @@ struct Lane {
 };
 
 struct Evaluation {
-  double cost, data_cost, squares;
+  double cost, data_cost, squares, cost_resolution;
   Vector12 jtr;
   Matrix12 jtj, bread, meat;
 };
@@ -138,6 +138,7 @@ Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior
   Evaluation e;
   e.data_cost = eq.cost[p];
   e.squares = eq.squares[p];
+  e.cost_resolution = eq.cost_resolution[p];
   for (int i = 0; i < kTangentParams; ++i) {
     e.jtr[i] = eq.jtr[i][p];
     for (int j = i; j < kTangentParams; ++j) {
@@ -241,6 +242,7 @@ void Accept(Lane& lane, const Evaluation& e) {
   lane.cost = e.cost;
   lane.data_cost = e.data_cost;
   lane.squares = e.squares;
+  lane.cost_resolution = e.cost_resolution;
   lane.bread = e.bread;
   lane.meat = e.meat;
   lane.jtr = e.jtr;
@@ -396,6 +398,9 @@ class Batch {
       ++lane.iterations;
       const double decrease = lane.cost - e.cost;
       const double ratio = decrease / lane.predicted_decrease;
+      // A change within both costs' rounding (the kernel sums in float) is no change: Ceres'
+      // relative function tolerance alone would keep a noise-free fit stepping on rounding.
+      const bool unresolved = std::abs(decrease) <= lane.cost_resolution + e.cost_resolution;
       if (std::isfinite(e.cost) && ratio > kMinRelativeDecrease) {
         const double old_cost = lane.cost;
         lane.x = lane.trial;
@@ -403,11 +408,11 @@ class Batch {
         Accept(lane, e);
         lane.radius = std::min(kMaxRadius, lane.radius / std::max(1.0 / 3, 1 - std::pow(2 * ratio - 1, 3)));
         lane.decrease_factor = 2;
-        converged = std::abs(decrease) <= options_.function_tolerance * old_cost;
+        converged = unresolved || std::abs(decrease) <= options_.function_tolerance * old_cost;
       } else {
         lane.radius /= lane.decrease_factor;
         lane.decrease_factor *= 2;
-        converged = lane.radius < kMinRadius;
+        converged = unresolved || lane.radius < kMinRadius;
       }
     }
     converged = converged || ProjectedGradientNorm(lane, options_) <= options_.gradient_tolerance;

@@ -127,11 +127,16 @@ TEST(BatchRefinerTest, TheKernelsNormalEquationsEqualThoseOfCeresJets) {
     const Eigen::MatrixXd j = JetJacobian(c.observations, c.params, c.inverse_scale, c.u, c.v, r);
     const Eigen::MatrixXd jtj = j.transpose() * j;
     const Eigen::VectorXd jtr = j.transpose() * r;
-    EXPECT_NEAR(equations.cost[lane], 0.5 * r.squaredNorm(), 1e-9 * r.squaredNorm()) << "lane " << lane;
+    // The kernel sums light samples in float: the cost is within the rounding it states (and
+    // that is small), the normal equations within float's precision; a wrong derivative is off
+    // by far more.
+    EXPECT_NEAR(equations.cost[lane], 0.5 * r.squaredNorm(), equations.cost_resolution[lane]) << "lane " << lane;
+    EXPECT_LT(equations.cost_resolution[lane], 1e-4 * equations.cost[lane]) << "lane " << lane;
     for (int a = 0; a < kTangentParams; ++a) {
-      EXPECT_NEAR(equations.jtr[a][lane], jtr[a], 1e-8 * jtr.cwiseAbs().maxCoeff()) << "lane " << lane << ", column " << a;
+      // JᵀWr also carries the residuals' cancellation (model − measurement).
+      EXPECT_NEAR(equations.jtr[a][lane], jtr[a], 1e-4 * jtr.cwiseAbs().maxCoeff()) << "lane " << lane << ", column " << a;
       for (int b = a; b < kTangentParams; ++b) {
-        EXPECT_NEAR(equations.jtj[internal::NormalIndex(a, b)][lane], jtj(a, b), 1e-8 * jtj.cwiseAbs().maxCoeff())
+        EXPECT_NEAR(equations.jtj[internal::NormalIndex(a, b)][lane], jtj(a, b), 1e-6 * jtj.cwiseAbs().maxCoeff())
             << "lane " << lane << ", entry " << a << "," << b;
       }
     }
@@ -167,7 +172,8 @@ TEST(BatchRefinerTest, TheKernelsRobustCostIsCeresHuberCost) {
     expected += 0.5 * (std::abs(r) <= a ? r * r : 2 * a * std::abs(r) - a * a);  // ceres::HuberLoss
   }
   EXPECT_GT(outliers, 5);
-  EXPECT_NEAR(equations.cost[0], expected, 1e-9 * expected);
+  EXPECT_NEAR(equations.cost[0], expected, equations.cost_resolution[0]);
+  EXPECT_LT(equations.cost_resolution[0], 1e-4 * expected);
   // And so is the Ceres fitter's: the loss per observation, not on the pixel's whole block.
   std::vector<PixelObservation> usable;
   for (const PixelObservation& o : observations) usable.push_back(o);
@@ -276,10 +282,47 @@ TEST(BatchRefinerTest, MasksBoundsAndTooFewObservationsAreAsInTheCeresFit) {
   EXPECT_FALSE(FitPixel(lists[2], starts[2], ceres_options).ok());
 }
 
+// A pixel's fit does not depend on the pixels that share its batch: the same pixels in reverse
+// order (other batch-mates, other lanes) end bit for bit where they did.
+TEST(BatchRefinerTest, APixelsFitDoesNotDependOnItsBatchMates) {
+  const SimulatedStack simulated = NoisyFabricStack(6, 0.02, 21);
+  const StackPixels pixels(simulated.stack);
+  const int width = simulated.stack.image.width();
+  const int count = width * simulated.stack.image.height();
+  std::mt19937 rng(5);
+  std::vector<WardParams<double>> starts;
+  for (int i = 0; i < count; ++i) starts.push_back(NearStart(GetParams(simulated.fabric.maps, i % width, i / width), rng));
+  RefineOptions options;
+  options.fixed_f0 = GetParams(simulated.fabric.maps, 0, 0).f0;
+  const auto refine = [&](bool reversed) {
+    const auto pixel = [=](int i) { return reversed ? count - 1 - i : i; };
+    const RefineProblem problem{count,
+                                LightsPerStackObservation(simulated.stack),
+                                [&, pixel](int i) { return pixels.Observations(pixel(i) % width, pixel(i) / width); },
+                                [&, pixel](int i) { return starts[pixel(i)]; },
+                                {}};
+    Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
+    EXPECT_TRUE(refined.ok()) << refined.status().ToString();
+    if (refined.ok() && reversed) std::reverse(refined->begin(), refined->end());
+    return refined.ok() ? *refined : std::vector<RefinedPixel>{};
+  };
+  const std::vector<RefinedPixel> forward = refine(false), backward = refine(true);
+  ASSERT_EQ(forward.size(), static_cast<size_t>(count));
+  ASSERT_EQ(backward.size(), static_cast<size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    EXPECT_EQ(forward[i].params.n_s, backward[i].params.n_s) << "pixel " << i;
+    EXPECT_EQ(forward[i].params.a_d, backward[i].params.a_d) << "pixel " << i;
+    EXPECT_EQ(forward[i].params.a_s, backward[i].params.a_s) << "pixel " << i;
+    EXPECT_EQ(forward[i].params.sigma_x, backward[i].params.sigma_x) << "pixel " << i;
+    EXPECT_EQ(forward[i].params.alpha, backward[i].params.alpha) << "pixel " << i;
+    EXPECT_EQ(forward[i].iterations, backward[i].iterations) << "pixel " << i;
+  }
+}
+
 // The stated 1σ must be calibrated: on noisy stacks it covers the true error of 55–80 % of the
 // pixels (68 % for a Gaussian 1-d error, 63 % for the normal's 2-d angle).
 TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaShould) {
-  const SimulatedStack simulated = NoisyFabricStack(14, 0.03, 13);
+  const SimulatedStack simulated = NoisyFabricStack(24, 0.03, 13);
   const StackPixels pixels(simulated.stack);
   const int width = simulated.stack.image.width();
   const int count = width * simulated.stack.image.height();
@@ -324,7 +367,9 @@ TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaSh
   std::cout << "1 sigma covers: normal " << normal.fraction() << ", a_d " << a_d.fraction() << ", a_s " << a_s.fraction()
             << ", sigma_x " << sigma_x.fraction() << ", sigma_y " << sigma_y.fraction() << " (of " << normal.total
             << " pixels)\n";
-  // Measured 2026-11-23 (HC2 sandwich): normal 62 %, a_d 71 %, a_s 80.2 %, σx 61 %, σy 68 %. On
+  // Measured 2026-11-23 (HC2 sandwich, 14 × 14 px): normal 62 %, a_d 71 %, a_s 80.2 %, σx 61 %,
+  // σy 68 %; 2026-11-25 (float sums, 24 × 24 px: the 14² stack's a_s moved 80 → 82 % with
+  // rounding alone, within its sampling error): 64 %, 73 %, 81 %, 59 %, 68 %. On
   // three other stacks (2–5 % noise) a_s covers 80–82 % (a little conservative) and at 5 % noise
   // the normal and σx fall to 42–45 %, with half the pixels' σ unstated: Huber's loss rejects
   // their highlights, which then no longer count (docs/benchmarks.md). The band, 55–80 %,

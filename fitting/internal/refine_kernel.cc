@@ -19,31 +19,33 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 // Below this h·n the lobe is nothing (exp(−e) underflows for any σ the fit allows); the floor
 // only keeps masked-out terms finite, since fast-math multiplies them by 0 rather than branching.
-constexpr double kMinHalfwayCosine = 1e-3;
+constexpr float kMinHalfwayCosine = 1e-3f;
 // pixel_cost.cc's threshold: exp(−60) times the largest normalisation is no measurable fraction of
 // the diffuse term.
-constexpr double kNegligibleLobeExponent = 60;
+constexpr float kNegligibleLobeExponent = 60;
+constexpr float kInversePi = static_cast<float>(1 / kPi);
 
 // A light slot's parameter-free arrays as restrict pointers to its kLanes values, named as
 // LaneData's members (locals, so that the vectoriser sees they do not alias).
-#define SLOT_POINTERS(data, offset)                                 \
-  const double* __restrict lx = &(data).lx[offset];                 \
-  const double* __restrict ly = &(data).ly[offset];                 \
-  const double* __restrict lz = &(data).lz[offset];                 \
-  const double* __restrict hx = &(data).hx[offset];                 \
-  const double* __restrict hy = &(data).hy[offset];                 \
-  const double* __restrict hz = &(data).hz[offset];                 \
-  const double* __restrict irradiance = &(data).irradiance[offset]; \
-  const double* __restrict inv_c2 = &(data).inv_c2[offset];         \
-  const double* __restrict schlick = &(data).schlick[offset]
+#define SLOT_POINTERS(data, offset)                                \
+  const float* __restrict lx = &(data).lx[offset];                 \
+  const float* __restrict ly = &(data).ly[offset];                 \
+  const float* __restrict lz = &(data).lz[offset];                 \
+  const float* __restrict hx = &(data).hx[offset];                 \
+  const float* __restrict hy = &(data).hy[offset];                 \
+  const float* __restrict hz = &(data).hz[offset];                 \
+  const float* __restrict irradiance = &(data).irradiance[offset]; \
+  const float* __restrict inv_c2 = &(data).inv_c2[offset];         \
+  const float* __restrict schlick = &(data).schlick[offset]
 
 #define LANES _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kLanes; ++p)
 
-// The lobe's parameter-dependent frame and constants, per lane.
+// The lobe's parameter-dependent frame and constants, per lane: computed in double, kept in
+// float for the sums over light samples.
 struct LaneLobe {
-  alignas(64) double n[3][kLanes], t[3][kLanes], b[3][kLanes], t0[3][kLanes], dt[3][kLanes], db[3][kLanes];
-  alignas(64) double t0_dot_n[kLanes], inv_t_prime[kLanes], inv_sx2[kLanes], inv_sy2[kLanes];
-  alignas(64) double inv_sx[kLanes], inv_sy[kLanes], normalisation[kLanes], f0[kLanes];
+  alignas(32) float n[3][kLanes], t[3][kLanes], b[3][kLanes], t0[3][kLanes], dt[3][kLanes], db[3][kLanes];
+  alignas(32) float t0_dot_n[kLanes], inv_t_prime[kLanes], inv_sx2[kLanes], inv_sy2[kLanes];
+  alignas(32) float inv_sx[kLanes], inv_sy[kLanes], normalisation[kLanes], f0[kLanes];
 };
 
 [[gnu::always_inline]] inline void PrepareLobe(const LaneInputs& in, LaneLobe& lobe) {
@@ -80,98 +82,77 @@ struct LaneLobe {
   }
 }
 
-// One observation's sums over its light samples.
+// One observation's sums over its light samples, in single precision: one AVX2 register holds
+// all 8 lanes (two in double), and libmvec's expf is cheaper than its exp. An observation sums
+// at most a strip's few dozen samples, so float's rounding (~1e-7 relative) stays well below the
+// noise of any measured radiance; the residuals, the cost and the normal equations are in double.
 struct ObservationSums {
-  alignas(64) double radiance[kLanes], diffuse[kLanes], specular[kLanes], fresnel[kLanes];
-  alignas(64) double sigma_x[kLanes], sigma_y[kLanes], alpha[kLanes], n[3][kLanes];
+  alignas(32) float radiance[kLanes], diffuse[kLanes], specular[kLanes], fresnel[kLanes];
+  alignas(32) float sigma_x[kLanes], sigma_y[kLanes], alpha[kLanes], n[3][kLanes];
 };
 
-[[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const double* diffuse_albedo,
-                                             const double* specular_albedo, int first, int end, ObservationSums& s) {
+[[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const float* diffuse_albedo,
+                                             const float* specular_albedo, int first, int end, ObservationSums& s) {
   LANES {
     s.radiance[p] = s.diffuse[p] = s.specular[p] = s.fresnel[p] = 0;
     s.sigma_x[p] = s.sigma_y[p] = s.alpha[p] = 0;
     s.n[0][p] = s.n[1][p] = s.n[2][p] = 0;
   }
+  // Every lane evaluates the whole model on every sample, so that a pixel's result does not
+  // depend on which pixels share its batch (the thread count, the order of work). A shortcut
+  // taken when no lane's lobe reaches a sample did: it rounded differently, and in float that
+  // changed where fits stopped; on this machine it saved nothing measurable (2026-11-25).
   for (int slot = first; slot < end; ++slot) {
     const int o = slot * kLanes;
     SLOT_POINTERS(d, o);
-    // Most of a strip's emitters are far from every lane's highlight: for those the lobe is
-    // dropped (as beyond kNegligibleLobeExponent anyway) and only the diffuse term is summed,
-    // a fifth of the work. The test costs the exponent of each lane, a min-reduction.
-    double nearest = kNegligibleLobeExponent + 1;
     LANES {
-      const double h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
-      const double h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
-      const double h_n_raw = hx[p] * lobe.n[0][p] + hy[p] * lobe.n[1][p] + hz[p] * lobe.n[2][p];
-      const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
-      const double exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) / (h_n * h_n);
-      const double lit = irradiance[p];
-      const double candidate = lit > 0 ? exponent : kNegligibleLobeExponent + 1;
-      nearest = candidate < nearest ? candidate : nearest;
-    }
-    if (nearest > kNegligibleLobeExponent) {
-      LANES {
-        const double n_dot_l = lobe.n[0][p] * lx[p] + lobe.n[1][p] * ly[p] + lobe.n[2][p] * lz[p];
-        const double irradiance_p = irradiance[p];
-        const double e = n_dot_l > 0 ? irradiance_p : 0.0;
-        const double shading = e * diffuse_albedo[p] * (1 / kPi);
-        s.radiance[p] += shading * n_dot_l;
-        s.diffuse[p] += e * n_dot_l * (1 / kPi);
-        s.n[0][p] += shading * lx[p];
-        s.n[1][p] += shading * ly[p];
-        s.n[2][p] += shading * lz[p];
-      }
-      continue;
-    }
-    LANES {
-      const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
-      const double n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
-      const double irradiance_p = irradiance[p];  // loaded unconditionally: a select vectorises, a branch not
-      const double e = n_dot_l > 0 ? irradiance_p : 0.0;
-      const double h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
-      const double h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
-      const double h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
-      const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
-      const double inv_h_n = 1 / h_n;
-      const double inv_h_n2 = inv_h_n * inv_h_n;
-      const double tx = h_t * lobe.inv_sx2[p], by = h_b * lobe.inv_sy2[p];
-      const double exponent = (h_t * tx + h_b * by) * inv_h_n2;
+      const float nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
+      const float n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+      const float irradiance_p = irradiance[p];  // loaded unconditionally: a select vectorises, a branch not
+      const float e = n_dot_l > 0 ? irradiance_p : 0.0f;
+      const float h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
+      const float h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
+      const float h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
+      const float h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
+      const float inv_h_n = 1 / h_n;
+      const float inv_h_n2 = inv_h_n * inv_h_n;
+      const float tx = h_t * lobe.inv_sx2[p], by = h_b * lobe.inv_sy2[p];
+      const float exponent = (h_t * tx + h_b * by) * inv_h_n2;
       // Beyond kNegligibleLobeExponent the lobe is dropped, as the Ceres cost drops it; clamping
       // exp's argument also keeps libmvec on its fast path (an argument past underflow sends
       // the whole vector through scalar exp: 40 % of the kernel's time, measured with perf).
-      const double negligible = exponent > kNegligibleLobeExponent ? 0.0 : 1.0;
-      const double clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
-      const double ward = negligible * std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
-      const double fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
-      const double specular = fresnel * ward;
-      const double e_cos = e * n_dot_l;
-      const double shading = e * (diffuse_albedo[p] * (1 / kPi) + specular_albedo[p] * specular);
+      const float negligible = exponent > kNegligibleLobeExponent ? 0.0f : 1.0f;
+      const float clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
+      const float ward = negligible * std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+      const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
+      const float specular = fresnel * ward;
+      const float e_cos = e * n_dot_l;
+      const float shading = e * (diffuse_albedo[p] * kInversePi + specular_albedo[p] * specular);
       s.radiance[p] += shading * n_dot_l;
-      s.diffuse[p] += e_cos * (1 / kPi);
+      s.diffuse[p] += e_cos * kInversePi;
       s.specular[p] += e_cos * specular;
       s.fresnel[p] += e_cos * (1 - schlick[p]) * ward;
-      const double q = e_cos * specular_albedo[p] * specular;
+      const float q = e_cos * specular_albedo[p] * specular;
       s.sigma_x[p] += q * lobe.inv_sx[p] * (2 * h_t * tx * inv_h_n2 - 1);
       s.sigma_y[p] += q * lobe.inv_sy[p] * (2 * h_b * by * inv_h_n2 - 1);
-      const double h_dt = hx[p] * lobe.dt[0][p] + hy[p] * lobe.dt[1][p] + hz[p] * lobe.dt[2][p];
-      const double h_db = hx[p] * lobe.db[0][p] + hy[p] * lobe.db[1][p] + hz[p] * lobe.db[2][p];
+      const float h_dt = hx[p] * lobe.dt[0][p] + hy[p] * lobe.dt[1][p] + hz[p] * lobe.dt[2][p];
+      const float h_db = hx[p] * lobe.db[0][p] + hy[p] * lobe.db[1][p] + hz[p] * lobe.db[2][p];
       s.alpha[p] -= q * 2 * (tx * h_dt + by * h_db) * inv_h_n2;
       // ∂h_t/∂n = −(t0 h_n + (t0·n)(h − t h_t)) / |t'|,  ∂h_b/∂n = t × h − (t0·n)(h × n − t h_b) / |t'|
-      const double t0n_itp = lobe.t0_dot_n[p] * lobe.inv_t_prime[p];
-      const double h_n_itp = h_n_raw * lobe.inv_t_prime[p];
-      const double t0x = lobe.t0[0][p], t0y = lobe.t0[1][p];
-      const double ttx = lobe.t[0][p], tty = lobe.t[1][p], ttz = lobe.t[2][p];
-      const double dht_x = -(t0x * h_n_itp + t0n_itp * (hx[p] - ttx * h_t));
-      const double dht_y = -(t0y * h_n_itp + t0n_itp * (hy[p] - tty * h_t));
-      const double dht_z = -(t0n_itp * (hz[p] - ttz * h_t));
-      const double hcn_x = hy[p] * nz - hz[p] * ny, hcn_y = hz[p] * nx - hx[p] * nz, hcn_z = hx[p] * ny - hy[p] * nx;
-      const double dhb_x = (tty * hz[p] - ttz * hy[p]) - t0n_itp * (hcn_x - ttx * h_b);
-      const double dhb_y = (ttz * hx[p] - ttx * hz[p]) - t0n_itp * (hcn_y - tty * h_b);
-      const double dhb_z = (ttx * hy[p] - tty * hx[p]) - t0n_itp * (hcn_z - ttz * h_b);
+      const float t0n_itp = lobe.t0_dot_n[p] * lobe.inv_t_prime[p];
+      const float h_n_itp = h_n_raw * lobe.inv_t_prime[p];
+      const float t0x = lobe.t0[0][p], t0y = lobe.t0[1][p];
+      const float ttx = lobe.t[0][p], tty = lobe.t[1][p], ttz = lobe.t[2][p];
+      const float dht_x = -(t0x * h_n_itp + t0n_itp * (hx[p] - ttx * h_t));
+      const float dht_y = -(t0y * h_n_itp + t0n_itp * (hy[p] - tty * h_t));
+      const float dht_z = -(t0n_itp * (hz[p] - ttz * h_t));
+      const float hcn_x = hy[p] * nz - hz[p] * ny, hcn_y = hz[p] * nx - hx[p] * nz, hcn_z = hx[p] * ny - hy[p] * nx;
+      const float dhb_x = (tty * hz[p] - ttz * hy[p]) - t0n_itp * (hcn_x - ttx * h_b);
+      const float dhb_y = (ttz * hx[p] - ttx * hz[p]) - t0n_itp * (hcn_y - tty * h_b);
+      const float dhb_z = (ttx * hy[p] - tty * hx[p]) - t0n_itp * (hcn_z - ttz * h_b);
       // ∂L/∂n = shading l + q (−4 h / h_n − ∂e/∂n),  ∂e/∂n = 2 (tx ∂h_t + by ∂h_b) / h_n² − 2 e h / h_n
-      const double g2 = 2 * inv_h_n2;
-      const double h_coeff = q * (2 * exponent - 4) * inv_h_n;
+      const float g2 = 2 * inv_h_n2;
+      const float h_coeff = q * (2 * exponent - 4) * inv_h_n;
       s.n[0][p] += shading * lx[p] + h_coeff * hx[p] - q * g2 * (tx * dht_x + by * dhb_x);
       s.n[1][p] += shading * ly[p] + h_coeff * hy[p] - q * g2 * (tx * dht_y + by * dhb_y);
       s.n[2][p] += shading * lz[p] + h_coeff * hz[p] - q * g2 * (tx * dht_z + by * dhb_z);
@@ -179,52 +160,94 @@ struct ObservationSums {
   }
 }
 
-// One vector of kLanes doubles (one zmm, two ymm or four xmm: GCC splits it for the target).
-typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
+// Vectors of kWidth doubles: 8 is one zmm; 4 is one ymm. A vector wider than the target's
+// registers is split by GCC, and on AVX2 an 8-wide one was split through general registers with
+// its accumulators spilled: the Gram below took 57 % of the kernel there (perf, 2026-11-25).
+// (A member typedef: GCC drops vector_size from an alias template, leaving a plain double.)
+template <int kWidth>
+struct Wide {
+  typedef double Vector __attribute__((vector_size(kWidth * sizeof(double))));
+};
+template <int kWidth>
+using WideVector = typename Wide<kWidth>::Vector;
+static_assert(sizeof(WideVector<4>) == 4 * sizeof(double));
 
-[[gnu::always_inline]] inline LaneVector Load(const double* p) {
-  LaneVector v;
+template <int kWidth>
+[[gnu::always_inline]] inline WideVector<kWidth> Load(const double* p) {
+  WideVector<kWidth> v;
   __builtin_memcpy(&v, p, sizeof v);
   return v;
 }
 
-// out[NormalIndex(i, j)] = Σ_k w_k g_ki g_kj (i ≤ j), per lane, in 4 × 4 tiles whose 16
-// accumulators stay in registers over all observations: accumulating into memory per
-// observation (a load and a store per entry) had been half the work on point-lit stacks.
+// out[NormalIndex(i, j)] = Σ_k w_k g_ki g_kj (i ≤ j), per lane, kWidth lanes at a time, in
+// kRows × kCols tiles whose accumulators stay in registers over all observations: accumulating
+// into memory per observation (a load and a store per entry) had been half the work on point-lit
+// stacks. A tile wholly below the diagonal is skipped.
+template <int kWidth, int kRows, int kCols>
 [[gnu::always_inline]] inline void Gram(const double* g, const double* w, int observations, double (*out)[kLanes]) {
-  constexpr int kTile = 4;
-  for (int bi = 0; bi < kTangentParams; bi += kTile) {
-    for (int bj = bi; bj < kTangentParams; bj += kTile) {
-      LaneVector acc[kTile][kTile] = {};
-      for (int k = 0; k < observations; ++k) {
-        const double* gk = g + static_cast<size_t>(k) * kTangentParams * kLanes;
-        const LaneVector wk = Load(w + static_cast<size_t>(k) * kLanes);
-        LaneVector left[kTile], right[kTile];
-        for (int a = 0; a < kTile; ++a) left[a] = wk * Load(gk + (bi + a) * kLanes);
-        for (int b = 0; b < kTile; ++b) right[b] = Load(gk + (bj + b) * kLanes);
-        for (int a = 0; a < kTile; ++a) {
-          for (int b = 0; b < kTile; ++b) acc[a][b] += left[a] * right[b];
+  using Vector = WideVector<kWidth>;
+  for (int lane = 0; lane < kLanes; lane += kWidth) {
+    for (int bi = 0; bi < kTangentParams; bi += kRows) {
+      for (int bj = 0; bj < kTangentParams; bj += kCols) {
+        if (bj + kCols - 1 < bi) continue;
+        Vector acc[kRows][kCols] = {};
+        for (int k = 0; k < observations; ++k) {
+          const double* gk = g + static_cast<size_t>(k) * kTangentParams * kLanes + lane;
+          const Vector wk = Load<kWidth>(w + static_cast<size_t>(k) * kLanes + lane);
+          Vector left[kRows];
+          for (int a = 0; a < kRows; ++a) left[a] = wk * Load<kWidth>(gk + (bi + a) * kLanes);
+          for (int b = 0; b < kCols; ++b) {
+            const Vector right = Load<kWidth>(gk + (bj + b) * kLanes);
+            for (int a = 0; a < kRows; ++a) acc[a][b] += left[a] * right;
+          }
         }
-      }
-      for (int a = 0; a < kTile; ++a) {
-        for (int b = 0; b < kTile; ++b) {
-          if (bi + a > bj + b) continue;
-          __builtin_memcpy(out[NormalIndex(bi + a, bj + b)], &acc[a][b], sizeof(LaneVector));
+        for (int a = 0; a < kRows; ++a) {
+          for (int b = 0; b < kCols; ++b) {
+            if (bi + a > bj + b) continue;
+            __builtin_memcpy(&out[NormalIndex(bi + a, bj + b)][lane], &acc[a][b], sizeof(Vector));
+          }
         }
       }
     }
   }
 }
 
-// out[i] = Σ_k g_ki v_k, per lane.
+// out[i] = Σ_k g_ki v_k, per lane, kWidth lanes at a time.
+template <int kWidth>
 [[gnu::always_inline]] inline void Project(const double* g, const double* v, int observations, double (*out)[kLanes]) {
-  LaneVector acc[kTangentParams] = {};
-  for (int k = 0; k < observations; ++k) {
-    const double* gk = g + static_cast<size_t>(k) * kTangentParams * kLanes;
-    const LaneVector vk = Load(v + static_cast<size_t>(k) * kLanes);
-    for (int i = 0; i < kTangentParams; ++i) acc[i] += Load(gk + i * kLanes) * vk;
+  using Vector = WideVector<kWidth>;
+  for (int lane = 0; lane < kLanes; lane += kWidth) {
+    Vector acc[kTangentParams] = {};
+    for (int k = 0; k < observations; ++k) {
+      const double* gk = g + static_cast<size_t>(k) * kTangentParams * kLanes + lane;
+      const Vector vk = Load<kWidth>(v + static_cast<size_t>(k) * kLanes + lane);
+      for (int i = 0; i < kTangentParams; ++i) acc[i] += Load<kWidth>(gk + i * kLanes) * vk;
+    }
+    for (int i = 0; i < kTangentParams; ++i) __builtin_memcpy(&out[i][lane], &acc[i], sizeof(Vector));
   }
-  for (int i = 0; i < kTangentParams; ++i) __builtin_memcpy(out[i], &acc[i], sizeof(LaneVector));
+}
+
+// The sums over observations, with the vector width and tiles that fit the registers of the
+// instruction set EvaluateLanes runs with: 32 zmm on AVX-512, 16 ymm on AVX2.
+[[gnu::always_inline]] inline void SumObservations(const LaneData& d, bool any_leverage, LaneEquations& out) {
+  static const bool wide = __builtin_cpu_supports("avx512f");
+  const int n = d.observations;
+  const double* g = d.gradients.data();
+  if (wide) {
+    Gram<8, 4, 4>(g, d.weights.data(), n, out.jtj);
+    Project<8>(g, d.weighted_residuals.data(), n, out.jtr);
+    if (any_leverage) {  // the uncertainty's matrices only when some lane is at its solution
+      Gram<8, 4, 4>(g, d.inlier_weights.data(), n, out.bread);
+      Gram<8, 4, 4>(g, d.meat_weights.data(), n, out.meat);
+    }
+    return;
+  }
+  Gram<4, 2, 4>(g, d.weights.data(), n, out.jtj);
+  Project<4>(g, d.weighted_residuals.data(), n, out.jtr);
+  if (any_leverage) {
+    Gram<4, 2, 4>(g, d.inlier_weights.data(), n, out.bread);
+    Gram<4, 2, 4>(g, d.meat_weights.data(), n, out.meat);
+  }
 }
 
 }  // namespace
@@ -233,7 +256,7 @@ typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
                                                                                          LaneEquations& out) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
-  LANES { out.cost[p] = out.squares[p] = 0; }
+  LANES { out.cost[p] = out.squares[p] = out.cost_resolution[p] = 0; }
   for (int i = 0; i < kNormalEntries; ++i) LANES {
       out.bread[i][p] = out.meat[i][p] = 0;
     }
@@ -241,7 +264,7 @@ typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
   bool any_leverage = false;
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
   ObservationSums s;
-  alignas(64) double diffuse_albedo[kLanes], specular_albedo[kLanes];
+  alignas(32) float diffuse_albedo[kLanes], specular_albedo[kLanes];
   alignas(64) double g[kTangentParams][kLanes], weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
@@ -262,6 +285,9 @@ typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
       const double w = d.weight[o + p] * (inlier ? 1.0 : a / (abs_r > 0 ? abs_r : 1.0));
       out.cost[p] += 0.5 * d.weight[o + p] * rho;
       out.squares[p] += d.weight[o + p] * r * r;
+      // The cost's sensitivity to the radiance's rounding: ψ(r) L, ψ(r) = min(|r|, a) Huber's.
+      const double sensitivity = (inlier ? abs_r : a) * s.radiance[p] * seen;
+      out.cost_resolution[p] += d.weight[o + p] * sensitivity * sensitivity;
       weight[p] = w;
       inlier_weight[p] = inlier ? d.weight[o + p] : 0.0;
       weighted_r[p] = w * r;
@@ -299,12 +325,9 @@ typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
       d.meat_weights[o + p] = weighted_r[p] * weighted_r[p] / kept;
     }
   }
-  Gram(d.gradients.data(), d.weights.data(), d.observations, out.jtj);
-  Project(d.gradients.data(), d.weighted_residuals.data(), d.observations, out.jtr);
-  if (any_leverage) {  // the uncertainty's matrices only when some lane is at its solution
-    Gram(d.gradients.data(), d.inlier_weights.data(), d.observations, out.bread);
-    Gram(d.gradients.data(), d.meat_weights.data(), d.observations, out.meat);
-  }
+  // Roundings independent across observations add in quadrature.
+  LANES { out.cost_resolution[p] = kRadianceResolution * std::sqrt(out.cost_resolution[p]); }
+  SumObservations(d, any_leverage, out);
 }
 
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void SumTermsLanes(const LaneData& d, const LaneInputs& in,
@@ -313,28 +336,29 @@ typedef double LaneVector __attribute__((vector_size(kLanes * sizeof(double))));
   PrepareLobe(in, lobe);
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
-    alignas(64) double diffuse_sum[kLanes], specular_sum[kLanes];
+    alignas(32) float diffuse_sum[kLanes], specular_sum[kLanes];
     LANES { diffuse_sum[p] = specular_sum[p] = 0; }
     for (int slot = d.first_slot[k]; slot < d.first_slot[k + 1]; ++slot) {
       const int i = slot * kLanes;
       SLOT_POINTERS(d, i);
       LANES {
-        const double nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
-        const double n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
-        const double lit = irradiance[p] * n_dot_l;
-        const double e_cos = n_dot_l > 0 ? lit : 0.0;
-        const double h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
-        const double h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
-        const double h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
-        const double h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
-        const double inv_h_n2 = 1 / (h_n * h_n);
-        const double exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) * inv_h_n2;
-        // Clamped, not dropped: exp(−600) is nothing, and a select around exp() would turn it
-        // into a branch that stops the loop from vectorising (it did here).
-        const double clamped = exponent > 600 ? 600 : exponent;
-        const double ward = std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
-        const double fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
-        diffuse_sum[p] += e_cos * (1 / kPi);
+        const float nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
+        const float n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+        const float lit = irradiance[p] * n_dot_l;
+        const float e_cos = n_dot_l > 0 ? lit : 0.0f;
+        const float h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
+        const float h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
+        const float h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
+        const float h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
+        const float inv_h_n2 = 1 / (h_n * h_n);
+        const float exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) * inv_h_n2;
+        // Clamped, not dropped: exp(−80) is nothing, and a select around exp() would turn it
+        // into a branch that stops the loop from vectorising (it did here). 80, not more: past
+        // float's underflow libmvec's expf leaves its fast path.
+        const float clamped = exponent > 80.0f ? 80.0f : exponent;
+        const float ward = std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+        const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
+        diffuse_sum[p] += e_cos * kInversePi;
         specular_sum[p] += e_cos * fresnel * ward;
       }
     }
@@ -368,9 +392,9 @@ LaneData::LaneData(const std::vector<int>& slots_per_observation) : observations
 }
 
 void LaneData::CopyLane(int lane, LaneData& to, int to_lane) const {
-  const auto copy = [&](const std::vector<double>& from, std::vector<double>& into, int count) {
-    const double* __restrict source = from.data() + lane;
-    double* __restrict target = into.data() + to_lane;
+  const auto copy = [&]<typename Value>(const std::vector<Value>& from, std::vector<Value>& into, int count) {
+    const Value* __restrict source = from.data() + lane;
+    Value* __restrict target = into.data() + to_lane;
     for (int i = 0; i < count; ++i) target[i * kLanes] = source[i * kLanes];
   };
   for (auto member : {&LaneData::radiance, &LaneData::weight, &LaneData::vx, &LaneData::vy, &LaneData::vz, &LaneData::wr,

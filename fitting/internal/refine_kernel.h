@@ -22,6 +22,11 @@ inline constexpr int kLanes = 8;
 inline constexpr int kAmbientParams = 13;
 inline constexpr int kTangentParams = 12;
 inline constexpr int kNormalEntries = kTangentParams * (kTangentParams + 1) / 2;  // upper triangle
+// A bound on the relative rounding error of a modelled radiance summed in float (~1e-7 for one
+// unit in the last place), used as a bound on the cost's: kRadianceResolution ·
+// sqrt(Σ (ψ(r) L)²), the roundings of different observations being independent. The kernel
+// tests check it bounds the difference from Ceres' double-precision cost.
+inline constexpr double kRadianceResolution = 1e-6;
 
 // Upper-triangle index of (i, j), i ≤ j, row by row.
 constexpr int NormalIndex(int i, int j) { return i * kTangentParams - i * (i - 1) / 2 + (j - i); }
@@ -35,12 +40,13 @@ struct LaneData {
   std::vector<double> radiance, weight;  // weight 0: masked (the radiance is then 0)
   std::vector<double> vx, vy, vz;        // towards the camera, local frame
   std::vector<double> wr, wg, wb;        // colour weights
-  // Per light slot × lane: what does not depend on the parameters.
-  std::vector<double> lx, ly, lz;  // towards the light
-  std::vector<double> hx, hy, hz;  // normalize(l + v)
-  std::vector<double> irradiance;  // 0: empty slot
-  std::vector<double> inv_c2;      // 1 / (l·h)²
-  std::vector<double> schlick;     // (1 − l·h)⁵
+  // Per light slot × lane: what does not depend on the parameters. Single precision: the sums
+  // over light samples run in float (refine_kernel.cc says why).
+  std::vector<float> lx, ly, lz;  // towards the light
+  std::vector<float> hx, hy, hz;  // normalize(l + v)
+  std::vector<float> irradiance;  // 0: empty slot
+  std::vector<float> inv_c2;      // 1 / (l·h)²
+  std::vector<float> schlick;     // (1 − l·h)⁵
   // The kernel's scratch: per observation × lane, the gradient (12 each) and the weights of the
   // sums over observations. Written by EvaluateLanes (hence mutable): one LaneData per thread.
   mutable std::vector<double> gradients, weights, weighted_residuals, inlier_weights, meat_weights;
@@ -75,6 +81,9 @@ struct LaneInputs {
 struct LaneEquations {
   alignas(64) double cost[kLanes];
   alignas(64) double squares[kLanes];  // Σ r² (no loss): the fit's relative RMS
+  // How far the cost may be from its exact value, from the single-precision sums over light
+  // samples (kRadianceResolution of each modelled radiance): a smaller change is not resolved.
+  alignas(64) double cost_resolution[kLanes];
   alignas(64) double jtr[kTangentParams][kLanes];
   alignas(64) double jtj[kNormalEntries][kLanes];
   alignas(64) double bread[kNormalEntries][kLanes];
