@@ -126,6 +126,71 @@ bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light)
   return false;
 }
 
+// Why the bound holds. Shadowed samples the ray at horizontal distances ρ > 0 from p; a sample
+// at height z_p + m·ρ (m the ray's slope) is blocked where it is below the surface. For p on
+// or above the surface (z_p ≥ HeightAt(p)), two bounds on the surface cover every sample:
+//  - within kNearPx of p, the surface rises from HeightAt(p) at most as steeply as the steepest
+//    bilinear patch there (gradient G): no sample there is blocked if m ≥ G;
+//  - further out, HeightAt is at most the highest of the pixels within √2 pixels of the sample,
+//    so pixel q (height h_q, d_q from p) blocks no ray with m ≥ (h_q − z_p) / max(kNearPx,
+//    d_q − √2) pixels. Pixels in the 3 × 3 blocks around p's are taken one by one, blocks up to
+//    kBlockRings away by their maxima, the rest by the highest point.
+// Half the march's tolerance is kept as a margin for the march's own rounding.
+double Heightmap::ClearingSlope(const Eigen::Vector3d& p) const {
+  constexpr double kNearPx = 3;
+  constexpr int kBlockRings = 4;
+  const double margin = kShadowToleranceMm / 2;
+  // Below the surface (or the holder) no bound holds: the march decides.
+  if (p.z() < -margin || p.z() < HeightAt(p.x(), p.y()) - margin) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector2d g = GridPoint(p.x(), p.y());
+  const auto pixel_height = [&](int x, int y) -> double {
+    return x < 0 || y < 0 || x >= width_ || y >= height_ ? 0.0 : heights_mm_[static_cast<size_t>(y) * width_ + x];
+  };
+  // Near p: the steepest patch (cell [x, x + 1] × [y, y + 1] between pixel centres).
+  double gradient = 0;
+  for (int y = static_cast<int>(std::floor(g.y() - kNearPx)); y <= static_cast<int>(std::floor(g.y() + kNearPx)); ++y) {
+    for (int x = static_cast<int>(std::floor(g.x() - kNearPx)); x <= static_cast<int>(std::floor(g.x() + kNearPx)); ++x) {
+      const double h00 = pixel_height(x, y), h10 = pixel_height(x + 1, y);
+      const double h01 = pixel_height(x, y + 1), h11 = pixel_height(x + 1, y + 1);
+      const double along_x = std::max(std::abs(h10 - h00), std::abs(h11 - h01));
+      const double along_y = std::max(std::abs(h01 - h00), std::abs(h11 - h10));
+      gradient = std::max(gradient, std::hypot(along_x, along_y) / pixel_mm_);
+    }
+  }
+  double slope = gradient;
+  // Further out.
+  const auto slope_over = [&](double height, double distance_px) {
+    return (height - margin - p.z()) / (std::max(kNearPx, distance_px - std::sqrt(2.0)) * pixel_mm_);
+  };
+  const int bx = static_cast<int>(std::floor((g.x() + 1) / block_px_));
+  const int by = static_cast<int>(std::floor((g.y() + 1) / block_px_));
+  for (int y = std::max(0, (by - 1) * block_px_ - 1); y <= std::min(height_ - 1, (by + 2) * block_px_ - 1); ++y) {
+    for (int x = std::max(0, (bx - 1) * block_px_ - 1); x <= std::min(width_ - 1, (bx + 2) * block_px_ - 1); ++x) {
+      const double h = heights_mm_[static_cast<size_t>(y) * width_ + x];
+      if (h - margin > p.z()) slope = std::max(slope, slope_over(h, std::hypot(x - g.x(), y - g.y())));
+    }
+  }
+  for (int j = std::max(0, by - kBlockRings); j <= std::min(blocks_y_ - 1, by + kBlockRings); ++j) {
+    for (int i = std::max(0, bx - kBlockRings); i <= std::min(blocks_x_ - 1, bx + kBlockRings); ++i) {
+      if (std::abs(i - bx) <= 1 && std::abs(j - by) <= 1) continue;
+      const double h = block_max_mm_[static_cast<size_t>(j) * blocks_x_ + i];
+      if (h - margin <= p.z()) continue;
+      const double x_lo = i * block_px_ - 1.0, y_lo = j * block_px_ - 1.0;  // its pixels: x_lo … x_lo + block_px_
+      const double dx = std::max({x_lo - g.x(), g.x() - (x_lo + block_px_), 0.0});
+      const double dy = std::max({y_lo - g.y(), g.y() - (y_lo + block_px_), 0.0});
+      slope = std::max(slope, slope_over(h, std::hypot(dx, dy)));
+    }
+  }
+  // Every pixel beyond lies more than kBlockRings blocks from p.
+  if (max_height_mm_ - margin > p.z()) slope = std::max(slope, slope_over(max_height_mm_, kBlockRings * block_px_));
+  return slope;
+}
+
+bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double clearing_slope) const {
+  const Eigen::Vector3d s = light - p;
+  return s.z() < clearing_slope * s.head<2>().norm() && Shadowed(p, light);
+}
+
 Eigen::Vector3d Heightmap::FirstHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const {
   LOOM_CHECK(direction.z() < 0) << "FirstHit needs a descending ray";
   const double t_top = std::max(0.0, (max_height_mm_ + 1e-6 - origin.z()) / direction.z());

@@ -119,6 +119,55 @@ TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsShadows) {
   }
 }
 
+TEST(HeightmapTest, TheHorizonBoundGivesTheFullMarchsShadows) {
+  // Points on the rough grid (the pit below the holder included), each with its bound computed
+  // once and lights from below the horizon to overhead.
+  std::mt19937 random(9);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const std::vector<float> heights = RoughHeights(kW, kH, random);
+  for (int block_px : kBlockSizesPx) {
+    const Heightmap map(heights, kW, kH, kPixelMm, block_px);
+    int shadowed = 0, cleared = 0;
+    for (int point = 0; point < 500; ++point) {
+      const double x = (unit(random) - 0.5) * 1.4 * kW * kPixelMm;
+      const double y = (unit(random) - 0.5) * 1.4 * kH * kPixelMm;
+      const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+      const double clearing_slope = map.ClearingSlope(p);
+      for (int k = 0; k < 40; ++k) {
+        const double elevation = std::asin(unit(random) * 1.05 - 0.05), azimuth = 2 * M_PI * unit(random);
+        const Eigen::Vector3d light = p + 400.0 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                                                  std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+        const bool expected = ShadowedByMarchingEverySample(map, p, light, kPixelMm);
+        ASSERT_EQ(map.Shadowed(p, light, clearing_slope), expected)
+            << "block " << block_px << ", light " << k << " from " << p.transpose() << ", bound " << clearing_slope;
+        shadowed += expected;
+        cleared += std::tan(elevation) >= clearing_slope;
+      }
+    }
+    EXPECT_GT(shadowed, 2000) << block_px;
+    EXPECT_GT(cleared, 1000) << block_px;  // the bound does skip marches, even on this relief
+  }
+}
+
+TEST(HeightmapTest, OnAFabricsReliefTheHorizonBoundClearsMostLights) {
+  // Threads 0.1 mm high every 0.8 mm, 0.05 mm pixels: lights above 25° need no march.
+  std::vector<float> heights(160 * 160);
+  for (int y = 0; y < 160; ++y) {
+    for (int x = 0; x < 160; ++x) heights[y * 160 + x] = static_cast<float>(0.05 + 0.05 * std::sin(x * 0.4) * std::sin(y * 0.4));
+  }
+  const Heightmap map(heights, 160, 160, 0.05);
+  std::mt19937 random(3);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int above = 0, cleared = 0;
+  for (int point = 0; point < 2000; ++point) {
+    const double x = (unit(random) - 0.5) * 7.0, y = (unit(random) - 0.5) * 7.0;
+    const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+    cleared += std::tan(25 * M_PI / 180) >= map.ClearingSlope(p);
+    ++above;
+  }
+  EXPECT_GT(cleared, 0.9 * above);
+}
+
 TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsFirstHits) {
   // Camera rays from 300 mm, from straight down to grazing, aimed on and off the grid.
   std::mt19937 random(11);

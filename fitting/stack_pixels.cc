@@ -16,17 +16,23 @@ Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
   return WorldFromLocal(stack_.Normal(x, y), Eigen::Vector3d::UnitX()).transpose();
 }
 
+StackPixels::PixelFrame StackPixels::FrameOf(int x, int y) const {
+  const Eigen::Vector3d position = stack_.Position(x, y);
+  const double clearing_slope = options_.cast_shadows ? heightmap_.ClearingSlope(position) : 0.0;
+  return {position, LocalFromSample(x, y), clearing_slope};
+}
+
 std::vector<PixelObservation> StackPixels::Observations(int x, int y) const {
   std::vector<PixelObservation> observations;
   observations.reserve(stack_.observations.size());
-  const PixelFrame frame{stack_.Position(x, y), LocalFromSample(x, y)};
+  const PixelFrame frame = FrameOf(x, y);
   for (size_t k = 0; k < stack_.observations.size(); ++k) Observe(static_cast<int>(k), x, y, frame, observations);
   return observations;
 }
 
 std::vector<PixelObservation> StackPixels::Observations(int x, int y, std::span<const int> only) const {
   std::vector<PixelObservation> observations;
-  const PixelFrame frame{stack_.Position(x, y), LocalFromSample(x, y)};
+  const PixelFrame frame = FrameOf(x, y);
   for (int k : only) Observe(k, x, y, frame, observations);
   return observations;
 }
@@ -44,7 +50,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   for (const PointEmitter& emitter : o.emitters) {
     const double intensity = emitter.IntensityTowards(p);
     if (intensity <= 0) continue;
-    if (options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm)) continue;
+    if (options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.clearing_slope)) continue;
     const Eigen::Vector3d to_light = emitter.position_mm - p;
     observation.lights.push_back({frame.local_from_sample * to_light.normalized(), intensity / to_light.squaredNorm()});
   }
