@@ -217,6 +217,9 @@ Status RenderOptions::Check() const {
   std::vector<std::string> problems;
   if (supersampling < 1 || supersampling > 16) problems.push_back("supersampling must be in [1, 16]");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
+  if (window.x < 0 || window.y < 0 || window.width < 0 || window.height < 0 || (window.width > 0) != (window.height > 0)) {
+    problems.push_back("window must have x, y ≥ 0 and both or neither of width and height");
+  }
   return ProblemsStatus("RenderOptions", problems);
 }
 
@@ -227,10 +230,17 @@ Image Scene::RenderRadiance(int camera_index, const SceneState& state, const Ren
   const Rigid3d sample_from_rig = rig_.turntable.RigFromSample(state.turntable_deg).inverse();
   const Eigen::Vector3d eye = sample_from_rig * camera.CentreInRig();
   const Eigen::Matrix3d sample_from_cam = sample_from_rig.linear() * camera.cam_from_rig.linear().transpose();
-  Image radiance(camera.width, camera.height, {"L"});
+  const SensorWindow& window = options.window;
+  const bool whole = window.width == 0;
+  LOOM_CHECK(whole || (window.x + window.width <= camera.width && window.y + window.height <= camera.height))
+      << "window outside camera '" << camera.name << "'";
+  const int x0 = whole ? 0 : window.x, y0 = whole ? 0 : window.y;
+  Image radiance(whole ? camera.width : window.width, whole ? camera.height : window.height, {"L"});
   const int ss = options.supersampling;
-  ForEachRow(camera.height, ThreadCount(options.threads), [&](int y) {
-    for (int x = 0; x < camera.width; ++x) {
+  ForEachRow(radiance.height(), ThreadCount(options.threads), [&](int row) {
+    const int y = y0 + row;
+    for (int column = 0; column < radiance.width(); ++column) {
+      const int x = x0 + column;
       double sum = 0;
       for (int sy = 0; sy < ss; ++sy) {
         for (int sx = 0; sx < ss; ++sx) {
@@ -241,14 +251,17 @@ Image Scene::RenderRadiance(int camera_index, const SceneState& state, const Ren
           }
         }
       }
-      radiance.at(0, y, x) = static_cast<float>(sum / (ss * ss));
+      radiance.at(0, row, column) = static_cast<float>(sum / (ss * ss));
     }
   });
   return radiance;
 }
 
-std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
-                                 uint64_t noise_seed, bool noise) {
+namespace {
+
+// CaptureRaw of `radiance` lying at (x0, y0) on a sensor_width × sensor_height sensor.
+std::vector<uint16_t> CaptureRawAt(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
+                                   uint64_t noise_seed, bool noise, int x0, int y0, int sensor_width, int sensor_height) {
   const int w = radiance.width();
   const int h = radiance.height();
   const double max_dn = (1 << sensor.adc_bits) - 1;
@@ -257,20 +270,36 @@ std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& senso
   std::vector<uint16_t> raw(static_cast<size_t>(w) * h);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      const uint64_t index = static_cast<uint64_t>(y) * w + x;
-      const double vignetting = sensor.RelativeResponse(x, y, w, h);
+      const size_t out = static_cast<size_t>(y) * w + x;
+      // The noise and vignetting of this pixel's place on the sensor.
+      const uint64_t index = static_cast<uint64_t>(y0 + y) * sensor_width + (x0 + x);
+      const double vignetting = sensor.RelativeResponse(x0 + x, y0 + y, sensor_width, sensor_height);
       const double mean_e = std::max(0.0, radiance.at(0, y, x) * sensor.sensitivity * settings.exposure_us * 1e-6 * vignetting);
       double electrons = noise ? ShotNoise(mean_e, noise_seed, index) : mean_e;
       if (electrons >= sensor.full_well_e) {  // a full well reads as the ADC's top, noise-free
-        raw[index] = static_cast<uint16_t>(max_dn);
+        raw[out] = static_cast<uint16_t>(max_dn);
         continue;
       }
       double dn = sensor.dark_offset_dn + electrons * dn_per_electron;
       if (noise) dn += sensor.read_noise_e * dn_per_electron * StandardNormal(noise_seed, index, 1);
-      raw[index] = static_cast<uint16_t>(std::clamp(std::round(dn), 0.0, max_dn));
+      raw[out] = static_cast<uint16_t>(std::clamp(std::round(dn), 0.0, max_dn));
     }
   }
   return raw;
+}
+
+}  // namespace
+
+std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
+                                 uint64_t noise_seed, bool noise) {
+  return CaptureRawAt(radiance, sensor, settings, noise_seed, noise, 0, 0, radiance.width(), radiance.height());
+}
+
+std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
+                                 uint64_t noise_seed, const SensorWindow& window, int sensor_width, int sensor_height) {
+  LOOM_CHECK(window.x + radiance.width() <= sensor_width && window.y + radiance.height() <= sensor_height)
+      << "a window outside its sensor";
+  return CaptureRawAt(radiance, sensor, settings, noise_seed, true, window.x, window.y, sensor_width, sensor_height);
 }
 
 Result<Image> RenderCameraFrame(const Scene& scene, const std::string& camera, const SceneState& state,

@@ -57,11 +57,21 @@ struct CaptureSettings {
   double gain_db = 0;
 };
 
+// Pixels [x, x + width) × [y, y + height) of a camera's sensor, as a GenICam region of interest;
+// width 0: the whole sensor.
+struct SensorWindow {
+  int x = 0;
+  int y = 0;
+  int width = 0;
+  int height = 0;
+};
+
 struct RenderOptions {
   int supersampling = 2;  // rays per pixel per axis
   bool shadows = true;
-  int threads = 0;       // 0 = one per core
-  Status Check() const;  // every problem, naming the field (RenderRadiance throws on one)
+  int threads = 0;           // 0 = one per core
+  SensorWindow window = {};  // only these pixels are rendered (the image is the window's size)
+  Status Check() const;      // every problem, naming the field (RenderRadiance throws on one)
 };
 
 class Scene {
@@ -109,9 +119,14 @@ class Scene {
                              const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local, bool shadows) const;
 };
 
-// The sensor: electrons → DN with noise, 16-bit container holding adc_bits values.
+// The sensor: electrons → DN with noise, 16-bit container holding adc_bits values. `radiance`
+// is the whole sensor, or the window `window` of a sensor of `sensor_width` × `sensor_height`
+// pixels: vignetting and noise are those of the window's pixels in the whole frame, so a
+// window's frame is that frame's crop.
 std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
                                  uint64_t noise_seed, bool noise = true);
+std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& sensor, const CaptureSettings& settings,
+                                 uint64_t noise_seed, const SensorWindow& window, int sensor_width, int sensor_height);
 
 // The frame of the rig camera named `camera` under `state`: channel "radiance" and channel "raw"
 // (CaptureRaw's DN). An unknown camera is an error naming it.

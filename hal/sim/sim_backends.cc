@@ -100,21 +100,20 @@ class SimCamera : public Camera {
     }
     const std::shared_ptr<const sim::Scene> shown = world_->scene();
     const CameraModel& model = shown->rig().cameras[index_];
-    const Image& radiance = RadianceOf(shown, state);
     const CameraSettings& s = settings();
-    const std::vector<uint16_t> full =
-        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us, s.gain}, FrameSeed(world_->seed, index_, state, s));
+    // Only the region of interest is rendered; its noise and vignetting are those of its place
+    // on the sensor, so the frame is the full frame's crop.
+    const sim::SensorWindow window{s.roi.x, s.roi.y, s.roi.width, s.roi.height};
+    const Image& radiance = RadianceOf(shown, state, window);
+    const std::vector<uint16_t> raw =
+        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us, s.gain}, FrameSeed(world_->seed, index_, state, s), window,
+                        model.width, model.height);
     const int shift = s.pixel_format == scan::PixelFormat::kMono16 ? 16 - model.sensor.adc_bits : 0;
     scan::RawFrame frame;
     frame.width = s.roi.width;
     frame.height = s.roi.height;
-    frame.pixels.resize(static_cast<size_t>(frame.width) * frame.height);
-    for (int y = 0; y < frame.height; ++y) {
-      for (int x = 0; x < frame.width; ++x) {
-        frame.pixels[static_cast<size_t>(y) * frame.width + x] =
-            static_cast<uint16_t>(full[static_cast<size_t>(y + s.roi.y) * model.width + x + s.roi.x] << shift);
-      }
-    }
+    frame.pixels.resize(raw.size());
+    for (size_t i = 0; i < raw.size(); ++i) frame.pixels[i] = static_cast<uint16_t>(raw[i] << shift);
     scan::FrameMetadata& meta = frame.metadata;
     meta.camera = name();
     meta.camera_serial = identity().serial;
@@ -130,11 +129,17 @@ class SimCamera : public Camera {
 
   // The radiance of the last frame is kept: an HDR bracket exposes the same scene several
   // times, and rendering, not exposing, is what costs (2-3 frames per rendering in a scan).
-  const Image& RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state) {
-    if (scene != rendered_scene_ || !(state == rendered_state_)) {
-      rendered_ = scene->RenderRadiance(index_, state, {.supersampling = supersampling_});
+  const Image& RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state,
+                          const sim::SensorWindow& window) {
+    const auto same_window = [&] {
+      return window.x == rendered_window_.x && window.y == rendered_window_.y && window.width == rendered_window_.width &&
+             window.height == rendered_window_.height;
+    };
+    if (scene != rendered_scene_ || !(state == rendered_state_) || !same_window()) {
+      rendered_ = scene->RenderRadiance(index_, state, {.supersampling = supersampling_, .window = window});
       rendered_scene_ = scene;
       rendered_state_ = state;
+      rendered_window_ = window;
     }
     return rendered_;
   }
@@ -147,6 +152,7 @@ class SimCamera : public Camera {
   std::deque<scan::RawFrame> queue_;
   std::shared_ptr<const sim::Scene> rendered_scene_;
   sim::SceneState rendered_state_;
+  sim::SensorWindow rendered_window_;
   Image rendered_;
 };
 
