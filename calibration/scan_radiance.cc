@@ -1,5 +1,6 @@
 #include "calibration/scan_radiance.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -8,6 +9,29 @@ namespace loom::calibration {
 using scan::FrameRecord;
 using scan::Step;
 using scan::StepKind;
+
+namespace {
+
+// Where a frame lies on its camera's sensor: the region of interest its metadata names (a
+// region of 0 × 0, as frames may carry from before regions were honoured, is the whole sensor).
+scan::Roi WindowOf(const scan::RawFrame& frame, const CameraModel& camera) {
+  const scan::Roi& roi = frame.metadata.roi;
+  return roi.width == 0 && roi.height == 0 ? scan::Roi{0, 0, camera.width, camera.height} : roi;
+}
+
+// A frame is the camera's whole sensor or a region of interest inside it, of the region's size.
+Status CheckFrameWindow(const scan::RawFrame& frame, const CameraModel& camera, const std::string& file) {
+  const scan::Roi roi = WindowOf(frame, camera);
+  const bool inside = roi.x >= 0 && roi.y >= 0 && roi.width > 0 && roi.height > 0 && roi.x + roi.width <= camera.width &&
+                      roi.y + roi.height <= camera.height;
+  if (inside && frame.width == roi.width && frame.height == roi.height) return Status::Ok();
+  return InvalidArgumentError(file, "is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + " with region " +
+                                        std::to_string(roi.width) + "x" + std::to_string(roi.height) + "+" +
+                                        std::to_string(roi.x) + "+" + std::to_string(roi.y) + ", camera '" + camera.name +
+                                        "' is " + std::to_string(camera.width) + "x" + std::to_string(camera.height));
+}
+
+}  // namespace
 
 Result<ScanRadiance> ScanRadiance::Open(const scan::CaptureStore& store, const RigModel& rig) {
   ScanRadiance scan(store, rig);
@@ -49,10 +73,10 @@ Result<std::vector<scan::RawFrame>> ScanRadiance::Bracket(int step, const std::s
   std::vector<scan::RawFrame> frames;
   for (const FrameRecord* record : bracket->second) {
     LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, store_->ReadFrame(*record));
-    if (frame.width != camera.width || frame.height != camera.height) {
-      return InvalidArgumentError(store_->directory().string() + "/" + record->file,
-                                  "is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + ", camera '" +
-                                      camera_name + "' is " + std::to_string(camera.width) + "x" + std::to_string(camera.height));
+    const std::string file = store_->directory().string() + "/" + record->file;
+    LOOM_RETURN_IF_ERROR(CheckFrameWindow(frame, camera, file));
+    if (!frames.empty() && !(WindowOf(frame, camera) == WindowOf(frames.front(), camera))) {
+      return InvalidArgumentError(file, "has another region of interest than the bracket's first frame");
     }
     frames.push_back(std::move(frame));
   }
@@ -83,12 +107,17 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
   view.camera = static_cast<int>(&camera - rig_->cameras.data());
   view.state = frames.front().metadata.rig_state;
   view.saturated_pixels = merged->saturated_pixels;
+  // The whole sensor, NaN (not seen) outside the frames' region of interest, so that every
+  // reader projects into the camera as calibrated.
   view.radiance = Image(camera.width, camera.height, {"L"});
+  std::fill(view.radiance.channel(0).begin(), view.radiance.channel(0).end(), std::numeric_limits<float>::quiet_NaN());
+  const scan::Roi window = WindowOf(frames.front(), camera);
   const double scale = noise.electrons_per_dn / (sensor.sensitivity * 1e-6);
-  for (int y = 0; y < camera.height; ++y) {
-    for (int x = 0; x < camera.width; ++x) {
-      view.radiance.at(0, y, x) =
-          static_cast<float>(merged->image.at(0, y, x) * scale / sensor.RelativeResponse(x, y, camera.width, camera.height));
+  for (int y = 0; y < window.height; ++y) {
+    for (int x = 0; x < window.width; ++x) {
+      const int sensor_x = window.x + x, sensor_y = window.y + y;
+      view.radiance.at(0, sensor_y, sensor_x) = static_cast<float>(
+          merged->image.at(0, y, x) * scale / sensor.RelativeResponse(sensor_x, sensor_y, camera.width, camera.height));
     }
   }
   return view;

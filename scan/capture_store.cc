@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -115,6 +116,7 @@ Json ToJson(const FrameRecord& r) {
           {"checksum", r.checksum},
           {"width", r.width},
           {"height", r.height},
+          {"roi", {m.roi.x, m.roi.y, m.roi.width, m.roi.height}},
           {"serial", m.camera_serial},
           {"pixel_format", std::string(PixelFormatName(m.pixel_format))},
           {"exposure_us", m.exposure_us},
@@ -141,6 +143,10 @@ FrameRecord FromJson(const Json& j) {
   r.height = j.at("height").get<int>();
   FrameMetadata& m = r.metadata;
   m.camera = r.key.camera;
+  if (j.contains("roi")) {  // journals written before regions of interest were kept have none: the whole sensor
+    const auto roi = j.at("roi").get<std::array<int, 4>>();
+    m.roi = {roi[0], roi[1], roi[2], roi[3]};
+  }
   m.camera_serial = j.at("serial").get<std::string>();
   m.pixel_format = ParsePixelFormat(j.at("pixel_format").get<std::string>()).value();
   m.exposure_us = j.at("exposure_us").get<double>();

@@ -48,6 +48,8 @@ Status WriteFrameExr(const RawFrame& frame, const std::filesystem::path& path) {
                    {"loom.exposure_us", meta.exposure_us},
                    {"loom.gain", meta.gain},
                    {"loom.frameId", static_cast<int>(meta.frame_id)},
+                   {"loom.roi", std::to_string(meta.roi.x) + " " + std::to_string(meta.roi.y) + " " +
+                                    std::to_string(meta.roi.width) + " " + std::to_string(meta.roi.height)},
                    {"loom.turntable_deg", meta.rig_state.turntable_deg},
                    {"loom.ledsOn", static_cast<int>(meta.rig_state.leds_on.size())},
                    {"loom.units", std::string("raw sensor counts (DN)")}});
