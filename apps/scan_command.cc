@@ -1,6 +1,7 @@
 // loom scan: run a measurement plan on a rig into a crash-safe scan directory, or resume one.
 #include <iostream>
 
+#include "acquisition/crop_windows.h"
 #include "acquisition/sequencer.h"
 #include "apps/command.h"
 #include "apps/progress.h"
@@ -57,14 +58,30 @@ Status RunScan(LoadedRig& loaded, const scan::Plan& plan, scan::CaptureStore& st
   return Status::Ok();
 }
 
+// A scan of a crop: every camera reads only the window that sees it.
+Status ApplyCrop(LoadedRig& loaded, double crop_mm, bool quiet) {
+  if (crop_mm <= 0) return Status::Ok();
+  if (!loaded.model) return InvalidArgumentError("--crop-mm", "needs the rig's geometry: where the cameras are");
+  LOOM_ASSIGN_OR_RETURN(const auto windows, acquisition::CropWindows(*loaded.model, {.size_mm = crop_mm}));
+  for (const auto& [camera, window] : windows) {
+    LOOM_RETURN_IF_ERROR(loaded.rig->SetCameraRegion(camera, window));
+    if (!quiet) {
+      std::cerr << camera << " reads " << window.width << "x" << window.height << " px at " << window.x << "," << window.y
+                << " for the " << crop_mm << " mm crop\n";
+    }
+  }
+  return Status::Ok();
+}
+
 Status NewScan(const std::string& rig_path, const std::string& preset, const std::string& object, bool calibration,
-               const fs::path& out, bool quiet) {
+               double crop_mm, const fs::path& out, bool quiet) {
   LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(rig_path));
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, rig_path, object));
+  LOOM_RETURN_IF_ERROR(ApplyCrop(loaded, crop_mm, quiet));
   const scan::PlanPurpose purpose = calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial;
   LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, MakePlan(loaded, preset, purpose));
   LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store,
-                        scan::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan}));
+                        scan::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan, crop_mm}));
   return RunScan(loaded, store.info().plan, store, quiet);
 }
 
@@ -73,6 +90,7 @@ Status ResumeScan(const fs::path& directory, bool quiet) {
   const scan::ScanInfo& info = store.info();
   const std::string object = info.object == "sample" ? "" : info.object;
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(info.rig_yaml, (directory / "scan.yaml").string() + " (rig)", object));
+  LOOM_RETURN_IF_ERROR(ApplyCrop(loaded, info.crop_mm, quiet));
   if (!quiet) {
     std::cerr << "resuming " << directory.string() << ": " << store.steps_done() << " of " << info.plan.steps.size()
               << " steps done, " << store.records().size() << " frames kept\n";
@@ -96,12 +114,17 @@ int RunScan(int argc, char** argv) {
   AddCommonOptions(app);
   std::string rig, preset = "low", object, out, resume, verify;
   bool calibration = false, quiet = false;
+  double crop_mm = 0;
   app.add_option("--rig", rig, "Rig YAML");
   app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
   app.add_option("--object", object,
                  "What lies on the turntable; on a simulated rig: fabric:SEED, "
                  "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
   app.add_flag("--calibration", calibration, "Run the calibration plan");
+  app.add_option("--crop-mm", crop_mm,
+                 "Scan a square crop of the sample of this side, centred: each camera reads only the window that sees "
+                 "it (reconstruct it with --size = this / the stack's pixel size)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--out", out, "New scan directory");
   app.add_option("--resume", resume, "Continue the interrupted scan in this directory");
   app.add_option("--verify", verify,
@@ -113,7 +136,7 @@ int RunScan(int argc, char** argv) {
     std::cerr << "error: loom scan needs --rig and --out (or --resume DIR)\n";
     return kExitUsage;
   }
-  return ExitCode(resume.empty() ? NewScan(rig, preset, object, calibration, out, quiet) : ResumeScan(resume, quiet));
+  return ExitCode(resume.empty() ? NewScan(rig, preset, object, calibration, crop_mm, out, quiet) : ResumeScan(resume, quiet));
 }
 
 }  // namespace loom::apps

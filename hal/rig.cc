@@ -153,6 +153,15 @@ Device* Rig::FindDevice(const std::string& name) const {
   return nullptr;
 }
 
+Status Rig::SetCameraRegion(const std::string& camera, const scan::Roi& roi) {
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    if (cameras_[i]->name() != camera) continue;
+    camera_settings_[i].roi = roi;
+    return Status::Ok();
+  }
+  return NotFoundError("camera '" + camera + "'", "not in rig '" + name_ + "'");
+}
+
 Status Rig::Configure(Device* device) {
   Result<ConfigureReport> report = InternalError(device->description(), "not a rig device");
   for (size_t i = 0; i < cameras_.size(); ++i) {

@@ -54,6 +54,9 @@ class Rig {
   std::vector<Device*> devices() const;
   Device* FindDevice(const std::string& name) const;
 
+  // Makes `camera` read only `roi` from its next configuration on (a scan of a crop of the
+  // sample: acquisition/crop_windows.h). An unknown camera is an error naming it.
+  Status SetCameraRegion(const std::string& camera, const scan::Roi& roi);
   // Opens every device and configures it with its rig settings. Stops at the first failure,
   // which names the device (an adjusted setting is logged, an invalid one is an error).
   Status OpenAndConfigure();

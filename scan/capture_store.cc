@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -171,6 +172,7 @@ std::string ScanYaml(const ScanInfo& info) {
   out << YAML::Key << "schema_version" << YAML::Value << kScanSchemaVersion;
   out << YAML::Key << "loom_version" << YAML::Value << std::string(VersionWithCommit());
   out << YAML::Key << "object" << YAML::Value << info.object;
+  if (info.crop_mm > 0) out << YAML::Key << "crop_mm" << YAML::Value << info.crop_mm;
   out << YAML::Key << "plan" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "purpose" << YAML::Value << std::string(PlanPurposeName(info.plan.purpose));
   out << YAML::Key << "preset" << YAML::Value << info.plan.preset;
@@ -190,6 +192,7 @@ Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
   int steps = 0;
   doc.root().Required("loom_version", &version);
   doc.root().Required("object", &info.object);
+  doc.root().Optional("crop_mm", &info.crop_mm);
   doc.root().Required("rig", &info.rig_yaml);
   const ConfigNode plan = doc.root().Child("plan");
   plan.Required("purpose", &purpose);
@@ -197,6 +200,7 @@ Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
   plan.Required("steps", &steps);
   plan.Required("file", &plan_file);
   LOOM_RETURN_IF_ERROR(doc.Finish());
+  if (!(info.crop_mm >= 0) || !std::isfinite(info.crop_mm)) return InvalidArgumentError(path.string(), "crop_mm must be ≥ 0");
   const fs::path plan_path = directory / plan_file;
   LOOM_ASSIGN_OR_RETURN(const std::string plan_text, ReadFile(plan_path));
   LOOM_ASSIGN_OR_RETURN(info.plan, ParsePlanYaml(plan_text, plan_path.string()));

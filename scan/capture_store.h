@@ -59,6 +59,7 @@ struct ScanInfo {
   std::string rig_yaml;  // the rig file's text
   std::string object;    // what was on the turntable
   Plan plan;             // what was planned (purpose, preset, steps)
+  double crop_mm = 0;    // > 0: a square crop of the sample, each camera reading only its window
 };
 
 class CaptureStore {
