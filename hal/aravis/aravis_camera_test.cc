@@ -96,6 +96,41 @@ TEST_F(FakeInterfaceTest, CapturesTestSuppliedFramesWithMetadata) {
   ASSERT_TRUE(camera.Close().ok());
 }
 
+// Frame content of the pixel's place on the sensor: the buffer's region says where it lies.
+void FillSensorPattern(ArvBuffer* buffer, void*, guint32 exposure_us, guint32, ArvPixelFormat) {
+  gint x0 = 0, y0 = 0, width = 0, height = 0;
+  arv_buffer_get_image_region(buffer, &x0, &y0, &width, &height);
+  size_t size = 0;
+  auto* data = static_cast<uint16_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) data[y * width + x] = ExpectedPixel(x0 + x, y0 + y, exposure_us);
+  }
+}
+
+// A scan of a crop reads a window of the sensor: GenICam's OffsetX/OffsetY/Width/Height, as the
+// camera applied them, in every frame's metadata.
+TEST_F(FakeInterfaceTest, ARegionOfInterestReadsThatWindowOfTheSensor) {
+  AravisCamera camera("cam0", {.address = "Fake_1"});
+  ASSERT_TRUE(camera.Open().ok());
+  ArvFakeCamera* fake = arv_fake_device_get_fake_camera(ARV_FAKE_DEVICE(arv_camera_get_device(camera.native_camera())));
+  arv_fake_camera_set_fill_pattern(fake, FillSensorPattern, nullptr);
+  CameraSettings settings = SmallMono16(4000);
+  settings.roi = {128, 64, 64, 48};
+  const Result<ConfigureReport> report = camera.Configure(settings);
+  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  EXPECT_EQ(report->outcome, Negotiation::kValid) << report->ToString();
+  ASSERT_TRUE(camera.Start().ok());
+  const Result<scan::RawFrame> frame = camera.Snap();
+  ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+  EXPECT_EQ(frame->metadata.roi, (scan::Roi{128, 64, 64, 48}));
+  ASSERT_EQ(frame->width, 64);
+  ASSERT_EQ(frame->height, 48);
+  for (int y = 0; y < frame->height; y += 5) {
+    for (int x = 0; x < frame->width; x += 3) ASSERT_EQ(frame->at(y, x), ExpectedPixel(128 + x, 64 + y, 4000)) << x << "," << y;
+  }
+  ASSERT_TRUE(camera.Close().ok());
+}
+
 TEST_F(FakeInterfaceTest, NegotiatesMono12AndOutOfRangeValues) {
   AravisCamera camera("cam0", {.address = "Fake_1"});
   ASSERT_TRUE(camera.Open().ok());
