@@ -94,6 +94,23 @@ constexpr int kW = 45, kH = 38;
 constexpr double kPixelMm = 0.2;
 constexpr int kBlockSizesPx[] = {1, 3, 8, 64};
 
+// A surface point on or off the rough grid (up to 20 % beyond its edges).
+Eigen::Vector3d RandomSurfacePoint(const Heightmap& map, std::mt19937& random) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  const double x = (unit(random) - 0.5) * 1.4 * kW * kPixelMm;
+  const double y = (unit(random) - 0.5) * 1.4 * kH * kPixelMm;
+  return {x, y, map.HeightAt(x, y)};
+}
+
+// A light 400 mm from p, from slightly below the horizon to overhead; its elevation in *elevation.
+Eigen::Vector3d RandomLight(const Eigen::Vector3d& p, std::mt19937& random, double* elevation) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  *elevation = std::asin(unit(random) * 1.05 - 0.05);
+  const double azimuth = 2 * M_PI * unit(random);
+  return p + 400.0 * Eigen::Vector3d(std::cos(*elevation) * std::cos(azimuth), std::cos(*elevation) * std::sin(azimuth),
+                                     std::sin(*elevation));
+}
+
 TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsShadows) {
   // Surface points on and off the grid, lights from below the horizon to overhead.
   std::mt19937 random(7);
@@ -103,12 +120,9 @@ TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsShadows) {
     const Heightmap map(heights, kW, kH, kPixelMm, block_px);
     int shadowed = 0;
     for (int k = 0; k < 20000; ++k) {
-      const double x = (unit(random) - 0.5) * 1.4 * kW * kPixelMm;
-      const double y = (unit(random) - 0.5) * 1.4 * kH * kPixelMm;
-      const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
-      const double elevation = std::asin(unit(random) * 1.05 - 0.05), azimuth = 2 * M_PI * unit(random);
-      const Eigen::Vector3d light = p + 400.0 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
-                                                                std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+      const Eigen::Vector3d p = RandomSurfacePoint(map, random);
+      double elevation = 0;
+      const Eigen::Vector3d light = RandomLight(p, random, &elevation);
       const bool expected = ShadowedByMarchingEverySample(map, p, light, kPixelMm);
       ASSERT_EQ(map.Shadowed(p, light), expected) << "block " << block_px << ", ray " << k << " from " << p.transpose();
       shadowed += expected;
@@ -129,14 +143,11 @@ TEST(HeightmapTest, TheHorizonBoundGivesTheFullMarchsShadows) {
     const Heightmap map(heights, kW, kH, kPixelMm, block_px);
     int shadowed = 0, cleared = 0;
     for (int point = 0; point < 500; ++point) {
-      const double x = (unit(random) - 0.5) * 1.4 * kW * kPixelMm;
-      const double y = (unit(random) - 0.5) * 1.4 * kH * kPixelMm;
-      const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+      const Eigen::Vector3d p = RandomSurfacePoint(map, random);
       const double clearing_slope = map.ClearingSlope(p);
       for (int k = 0; k < 40; ++k) {
-        const double elevation = std::asin(unit(random) * 1.05 - 0.05), azimuth = 2 * M_PI * unit(random);
-        const Eigen::Vector3d light = p + 400.0 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
-                                                                  std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+        double elevation = 0;
+        const Eigen::Vector3d light = RandomLight(p, random, &elevation);
         const bool expected = ShadowedByMarchingEverySample(map, p, light, kPixelMm);
         ASSERT_EQ(map.Shadowed(p, light, clearing_slope), expected)
             << "block " << block_px << ", light " << k << " from " << p.transpose() << ", bound " << clearing_slope;

@@ -45,6 +45,17 @@ SimulatedStack NoisyFabricStack(int size, double relative_noise, uint64_t seed) 
   return {std::move(fabric), std::move(stack)};
 }
 
+// A start near each pixel's truth, as a CNN would give it (testing::NearStart), row by row.
+std::vector<WardParams<double>> NearStarts(const SimulatedStack& simulated, uint32_t seed) {
+  const int width = simulated.stack.image.width();
+  std::mt19937 rng(seed);
+  std::vector<WardParams<double>> starts;
+  for (int i = 0; i < width * simulated.stack.image.height(); ++i) {
+    starts.push_back(NearStart(GetParams(simulated.fabric.maps, i % width, i / width), rng));
+  }
+  return starts;
+}
+
 std::vector<int> LightsPerStackObservation(const ObservationStack& stack) {
   std::vector<int> lights;
   for (const StackObservation& o : stack.observations) lights.push_back(static_cast<int>(o.emitters.size()));
@@ -202,9 +213,7 @@ TEST(BatchRefinerTest, EndsWithinOnePercentOfCeresCostFromTheSameStarts) {
   const StackPixels pixels(simulated.stack);
   const int width = simulated.stack.image.width();
   const int count = width * simulated.stack.image.height();
-  std::mt19937 rng(11);
-  std::vector<WardParams<double>> starts;
-  for (int i = 0; i < count; ++i) starts.push_back(NearStart(GetParams(simulated.fabric.maps, i % width, i / width), rng));
+  const std::vector<WardParams<double>> starts = NearStarts(simulated, 11);
   const double f0 = GetParams(simulated.fabric.maps, 0, 0).f0;  // the fabric's one F0
   PixelFitOptions ceres_options{.max_iterations = 30, .multi_start = false, .fixed_f0 = f0};
   std::vector<PixelFitResult> ceres;
@@ -289,9 +298,7 @@ TEST(BatchRefinerTest, APixelsFitDoesNotDependOnItsBatchMates) {
   const StackPixels pixels(simulated.stack);
   const int width = simulated.stack.image.width();
   const int count = width * simulated.stack.image.height();
-  std::mt19937 rng(5);
-  std::vector<WardParams<double>> starts;
-  for (int i = 0; i < count; ++i) starts.push_back(NearStart(GetParams(simulated.fabric.maps, i % width, i / width), rng));
+  const std::vector<WardParams<double>> starts = NearStarts(simulated, 5);
   RefineOptions options;
   options.fixed_f0 = GetParams(simulated.fabric.maps, 0, 0).f0;
   const auto refine = [&](bool reversed) {
