@@ -64,6 +64,7 @@ struct SensorWindow {
   int y = 0;
   int width = 0;
   int height = 0;
+  bool operator==(const SensorWindow&) const = default;
 };
 
 struct RenderOptions {

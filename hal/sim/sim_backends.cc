@@ -131,11 +131,7 @@ class SimCamera : public Camera {
   // times, and rendering, not exposing, is what costs (2-3 frames per rendering in a scan).
   const Image& RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state,
                           const sim::SensorWindow& window) {
-    const auto same_window = [&] {
-      return window.x == rendered_window_.x && window.y == rendered_window_.y && window.width == rendered_window_.width &&
-             window.height == rendered_window_.height;
-    };
-    if (scene != rendered_scene_ || !(state == rendered_state_) || !same_window()) {
+    if (scene != rendered_scene_ || !(state == rendered_state_) || !(window == rendered_window_)) {
       rendered_ = scene->RenderRadiance(index_, state, {.supersampling = supersampling_, .window = window});
       rendered_scene_ = scene;
       rendered_state_ = state;
