@@ -1,12 +1,14 @@
 #include "fitting/gltf_export.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/file_io.h"
 #include "core/output_directory.h"
@@ -65,6 +67,20 @@ void FillPixel(const Image& maps, int x, int y, double pixel_mm, double specular
                                        Unit8((direction.x() + 1) / 2)};
 }
 
+// A texture's size: the maps' own, padded to powers of two, because WebGL 1 renderers cannot
+// mipmap other sizes (Khronos' validator flags them). Padding keeps every texel exact where
+// resampling would not; the quad's texture coordinates cover only the maps' part.
+cv::Size TextureSize(const Image& maps) {
+  return {static_cast<int>(std::bit_ceil(static_cast<unsigned>(maps.width()))),
+          static_cast<int>(std::bit_ceil(static_cast<unsigned>(maps.height())))};
+}
+
+// The maps' texels repeated outwards into the padding, so that filtering at the quad's edge
+// and coarser mipmap levels see the edge's value rather than black.
+void PadToTextureSize(const cv::Size& size, cv::Mat* texture) {
+  cv::copyMakeBorder(*texture, *texture, 0, size.height - texture->rows, 0, size.width - texture->cols, cv::BORDER_REPLICATE);
+}
+
 Textures MakeTextures(const Image& maps, double pixel_mm) {
   const int w = maps.width(), h = maps.height();
   Textures t{cv::Mat(h, w, CV_8UC3), cv::Mat(h, w, CV_8UC3), cv::Mat(h, w, CV_8UC3), cv::Mat(h, w, CV_8UC3),
@@ -75,17 +91,21 @@ Textures MakeTextures(const Image& maps, double pixel_mm) {
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) FillPixel(maps, x, y, pixel_mm, specular_scale, &t);
   }
+  for (cv::Mat* texture : {&t.base_color, &t.specular_color, &t.metallic_roughness, &t.normal, &t.anisotropy}) {
+    PadToTextureSize(TextureSize(maps), texture);
+  }
   return t;
 }
 
 // The quad: 4 vertices (position, normal, tangent, uv) and 2 triangles, in glTF's frame
 // (+y up: the sample's z), metres. Pixel rows run along the sample's +y, which is glTF's −z.
-std::vector<uint8_t> QuadBuffer(double half_width_m, double half_height_m) {
+// `u_max`, `v_max`: the maps' part of the padded textures.
+std::vector<uint8_t> QuadBuffer(double half_width_m, double half_height_m, float u_max, float v_max) {
   const float hx = static_cast<float>(half_width_m), hy = static_cast<float>(half_height_m);
   const float positions[] = {-hx, 0, hy, hx, 0, hy, hx, 0, -hy, -hx, 0, -hy};  // sample y = −H/2 first
   const float normals[] = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
   const float tangents[] = {1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1};
-  const float uvs[] = {0, 0, 1, 0, 1, 1, 0, 1};
+  const float uvs[] = {0, 0, u_max, 0, u_max, v_max, 0, v_max};
   const uint16_t indices[] = {0, 1, 2, 0, 2, 3};  // counter-clockwise seen from above (+y)
   std::vector<uint8_t> buffer;
   for (const auto& [data, bytes] : std::initializer_list<std::pair<const void*, size_t>>{{positions, sizeof positions},
@@ -183,7 +203,10 @@ Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path
     LOOM_RETURN_IF_ERROR(internal::WritePng(out.partial() / (std::string(name) + ".png"), *image));
   }
   const double half_width_m = maps.width() * pixel_mm / 2000, half_height_m = maps.height() * pixel_mm / 2000;
-  const std::vector<uint8_t> buffer = QuadBuffer(half_width_m, half_height_m);
+  const cv::Size texture_size = TextureSize(maps);
+  const std::vector<uint8_t> buffer =
+      QuadBuffer(half_width_m, half_height_m, static_cast<float>(maps.width()) / texture_size.width,
+                 static_cast<float>(maps.height()) / texture_size.height);
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "material.bin", std::string(buffer.begin(), buffer.end())));
   const nlohmann::json document = GltfDocument(half_width_m, half_height_m, t.specular_color_factor, buffer.size());
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "material.gltf", document.dump(2) + "\n"));

@@ -16,7 +16,10 @@
 //   - normal map: n_s, tilted by the heightmap's geometric normal when the maps have `height`
 //     (the quad itself is flat: the mesoscale relief lives in the normals only).
 // Files: DIR/material.gltf, material.bin (the quad), base_color.png, specular_color.png,
-// metallic_roughness.png, normal.png, anisotropy.png.
+// metallic_roughness.png, normal.png, anisotropy.png. The textures are the maps texel for texel,
+// padded (edge texels repeated) to powers of two, which WebGL 1 needs for mipmaps; the quad's
+// texture coordinates span the maps' part. Khronos' glTF Validator reports no issue on them
+// (web/tests/gltf_validation_test.sh).
 
 #include <filesystem>
 

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "fitting/export.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -115,6 +116,30 @@ TEST_F(GltfExportTest, AHeightmapTiltsTheNormals) {
   const Eigen::Vector3d n = Eigen::Vector3d(-0.1, 0, 1).normalized();
   EXPECT_NEAR(Texel(dir_ / "normal.png", 1, 0), (n.x() + 1) / 2, 1.0 / 255);
   EXPECT_NEAR(Texel(dir_ / "normal.png", 1, 2), (n.z() + 1) / 2, 1.0 / 255);
+}
+
+TEST_F(GltfExportTest, TexturesArePaddedToPowersOfTwoTexelForTexel) {
+  Image maps = MakeSvbrdfImage(3, 5, false);
+  for (int y = 0; y < 5; ++y) {
+    for (int x = 0; x < 3; ++x) {
+      WardParams<double> p = Pixel({0, 0, 1}, 0.1, 0.1);
+      p.a_d = Eigen::Vector3d::Constant(0.1 + 0.1 * x + 0.02 * y);
+      SetParams(maps, x, y, p);
+    }
+  }
+  ASSERT_TRUE(WriteGltf(maps, 0.5, dir_).ok());
+  const cv::Mat base = cv::imread((dir_ / "base_color.png").string(), cv::IMREAD_COLOR);
+  ASSERT_EQ(base.cols, 4);
+  ASSERT_EQ(base.rows, 8);
+  EXPECT_EQ(base.at<cv::Vec3b>(4, 2)[1], ToSrgb8(0.1 + 0.2 + 0.08));  // a texel of the maps, as it was
+  EXPECT_EQ(base.at<cv::Vec3b>(4, 3), base.at<cv::Vec3b>(4, 2));      // the padding repeats the edge
+  EXPECT_EQ(base.at<cv::Vec3b>(7, 1), base.at<cv::Vec3b>(4, 1));
+  // The quad's texture coordinates (the 4th block of material.bin) span the maps' 3 × 5 texels.
+  std::ifstream bin(dir_ / "material.bin", std::ios::binary);
+  float uvs[8];
+  bin.seekg(48 + 48 + 64);
+  bin.read(reinterpret_cast<char*>(uvs), sizeof uvs);
+  EXPECT_EQ(std::vector<float>(uvs, uvs + 8), (std::vector<float>{0, 0, 0.75f, 0, 0.75f, 0.625f, 0, 0.625f}));
 }
 
 TEST_F(GltfExportTest, MapsWithoutAPixelSizeAreRefused) {

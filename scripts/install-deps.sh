@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Installs exactly the Debian 12 packages loom builds, tests and runs with.
+# Installs exactly the Debian 12 packages loom builds, tests and runs with, and the node packages
+# of web/ (pinned by web/package-lock.json, from the npm registry).
 # Idempotent: when everything is present it only checks and returns in a second or two.
 set -euo pipefail
+cd "$(dirname "$0")/.."
 
 packages=(
   # toolchain
@@ -13,7 +15,18 @@ packages=(
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libhdf5-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev xvfb
+  # the browser side (web/): three.js renders in headless Chromium
+  chromium
 )
+# Node.js and npm: Debian's, unless the machine has its own (as NodeSource's, which bundles npm).
+command -v npm >/dev/null || packages+=(nodejs npm)
+
+# web/node_modules as web/package-lock.json pins it; npm ci reinstalls only when the lock changed.
+install_node_packages() {
+  if [[ web/node_modules/.package-lock.json -nt web/package-lock.json ]]; then return; fi
+  (cd web && npm ci --no-audit --no-fund --loglevel=error)
+  echo "install-deps: installed web/'s node packages"
+}
 
 missing=()
 for p in "${packages[@]}"; do
@@ -21,6 +34,7 @@ for p in "${packages[@]}"; do
 done
 if ((${#missing[@]} == 0)); then
   echo "install-deps: all ${#packages[@]} packages present"
+  install_node_packages
   exit 0
 fi
 
@@ -38,3 +52,4 @@ for attempt in 1 2 3 4 5; do
 done
 apt-get install -y -qq --no-install-recommends "${missing[@]}"
 echo "install-deps: installed ${#missing[@]} packages"
+install_node_packages
