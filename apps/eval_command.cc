@@ -15,8 +15,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Status Evaluate(const std::string& maps_path, const std::string& stack_path, const std::string& reference_path,
-                const std::string& out, const std::string& title) {
+struct EvalArgs {
+  std::string maps_path, stack_path, reference_path, out, title;
+  int renderer_views = 6;
+};
+
+Status Evaluate(const EvalArgs& args) {
+  const auto& [maps_path, stack_path, reference_path, out, title, renderer_views] = args;
   LOOM_ASSIGN_OR_RETURN(OutputDirectory report, OutputDirectory::Create(out, "--out"));
   LOOM_ASSIGN_OR_RETURN(const fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(stack_path));
@@ -28,7 +33,7 @@ Status Evaluate(const std::string& maps_path, const std::string& stack_path, con
   LOOM_ASSIGN_OR_RETURN(const fitting::Evaluation evaluation, fitting::Evaluate(maps.maps, reference, stack));
   evaluation.Report(std::cout);
   const fitting::ReportInputs inputs{
-      title.empty() ? maps_path : title, &maps.maps, reference ? &*reference : nullptr, &stack, evaluation, ""};
+      title.empty() ? maps_path : title, &maps.maps, reference ? &*reference : nullptr, &stack, evaluation, "", renderer_views};
   LOOM_RETURN_IF_ERROR(fitting::WriteReport(report.partial(), inputs));
   LOOM_RETURN_IF_ERROR(report.Commit());
   std::cout << "report: " << (fs::path(out) / "index.html").string() << "\n";
@@ -41,15 +46,20 @@ int RunEval(int argc, char** argv) {
   CLI::App app("Evaluate fitted SVBRDF maps: re-render error against the stack, parameter error against a reference",
                "loom eval");
   AddCommonOptions(app);
-  std::string maps_path, stack_path, reference_path, out, title;
-  app.add_option("maps", maps_path, "Fitted maps (svbrdf.exr from loom fit)")->required();
-  app.add_option("--stack", stack_path, "The observation stack the maps were fitted to")->required();
-  app.add_option("--reference", reference_path, "Reference maps on the same grid (ground truth or another fit)");
-  app.add_option("--out", out, "Report directory: index.html, summary.json, PNGs")->required();
-  app.add_option("--title", title, "Title of the report");
+  EvalArgs args;
+  app.add_option("maps", args.maps_path, "Fitted maps (svbrdf.exr from loom fit)")->required();
+  app.add_option("--stack", args.stack_path, "The observation stack the maps were fitted to")->required();
+  app.add_option("--reference", args.reference_path, "Reference maps on the same grid (ground truth or another fit)");
+  app.add_option("--out", args.out, "Report directory: index.html, summary.json, PNGs")->required();
+  app.add_option("--title", args.title, "Title of the report");
+  app.add_option("--renderer-views", args.renderer_views,
+                 "Point-lit views of the fit, rendered by loom, for checking its glTF (OUT/material) in three.js with "
+                 "web/render-check.mjs (0: write neither)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 64));
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
 
-  return ExitCode(Evaluate(maps_path, stack_path, reference_path, out, title));
+  return ExitCode(Evaluate(args));
 }
 
 }  // namespace loom::apps

@@ -12,7 +12,8 @@
 namespace loom::apps {
 namespace {
 
-Status Export(const std::string& maps_path, double pixel_mm_option, const std::string& gltf, const std::string& axf) {
+Status Export(const std::string& maps_path, double pixel_mm_option, const std::string& gltf, fitting::GltfAnisotropy anisotropy,
+              const std::string& axf) {
   if (gltf.empty() && axf.empty()) {
     return InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE");
   }
@@ -22,10 +23,11 @@ Status Export(const std::string& maps_path, double pixel_mm_option, const std::s
     return InvalidArgumentError(maps_path, "has no loom.pixel_mm attribute: give the maps' pixel size with --pixel-mm");
   }
   if (!gltf.empty()) {
-    LOOM_RETURN_IF_ERROR(fitting::WriteGltf(maps.maps, pixel_mm, gltf));
+    LOOM_RETURN_IF_ERROR(fitting::WriteGltf(maps.maps, pixel_mm, gltf, anisotropy));
     std::cout << "wrote " << gltf << "/material.gltf: a " << maps.maps.width() * pixel_mm << " × "
-              << maps.maps.height() * pixel_mm << " mm quad with base colour, specular colour, roughness, normal and "
-              << "anisotropy textures (GD10-Ward approximated by glTF's anisotropic GGX)\n";
+              << maps.maps.height() * pixel_mm << " mm quad with base colour, specular colour, roughness and normal "
+              << "textures (GD10-Ward approximated by glTF's GGX); "
+              << fitting::ChooseGltfAnisotropy(maps.maps, pixel_mm, anisotropy).reason << "\n";
   }
   if (!axf.empty()) {
     LOOM_RETURN_IF_ERROR(fitting::WriteAxfStyle(maps.maps, pixel_mm, axf));
@@ -44,15 +46,23 @@ int RunExport(int argc, char** argv) {
   AddCommonOptions(app);
   std::string maps, out, axf;
   double pixel_mm = 0;
+  fitting::GltfAnisotropy anisotropy = fitting::GltfAnisotropy::kAuto;
   app.add_option("maps", maps, "Fitted maps (svbrdf.exr from loom fit)")->required();
   app.add_option("--gltf", out, "Directory to write: material.gltf, material.bin and its PNG textures");
+  app.add_option("--gltf-anisotropy", anisotropy,
+                 "auto: KHR_materials_anisotropy unless the shading normals tilt more than the lobes are wide "
+                 "(renderers then misplace the highlights; fitting/gltf_export.h); on; off: isotropic")
+      ->transform(
+          CLI::CheckedTransformer(std::map<std::string, fitting::GltfAnisotropy>{{"auto", fitting::GltfAnisotropy::kAuto},
+                                                                                 {"on", fitting::GltfAnisotropy::kOn},
+                                                                                 {"off", fitting::GltfAnisotropy::kOff}}));
   app.add_option("--axf", axf,
                  "AxF-style HDF5 file to write (DiffuseColor, SpecularColor, SpecularLobe, AnisoRotation, "
                  "Fresnel, Normal, Height)");
   app.add_option("--pixel-mm", pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  return ExitCode(Export(maps, pixel_mm, out, axf));
+  return ExitCode(Export(maps, pixel_mm, out, anisotropy, axf));
 }
 
 }  // namespace loom::apps

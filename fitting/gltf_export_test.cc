@@ -57,7 +57,7 @@ TEST_F(GltfExportTest, WritesAQuadWithTheTexturesAndExtensions) {
   Image maps = MakeSvbrdfImage(2, 1, false);
   SetParams(maps, 0, 0, Pixel({0, 0, 1}, 0.2, 0.05));
   SetParams(maps, 1, 0, Pixel({std::sin(0.2), 0, std::cos(0.2)}, 0.05, 0.2));
-  ASSERT_TRUE(WriteGltf(maps, 0.5, dir_).ok());
+  ASSERT_TRUE(WriteGltf(maps, 0.5, dir_, GltfAnisotropy::kOn).ok());
   std::ifstream file(dir_ / "material.gltf");
   const nlohmann::json gltf = nlohmann::json::parse(file);
   EXPECT_EQ(gltf["asset"]["version"], "2.0");
@@ -103,6 +103,26 @@ TEST_F(GltfExportTest, TheAnisotropicRoughnessIsGltfsMixOfTheTwo) {
     EXPECT_NEAR(alpha_t, std::sqrt(2.0) * std::max(sx, sy), 1e-9);
     EXPECT_EQ(r.along_b, sy > sx);
   }
+}
+
+// Renderers keep KHR_materials_anisotropy's tangents in the quad's plane: shading normals that
+// tilt further than the lobe is wide get an isotropic export, with α = √(α_t α_b).
+TEST_F(GltfExportTest, ShadingNormalsTiltedWiderThanTheLobeGiveAnIsotropicExport) {
+  const auto write = [&](double tilt, const std::string& name) {
+    Image maps = MakeSvbrdfImage(1, 1, false);
+    SetParams(maps, 0, 0, Pixel({std::sin(tilt), 0, std::cos(tilt)}, 0.2, 0.05));
+    EXPECT_TRUE(WriteGltf(maps, 0.5, dir_ / name).ok());
+    std::ifstream file(dir_ / name / "material.gltf");
+    return nlohmann::json::parse(file);
+  };
+  const nlohmann::json slight = write(0.04, "slight");  // tan(tilt) / σ_min = 0.8
+  EXPECT_EQ(slight["extensionsUsed"], nlohmann::json({"KHR_materials_anisotropy", "KHR_materials_specular"}));
+  const nlohmann::json steep = write(0.3, "steep");  // 6.2
+  EXPECT_EQ(steep["extensionsUsed"], nlohmann::json({"KHR_materials_specular"}));
+  EXPECT_EQ(steep["images"].size(), 4u);
+  EXPECT_NE(steep["materials"][0]["extras"]["loom_anisotropy"].get<std::string>().find("isotropic"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir_ / "steep" / "anisotropy.png"));
+  EXPECT_NEAR(Texel(dir_ / "steep" / "metallic_roughness.png", 0, 1), std::sqrt(std::sqrt(2 * 0.2 * 0.05)), 1.0 / 255);
 }
 
 TEST_F(GltfExportTest, AHeightmapTiltsTheNormals) {

@@ -12,6 +12,8 @@
 #include "core/file_io.h"
 #include "core/version.h"
 #include "fitting/export.h"
+#include "fitting/gltf_export.h"
+#include "fitting/renderer_views.h"
 
 namespace loom::fitting {
 namespace {
@@ -163,6 +165,23 @@ Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostr
   return Status::Ok();
 }
 
+// The glTF and the views web/render-check.mjs renders; its page, renderer/index.html, shows
+// three.js beside loom once that script has run.
+Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
+  if (in.renderer_views <= 0) return Status::Ok();
+  LOOM_RETURN_IF_ERROR(WriteGltf(*in.maps, in.stack->pixel_mm, dir / "material"));
+  const std::vector<RendererView> views = ChooseRendererViews(*in.stack, in.renderer_views);
+  LOOM_RETURN_IF_ERROR(WriteRendererViews(dir / "renderer", *in.maps, in.stack->pixel_mm, *in.stack, views));
+  html << "<h2>In a real renderer</h2>\n<p>The fit as glTF 2.0: <a href=\"material/material.gltf\">material/material.gltf</a> "
+          "(GD10-Ward approximated by glTF's anisotropic GGX, as loom's fitting/gltf_export.h states). "
+       << views.size()
+       << " point-lit views of it, rendered by loom's own model, are in renderer/views.json; "
+          "<code>node web/render-check.mjs REPORT</code> renders the glTF under the same lights in three.js (headless "
+          "Chromium) and writes <a href=\"renderer/index.html\">renderer/index.html</a>: both renderings side by side "
+          "with their relative difference.</p>\n";
+  return Status::Ok();
+}
+
 }  // namespace
 
 std::string EvaluationJson(const Evaluation& e) {
@@ -195,6 +214,7 @@ Status WriteReport(const fs::path& dir, const ReportInputs& in) {
   LOOM_RETURN_IF_ERROR(WriteMapSection(dir, in, html));
   LOOM_RETURN_IF_ERROR(WriteUncertaintySection(dir, in, html));
   LOOM_RETURN_IF_ERROR(WriteRenderSection(dir, in, html));
+  LOOM_RETURN_IF_ERROR(WriteRendererSection(dir, in, html));
   html << "<p><small>" << Escape(std::string(VersionWithCommit())) << "</small></p></body></html>\n";
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "index.html", html.str()));
   return WriteFileAtomically(dir / "summary.json", EvaluationJson(in.evaluation));

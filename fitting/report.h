@@ -2,7 +2,8 @@
 // The evaluation report people look at: DIR/index.html (self-contained but for its PNGs) with
 // the error tables, the fitted parameter maps beside the reference's, and measured beside
 // re-rendered images for a few observations of each group (the brightest — where highlights
-// are — and a typical one); DIR/summary.json with the same numbers for scripts.
+// are — and a typical one); DIR/summary.json with the same numbers for scripts. Optionally the
+// material as glTF with views for checking it in another renderer (ReportInputs::renderer_views).
 
 #include <filesystem>
 #include <optional>
@@ -24,6 +25,9 @@ struct ReportInputs {
   const ObservationStack* stack = nullptr;
   Evaluation evaluation;
   std::string notes_html;  // extra lines (timings, fit summary), already escaped
+  // > 0: the maps as glTF in DIR/material/ (gltf_export.h) and this many views of them in
+  // DIR/renderer/ (renderer_views.h), which web/render-check.mjs renders in three.js.
+  int renderer_views = 0;
 };
 
 Status WriteReport(const std::filesystem::path& dir, const ReportInputs& inputs);

@@ -10,7 +10,9 @@
 #      refiner (the main result), each evaluated against the simulator's ground truth →
 #      build/demo/report-*/;
 #   5. a one-screen summary (parameter errors, re-render L1, time per stage) and
-#      build/demo/summary.json. LOOM_DEMO_BASELINE=1 adds Ceres alone and CNN + Ceres (about 8 more minutes).
+#      build/demo/summary.json. LOOM_DEMO_BASELINE=1 adds Ceres alone and CNN + Ceres (about 8 more minutes);
+#   6. the main result's glTF rendered by three.js in headless Chromium beside loom's own rendering
+#      (web/render-check.mjs) → build/demo/report-cnn+refine/renderer/index.html.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -20,3 +22,5 @@ if [[ "${LOOM_DEMO_BASELINE:-0}" == 1 ]]; then methods=ceres,cnn+ceres,cnn,cnn+r
 ./build/apps/loom version
 rm -rf build/demo
 ./build/apps/loom demo --rig configs/rig/tac7-mini.yaml --object fabric:1 --preset low --methods "$methods" --out build/demo
+# In its own network namespace: Chromium reaches nothing, web/browser.mjs serves every file.
+unshare -n node web/render-check.mjs build/demo/report-cnn+refine
