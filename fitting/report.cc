@@ -178,7 +178,9 @@ Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::os
        << " point-lit views of it, rendered by loom's own model, are in renderer/views.json; "
           "<code>node web/render-check.mjs REPORT</code> renders the glTF under the same lights in three.js (headless "
           "Chromium) and writes <a href=\"renderer/index.html\">renderer/index.html</a>: both renderings side by side "
-          "with their relative difference.</p>\n";
+          "with their relative difference. <code>node web/viewer.mjs REPORT</code> adds "
+          "<a href=\"viewer/index.html\">viewer/index.html</a>: the material in three.js under a light that follows "
+          "the pointer.</p>\n";
   return Status::Ok();
 }
 

@@ -12,7 +12,8 @@
 #   5. a one-screen summary (parameter errors, re-render L1, time per stage) and
 #      build/demo/summary.json. LOOM_DEMO_BASELINE=1 adds Ceres alone and CNN + Ceres (about 8 more minutes);
 #   6. the main result's glTF rendered by three.js in headless Chromium beside loom's own rendering
-#      (web/render-check.mjs) → build/demo/report-cnn+refine/renderer/index.html.
+#      (web/render-check.mjs) → build/demo/report-cnn+refine/renderer/index.html, and the report's
+#      interactive viewer (web/viewer.mjs) → build/demo/report-cnn+refine/viewer/index.html.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -24,3 +25,4 @@ rm -rf build/demo
 ./build/apps/loom demo --rig configs/rig/tac7-mini.yaml --object fabric:1 --preset low --methods "$methods" --out build/demo
 # In its own network namespace: Chromium reaches nothing, web/browser.mjs serves every file.
 unshare -n node web/render-check.mjs build/demo/report-cnn+refine
+node web/viewer.mjs build/demo/report-cnn+refine

@@ -1,6 +1,7 @@
 // Headless Chromium (Debian's, driven by playwright-core) serving files from disk under the
 // made-up origin http://loom.invalid: nothing leaves the machine, every request is answered
-// from `roots` (URL prefix → directory) or refused. Console errors and page errors are kept.
+// from `roots` (URL prefix → directory) or refused; file:// pages load as they are. Console
+// errors and page errors are kept.
 import { readFile } from 'node:fs/promises';
 import path from 'node:path';
 import { chromium } from 'playwright-core';
@@ -32,10 +33,10 @@ async function serve(route, roots) {
       return route.fulfill({ status: 404, body: `not found: ${file}` });
     }
   }
-  return route.abort();
+  return url.protocol === 'file:' ? route.continue() : route.abort();
 }
 
-export async function openBrowser(roots, viewport = { width: 800, height: 600 }) {
+export async function openBrowser(roots = {}, viewport = { width: 800, height: 600 }) {
   const browser = await chromium.launch({ executablePath: process.env.LOOM_CHROMIUM ?? '/usr/bin/chromium', args: chromiumArgs });
   const page = await browser.newPage({ viewport });
   const errors = [];
