@@ -1,7 +1,7 @@
 // loom demo: the main job on a simulated rig, end to end — calibration scan → loom calibrate
 // geometry and radiometry → material scan of a procedural fabric → loom reconstruct with that calibration →
 // loom fit (each method asked for) → loom eval against the simulator's ground truth → loom export
-// of the main result as glTF and AxF-style HDF5 — then a one-screen summary and summary.json. Every stage is the
+// of the main result as glTF and AxF — then a one-screen summary and summary.json. Every stage is the
 // loom command of the same name, run in this process with the arguments it prints, so what the
 // demo does a user can repeat by hand.
 #include <chrono>
@@ -111,7 +111,7 @@ Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages*
   }
   return stages->Run("export", RunExport,
                      {"export", (out / ("fit-" + args.methods.back()) / "svbrdf.exr").string(), "--gltf", (out / "gltf").string(),
-                      "--axf", (out / "material.h5").string()});
+                      "--axf", (out / "material.axf").string()});
 }
 
 Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {

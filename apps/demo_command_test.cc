@@ -45,7 +45,7 @@ TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   }
   EXPECT_TRUE(fs::exists(dir / "report-cnn+refine" / "index.html"));
   EXPECT_TRUE(fs::exists(dir / "gltf" / "material.gltf"));
-  EXPECT_TRUE(fs::exists(dir / "material.h5"));
+  EXPECT_TRUE(fs::exists(dir / "material.axf"));
 
   // The demo never writes over a previous run.
   const auto again = RunCommand(Loom("demo --rig " + rig + " --out " + dir.string()));

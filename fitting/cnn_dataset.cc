@@ -5,12 +5,26 @@
 #include <iomanip>
 
 #include "core/exr_io.h"
+#include "fitting/export.h"
 #include "fitting/model/label.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// NAME.truth.exr, else NAME.truth.axf (an AxF file's SVBRDF, as the paper's dataset keeps its
+// labels); nothing when neither exists.
+std::optional<fs::path> TruthOf(const fs::path& dir, const std::string& name) {
+  for (const char* extension : {".truth.exr", ".truth.axf"}) {
+    if (fs::exists(dir / (name + extension))) return dir / (name + extension);
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 Result<CnnDataset> CnnDataset::Open(const fs::path& dir, int validation, int test) {
   if (!fs::is_directory(dir)) return NotFoundError(dir.string(), "no such dataset directory");
@@ -19,9 +33,13 @@ Result<CnnDataset> CnnDataset::Open(const fs::path& dir, int validation, int tes
   for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
     const std::string file = entry.path().filename().string();
     if (file.size() <= kStack.size() || !file.ends_with(kStack)) continue;
-    const fs::path truth = dir / (file.substr(0, file.size() - kStack.size()) + ".truth.exr");
-    if (!fs::exists(truth)) return NotFoundError(truth.string(), "the reference maps of " + entry.path().string());
-    pairs.push_back({entry.path(), truth});
+    const std::string name = file.substr(0, file.size() - kStack.size());
+    const std::optional<fs::path> truth = TruthOf(dir, name);
+    if (!truth) {
+      return NotFoundError((dir / (name + ".truth.exr")).string(),
+                           "the reference maps of " + entry.path().string() + " (nor " + name + ".truth.axf)");
+    }
+    pairs.push_back({entry.path(), *truth});
   }
   std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.stack < b.stack; });
   if (validation < 1 || test < 1 || static_cast<int>(pairs.size()) <= validation + test) {
@@ -65,15 +83,12 @@ Result<CnnModelInfo> CnnDataset::ModelInfo(const CnnArchitecture& architecture, 
 Result<CnnExample> CnnDataset::Example(int i, const CnnModelInfo& info, bool keep_stack) const {
   LOOM_ASSIGN_OR_RETURN(std::shared_ptr<const ObservationStack> stack, Stack(i));
   const fs::path& truth_path = pairs_[static_cast<size_t>(i)].truth;
-  LOOM_ASSIGN_OR_RETURN(const ExrImage truth, ReadExr(truth_path));
-  if (!HasSvbrdfLayout(truth.image)) {
-    return InvalidArgumentError(truth_path.string(), "not an SVBRDF map file: the first channels must be n_s.X ... F0");
-  }
-  if (truth.image.width() != stack->image.width() || truth.image.height() != stack->image.height()) {
+  LOOM_ASSIGN_OR_RETURN(const SvbrdfFile truth, ReadSvbrdf(truth_path));
+  if (truth.maps.width() != stack->image.width() || truth.maps.height() != stack->image.height()) {
     return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack->source);
   }
   LOOM_ASSIGN_OR_RETURN(CnnTensor input, CnnInputFromStack(*stack, info));
-  return CnnExample{truth_path.string(), std::move(input), CnnLabelsFromMaps(truth.image),
+  return CnnExample{truth_path.string(), std::move(input), CnnLabelsFromMaps(truth.maps),
                     keep_stack ? std::move(stack) : nullptr};
 }
 

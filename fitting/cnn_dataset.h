@@ -1,6 +1,7 @@
 #pragma once
 // A CNN's dataset on disk: NAME.stack.exr + NAME.truth.exr pairs (sim/training_set.h renders
-// them; reconstructed stacks with reference fits can be put beside them under the same names),
+// them; reconstructed stacks with reference fits can be put beside them under the same names,
+// the references also as AxF files, NAME.truth.axf, as the paper's dataset keeps its labels),
 // split by material: the last `test` pairs (sorted by name) are the test set, the `validation`
 // before them validate every epoch, the rest train. Examples are read on demand, so training
 // pairs can stay on disk and stream (CnnExampleSource) when the set is larger than memory.

@@ -5,6 +5,8 @@
 
 #include <cmath>
 
+#include "fitting/axf_export.h"
+#include "fitting/export.h"
 #include "fitting/model/label.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/test_materials.h"
@@ -69,6 +71,28 @@ TEST(CnnDatasetTest, AMissingTruthOrTooFewMaterialsAreNamed) {
   ASSERT_FALSE(missing.ok());
   EXPECT_TRUE(Contains(missing.status(), "fabric-1002.truth.exr")) << missing.status().ToString();
   EXPECT_FALSE(CnnDataset::Open(dir / "nowhere", 1, 1).ok());
+  fs::remove_all(dir);
+}
+
+// A reference may be an AxF file's SVBRDF (NAME.truth.axf), as the paper's dataset keeps its
+// labels: the same labels as from the maps it was written from.
+TEST(CnnDatasetTest, ReferencesMayBeAxfFiles) {
+  const fs::path dir = FourPairs("cnn_dataset_axf");
+  const CnnModelInfo info = *CnnDataset::Open(dir, 1, 1)->ModelInfo({0, 32, 0.02}, 64);
+  const CnnExample from_exr = *CnnDataset::Open(dir, 1, 1)->Example(1, info, false);
+  const Result<SvbrdfFile> maps = ReadSvbrdf(dir / "fabric-1001.truth.exr");
+  ASSERT_TRUE(maps.ok()) << maps.status().ToString();
+  ASSERT_TRUE(WriteAxf(maps->maps, maps->pixel_mm, dir / "fabric-1001.truth.axf").ok());
+  fs::remove(dir / "fabric-1001.truth.exr");
+  const Result<CnnDataset> dataset = CnnDataset::Open(dir, 1, 1);
+  ASSERT_TRUE(dataset.ok()) << dataset.status().ToString();
+  const Result<CnnExample> from_axf = dataset->Example(1, info, false);
+  ASSERT_TRUE(from_axf.ok()) << from_axf.status().ToString();
+  EXPECT_NE(from_axf->name.find("fabric-1001.truth.axf"), std::string::npos) << from_axf->name;
+  ASSERT_EQ(from_axf->labels.labels.values.size(), from_exr.labels.labels.values.size());
+  for (size_t i = 0; i < from_exr.labels.labels.values.size(); ++i) {
+    ASSERT_NEAR(from_axf->labels.labels.values[i], from_exr.labels.labels.values[i], 1e-5) << i;
+  }
   fs::remove_all(dir);
 }
 

@@ -9,6 +9,7 @@
 #include "core/file_io.h"
 #include "core/geometry.h"
 #include "core/version.h"
+#include "fitting/axf_export.h"
 #include "fitting/internal/png.h"
 #include "fitting/model/svbrdf_maps.h"
 
@@ -89,6 +90,10 @@ Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const Sv
 }
 
 Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path) {
+  if (path.extension() == ".axf") {
+    LOOM_ASSIGN_OR_RETURN(AxfMaps axf, ReadAxf(path));
+    return SvbrdfFile{std::move(axf.maps), axf.pixel_mm};
+  }
   LOOM_ASSIGN_OR_RETURN(ExrImage exr, ReadExr(path));
   if (!HasSvbrdfLayout(exr.image)) {
     return InvalidArgumentError(path.string(), "not SVBRDF maps: the first channels must be n_s.X ... F0");

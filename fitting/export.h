@@ -2,7 +2,7 @@
 // Export of SVBRDF maps: linear OpenEXR (svbrdf_maps.h's channels, with provenance attributes)
 // and PNG previews a person can look at — albedos in sRGB, the shading normal as RGB, σx and σy
 // as red and green, α as a hue wheel, height as grey — plus tone-mapped radiance images for
-// reports. The renderer-ready glTF export is gltf_export.h; the AxF-style HDF5 export is
+// reports. The renderer-ready glTF export is gltf_export.h; the AxF export is
 // axf_export.h.
 
 #include <filesystem>
@@ -26,9 +26,10 @@ struct SvbrdfProvenance {
 // attributes) and its previews (WriteSvbrdfPreviews); DIR is created.
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance);
 
-// Maps in svbrdf_maps.h's layout read back (svbrdf.exr, a simulator's truth), with their pixel
-// size when the file states it (loom.pixel_mm; 0 when it does not). A file in another layout is
-// an error naming it.
+// Maps in svbrdf_maps.h's layout read back (svbrdf.exr, a simulator's truth, or, for a FILE.axf,
+// an AxF file's SVBRDF: axf_export.h), with their pixel size when the file states it
+// (loom.pixel_mm, AxF's WidthMM; 0 when it does not). A file in another layout is an error
+// naming it.
 struct SvbrdfFile {
   Image maps;
   double pixel_mm = 0;

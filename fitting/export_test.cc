@@ -6,6 +6,7 @@
 
 #include <limits>
 
+#include "fitting/axf_export.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -41,6 +42,13 @@ TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndNanMapsAndOtherFilesAreR
   ASSERT_FALSE(grey.ok());
   EXPECT_NE(grey.status().ToString().find("grey.exr"), std::string::npos) << grey.status().ToString();
   EXPECT_FALSE(ReadSvbrdf(dir / "missing.exr").ok());
+
+  // An AxF file's SVBRDF is maps too, with the pixel size its WidthMM gives.
+  ASSERT_TRUE(WriteAxf(maps, 0.2, dir / "material.axf").ok());
+  const Result<SvbrdfFile> axf = ReadSvbrdf(dir / "material.axf");
+  ASSERT_TRUE(axf.ok()) << axf.status().ToString();
+  EXPECT_NEAR(axf->pixel_mm, 0.2, 1e-6);
+  EXPECT_NEAR(GetParams(axf->maps, 5, 3).sigma_x, 0.25, 1e-6);
   fs::remove_all(dir);
 }
 
