@@ -17,6 +17,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev xvfb
   # the browser side (web/): three.js renders in headless Chromium
   chromium
+  # scripts/slurm-fit-array.sh's test runs a single-node Slurm
+  slurm-wlm munge
 )
 # Node.js and npm: Debian's, unless the machine has its own (as NodeSource's, which bundles npm).
 command -v npm >/dev/null || packages+=(nodejs npm)

@@ -6,10 +6,13 @@
 #   sbatch --array=1-$(wc -l < scans.txt)%50 scripts/slurm-fit-array.sh scans.txt /data/calib /data/results
 #
 # Task N takes line N of SCANS (a scan directory) and writes RESULTS/<scan name>/{reconstruction,
-# fit,report}. A task whose fit.json already exists is skipped, so resubmitting the same array
-# after failures redoes only what failed. LOOM (default: loom on PATH) and LOOM_FIT_METHOD
-# (default cnn+refine) can be set in the environment; the model is the rig's default
-# (configs/models/<rig>) unless LOOM_MODEL names one.
+# fit,report}. CALIB_DIR is a calibration directory (loom calibrate), or `nominal` for the rig
+# YAML's own model. A task whose fit.json already exists is skipped, so resubmitting the same
+# array after failures redoes only what failed. LOOM (default: loom on PATH), LOOM_FIT_METHOD
+# (default cnn+refine) and LOOM_RECONSTRUCT_ARGS (extra reconstruct options, e.g. "--size 256")
+# can be set in the environment; the model is the rig's default (configs/models/<rig>) unless
+# LOOM_MODEL names one. tests: scripts/testing/slurm_fit_array_test.sh runs it under a real,
+# single-node Slurm.
 #SBATCH --job-name=loom-fit
 #SBATCH --cpus-per-task=8
 #SBATCH --mem=16G
@@ -42,7 +45,11 @@ mkdir -p "$out"
 echo "$name: task $task on $(hostname), $threads threads, method $method"
 # What an earlier, failed attempt at this task left (loom never writes into a non-empty --out).
 rm -rf "$out/reconstruction" "$out/report"
-"$loom" reconstruct "$scan" --calib "$calib" --out "$out/reconstruction" --threads "$threads" --quiet
+calib_option=(--calib "$calib")
+if [[ "$calib" == nominal ]]; then calib_option=(); fi
+read -r -a reconstruct_args <<< "${LOOM_RECONSTRUCT_ARGS:-}"
+"$loom" reconstruct "$scan" "${calib_option[@]}" "${reconstruct_args[@]}" --out "$out/reconstruction" \
+  --threads "$threads" --quiet
 model_option=()
 if [[ -n "${LOOM_MODEL:-}" ]]; then model_option=(--model "$LOOM_MODEL"); fi
 # loom fit writes under a partial name and renames its directory when complete: fit/fit.json
