@@ -31,6 +31,23 @@ Result<hal::Camera*> Sequencer::FindCamera(const std::string& name) const {
   return camera;
 }
 
+void Sequencer::Changed(const hal::Device& device, bool switched_on) {
+  const double now = rig_.clock().NowS();
+  const hal::DeviceTiming timing = rig_.Timing(device);
+  double wait = timing.settle_s;
+  if (switched_on && warmed_up_.insert(device.name()).second) wait = std::max(wait, timing.warm_up_s);
+  changed_at_s_ = now;
+  settled_at_s_ = std::max(settled_at_s_, now + wait);
+}
+
+Status Sequencer::MoveWheel(hal::FilterWheel& wheel, int slot) {
+  LOOM_RETURN_IF_ERROR(wheel.MoveTo(slot));
+  const auto known = wheel_slots_.find(wheel.name());
+  if (known == wheel_slots_.end() || known->second != slot) Changed(wheel);
+  wheel_slots_[wheel.name()] = slot;
+  return Status::Ok();
+}
+
 Status Sequencer::PlaceWheels(const scan::Step& step) {
   for (const auto& wheel : rig_.filter_wheels()) {
     int slot = 0;
@@ -38,17 +55,59 @@ Status Sequencer::PlaceWheels(const scan::Step& step) {
       if (earlier.index >= step.index) break;
       if (earlier.filter && earlier.filter->wheel == wheel->name()) slot = earlier.filter->slot;
     }
-    LOOM_RETURN_IF_ERROR(wheel->MoveTo(slot));
+    LOOM_RETURN_IF_ERROR(MoveWheel(*wheel, slot));
   }
   wheels_placed_ = true;
   return Status::Ok();
 }
 
+Status Sequencer::DriveLeds(const scan::Step& step) {
+  hal::LedArray* leds = rig_.leds();
+  if (leds == nullptr) {
+    if (step.leds.empty()) return Status::Ok();
+    return FailedPreconditionError("rig '" + rig_.name() + "'", "step " + std::to_string(step.index) + " needs an LED array");
+  }
+  LOOM_RETURN_IF_ERROR(step.leds.empty() ? leds->AllOff() : leds->Drive(step.leds));
+  if (leds_driven_ != step.leds) Changed(*leds, !step.leds.empty());
+  leds_driven_ = step.leds;
+  return Status::Ok();
+}
+
+Status Sequencer::SetLinearLight(const scan::Step& step) {
+  hal::LinearLight* strip = rig_.linear_light();
+  if (!step.linear_light_mm) {
+    if (strip == nullptr || strip_on_ == false) return Status::Ok();
+    LOOM_RETURN_IF_ERROR(strip->SetStrip(false, 0));
+    strip_on_ = false;
+    Changed(*strip);
+    return Status::Ok();
+  }
+  if (strip == nullptr) {
+    return FailedPreconditionError("rig '" + rig_.name() + "'", "step " + std::to_string(step.index) + " needs a linear light");
+  }
+  LOOM_RETURN_IF_ERROR(strip->MoveTo(*step.linear_light_mm));
+  if (strip_mm_ != step.linear_light_mm) Changed(*strip);
+  strip_mm_ = step.linear_light_mm;
+  if (strip_on_ != true) {
+    LOOM_RETURN_IF_ERROR(strip->SetStrip(true, 1.0));
+    Changed(*strip, true);
+  }
+  strip_on_ = true;
+  return Status::Ok();
+}
+
+Status Sequencer::WaitUntilSettled() { return rig_.clock().SleepFor(settled_at_s_ - rig_.clock().NowS()); }
+
+double Sequencer::SettledMs() const { return (rig_.clock().NowS() - changed_at_s_) * 1000; }
+
 Status Sequencer::ApplyStep(const scan::Step& step) {
   const std::string where = "step " + std::to_string(step.index);
   if (hal::Turntable* turntable = rig_.turntable()) {
     LOOM_ASSIGN_OR_RETURN(const double angle, turntable->Angle());
-    if (std::abs(angle - step.turntable_deg) > 1e-6) LOOM_RETURN_IF_ERROR(turntable->MoveTo(step.turntable_deg));
+    if (std::abs(angle - step.turntable_deg) > 1e-6) {
+      LOOM_RETURN_IF_ERROR(turntable->MoveTo(step.turntable_deg));
+      Changed(*turntable);
+    }
   } else if (step.turntable_deg != 0) {
     return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a turntable");
   }
@@ -59,23 +118,10 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
       if (candidate->name() == step.filter->wheel) wheel = candidate.get();
     }
     if (wheel == nullptr) return NotFoundError("filter wheel '" + step.filter->wheel + "'", where + " needs it");
-    LOOM_RETURN_IF_ERROR(wheel->MoveTo(step.filter->slot));
+    LOOM_RETURN_IF_ERROR(MoveWheel(*wheel, step.filter->slot));
   }
-  if (rig_.leds() != nullptr) {
-    LOOM_RETURN_IF_ERROR(step.leds.empty() ? rig_.leds()->AllOff() : rig_.leds()->Drive(step.leds));
-  } else if (!step.leds.empty()) {
-    return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs an LED array");
-  }
-  if (step.linear_light_mm) {
-    hal::LinearLight* strip = rig_.linear_light();
-    if (strip == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a linear light");
-    LOOM_RETURN_IF_ERROR(strip->MoveTo(*step.linear_light_mm));
-    if (strip_on_ != true) LOOM_RETURN_IF_ERROR(strip->SetStrip(true, 1.0));
-    strip_on_ = true;
-  } else if (rig_.linear_light() != nullptr && strip_on_ != false) {
-    LOOM_RETURN_IF_ERROR(rig_.linear_light()->SetStrip(false, 0));
-    strip_on_ = false;
-  }
+  LOOM_RETURN_IF_ERROR(DriveLeds(step));
+  LOOM_RETURN_IF_ERROR(SetLinearLight(step));
   if (!step.projector_pattern.empty()) {
     hal::Projector* projector = rig_.projector();
     if (projector == nullptr) return FailedPreconditionError("rig '" + rig_.name() + "'", where + " needs a projector");
@@ -83,11 +129,13 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
                                                                          projector->settings().height, options_.phase_steps));
     LOOM_RETURN_IF_ERROR(projector->Show(pattern));
     projector_showing_ = true;
+    Changed(*projector);
   } else if (rig_.projector() != nullptr && projector_showing_ != false) {
     LOOM_RETURN_IF_ERROR(rig_.projector()->Blank());
     projector_showing_ = false;
+    Changed(*rig_.projector());
   }
-  return Status::Ok();
+  return WaitUntilSettled();
 }
 
 Status Sequencer::SetExposure(hal::Camera& camera, double exposure_us) {
@@ -106,7 +154,10 @@ Result<scan::RawFrame> Sequencer::CaptureWithRetries(hal::Camera& camera, const 
   for (int attempt = 0; attempt <= options_.max_retries; ++attempt) {
     if (InterruptRequested()) return CancelledError("scan", "interrupted at step " + std::to_string(step.index));
     Result<scan::RawFrame> frame = rig_.Snap(camera);
-    if (frame.ok()) return frame;
+    if (frame.ok()) {
+      frame->metadata.rig_state.settled_ms = SettledMs();
+      return frame;
+    }
     last = frame.status();
     const bool transient =
         last.code() == StatusCode::kTimeout || last.code() == StatusCode::kUnavailable || last.code() == StatusCode::kDataLoss;
@@ -141,7 +192,8 @@ Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step&
     }
     // The step's cameras are triggered together, then read out; a camera that fails is retried
     // on its own.
-    LOOM_ASSIGN_OR_RETURN(const scan::RigState state, rig_.ReadState());
+    LOOM_ASSIGN_OR_RETURN(scan::RigState state, rig_.ReadState());
+    state.settled_ms = SettledMs();
     std::vector<Status> triggered;
     for (hal::Camera* camera : cameras) triggered.push_back(camera->TriggerSoftware());
     for (size_t c = 0; c < cameras.size(); ++c) {

@@ -8,6 +8,10 @@
 // and noise floor come from the plan's dark step (each camera's median and robust spread with
 // the lights off); a plan without one falls back to the options' values.
 //
+// Settling: after changing devices for a step the sequencer waits, on the rig's clock, the
+// longest settle time (and a light's warm-up the first time it comes on) the rig YAML gives what
+// changed (hal/rig.h); each frame records how long the rig had been still (RigState::settled_ms).
+//
 // Resume: steps marked done are skipped; in an unfinished step, frames already stored are read
 // back instead of captured, so the bracket takes the same decisions and the scan ends identical
 // to an uninterrupted one. A camera that fails (timeout, dropped out) is retried, then the scan
@@ -16,6 +20,8 @@
 
 #include <functional>
 #include <map>
+#include <optional>
+#include <set>
 
 #include "hal/rig.h"
 #include "scan/capture_store.h"
@@ -57,7 +63,17 @@ class Sequencer {
 
  private:
   Status PlaceObject(const scan::Step& step);
+  // Sets the rig as `step` has it and waits until what changed has settled.
   Status ApplyStep(const scan::Step& step);
+  Status MoveWheel(hal::FilterWheel& wheel, int slot);
+  Status DriveLeds(const scan::Step& step);
+  Status SetLinearLight(const scan::Step& step);
+  // `device` changed now: the rig settles no sooner than its settle time (its warm-up instead,
+  // when `switched_on` is its first switching on in this run) from now.
+  void Changed(const hal::Device& device, bool switched_on = false);
+  Status WaitUntilSettled();
+  // Since the last change, on the rig's clock.
+  double SettledMs() const;
   // Every filter wheel to the slot the plan last gave it before `step` (slot 0 when none has):
   // what an uninterrupted scan would have it in, whatever a killed process left.
   Status PlaceWheels(const scan::Step& step);
@@ -87,7 +103,13 @@ class Sequencer {
   // pattern showing, a wheel in a filter).
   std::optional<bool> strip_on_;
   std::optional<bool> projector_showing_;
-  bool wheels_placed_ = false;  // every wheel set where the plan has it at the first step
+  bool wheels_placed_ = false;                              // every wheel set where the plan has it at the first step
+  std::map<std::string, int> wheel_slots_;                  // as the sequencer last set them
+  std::optional<std::vector<scan::LedDrive>> leds_driven_;  // as last driven
+  std::optional<double> strip_mm_;                          // where the strip was last moved
+  double changed_at_s_ = 0;                                 // rig clock: the last change
+  double settled_at_s_ = 0;                                 // rig clock: when everything has settled
+  std::set<std::string> warmed_up_;                         // lights switched on in this run
   std::optional<scan::ScanObject> object_placed_;
 };
 

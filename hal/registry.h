@@ -11,6 +11,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -54,6 +55,11 @@ class BackendRegistry {
     return it->second(config);
   }
 
+  // A simulated backend's devices live in virtual time (hal/clock.h): a rig made only of them
+  // waits on a SimClock.
+  void MarkSimulated(const std::string& backend) { simulated_.insert(backend); }
+  bool IsSimulated(const std::string& backend) const { return simulated_.contains(backend); }
+
   template <typename D>
   std::vector<std::string> Backends() const {
     std::vector<std::string> names;
@@ -77,6 +83,7 @@ class BackendRegistry {
   std::tuple<TableOf<Camera>, TableOf<LedArray>, TableOf<FilterWheel>, TableOf<Turntable>, TableOf<LinearLight>,
              TableOf<Projector>>
       tables_;
+  std::set<std::string> simulated_;
 };
 
 }  // namespace loom::hal

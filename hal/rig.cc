@@ -58,6 +58,22 @@ Settings ReadSettings(const ConfigNode& device, ReadFn read) {
   return settings;
 }
 
+// A wait in ms from `key` of a device's mapping: finite, 0 to 10 minutes.
+double ReadWaitS(const ConfigNode& node, const char* key) {
+  constexpr double kMaxMs = 600000;
+  double ms = 0;
+  node.Optional(key, &ms);
+  if (!(ms >= 0 && ms <= kMaxMs)) {
+    node.AddError(key, "must be between 0 and " + std::to_string(static_cast<int>(kMaxMs)) + " ms");
+    return 0;
+  }
+  return ms / 1000;
+}
+
+DeviceTiming ReadTiming(const ConfigNode& node, bool warms_up) {
+  return {ReadWaitS(node, "settle_ms"), warms_up ? ReadWaitS(node, "warm_up_ms") : 0.0};
+}
+
 template <typename D>
 Result<std::unique_ptr<D>> CreateDevice(const ConfigNode& node, const BackendRegistry& registry) {
   const DeviceConfig config = ReadDeviceHeader(node);
@@ -80,17 +96,20 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
   }
   for (const ConfigNode& node : devices.OptionalSequence("filter_wheels")) {
     LOOM_ASSIGN_OR_RETURN(std::unique_ptr<FilterWheel> wheel, CreateDevice<FilterWheel>(node, registry));
+    rig->timing_[wheel->name()] = ReadTiming(node, false);
     rig->filter_wheels_.push_back(std::move(wheel));
     rig->filter_wheel_settings_.push_back(ReadSettings<FilterWheelSettings>(
         node, [](const ConfigNode& n, FilterWheelSettings* s) { n.Optional("move_timeout_ms", &s->move_timeout_ms); }));
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("leds")) {
     LOOM_ASSIGN_OR_RETURN(rig->leds_, CreateDevice<LedArray>(*node, registry));
+    rig->timing_[rig->leds_->name()] = ReadTiming(*node, true);
     rig->led_settings_ = ReadSettings<LedArraySettings>(
         *node, [](const ConfigNode& n, LedArraySettings* s) { n.Optional("current_limit_ma", &s->current_limit_ma); });
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("turntable")) {
     LOOM_ASSIGN_OR_RETURN(rig->turntable_, CreateDevice<Turntable>(*node, registry));
+    rig->timing_[rig->turntable_->name()] = ReadTiming(*node, false);
     rig->turntable_settings_ = ReadSettings<TurntableSettings>(*node, [](const ConfigNode& n, TurntableSettings* s) {
       n.Optional("speed_deg_s", &s->speed_deg_s);
       n.Optional("move_timeout_ms", &s->move_timeout_ms);
@@ -98,6 +117,7 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("linear_light")) {
     LOOM_ASSIGN_OR_RETURN(rig->linear_light_, CreateDevice<LinearLight>(*node, registry));
+    rig->timing_[rig->linear_light_->name()] = ReadTiming(*node, true);
     rig->linear_light_settings_ = ReadSettings<LinearLightSettings>(*node, [](const ConfigNode& n, LinearLightSettings* s) {
       n.Optional("speed_mm_s", &s->speed_mm_s);
       n.Optional("move_timeout_ms", &s->move_timeout_ms);
@@ -105,16 +125,24 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
   }
   if (std::optional<ConfigNode> node = devices.OptionalChild("projector")) {
     LOOM_ASSIGN_OR_RETURN(rig->projector_, CreateDevice<Projector>(*node, registry));
+    rig->timing_[rig->projector_->name()] = ReadTiming(*node, false);
     rig->projector_settings_ = ReadSettings<ProjectorSettings>(*node, [](const ConfigNode& n, ProjectorSettings* s) {
       n.Optional("width", &s->width);
       n.Optional("height", &s->height);
     });
   }
   std::set<std::string> names;
+  bool simulated = true;
   for (Device* device : rig->devices()) {
     if (!names.insert(device->name()).second) {
       return InvalidArgumentError("key '" + devices.path() + "'", "two devices are named '" + device->name() + "'");
     }
+    simulated = simulated && registry.IsSimulated(device->backend());
+  }
+  if (simulated) {
+    rig->clock_ = std::make_unique<SimClock>();
+  } else {
+    rig->clock_ = std::make_unique<SteadyClock>();
   }
   return rig;
 }
@@ -151,6 +179,11 @@ Device* Rig::FindDevice(const std::string& name) const {
     if (device->name() == name) return device;
   }
   return nullptr;
+}
+
+DeviceTiming Rig::Timing(const Device& device) const {
+  const auto it = timing_.find(device.name());
+  return it == timing_.end() ? DeviceTiming{} : it->second;
 }
 
 Status Rig::SetCameraRegion(const std::string& camera, const scan::Roi& roi) {

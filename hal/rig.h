@@ -12,6 +12,12 @@
 //     linear_light: {...}
 //     projector: {...}
 //
+// Every device but a camera may say how long the rig waits after changing it before a frame is
+// taken (`settle_ms`: LEDs switched, a wheel turned, the turntable or strip moved, a pattern
+// shown) and, for the LEDs and the linear light, how long they warm up the first time a scan
+// switches them on (`warm_up_ms`). The sequencer waits the longest settle of what a step changed
+// (devices settle together) on the rig's clock (hal/clock.h).
+//
 // Every section is optional (a rig without a projector cannot run structured light; the plan
 // says so). Device names are unique. SafeStateGuard puts the rig in its safe state — LEDs off,
 // motion stopped, projector blank, acquisition stopped — when it goes out of scope, on every
@@ -20,16 +26,24 @@
 // Thread-safety: one thread drives a rig.
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "core/config.h"
 #include "core/rig_file.h"
+#include "hal/clock.h"
 #include "hal/registry.h"
 #include "scan/rig_state.h"
 
 namespace loom::hal {
+
+// The waits a rig YAML gives a device (0: none).
+struct DeviceTiming {
+  double settle_s = 0;
+  double warm_up_s = 0;
+};
 
 class Rig {
  public:
@@ -53,6 +67,10 @@ class Rig {
   // Every device, cameras first.
   std::vector<Device*> devices() const;
   Device* FindDevice(const std::string& name) const;
+  // `device`'s settle and warm-up times from the rig YAML.
+  DeviceTiming Timing(const Device& device) const;
+  // What the rig waits on: virtual time when every device is simulated, wall time otherwise.
+  Clock& clock() const { return *clock_; }
 
   // Makes `camera` read only `roi` from its next configuration on (a scan of a crop of the
   // sample: acquisition/crop_windows.h). An unknown camera is an error naming it.
@@ -91,6 +109,8 @@ class Rig {
   LinearLightSettings linear_light_settings_;
   std::unique_ptr<Projector> projector_;
   ProjectorSettings projector_settings_;
+  std::map<std::string, DeviceTiming> timing_;  // by device name
+  std::unique_ptr<Clock> clock_;
 };
 
 // Puts the rig in its safe state when it goes out of scope (failures are logged: a destructor

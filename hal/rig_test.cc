@@ -129,5 +129,24 @@ TEST_F(RigTest, ErrorsNameTheKeyOrTheDevice) {
   EXPECT_NE(opened.ToString().find("turntable 'tt'"), std::string::npos) << opened.ToString();
 }
 
+// Settle and warm-up times come from each device's mapping, checked; a rig of real devices
+// waits wall time.
+TEST_F(RigTest, SettleTimesComeFromTheYamlAndARealRigWaitsWallTime) {
+  const Result<std::unique_ptr<Rig>> rig = Rig::Load(WriteRig(", settle_ms: 30, warm_up_ms: 1500"), registry_);
+  ASSERT_TRUE(rig.ok()) << rig.status().ToString();
+  const DeviceTiming leds = (*rig)->Timing(*(*rig)->leds());
+  EXPECT_DOUBLE_EQ(leds.settle_s, 0.03);
+  EXPECT_DOUBLE_EQ(leds.warm_up_s, 1.5);
+  EXPECT_DOUBLE_EQ((*rig)->Timing(*(*rig)->turntable()).settle_s, 0);  // none given
+  EXPECT_NE(dynamic_cast<SteadyClock*>(&(*rig)->clock()), nullptr);
+
+  for (const char* bad : {", settle_ms: -5", ", settle_ms: .nan", ", warm_up_ms: 1e9"}) {
+    const Result<std::unique_ptr<Rig>> refused = Rig::Load(WriteRig(bad), registry_);
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_NE(refused.status().ToString().find("devices.leds."), std::string::npos) << refused.status().ToString();
+    EXPECT_NE(refused.status().ToString().find("_ms"), std::string::npos) << refused.status().ToString();
+  }
+}
+
 }  // namespace
 }  // namespace loom::hal

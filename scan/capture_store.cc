@@ -132,7 +132,8 @@ Json ToJson(const FrameRecord& r) {
             {"linear_light_mm", m.rig_state.linear_light_mm},
             {"linear_light_on", m.rig_state.linear_light_on},
             {"linear_light_intensity", m.rig_state.linear_light_intensity},
-            {"projector_pattern", m.rig_state.projector_pattern}}}};
+            {"projector_pattern", m.rig_state.projector_pattern},
+            {"settled_ms", m.rig_state.settled_ms}}}};
 }
 
 FrameRecord FromJson(const Json& j) {
@@ -163,6 +164,8 @@ FrameRecord FromJson(const Json& j) {
   m.rig_state.linear_light_on = rig.at("linear_light_on").get<bool>();
   m.rig_state.linear_light_intensity = rig.at("linear_light_intensity").get<double>();
   m.rig_state.projector_pattern = rig.at("projector_pattern").get<std::string>();
+  // Journals written before settle times were kept have none.
+  if (rig.contains("settled_ms")) m.rig_state.settled_ms = rig.at("settled_ms").get<double>();
   return r;
 }
 

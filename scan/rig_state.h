@@ -30,6 +30,7 @@ struct RigState {
   bool linear_light_on = false;
   double linear_light_intensity = 0;  // 0..1
   std::string projector_pattern;      // name of the pattern shown, empty when blank
+  double settled_ms = 0;              // how long no device had changed when the frame was triggered
 
   bool operator==(const RigState&) const = default;
 };

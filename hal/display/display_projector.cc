@@ -60,7 +60,8 @@ class DisplayProjector : public Projector {
   Status Present(const cv::Mat& image) {
     try {
       cv::imshow(window_, image);
-      // Let the window system draw it; the sequencer waits its settle time after Show().
+      // Let the window system draw it; the sequencer then waits the projector's settle_ms (hal/rig.h)
+      // for the display to show it.
       cv::waitKey(1);
     } catch (const cv::Exception& e) {
       return Error(StatusCode::kUnavailable, std::string("cannot draw: ") + e.what());

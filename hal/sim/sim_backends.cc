@@ -332,6 +332,7 @@ class SimProjector : public Projector {
 }  // namespace
 
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world) {
+  registry.MarkSimulated("sim");
   registry.Register<Camera>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Camera>> {
     std::string model = config.name;
     int supersampling = 2;

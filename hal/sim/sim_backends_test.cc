@@ -185,6 +185,15 @@ TEST_F(SimBackendsTest, RoiAndMono16) {
   }
 }
 
+// A rig of simulated devices waits virtual time: a wait passes at once, and its clock says so.
+TEST_F(SimBackendsTest, ASimulatedRigWaitsVirtualTime) {
+  Clock& clock = rig_->clock();
+  ASSERT_NE(dynamic_cast<SimClock*>(&clock), nullptr);
+  const double before = clock.NowS();
+  ASSERT_TRUE(clock.SleepFor(3600).ok());
+  EXPECT_DOUBLE_EQ(clock.NowS() - before, 3600);
+}
+
 TEST_F(SimBackendsTest, UnknownModelIsNamed) {
   BackendRegistry registry;
   RegisterSimBackends(registry, world_);
