@@ -6,11 +6,9 @@
 # truth, so that what differs is the export and the renderer, not a fit.
 # Usage: render_check_test.sh LOOM RIG WORK_DIR
 set -euo pipefail
-loom=$1 rig=$2 work=$3
+work=$3
 web=$(cd "$(dirname "$0")/.." && pwd)
-rm -rf "$work" && mkdir -p "$work"
+bash "$web/tests/make-report.sh" "$1" "$2" "$work" 2 6
 cd "$work"
-"$loom" sim render --rig "$rig" --object fabric:2 --stack --size 16 --truth truth.exr --out stack.exr >/dev/null
-"$loom" eval truth.exr --stack stack.exr --out report --renderer-views 6 >/dev/null
 unshare -n node "$web/render-check.mjs" report --max-mean-difference 0.35
 for file in comparison.json index.html; do test -s "report/renderer/$file" || { echo "no report/renderer/$file" >&2; exit 1; }; done

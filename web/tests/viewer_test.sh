@@ -4,11 +4,9 @@
 # material and moving the light changes it (tests/viewer-test.mjs).
 # Usage: viewer_test.sh LOOM RIG WORK_DIR
 set -euo pipefail
-loom=$1 rig=$2 work=$3
+work=$3
 web=$(cd "$(dirname "$0")/.." && pwd)
-rm -rf "$work" && mkdir -p "$work"
+bash "$web/tests/make-report.sh" "$1" "$2" "$work" 1 1
 cd "$work"
-"$loom" sim render --rig "$rig" --object fabric:1 --stack --size 16 --truth truth.exr --out stack.exr >/dev/null
-"$loom" eval truth.exr --stack stack.exr --out report --renderer-views 1 >/dev/null
 node "$web/viewer.mjs" report
 unshare -n node "$web/tests/viewer-test.mjs" report
