@@ -25,6 +25,7 @@
 #include <ImfTestFile.h>
 #include <ImfThreading.h>
 #include <ImfVecAttribute.h>
+#include <openexr.h>
 
 #include "core/log.h"
 
@@ -151,6 +152,27 @@ std::vector<std::string> ChannelOrder(const Imf::Header& header) {
   return order->value();
 }
 
+// The largest image loom reads, in either dimension: beyond every sensor and stack it makes.
+constexpr int kMaxExrSide = 1 << 16;
+
+// OpenEXR's C++ reader allocates an attribute's declared size before reading it, so a damaged
+// header can make it ask for 2 GB (found by core/fuzz/stack_fuzzer.cc). OpenEXRCore, with a
+// strict header, checks every size against the file first and refuses what does not fit.
+Status CheckHeaderSizes(const fs::path& path) {
+  exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+  init.flags = EXR_CONTEXT_FLAG_STRICT_HEADER | EXR_CONTEXT_FLAG_SILENT_HEADER_PARSE;
+  init.max_image_width = init.max_image_height = kMaxExrSide;
+  init.max_tile_width = init.max_tile_height = kMaxExrSide;
+  init.error_handler_fn = [](exr_const_context_t, exr_result_t, const char*) {};  // the status says it
+  exr_context_t context = nullptr;
+  const exr_result_t result = exr_start_read(&context, path.c_str(), &init);
+  if (context != nullptr) exr_finish(&context);
+  if (result != EXR_ERR_SUCCESS) {
+    return DataLossError(path.string(), std::string("corrupt EXR header: ") + exr_get_default_error_message(result));
+  }
+  return Status::Ok();
+}
+
 Status CheckReadableExr(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) return NotFoundError(path.string(), "no such file");
@@ -161,7 +183,7 @@ Status CheckReadableExr(const fs::path& path) {
   if (!Imf::isOpenExrFile(path.c_str())) {
     return InvalidArgumentError(path.string(), "not an OpenEXR file (bad magic number)");
   }
-  return Status::Ok();
+  return CheckHeaderSizes(path);
 }
 
 Status FsyncFile(const fs::path& path) {

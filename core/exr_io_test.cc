@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <random>
 
@@ -162,6 +163,27 @@ TEST_F(ExrIoTest, TruncatedFileIsDataLossAtEveryCut) {
     ASSERT_FALSE(read.ok()) << "kept " << keep << " of " << bytes.size() << " bytes";
     EXPECT_EQ(read.status().subject(), cut.string());
     EXPECT_NE(read.status().code(), StatusCode::kOk);
+  }
+}
+
+// A header that declares a string attribute of nearly 2 GB (a fuzzed stack did): refused as a
+// corrupt header before OpenEXR's reader allocates what it declares.
+TEST_F(ExrIoTest, AnAttributeSizeBeyondTheFileIsACorruptHeader) {
+  const fs::path path = dir_ / "damaged.exr";
+  ASSERT_TRUE(WriteExr(path, RandomImage(4, 4, {"Y"}, 3), {{"loom.note", std::string("hello")}}).ok());
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  const std::string field = std::string("loom.note") + '\0' + "string" + '\0';
+  const size_t at = bytes.find(field);
+  ASSERT_NE(at, std::string::npos);
+  const uint32_t huge = 0x72000000;  // little-endian int32 size, as OpenEXR stores it
+  std::memcpy(bytes.data() + at + field.size(), &huge, sizeof huge);
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  for (const auto& status : {ReadExr(path).status(), ReadExrHeader(path).status()}) {
+    EXPECT_EQ(status.code(), StatusCode::kDataLoss) << status.ToString();
+    EXPECT_EQ(status.subject(), path.string());
+    EXPECT_NE(status.message().find("corrupt EXR header"), std::string::npos) << status.ToString();
   }
 }
 

@@ -9,7 +9,8 @@ seconds=${1:-60}
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DLOOM_BUILD_FUZZERS=ON -DLOOM_BUILD_TESTS=OFF -DLOOM_BUILD_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" > /dev/null
-declare -A corpus=([rig_model_fuzzer]=core/fuzz/corpus [plan_fuzzer]=scan/fuzz/corpus)
+declare -A corpus=([rig_model_fuzzer]=core/fuzz/corpus [plan_fuzzer]=scan/fuzz/corpus
+  [journal_fuzzer]=scan/fuzz/journal-corpus [stack_fuzzer]=core/fuzz/stack-corpus)
 cmake --build build-fuzz -j "$(nproc)" --target "${!corpus[@]}"
 mkdir -p build-fuzz/findings
 failed=0
