@@ -1,7 +1,8 @@
 // Hardware-layer throughput against real protocol peers:
 // - frames per second from 1 and from 4 fake GigE cameras (arv-fake-gv-camera-0.8 processes on
 //   127.0.0.1-4, 640x480 Mono16, through loom's Camera), software-triggered (the fake polls its
-//   trigger at 25 Hz: that caps it) and free-running (the transport's limit) — needs the
+//   trigger at 25 Hz: that caps it) and free-running (the transport's limit), the latter also
+//   with larger GigE packets and an inter-packet delay (the stream tuning a rig YAML sets) — needs the
 //   private network namespace: run as `hal/aravis/run_in_netns.sh build/bench/bench_hal`;
 // - Modbus request latency over TCP and RTU (loom-modbus-sim), and reading 29 LED currents in
 //   one block request vs 29 single-register requests (the naive way).
@@ -36,11 +37,13 @@ CameraPeers& Cameras() {
 // cameras of 640x480 Mono16 here, so the benchmark shows the transport's limit and its losses.
 constexpr double kFreeRunFps = 100.0;
 
-// Restarts every camera in the given trigger mode.
-bool Rearm(CameraPeers& peers, loom::hal::TriggerMode mode) {
+// Restarts every camera in the given trigger mode, with the given GigE packet size and delay.
+bool Rearm(CameraPeers& peers, loom::hal::TriggerMode mode, int packet_size_bytes, int packet_delay_ns) {
   for (auto& camera : peers.cameras) {
     loom::hal::CameraSettings settings = camera->settings();
     settings.trigger = mode;
+    settings.packet_size_bytes = packet_size_bytes;
+    settings.packet_delay_ns = packet_delay_ns;
     if (camera->state() == loom::hal::DeviceState::kRunning && !camera->Stop().ok()) return false;
     if (!camera->Configure(settings).ok()) return false;
     if (mode == loom::hal::TriggerMode::kFreeRun) {
@@ -51,11 +54,14 @@ bool Rearm(CameraPeers& peers, loom::hal::TriggerMode mode) {
   return true;
 }
 
-// range(0): cameras; range(1): 1 = software trigger (how a scan runs), 0 = free-run.
+// range(0): cameras; range(1): 1 = software trigger (how a scan runs), 0 = free-run;
+// range(2): GigE packet size in bytes (1400: the fake camera's own); range(3): inter-packet
+// delay in ns.
 void BM_CameraFrames(benchmark::State& state) {
   CameraPeers& peers = Cameras();
   const bool triggered = state.range(1) == 1;
-  if (peers.error.empty() && !Rearm(peers, triggered ? loom::hal::TriggerMode::kSoftware : loom::hal::TriggerMode::kFreeRun)) {
+  const auto mode = triggered ? loom::hal::TriggerMode::kSoftware : loom::hal::TriggerMode::kFreeRun;
+  if (peers.error.empty() && !Rearm(peers, mode, static_cast<int>(state.range(2)), static_cast<int>(state.range(3)))) {
     peers.error = "cannot restart the cameras";
   }
   if (!peers.error.empty()) {
@@ -98,7 +104,17 @@ void BM_CameraFrames(benchmark::State& state) {
   state.counters["dropped_frames"] = static_cast<double>(dropped);
   state.counters["incomplete_frames_popped"] = static_cast<double>(incomplete);
 }
-BENCHMARK(BM_CameraFrames)->Args({1, 1})->Args({4, 1})->Args({1, 0})->Args({4, 0})->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_CameraFrames)
+    ->ArgNames({"cameras", "triggered", "packet_bytes", "delay_ns"})
+    ->Args({1, 1, 1400, 0})
+    ->Args({4, 1, 1400, 0})
+    ->Args({1, 0, 1400, 0})
+    ->Args({4, 0, 1400, 0})
+    ->Args({4, 0, 8192, 0})
+    ->Args({4, 0, 1400, 20000})
+    ->Args({4, 0, 8192, 20000})
+    ->UseRealTime()
+    ->MinTime(2.0);
 
 struct ModbusPeer {
   Subprocess process;

@@ -85,6 +85,12 @@ ConfigureReport Camera::Negotiate(const CameraSettings& requested, CameraSetting
   if (requested.frame_timeout_ms <= 0) {
     report.Reject("frame_timeout_ms must be > 0, got " + std::to_string(requested.frame_timeout_ms));
   }
+  if (requested.packet_size_bytes < 0) {
+    report.Reject("packet_size must be ≥ 0 (0 negotiates it), got " + std::to_string(requested.packet_size_bytes));
+  }
+  if (requested.packet_delay_ns < 0) {
+    report.Reject("packet_delay_ns must be ≥ 0, got " + std::to_string(requested.packet_delay_ns));
+  }
   return report;
 }
 
@@ -101,6 +107,10 @@ Result<ConfigureReport> Camera::Configure(const CameraSettings& requested) {
   }
   if (Differs(applied.gain, negotiated.gain)) {
     report.Adjust("gain", FormatNumber(negotiated.gain), FormatNumber(applied.gain), "set by the camera");
+  }
+  if (negotiated.packet_size_bytes != 0 && applied.packet_size_bytes != negotiated.packet_size_bytes) {
+    report.Adjust("packet_size", std::to_string(negotiated.packet_size_bytes), std::to_string(applied.packet_size_bytes),
+                  "within the camera's bounds");
   }
   settings_ = applied;
   MarkConfigured();

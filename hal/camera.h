@@ -36,6 +36,12 @@ struct CameraSettings {
   TriggerMode trigger = TriggerMode::kSoftware;
   int buffer_count = 4;
   int frame_timeout_ms = 2000;
+  // GigE Vision stream (other cameras ignore both). Packet size in bytes: 0 negotiates the
+  // largest the path carries (the camera keeps its own when it cannot test), else this, within
+  // the camera's bounds. Inter-packet delay (GevSCPD) in ns: spaces a frame's packets so that
+  // several cameras on one link do not overrun the switch or the host's buffers.
+  int packet_size_bytes = 0;
+  int packet_delay_ns = 0;
 };
 
 // What the camera can do, known after Open().

@@ -35,6 +35,8 @@ CameraSettings ReadCameraSettings(const ConfigNode& node) {
   node.Optional("trigger", &trigger);
   node.Optional("buffer_count", &settings.buffer_count);
   node.Optional("frame_timeout_ms", &settings.frame_timeout_ms);
+  node.Optional("packet_size", &settings.packet_size_bytes);
+  node.Optional("packet_delay_ns", &settings.packet_delay_ns);
   if (Result<scan::PixelFormat> format = scan::ParsePixelFormat(pixel_format); format.ok()) {
     settings.pixel_format = *format;
   } else {

@@ -119,6 +119,34 @@ Result<DeviceIdentity> AravisCamera::DoOpen() {
   return identity;
 }
 
+Status AravisCamera::ApplyStreamSettings(CameraSettings* applied) {
+  GError* error = nullptr;
+  if (applied->packet_size_bytes == 0) {
+    const guint negotiated = arv_camera_gv_auto_packet_size(camera_, &error);
+    LOOM_RETURN_IF_ERROR(FromGError(error, "negotiating the packet size"));
+    LOOM_LOG(Info) << description() << ": packet size " << negotiated << " bytes (negotiated)";
+  } else {
+    gint64 min = 0, max = 0;
+    arv_camera_get_integer_bounds(camera_, "GevSCPSPacketSize", &min, &max, &error);
+    LOOM_RETURN_IF_ERROR(FromGError(error, "reading the packet size's bounds"));
+    arv_camera_gv_set_packet_size(camera_, static_cast<gint>(std::clamp<gint64>(applied->packet_size_bytes, min, max)), &error);
+    LOOM_RETURN_IF_ERROR(FromGError(error, "setting the packet size"));
+    applied->packet_size_bytes = static_cast<int>(arv_camera_gv_get_packet_size(camera_, &error));
+    LOOM_RETURN_IF_ERROR(FromGError(error, "reading back the packet size"));
+  }
+  // A camera without GevSCPD can only send back to back: fine unless a delay was asked for.
+  const bool has_delay = arv_camera_is_feature_available(camera_, "GevSCPD", &error);
+  LOOM_RETURN_IF_ERROR(FromGError(error, "looking for GevSCPD"));
+  if (!has_delay) {
+    if (applied->packet_delay_ns == 0) return Status::Ok();
+    return Error(StatusCode::kInvalidArgument, "has no inter-packet delay (GevSCPD): set packet_delay_ns to 0");
+  }
+  arv_camera_gv_set_packet_delay(camera_, applied->packet_delay_ns, &error);
+  LOOM_RETURN_IF_ERROR(FromGError(error, "setting the inter-packet delay (GevSCPD)"));
+  applied->packet_delay_ns = static_cast<int>(arv_camera_gv_get_packet_delay(camera_, &error));
+  return FromGError(error, "reading back the inter-packet delay");
+}
+
 Status AravisCamera::ApplySettings(CameraSettings* applied) {
   GError* error = nullptr;
   LOOM_ASSIGN_OR_RETURN(const ArvPixelFormat format, ToArv(applied->pixel_format));
@@ -145,6 +173,7 @@ Status AravisCamera::ApplySettings(CameraSettings* applied) {
       break;
   }
   LOOM_RETURN_IF_ERROR(FromGError(error, "setting the trigger"));
+  if (arv_camera_is_gv_device(camera_)) LOOM_RETURN_IF_ERROR(ApplyStreamSettings(applied));
   // Record what the camera really applied (exposure and gain come in steps).
   applied->exposure_us = arv_camera_get_exposure_time(camera_, &error);
   LOOM_RETURN_IF_ERROR(FromGError(error, "reading back the exposure"));

@@ -216,6 +216,42 @@ TEST_F(GigEFakeTest, CapturesOverLoopbackGigEVision) {
   ASSERT_TRUE(camera.Close().ok());
 }
 
+// The stream's packet size and inter-packet delay as the rig YAML gives them, read back from the
+// camera's GevSCPSPacketSize and GevSCPD; frames arrive whole in the smaller packets. 0 asks
+// Aravis to negotiate the size.
+TEST_F(GigEFakeTest, PacketSizeAndDelayAreSetOrNegotiated) {
+  AravisCamera camera("cam1", {.address = "127.0.0.1"});
+  ASSERT_TRUE(camera.Open().ok());
+  CameraSettings settings = SmallMono16(2000);
+  settings.packet_size_bytes = 1000;
+  settings.packet_delay_ns = 20000;
+  const Result<ConfigureReport> report = camera.Configure(settings);
+  ASSERT_TRUE(report.ok()) << report.status().ToString();
+  EXPECT_EQ(report->outcome, Negotiation::kValid) << report->ToString();
+  EXPECT_EQ(arv_camera_gv_get_packet_size(camera.native_camera(), nullptr), 1000u);
+  EXPECT_EQ(arv_camera_gv_get_packet_delay(camera.native_camera(), nullptr), 20000);
+  EXPECT_EQ(camera.settings().packet_delay_ns, 20000);
+  ASSERT_TRUE(camera.Start().ok());
+  const Result<scan::RawFrame> frame = camera.Snap();
+  ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+  ExpectTestPattern(*frame, 2000);
+  ASSERT_TRUE(camera.Stop().ok());
+
+  settings.packet_size_bytes = 100000;  // beyond the camera's bounds: its largest
+  const Result<ConfigureReport> clamped = camera.Configure(settings);
+  ASSERT_TRUE(clamped.ok()) << clamped.status().ToString();
+  EXPECT_EQ(clamped->outcome, Negotiation::kAdjusted) << clamped->ToString();
+  EXPECT_LT(camera.settings().packet_size_bytes, 100000);
+  settings.packet_size_bytes = 0;  // negotiated
+  ASSERT_TRUE(camera.Configure(settings).ok());
+  EXPECT_GT(arv_camera_gv_get_packet_size(camera.native_camera(), nullptr), 0u);
+  settings.packet_delay_ns = -1;
+  const Result<ConfigureReport> refused = camera.Configure(settings);
+  ASSERT_TRUE(refused.ok());
+  EXPECT_EQ(refused->outcome, Negotiation::kInvalid);
+  ASSERT_TRUE(camera.Close().ok());
+}
+
 TEST_F(GigEFakeTest, CameraThatDropsOutIsAnErrorNamingItNotAHang) {
   AravisCamera camera("cam2", {.address = "127.0.0.1", .reconnect_attempts = 1});
   ASSERT_TRUE(camera.Open().ok());

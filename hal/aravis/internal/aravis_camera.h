@@ -43,6 +43,8 @@ class AravisCamera : public Camera {
  private:
   Status Connect();
   Status ApplySettings(CameraSettings* applied);
+  // GigE Vision only: packet size (negotiated or set) and inter-packet delay.
+  Status ApplyStreamSettings(CameraSettings* applied);
   Status StartStream();
   void StopStream();
   // The camera still answers on its control channel.
