@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "core/check.h"
@@ -28,13 +30,16 @@ TEST(ParallelForTest, NothingToDoIsFine) {
 }
 
 // A worker that throws (a failed check) must not take the process down with std::terminate:
-// the exception reaches the caller, and no index starts after it.
+// the exception reaches the caller, and no index starts after it. Every other index takes 1 ms,
+// so that the second worker cannot finish the remaining second of work while the exception is
+// being thrown and recorded (with instant indices it sometimes did, on a loaded machine).
 TEST(ParallelForTest, AThrowInAWorkerIsRethrownOnTheCallingThread) {
   std::atomic<int> started{0};
   EXPECT_THROW(ParallelFor(1000, 2,
                            [&](int i) {
                              ++started;
                              if (i == 10) throw std::runtime_error("pixel 10");
+                             std::this_thread::sleep_for(std::chrono::milliseconds(1));
                            }),
                std::runtime_error);
   EXPECT_LT(started.load(), 1000);
