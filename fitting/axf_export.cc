@@ -250,6 +250,11 @@ Result<std::optional<Texture>> ReadTexture(const Reader& reader, const std::stri
   if (H5Dread(set.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, t.data.data()) < 0) {
     return IoError(where, "cannot read (not a number type?)");
   }
+  if (const auto bad = std::find_if(t.data.begin(), t.data.end(), [](float v) { return !std::isfinite(v); });
+      bad != t.data.end()) {
+    return InvalidArgumentError(
+        where, "holds a value that is not a finite number (element " + std::to_string(bad - t.data.begin()) + ")");
+  }
   return std::optional<Texture>(std::move(t));
 }
 

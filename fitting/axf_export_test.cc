@@ -233,6 +233,19 @@ TEST_F(AxfExportTest, DamagedFilesAreNamed) {
   ASSERT_FALSE(wrong_size.ok());
   EXPECT_NE(wrong_size.status().ToString().find("SpecularModel/Lobes"), std::string::npos) << wrong_size.status().ToString();
 
+  // A texture with a value that is not a number.
+  const fs::path nan = dir_ / "nan.axf";
+  file = H5Fcreate(nan.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  const std::string r = "/com.xrite.Materials/m/com.xrite.Resources/";
+  WriteDataset(file, r + "DiffuseModel/Color/Data", {1, 1, 3}, {0.5f, 0.5f, 0.5f});
+  WriteDataset(file, r + "SpecularModel/Color/Data", {1, 1, 3}, {0.1f, 0.1f, 0.1f});
+  WriteDataset(file, r + "SpecularModel/Lobes/Data", {1, 1, 1}, {std::nanf("")});
+  H5Fclose(file);
+  const Result<AxfMaps> not_a_number = ReadAxf(nan);
+  ASSERT_FALSE(not_a_number.ok());
+  EXPECT_EQ(not_a_number.status().subject(), nan.string() + ": " + r.substr(0, r.size() - 1) + "/SpecularModel/Lobes/Data")
+      << not_a_number.status().ToString();
+
   EXPECT_FALSE(WriteAxf(Image(2, 2, {"L"}), 1.0, dir_ / "x.axf").ok());  // not maps
   EXPECT_FALSE(fs::exists(dir_ / "x.axf"));
 }

@@ -171,6 +171,11 @@ Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::os
   if (in.renderer_views <= 0) return Status::Ok();
   LOOM_RETURN_IF_ERROR(WriteGltf(*in.maps, in.stack->pixel_mm, dir / "material"));
   const std::vector<RendererView> views = ChooseRendererViews(*in.stack, in.renderer_views);
+  if (views.empty()) {
+    html << "<h2>In a real renderer</h2>\n<p>The fit as glTF 2.0: <a href=\"material/material.gltf\">material/material.gltf</a>. "
+            "The stack has no observation lit by a single point light, so there are no views to render it under.</p>\n";
+    return Status::Ok();
+  }
   LOOM_RETURN_IF_ERROR(WriteRendererViews(dir / "renderer", *in.maps, in.stack->pixel_mm, *in.stack, views));
   html << "<h2>In a real renderer</h2>\n<p>The fit as glTF 2.0: <a href=\"material/material.gltf\">material/material.gltf</a> "
           "(GD10-Ward approximated by glTF's anisotropic GGX, as loom's fitting/gltf_export.h states). "

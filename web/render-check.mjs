@@ -53,6 +53,10 @@ ${rows}
 const options = parseArguments(process.argv.slice(2));
 const rendererDir = path.join(options.report, 'renderer');
 const views = JSON.parse(await readFile(path.join(rendererDir, 'views.json'), 'utf8'));
+if (views.views.length === 0) {
+  console.error(`${rendererDir}/views.json: no views to render`);
+  process.exit(1);
+}
 const { browser, page: tab, errors } = await openBrowser({
   '/three/': path.join(web, 'node_modules', 'three'), '/web/': web, '/report/': options.report,
 });

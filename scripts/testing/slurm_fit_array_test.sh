@@ -6,6 +6,7 @@
 # the missing frame. Exits 77 (skipped) only where Slurm cannot start, saying why.
 # Usage: slurm_fit_array_test.sh LOOM SOURCE_DIR WORK_DIR
 set -euo pipefail
+trap 'echo "FAILED: line $LINENO: $BASH_COMMAND" >&2' ERR
 loom=$1 src=$2 work=$3
 
 skip() {
@@ -103,7 +104,8 @@ PLAN
     echo "$work/scans/fabric-$seed" >> scans.txt
   done
   cp -r scans/fabric-1 scans/broken
-  broken_frame=$(find scans/broken/frames -type f -name '*.exr' | sort | head -1)
+  # sed, not head: head's early exit would fail the pipe (SIGPIPE) under pipefail.
+  broken_frame=$(find scans/broken/frames -type f -name '*.exr' | sort | sed -n 1p)
   rm "$broken_frame"
   cp scans.txt scans-and-broken.txt
   echo "$work/scans/broken" >> scans-and-broken.txt
@@ -117,8 +119,6 @@ fit_array() {
     sbatch --wait --array="1-$tasks" --cpus-per-task=1 --mem=200M --output="$work/logs/$2-%a.log" \
     "$src/scripts/slurm-fit-array.sh" "$list" nominal "$work/results" > /dev/null
 }
-
-task_state() { scontrol show job "$1" | grep -o 'JobState=[A-Z]*' | head -1; }
 
 start_munge
 write_slurm_conf
