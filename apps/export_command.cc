@@ -23,11 +23,10 @@ Status Export(const std::string& maps_path, double pixel_mm_option, const std::s
     return InvalidArgumentError(maps_path, "has no loom.pixel_mm attribute: give the maps' pixel size with --pixel-mm");
   }
   if (!gltf.empty()) {
-    LOOM_RETURN_IF_ERROR(fitting::WriteGltf(maps.maps, pixel_mm, gltf, anisotropy));
+    LOOM_ASSIGN_OR_RETURN(const fitting::GltfAnisotropyChoice choice, fitting::WriteGltf(maps.maps, pixel_mm, gltf, anisotropy));
     std::cout << "wrote " << gltf << "/material.gltf: a " << maps.maps.width() * pixel_mm << " × "
               << maps.maps.height() * pixel_mm << " mm quad with base colour, specular colour, roughness and normal "
-              << "textures (GD10-Ward approximated by glTF's GGX); "
-              << fitting::ChooseGltfAnisotropy(maps.maps, pixel_mm, anisotropy).reason << "\n";
+              << "textures (GD10-Ward approximated by glTF's GGX); " << choice.reason << "\n";
   }
   if (!axf.empty()) {
     LOOM_RETURN_IF_ERROR(fitting::WriteAxf(maps.maps, pixel_mm, axf));

@@ -189,6 +189,15 @@ Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& refer
   return evaluation;
 }
 
+double MeanObservedRadiance(const ObservationStack& stack, int observation) {
+  double sum = 0;
+  int64_t n = 0;
+  for (float v : stack.image.channel(ObservationStack::ObservationChannel(observation))) {
+    if (std::isfinite(v)) sum += v, ++n;
+  }
+  return n ? sum / static_cast<double>(n) : 0;
+}
+
 Image RenderObservations(const Image& maps, const ObservationStack& stack, const std::vector<int>& observations) {
   std::vector<std::string> names;
   for (int k : observations) names.push_back(stack.image.channel_name(ObservationStack::ObservationChannel(k)));

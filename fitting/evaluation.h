@@ -54,6 +54,10 @@ struct Evaluation {
 
 Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& reference, const ObservationStack& stack);
 
+// The mean of observation `observation`'s measured values over the pixels that see it (0 when
+// none does).
+double MeanObservedRadiance(const ObservationStack& stack, int observation);
+
 // The model re-rendered for the given stack observations: one channel per observation, named
 // as in the stack; NaN where the stack has no usable value (unseen or cast-shadowed).
 Image RenderObservations(const Image& maps, const ObservationStack& stack, const std::vector<int>& observations);

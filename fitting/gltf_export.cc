@@ -231,7 +231,8 @@ GltfAnisotropyChoice ChooseGltfAnisotropy(const Image& maps, double pixel_mm, Gl
           "isotropic: " + reason.str() + ", above 1: KHR_materials_anisotropy's in-plane tangents would misplace the highlights"};
 }
 
-Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir, GltfAnisotropy anisotropy) {
+Result<GltfAnisotropyChoice> WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir,
+                                       GltfAnisotropy anisotropy) {
   if (!HasSvbrdfLayout(maps)) return InvalidArgumentError("glTF export", "the maps are not in the SVBRDF layout");
   if (!(pixel_mm > 0)) return InvalidArgumentError("glTF export", "needs the maps' pixel size (loom.pixel_mm)");
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(dir, "glTF directory"));
@@ -253,7 +254,8 @@ Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "material.bin", std::string(buffer.begin(), buffer.end())));
   const nlohmann::json document = GltfDocument(half_width_m, half_height_m, t.specular_color_factor, buffer.size(), choice);
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "material.gltf", document.dump(2) + "\n"));
-  return out.Commit();
+  LOOM_RETURN_IF_ERROR(out.Commit());
+  return choice;
 }
 
 }  // namespace loom::fitting

@@ -49,9 +49,10 @@ struct GltfAnisotropyChoice {
 GltfAnisotropyChoice ChooseGltfAnisotropy(const Image& maps, double pixel_mm, GltfAnisotropy mode);
 
 // `maps`: svbrdf_maps.h's layout; `pixel_mm`: the grid (the quad is width · pixel_mm wide).
-// `dir` (new or empty) appears complete or not at all (core/output_directory.h).
-Status WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir,
-                 GltfAnisotropy anisotropy = GltfAnisotropy::kAuto);
+// `dir` (new or empty) appears complete or not at all (core/output_directory.h). Returns the
+// anisotropy choice made.
+Result<GltfAnisotropyChoice> WriteGltf(const Image& maps, double pixel_mm, const std::filesystem::path& dir,
+                                       GltfAnisotropy anisotropy = GltfAnisotropy::kAuto);
 
 // The GGX roughness that stands for one pixel's Ward lobe (the mapping above); the anisotropy
 // runs along t (σx's axis) or, when σy is the larger, along b.

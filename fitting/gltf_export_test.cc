@@ -163,7 +163,7 @@ TEST_F(GltfExportTest, TexturesArePaddedToPowersOfTwoTexelForTexel) {
 }
 
 TEST_F(GltfExportTest, MapsWithoutAPixelSizeAreRefused) {
-  const Status written = WriteGltf(MakeSvbrdfImage(2, 2, false), 0, dir_);
+  const Status written = WriteGltf(MakeSvbrdfImage(2, 2, false), 0, dir_).status();
   EXPECT_NE(written.ToString().find("loom.pixel_mm"), std::string::npos) << written.ToString();
   EXPECT_FALSE(fs::exists(dir_ / "material.gltf"));
 }

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/file_io.h"
+#include "fitting/evaluation.h"
 #include "fitting/export.h"
 #include "fitting/internal/geometric_frame.h"
 #include "fitting/internal/png.h"
@@ -18,15 +19,6 @@ namespace loom::fitting {
 namespace {
 
 namespace fs = std::filesystem;
-
-double MeanRadiance(const ObservationStack& stack, int observation) {
-  double sum = 0;
-  int64_t n = 0;
-  for (float v : stack.image.channel(ObservationStack::ObservationChannel(observation))) {
-    if (std::isfinite(v)) sum += v, ++n;
-  }
-  return n ? sum / static_cast<double>(n) : 0;
-}
 
 // Where pixel (x, y) of a W × H grid lies on the flat quad (core/observation_stack.h's grid).
 Eigen::Vector3d OnTheQuad(int x, int y, int width, int height, double pixel_mm) {
@@ -73,7 +65,7 @@ std::vector<RendererView> ChooseRendererViews(const ObservationStack& stack, int
   std::vector<std::pair<double, int>> by_brightness;
   for (size_t k = 0; k < stack.observations.size(); ++k) {
     if (stack.observations[k].emitters.size() != 1) continue;
-    by_brightness.push_back({MeanRadiance(stack, static_cast<int>(k)), static_cast<int>(k)});
+    by_brightness.push_back({MeanObservedRadiance(stack, static_cast<int>(k)), static_cast<int>(k)});
   }
   std::sort(by_brightness.rbegin(), by_brightness.rend());
   std::vector<RendererView> views;

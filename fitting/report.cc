@@ -50,12 +50,7 @@ std::string Fixed(double v, int digits) {
 std::vector<int> ShowcaseObservations(const ObservationStack& stack) {
   std::map<ObservationGroup, std::vector<std::pair<double, int>>> by_group;
   for (size_t k = 0; k < stack.observations.size(); ++k) {
-    double sum = 0;
-    int n = 0;
-    for (float v : stack.image.channel(ObservationStack::ObservationChannel(static_cast<int>(k)))) {
-      if (std::isfinite(v)) sum += v, ++n;
-    }
-    by_group[stack.observations[k].group].push_back({n ? sum / n : 0, static_cast<int>(k)});
+    by_group[stack.observations[k].group].push_back({MeanObservedRadiance(stack, static_cast<int>(k)), static_cast<int>(k)});
   }
   std::vector<int> chosen;
   for (auto& [group, means] : by_group) {
@@ -169,7 +164,7 @@ Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostr
 // three.js beside loom once that script has run.
 Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
   if (in.renderer_views <= 0) return Status::Ok();
-  LOOM_RETURN_IF_ERROR(WriteGltf(*in.maps, in.stack->pixel_mm, dir / "material"));
+  LOOM_RETURN_IF_ERROR(WriteGltf(*in.maps, in.stack->pixel_mm, dir / "material").status());
   const std::vector<RendererView> views = ChooseRendererViews(*in.stack, in.renderer_views);
   if (views.empty()) {
     html << "<h2>In a real renderer</h2>\n<p>The fit as glTF 2.0: <a href=\"material/material.gltf\">material/material.gltf</a>. "
