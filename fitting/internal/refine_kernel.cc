@@ -179,10 +179,16 @@ template <int kWidth>
   return v;
 }
 
-// out[NormalIndex(i, j)] = Σ_k w_k g_ki g_kj (i ≤ j), per lane, kWidth lanes at a time, in
-// kRows × kCols tiles whose accumulators stay in registers over all observations: accumulating
-// into memory per observation (a load and a store per entry) had been half the work on point-lit
-// stacks. A tile wholly below the diagonal is skipped.
+template <int kWidth>
+[[gnu::always_inline]] inline void AddTo(double* p, WideVector<kWidth> v) {
+  v += Load<kWidth>(p);
+  __builtin_memcpy(p, &v, sizeof v);
+}
+
+// out[NormalIndex(i, j)] += Σ_k w_k g_ki g_kj (i ≤ j), per lane, kWidth lanes at a time, in
+// kRows × kCols tiles whose accumulators stay in registers over a chunk's observations:
+// accumulating into memory per observation (a load and a store per entry) had been half the work
+// on point-lit stacks. A tile wholly below the diagonal is skipped.
 template <int kWidth, int kRows, int kCols>
 [[gnu::always_inline]] inline void Gram(const double* g, const double* w, int observations, double (*out)[kLanes]) {
   using Vector = WideVector<kWidth>;
@@ -204,7 +210,7 @@ template <int kWidth, int kRows, int kCols>
         for (int a = 0; a < kRows; ++a) {
           for (int b = 0; b < kCols; ++b) {
             if (bi + a > bj + b) continue;
-            __builtin_memcpy(&out[NormalIndex(bi + a, bj + b)][lane], &acc[a][b], sizeof(Vector));
+            AddTo<kWidth>(&out[NormalIndex(bi + a, bj + b)][lane], acc[a][b]);
           }
         }
       }
@@ -212,7 +218,7 @@ template <int kWidth, int kRows, int kCols>
   }
 }
 
-// out[i] = Σ_k g_ki v_k, per lane, kWidth lanes at a time.
+// out[i] += Σ_k g_ki v_k, per lane, kWidth lanes at a time.
 template <int kWidth>
 [[gnu::always_inline]] inline void Project(const double* g, const double* v, int observations, double (*out)[kLanes]) {
   using Vector = WideVector<kWidth>;
@@ -223,15 +229,14 @@ template <int kWidth>
       const Vector vk = Load<kWidth>(v + static_cast<size_t>(k) * kLanes + lane);
       for (int i = 0; i < kTangentParams; ++i) acc[i] += Load<kWidth>(gk + i * kLanes) * vk;
     }
-    for (int i = 0; i < kTangentParams; ++i) __builtin_memcpy(&out[i][lane], &acc[i], sizeof(Vector));
+    for (int i = 0; i < kTangentParams; ++i) AddTo<kWidth>(&out[i][lane], acc[i]);
   }
 }
 
-// The sums over observations, with the vector width and tiles that fit the registers of the
-// instruction set EvaluateLanes runs with: 32 zmm on AVX-512, 16 ymm on AVX2.
-[[gnu::always_inline]] inline void SumObservations(const LaneData& d, bool any_leverage, LaneEquations& out) {
+// A chunk's sums over observations, added to out, with the vector width and tiles that fit the
+// registers of the instruction set EvaluateLanes runs with: 32 zmm on AVX-512, 16 ymm on AVX2.
+[[gnu::always_inline]] inline void SumObservations(const LaneData& d, int n, bool any_leverage, LaneEquations& out) {
   static const bool wide = __builtin_cpu_supports("avx512f");
-  const int n = d.observations;
   const double* g = d.gradients.data();
   if (wide) {
     Gram<8, 4, 4>(g, d.weights.data(), n, out.jtj);
@@ -257,17 +262,23 @@ template <int kWidth>
   LaneLobe lobe;
   PrepareLobe(in, lobe);
   LANES { out.cost[p] = out.squares[p] = out.cost_resolution[p] = 0; }
+  for (int i = 0; i < kTangentParams; ++i) LANES {
+      out.jtr[i][p] = 0;
+    }
   for (int i = 0; i < kNormalEntries; ++i) LANES {
-      out.bread[i][p] = out.meat[i][p] = 0;
+      out.jtj[i][p] = out.bread[i][p] = out.meat[i][p] = 0;
     }
   const double a = in.huber_scale;
   bool any_leverage = false;
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
   ObservationSums s;
   alignas(32) float diffuse_albedo[kLanes], specular_albedo[kLanes];
-  alignas(64) double g[kTangentParams][kLanes], weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
+  alignas(64) double weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
+    const int c = (k % kChunkObservations) * kLanes;  // in the chunk's scratch
+    // The gradient, written where the chunk's sums over observations (Gram) will read it.
+    double(*__restrict g)[kLanes] = reinterpret_cast<double(*)[kLanes]>(&d.gradients[static_cast<size_t>(c) * kTangentParams]);
     LANES {
       diffuse_albedo[p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
       specular_albedo[p] = d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
@@ -311,23 +322,19 @@ template <int kWidth>
         LANES { h[p] += both * g[i][p] * in.bread_inverse[e][p] * g[j][p]; }
       }
     }
-    // Kept per observation; the sums over observations below (Gram) run on them at the end.
-    double* __restrict gk = &d.gradients[static_cast<size_t>(k) * kTangentParams * kLanes];
-    for (int i = 0; i < kTangentParams; ++i) LANES {
-        gk[i * kLanes + p] = g[i][p];
-      }
     LANES {
       const double leverage = in.leverage[p] * weight[p] * h[p];
       const double kept = 1 - (leverage < 0.99 ? leverage : 0.99);
-      d.weights[o + p] = weight[p];
-      d.weighted_residuals[o + p] = weighted_r[p];
-      d.inlier_weights[o + p] = inlier_weight[p];
-      d.meat_weights[o + p] = weighted_r[p] * weighted_r[p] / kept;
+      d.weights[c + p] = weight[p];
+      d.weighted_residuals[c + p] = weighted_r[p];
+      d.inlier_weights[c + p] = inlier_weight[p];
+      d.meat_weights[c + p] = weighted_r[p] * weighted_r[p] / kept;
     }
+    const bool chunk_full = (k + 1) % kChunkObservations == 0 || k + 1 == d.observations;
+    if (chunk_full) SumObservations(d, k % kChunkObservations + 1, any_leverage, out);
   }
   // Roundings independent across observations add in quadrature.
   LANES { out.cost_resolution[p] = kRadianceResolution * std::sqrt(out.cost_resolution[p]); }
-  SumObservations(d, any_leverage, out);
 }
 
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void SumTermsLanes(const LaneData& d, const LaneInputs& in,
@@ -384,8 +391,9 @@ LaneData::LaneData(const std::vector<int>& slots_per_observation) : observations
   const size_t per_observation = static_cast<size_t>(observations) * kLanes;
   const size_t per_slot = static_cast<size_t>(slots()) * kLanes;
   for (auto* v : {&radiance, &weight, &vx, &vy, &vz, &wr, &wg, &wb}) v->assign(per_observation, 0.0);
-  for (auto* v : {&weights, &weighted_residuals, &inlier_weights, &meat_weights}) v->assign(per_observation, 0.0);
-  gradients.assign(per_observation * kTangentParams, 0.0);
+  const size_t per_chunk = static_cast<size_t>(kChunkObservations) * kLanes;
+  for (auto* v : {&weights, &weighted_residuals, &inlier_weights, &meat_weights}) v->assign(per_chunk, 0.0);
+  gradients.assign(per_chunk * kTangentParams, 0.0);
   for (auto* v : {&lx, &ly, &hx, &hy, &irradiance, &schlick}) v->assign(per_slot, 0.0);
   for (auto* v : {&lz, &hz, &inv_c2}) v->assign(per_slot, 1.0);
   vz.assign(per_observation, 1.0);
