@@ -3,6 +3,7 @@
 // controllers for the LEDs, turntable and linear light, five filter wheels emulated by umockdev,
 // the recording projector; the plan comes from tac7.yaml's geometry. Runs under run_in_netns.sh
 // and umockdev-wrapper (CTest does both).
+#include <arv.h>
 #include <gtest/gtest.h>
 #include <umockdev.h>
 
@@ -63,13 +64,19 @@ class PeerScanTest : public ::testing::Test {
     g_clear_object(&testbed_);
   }
 
-  std::string DevicesYaml() const {
+  // `trigger`: the cameras' trigger mode. Software: the four GigE fakes. Hardware: four of
+  // Aravis' in-process fake cameras (each open of Fake_1 is a camera of its own), whose Line0
+  // pulses by itself at 25 Hz, as a free-running generator would; the GigE fake serves no
+  // hardware trigger.
+  std::string DevicesYaml(const std::string& trigger = "software") const {
     std::ostringstream yaml;
     yaml << "schema_version: 1\ncameras:\n";
     for (int i = 0; i < 4; ++i) {
-      yaml << "  - {name: cam" << i << ", backend: aravis, address: 127.0.0." << i + 1
-           << ", settings: {pixel_format: Mono16, roi: [0, 0, 64, 48], trigger: software, frame_timeout_ms: 2000}}\n";
+      const std::string address = trigger == "hardware" ? "Fake_1" : "127.0.0." + std::to_string(i + 1);
+      yaml << "  - {name: cam" << i << ", backend: aravis, address: " << address
+           << ", settings: {pixel_format: Mono16, roi: [0, 0, 64, 48], trigger: " << trigger << ", frame_timeout_ms: 2000}}\n";
     }
+    if (trigger == "hardware") yaml << "trigger: {source: generator}\n";
     // The controllers' watchdogs armed, as a lab's rig has them: the scan keeps them fed.
     yaml << "leds: {name: leds, backend: modbus, endpoint: \"" << endpoints_[0] << "\", watchdog_ms: 1500}\n"
          << "turntable: {name: turntable, backend: modbus, endpoint: \"" << endpoints_[1] << "\", watchdog_ms: 1500}\n"
@@ -81,24 +88,19 @@ class PeerScanTest : public ::testing::Test {
     return yaml.str();
   }
 
+  void ScanAndCheck(const scan::Preset& preset, const std::string& trigger);
+
   UMockdevTestbed* testbed_ = nullptr;
   std::vector<std::unique_ptr<hal::testing::EmulatedFilterWheel>> wheels_;
   std::vector<Subprocess> peers_;
   std::vector<std::string> endpoints_;
 };
 
-TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
+// Runs `preset` of tac7's plan on the peers with the cameras in `trigger` mode and checks the
+// journal against the plan.
+void PeerScanTest::ScanAndCheck(const scan::Preset& preset, const std::string& trigger) {
   RigModel model = testing::ShippedRigModel("tac7");
   model.name = "tac7-peers";
-  scan::Preset preset;
-  preset.name = "peer";
-  preset.turntable_deg = {0, 120};
-  preset.colour_views_deg = {0};
-  preset.linear_light_positions = 2;
-  preset.exposure.probe_us = 1000;
-  preset.exposure.max_exposures = 2;
-  preset.gray_bits = 1;
-  preset.phase_steps = 1;
   const scan::Plan plan = *scan::MakeMaterialPlan(model, preset);
 
   hal::BackendRegistry registry;
@@ -106,7 +108,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
   hal::RegisterModbusBackends(registry);
   hal::RegisterUsbBackend(registry);
   hal::RegisterRecordingBackend(registry);
-  auto devices = ConfigDocument::LoadString(DevicesYaml(), "peer devices", 1);
+  auto devices = ConfigDocument::LoadString(DevicesYaml(trigger), "peer devices", 1);
   ASSERT_TRUE(devices.ok()) << devices.status().ToString();
   auto rig = hal::Rig::Create(devices->root(), registry, "tac7-peers");
   ASSERT_TRUE(rig.ok()) << rig.status().ToString();
@@ -118,7 +120,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
     ASSERT_TRUE(opened.ok()) << opened.ToString();
   }
 
-  const fs::path dir = fs::path(::testing::TempDir()) / "peer_scan";
+  const fs::path dir = fs::path(::testing::TempDir()) / ("peer_scan_" + trigger);
   fs::remove_all(dir);
   auto store = scan::CaptureStore::Create(dir, {"peer rig", "fake cameras", plan});
   ASSERT_TRUE(store.ok());
@@ -129,6 +131,7 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
     ASSERT_TRUE(done.ok()) << done.ToString();
   }
   EXPECT_EQ(store->steps_done(), static_cast<int>(plan.steps.size()));
+  for (const auto& camera : (*rig)->cameras()) EXPECT_EQ(hal::TriggerModeName(camera->settings().trigger), trigger);
   // What the devices did is what the plan asked: check the journal against the plan.
   for (const scan::FrameRecord& record : store->records()) {
     const scan::Step& step = plan.steps[record.key.step];
@@ -146,6 +149,35 @@ TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
     ASSERT_TRUE(store->ReadFrame(record).ok()) << record.file;
   }
   EXPECT_GE(store->records().size(), static_cast<size_t>(plan.Images()));
+}
+
+TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
+  scan::Preset preset;
+  preset.name = "peer";
+  preset.turntable_deg = {0, 120};
+  preset.colour_views_deg = {0};
+  preset.linear_light_positions = 2;
+  preset.exposure.probe_us = 1000;
+  preset.exposure.max_exposures = 2;
+  preset.gray_bits = 1;
+  preset.phase_steps = 1;
+  ScanAndCheck(preset, "software");
+}
+
+// The four cameras on their hardware trigger, from the fakes' free-running line pulses: every
+// capture drops the frames taken before it and keeps one exposed after the rig settled.
+TEST_F(PeerScanTest, AHardwareTriggeredPlanRunsOnTheFakesLinePulses) {
+  arv_enable_interface("Fake");
+  scan::Preset preset;
+  preset.name = "peer-hardware";
+  preset.turntable_deg = {0};
+  preset.colour_views_deg = {0};
+  preset.linear_light_positions = 1;
+  preset.exposure.probe_us = 1000;
+  preset.exposure.max_exposures = 2;
+  preset.gray_bits = 1;
+  preset.phase_steps = 1;
+  ScanAndCheck(preset, "hardware");
 }
 
 }  // namespace

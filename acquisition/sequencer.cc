@@ -142,7 +142,8 @@ Status Sequencer::SetExposure(hal::Camera& camera, double exposure_us) {
   if (camera.settings().exposure_us == exposure_us && camera.state() == hal::DeviceState::kRunning) return Status::Ok();
   hal::CameraSettings settings = camera.settings();
   settings.exposure_us = exposure_us;
-  settings.trigger = hal::TriggerMode::kSoftware;
+  // A free-running camera would expose while the rig changes: it is triggered by software.
+  if (settings.trigger == hal::TriggerMode::kFreeRun) settings.trigger = hal::TriggerMode::kSoftware;
   if (camera.state() == hal::DeviceState::kRunning) LOOM_RETURN_IF_ERROR(camera.Stop());
   LOOM_ASSIGN_OR_RETURN(const hal::ConfigureReport report, camera.Configure(settings));
   LOOM_RETURN_IF_ERROR(report.ToStatus(camera.description()));
@@ -190,12 +191,11 @@ Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step&
       LOOM_RETURN_IF_ERROR(SetExposure(*camera, exposure_us));
       cameras.push_back(camera);
     }
-    // The step's cameras are triggered together, then read out; a camera that fails is retried
-    // on its own.
+    // The step's cameras are triggered together (one pulse for those on the hardware trigger),
+    // then read out; a camera that fails is retried on its own.
     LOOM_ASSIGN_OR_RETURN(scan::RigState state, rig_.ReadState());
     state.settled_ms = SettledMs();
-    std::vector<Status> triggered;
-    for (hal::Camera* camera : cameras) triggered.push_back(camera->TriggerSoftware());
+    const std::vector<Status> triggered = rig_.Trigger(cameras);
     for (size_t c = 0; c < cameras.size(); ++c) {
       Result<scan::RawFrame> frame = triggered[c].ok() ? cameras[c]->WaitFrame() : Result<scan::RawFrame>(triggered[c]);
       if (frame.ok()) {

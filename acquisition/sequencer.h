@@ -8,6 +8,10 @@
 // and noise floor come from the plan's dark step (each camera's median and robust spread with
 // the lights off); a plan without one falls back to the options' values.
 //
+// Triggering: cameras set to `trigger: hardware` in the rig YAML expose on one pulse of the rig's
+// trigger source (hal/rig.h) after the rig has settled, the others on a software trigger each
+// (free-run cameras are switched to software: they would expose while the rig changes).
+//
 // Settling: after changing devices for a step the sequencer waits, on the rig's clock, the
 // longest settle time (and a light's warm-up the first time it comes on) the rig YAML gives what
 // changed (hal/rig.h); each frame records how long the rig had been still (RigState::settled_ms).

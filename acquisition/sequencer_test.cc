@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <set>
 
 #include "core/interrupt.h"
 #include "core/testing/shipped_rig.h"
@@ -40,11 +41,11 @@ class SequencerTest : public ::testing::Test {
     plan_ = *scan::MakeMaterialPlan(model_, preset);
   }
 
-  // The sim rig on world_, as a new `loom scan` process would load it.
-  std::unique_ptr<hal::Rig> MakeRig() {
+  // The sim rig on world_, as a new `loom scan` process would load it (`path`: another YAML).
+  std::unique_ptr<hal::Rig> MakeRig(const fs::path& path = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml") {
     hal::BackendRegistry registry;
     hal::RegisterSimBackends(registry, world_);
-    auto rig = hal::Rig::Load(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml", registry);
+    auto rig = hal::Rig::Load(path, registry);
     EXPECT_TRUE(rig.ok()) << rig.status().ToString();
     return rig.ok() ? std::move(*rig) : nullptr;
   }
@@ -258,6 +259,39 @@ TEST_F(SequencerTest, AScanResumedOnARigLeftAsItWasEqualsAnUninterruptedOne) {
       EXPECT_EQ(r.metadata.rig_state.projector_pattern, expected[r.file].second.projector_pattern) << r.file;
     }
   }
+}
+
+// tac7-mini.yaml with its cameras on the LED controller's trigger output: one pulse per capture
+// exposes both cameras, and the scan's frames are those of the software-triggered scan.
+TEST_F(SequencerTest, AHardwareTriggeredScanGivesTheFramesOfASoftwareTriggeredOne) {
+  std::map<std::string, std::string> software;
+  {
+    scan::CaptureStore store = *scan::CaptureStore::Create(dir_ / "software", {"rig", "white tile", plan_});
+    ASSERT_TRUE(Sequencer(*rig_, plan_, store).Run().ok());
+    for (const scan::FrameRecord& r : store.records()) software[r.file] = r.checksum;
+  }
+  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (size_t at; (at = yaml.find("trigger: software")) != std::string::npos;) yaml.replace(at, 17, "trigger: hardware");
+  yaml.replace(yaml.find("\ndevices:\n") + 10, 0, "  trigger: {source: leds}\n");
+  const fs::path hardware_yaml = dir_ / "tac7-mini-hardware-trigger.yaml";
+  std::ofstream(hardware_yaml) << yaml;
+
+  world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
+  const std::unique_ptr<hal::Rig> rig = MakeRig(hardware_yaml);
+  ASSERT_NE(rig, nullptr);
+  ASSERT_EQ(rig->trigger_source(), hal::TriggerSource::kLedController);
+  scan::CaptureStore store = *scan::CaptureStore::Create(dir_ / "hardware", {"rig", "white tile", plan_});
+  const Status done = Sequencer(*rig, plan_, store).Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  ASSERT_EQ(store.records().size(), software.size());
+  std::set<std::pair<int, int>> captures;  // (step, exposure): one pulse each, for both cameras
+  for (const scan::FrameRecord& r : store.records()) {
+    ASSERT_TRUE(software.contains(r.file)) << r.file;
+    EXPECT_EQ(r.checksum, software[r.file]) << r.file;
+    captures.insert({r.key.step, r.key.exposure});
+  }
+  EXPECT_EQ(world_->trigger_pulses(), static_cast<int>(captures.size()));
 }
 
 TEST(SequencerOptionsTest, EveryBadValueIsRefusedNamingItsField) {

@@ -5,8 +5,12 @@
 //   with larger GigE packets and an inter-packet delay (the stream tuning a rig YAML sets) — needs the
 //   private network namespace: run as `hal/aravis/run_in_netns.sh build/bench/bench_hal`;
 // - Modbus request latency over TCP and RTU (loom-modbus-sim), and reading 29 LED currents in
-//   one block request vs 29 single-register requests (the naive way).
+//   one block request vs 29 single-register requests (the naive way);
+// - starting a capture of four cameras: four software trigger commands against one pulse of the
+//   LED controller's trigger output (the hardware trigger), and the exposure skew of the former.
 #include <benchmark/benchmark.h>
+
+#include <chrono>
 
 #include "bench/bench_report.h"
 #include "bench/fake_camera_peers.h"
@@ -158,6 +162,49 @@ void BM_ModbusRead(benchmark::State& state, bool rtu, bool block) {
       benchmark::Counter(static_cast<double>(state.iterations()) * (block ? 1 : 29), benchmark::Counter::kIsRate);
 }
 BENCHMARK_CAPTURE(BM_ModbusRead, tcp_block, false, true)->UseRealTime();
+
+// What it takes to start one capture of the four cameras. Software: a trigger command to each
+// GigE fake in turn (how a rig without a trigger line captures); the cameras start exposing as
+// their commands arrive, so the last starts `exposure_skew_us` after the first. Hardware: one
+// write to the LED controller's trigger output (loom-modbus-sim over TCP), whose pulse starts
+// all four at once. Commands only: frames are not waited for.
+void BM_TriggerFourCameras_software(benchmark::State& state) {
+  CameraPeers& cameras = Cameras();
+  if (cameras.error.empty() && !Rearm(cameras, loom::hal::TriggerMode::kSoftware, 1400, 0)) {
+    cameras.error = "cannot restart the cameras";
+  }
+  if (!cameras.error.empty()) {
+    state.SkipWithError(cameras.error.c_str());
+    return;
+  }
+  double skew_s = 0;
+  for (auto _ : state) {
+    const auto first = std::chrono::steady_clock::now();
+    auto last = first;
+    for (auto& camera : cameras.cameras) {
+      last = std::chrono::steady_clock::now();
+      if (!camera->TriggerSoftware().ok()) state.SkipWithError("trigger failed");
+    }
+    skew_s += std::chrono::duration<double>(last - first).count();
+  }
+  state.SetItemsProcessed(state.iterations());  // captures started
+  state.counters["exposure_skew_us"] = 1e6 * skew_s / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_TriggerFourCameras_software)->UseRealTime();
+
+void BM_TriggerFourCameras_pulse(benchmark::State& state) {
+  ModbusPeer peer = StartModbus(false);
+  if (!peer.link || !peer.link->Write(map::kCommand, map::kCommandEnable).ok()) {
+    state.SkipWithError("cannot enable loom-modbus-sim's LED controller");
+    return;
+  }
+  for (auto _ : state) {
+    if (!peer.link->Write(map::kLedTriggerFire, 1).ok()) state.SkipWithError("trigger write failed");
+  }
+  state.SetItemsProcessed(state.iterations());  // captures started
+  state.counters["exposure_skew_us"] = 0;       // one pulse on one line
+}
+BENCHMARK(BM_TriggerFourCameras_pulse)->UseRealTime();
 BENCHMARK_CAPTURE(BM_ModbusRead, tcp_single, false, false)->UseRealTime();
 BENCHMARK_CAPTURE(BM_ModbusRead, rtu_block, true, true)->UseRealTime();
 BENCHMARK_CAPTURE(BM_ModbusRead, rtu_single, true, false)->UseRealTime();
@@ -172,5 +219,7 @@ int main(int argc, char** argv) {
        {"four_vs_one_camera_frames_free_run", "BM_CameraFrames/4/0/min_time:2.000/real_time",
         "BM_CameraFrames/1/0/min_time:2.000/real_time"},
        {"modbus_tcp_block_vs_single", "BM_ModbusRead/tcp_block/real_time", "BM_ModbusRead/tcp_single/real_time"},
+       {"one_pulse_vs_four_software_triggers", "BM_TriggerFourCameras_pulse/real_time",
+        "BM_TriggerFourCameras_software/real_time"},
        {"modbus_rtu_block_vs_single", "BM_ModbusRead/rtu_block/real_time", "BM_ModbusRead/rtu_single/real_time"}});
 }

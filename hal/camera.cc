@@ -131,6 +131,11 @@ Result<scan::RawFrame> Camera::WaitFrame() {
   return DoWaitFrame(std::chrono::milliseconds(settings_.frame_timeout_ms));
 }
 
+Status Camera::DiscardFrames() {
+  LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "DiscardFrames"));
+  return DoDiscardFrames();
+}
+
 Result<scan::RawFrame> Camera::Snap() {
   LOOM_RETURN_IF_ERROR(TriggerSoftware());
   return WaitFrame();

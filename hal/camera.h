@@ -7,7 +7,8 @@
 // | roi              | pixels (x, y, width, height)       | width/height 0 = full sensor           |
 // | exposure_us      | µs                                 | adjusted to the sensor's range/step    |
 // | gain             | the camera's gain unit (dB or raw) | adjusted to its range                  |
-// | trigger          | free-run, software, hardware       | hardware = the camera's Line0 input    |
+// | trigger          | free-run, software, hardware       | hardware = the camera's Line0 input,   |
+// |                  |                                    | pulsed by the rig's `trigger:` (rig.h) |
 // | buffer_count     | frames in the acquisition pool     | ≥ 2                                    |
 // | frame_timeout_ms | ms to wait for one frame           | then a Timeout error naming the camera |
 //
@@ -73,6 +74,9 @@ class Camera : public Device {
   Result<scan::RawFrame> WaitFrame();
   // Running, software trigger: TriggerSoftware() then WaitFrame().
   Result<scan::RawFrame> Snap();
+  // Running: drops every frame already received and not yet taken (a hardware-triggered camera
+  // may hold frames of pulses meant for others, or of a free-running pulse generator).
+  Status DiscardFrames();
 
  protected:
   void set_capabilities(CameraCapabilities capabilities) { capabilities_ = std::move(capabilities); }
@@ -83,6 +87,7 @@ class Camera : public Device {
   virtual Status DoConfigure(CameraSettings* applied) = 0;
   virtual Status DoTriggerSoftware() = 0;
   virtual Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) = 0;
+  virtual Status DoDiscardFrames() = 0;
 
  private:
   CameraCapabilities capabilities_;

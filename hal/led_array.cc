@@ -46,6 +46,11 @@ Status LedArray::AllOff() {
   return DoAllOff();
 }
 
+Status LedArray::FireTrigger() {
+  LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kRunning}, "FireTrigger"));
+  return DoFireTrigger();
+}
+
 Result<LedArrayReadback> LedArray::Read() {
   LOOM_RETURN_IF_ERROR(ExpectState({DeviceState::kOpen, DeviceState::kConfigured, DeviceState::kRunning}, "Read"));
   return DoRead();

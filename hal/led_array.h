@@ -7,6 +7,8 @@
 //
 // Drive() lights exactly the given LEDs (all others off). A controller fault (over-temperature)
 // switches every LED off and is reported by Drive() and Read() as an error naming the device.
+// A controller may also have the rig's camera trigger output (FireTrigger()): one pulse on the
+// line wired to every camera's trigger input, so that the cameras expose together.
 
 #include <span>
 #include <vector>
@@ -43,6 +45,8 @@ class LedArray : public Device {
   Status AllOff();
   // Any open state.
   Result<LedArrayReadback> Read();
+  // Running: one pulse on the camera trigger output. Unimplemented where the controller has none.
+  Status FireTrigger();
 
  protected:
   void set_limits(int led_count, double max_current_ma) {
@@ -53,6 +57,7 @@ class LedArray : public Device {
   virtual Status DoDrive(std::span<const scan::LedDrive> leds) = 0;
   virtual Status DoAllOff() = 0;
   virtual Result<LedArrayReadback> DoRead() = 0;
+  virtual Status DoFireTrigger() { return Error(StatusCode::kUnimplemented, "this controller has no camera trigger output"); }
   Status DoMakeSafe() override { return DoAllOff(); }
 
  private:

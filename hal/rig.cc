@@ -76,6 +76,17 @@ DeviceTiming ReadTiming(const ConfigNode& node, bool warms_up) {
   return {ReadWaitS(node, "settle_ms"), warms_up ? ReadWaitS(node, "warm_up_ms") : 0.0};
 }
 
+TriggerSource ReadTriggerSource(const ConfigNode& devices) {
+  const std::optional<ConfigNode> node = devices.OptionalChild("trigger");
+  if (!node) return TriggerSource::kNone;
+  std::string source;
+  node->Required("source", &source);
+  if (source == "leds") return TriggerSource::kLedController;
+  if (source == "generator") return TriggerSource::kGenerator;
+  node->AddError("source", "unknown trigger source '" + source + "' (expected leds, generator)");
+  return TriggerSource::kNone;
+}
+
 template <typename D>
 Result<std::unique_ptr<D>> CreateDevice(const ConfigNode& node, const BackendRegistry& registry) {
   const DeviceConfig config = ReadDeviceHeader(node);
@@ -133,6 +144,8 @@ Result<std::unique_ptr<Rig>> Rig::Create(const ConfigNode& devices, const Backen
       n.Optional("height", &s->height);
     });
   }
+  rig->trigger_source_ = ReadTriggerSource(devices);
+  LOOM_RETURN_IF_ERROR(rig->CheckTriggerWiring(devices));
   std::set<std::string> names;
   bool simulated = true;
   for (Device* device : rig->devices()) {
@@ -287,9 +300,51 @@ Result<scan::RigState> Rig::ReadState() {
   return state;
 }
 
+Status Rig::CheckTriggerWiring(const ConfigNode& devices) const {
+  if (trigger_source_ == TriggerSource::kLedController && !leds_) {
+    return InvalidArgumentError("key '" + devices.path() + ".trigger.source'", "is leds, but the rig has no LED controller");
+  }
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    if (camera_settings_[i].trigger == TriggerMode::kHardware && trigger_source_ == TriggerSource::kNone) {
+      return InvalidArgumentError(cameras_[i]->description(),
+                                  "is set to trigger: hardware, but nothing pulses its line: give the rig's devices "
+                                  "'trigger: {source: leds}' (the LED controller's output) or '{source: generator}'");
+    }
+  }
+  return Status::Ok();
+}
+
+std::vector<Status> Rig::Trigger(std::span<Camera* const> cameras) {
+  std::vector<Status> triggered(cameras.size());
+  std::vector<size_t> hardware;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (cameras[i]->settings().trigger != TriggerMode::kHardware) {
+      triggered[i] = cameras[i]->TriggerSoftware();
+      continue;
+    }
+    triggered[i] = cameras[i]->DiscardFrames();
+    if (triggered[i].ok()) hardware.push_back(i);
+  }
+  if (hardware.empty()) return triggered;
+  if (trigger_source_ == TriggerSource::kLedController) {
+    const Status pulsed = leds_->FireTrigger();
+    for (size_t i : hardware) triggered[i] = pulsed;
+  } else if (trigger_source_ == TriggerSource::kGenerator) {
+    // A free-running generator may have begun a frame before the discard: drop it too.
+    for (size_t i : hardware) triggered[i] = cameras[i]->WaitFrame().status();
+  } else {
+    for (size_t i : hardware) {
+      triggered[i] = FailedPreconditionError(cameras[i]->description(), "hardware trigger without a trigger source");
+    }
+  }
+  return triggered;
+}
+
 Result<scan::RawFrame> Rig::Snap(Camera& camera) {
   LOOM_ASSIGN_OR_RETURN(scan::RigState state, ReadState());
-  LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, camera.Snap());
+  Camera* const one[] = {&camera};
+  LOOM_RETURN_IF_ERROR(Trigger(one).front());
+  LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, camera.WaitFrame());
   frame.metadata.rig_state = std::move(state);
   return frame;
 }

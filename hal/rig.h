@@ -18,6 +18,14 @@
 // switches them on (`warm_up_ms`). The sequencer waits the longest settle of what a step changed
 // (devices settle together) on the rig's clock (hal/clock.h).
 //
+// Cameras set to `trigger: hardware` expose on a pulse of their trigger input (Line0), and
+// `devices: trigger: {source: ...}` says what pulses it:
+//   leds       the LED controller's camera trigger output (led_array.h), wired to every camera:
+//              one pulse per capture exposes all of them together, under one light state;
+//   generator  an external pulse generator running freely: before a capture each camera drops
+//              what it holds and the frame that may have begun before, and keeps the next.
+// Without `trigger:` every camera must be software-triggered (one command each).
+//
 // Every section is optional (a rig without a projector cannot run structured light; the plan
 // says so). Device names are unique. SafeStateGuard puts the rig in its safe state — LEDs off,
 // motion stopped, projector blank, acquisition stopped — when it goes out of scope, on every
@@ -28,6 +36,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -38,6 +47,8 @@
 #include "scan/rig_state.h"
 
 namespace loom::hal {
+
+enum class TriggerSource { kNone, kLedController, kGenerator };
 
 // The waits a rig YAML gives a device (0: none).
 struct DeviceTiming {
@@ -71,6 +82,7 @@ class Rig {
   DeviceTiming Timing(const Device& device) const;
   // What the rig waits on: virtual time when every device is simulated, wall time otherwise.
   Clock& clock() const { return *clock_; }
+  TriggerSource trigger_source() const { return trigger_source_; }
 
   // Makes `camera` read only `roi` from its next configuration on (a scan of a crop of the
   // sample: acquisition/crop_windows.h). An unknown camera is an error naming it.
@@ -88,13 +100,19 @@ class Rig {
   Status CloseAll();
   // What the devices report now (turntable angle, LEDs lit, wheel slots, ...).
   Result<scan::RigState> ReadState();
-  // One software-triggered frame from `camera` (running), stamped with ReadState() taken just
-  // before the trigger: what the rig really did for this frame.
+  // Exposes `cameras` (running) together: each software-triggered one by its own command, the
+  // hardware-triggered ones (after dropping frames they hold) by one pulse of the rig's trigger
+  // source. Per camera, whether it was triggered; its frame then comes from WaitFrame().
+  std::vector<Status> Trigger(std::span<Camera* const> cameras);
+  // One frame from `camera` (running; software or hardware trigger), stamped with ReadState()
+  // taken just before the trigger: what the rig really did for this frame.
   Result<scan::RawFrame> Snap(Camera& camera);
 
  private:
   Rig() = default;
   Status Configure(Device* device);
+  // Every hardware-triggered camera has a trigger source, and the source its device.
+  Status CheckTriggerWiring(const ConfigNode& devices) const;
 
   std::string name_;
   std::vector<std::unique_ptr<Camera>> cameras_;
@@ -110,6 +128,7 @@ class Rig {
   std::unique_ptr<Projector> projector_;
   ProjectorSettings projector_settings_;
   std::map<std::string, DeviceTiming> timing_;  // by device name
+  TriggerSource trigger_source_ = TriggerSource::kNone;
   std::unique_ptr<Clock> clock_;
 };
 

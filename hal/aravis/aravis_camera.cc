@@ -366,6 +366,11 @@ Result<scan::RawFrame> AravisCamera::DoWaitFrame(std::chrono::milliseconds timeo
   return frame;
 }
 
+Status AravisCamera::DoDiscardFrames() {
+  while (ArvBuffer* buffer = arv_stream_try_pop_buffer(stream_)) arv_stream_push_buffer(stream_, buffer);
+  return Status::Ok();
+}
+
 std::vector<DiscoveredCamera> DiscoverAravisCameras() {
   arv_update_device_list();
   std::vector<DiscoveredCamera> cameras;

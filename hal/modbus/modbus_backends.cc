@@ -356,6 +356,13 @@ class ModbusLedArray : public LedArray {
     const std::vector<uint16_t> zeros(led_count(), 0);
     return link_.Write(map::kLedCurrents, zeros);
   }
+  Status DoFireTrigger() override {
+    const Status fired = link_.Write(map::kLedTriggerFire, 1);
+    if (fired.ok() || fired.code() != StatusCode::kUnavailable) return fired;
+    return Error(StatusCode::kUnavailable, "camera trigger refused (register " + std::to_string(map::kLedTriggerFire) +
+                                               "): the controller is disabled or has no trigger output (" + fired.message() +
+                                               ")");
+  }
   Result<LedArrayReadback> DoRead() override {
     LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> currents, link_.Read(map::kLedCurrents, led_count()));
     LOOM_ASSIGN_OR_RETURN(const uint16_t status, link_.Read(map::kStatus));

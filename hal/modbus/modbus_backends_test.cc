@@ -251,6 +251,27 @@ TEST(ModbusLedArrayTest, OverTemperatureSwitchesOffAndIsReported) {
   EXPECT_EQ(read->current_ma[0], 0);
 }
 
+// The camera trigger output: each FireTrigger() is one pulse, counted by the controller; a
+// disabled controller refuses it, and the error names the device and the register.
+TEST(ModbusLedArrayTest, FiresTheCameraTriggerOncePerCallAndNotWhenDisabled) {
+  Simulator sim = StartSimulator("leds");
+  auto leds = MakeDevice<LedArray>(DeviceYaml("hemisphere", sim.endpoint));
+  Bringup(*leds, LedArraySettings{.current_limit_ma = 500});
+  ModbusLink observer("test observer", *ParseModbusEndpoint(sim.endpoint), 500ms);
+  ASSERT_TRUE(observer.Connect().ok());
+  const uint16_t before = *observer.Read(map::kLedTriggerCount);
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(leds->FireTrigger().ok());
+  EXPECT_EQ(*observer.Read(map::kLedTriggerCount), before + 3);
+  EXPECT_EQ(*observer.Read(map::kLedTriggerFire), 0);
+
+  ASSERT_TRUE(observer.Write(map::kCommand, map::kCommandDisable).ok());
+  const Status refused = leds->FireTrigger();
+  EXPECT_EQ(refused.code(), StatusCode::kUnavailable);
+  EXPECT_NE(refused.ToString().find("LED array 'hemisphere'"), std::string::npos) << refused.ToString();
+  EXPECT_NE(refused.message().find("register 14"), std::string::npos) << refused.message();
+  EXPECT_EQ(*observer.Read(map::kLedTriggerCount), before + 3);
+}
+
 // The controller's watchdog: a device armed with watchdog_ms feeds it while it runs, so its LEDs
 // stay lit well past the timeout; a client that stops feeding (as a killed loom does) finds the
 // controller dark, disabled and saying why; an orderly stop disarms it.

@@ -77,6 +77,11 @@ inline constexpr int kLedCount = 10;         // R
 inline constexpr int kLedMaxCurrent = 11;    // R: mA
 inline constexpr int kLedTemperature = 12;   // R: 0.1 °C
 inline constexpr int kLedCurrentLimit = 13;  // RW: mA, ≤ kLedMaxCurrent
+// The camera trigger output (wired to every camera's Line0): writing 1 fires one pulse, which
+// exposes every camera set to hardware trigger at once. Refused (exception 0x04) while the
+// controller is not enabled. The count of pulses fired since power-up wraps at 65536.
+inline constexpr int kLedTriggerFire = 14;   // W: 1 fires one pulse; reads 0
+inline constexpr int kLedTriggerCount = 15;  // R
 inline constexpr int kLedCurrents = 100;     // RW, one per LED: mA, 0 = off. A value above
                                              // the limit, or any non-zero value while over
                                              // temperature, is refused (exception 0x03 / 0x04).

@@ -2,6 +2,8 @@
 
 #include <cstring>
 #include <deque>
+#include <optional>
+#include <vector>
 
 namespace loom::hal {
 namespace {
@@ -37,6 +39,7 @@ class SimCamera : public Camera {
         world_(std::move(world)),
         model_(std::move(model)),
         supersampling_(supersampling) {}
+  ~SimCamera() override { Disarm(); }
 
  protected:
   Result<DeviceIdentity> DoOpen() override {
@@ -60,13 +63,26 @@ class SimCamera : public Camera {
   Status DoConfigure(CameraSettings*) override { return Status::Ok(); }
   Status DoStart() override {
     queue_.clear();
+    if (settings().trigger == TriggerMode::kHardware) {
+      armed_ = world_->ArmTrigger([this] { queue_.push_back(Render()); });
+    }
     return Status::Ok();
   }
-  Status DoStop() override { return Status::Ok(); }
-  Status DoClose() override { return Status::Ok(); }
+  Status DoStop() override {
+    Disarm();
+    return Status::Ok();
+  }
+  Status DoClose() override {
+    Disarm();
+    return Status::Ok();
+  }
   Status DoMakeSafe() override { return Status::Ok(); }
   Status DoTriggerSoftware() override {
     queue_.push_back(Render());
+    return Status::Ok();
+  }
+  Status DoDiscardFrames() override {
+    queue_.clear();
     return Status::Ok();
   }
   Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override {
@@ -84,6 +100,11 @@ class SimCamera : public Camera {
   }
 
  private:
+  void Disarm() {
+    if (armed_) world_->DisarmTrigger(*armed_);
+    armed_.reset();
+  }
+
   bool InjectedFailure() {
     std::lock_guard lock(world_->mutex);
     const auto it = world_->camera_failures.find(name());
@@ -146,6 +167,7 @@ class SimCamera : public Camera {
   int index_ = -1;
   uint64_t frames_ = 0;
   std::deque<scan::RawFrame> queue_;
+  std::optional<int> armed_;  // on the world's trigger line
   std::shared_ptr<const sim::Scene> rendered_scene_;
   sim::SceneState rendered_state_;
   sim::SensorWindow rendered_window_;
@@ -177,6 +199,10 @@ class SimLedArray : public LedArray {
   Status DoAllOff() override {
     std::lock_guard lock(world_->mutex);
     world_->state.leds.clear();
+    return Status::Ok();
+  }
+  Status DoFireTrigger() override {
+    world_->FireTrigger();
     return Status::Ok();
   }
   Result<LedArrayReadback> DoRead() override {
@@ -330,6 +356,27 @@ class SimProjector : public Projector {
 };
 
 }  // namespace
+
+int SimWorld::ArmTrigger(std::function<void()> on_pulse) {
+  std::lock_guard lock(mutex);
+  armed_[next_handle_] = std::move(on_pulse);
+  return next_handle_++;
+}
+
+void SimWorld::DisarmTrigger(int handle) {
+  std::lock_guard lock(mutex);
+  armed_.erase(handle);
+}
+
+void SimWorld::FireTrigger() {
+  std::vector<std::function<void()>> cameras;
+  {
+    std::lock_guard lock(mutex);
+    ++pulses_;
+    for (const auto& [handle, on_pulse] : armed_) cameras.push_back(on_pulse);
+  }
+  for (const auto& expose : cameras) expose();
+}
 
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world) {
   registry.MarkSimulated("sim");

@@ -2,7 +2,9 @@
 // The `sim` backend: every device kind on the virtual rig (sim/), registered like the real
 // backends, so acquisition cannot tell the simulated scanner from a real one. All sim devices
 // of a rig share one SimWorld: LEDs, wheels and the turntable change its state; triggering a
-// camera renders that state (sim::Scene) through the camera's sensor model.
+// camera renders that state (sim::Scene) through the camera's sensor model. The world's trigger
+// line is the LED controller's camera trigger output: a pulse (SimLedArray's FireTrigger)
+// exposes every camera running with `trigger: hardware`, each once.
 //
 // Device names match the rig's `geometry:` (cameras and filter wheels by name; `model:` picks
 // another). Moves are instantaneous. A frame's noise is seeded by the world seed and what the
@@ -11,6 +13,7 @@
 // The linear light's travel and the projector's resolution come from the geometry when it has
 // them (else from the backend keys travel_mm, native_width, native_height).
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -41,9 +44,23 @@ struct SimWorld {
     object_ = object;
   }
 
+  // The trigger line. A camera armed for hardware trigger is called on every pulse until it
+  // disarms (with the handle ArmTrigger gave it).
+  int ArmTrigger(std::function<void()> on_pulse);
+  void DisarmTrigger(int handle);
+  // One pulse: every armed camera exposes, outside the lock (it reads the state to render).
+  void FireTrigger();
+  int trigger_pulses() const {
+    std::lock_guard lock(mutex);
+    return pulses_;
+  }
+
  private:
   std::shared_ptr<const sim::Scene> scene_;
   scan::ScanObject object_ = scan::ScanObject::kSample;
+  std::map<int, std::function<void()>> armed_;
+  int next_handle_ = 0;
+  int pulses_ = 0;
 
  public:
   uint64_t seed;

@@ -56,17 +56,24 @@ class SimBackendsTest : public ::testing::Test {
   void SetUp() override {
     world_ = std::make_shared<SimWorld>(
         std::make_shared<sim::Scene>(SmallRig(), sim::ColourChart(ColourChartModel{.patch_mm = 4.0}, {64, 64, 0.5})), 3);
-    BackendRegistry registry;
-    RegisterSimBackends(registry, world_);
-    // The devices section at the top level of the document.
-    auto doc = ConfigDocument::LoadString(std::string("schema_version: 1") + kRigYaml, "sim.yaml", 1);
-    ASSERT_TRUE(doc.ok());
-    auto rig = Rig::Create(doc->root(), registry, "sim");
+    auto rig = MakeRig(kRigYaml);
     ASSERT_TRUE(rig.ok()) << rig.status().ToString();
-    ASSERT_TRUE(doc->Finish().ok()) << doc->Finish().ToString();
     rig_ = std::move(*rig);
     ASSERT_TRUE(rig_->OpenAndConfigure().ok());
     ASSERT_TRUE(rig_->StartAll().ok());
+  }
+
+  // A rig of sim devices in this test's world, from a devices section.
+  Result<std::unique_ptr<Rig>> MakeRig(const std::string& devices_yaml) {
+    BackendRegistry registry;
+    RegisterSimBackends(registry, world_);
+    // The devices section at the top level of the document.
+    auto doc = ConfigDocument::LoadString("schema_version: 1" + devices_yaml, "sim.yaml", 1);
+    if (!doc.ok()) return doc.status();
+    Result<std::unique_ptr<Rig>> rig = Rig::Create(doc->root(), registry, "sim");
+    if (!rig.ok()) return rig.status();
+    LOOM_RETURN_IF_ERROR(doc->Finish());
+    return rig;
   }
 
   double MeanDn(const scan::RawFrame& frame) {
@@ -204,6 +211,82 @@ TEST_F(SimBackendsTest, UnknownModelIsNamed) {
   const Status opened = (*camera)->Open();
   EXPECT_EQ(opened.code(), StatusCode::kNotFound);
   EXPECT_NE(opened.message().find("no camera 'side'"), std::string::npos) << opened.ToString();
+}
+
+// The LED controller's trigger output on the world's trigger line: a pulse exposes every camera on
+// hardware trigger once (and no other), at the state then, giving the frame a software trigger
+// gives; Rig::Trigger drops what a camera held from earlier pulses.
+TEST_F(SimBackendsTest, ATriggerPulseExposesEveryHardwareTriggeredCameraOnce) {
+  constexpr char kYaml[] = R"(
+cameras:
+  - {name: top, backend: sim, supersampling: 1, settings: {pixel_format: Mono12, exposure_us: 20000, trigger: software}}
+  - {name: a, model: top, backend: sim, supersampling: 1, settings: {pixel_format: Mono12, exposure_us: 20000, trigger: hardware}}
+  - {name: b, model: top, backend: sim, supersampling: 1, settings: {pixel_format: Mono12, exposure_us: 20000, trigger: hardware}}
+leds: {name: leds, backend: sim}
+trigger: {source: leds}
+)";
+  rig_.reset();
+  auto made = MakeRig(kYaml);
+  ASSERT_TRUE(made.ok()) << made.status().ToString();
+  Rig& rig = **made;
+  ASSERT_EQ(rig.trigger_source(), TriggerSource::kLedController);
+  ASSERT_TRUE(rig.OpenAndConfigure().ok());
+  ASSERT_TRUE(rig.StartAll().ok());
+  Camera& software = *rig.cameras()[0];
+  Camera& a = *rig.cameras()[1];
+  Camera& b = *rig.cameras()[2];
+  EXPECT_EQ(a.WaitFrame().status().code(), StatusCode::kTimeout);  // no pulse, no frame
+
+  const scan::LedDrive drive[] = {{1, 700}};
+  ASSERT_TRUE(rig.leds()->Drive(drive).ok());
+  const int pulses = world_->trigger_pulses();
+  Camera* const all[] = {&software, &a, &b};
+  for (const Status& triggered : rig.Trigger(all)) ASSERT_TRUE(triggered.ok()) << triggered.ToString();
+  EXPECT_EQ(world_->trigger_pulses(), pulses + 1);  // one pulse for both hardware cameras
+  const Result<scan::RawFrame> by_software = software.WaitFrame();
+  const Result<scan::RawFrame> by_pulse_a = a.WaitFrame();
+  const Result<scan::RawFrame> by_pulse_b = b.WaitFrame();
+  ASSERT_TRUE(by_software.ok() && by_pulse_a.ok() && by_pulse_b.ok());
+  EXPECT_GT(MeanDn(*by_pulse_a), 150);
+  EXPECT_EQ(by_pulse_a->pixels, by_software->pixels);
+  EXPECT_EQ(by_pulse_b->pixels, by_software->pixels);
+  EXPECT_EQ(software.WaitFrame().status().code(), StatusCode::kTimeout);  // not exposed by the pulse
+  EXPECT_EQ(a.WaitFrame().status().code(), StatusCode::kTimeout);         // exposed once
+
+  // Pulses meant for another capture leave frames of the old state in a camera: a snap drops them.
+  ASSERT_TRUE(rig.leds()->FireTrigger().ok());
+  ASSERT_TRUE(rig.leds()->FireTrigger().ok());
+  ASSERT_TRUE(rig.leds()->AllOff().ok());
+  const Result<scan::RawFrame> dark = rig.Snap(a);
+  ASSERT_TRUE(dark.ok()) << dark.status().ToString();
+  EXPECT_NEAR(MeanDn(*dark), 64, 1.0);
+  EXPECT_TRUE(dark->metadata.rig_state.leds_on.empty());
+  EXPECT_EQ(a.WaitFrame().status().code(), StatusCode::kTimeout);
+}
+
+TEST_F(SimBackendsTest, HardwareTriggerWithoutASourceIsRefusedNamingTheCameraOrKey) {
+  const Result<std::unique_ptr<Rig>> unpulsed = MakeRig(R"(
+cameras: [{name: top, backend: sim, settings: {trigger: hardware}}]
+leds: {name: leds, backend: sim}
+)");
+  ASSERT_FALSE(unpulsed.ok());
+  EXPECT_NE(unpulsed.status().ToString().find("camera 'top'"), std::string::npos) << unpulsed.status().ToString();
+  EXPECT_NE(unpulsed.status().ToString().find("trigger: {source: leds}"), std::string::npos) << unpulsed.status().ToString();
+
+  const Result<std::unique_ptr<Rig>> no_leds = MakeRig(R"(
+cameras: [{name: top, backend: sim, settings: {trigger: hardware}}]
+trigger: {source: leds}
+)");
+  ASSERT_FALSE(no_leds.ok());
+  EXPECT_NE(no_leds.status().ToString().find("trigger.source"), std::string::npos) << no_leds.status().ToString();
+
+  const Result<std::unique_ptr<Rig>> unknown = MakeRig(R"(
+cameras: [{name: top, backend: sim}]
+trigger: {source: lightning}
+)");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.status().ToString().find("trigger.source"), std::string::npos) << unknown.status().ToString();
+  EXPECT_NE(unknown.status().ToString().find("lightning"), std::string::npos) << unknown.status().ToString();
 }
 
 }  // namespace

@@ -39,6 +39,7 @@ class AravisCamera : public Camera {
   Status DoMakeSafe() override;
   Status DoTriggerSoftware() override;
   Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override;
+  Status DoDiscardFrames() override;
 
  private:
   Status Connect();

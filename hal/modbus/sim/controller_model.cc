@@ -209,6 +209,10 @@ int ControllerModel::CheckWrite(int address, std::span<const uint16_t> values) c
       if (address == map::kLedCurrentLimit && count == 1) {
         return values[0] <= reg(map::kLedMaxCurrent) ? 0 : MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
       }
+      if (address == map::kLedTriggerFire && count == 1) {
+        if (values[0] != 1) return MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+        return (reg(map::kStatus) & map::kStatusEnabled) ? 0 : MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE;
+      }
       if (address >= map::kLedCurrents && address + count <= map::kLedCurrents + reg(map::kLedCount)) {
         for (uint16_t current : values) {
           if (current == 0) continue;
@@ -233,6 +237,10 @@ void ControllerModel::OnWritten(int address, int count) {
   }
   if (Overlaps(address, count, map::kCommand)) Command(reg(map::kCommand));
   if (spec_.kind == ControllerKind::kLeds && address >= map::kLedCurrents) UpdateTemperature();
+  if (spec_.kind == ControllerKind::kLeds && Overlaps(address, count, map::kLedTriggerFire)) {
+    reg(map::kLedTriggerFire) = 0;
+    ++reg(map::kLedTriggerCount);  // wraps at 65536, as the register does
+  }
   if (spec_.kind == ControllerKind::kTurntable && Overlaps(address, count, map::kTurntableTarget)) {
     // Targets wrap into [0, 360000) millidegrees like the real controller.
     int32_t target = Read32(map::kTurntableTarget) % 360000;

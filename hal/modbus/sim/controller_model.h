@@ -2,11 +2,10 @@
 // The behaviour of loom's Modbus controllers (turntable, LED controller, linear light) on their
 // register maps: what loom-modbus-sim serves. Motion runs at the configured speed in real time,
 // homing, busy / in-position / fault status, LED currents with a limit and an over-temperature
-// fault, the heartbeat watchdog, and fault injection through the simulator-only register 90.
-// Time passes only as Advance says: the watchdog trips when the time since the last heartbeat,
-// measured at the next request, exceeds its timeout — which no client can tell from tripping on
-// time.
-// The model works directly on the server's register array. Not thread-safe.
+// fault, the camera trigger output (pulses counted), the heartbeat watchdog, and fault injection through the simulator-only
+// register 90. Time passes only as Advance says: the watchdog trips when the time since the last heartbeat, measured at the next
+// request, exceeds its timeout — which no client can tell from tripping on time. The model works directly on the server's
+// register array. Not thread-safe.
 
 #include <cstdint>
 #include <span>
