@@ -151,33 +151,28 @@ void PeerScanTest::ScanAndCheck(const scan::Preset& preset, const std::string& t
   EXPECT_GE(store->records().size(), static_cast<size_t>(plan.Images()));
 }
 
-TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) {
+// A small preset: the given turntable angles and strip positions, one colour view, two
+// exposures a bracket, the coarsest structured light.
+scan::Preset SmallPreset(std::vector<double> turntable_deg, int linear_light_positions) {
   scan::Preset preset;
   preset.name = "peer";
-  preset.turntable_deg = {0, 120};
+  preset.turntable_deg = std::move(turntable_deg);
   preset.colour_views_deg = {0};
-  preset.linear_light_positions = 2;
+  preset.linear_light_positions = linear_light_positions;
   preset.exposure.probe_us = 1000;
   preset.exposure.max_exposures = 2;
   preset.gray_bits = 1;
   preset.phase_steps = 1;
-  ScanAndCheck(preset, "software");
+  return preset;
 }
+
+TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) { ScanAndCheck(SmallPreset({0, 120}, 2), "software"); }
 
 // The four cameras on their hardware trigger, from the fakes' free-running line pulses: every
 // capture drops the frames taken before it and keeps one exposed after the rig settled.
 TEST_F(PeerScanTest, AHardwareTriggeredPlanRunsOnTheFakesLinePulses) {
   arv_enable_interface("Fake");
-  scan::Preset preset;
-  preset.name = "peer-hardware";
-  preset.turntable_deg = {0};
-  preset.colour_views_deg = {0};
-  preset.linear_light_positions = 1;
-  preset.exposure.probe_us = 1000;
-  preset.exposure.max_exposures = 2;
-  preset.gray_bits = 1;
-  preset.phase_steps = 1;
-  ScanAndCheck(preset, "hardware");
+  ScanAndCheck(SmallPreset({0}, 1), "hardware");
 }
 
 }  // namespace
