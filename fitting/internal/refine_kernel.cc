@@ -1,8 +1,8 @@
 // The batched refiner's kernel (refine_kernel.h). Compiled with -O3 -ffast-math (CMakeLists):
-// fast-math lets GCC call glibc's vector exp (libmvec) from the lane loops; the vectorisation
-// report of this file (-fopt-info-vec, docs/benchmarks.md) confirms the loops over lanes are
-// vectorised. EvaluateLanes is built three times (AVX-512, AVX2 + FMA, baseline SSE2) and the
-// loader picks the best the processor has.
+// fast-math lets GCC vectorise floor() and sqrt() in the lane loops, and exp() is the kernel's
+// own (ExpOfNegative); the vectorisation report of this file (-fopt-info-vec,
+// docs/benchmarks.md) confirms the loops over lanes are vectorised. EvaluateLanes is built three times (AVX-512, AVX2 + FMA,
+// baseline SSE2) and the loader picks the best the processor has.
 //
 // Per light sample, with the notation of fitting/pixel_cost.cc (its derivation holds here):
 //   e = (h_t²/σx² + h_b²/σy²) / h_n²,  ward = exp(−e) / (4π σx σy c² h_n⁴),  spec = F · ward
@@ -11,7 +11,9 @@
 // albedo and F0 columns; σ, α and n accumulate per sample.
 #include "fitting/internal/refine_kernel.h"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 namespace loom::fitting::internal {
 namespace {
@@ -24,6 +26,21 @@ constexpr float kMinHalfwayCosine = 1e-3f;
 // the diffuse term.
 constexpr float kNegligibleLobeExponent = 60;
 constexpr float kInversePi = static_cast<float>(1 / kPi);
+
+// exp(−x) for x in [0, 80], inlined into the lane loops. libmvec's expf is a call, around which
+// the loop's vectors are spilled, and it was 13 % of the main job's fit on its own (perf). Here
+// x = n ln2 + r with |r| ≤ ln2/2 (Cody–Waite: ln2 split in two so that n ln2 is exact enough),
+// exp(−r) by its Taylor polynomial of degree 6 (truncation ≤ 1.2e-7 relative), and 2^−n put
+// into the exponent bits (n ≤ 116: a normal float). Relative error ~3e-7, within the kernel's
+// stated rounding (kRadianceResolution); the kernel tests hold the cost to it.
+[[gnu::always_inline]] inline float ExpOfNegative(float x) {
+  const float n = std::floor(x * 1.44269504f + 0.5f);
+  const float r = (x - n * 0.693145752f) - n * 1.42860677e-6f;
+  const float y = -r;
+  const float p = 1.0f + y * (1.0f + y * (0.5f + y * (1.0f / 6 + y * (1.0f / 24 + y * (1.0f / 120 + y * (1.0f / 720))))));
+  const int32_t exponent = (127 - static_cast<int32_t>(n)) << 23;
+  return p * std::bit_cast<float>(exponent);
+}
 
 // A light slot's parameter-free arrays as restrict pointers to its kLanes values, named as
 // LaneData's members (locals, so that the vectoriser sees they do not alias).
@@ -83,7 +100,7 @@ struct LaneLobe {
 }
 
 // One observation's sums over its light samples, in single precision: one AVX2 register holds
-// all 8 lanes (two in double), and libmvec's expf is cheaper than its exp. An observation sums
+// all 8 lanes (two in double), and exp() in float is cheaper than in double. An observation sums
 // at most a strip's few dozen samples, so float's rounding (~1e-7 relative) stays well below the
 // noise of any measured radiance; the residuals, the cost and the normal equations are in double.
 struct ObservationSums {
@@ -119,11 +136,10 @@ struct ObservationSums {
       const float tx = h_t * lobe.inv_sx2[p], by = h_b * lobe.inv_sy2[p];
       const float exponent = (h_t * tx + h_b * by) * inv_h_n2;
       // Beyond kNegligibleLobeExponent the lobe is dropped, as the Ceres cost drops it; clamping
-      // exp's argument also keeps libmvec on its fast path (an argument past underflow sends
-      // the whole vector through scalar exp: 40 % of the kernel's time, measured with perf).
+      // exp's argument keeps it within ExpOfNegative's range.
       const float negligible = exponent > kNegligibleLobeExponent ? 0.0f : 1.0f;
       const float clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
-      const float ward = negligible * std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+      const float ward = negligible * ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
       const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
       const float specular = fresnel * ward;
       const float e_cos = e * n_dot_l;
@@ -360,10 +376,10 @@ template <int kWidth>
         const float inv_h_n2 = 1 / (h_n * h_n);
         const float exponent = (h_t * h_t * lobe.inv_sx2[p] + h_b * h_b * lobe.inv_sy2[p]) * inv_h_n2;
         // Clamped, not dropped: exp(−80) is nothing, and a select around exp() would turn it
-        // into a branch that stops the loop from vectorising (it did here). 80, not more: past
-        // float's underflow libmvec's expf leaves its fast path.
+        // into a branch that stops the loop from vectorising (it did here). 80, not more: the
+        // range of ExpOfNegative.
         const float clamped = exponent > 80.0f ? 80.0f : exponent;
-        const float ward = std::exp(-clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+        const float ward = ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
         const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
         diffuse_sum[p] += e_cos * kInversePi;
         specular_sum[p] += e_cos * fresnel * ward;

@@ -5,8 +5,8 @@
 // relative residuals — the same residuals and robust loss as the Ceres cost (pixel_fitter.h).
 //
 // Memory is structure-of-arrays with the lane innermost (element [i * kLanes + lane]), so that
-// every loop over lanes is a vector loop (AVX2 or AVX-512, chosen at run time; exp() through
-// glibc's vector math library). refine_kernel.cc is compiled with -ffast-math for that, which is
+// every loop over lanes is a vector loop (AVX2 or AVX-512, chosen at run time; exp() inlined).
+// refine_kernel.cc is compiled with -ffast-math for that, which is
 // why nothing here may hold NaN: a masked observation has weight 0 and radiance 0, an empty
 // light slot irradiance 0.
 //
