@@ -232,10 +232,24 @@ Status Sequencer::MeasureDark(const scan::Step& step) {
   return Status::Ok();
 }
 
+Status Sequencer::MeasureDrift(const scan::Step& step) {
+  LOOM_ASSIGN_OR_RETURN(const std::vector<scan::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
+  LOOM_ASSIGN_OR_RETURN(const double output, drift_.Add(step.index, step.turntable_deg, frames, dark_));
+  const double percent = (output - 1) * 100;
+  if (std::abs(percent) > options_.light_drift_warn_percent) {
+    LOOM_LOG(Warning) << "the lights have drifted " << percent << " % since the scan's first drift reference (step " << step.index
+                      << "; threshold " << options_.light_drift_warn_percent
+                      << " %): reconstruction corrects the LED-lit images for it";
+  } else {
+    LOOM_LOG(Info) << "light output at step " << step.index << ": " << output << " of the first drift reference's";
+  }
+  return Status::Ok();
+}
+
 Status Sequencer::CaptureStep(const scan::Step& step) {
   LOOM_RETURN_IF_ERROR(ApplyStep(step));
-  if (step.kind == scan::StepKind::kDark) {
-    LOOM_RETURN_IF_ERROR(MeasureDark(step));
+  if (step.kind == scan::StepKind::kDark || step.kind == scan::StepKind::kDriftReference) {
+    LOOM_RETURN_IF_ERROR(step.kind == scan::StepKind::kDark ? MeasureDark(step) : MeasureDrift(step));
     return store_.MarkStepDone(step.index);
   }
   LOOM_ASSIGN_OR_RETURN(hal::Camera* const first, FindCamera(step.cameras.front()));
@@ -330,6 +344,9 @@ Status SequencerOptions::Check() const {
   // A bracket needs exposures that grow: a factor of 1 or less would repeat one forever.
   if (!(exposure_factor > 1 && std::isfinite(exposure_factor))) problems.push_back("exposure_factor must be > 1 and finite");
   if (phase_steps < 1) problems.push_back("phase_steps must be ≥ 1 (the patterns' shift is k / phase_steps)");
+  if (!(light_drift_warn_percent > 0 && std::isfinite(light_drift_warn_percent))) {
+    problems.push_back("light_drift_warn_percent must be > 0 and finite");
+  }
   return ProblemsStatus("SequencerOptions", problems);
 }
 
@@ -342,8 +359,10 @@ Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) 
   int done_now = 0;
   for (const scan::Step& step : plan_.steps) {
     if (store_.StepDone(step.index)) {
-      // A resumed scan reads its stored dark frames again: the brackets to come depend on them.
+      // A resumed scan reads its stored dark frames again: the brackets to come depend on them;
+      // and its drift references, which the next ones are compared with.
       if (step.kind == scan::StepKind::kDark) LOOM_RETURN_IF_ERROR(MeasureDark(step));
+      if (step.kind == scan::StepKind::kDriftReference) LOOM_RETURN_IF_ERROR(MeasureDrift(step));
       continue;
     }
     if (InterruptRequested()) return CancelledError("scan", "interrupted before step " + std::to_string(step.index));

@@ -12,6 +12,10 @@
 // trigger source (hal/rig.h) after the rig has settled, the others on a software trigger each
 // (free-run cameras are switched to software: they would expose while the rig changes).
 //
+// Drift: a drift reference step (plan.h) is one exposure of every camera; the lights' output
+// relative to the first reference (scan/light_drift.h) is logged, with a warning when it is
+// further than the options' threshold. Reconstruction corrects for it.
+//
 // Settling: after changing devices for a step the sequencer waits, on the rig's clock, the
 // longest settle time (and a light's warm-up the first time it comes on) the rig YAML gives what
 // changed (hal/rig.h); each frame records how long the rig had been still (RigState::settled_ms).
@@ -30,18 +34,20 @@
 #include "hal/rig.h"
 #include "scan/capture_store.h"
 #include "scan/dark_level.h"
+#include "scan/light_drift.h"
 #include "scan/plan.h"
 
 namespace loom::acquisition {
 
 struct SequencerOptions {
-  int max_retries = 2;              // per camera capture, after a timeout or drop-out
-  double black_level_dn = 64;       // without a dark step: the cameras' dark offset (in their bit depth)
-  double noise_floor_dn = 24;       // without a dark step: above black, a weaker reading is too noisy
-  double noise_floor_sigmas = 10;   // with a dark step: the floor in dark-frame standard deviations
-  double saturation_margin_dn = 1;  // within this of the top a reading is saturated
-  double exposure_factor = 4;       // between bracket exposures
-  int phase_steps = 4;              // of the structured-light phase patterns
+  int max_retries = 2;                  // per camera capture, after a timeout or drop-out
+  double black_level_dn = 64;           // without a dark step: the cameras' dark offset (in their bit depth)
+  double noise_floor_dn = 24;           // without a dark step: above black, a weaker reading is too noisy
+  double noise_floor_sigmas = 10;       // with a dark step: the floor in dark-frame standard deviations
+  double saturation_margin_dn = 1;      // within this of the top a reading is saturated
+  double exposure_factor = 4;           // between bracket exposures
+  int phase_steps = 4;                  // of the structured-light phase patterns
+  double light_drift_warn_percent = 1;  // a drift reference further from the first warns (rig YAML's light_drift)
   // Called before the first step run and whenever a step needs another object on the turntable
   // than the one before (steps needing none, ScanObject::kNothing, do not count): an operator is
   // asked to place it, a simulated rig swaps its scene. An error stops the scan before that step.
@@ -85,6 +91,9 @@ class Sequencer {
   // A dark step's one exposure (no bracket), captured or read back from the store: sets the
   // cameras' black levels and noise floors.
   Status MeasureDark(const scan::Step& step);
+  // A drift reference's one exposure, captured or read back: the lights' drift so far, with a
+  // warning beyond the options' threshold.
+  Status MeasureDrift(const scan::Step& step);
   // Black level and, above it, the weakest usable reading of `camera`.
   std::pair<double, double> BlackAndFloor(const std::string& camera) const;
   // One frame of every camera of `step` at `exposure_us`: read back when stored, else captured.
@@ -102,6 +111,7 @@ class Sequencer {
   scan::CaptureStore& store_;
   SequencerOptions options_;
   std::map<std::string, scan::DarkLevel> dark_;  // by camera
+  scan::LightDriftTrack drift_;
   // What the sequencer knows the strip and projector are doing. Unknown (nullopt) until its first
   // step sets them: a resumed scan finds the rig as a killed process left it (the strip on, a
   // pattern showing, a wheel in a filter).

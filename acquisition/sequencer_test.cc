@@ -13,6 +13,7 @@
 #include "core/interrupt.h"
 #include "core/testing/shipped_rig.h"
 #include "hal/sim/sim_backends.h"
+#include "reconstruction/reconstruct.h"
 #include "sim/test_materials.h"
 
 namespace loom::acquisition {
@@ -292,6 +293,69 @@ TEST_F(SequencerTest, AHardwareTriggeredScanGivesTheFramesOfASoftwareTriggeredOn
     captures.insert({r.key.step, r.key.exposure});
   }
   EXPECT_EQ(world_->trigger_pulses(), static_cast<int>(captures.size()));
+}
+
+// LEDs whose output falls by 5 % through the scan (the sim's output drift): the plan's drift
+// references measure it, and reconstruction corrects the LED-lit observations to within 0.5 %
+// of a scan whose LEDs hold steady; uncorrected they are several percent off.
+TEST_F(SequencerTest, DriftReferencesCorrectLedsThatFadeThroughTheScan) {
+  scan::Preset preset;
+  preset.name = "tiny";
+  preset.turntable_deg = {0, 180};
+  preset.colour_views_deg = {0};
+  preset.linear_light_positions = 1;
+  preset.exposure.max_exposures = 2;
+  RigModel without_projector = model_;  // no structured light: the tile is taken as flat, as it is
+  without_projector.projector.reset();
+  const scan::Plan plan = *scan::MakeMaterialPlan(without_projector, preset, {.reference_every_steps = 8});
+  ASSERT_GE(plan.Images(scan::StepKind::kDriftReference), 8);
+  reconstruction::ReconstructOptions options;
+  options.width_px = options.height_px = 24;
+  options.pixel_mm = 0.4;
+  const auto scan_and_reconstruct = [&](const std::string& name, double drift_percent,
+                                        bool correct) -> Result<reconstruction::Reconstruction> {
+    world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
+    world_->set_led_drift(drift_percent, 40);
+    const std::unique_ptr<hal::Rig> rig = MakeRig();
+    scan::CaptureStore store = *scan::CaptureStore::Create(dir_ / name, {"rig", "white tile", plan});
+    LOOM_RETURN_IF_ERROR(Sequencer(*rig, plan, store).Run());
+    reconstruction::ReconstructOptions o = options;
+    o.correct_light_drift = correct;
+    return reconstruction::Reconstruct(store, model_, o);
+  };
+  const Result<reconstruction::Reconstruction> steady = scan_and_reconstruct("steady", 0, true);
+  const Result<reconstruction::Reconstruction> corrected = scan_and_reconstruct("fading", -5, true);
+  const Result<reconstruction::Reconstruction> uncorrected = scan_and_reconstruct("fading-uncorrected", -5, false);
+  ASSERT_TRUE(steady.ok()) << steady.status().ToString();
+  ASSERT_TRUE(corrected.ok()) << corrected.status().ToString();
+  ASSERT_TRUE(uncorrected.ok()) << uncorrected.status().ToString();
+  EXPECT_LT(steady->light_drift.back().second, 1.001);
+  EXPECT_GT(steady->light_drift.back().second, 0.999);
+  EXPECT_LT(corrected->light_drift.back().second, 0.97);  // measured: the LEDs faded
+  EXPECT_TRUE(corrected->light_drift_corrected);
+  EXPECT_FALSE(uncorrected->light_drift_corrected);
+
+  // Median |fading / steady − 1| over the LED-lit observations' samples.
+  const auto median_error = [&](const reconstruction::Reconstruction& fading) {
+    std::vector<double> errors;
+    const ObservationStack& a = steady->stack;
+    for (size_t k = 0; k < a.observations.size(); ++k) {
+      if (a.observations[k].group == ObservationGroup::kLinearLight) continue;  // LED-lit only
+      const int channel = ObservationStack::ObservationChannel(static_cast<int>(k));
+      for (int y = 0; y < a.image.height(); ++y) {
+        for (int x = 0; x < a.image.width(); ++x) {
+          const double reference = a.image.at(channel, y, x), value = fading.stack.image.at(channel, y, x);
+          if (std::isfinite(reference) && std::isfinite(value) && reference > 0)
+            errors.push_back(std::abs(value / reference - 1));
+        }
+      }
+    }
+    EXPECT_GT(errors.size(), 1000u);
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    return errors[errors.size() / 2];
+  };
+  EXPECT_LT(median_error(*corrected), 0.005);
+  EXPECT_GT(median_error(*uncorrected), 0.015);
 }
 
 TEST(SequencerOptionsTest, EveryBadValueIsRefusedNamingItsField) {

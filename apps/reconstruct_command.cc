@@ -14,6 +14,7 @@
 #include "core/rig_file.h"
 #include "core/version.h"
 #include "reconstruction/reconstruct.h"
+#include "scan/plan.h"
 
 namespace loom::apps {
 namespace {
@@ -42,8 +43,12 @@ std::string SummaryJson(const reconstruction::Reconstruction& r, const Reconstru
 Status Reconstruct(const ReconstructArguments& args) {
   const auto start = std::chrono::steady_clock::now();
   LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, scan::CaptureStore::Open(args.scan));
-  LOOM_ASSIGN_OR_RETURN(RigModel rig,
-                        RigModelFromText(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
+  LOOM_ASSIGN_OR_RETURN(const RigFile rig_file,
+                        RigFile::Parse(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
+  LOOM_ASSIGN_OR_RETURN(RigModel rig, rig_file.Model());
+  reconstruction::ReconstructOptions options = args.options;
+  options.light_drift_warn_percent = scan::ReadLightDriftSettings(rig_file).warn_percent;
+  LOOM_RETURN_IF_ERROR(rig_file.Finish());
   calibration::AppliedCalibration applied;
   if (!args.calib.empty()) {
     LOOM_ASSIGN_OR_RETURN(applied, calibration::CalibrationDirectory(args.calib).Apply(&rig));
@@ -60,8 +65,7 @@ Status Reconstruct(const ReconstructArguments& args) {
     const auto bar = bars.try_emplace(p.stage, "reconstruct: " + p.stage, args.quiet).first;
     bar->second.Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
   };
-  LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result,
-                        reconstruction::Reconstruct(store, rig, args.options, progress));
+  LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result, reconstruction::Reconstruct(store, rig, options, progress));
   bars.clear();
   if (const std::string note = result.CoarseSamplingNote(); !note.empty()) std::cerr << "note: " << note << "\n";
   LOOM_RETURN_IF_ERROR(WriteObservationStack(out.partial() / "stack.exr", result.stack));

@@ -14,6 +14,7 @@ Result<LoadedRig> LoadRigFile(const RigFile& file, const std::string& object) {
     LOOM_ASSIGN_OR_RETURN(loaded.sim, hal::MakeSimRig(file, *loaded.model, object));
     hal::RegisterSimBackends(registry, loaded.sim->world);
   }
+  loaded.light_drift = scan::ReadLightDriftSettings(file);
   LOOM_ASSIGN_OR_RETURN(loaded.rig, hal::Rig::Load(file, registry));
   return loaded;
 }

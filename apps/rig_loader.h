@@ -9,6 +9,7 @@
 #include "core/rig_file.h"
 #include "hal/rig.h"
 #include "hal/sim/sim_rig.h"
+#include "scan/plan.h"
 
 namespace loom::apps {
 
@@ -16,6 +17,7 @@ struct LoadedRig {
   std::unique_ptr<hal::Rig> rig;
   std::optional<RigModel> model;   // from `geometry:`, when the file has one
   std::optional<hal::SimRig> sim;  // with `model`: for the devices whose backend is `sim`
+  scan::LightDriftSettings light_drift;
 };
 
 // `object` replaces a simulated rig's `sample:` ("fabric:SEED", "white-tile", "chessboard",

@@ -20,7 +20,7 @@ Result<scan::Plan> MakePlan(const LoadedRig& loaded, const std::string& preset_n
                                 "has no 'geometry:' section: a plan needs the rig's description");
   }
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
-  return scan::MakePlan(*loaded.model, preset, purpose);
+  return scan::MakePlan(*loaded.model, preset, purpose, loaded.light_drift);
 }
 
 // A real rig's operator places each object: the first before the scan starts (it is named),
@@ -45,6 +45,7 @@ Status AskOperator(scan::ScanObject placed, bool* first) {
 Status RunScan(LoadedRig& loaded, const scan::Plan& plan, scan::CaptureStore& store, bool quiet) {
   hal::SafeStateGuard guard(*loaded.rig);
   acquisition::SequencerOptions options;
+  options.light_drift_warn_percent = loaded.light_drift.warn_percent;
   bool first_object = true;
   options.place_object = [&](scan::ScanObject object) {
     return loaded.sim ? hal::PlaceObject(*loaded.sim, object) : AskOperator(object, &first_object);

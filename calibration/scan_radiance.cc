@@ -58,6 +58,21 @@ Result<ScanRadiance> ScanRadiance::Open(const scan::CaptureStore& store, const R
   return scan;
 }
 
+Result<scan::LightDriftTrack> ScanRadiance::LightDrift() const {
+  scan::LightDriftTrack track;
+  for (const Step& step : plan().steps) {
+    if (step.kind != StepKind::kDriftReference) continue;
+    std::vector<scan::RawFrame> frames;
+    for (const std::string& camera : step.cameras) {
+      LOOM_ASSIGN_OR_RETURN(std::vector<scan::RawFrame> bracket, Bracket(step.index, camera));
+      frames.push_back(std::move(bracket.front()));
+    }
+    const Result<double> added = track.Add(step.index, step.turntable_deg, frames, dark_);
+    if (!added.ok()) return added.status().WithContext("scan " + directory().string());
+  }
+  return track;
+}
+
 std::string ScanRadiance::Where(int step, const std::string& camera) const {
   return "scan " + store_->directory().string() + ", step " + std::to_string(step) + ", camera '" + camera + "'";
 }

@@ -9,7 +9,8 @@ namespace loom {
 namespace {
 
 // The mappings other modules read; `seed` is a scalar that Seed() reads.
-constexpr std::array<std::string_view, 5> kSections = {"geometry", "devices", "sample", "as_built", "recalibration"};
+constexpr std::array<std::string_view, 6> kSections = {"geometry", "devices",       "sample",
+                                                       "as_built", "recalibration", "light_drift"};
 
 void CheckIsSection(std::string_view key) {
   LOOM_CHECK(std::find(kSections.begin(), kSections.end(), key) != kSections.end()) << "no rig file section '" << key << "'";

@@ -10,6 +10,7 @@
 //   seed:          a simulated rig's noise seed
 //   as_built:      how simulated hardware differs from the geometry (hal/sim/as_built.h)
 //   recalibration: `loom calibrate check`'s thresholds (calibration::ReadDriftThresholds)
+//   light_drift:   drift references in material scans and their warning (scan::ReadLightDriftSettings)
 
 #include <filesystem>
 #include <optional>

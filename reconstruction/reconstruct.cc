@@ -117,6 +117,9 @@ Status ReconstructOptions::Check() const {
     problems.push_back("min_height_mm must be below max_height_mm, both finite");
   }
   if (threads < 0) problems.push_back("threads must be ≥ 0");
+  if (!(light_drift_warn_percent > 0 && std::isfinite(light_drift_warn_percent))) {
+    problems.push_back("light_drift_warn_percent must be > 0 and finite");
+  }
   return ProblemsStatus("ReconstructOptions", problems);
 }
 
@@ -144,6 +147,14 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
   const std::vector<Eigen::Vector3d> normals = GeometricNormals(heights_d, w, h, options.pixel_mm, options.normal_blur_mm);
   const Heightmap heightmap(heights, w, h, options.pixel_mm);
 
+  LOOM_ASSIGN_OR_RETURN(const scan::LightDriftTrack drift, scan.LightDrift());
+  result.light_drift = drift.references();
+  result.light_drift_corrected = options.correct_light_drift && !drift.references().empty();
+  if (drift.MaxDriftPercent() > options.light_drift_warn_percent) {
+    LOOM_LOG(Warning) << "the lights drifted up to " << drift.MaxDriftPercent() << " % through the scan (threshold "
+                      << options.light_drift_warn_percent << " %)"
+                      << (result.light_drift_corrected ? ": the LED-lit observations are corrected" : ", not corrected");
+  }
   const std::vector<ViewRef> views = FittingViews(scan.plan());
   std::vector<StackObservation> table(views.size());
   result.stack = MakeObservationStack(w, h, options.pixel_mm, std::vector<StackObservation>(views.size()));
@@ -178,6 +189,9 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
         }
         table[k] = *std::move(described);
         saturated += view->saturated_pixels;
+        const bool led_lit = !scan.plan().steps[views[k].step].leds.empty();
+        const float drift_scale =
+            result.light_drift_corrected && led_lit ? static_cast<float>(1 / drift.FactorAt(views[k].step)) : 1.0f;
         const CameraModel& cam = rig.cameras[view->camera];
         const Rigid3d cam_from_sample = cam.cam_from_rig * rig.turntable.RigFromSample(table[k].turntable_deg);
         const int channel = ObservationStack::ObservationChannel(k);
@@ -191,7 +205,7 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
               value = SampleBilinear(view->radiance, 0, pixel.x(), pixel.y());
             }
             if (std::isnan(value)) ++hidden;
-            stack.at(channel, y, x) = value;
+            stack.at(channel, y, x) = value * drift_scale;
           }
         }
         unseen += hidden;
@@ -217,7 +231,18 @@ nlohmann::json Reconstruction::ToJson() const {
           {"heightmap_camera", heightmap_camera},
           {"heightmap_filled_pixels", heightmap_filled},
           {"saturated_pixels", saturated_pixels},
-          {"unseen_fraction", unseen_fraction}};
+          {"unseen_fraction", unseen_fraction},
+          {"light_drift", LightDriftJson()}};
+}
+
+nlohmann::json Reconstruction::LightDriftJson() const {
+  nlohmann::json references = nlohmann::json::array();
+  double worst = 0;
+  for (const auto& [step, output] : light_drift) {
+    references.push_back({{"step", step}, {"output", output}});
+    worst = std::max(worst, std::abs(output - 1) * 100);
+  }
+  return {{"references", references}, {"max_percent", worst}, {"corrected", light_drift_corrected}};
 }
 
 std::string Reconstruction::CoarseSamplingNote() const {

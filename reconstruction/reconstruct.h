@@ -12,11 +12,15 @@
 //    turntable angle, projected through the camera's lens model and sampled bilinearly; NaN
 //    where the relief hides the point from the camera. The table entry comes from what the
 //    devices recorded doing (frame metadata), not from what the plan asked.
+// 4. Drift: when the plan has drift references (scan/light_drift.h), every LED-lit observation
+//    is divided by the lights' output at its step, relative to the first reference; a drift
+//    beyond `light_drift_warn_percent` is logged as a warning. The linear light's is not known.
 // Geometry and light model come from `rig`: the rig YAML's nominal description, or a
 // calibrated one.
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -39,7 +43,9 @@ struct ReconstructOptions {
   double max_height_mm = 5;
   std::string heightmap_camera;  // empty: the camera looking most nearly straight down
   int threads = 0;               // 0: one per core
-  Status Check() const;          // every problem, naming the field (NaN fails every check)
+  bool correct_light_drift = true;
+  double light_drift_warn_percent = 1;  // the rig YAML's light_drift: warn_percent
+  Status Check() const;                 // every problem, naming the field (NaN fails every check)
 };
 
 struct ReconstructProgress {
@@ -63,12 +69,15 @@ struct Reconstruction {
   ObservationStack stack;
   std::vector<CameraSampling> sampling;  // every camera of the rig, StackSampling
   std::string heightmap_camera;
-  int heightmap_filled = 0;    // grid pixels without a triangulated height (filled from neighbours)
-  int saturated_pixels = 0;    // camera pixels saturated in every exposure, over all views
-  double unseen_fraction = 0;  // of observation samples: NaN (hidden or off the camera's image)
+  int heightmap_filled = 0;                         // grid pixels without a triangulated height (filled from neighbours)
+  int saturated_pixels = 0;                         // camera pixels saturated in every exposure, over all views
+  double unseen_fraction = 0;                       // of observation samples: NaN (hidden or off the camera's image)
+  std::vector<std::pair<int, double>> light_drift;  // (step, output) of each drift reference
+  bool light_drift_corrected = false;
 
   // The stack's size and what the fields above say, as reconstruction.json keeps them.
   nlohmann::json ToJson() const;
+  nlohmann::json LightDriftJson() const;  // references, the largest drift, whether corrected
   // A note for the operator when a camera samples the stack coarsely (below kFineSampling: the
   // stack is then blurred, not wrong), and how to sharpen it; empty otherwise.
   std::string CoarseSamplingNote() const;

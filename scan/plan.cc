@@ -142,9 +142,55 @@ class PlanBuilder {
     if (highest != nullptr) highest->exposure.linearity_series = kLinearitySeries;
   }
 
+  // Drift references (plan.h) among the steps built so far, which are renumbered.
+  void InsertDriftReferences(int every) {
+    std::vector<Step> steps;
+    bool started = false;
+    int since = 0;
+    double angle = 0;
+    for (Step& step : plan_.steps) {
+      const bool lit =
+          step.kind == StepKind::kColour || step.kind == StepKind::kMonochrome || step.kind == StepKind::kLinearLight;
+      if (!started && lit) {
+        steps.push_back(DriftReference(step.turntable_deg));
+        started = true;
+      } else if (started && step.turntable_deg != angle) {
+        steps.push_back(DriftReference(angle));  // the same light just before and after the move
+        steps.push_back(DriftReference(step.turntable_deg));
+        since = 0;
+      } else if (started && since >= every) {
+        steps.push_back(DriftReference(step.turntable_deg));
+        since = 0;
+      }
+      angle = step.turntable_deg;
+      if (started) ++since;
+      steps.push_back(std::move(step));
+    }
+    if (started) steps.push_back(DriftReference(angle));
+    for (size_t i = 0; i < steps.size(); ++i) steps[i].index = static_cast<int>(i);
+    plan_.steps = std::move(steps);
+  }
+
   Plan Finish() { return std::move(plan_); }
 
  private:
+  // The LED nearest the zenith, through its wheel's open slot, every camera, one exposure.
+  Step DriftReference(double angle) const {
+    int zenith = 0;
+    for (int led = 1; led < static_cast<int>(rig_.leds.size()); ++led) {
+      if (rig_.leds[led].position_mm.normalized().z() > rig_.leds[zenith].position_mm.normalized().z()) zenith = led;
+    }
+    Step step;
+    step.kind = StepKind::kDriftReference;
+    step.cameras = AllCameras(rig_);
+    step.turntable_deg = angle;
+    step.leds = {{zenith, preset_.led_current_ma}};
+    if (const FilterWheelModel* wheel = rig_.WheelOfLed(zenith)) step.filter = FilterSetting{wheel->name, *wheel->OpenSlot(), 0};
+    step.exposure = preset_.exposure;
+    step.exposure.max_exposures = 1;  // every reference at the same exposure: their ratios are the drift
+    return step;
+  }
+
   const RigModel& rig_;
   const Preset& preset_;
   Plan plan_;
@@ -172,6 +218,8 @@ std::string_view StepKindName(StepKind kind) {
       return "monochrome";
     case StepKind::kLinearLight:
       return "linear light";
+    case StepKind::kDriftReference:
+      return "drift reference";
   }
   return "unknown";
 }
@@ -224,9 +272,9 @@ std::optional<PlanPurpose> ParsePlanPurpose(std::string_view name) {
 }
 
 std::optional<StepKind> ParseStepKind(std::string_view name) {
-  for (StepKind kind :
-       {StepKind::kDark, StepKind::kTarget, StepKind::kLightProbe, StepKind::kWhiteReference, StepKind::kColourChart,
-        StepKind::kStructuredLight, StepKind::kColour, StepKind::kMonochrome, StepKind::kLinearLight}) {
+  for (StepKind kind : {StepKind::kDark, StepKind::kTarget, StepKind::kLightProbe, StepKind::kWhiteReference,
+                        StepKind::kColourChart, StepKind::kStructuredLight, StepKind::kColour, StepKind::kMonochrome,
+                        StepKind::kLinearLight, StepKind::kDriftReference}) {
     if (StepKindName(kind) == name) return kind;
   }
   return std::nullopt;
@@ -281,7 +329,23 @@ std::vector<std::string> StructuredLightPatterns(int projector_width, int gray_b
   return patterns;
 }
 
-Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
+LightDriftSettings ReadLightDriftSettings(const ConfigNode& node) {
+  LightDriftSettings settings;
+  node.Optional("reference_every_steps", &settings.reference_every_steps);
+  node.Optional("warn_percent", &settings.warn_percent);
+  if (settings.reference_every_steps < 0 || settings.reference_every_steps > 100000) {
+    node.AddError("reference_every_steps", "must be in [0, 100000] (0: no drift references)");
+  }
+  if (!(settings.warn_percent > 0 && settings.warn_percent <= 100)) node.AddError("warn_percent", "must be in (0, 100]");
+  return settings;
+}
+
+LightDriftSettings ReadLightDriftSettings(const RigFile& file) {
+  const std::optional<ConfigNode> node = file.Section("light_drift");
+  return node ? ReadLightDriftSettings(*node) : LightDriftSettings{};
+}
+
+Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset, const LightDriftSettings& drift) {
   if (rig.cameras.empty() || rig.leds.empty()) {
     return FailedPreconditionError("rig '" + rig.name + "'", "a material scan needs cameras and LEDs");
   }
@@ -303,11 +367,12 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset) {
   for (size_t a = 1; a < preset.turntable_deg.size(); ++a) {
     builder.EveryLed(StepKind::kMonochrome, preset.turntable_deg[a], ScanObject::kSample);
   }
+  if (drift.reference_every_steps > 0) builder.InsertDriftReferences(drift.reference_every_steps);
   return builder.Finish();
 }
 
-Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose) {
-  return purpose == PlanPurpose::kCalibration ? MakeCalibrationPlan(rig, preset) : MakeMaterialPlan(rig, preset);
+Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose, const LightDriftSettings& drift) {
+  return purpose == PlanPurpose::kCalibration ? MakeCalibrationPlan(rig, preset) : MakeMaterialPlan(rig, preset, drift);
 }
 
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {

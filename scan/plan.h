@@ -10,6 +10,10 @@
 // | colour      | each filtered LED × each filter, colour-view cameras      | 5 × 10 × 2 = 100  |
 // | monochrome  | each LED × each turntable angle, all cameras              | 29 × 3 × 4 = 348  |
 // | linear      | each strip position, all cameras                          | 70/140/825 × 4    |
+// With `light_drift: reference_every_steps: N` in the rig YAML, drift references (the LED
+// nearest the zenith, all cameras, one exposure) come before the first lit step, every N steps,
+// on both sides of each turntable move and at the end: what scan/light_drift.h measures the
+// lights' drift from.
 // A calibration scan: dark frames, the calibration target at several turntable angles (at three
 // of them with the structured-light patterns on it), the
 // light probe (a chrome sphere) under every LED when the rig has one, the white reference under every LED and under the linear
@@ -26,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "core/rig_file.h"
 #include "core/rig_model.h"
 #include "core/status.h"
 #include "scan/rig_state.h"
@@ -41,7 +46,8 @@ enum class StepKind {
   kStructuredLight,
   kColour,
   kMonochrome,
-  kLinearLight
+  kLinearLight,
+  kDriftReference
 };
 std::string_view StepKindName(StepKind kind);
 std::optional<StepKind> ParseStepKind(std::string_view name);
@@ -121,6 +127,17 @@ struct Preset {
 // Reads configs/plans/<name>.yaml (strict keys).
 Result<Preset> LoadPreset(const std::filesystem::path& path);
 
+// The rig YAML's `light_drift:` section: how often a material scan measures its lights' drift,
+// and beyond what drift the scan and the reconstruction warn.
+struct LightDriftSettings {
+  int reference_every_steps = 0;  // 0: no drift references
+  double warn_percent = 1.0;
+};
+// Reads the section (problems are recorded in its document).
+LightDriftSettings ReadLightDriftSettings(const ConfigNode& node);
+// The rig file's `light_drift:`, or the defaults (no references) when it has none.
+LightDriftSettings ReadLightDriftSettings(const RigFile& file);
+
 struct Plan {
   std::string rig;
   std::string preset;
@@ -138,9 +155,10 @@ struct Plan {
 std::string PlanToYaml(const Plan& plan);
 Result<Plan> ParsePlanYaml(std::string_view text, const std::string& source_name);
 
-Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset);
+Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset, const LightDriftSettings& drift = {});
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset);
-Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose);  // one of the two
+// One of the two (a calibration scan takes no drift references).
+Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose, const LightDriftSettings& drift = {});
 
 // The structured-light pattern names for a projector width: gray_x_NN and their inverses,
 // phase_x_K, plus "white" and "black" references.

@@ -162,6 +162,43 @@ TEST(PlanTest, TheExpandedPlanRoundTripsThroughYaml) {
   EXPECT_EQ(*ParsePlanYaml(PlanToYaml(calibration), "plan.yaml"), calibration);
 }
 
+// Drift references: before the first lit step, at most every N steps after, on both sides of
+// each turntable move and at the end; the LED nearest the zenith, every camera, one exposure.
+TEST(PlanTest, DriftReferencesSurroundTurntableMovesAndComeEveryNSteps) {
+  const RigModel rig = ShippedRigModel("tac7");
+  const Plan plain = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
+  const Plan plan = *MakeMaterialPlan(rig, LoadShippedPreset("low"), {.reference_every_steps = 30});
+  ASSERT_GT(plan.steps.size(), plain.steps.size());
+  EXPECT_EQ(plan.Images(StepKind::kMonochrome), plain.Images(StepKind::kMonochrome));
+  EXPECT_EQ(*ParsePlanYaml(PlanToYaml(plan), "plan.yaml"), plan);
+  int since = -1;  // steps since the last reference; −1 before the first
+  bool lit_seen = false;
+  for (size_t i = 0; i < plan.steps.size(); ++i) {
+    const Step& step = plan.steps[i];
+    EXPECT_EQ(step.index, static_cast<int>(i));
+    if (step.kind == StepKind::kDriftReference) {
+      EXPECT_EQ(step.cameras.size(), rig.cameras.size());
+      ASSERT_EQ(step.leds.size(), 1u);
+      EXPECT_GT(rig.leds[step.leds[0].led].position_mm.normalized().z(), 0.99);  // the zenith LED
+      EXPECT_EQ(step.exposure.max_exposures, 1);
+      since = 0;
+      continue;
+    }
+    const bool lit = step.kind == StepKind::kColour || step.kind == StepKind::kMonochrome || step.kind == StepKind::kLinearLight;
+    if (lit && !lit_seen) {
+      EXPECT_EQ(since, 0) << "no reference before the first lit step " << i;
+    }
+    lit_seen = lit_seen || lit;
+    if (i > 0 && since >= 0 && step.turntable_deg != plan.steps[i - 1].turntable_deg) {
+      ADD_FAILURE() << "step " << i << " turns the turntable right after a measured step, not a reference";
+    }
+    if (since >= 0) {
+      EXPECT_LE(++since, 30) << i;
+    }
+  }
+  EXPECT_EQ(plan.steps.back().kind, StepKind::kDriftReference);
+}
+
 TEST(PlanTest, ABadPlanFileNamesTheStepAndKey) {
   const std::string text =
       "schema_version: 1\nrig: r\npreset: low\npurpose: materials\nsteps:\n"

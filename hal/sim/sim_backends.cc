@@ -1,5 +1,6 @@
 #include "hal/sim/sim_backends.h"
 
+#include <cmath>
 #include <cstring>
 #include <deque>
 #include <optional>
@@ -126,9 +127,11 @@ class SimCamera : public Camera {
     // on the sensor, so the frame is the full frame's crop.
     const sim::SensorWindow window{s.roi.x, s.roi.y, s.roi.width, s.roi.height};
     const Image& radiance = RadianceOf(shown, state, window);
+    // Drifting LEDs scale the light as a longer exposure would; the noise seed stays the frame's.
+    const double led_output = state.leds.empty() ? 1.0 : world_->NextLedOutput();
     const std::vector<uint16_t> raw =
-        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us, s.gain}, FrameSeed(world_->seed, index_, state, s), window,
-                        model.width, model.height);
+        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us * led_output, s.gain}, FrameSeed(world_->seed, index_, state, s),
+                        window, model.width, model.height);
     const int shift = s.pixel_format == scan::PixelFormat::kMono16 ? 16 - model.sensor.adc_bits : 0;
     scan::RawFrame frame;
     frame.width = s.roi.width;
@@ -368,6 +371,12 @@ void SimWorld::DisarmTrigger(int handle) {
   armed_.erase(handle);
 }
 
+double SimWorld::NextLedOutput() {
+  std::lock_guard lock(mutex);
+  const double n = lit_frames_++;
+  return 1 + led_drift_percent_ / 100 * (1 - std::exp(-n / led_drift_frames_));
+}
+
 void SimWorld::FireTrigger() {
   std::vector<std::function<void()>> cameras;
   {
@@ -388,6 +397,16 @@ void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> wo
     return std::unique_ptr<Camera>(std::make_unique<SimCamera>(config, world, model, supersampling));
   });
   registry.Register<LedArray>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<LedArray>> {
+    if (config.node.Has("output_drift_percent") || config.node.Has("output_drift_frames")) {
+      double drift_percent = 0, drift_frames = 100;
+      config.node.Optional("output_drift_percent", &drift_percent);
+      config.node.Optional("output_drift_frames", &drift_frames);
+      if (!(std::abs(drift_percent) < 100 && drift_frames >= 1 && drift_frames < 1e9)) {
+        return InvalidArgumentError("LED array '" + config.name + "'",
+                                    "output_drift_percent must be within ±100 and output_drift_frames in [1, 1e9)");
+      }
+      world->set_led_drift(drift_percent, drift_frames);
+    }
     return std::unique_ptr<LedArray>(std::make_unique<SimLedArray>(config, world));
   });
   registry.Register<FilterWheel>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<FilterWheel>> {

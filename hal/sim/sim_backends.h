@@ -12,6 +12,10 @@
 // a resumed scan — gives the same frame.
 // The linear light's travel and the projector's resolution come from the geometry when it has
 // them (else from the backend keys travel_mm, native_width, native_height).
+// LEDs that drift: the LED array's keys `output_drift_percent: P, output_drift_frames: N` make
+// every LED's output 1 + P/100 · (1 − exp(−n/N)) for the n-th LED-lit frame rendered, as LEDs
+// warming through a scan do (0: no drift, the default). Such frames depend on when they are
+// taken: a resumed scan's no longer equal an uninterrupted one's.
 
 #include <functional>
 #include <map>
@@ -54,6 +58,13 @@ struct SimWorld {
     std::lock_guard lock(mutex);
     return pulses_;
   }
+  // The LEDs' output for the next LED-lit frame (1 without drift), counting the frame.
+  double NextLedOutput();
+  void set_led_drift(double percent, double frames) {
+    std::lock_guard lock(mutex);
+    led_drift_percent_ = percent;
+    led_drift_frames_ = frames;
+  }
 
  private:
   std::shared_ptr<const sim::Scene> scene_;
@@ -61,6 +72,9 @@ struct SimWorld {
   std::map<int, std::function<void()>> armed_;
   int next_handle_ = 0;
   int pulses_ = 0;
+  double led_drift_percent_ = 0;
+  double led_drift_frames_ = 1;
+  int lit_frames_ = 0;
 
  public:
   uint64_t seed;
