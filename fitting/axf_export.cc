@@ -220,6 +220,28 @@ struct Reader {
 
 // The texture at `texture` (e.g. "SpecularModel/Lobes"), nothing when the file has none;
 // `channels`: the channel counts accepted.
+// The largest texture side loom reads, and the most a stored byte can stand for: deflate packs at
+// most ~1032:1. HDF5 returns fill values for storage never written, so without these a damaged
+// header made loom allocate 1.7 GB for a 26 kB file (found by fitting/fuzz/maps_fuzzer.cc).
+constexpr hsize_t kMaxTextureSide = 1 << 16;
+constexpr hsize_t kMaxCompression = 1032;
+
+Status CheckDeclaredSize(hid_t set, const std::array<hsize_t, 3>& dims, const std::string& where) {
+  hsize_t elements = 1;
+  for (const hsize_t side : dims) {
+    if (side > kMaxTextureSide) return DataLossError(where, "declares a side of " + std::to_string(side) + " elements");
+    elements *= side;
+  }
+  const Handle type(H5Dget_type(set), H5Tclose);
+  const hsize_t bytes = elements * std::max<size_t>(1, H5Tget_size(type.get()));
+  const hsize_t stored = H5Dget_storage_size(set);
+  if (stored == 0 || bytes / kMaxCompression > stored) {
+    return DataLossError(where,
+                         "declares " + std::to_string(elements) + " values but stores " + std::to_string(stored) + " bytes");
+  }
+  return Status::Ok();
+}
+
 Result<std::optional<Texture>> ReadTexture(const Reader& reader, const std::string& texture, const std::vector<int>& channels) {
   const std::string path = texture + "/Data";
   if (H5Lexists(reader.resources, texture.substr(0, texture.find('/')).c_str(), H5P_DEFAULT) <= 0 ||
@@ -234,6 +256,7 @@ Result<std::optional<Texture>> ReadTexture(const Reader& reader, const std::stri
   std::array<hsize_t, 3> dims = {1, 1, 1};
   if (rank < 0 || rank > 3) return InvalidArgumentError(where, "has rank " + std::to_string(rank));
   H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  LOOM_RETURN_IF_ERROR(CheckDeclaredSize(set.get(), dims, where));
   Texture t;
   if (rank <= 1) {
     t.uniform = true;
@@ -336,9 +359,11 @@ double PixelMm(const Reader& r, const std::string& texture, int width) {
   const std::string path = texture + "/WidthMM";
   if (H5Lexists(r.resources, path.c_str(), H5P_DEFAULT) <= 0) return 0;
   const Handle set(H5Dopen2(r.resources, path.c_str(), H5P_DEFAULT), H5Dclose);
+  const Handle space(H5Dget_space(set.get()), H5Sclose);
+  if (H5Sget_simple_extent_npoints(space.get()) != 1) return 0;  // a read of more would overrun width_mm
   float width_mm = 0;
   if (H5Dread(set.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, &width_mm) < 0) return 0;
-  return width_mm > 0 ? width_mm / width : 0;
+  return std::isfinite(width_mm) && width_mm > 0 ? width_mm / width : 0;
 }
 
 Image MapsOf(const SvbrdfTextures& t, const Grid& grid) {

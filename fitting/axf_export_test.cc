@@ -246,6 +246,26 @@ TEST_F(AxfExportTest, DamagedFilesAreNamed) {
   EXPECT_EQ(not_a_number.status().subject(), nan.string() + ": " + r.substr(0, r.size() - 1) + "/SpecularModel/Lobes/Data")
       << not_a_number.status().ToString();
 
+  // Declared sizes the file does not hold (found by fitting/fuzz/maps_fuzzer.cc: a 26 kB file made
+  // loom allocate 1.7 GB): a side beyond any texture, and a large texture never written (HDF5
+  // would read it as fill values), refused before anything is allocated.
+  for (const std::vector<hsize_t>& dims : {std::vector<hsize_t>{70000, 1, 3}, std::vector<hsize_t>{4000, 4000, 3}}) {
+    const fs::path huge = dir_ / "huge.axf";
+    file = H5Fcreate(huge.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t links = H5Pcreate(H5P_LINK_CREATE);
+    H5Pset_create_intermediate_group(links, 1);
+    const hid_t space = H5Screate_simple(3, dims.data(), nullptr);
+    const std::string data = r + "DiffuseModel/Color/Data";
+    H5Dclose(H5Dcreate2(file, data.c_str(), H5T_IEEE_F32LE, space, links, H5P_DEFAULT, H5P_DEFAULT));  // not written
+    H5Sclose(space);
+    H5Pclose(links);
+    H5Fclose(file);
+    const Result<AxfMaps> declared = ReadAxf(huge);
+    ASSERT_FALSE(declared.ok());
+    EXPECT_EQ(declared.status().code(), StatusCode::kDataLoss) << declared.status().ToString();
+    EXPECT_EQ(declared.status().subject(), huge.string() + ": " + data) << declared.status().ToString();
+  }
+
   EXPECT_FALSE(WriteAxf(Image(2, 2, {"L"}), 1.0, dir_ / "x.axf").ok());  // not maps
   EXPECT_FALSE(fs::exists(dir_ / "x.axf"));
 }
