@@ -270,5 +270,19 @@ TEST_F(AxfExportTest, DamagedFilesAreNamed) {
   EXPECT_FALSE(fs::exists(dir_ / "x.axf"));
 }
 
+// A damaged file that drives HDF5 itself into unbounded memory (fitting/fuzz/known/; 24 GB
+// before the guard) is read first in a child process under a memory limit, and refused naming
+// the file. (Where HDF5 meets the limit decides the error: its allocation failing inside a
+// lookup reads as a texture it cannot find, a bad_alloc as a damaged file.)
+TEST_F(AxfExportTest, AFileThatMakesHdf5AllocateWithoutBoundIsRefused) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "the guard's memory limit is off under the sanitizers";
+#endif
+  const fs::path path = fs::path(LOOM_SOURCE_DIR) / "fitting/fuzz/known/hdf5-local-heap-unbounded-memory.axf";
+  const Result<AxfMaps> read = ReadAxf(path);
+  ASSERT_FALSE(read.ok());
+  EXPECT_TRUE(read.status().subject().starts_with(path.string())) << read.status().ToString();
+}
+
 }  // namespace
 }  // namespace loom::fitting
