@@ -31,15 +31,20 @@ class SequencerTest : public ::testing::Test {
     world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
     rig_ = MakeRig();
     ASSERT_NE(rig_, nullptr);
+    plan_ = *scan::MakeMaterialPlan(model_, TinyPreset({0}, 1));
+  }
+
+  // One colour view, two exposures a bracket, the coarsest structured light.
+  static scan::Preset TinyPreset(std::vector<double> turntable_deg, int linear_light_positions) {
     scan::Preset preset;
     preset.name = "tiny";
-    preset.turntable_deg = {0};
+    preset.turntable_deg = std::move(turntable_deg);
     preset.colour_views_deg = {0};
-    preset.linear_light_positions = 1;
+    preset.linear_light_positions = linear_light_positions;
     preset.exposure.max_exposures = 2;
     preset.gray_bits = 1;
     preset.phase_steps = 1;
-    plan_ = *scan::MakeMaterialPlan(model_, preset);
+    return preset;
   }
 
   // The sim rig on world_, as a new `loom scan` process would load it (`path`: another YAML).
@@ -213,15 +218,7 @@ TEST_F(SequencerTest, TheDarkStepSetsTheBlackLevelTheSimulatedSensorHas) {
 // world outlives the rig objects here, as real hardware outlives the process.)
 TEST_F(SequencerTest, AScanResumedOnARigLeftAsItWasEqualsAnUninterruptedOne) {
   // Two turntable angles: the first angle's strip positions are followed by point-lit steps.
-  scan::Preset preset;
-  preset.name = "tiny";
-  preset.turntable_deg = {0, 180};
-  preset.colour_views_deg = {0};
-  preset.linear_light_positions = 2;
-  preset.exposure.max_exposures = 2;
-  preset.gray_bits = 1;
-  preset.phase_steps = 1;
-  const scan::Plan plan = *scan::MakeMaterialPlan(model_, preset);
+  const scan::Plan plan = *scan::MakeMaterialPlan(model_, TinyPreset({0, 180}, 2));
   std::map<std::string, std::pair<std::string, scan::RigState>> expected;
   {
     scan::CaptureStore reference = *scan::CaptureStore::Create(dir_ / "reference", {"rig", "white tile", plan});
@@ -299,15 +296,9 @@ TEST_F(SequencerTest, AHardwareTriggeredScanGivesTheFramesOfASoftwareTriggeredOn
 // references measure it, and reconstruction corrects the LED-lit observations to within 0.5 %
 // of a scan whose LEDs hold steady; uncorrected they are several percent off.
 TEST_F(SequencerTest, DriftReferencesCorrectLedsThatFadeThroughTheScan) {
-  scan::Preset preset;
-  preset.name = "tiny";
-  preset.turntable_deg = {0, 180};
-  preset.colour_views_deg = {0};
-  preset.linear_light_positions = 1;
-  preset.exposure.max_exposures = 2;
   RigModel without_projector = model_;  // no structured light: the tile is taken as flat, as it is
   without_projector.projector.reset();
-  const scan::Plan plan = *scan::MakeMaterialPlan(without_projector, preset, {.reference_every_steps = 8});
+  const scan::Plan plan = *scan::MakeMaterialPlan(without_projector, TinyPreset({0, 180}, 1), {.reference_every_steps = 8});
   ASSERT_GE(plan.Images(scan::StepKind::kDriftReference), 8);
   reconstruction::ReconstructOptions options;
   options.width_px = options.height_px = 24;
