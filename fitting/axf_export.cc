@@ -457,7 +457,7 @@ Status ReadsWithinMemory(const fs::path& path) {
 #else
   std::error_code error;
   const uintmax_t file_bytes = fs::file_size(path, error);
-  const rlim_t budget = (rlim_t{512} << 20) + (error ? 0 : static_cast<rlim_t>(file_bytes) * (kMaxCompression + 68));
+  const rlim_t budget = (rlim_t{512} << 20) + (error ? 0 : static_cast<rlim_t>(file_bytes) * kMaxCompression);
   // Without a child (no pipe or fork left), the file is read unguarded, as before the guard.
   int pipe_fds[2];
   if (::pipe(pipe_fds) != 0) {

@@ -55,7 +55,7 @@ struct ViewRef {
 std::vector<ViewRef> FittingViews(const scan::Plan& plan) {
   std::vector<ViewRef> views;
   for (const Step& step : plan.steps) {
-    if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;
+    if (!scan::IsObservationStep(step.kind)) continue;
     for (const std::string& camera : step.cameras) views.push_back({step.index, camera});
   }
   return views;
@@ -237,12 +237,10 @@ nlohmann::json Reconstruction::ToJson() const {
 
 nlohmann::json Reconstruction::LightDriftJson() const {
   nlohmann::json references = nlohmann::json::array();
-  double worst = 0;
-  for (const auto& [step, output] : light_drift) {
-    references.push_back({{"step", step}, {"output", output}});
-    worst = std::max(worst, std::abs(output - 1) * 100);
-  }
-  return {{"references", references}, {"max_percent", worst}, {"corrected", light_drift_corrected}};
+  for (const auto& [step, output] : light_drift) references.push_back({{"step", step}, {"output", output}});
+  return {{"references", references},
+          {"max_percent", scan::LightDriftTrack::MaxDriftPercentOf(light_drift)},
+          {"corrected", light_drift_corrected}};
 }
 
 std::string Reconstruction::CoarseSamplingNote() const {

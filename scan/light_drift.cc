@@ -72,9 +72,9 @@ double LightDriftTrack::FactorAt(int step) const {
   return before->second + t * (after->second - before->second);
 }
 
-double LightDriftTrack::MaxDriftPercent() const {
+double LightDriftTrack::MaxDriftPercentOf(const std::vector<std::pair<int, double>>& references) {
   double worst = 0;
-  for (const auto& [step, factor] : references_) worst = std::max(worst, std::abs(factor - 1) * 100);
+  for (const auto& [step, factor] : references) worst = std::max(worst, std::abs(factor - 1) * 100);
   return worst;
 }
 

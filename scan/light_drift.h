@@ -33,7 +33,8 @@ class LightDriftTrack {
   // (step, output) of every reference so far.
   const std::vector<std::pair<int, double>>& references() const { return references_; }
   // The largest |output − 1| over the references, in percent.
-  double MaxDriftPercent() const;
+  double MaxDriftPercent() const { return MaxDriftPercentOf(references_); }
+  static double MaxDriftPercentOf(const std::vector<std::pair<int, double>>& references);
 
  private:
   struct Baseline {

@@ -55,6 +55,15 @@ Status CheckOpenSlots(const RigModel& rig) {
   return {};
 }
 
+// The LED nearest the zenith (the first of several as near).
+int ZenithLed(const RigModel& rig) {
+  int zenith = 0;
+  for (int led = 1; led < static_cast<int>(rig.leds.size()); ++led) {
+    if (rig.leds[led].position_mm.normalized().z() > rig.leds[zenith].position_mm.normalized().z()) zenith = led;
+  }
+  return zenith;
+}
+
 // Exposures of a linearity series: from 90 % of full scale down to 1/64 of that (~60 DN at 12 bits).
 constexpr int kLinearitySeries = 7;
 // Carriage positions at which the chrome sphere is seen under the linear light.
@@ -102,11 +111,13 @@ class PlanBuilder {
   // An LED behind a filter wheel shines through the wheel's open slot (MakeMaterialPlan and
   // MakeCalibrationPlan check that there is one).
   void EveryLed(StepKind kind, double angle, ScanObject object) {
-    for (int led = 0; led < static_cast<int>(rig_.leds.size()); ++led) {
-      Step& step = Add(kind, AllCameras(rig_), angle, object);
-      step.leds = {{led, preset_.led_current_ma}};
-      if (const FilterWheelModel* wheel = rig_.WheelOfLed(led)) step.filter = FilterSetting{wheel->name, *wheel->OpenSlot(), 0};
-    }
+    for (int led = 0; led < static_cast<int>(rig_.leds.size()); ++led) LightOnly(led, Add(kind, AllCameras(rig_), angle, object));
+  }
+
+  // `led` alone lights `step`, through its wheel's open slot.
+  void LightOnly(int led, Step& step) const {
+    step.leds = {{led, preset_.led_current_ma}};
+    if (const FilterWheelModel* wheel = rig_.WheelOfLed(led)) step.filter = FilterSetting{wheel->name, *wheel->OpenSlot(), 0};
   }
 
   void LinearLight(double angle) {
@@ -131,15 +142,13 @@ class PlanBuilder {
 
   // The white reference under the LED nearest the zenith also takes a linearity series.
   void LinearitySeries() {
-    Step* highest = nullptr;
+    const int zenith = ZenithLed(rig_);
     for (Step& step : plan_.steps) {
-      if (step.kind != StepKind::kWhiteReference || step.leds.size() != 1) continue;
-      if (highest == nullptr || rig_.leds[step.leds[0].led].position_mm.normalized().z() >
-                                    rig_.leds[highest->leds[0].led].position_mm.normalized().z()) {
-        highest = &step;
+      if (step.kind == StepKind::kWhiteReference && step.leds.size() == 1 && step.leds[0].led == zenith) {
+        step.exposure.linearity_series = kLinearitySeries;
+        return;
       }
     }
-    if (highest != nullptr) highest->exposure.linearity_series = kLinearitySeries;
   }
 
   // Drift references (plan.h) among the steps built so far, which are renumbered.
@@ -149,9 +158,7 @@ class PlanBuilder {
     int since = 0;
     double angle = 0;
     for (Step& step : plan_.steps) {
-      const bool lit =
-          step.kind == StepKind::kColour || step.kind == StepKind::kMonochrome || step.kind == StepKind::kLinearLight;
-      if (!started && lit) {
+      if (!started && IsObservationStep(step.kind)) {
         steps.push_back(DriftReference(step.turntable_deg));
         started = true;
       } else if (started && step.turntable_deg != angle) {
@@ -176,16 +183,11 @@ class PlanBuilder {
  private:
   // The LED nearest the zenith, through its wheel's open slot, every camera, one exposure.
   Step DriftReference(double angle) const {
-    int zenith = 0;
-    for (int led = 1; led < static_cast<int>(rig_.leds.size()); ++led) {
-      if (rig_.leds[led].position_mm.normalized().z() > rig_.leds[zenith].position_mm.normalized().z()) zenith = led;
-    }
     Step step;
     step.kind = StepKind::kDriftReference;
     step.cameras = AllCameras(rig_);
     step.turntable_deg = angle;
-    step.leds = {{zenith, preset_.led_current_ma}};
-    if (const FilterWheelModel* wheel = rig_.WheelOfLed(zenith)) step.filter = FilterSetting{wheel->name, *wheel->OpenSlot(), 0};
+    LightOnly(ZenithLed(rig_), step);
     step.exposure = preset_.exposure;
     step.exposure.max_exposures = 1;  // every reference at the same exposure: their ratios are the drift
     return step;
@@ -222,6 +224,10 @@ std::string_view StepKindName(StepKind kind) {
       return "drift reference";
   }
   return "unknown";
+}
+
+bool IsObservationStep(StepKind kind) {
+  return kind == StepKind::kColour || kind == StepKind::kMonochrome || kind == StepKind::kLinearLight;
 }
 
 std::string ViewId::ToString() const { return "step " + std::to_string(step) + " " + camera; }

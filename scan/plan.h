@@ -51,6 +51,8 @@ enum class StepKind {
 };
 std::string_view StepKindName(StepKind kind);
 std::optional<StepKind> ParseStepKind(std::string_view name);
+// Colour, monochrome and linear-light steps: the ones whose images become a stack's observations.
+bool IsObservationStep(StepKind kind);
 
 struct ExposureBracket {
   double probe_us = 10000;  // the first exposure; the sequencer brackets around it

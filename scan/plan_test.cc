@@ -184,7 +184,7 @@ TEST(PlanTest, DriftReferencesSurroundTurntableMovesAndComeEveryNSteps) {
       since = 0;
       continue;
     }
-    const bool lit = step.kind == StepKind::kColour || step.kind == StepKind::kMonochrome || step.kind == StepKind::kLinearLight;
+    const bool lit = IsObservationStep(step.kind);
     if (lit && !lit_seen) {
       EXPECT_EQ(since, 0) << "no reference before the first lit step " << i;
     }

@@ -34,7 +34,7 @@ Result<SceneState> StateOf(const RigModel& rig, const Step& step) {
 Result<std::vector<Observation>> PlanObservations(const RigModel& rig, const scan::Plan& plan) {
   std::vector<Observation> observations;
   for (const Step& step : plan.steps) {
-    if (step.kind != StepKind::kColour && step.kind != StepKind::kMonochrome && step.kind != StepKind::kLinearLight) continue;
+    if (!scan::IsObservationStep(step.kind)) continue;
     LOOM_ASSIGN_OR_RETURN(const SceneState state, StateOf(rig, step));
     for (const std::string& camera : step.cameras) {
       LOOM_ASSIGN_OR_RETURN(const int index, IndexOf(rig.cameras, camera, step));
