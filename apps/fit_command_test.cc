@@ -186,6 +186,42 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_GT(tuned_training["epochs"][0]["train_rerender_loss"].get<double>(), 0);
 }
 
+// One model of the paper's input layout for two presets: its dataset takes turns between them,
+// and loom fit takes either preset's stacks with it.
+TEST_F(FitCommandTest, OneModelOfThePapersLayoutTakesEveryPresetsStacks) {
+  const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml";
+  const fs::path model = dir_ / "paper-model";
+  const std::string train = std::string(LOOM_BINARY) + " train --rig " + rig + " --out " + model.string() +
+                            " --preset low,medium --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1"
+                            " --steps-per-epoch 2 --quiet";
+  const auto refused = RunCommand(train);
+  EXPECT_NE(refused.exit_code, 0) << refused.output;
+  EXPECT_NE(refused.output.find("--input-layout paper"), std::string::npos) << refused.output;
+
+  const auto trained = RunCommand(train + " --input-layout paper");
+  ASSERT_EQ(trained.exit_code, 0) << trained.output;
+  for (const char* file : {"data/fabric-1000-low.stack.exr", "data/fabric-1001-medium.stack.exr"}) {
+    EXPECT_TRUE(fs::exists(model / file)) << file;
+  }
+  std::ifstream model_file(model / "model.json");
+  const nlohmann::json info = nlohmann::json::parse(model_file);
+  ASSERT_TRUE(info.contains("paper_layout")) << info.dump(2);
+  // The layout is the low preset's, the coarser sweep: 70 strip positions for each camera.
+  for (const nlohmann::json& sweep : info["paper_layout"]["linear_sweeps"]) EXPECT_EQ(sweep["angles_deg"].size(), 70u);
+
+  const fs::path medium = dir_ / "medium.exr";
+  const auto render = RunCommand(std::string(LOOM_BINARY) + " sim render --rig " + rig +
+                                 " --preset medium --stack --size 12 --out " + medium.string());
+  ASSERT_EQ(render.exit_code, 0) << render.output;
+  for (const fs::path& stack : {dir_ / "stack.exr", medium}) {
+    const fs::path out = dir_ / ("paper-fit-" + stack.stem().string());
+    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + stack.string() + " --method cnn --model " + model.string() +
+                                " --out " + out.string());
+    EXPECT_EQ(fit.exit_code, 0) << stack << ": " << fit.output;
+    EXPECT_TRUE(fs::exists(out / "svbrdf.exr")) << stack;
+  }
+}
+
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {
   const auto material = RunCommand(std::string(LOOM_BINARY) + " sim material --size 8 --out " + (dir_ / "m8").string());
   ASSERT_EQ(material.exit_code, 0) << material.output;

@@ -9,6 +9,7 @@
 //    random ones; --rerender-weight adds the re-rendering loss.
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
 //    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
+#include <algorithm>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -41,25 +42,39 @@ struct TrainArguments {
   sim::TrainingSetSpec dataset;
   int validation = 3;
   int test = 3;
-  std::string init;            // a model to start from
-  std::string scan_emulation;  // a sim match-scan file, for dataset.scan_like_share
+  std::string init;                    // a model to start from
+  std::string scan_emulation;          // a sim match-scan file, for dataset.scan_like_share
+  std::string input_layout = "stack";  // or "paper" (fitting/cnn_input.h)
   int width_divisor = 8;
   double dropout = 0.02;
   fitting::CnnTrainingOptions training;
   bool quiet = false;
 };
 
-// Renders the fabrics of --materials missing from `dir` (sim/training_set.h).
+// --preset's comma-separated names.
+std::vector<std::string> PresetNames(const std::string& presets) {
+  std::vector<std::string> names;
+  std::stringstream list(presets);
+  for (std::string name; std::getline(list, name, ',');) names.push_back(name);
+  return names;
+}
+
+// Renders the fabrics of --materials missing from `dir` (sim/training_set.h), with each preset
+// in turn.
 Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
   LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig));
   if (!loaded.sim) {
     return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
   }
   const std::shared_ptr<const sim::Scene> rig_scene = loaded.sim->world->scene();
-  LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PresetObservations(rig_scene->rig(), preset));
+  std::vector<sim::TrainingPlan> plans;
+  for (const std::string& name : PresetNames(args.preset)) {
+    LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(name)));
+    LOOM_ASSIGN_OR_RETURN(std::vector<sim::Observation> observations, sim::PresetObservations(rig_scene->rig(), preset));
+    plans.push_back({name, std::move(observations)});
+  }
   ProgressBar bar("dataset", args.quiet);
-  return sim::RenderTrainingSet(*rig_scene, observations, args.dataset, dir, [&](int done, int total, const std::string& name) {
+  return sim::RenderTrainingSet(*rig_scene, plans, args.dataset, dir, [&](int done, int total, const std::string& name) {
     bar.Update(done, total, "materials", name);
   });
 }
@@ -76,6 +91,14 @@ std::string TrainingDescription(const TrainArguments& args, const fitting::CnnDa
 }
 
 Status CheckDatasetArguments(TrainArguments& args) {
+  const std::vector<std::string> presets = PresetNames(args.preset);
+  if (presets.empty() || std::find(presets.begin(), presets.end(), "") != presets.end()) {
+    return InvalidArgumentError("--preset " + args.preset, "a preset name, or several separated by commas");
+  }
+  if (presets.size() > 1 && args.input_layout != "paper") {
+    return InvalidArgumentError("--preset " + args.preset,
+                                "several presets make stacks of different observations: they need --input-layout paper");
+  }
   if (args.validation + args.test >= args.dataset.materials) {
     return InvalidArgumentError("--validation/--test", "leave at least one of the --materials " +
                                                            std::to_string(args.dataset.materials) + " for training");
@@ -105,7 +128,9 @@ Status Train(TrainArguments args) {
                detail.str());
   };
   LOOM_ASSIGN_OR_RETURN(fitting::CnnDatasetTraining run,
-                        fitting::TrainOnDataset(dataset, {0, args.width_divisor, args.dropout}, args.init, args.training));
+                        fitting::TrainOnDataset(dataset, {0, args.width_divisor, args.dropout}, args.init, args.training,
+                                                args.input_layout == "paper" ? fitting::CnnInputKind::kPaperLayout
+                                                                             : fitting::CnnInputKind::kStackObservations));
   fitting::Cnn& cnn = *run.model;
   std::cout << "dataset " << data.string() << ": " << run.train_materials << " training"
             << (run.streamed ? " (read " + std::to_string(args.training.resident_materials) + " at a time)" : "") << ", "
@@ -118,6 +143,8 @@ Status Train(TrainArguments args) {
   report["options"] = args.training.ToJson();
   report["options"].update(args.dataset.ToJson());
   report["options"].update({{"width_divisor", args.width_divisor},
+                            {"presets", PresetNames(args.preset)},
+                            {"input_layout", args.input_layout},
                             {"dropout", args.dropout},
                             {"init", args.init},
                             {"scan_emulation_file", args.scan_emulation}});
@@ -135,7 +162,13 @@ int RunTrain(int argc, char** argv) {
   TrainArguments args;
   fitting::CnnTrainingOptions& t = args.training;
   app.add_option("--rig", args.rig, "Simulated rig YAML (its geometry renders the dataset)")->required();
-  app.add_option("--preset", args.preset, "Gloss preset whose material plan makes the observations");
+  app.add_option("--preset", args.preset,
+                 "Gloss preset whose material plan makes the observations; several separated by commas (low,medium,high) "
+                 "take turns by material and need --input-layout paper");
+  app.add_option("--input-layout", args.input_layout,
+                 "stack: the dataset's observations as they are (one preset); paper: the paper's layout, the same input "
+                 "for every preset, linear-light sweeps resampled to the coarsest one's positions (fitting/cnn_input.h)")
+      ->check(CLI::IsMember({"stack", "paper"}));
   app.add_option("--out", args.out, "Model directory: model.json, weights.pt, training.json, checkpoints/")->required();
   app.add_option("--data", args.data, "Dataset directory (default OUT/data): NAME.stack.exr + NAME.truth.exr pairs");
   app.add_option("--materials", args.dataset.materials, "Procedural fabrics to render into the dataset")

@@ -119,15 +119,17 @@ Status CheckInput(const Cnn& cnn, const CnnTensor& input) {
 Json InfoToJson(const CnnModelInfo& info) {
   Json groups = Json::array();
   for (ObservationGroup g : info.observation_groups) groups.push_back(ObservationGroupName(g));
-  return {{"format", "loom-cnn-1"},
-          {"architecture",
-           {{"input_channels", info.architecture.input_channels},
-            {"width_divisor", info.architecture.width_divisor},
-            {"dropout", info.architecture.dropout}}},
-          {"radiance_scale", info.radiance_scale},
-          {"rig", info.rig},
-          {"observation_groups", groups},
-          {"training", info.training}};
+  Json json = {{"format", "loom-cnn-1"},
+               {"architecture",
+                {{"input_channels", info.architecture.input_channels},
+                 {"width_divisor", info.architecture.width_divisor},
+                 {"dropout", info.architecture.dropout}}},
+               {"radiance_scale", info.radiance_scale},
+               {"rig", info.rig},
+               {"observation_groups", groups},
+               {"training", info.training}};
+  if (info.paper_layout) json["paper_layout"] = info.paper_layout->ToJson();
+  return json;
 }
 
 CnnModelInfo InfoFromJson(const Json& j) {
@@ -145,6 +147,7 @@ CnnModelInfo InfoFromJson(const Json& j) {
     info.observation_groups.push_back(*group);
   }
   info.training = j.value("training", "");
+  if (j.contains("paper_layout")) info.paper_layout = PaperInputLayout::FromJson(j.at("paper_layout"));
   return info;
 }
 
@@ -175,37 +178,6 @@ Status CnnArchitecture::Check() const {
   if (width_divisor < 1 || 256 % width_divisor != 0) problems.push_back("width_divisor must divide 256");
   if (!(dropout >= 0 && dropout < 1)) problems.push_back("dropout must be in [0, 1)");
   return ProblemsStatus("CnnArchitecture", problems);
-}
-
-Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnModelInfo& info) {
-  const int n = static_cast<int>(stack.observations.size());
-  bool same_layout = n == static_cast<int>(info.observation_groups.size());
-  for (int k = 0; same_layout && k < n; ++k) same_layout = stack.observations[k].group == info.observation_groups[k];
-  if (!same_layout || info.architecture.input_channels != kCnnGeometryChannels + n) {
-    return FailedPreconditionError(
-        stack.source, "its " + std::to_string(n) + " observations are not the layout the model was trained on (" +
-                          std::to_string(info.observation_groups.size()) + " observations of rig '" + info.rig + "')");
-  }
-  const int width = stack.image.width(), height = stack.image.height();
-  const size_t plane = stack.image.pixel_count();
-  CnnTensor input{kCnnGeometryChannels + n, height, width, {}};
-  input.values.resize(plane * input.channels);
-  std::vector<float> heights(stack.image.channel(2).begin(), stack.image.channel(2).end());
-  std::nth_element(heights.begin(), heights.begin() + plane / 2, heights.end());
-  const float median_height = heights[plane / 2];
-  for (size_t i = 0; i < plane; ++i) input.values[i] = stack.image.channel(2)[i] - median_height;
-  for (int c = 0; c < 3; ++c) {
-    std::copy(stack.image.channel(3 + c).begin(), stack.image.channel(3 + c).end(), input.values.begin() + (1 + c) * plane);
-  }
-  const float inverse_scale = static_cast<float>(1 / info.radiance_scale);
-  for (int k = 0; k < n; ++k) {
-    const auto values = stack.image.channel(ObservationStack::ObservationChannel(k));
-    float* out = input.values.data() + (kCnnGeometryChannels + k) * plane;
-    for (size_t i = 0; i < plane; ++i) {
-      out[i] = std::isfinite(values[i]) ? std::log1p(std::max(0.0f, values[i]) * inverse_scale) : 0.0f;
-    }
-  }
-  return input;
 }
 
 CnnLabels CnnLabelsFromMaps(const Image& maps) {

@@ -25,26 +25,28 @@
 // normal (3), then log(1 + L / radiance_scale) of every observation (unseen = 0). The stack's
 // x and y positions are left out: they say where on the holder a pixel is, which a stationary
 // material's reflectance does not depend on. So a stack of N observations needs
-// input_channels = 4 + N (the paper's 934-channel input had x, y, z).
+// input_channels = 4 + N (the paper's 934-channel input had x, y, z). A model may instead take
+// the paper's layout (cnn_input.h): the same channels for every gloss preset of its rig.
 // Thread safety: a Cnn is not shared between threads (torch's own pool parallelises each call).
 
 #include <array>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/image.h"
 #include "core/observation_stack.h"
 #include "core/status.h"
+#include "fitting/cnn_input.h"
 
 namespace loom::fitting {
 
 inline constexpr int kPatchSize = 15;
-inline constexpr int kPatchHalo = 7;            // (kPatchSize − 1) / 2
-inline constexpr int kCnnGeometryChannels = 4;  // height, normal.XYZ
-inline constexpr int kDenseTile = 256;          // Cnn::PredictDense's largest tile side
+inline constexpr int kPatchHalo = 7;    // (kPatchSize − 1) / 2
+inline constexpr int kDenseTile = 256;  // Cnn::PredictDense's largest tile side
 
 struct CnnArchitecture {
   int input_channels = 934;  // the paper's; 4 + observations for a loom stack
@@ -64,20 +66,15 @@ struct CnnModelInfo {
   double radiance_scale = 1;                         // L ↦ log(1 + L / radiance_scale)
   std::string rig;                                   // the stacks' rig, e.g. "tac7-mini"
   std::vector<ObservationGroup> observation_groups;  // the stack layout it was trained on
-  std::string training;                              // free text: data, epochs, validation errors
+  // With a paper layout (cnn_input.h) the model takes every preset's stacks of its rig through
+  // it; without, exactly the stacks of `observation_groups`.
+  std::optional<PaperInputLayout> paper_layout;
+  std::string training;  // free text: data, epochs, validation errors
 };
 
-// Planar C × H × W floats.
-struct CnnTensor {
-  int channels = 0;
-  int height = 0;
-  int width = 0;
-  std::vector<float> values;
-  float at(int c, int y, int x) const { return values[(static_cast<size_t>(c) * height + y) * width + x]; }
-};
-
-// The network input of a stack under `info`'s layout; an error naming the stack's source when
-// its observations are not the ones the model was trained on.
+// The network input of a stack under `info`'s layout (its paper layout, or else the stack's own
+// observations); an error naming the stack's source when its observations are not the ones the
+// model was trained on. Defined in cnn_input.cc.
 Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnModelInfo& info);
 
 // The 14 label channels of SVBRDF maps (fitting/model/svbrdf_maps.h layout) and, per pixel,

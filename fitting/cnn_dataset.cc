@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 
 #include "core/exr_io.h"
 #include "fitting/export.h"
@@ -55,10 +56,11 @@ Result<std::shared_ptr<const ObservationStack>> CnnDataset::Stack(int i) const {
   return std::make_shared<const ObservationStack>(std::move(stack));
 }
 
-Result<CnnModelInfo> CnnDataset::ModelInfo(const CnnArchitecture& architecture, int max_stacks) const {
+Result<CnnModelInfo> CnnDataset::ModelInfo(const CnnArchitecture& architecture, int max_stacks, CnnInputKind input) const {
   CnnModelInfo info;
   info.architecture = architecture;
   std::vector<float> values;
+  int fewest_linear = std::numeric_limits<int>::max();
   for (int i = 0; i < std::min(train_count(), std::max(max_stacks, 1)); ++i) {
     LOOM_ASSIGN_OR_RETURN(const std::shared_ptr<const ObservationStack> stack, Stack(i));
     if (i == 0) {
@@ -66,11 +68,22 @@ Result<CnnModelInfo> CnnDataset::ModelInfo(const CnnArchitecture& architecture, 
       info.rig = stack->rig;
       for (const StackObservation& o : stack->observations) info.observation_groups.push_back(o.group);
     }
+    const int linear =
+        static_cast<int>(std::count_if(stack->observations.begin(), stack->observations.end(),
+                                       [](const StackObservation& o) { return o.group == ObservationGroup::kLinearLight; }));
+    if (input == CnnInputKind::kPaperLayout && linear < fewest_linear) {
+      LOOM_ASSIGN_OR_RETURN(info.paper_layout, PaperLayoutOf(*stack));
+      fewest_linear = linear;
+    }
     for (int c = kStackGeometryChannels; c < stack->image.num_channels(); c += 7) {  // a sample of the channels
       for (float v : stack->image.channel(c)) {
         if (std::isfinite(v) && v > 0) values.push_back(v);
       }
     }
+  }
+  if (info.paper_layout) {
+    info.observation_groups.clear();
+    info.architecture.input_channels = info.paper_layout->Channels();
   }
   info.radiance_scale = 1;
   if (!values.empty()) {
@@ -95,8 +108,9 @@ Result<CnnExample> CnnDataset::Example(int i, const CnnModelInfo& info, bool kee
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed) {
   if (init.empty()) return Cnn::Create(info, seed);
   LOOM_ASSIGN_OR_RETURN(Cnn cnn, Cnn::Load(init));
+  const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
   if (cnn.info().architecture.input_channels != info.architecture.input_channels || cnn.info().rig != info.rig ||
-      cnn.info().observation_groups != info.observation_groups) {
+      cnn.info().observation_groups != info.observation_groups || layout(cnn.info()) != layout(info)) {
     return InvalidArgumentError(init, "a model for other stacks (rig '" + cnn.info().rig + "', " +
                                           std::to_string(cnn.info().architecture.input_channels) +
                                           " input channels) than the dataset's ('" + info.rig + "', " +
@@ -123,7 +137,7 @@ Result<std::vector<CnnExample>> ReadExamples(const CnnDataset& dataset, int firs
 }  // namespace
 
 Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnArchitecture& architecture, const std::string& init,
-                                          const CnnTrainingOptions& options) {
+                                          const CnnTrainingOptions& options, CnnInputKind input) {
   LOOM_RETURN_IF_ERROR(options.Check());
   if (options.checkpoint_dir.empty()) {
     return InvalidArgumentError("CnnTrainingOptions.checkpoint_dir", "is needed: the kept epoch is reloaded from it");
@@ -133,7 +147,7 @@ Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnAr
   run.validation_materials = dataset.validation_count();
   run.test_materials = dataset.test_count();
   run.streamed = options.resident_materials > 0 && options.resident_materials < run.train_materials;
-  LOOM_ASSIGN_OR_RETURN(const CnnModelInfo new_info, dataset.ModelInfo(architecture, kNormalisationStacks));
+  LOOM_ASSIGN_OR_RETURN(const CnnModelInfo new_info, dataset.ModelInfo(architecture, kNormalisationStacks, input));
   LOOM_ASSIGN_OR_RETURN(Cnn cnn, StartingCnn(new_info, init, options.seed));
   const CnnModelInfo info = cnn.info();
   const bool keep_stacks = options.rerender_weight > 0;

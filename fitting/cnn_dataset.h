@@ -20,6 +20,10 @@
 
 namespace loom::fitting {
 
+// What a new model's input is: its dataset's stack observations as they are, or the paper's
+// layout (cnn_input.h), which takes every gloss preset's stacks of the rig.
+enum class CnnInputKind { kStackObservations, kPaperLayout };
+
 class CnnDataset {
  public:
   // Every pair in `dir`; a stack without its truth is an error naming it, and so is a split that
@@ -33,8 +37,11 @@ class CnnDataset {
 
   // A new model's description for these stacks: input channels and observation groups (the first
   // stack's) and rig, and the input normalisation, the median positive radiance of the first
-  // `max_stacks` training stacks.
-  Result<CnnModelInfo> ModelInfo(const CnnArchitecture& architecture, int max_stacks) const;
+  // `max_stacks` training stacks. With the paper layout, the layout of the stack among those
+  // with the fewest linear-light observations (the coarsest sweep, which finer ones are
+  // resampled to: a mixed set's low-preset stacks).
+  Result<CnnModelInfo> ModelInfo(const CnnArchitecture& architecture, int max_stacks,
+                                 CnnInputKind input = CnnInputKind::kStackObservations) const;
   // Example `i` (0 ≤ i < size(): training, then validation, then test) as a model with `info`
   // sees it; `keep_stack` keeps its stack for the re-rendering loss.
   Result<CnnExample> Example(int i, const CnnModelInfo& info, bool keep_stack) const;
@@ -76,8 +83,9 @@ struct CnnDatasetTraining {
 // the training stacks in memory, or streamed options.resident_materials at a time when that is
 // fewer; then the epoch with the lowest validation loss, reloaded from
 // options.checkpoint_dir/best (later epochs may have overfitted) and scored on the test set.
-// The input normalisation comes from the first 64 training stacks.
+// The input normalisation comes from the first 64 training stacks, and so does the paper layout.
 Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnArchitecture& architecture, const std::string& init,
-                                          const CnnTrainingOptions& options);
+                                          const CnnTrainingOptions& options,
+                                          CnnInputKind input = CnnInputKind::kStackObservations);
 
 }  // namespace loom::fitting

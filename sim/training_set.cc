@@ -40,15 +40,22 @@ nlohmann::json TrainingSetSpec::ToJson() const {
 
 Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& observations, const TrainingSetSpec& spec,
                          const fs::path& dir, const TrainingSetProgress& progress) {
+  return RenderTrainingSet(rig, std::vector<TrainingPlan>{{"", observations}}, spec, dir, progress);
+}
+
+Status RenderTrainingSet(const Scene& rig, const std::vector<TrainingPlan>& plans, const TrainingSetSpec& spec,
+                         const fs::path& dir, const TrainingSetProgress& progress) {
   LOOM_RETURN_IF_ERROR(spec.Check());
+  if (plans.empty()) return InvalidArgumentError("training set", "no plan to render the materials with");
   LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
   for (int i = 0; i < spec.materials; ++i) {
     const uint64_t seed = spec.first_seed + i;
     // Scan-likeness is chosen by pairs of materials, so that with out_of_model_share 0.5 (every
     // other material) half of each kind is scan-like.
     const bool out_of_model = Chosen(i, spec.out_of_model_share), scan_like = Chosen(i / 2, spec.scan_like_share);
-    const std::string name =
-        "fabric-" + std::to_string(seed) + (out_of_model ? "-out-of-model" : "") + (scan_like ? "-scan-like" : "");
+    const TrainingPlan& plan = plans[static_cast<size_t>(i) % plans.size()];
+    const std::string name = "fabric-" + std::to_string(seed) + (out_of_model ? "-out-of-model" : "") +
+                             (scan_like ? "-scan-like" : "") + (plans.size() > 1 ? "-" + plan.name : "");
     const fs::path stack_path = dir / (name + ".stack.exr"), truth_path = dir / (name + ".truth.exr");
     if (!fs::exists(stack_path) || !fs::exists(truth_path)) {
       SampleSpec sample;
@@ -58,7 +65,7 @@ Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& obser
       sample.pixel_mm = rig.material().pixel_mm;
       LOOM_ASSIGN_OR_RETURN(Material material, MakeSample(sample));
       const Scene scene(rig.rig(), std::move(material));
-      ObservationStack stack = RenderStack(scene, observations, {});
+      ObservationStack stack = RenderStack(scene, plan.observations, {});
       if (scan_like) LOOM_RETURN_IF_ERROR(EmulateScan(spec.scan_emulation, seed, stack));
       LOOM_RETURN_IF_ERROR(WriteMaterial(TruthOnStackGrid(scene, {}), truth_path));
       LOOM_RETURN_IF_ERROR(WriteObservationStack(stack_path, stack));

@@ -33,10 +33,20 @@ struct TrainingSetSpec {
 // Called after each material with how many are done, of how many, and its name.
 using TrainingSetProgress = std::function<void(int done, int total, const std::string& name)>;
 
+// What a material plan makes (plan_observations.h), under a name for the files (a preset's).
+struct TrainingPlan {
+  std::string name;
+  std::vector<Observation> observations;
+};
+
 // `rig`: the rig's scene (its material gives only the pixel size); `observations`: what a
-// material plan makes (plan_observations.h). The stack is written last: a stack names a
-// complete pair.
+// material plan makes. The stack is written last: a stack names a complete pair.
 Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& observations, const TrainingSetSpec& spec,
+                         const std::filesystem::path& dir, const TrainingSetProgress& progress = {});
+// Several plans (e.g. every gloss preset, for a model of the paper's input layout): material i
+// is rendered with plans[i % plans.size()], and with two or more its files' names end in the
+// plan's name (fabric-SEED-low.stack.exr).
+Status RenderTrainingSet(const Scene& rig, const std::vector<TrainingPlan>& plans, const TrainingSetSpec& spec,
                          const std::filesystem::path& dir, const TrainingSetProgress& progress = {});
 
 }  // namespace loom::sim
