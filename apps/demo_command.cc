@@ -1,5 +1,6 @@
 // loom demo: the main job on a simulated rig, end to end — calibration scan → loom calibrate
-// geometry and radiometry → material scan of a procedural fabric → loom reconstruct with that calibration →
+// geometry and radiometry (or, with --no-calibration, the rig YAML's) → material scan of a
+// procedural fabric (or of a crop of it, --crop-mm) → loom reconstruct with that calibration →
 // loom fit (each method asked for) → loom eval against the simulator's ground truth → loom export
 // of the main result as glTF and AxF — then a one-screen summary and summary.json. Every stage is the
 // loom command of the same name, run in this process with the arguments it prints, so what the
@@ -8,6 +9,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -29,7 +31,9 @@ struct DemoArguments {
   std::string preset = "low";
   std::string out = "loom-demo";
   std::vector<std::string> methods = {"cnn", "cnn+refine"};
-  int size_px = 0;  // 0: the reconstruction's default
+  int size_px = 0;        // 0: the reconstruction's default
+  double crop_mm = 0;     // > 0: the material scan reads only the windows that see this crop
+  bool calibrate = true;  // false: reconstruct with the rig YAML's geometry and radiometry
   bool quiet = false;
 };
 
@@ -76,21 +80,27 @@ std::vector<std::string> WithSize(std::vector<std::string> arguments, int size_p
 
 Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
   const fs::path out(args.out);
-  LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan,
-                                   {"scan", "--rig", rig, "--calibration", "--out", (out / "calibration-scan").string()}));
-  LOOM_RETURN_IF_ERROR(
-      stages->Run("calibrate geometry", RunCalibrate,
-                  {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
-  LOOM_RETURN_IF_ERROR(
-      stages->Run("calibrate radiometry", RunCalibrate,
-                  {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()}));
-  LOOM_RETURN_IF_ERROR(
-      stages->Run("material scan", RunScan,
-                  {"scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out", (out / "scan").string()}));
-  return stages->Run("reconstruct", RunReconstruct,
-                     WithSize({"reconstruct", (out / "scan").string(), "--calib", (out / "calib").string(), "--out",
-                               (out / "reconstruction").string()},
-                              args.size_px));
+  if (args.calibrate) {
+    LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan,
+                                     {"scan", "--rig", rig, "--calibration", "--out", (out / "calibration-scan").string()}));
+    LOOM_RETURN_IF_ERROR(
+        stages->Run("calibrate geometry", RunCalibrate,
+                    {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
+    LOOM_RETURN_IF_ERROR(
+        stages->Run("calibrate radiometry", RunCalibrate,
+                    {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()}));
+  }
+  std::vector<std::string> scan = {
+      "scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out", (out / "scan").string()};
+  if (args.crop_mm > 0) {
+    std::ostringstream crop;
+    crop << args.crop_mm;
+    scan.insert(scan.end(), {"--crop-mm", crop.str()});
+  }
+  LOOM_RETURN_IF_ERROR(stages->Run("material scan", RunScan, scan));
+  std::vector<std::string> reconstruct = {"reconstruct", (out / "scan").string(), "--out", (out / "reconstruction").string()};
+  if (args.calibrate) reconstruct.insert(reconstruct.end(), {"--calib", (out / "calib").string()});
+  return stages->Run("reconstruct", RunReconstruct, WithSize(reconstruct, args.size_px));
 }
 
 Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages* stages) {
@@ -126,8 +136,12 @@ Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::s
   const fs::path out(args.out);
   nlohmann::ordered_json summary = {
       {"rig", rig}, {"object", args.object}, {"preset", args.preset}, {"loom_version", std::string(VersionWithCommit())}};
-  LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json geometry, ReadJson(out / "calib" / "geometry.json"));
-  summary["calibration_rms_px"] = geometry["rms_px"];
+  summary["calibration_rms_px"] = nullptr;  // none: the rig YAML's geometry
+  if (args.calibrate) {
+    LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json geometry, ReadJson(out / "calib" / "geometry.json"));
+    summary["calibration_rms_px"] = geometry["rms_px"];
+  }
+  if (args.crop_mm > 0) summary["crop_mm"] = args.crop_mm;
   for (const StageTime& stage : stages.times()) summary["stage_seconds"][stage.name] = stage.seconds;
   for (const std::string& method : args.methods) {
     LOOM_ASSIGN_OR_RETURN(nlohmann::ordered_json evaluation, ReadJson(out / ("report-" + method) / "summary.json"));
@@ -139,8 +153,13 @@ Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::s
 
 void PrintSummary(const nlohmann::ordered_json& summary) {
   std::cout << "\n== summary: " << summary["object"].get<std::string>() << " on " << summary["rig"].get<std::string>()
-            << ", preset " << summary["preset"].get<std::string>() << "; camera calibration RMS " << std::fixed
-            << std::setprecision(3) << summary["calibration_rms_px"].get<double>() << " px\n";
+            << ", preset " << summary["preset"].get<std::string>() << "; ";
+  if (summary["calibration_rms_px"].is_null()) {
+    std::cout << "not calibrated (the rig YAML's geometry)\n";
+  } else {
+    std::cout << "camera calibration RMS " << std::fixed << std::setprecision(3) << summary["calibration_rms_px"].get<double>()
+              << " px\n";
+  }
   fitting::PrintEvaluationTable(std::cout, summary["methods"]);
   std::cout << "\ntime per stage:";
   double total = 0;
@@ -192,6 +211,13 @@ int RunDemo(int argc, char** argv) {
       ->check(CLI::IsMember(FitMethodNames()));
   app.add_option("--size", args.size_px, "Stack size in pixels (square, centred; default: reconstruct's)")
       ->check(CLI::Range(8, 8192));
+  app.add_option("--crop-mm", args.crop_mm,
+                 "Scan only a centred square crop of the sample this wide, each camera reading the window that sees it "
+                 "(as loom scan --crop-mm; for rigs with large sensors, e.g. tac7 with --size 64 and 12.8)")
+      ->check(CLI::Range(0.5, 1000.0));
+  app.add_flag("!--no-calibration", args.calibrate,
+               "No calibration scan: reconstruct with the rig YAML's geometry and radiometry (on a simulated rig without "
+               "as_built: that is what it is)");
   app.add_option("--out", args.out, "Directory to write, new or empty (default loom-demo)");
   app.add_flag("--quiet", args.quiet, "No progress bars");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
