@@ -101,6 +101,10 @@ int RunFit(int argc, char** argv) {
                  "refine methods: coarse to fine, each pixel first converged with its strips merged into this many "
                  "light samples, then finished with all of them (0: one pass)")
       ->check(CLI::Range(0, 4096));
+  app.add_option("--function-tolerance", args.options.refine_function_tolerance,
+                 "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
+                 "fraction (default 1e-4; Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")
+      ->check(CLI::Range(0.0, 0.5));
   app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
   app.add_option("--clusters", args.options.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));

@@ -143,6 +143,7 @@ RefineOptions RefinerOptions(const PixelFitOptions& fit, const StackFitOptions& 
   refine.threads = options.threads;
   refine.max_lights_per_observation = options.max_lights_per_observation;
   refine.coarse_lights_per_observation = options.coarse_lights_per_observation;
+  refine.function_tolerance = options.refine_function_tolerance;
   return refine;
 }
 
@@ -443,7 +444,8 @@ nlohmann::json StackFitOptions::ToJson() const {
           {"prior_weight", refiner ? prior.weight : 0},
           {"smoothing_weight", refiner ? smoothing.weight : 0},
           {"strip_samples", max_lights_per_observation},
-          {"coarse_samples", coarse_lights_per_observation}};
+          {"coarse_samples", coarse_lights_per_observation},
+          {"function_tolerance", refine_function_tolerance}};
 }
 
 Result<std::optional<double>> ParseFixedF0(const std::string& text, const std::string& what) {
@@ -495,6 +497,9 @@ Status StackFitOptions::Check() const {
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
   if (coarse_lights_per_observation < 0) problems.push_back("coarse_lights_per_observation must be ≥ 0");
+  if (!(refine_function_tolerance >= 0 && refine_function_tolerance < 1)) {
+    problems.push_back("refine_function_tolerance must be in [0, 1)");
+  }
   if (retry_explore_lights < 0) problems.push_back("retry_explore_lights must be ≥ 0");
   if (!(retry_min_gain >= 0 && retry_min_gain < 1)) problems.push_back("retry_min_gain must be in [0, 1)");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
