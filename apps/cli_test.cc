@@ -1,6 +1,8 @@
 // Runs the real `loom` binary and checks what a user sees: output, stderr and exit codes.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
 #include <string>
 
 #include "core/testing/subprocess.h"
@@ -20,6 +22,18 @@ TEST(CliTest, HelpListsEveryCommand) {
   EXPECT_TRUE(Contains(run.output, "Usage: loom")) << run.output;
   EXPECT_TRUE(Contains(run.output, "  version ")) << run.output;
   EXPECT_TRUE(Contains(run.output, "  help ")) << run.output;
+}
+
+// A config named by NAME (`--preset low`, demo's `--rig tac7`) is configs/<folder>/NAME.yaml even
+// where the working directory holds a directory of that name (a model's, a scan's).
+TEST(CliTest, ADirectoryNamedLikeAConfigDoesNotShadowIt) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("cli_config_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir / "low");
+  const LoomRun run = loom::testing::RunCommand("cd " + dir.string() + " && " + std::string(LOOM_BINARY) + " plan --rig " +
+                                                LOOM_SOURCE_DIR + "/configs/rig/tac7-mini.yaml --preset low");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("with preset 'low'"), std::string::npos) << run.output;
+  std::filesystem::remove_all(dir);
 }
 
 TEST(CliTest, NoCommandIsAUsageError) {

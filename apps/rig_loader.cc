@@ -33,10 +33,11 @@ Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& so
 
 namespace {
 
-// A file by path, or by NAME in configs/<folder>/NAME.yaml, here or in loom's source tree.
+// A file by path, or by NAME in configs/<folder>/NAME.yaml, here or in loom's source tree. A
+// directory of that name (a model's, a scan's) is not a config file.
 std::filesystem::path ResolveConfigPath(const std::string& folder, const std::string& name) {
   namespace fs = std::filesystem;
-  if (fs::exists(name)) return name;
+  if (fs::exists(name) && !fs::is_directory(name)) return name;
   const fs::path local = fs::path("configs") / folder / (name + ".yaml");
   if (fs::exists(local)) return local;
   return fs::path(LOOM_CONFIGS_DIR) / folder / (name + ".yaml");
