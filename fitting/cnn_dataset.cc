@@ -68,12 +68,14 @@ Result<CnnModelInfo> CnnDataset::ModelInfo(const CnnArchitecture& architecture, 
       info.rig = stack->rig;
       for (const StackObservation& o : stack->observations) info.observation_groups.push_back(o.group);
     }
-    const int linear =
-        static_cast<int>(std::count_if(stack->observations.begin(), stack->observations.end(),
-                                       [](const StackObservation& o) { return o.group == ObservationGroup::kLinearLight; }));
-    if (input == CnnInputKind::kPaperLayout && linear < fewest_linear) {
-      LOOM_ASSIGN_OR_RETURN(info.paper_layout, PaperLayoutOf(*stack));
-      fewest_linear = linear;
+    if (input == CnnInputKind::kPaperLayout) {
+      const int linear =
+          static_cast<int>(std::count_if(stack->observations.begin(), stack->observations.end(),
+                                         [](const StackObservation& o) { return o.group == ObservationGroup::kLinearLight; }));
+      if (linear < fewest_linear) {
+        LOOM_ASSIGN_OR_RETURN(info.paper_layout, PaperLayoutOf(*stack));
+        fewest_linear = linear;
+      }
     }
     for (int c = kStackGeometryChannels; c < stack->image.num_channels(); c += 7) {  // a sample of the channels
       for (float v : stack->image.channel(c)) {

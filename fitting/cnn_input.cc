@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <numbers>
 #include <span>
 #include <sstream>
@@ -25,16 +24,22 @@ struct StackSweep {
   std::vector<std::pair<double, int>> by_angle;  // (angle, observation index), ascending
 };
 
+// The sweep of `camera` at `turntable_deg` among `sweeps`, or their end.
+std::vector<StackSweep>::const_iterator FindSweep(const std::vector<StackSweep>& sweeps, const std::string& camera,
+                                                  double turntable_deg) {
+  return std::find_if(sweeps.begin(), sweeps.end(), [&](const StackSweep& s) {
+    return s.camera == camera && std::abs(s.turntable_deg - turntable_deg) < kSameTurntableDeg;
+  });
+}
+
 std::vector<StackSweep> SweepsOf(const ObservationStack& stack) {
   std::vector<StackSweep> sweeps;
   for (int k = 0; k < static_cast<int>(stack.observations.size()); ++k) {
     const StackObservation& o = stack.observations[k];
     if (o.group != ObservationGroup::kLinearLight) continue;
-    auto sweep = std::find_if(sweeps.begin(), sweeps.end(), [&](const StackSweep& s) {
-      return s.camera == o.camera && std::abs(s.turntable_deg - o.turntable_deg) < kSameTurntableDeg;
-    });
-    if (sweep == sweeps.end()) sweep = sweeps.insert(sweeps.end(), StackSweep{o.camera, o.turntable_deg, {}});
-    sweep->by_angle.emplace_back(StripAngleDeg(o), k);
+    const size_t at = static_cast<size_t>(FindSweep(sweeps, o.camera, o.turntable_deg) - sweeps.cbegin());
+    if (at == sweeps.size()) sweeps.push_back({o.camera, o.turntable_deg, {}});
+    sweeps[at].by_angle.emplace_back(StripAngleDeg(o), k);
   }
   for (StackSweep& s : sweeps) std::sort(s.by_angle.begin(), s.by_angle.end());
   return sweeps;
@@ -70,11 +75,12 @@ double MeanOverInterval(const std::vector<double>& x, const std::vector<double>&
   return integral / (hi - lo);
 }
 
-// The radiance of `sweep` over each of `angles`' bins (from midway to the previous angle to
-// midway to the next): the mean of the sweep's radiance, linear between its positions, over the
-// bin; per pixel, unseen positions left out (NaN where none is seen).
-Result<std::vector<std::vector<float>>> Resampled(const ObservationStack& stack, const StackSweep& sweep,
-                                                  const std::vector<double>& angles) {
+// Writes the input channels of `sweep` over each of `angles`' bins (from midway to the previous
+// angle to midway to the next) to `out`, one plane after another: log radiance of the mean of
+// the sweep's radiance, linear between its positions, over the bin; per pixel, unseen positions
+// left out (0, unseen, where none is seen).
+Status WriteResampled(const ObservationStack& stack, const StackSweep& sweep, const std::vector<double>& angles,
+                      float inverse_scale, float* out) {
   const size_t n = angles.size();
   const auto bin_edge = [&](size_t j) {  // the edge between angle j − 1 and angle j
     if (j == 0) return angles[0] - (angles[1] - angles[0]) / 2;
@@ -91,17 +97,18 @@ Result<std::vector<std::vector<float>>> Resampled(const ObservationStack& stack,
   std::vector<std::span<const float>> channels;
   for (const auto& [angle, k] : sweep.by_angle) channels.push_back(stack.image.channel(ObservationStack::ObservationChannel(k)));
   const size_t plane = stack.image.pixel_count();
-  std::vector<std::vector<float>> out(n, std::vector<float>(plane, NAN));
   std::vector<double> x, y;
   for (size_t i = 0; i < plane; ++i) {
     x.clear(), y.clear();
     for (size_t s = 0; s < channels.size(); ++s) {
       if (std::isfinite(channels[s][i])) x.push_back(sweep.by_angle[s].first), y.push_back(channels[s][i]);
     }
-    if (x.empty()) continue;
-    for (size_t j = 0; j < n; ++j) out[j][i] = static_cast<float>(MeanOverInterval(x, y, bin_edge(j), bin_edge(j + 1)));
+    for (size_t j = 0; j < n; ++j) {
+      const float mean = x.empty() ? NAN : static_cast<float>(MeanOverInterval(x, y, bin_edge(j), bin_edge(j + 1)));
+      out[j * plane + i] = LogRadiance(mean, inverse_scale);
+    }
   }
-  return out;
+  return Status::Ok();
 }
 
 }  // namespace
@@ -237,18 +244,13 @@ Result<CnnTensor> PaperInputFromStack(const ObservationStack& stack, const Paper
     out += plane;
   }
   for (const PaperLinearSweep& wanted : layout.sweeps) {
-    const auto sweep = std::find_if(sweeps.begin(), sweeps.end(), [&](const StackSweep& s) {
-      return s.camera == wanted.camera && std::abs(s.turntable_deg - wanted.turntable_deg) < kSameTurntableDeg;
-    });
+    const auto sweep = FindSweep(sweeps, wanted.camera, wanted.turntable_deg);
     if (sweep == sweeps.end()) {
       return FailedPreconditionError(stack.source,
                                      "has no " + SweepName(wanted.camera, wanted.turntable_deg) + ", which the model takes");
     }
-    LOOM_ASSIGN_OR_RETURN(const std::vector<std::vector<float>> resampled, Resampled(stack, *sweep, wanted.angles_deg));
-    for (const std::vector<float>& values : resampled) {
-      for (size_t i = 0; i < plane; ++i) out[i] = LogRadiance(values[i], inverse_scale);
-      out += plane;
-    }
+    LOOM_RETURN_IF_ERROR(WriteResampled(stack, *sweep, wanted.angles_deg, inverse_scale, out));
+    out += wanted.angles_deg.size() * plane;
   }
   return input;
 }

@@ -165,6 +165,40 @@ TEST(StackFitterTest, StartsEveryPixelFromInitialMapsWithoutClusters) {
   EXPECT_NE(mismatched.status().ToString().find("9x10"), std::string::npos) << mismatched.status().ToString();
 }
 
+// The refiner's function tolerance reaches it from the stack fitter: a looser one ends the fits
+// in fewer iterations, at nearly the same maps.
+TEST(StackFitterTest, ALooserFunctionToleranceEndsTheRefinersFitsSooner) {
+  const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
+  std::mt19937 random(5);
+  std::normal_distribution<float> noise(0.0f, 0.05f);
+  for (int c = kStackGeometryChannels; c < stack.image.num_channels(); ++c) {
+    for (float& v : stack.image.channel(c)) v *= 1 + noise(random);
+  }
+  const Image initial = PerturbedTruth(fabric);
+  StackFitOptions options;
+  options.initial_maps = &initial;
+  options.solver = PixelSolver::kBatchRefiner;
+  options.retry_poor_fits = false;
+  options.refine_function_tolerance = 1e-6;
+  const Result<StackFit> tight = FitStack(stack, options);
+  options.refine_function_tolerance = 1e-2;
+  const Result<StackFit> loose = FitStack(stack, options);
+  ASSERT_TRUE(tight.ok() && loose.ok());
+  std::cout << "iterations per pixel at 1e-6: " << tight->summary.mean_iterations
+            << ", at 1e-2: " << loose->summary.mean_iterations << "\n";
+  EXPECT_LT(loose->summary.mean_iterations, 0.9 * tight->summary.mean_iterations);
+  double worst_a_d = 0;
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) {
+      worst_a_d =
+          std::max(worst_a_d, (GetParams(tight->maps, x, y).a_d - GetParams(loose->maps, x, y).a_d).cwiseAbs().maxCoeff());
+    }
+  }
+  EXPECT_LT(worst_a_d, 0.05);
+}
+
 // cnn+refine on a noisy stack: the refiner's maps carry the uncertainty channels, and the
 // smoothing pass (a prior toward each pixel's neighbourhood) leaves the σ and a_s maps less
 // speckled than the free fit — as `loom eval`'s map noise measures it.
