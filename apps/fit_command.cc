@@ -21,11 +21,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The noise level (StackFitOptions::prior_reference_noise_rms) of the stack the prior's weight
+// was picked on: fabric:1003 scanned and reconstructed on tac7-mini.
+constexpr double kPriorReferenceNoiseRms = 0.16;
+
 fitting::StackFitOptions DefaultOptions() {
   fitting::StackFitOptions options;
   // Picked on a training fabric's reconstructed stack (fabric:1003; docs/benchmarks.md): every
   // parameter's NRMSE below the CNN's, re-render L1 within 1 % of CNN + Ceres.
   options.prior.weight = 0.1;
+  options.prior_reference_noise_rms = kPriorReferenceNoiseRms;
   return options;
 }
 
@@ -89,6 +94,11 @@ int RunFit(int argc, char** argv) {
                  "cnn+refine: weight of the prior toward the CNN's maps (default 0.1; 0: none; 1: the CNN's "
                  "measured errors as its 1 sigma)")
       ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--prior-noise", args.options.prior_reference_noise_rms,
+                 "cnn+refine: the stack noise level (relative RMS of its best-fitted tenth) at which --prior-weight "
+                 "holds; the weight scales with the square of the stack's own, so that exact data outweigh the CNN "
+                 "(default 0.16, the level the weight was picked at; 0: the weight as given)")
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--smoothing-weight", args.options.smoothing.weight,
                  "refine methods: weight of a second pass's prior toward each pixel's 3x3 neighbourhood median (0: no "
                  "second pass)")
@@ -116,6 +126,15 @@ int RunFit(int argc, char** argv) {
                  "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
                  "stack's noise level (the best-fitted tenth's RMS; default 2.5)")
       ->check(CLI::Range(1.0, 1e6));
+  app.add_option("--neighbour-rounds", args.options.retry_neighbour_rounds,
+                 "refine methods: rounds that fit a poor pixel again from its best-fitted neighbour's fit before "
+                 "any grid search, while a trial of each round brings a quarter of its pixels below the retry "
+                 "threshold (default 2; 0: grid search only)")
+      ->check(CLI::Range(0, 100));
+  app.add_option("--neighbour-starts", args.options.retry_neighbour_starts,
+                 "refine methods: of a retried pixel's explored starts, how many are its best-fitted neighbours' fits "
+                 "(default 1; the grid search gives the rest)")
+      ->check(CLI::Range(0, 8));
   app.add_flag("--no-retries", args.no_retries,
                "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
   app.add_flag("--quiet", args.quiet, "No progress output");

@@ -75,6 +75,14 @@ struct StackFitOptions {
   // explored cost by this fraction.
   int retry_explore_lights = 8;
   double retry_min_gain = 0.01;
+  // With the refiner: rounds of propagation before the grid search, each refitting a poor pixel
+  // from its best-fitted neighbour (0: none); a round whose trial brings fewer than this
+  // fraction of its pixels below the threshold ends the propagation.
+  int retry_neighbour_rounds = 2;
+  double retry_neighbour_min_yield = 0.25;
+  // With the refiner: of a retry's explored starts, this many are its best-fitted neighbours'
+  // fits where it has them (the grid search gives the rest).
+  int retry_neighbour_starts = 1;
   // F0 of every pixel. Away from grazing angles only a_s·F0 is observable, and on tac7-mini's
   // geometry the cluster fits scatter F0 over [0, 1] (measured: 0.01 and 1 for one fabric whose
   // truth is 0.74), so by default it is held at 1 and a_s carries the product. nullopt: one F0
@@ -84,6 +92,12 @@ struct StackFitOptions {
   PixelSolver solver = PixelSolver::kCeres;
   // With the refiner and initial maps: the prior toward them (in step 5 too, from grid starts).
   RefinePrior prior;
+  // > 0: prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
+  // tenth of a sparse grid of pixels fitted without the prior) is this, and scales with the
+  // square of the stack's own: the data term is a sum of squared relative residuals, not of
+  // residuals in units of their noise, so a fixed weight would weigh a noise-free stack's exact
+  // data as little as a noisy one's and bias its fit toward the CNN. 0: prior.weight as it is.
+  double prior_reference_noise_rms = 0;
   // With the refiner: a second pass from the first one's maps with a prior toward each pixel's
   // 3 × 3 neighbourhood (its median; weight 0: no second pass). Where a pixel's own data pin a
   // parameter down the data win; where they leave it loose (a highlight between observations,
@@ -121,10 +135,13 @@ struct StackFitSummary {
   int pixels_fitted = 0;
   int pixels_kept_at_cluster = 0;  // too few usable observations
   int pixels_retried = 0;          // redone from grid starts
+  int pixels_propagated = 0;       // of those, brought below the threshold from a neighbour's fit
   int pixels_retry_finished = 0;   // of those, fitted from a grid start with every light sample
                                    // (the refiner explores with fewer and finishes only the
                                    // pixels where a grid start wins; Ceres finishes all)
   double retry_threshold_rms = 0;  // relative RMS above which they were
+  double noise_rms = 0;            // the stack's, where the prior's weight follows it
+  double prior_weight = 0;         // the prior's weight as applied
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
   double f0 = 0;                 // the material's

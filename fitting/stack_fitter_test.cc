@@ -267,45 +267,126 @@ TEST(StackFitterTest, RetriesOnlyPixelsWellAboveTheStacksNoise) {
   EXPECT_EQ(clean_fit->summary.retry_threshold_rms, options.retry_above_rms);
 }
 
-// The refiner's retries on a noise-free stack whose starts put some pixels in a wrong basin (the
-// normal 35° off, a lobe too narrow): the first fit leaves them there, the retries' explored grid
-// starts win and are refitted with every light sample, and the pixels end at the truth.
-TEST(StackFitterTest, TheRefinersRetriesBringPixelsOutOfAWrongBasin) {
+// The prior toward the CNN weighs as much against noisy data as the weight says at the reference
+// noise level, and fades on exact data: there a fixed weight would pull the fit off the truth.
+TEST(StackFitterTest, ThePriorsWeightFollowsTheStacksNoise) {
   const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 10, .height_px = 10, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
-  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
-  Image initial = PerturbedTruth(fabric);
-  const std::vector<int> misled = {11, 23, 37, 45, 58, 62, 74, 86};
-  for (int i : misled) {
-    WardParams<double> p = GetParams(initial, i % 10, i / 10);
-    p.n_s = Eigen::AngleAxisd(35 * kPi / 180, Eigen::Vector3d::UnitY()) * p.n_s;
-    p.sigma_x = p.sigma_y = 0.02;
-    SetParams(initial, i % 10, i / 10, p);
+  const ObservationStack clean = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
+  ObservationStack noisy = clean;
+  std::mt19937 random(7);
+  std::normal_distribution<float> noise(0.0f, 0.1f);
+  for (int c = kStackGeometryChannels; c < noisy.image.num_channels(); ++c) {
+    for (float& v : noisy.image.channel(c)) v *= 1 + noise(random);
   }
+  const Image initial = PerturbedTruth(fabric);
   StackFitOptions options;
   options.solver = PixelSolver::kBatchRefiner;
   options.initial_maps = &initial;
   options.retry_poor_fits = false;
-  const Result<StackFit> first_only = FitStack(stack, options);
-  options.retry_poor_fits = true;
-  const Result<StackFit> retried = FitStack(stack, options);
-  ASSERT_TRUE(first_only.ok() && retried.ok()) << first_only.status().ToString() << retried.status().ToString();
-  const auto normal_error_deg = [&](const StackFit& fit, int i) {
+  options.prior.weight = 1;
+  const auto median_a_d_error = [&](const StackFit& fit) {
+    std::vector<double> errors;
+    for (int i = 0; i < 100; ++i) {
+      errors.push_back((GetParams(fit.maps, i % 10, i / 10).a_d - GetParams(fabric.maps, i % 10, i / 10).a_d).norm());
+    }
+    return Percentile(errors, 0.5);
+  };
+  const Result<StackFit> fixed = FitStack(clean, options);
+  options.prior_reference_noise_rms = 0.1;
+  const Result<StackFit> scaled = FitStack(clean, options);
+  const Result<StackFit> scaled_noisy = FitStack(noisy, options);
+  ASSERT_TRUE(fixed.ok() && scaled.ok() && scaled_noisy.ok());
+  std::cout << "a_d error, fixed weight " << median_a_d_error(*fixed) << ", scaled " << median_a_d_error(*scaled)
+            << "; weights applied: clean " << scaled->summary.prior_weight << " (noise " << scaled->summary.noise_rms
+            << "), noisy " << scaled_noisy->summary.prior_weight << " (noise " << scaled_noisy->summary.noise_rms << ")\n";
+  EXPECT_EQ(fixed->summary.prior_weight, 1);
+  EXPECT_LT(scaled->summary.prior_weight, 1e-3);
+  EXPECT_LT(median_a_d_error(*scaled), 0.2 * median_a_d_error(*fixed));
+  EXPECT_LT(median_a_d_error(*scaled), 1e-3);
+  // 10 % noise on each observation: the noise level is about that, and so is the weight's scale.
+  EXPECT_GT(scaled_noisy->summary.noise_rms, 0.05);
+  EXPECT_LT(scaled_noisy->summary.noise_rms, 0.15);
+  EXPECT_GT(scaled_noisy->summary.prior_weight, 0.25);
+  EXPECT_LT(scaled_noisy->summary.prior_weight, 2.25);
+}
+
+// A noise-free stack whose starts put some pixels in a wrong basin (the normal 35° off, a lobe
+// too narrow), and the fits' normal errors on those pixels.
+class WrongBasinTest : public ::testing::Test {
+ protected:
+  const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 10, .height_px = 10, .pixel_mm = 0.2});
+  const sim::Scene scene{testing::TacMiniGeometry(), fabric};
+  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
+  const std::vector<int> misled = {11, 23, 37, 45, 58, 62, 74, 86};
+  Image initial = MisledStarts();
+
+  Image MisledStarts() const {
+    Image maps = PerturbedTruth(fabric);
+    for (int i : misled) {
+      WardParams<double> p = GetParams(maps, i % 10, i / 10);
+      p.n_s = Eigen::AngleAxisd(35 * kPi / 180, Eigen::Vector3d::UnitY()) * p.n_s;
+      p.sigma_x = p.sigma_y = 0.02;
+      SetParams(maps, i % 10, i / 10, p);
+    }
+    return maps;
+  }
+  StackFitOptions RefinerOptions() const {
+    StackFitOptions options;
+    options.solver = PixelSolver::kBatchRefiner;
+    options.initial_maps = &initial;
+    return options;
+  }
+  double NormalErrorDeg(const StackFit& fit, int i) const {
     const double c = GetParams(fit.maps, i % 10, i / 10).n_s.dot(GetParams(fabric.maps, i % 10, i / 10).n_s);
     return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / kPi;
-  };
-  int stuck = 0;
-  for (int i : misled) {
-    stuck += normal_error_deg(*first_only, i) > 5;
-    EXPECT_LT(normal_error_deg(*retried, i), 1) << "pixel " << i;
   }
+  // How many misled pixels the first fit alone leaves > 5° off.
+  int StuckWithoutRetries() const {
+    StackFitOptions options = RefinerOptions();
+    options.retry_poor_fits = false;
+    const Result<StackFit> first_only = FitStack(stack, options);
+    EXPECT_TRUE(first_only.ok()) << first_only.status().ToString();
+    int stuck = 0;
+    for (int i : misled) stuck += first_only.ok() && NormalErrorDeg(*first_only, i) > 5;
+    return stuck;
+  }
+};
+
+// The grid retries alone (no propagation): the retries' explored grid starts win and are refitted
+// with every light sample, and the pixels end at the truth.
+TEST_F(WrongBasinTest, TheRefinersGridRetriesBringPixelsOutOfAWrongBasin) {
+  const int stuck = StuckWithoutRetries();
   EXPECT_GE(stuck, 4) << "the wrong starts should trap the first fit, or this test shows nothing";
+  StackFitOptions options = RefinerOptions();
+  options.retry_neighbour_rounds = 0;
+  const Result<StackFit> retried = FitStack(stack, options);
+  ASSERT_TRUE(retried.ok()) << retried.status().ToString();
+  for (int i : misled) EXPECT_LT(NormalErrorDeg(*retried, i), 1) << "pixel " << i;
   const StackFitSummary& s = retried->summary;
   std::cout << stuck << " of " << misled.size() << " misled pixels stuck without retries; " << s.pixels_retried << " retried, "
             << s.pixels_retry_finished << " refitted from a grid start\n";
+  EXPECT_EQ(s.pixels_propagated, 0);
   EXPECT_GE(s.pixels_retried, stuck);
   EXPECT_GE(s.pixels_retry_finished, stuck);
   EXPECT_LE(s.pixels_retry_finished, s.pixels_retried);
+}
+
+// Propagation: each misled pixel has well-fitted neighbours of the same fabric, whose fits are
+// starts in the right basin; refitted from them the pixels end at the truth before any grid
+// search.
+TEST_F(WrongBasinTest, TheRefinersPropagationTakesAWellFittedNeighboursBasin) {
+  const int stuck = StuckWithoutRetries();
+  EXPECT_GE(stuck, 4) << "the wrong starts should trap the first fit, or this test shows nothing";
+  const Result<StackFit> propagated = FitStack(stack, RefinerOptions());
+  ASSERT_TRUE(propagated.ok()) << propagated.status().ToString();
+  for (int i : misled) EXPECT_LT(NormalErrorDeg(*propagated, i), 1) << "pixel " << i;
+  const StackFitSummary& s = propagated->summary;
+  std::cout << stuck << " stuck without retries; " << s.pixels_retried << " retried, " << s.pixels_propagated
+            << " from a neighbour, " << s.pixels_retry_finished << " refitted from a grid start\n";
+  // Most misled pixels have a neighbour of their own yarn; the rest are left to the grid.
+  EXPECT_GE(s.pixels_propagated, static_cast<int>(misled.size()) / 2);
+  EXPECT_LE(s.pixels_propagated + s.pixels_retry_finished, s.pixels_retried);
 }
 
 }  // namespace
