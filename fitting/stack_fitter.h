@@ -7,7 +7,8 @@
 //     as Pantora fits it — away from grazing angles only a_s·F0 is observable per pixel;
 //  4. fit every pixel from its cluster's parameters (a_s rescaled to keep a_s·F0), threaded;
 //  5. a pixel left with a poor fit (its highlight is not where its start put it) is fitted
-//     again from grid-searched starts and keeps the better.
+//     again — on the refiner first from well-fitted neighbours' fits (propagation), then from
+//     grid-searched starts — and keeps the better.
 // A pixel with too few usable observations keeps its cluster's parameters and is counted.
 // With initial maps (e.g. the CNN's), steps 1–3 are skipped: every pixel starts from its map.
 // Steps 4 and 5 run on Ceres, one solve per pixel (the reference), or on the batched refiner
