@@ -246,8 +246,25 @@ Status Sequencer::MeasureDrift(const scan::Step& step) {
   return Status::Ok();
 }
 
+Status Sequencer::ApplyStepWithRetries(const scan::Step& step) {
+  for (int attempt = 0;; ++attempt) {
+    const Status applied = ApplyStep(step);
+    const bool transient = applied.code() == StatusCode::kTimeout || applied.code() == StatusCode::kUnavailable;
+    const DeviceFaultPolicy& policy = options_.device_faults;
+    if (applied.ok() || !transient) return applied;
+    if (attempt == policy.retries) {
+      return Status(
+          applied.code(), applied.subject(),
+          applied.message() + " at step " + std::to_string(step.index) + ", after " + std::to_string(attempt + 1) + " attempts");
+    }
+    LOOM_LOG(Warning) << applied.ToString() << " at step " << step.index << " (attempt " << attempt + 1 << " of "
+                      << policy.retries + 1 << "); setting the step again in " << policy.retry_delay_ms << " ms";
+    LOOM_RETURN_IF_ERROR(rig_.clock().SleepFor(policy.retry_delay_ms / 1000));
+  }
+}
+
 Status Sequencer::CaptureStep(const scan::Step& step) {
-  LOOM_RETURN_IF_ERROR(ApplyStep(step));
+  LOOM_RETURN_IF_ERROR(ApplyStepWithRetries(step));
   if (step.kind == scan::StepKind::kDark || step.kind == scan::StepKind::kDriftReference) {
     LOOM_RETURN_IF_ERROR(step.kind == scan::StepKind::kDark ? MeasureDark(step) : MeasureDrift(step));
     return store_.MarkStepDone(step.index);
@@ -330,9 +347,26 @@ Status Sequencer::PlaceObject(const scan::Step& step) {
   return Status::Ok();
 }
 
+DeviceFaultPolicy ReadDeviceFaultPolicy(const RigFile& file) {
+  DeviceFaultPolicy policy;
+  const std::optional<ConfigNode> node = file.Section("device_faults");
+  if (!node) return policy;
+  node->Optional("retries", &policy.retries);
+  node->Optional("retry_delay_ms", &policy.retry_delay_ms);
+  if (policy.retries < 0 || policy.retries > 100) node->AddError("retries", "must be in [0, 100]");
+  if (!(policy.retry_delay_ms >= 0 && policy.retry_delay_ms <= 600000)) {
+    node->AddError("retry_delay_ms", "must be in [0, 600000] ms");
+  }
+  return policy;
+}
+
 Status SequencerOptions::Check() const {
   std::vector<std::string> problems;
   if (max_retries < 0) problems.push_back("max_retries must be ≥ 0");
+  if (device_faults.retries < 0 || device_faults.retries > 100) problems.push_back("device_faults.retries must be in [0, 100]");
+  if (!(device_faults.retry_delay_ms >= 0 && device_faults.retry_delay_ms <= 600000)) {
+    problems.push_back("device_faults.retry_delay_ms must be in [0, 600000]");
+  }
   if (!(black_level_dn >= 0 && std::isfinite(black_level_dn))) problems.push_back("black_level_dn must be ≥ 0 and finite");
   if (!(noise_floor_dn >= 0 && std::isfinite(noise_floor_dn))) problems.push_back("noise_floor_dn must be ≥ 0 and finite");
   if (!(noise_floor_sigmas > 0 && std::isfinite(noise_floor_sigmas))) {

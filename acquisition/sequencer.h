@@ -31,6 +31,7 @@
 #include <optional>
 #include <set>
 
+#include "core/rig_file.h"
 #include "hal/rig.h"
 #include "scan/capture_store.h"
 #include "scan/dark_level.h"
@@ -39,8 +40,21 @@
 
 namespace loom::acquisition {
 
+// What a scan does when a device other than a camera (turntable, filter wheel, LED or strip
+// controller, projector) times out or is unavailable: the step's settings are applied again,
+// `retries` times, each after `retry_delay_ms` on the rig's clock; any other error, or a fault
+// that outlasts the retries, stops the scan with an error naming the device and the step (the
+// scan resumes from there). The rig YAML's `device_faults: {retries: 2, retry_delay_ms: 500}`.
+struct DeviceFaultPolicy {
+  int retries = 2;
+  double retry_delay_ms = 500;
+};
+// The rig file's `device_faults:`, or the defaults; problems are recorded in its document.
+DeviceFaultPolicy ReadDeviceFaultPolicy(const RigFile& file);
+
 struct SequencerOptions {
-  int max_retries = 2;                  // per camera capture, after a timeout or drop-out
+  int max_retries = 2;  // per camera capture, after a timeout or drop-out
+  DeviceFaultPolicy device_faults;
   double black_level_dn = 64;           // without a dark step: the cameras' dark offset (in their bit depth)
   double noise_floor_dn = 24;           // without a dark step: above black, a weaker reading is too noisy
   double noise_floor_sigmas = 10;       // with a dark step: the floor in dark-frame standard deviations
@@ -75,6 +89,8 @@ class Sequencer {
   Status PlaceObject(const scan::Step& step);
   // Sets the rig as `step` has it and waits until what changed has settled.
   Status ApplyStep(const scan::Step& step);
+  // ApplyStep, again after a device's timeout (SequencerOptions::device_faults).
+  Status ApplyStepWithRetries(const scan::Step& step);
   Status MoveWheel(hal::FilterWheel& wheel, int slot);
   Status DriveLeds(const scan::Step& step);
   Status SetLinearLight(const scan::Step& step);

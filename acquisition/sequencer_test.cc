@@ -1,5 +1,6 @@
 // The sequencer on the simulated tac7-mini: a camera that drops out is retried, and one that
-// stays out stops the scan with an error naming it, the rig safe and the store consistent.
+// stays out stops the scan with an error naming it, the rig safe and the store consistent; the
+// other devices' timeouts likewise (device_faults).
 #include "acquisition/sequencer.h"
 
 #include <gtest/gtest.h>
@@ -175,6 +176,92 @@ TEST_F(SequencerTest, ACameraThatStaysOutStopsTheScanCleanly) {
   EXPECT_EQ(reopened->steps_done(), 3);
   EXPECT_FALSE(reopened->StepDone(3));
   for (const scan::FrameRecord& record : reopened->records()) EXPECT_TRUE(reopened->ReadFrame(record).ok()) << record.file;
+}
+
+// Every device a step sets, timing out now and then: each step's settings are applied again
+// (device_faults), and the scan ends complete.
+TEST_F(SequencerTest, DevicesThatTimeOutBrieflyAreSetAgain) {
+  plan_ = *scan::MakeMaterialPlan(model_, TinyPreset({0, 90}, 1));
+  world_->device_failures = {{"leds", 2}, {"wheel0", 1}, {"turntable", 1}, {"linear_light", 2}, {"projector", 1}};
+  scan::CaptureStore store = NewStore();
+  SequencerOptions options;
+  options.device_faults.retries = 7;  // one step may meet all of them
+  Sequencer sequencer(*rig_, plan_, store, options);
+  const Status done = sequencer.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  EXPECT_EQ(store.steps_done(), static_cast<int>(plan_.steps.size()));
+  for (const auto& [device, left] : world_->device_failures) EXPECT_EQ(left, 0) << device << "'s faults were not all met";
+}
+
+// A device that stays out: the scan stops at that step with an error naming the device, the
+// step and the attempts; the rig is made safe; once the device is back the scan resumes and ends.
+TEST_F(SequencerTest, ADeviceThatStaysOutStopsTheScanNamingItAndResumesAfterwards) {
+  {
+    scan::CaptureStore store = NewStore();
+    SequencerOptions options;
+    options.device_faults = {.retries = 1, .retry_delay_ms = 10};
+    Sequencer sequencer(*rig_, plan_, store, options);
+    int steps = 0;
+    const Status done = sequencer.Run([&](const ScanProgress&) {
+      if (++steps == 3) world_->device_failures["leds"] = -1;
+    });
+    ASSERT_FALSE(done.ok());
+    EXPECT_EQ(done.code(), StatusCode::kTimeout) << done.ToString();
+    EXPECT_NE(done.subject().find("leds"), std::string::npos) << done.ToString();
+    EXPECT_NE(done.message().find(", after 2 attempts"), std::string::npos) << done.ToString();
+    hal::SafeStateGuard guard(*rig_);
+  }
+  EXPECT_TRUE(world_->state.leds.empty());
+  world_->device_failures.clear();
+  Result<scan::CaptureStore> reopened = scan::CaptureStore::Open(dir_, /*repair=*/true);
+  ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
+  const int stopped_at = reopened->steps_done();  // the first step that lights an LED after the 3rd
+  EXPECT_GE(stopped_at, 3);
+  EXPECT_LT(stopped_at, static_cast<int>(plan_.steps.size()));
+  const std::unique_ptr<hal::Rig> rig = MakeRig();  // as `loom scan --resume` loads it
+  Sequencer resumed(*rig, plan_, *reopened);
+  const Status done = resumed.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  EXPECT_EQ(reopened->steps_done(), static_cast<int>(plan_.steps.size()));
+}
+
+// Other errors are not retried: an LED drive out of the controller's range fails at once.
+TEST_F(SequencerTest, ADeviceErrorThatIsNotATimeoutIsNotRetried) {
+  scan::Plan plan = plan_;
+  for (scan::Step& step : plan.steps) {
+    for (scan::LedDrive& drive : step.leds) drive.current_ma = 1e6;
+  }
+  scan::CaptureStore store = std::move(*scan::CaptureStore::Create(dir_, {"rig", "white tile", plan}));
+  Sequencer sequencer(*rig_, plan, store);
+  const Status done = sequencer.Run();
+  ASSERT_FALSE(done.ok());
+  EXPECT_EQ(done.code(), StatusCode::kInvalidArgument) << done.ToString();
+  EXPECT_NE(done.subject().find("leds"), std::string::npos) << done.ToString();
+  EXPECT_EQ(done.message().find("attempts"), std::string::npos) << done.ToString();
+}
+
+TEST(DeviceFaultPolicyTest, TheRigFilesSectionIsReadAndCheckedNamingTheKey) {
+  const std::string rig = "name: r\nschema_version: 1\ndevices: {}\n";
+  Result<RigFile> defaults = RigFile::Parse(rig, "r.yaml");
+  ASSERT_TRUE(defaults.ok()) << defaults.status().ToString();
+  EXPECT_EQ(ReadDeviceFaultPolicy(*defaults).retries, DeviceFaultPolicy{}.retries);
+
+  Result<RigFile> given = RigFile::Parse(rig + "device_faults: {retries: 5, retry_delay_ms: 250}\n", "r.yaml");
+  ASSERT_TRUE(given.ok()) << given.status().ToString();
+  const DeviceFaultPolicy policy = ReadDeviceFaultPolicy(*given);
+  EXPECT_EQ(policy.retries, 5);
+  EXPECT_EQ(policy.retry_delay_ms, 250);
+  EXPECT_TRUE(given->Finish().ok()) << given->Finish().ToString();
+
+  Result<RigFile> bad = RigFile::Parse(rig + "device_faults: {retries: -1, retry_delay_ms: .nan, retry: 3}\n", "r.yaml");
+  ASSERT_TRUE(bad.ok()) << bad.status().ToString();
+  ReadDeviceFaultPolicy(*bad);
+  const Status finished = bad->Finish();
+  ASSERT_FALSE(finished.ok());
+  for (const char* key : {"retries", "retry_delay_ms", "retry"}) {
+    EXPECT_NE(finished.ToString().find(std::string("device_faults.") + key), std::string::npos)
+        << key << ": " << finished.ToString();
+  }
 }
 
 TEST(DarkLevelTest, MedianAndRobustSpreadIgnoreHotPixels) {
@@ -353,13 +440,15 @@ TEST(SequencerOptionsTest, EveryBadValueIsRefusedNamingItsField) {
   EXPECT_TRUE(SequencerOptions{}.Check().ok());
   SequencerOptions bad;
   bad.max_retries = -1;
+  bad.device_faults.retry_delay_ms = -1;
   bad.black_level_dn = std::nan("");
   bad.noise_floor_sigmas = 0;
   bad.exposure_factor = 1;  // a bracket that never grows
   bad.phase_steps = 0;
   const Status status = bad.Check();
   ASSERT_FALSE(status.ok());
-  for (const char* field : {"max_retries", "black_level_dn", "noise_floor_sigmas", "exposure_factor", "phase_steps"}) {
+  for (const char* field : {"max_retries", "device_faults.retry_delay_ms", "black_level_dn", "noise_floor_sigmas",
+                            "exposure_factor", "phase_steps"}) {
     EXPECT_NE(status.message().find(field), std::string::npos) << field << " in " << status.message();
   }
 }

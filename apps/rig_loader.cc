@@ -15,6 +15,7 @@ Result<LoadedRig> LoadRigFile(const RigFile& file, const std::string& object) {
     hal::RegisterSimBackends(registry, loaded.sim->world);
   }
   loaded.light_drift = scan::ReadLightDriftSettings(file);
+  loaded.device_faults = acquisition::ReadDeviceFaultPolicy(file);
   LOOM_ASSIGN_OR_RETURN(loaded.rig, hal::Rig::Load(file, registry));
   return loaded;
 }

@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 
+#include "acquisition/sequencer.h"
 #include "core/rig_file.h"
 #include "hal/rig.h"
 #include "hal/sim/sim_rig.h"
@@ -18,6 +19,7 @@ struct LoadedRig {
   std::optional<RigModel> model;   // from `geometry:`, when the file has one
   std::optional<hal::SimRig> sim;  // with `model`: for the devices whose backend is `sim`
   scan::LightDriftSettings light_drift;
+  acquisition::DeviceFaultPolicy device_faults;
 };
 
 // `object` replaces a simulated rig's `sample:` ("fabric:SEED", "white-tile", "chessboard",

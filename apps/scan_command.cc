@@ -46,6 +46,7 @@ Status RunScan(LoadedRig& loaded, const scan::Plan& plan, scan::CaptureStore& st
   hal::SafeStateGuard guard(*loaded.rig);
   acquisition::SequencerOptions options;
   options.light_drift_warn_percent = loaded.light_drift.warn_percent;
+  options.device_faults = loaded.device_faults;
   bool first_object = true;
   options.place_object = [&](scan::ScanObject object) {
     return loaded.sim ? hal::PlaceObject(*loaded.sim, object) : AskOperator(object, &first_object);

@@ -9,8 +9,8 @@ namespace loom {
 namespace {
 
 // The mappings other modules read; `seed` is a scalar that Seed() reads.
-constexpr std::array<std::string_view, 6> kSections = {"geometry", "devices",       "sample",
-                                                       "as_built", "recalibration", "light_drift"};
+constexpr std::array<std::string_view, 7> kSections = {"geometry",      "devices",     "sample",       "as_built",
+                                                       "recalibration", "light_drift", "device_faults"};
 
 void CheckIsSection(std::string_view key) {
   LOOM_CHECK(std::find(kSections.begin(), kSections.end(), key) != kSections.end()) << "no rig file section '" << key << "'";

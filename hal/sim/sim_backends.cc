@@ -192,6 +192,7 @@ class SimLedArray : public LedArray {
   Status DoStop() override { return DoAllOff(); }
   Status DoClose() override { return Status::Ok(); }
   Status DoDrive(std::span<const scan::LedDrive> leds) override {
+    if (world_->InjectedDeviceFault(name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
     std::lock_guard lock(world_->mutex);
     world_->state.leds.clear();
     for (const scan::LedDrive& drive : leds) {
@@ -242,6 +243,7 @@ class SimFilterWheel : public FilterWheel {
   Status DoClose() override { return Status::Ok(); }
   Status DoMakeSafe() override { return Status::Ok(); }
   Status DoMoveTo(int slot) override {
+    if (world_->InjectedDeviceFault(name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
     std::lock_guard lock(world_->mutex);
     world_->state.filter_slots[index_] = slot;
     return Status::Ok();
@@ -275,6 +277,7 @@ class SimTurntable : public Turntable {
   Status DoMakeSafe() override { return Status::Ok(); }
   Status DoHome() override { return DoMoveTo(0); }
   Status DoMoveTo(double angle_deg) override {
+    if (world_->InjectedDeviceFault(name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
     std::lock_guard lock(world_->mutex);
     world_->state.turntable_deg = angle_deg;
     return Status::Ok();
@@ -302,18 +305,17 @@ class SimLinearLight : public LinearLight {
   Status DoStart() override { return Status::Ok(); }
   Status DoStop() override { return Status::Ok(); }
   Status DoClose() override { return Status::Ok(); }
-  Status DoMakeSafe() override { return DoSetStrip(false, 0); }
+  Status DoMakeSafe() override { return SwitchStrip(false, 0); }
   Status DoHome() override { return DoMoveTo(0); }
   Status DoMoveTo(double position_mm) override {
+    if (world_->InjectedDeviceFault(name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
     std::lock_guard lock(world_->mutex);
     world_->state.linear_light_mm = position_mm;
     return Status::Ok();
   }
   Status DoSetStrip(bool on, double intensity) override {
-    std::lock_guard lock(world_->mutex);
-    world_->state.linear_light_on = on;
-    world_->state.linear_light_intensity = intensity;
-    return Status::Ok();
+    if (world_->InjectedDeviceFault(name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
+    return SwitchStrip(on, intensity);
   }
   Result<LinearLightReadback> DoRead() override {
     std::lock_guard lock(world_->mutex);
@@ -322,6 +324,13 @@ class SimLinearLight : public LinearLight {
   }
 
  private:
+  Status SwitchStrip(bool on, double intensity) {
+    std::lock_guard lock(world_->mutex);
+    world_->state.linear_light_on = on;
+    world_->state.linear_light_intensity = intensity;
+    return Status::Ok();
+  }
+
   std::shared_ptr<SimWorld> world_;
   double travel_mm_;
 };
@@ -341,6 +350,7 @@ class SimProjector : public Projector {
   Status DoStop() override { return Status::Ok(); }
   Status DoClose() override { return Status::Ok(); }
   Status DoShow(const scan::Pattern& pattern) override {
+    if (world_->InjectedDeviceFault(name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
     auto image = std::make_shared<sim::ProjectedImage>(sim::ProjectedImage{pattern.width, pattern.height, pattern.pixels});
     std::lock_guard lock(world_->mutex);
     world_->state.projector_image = std::move(image);

@@ -83,6 +83,17 @@ struct SimWorld {
   // Fault injection for tests of what uses the rig: camera name → frames that fail as if the
   // camera had dropped out (−1: all of them from now on).
   std::map<std::string, int> camera_failures;
+  // Device name → commands (LED drives, moves, the strip switched, patterns shown) that fail as if
+  // the device had not answered (−1: all of them from now on). Making a device safe never fails.
+  std::map<std::string, int> device_failures;
+  // Whether `device`'s next command fails; counts it off device_failures.
+  bool InjectedDeviceFault(const std::string& device) {
+    std::lock_guard lock(mutex);
+    const auto it = device_failures.find(device);
+    if (it == device_failures.end() || it->second == 0) return false;
+    if (it->second > 0) --it->second;
+    return true;
+  }
 };
 
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world);
