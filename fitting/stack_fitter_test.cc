@@ -104,9 +104,14 @@ TEST(StackFitterTest, BadOptionsNameEveryField) {
   options.clusters = 0;
   options.pixels_per_cluster_fit = 0;
   options.threads = -1;
+  options.retry_neighbour_rounds = -1;
+  options.retry_neighbour_min_yield = std::nan("");
+  options.retry_neighbour_starts = -1;
+  options.prior_reference_noise_rms = -0.1;
   const Status status = options.Check();
   ASSERT_FALSE(status.ok());
-  for (const char* field : {"clusters", "pixels_per_cluster_fit", "threads"}) {
+  for (const char* field : {"clusters", "pixels_per_cluster_fit", "threads", "retry_neighbour_rounds",
+                            "retry_neighbour_min_yield", "retry_neighbour_starts", "prior_reference_noise_rms"}) {
     EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();
   }
 }
@@ -130,6 +135,16 @@ Image PerturbedTruth(const sim::Material& fabric) {
     }
   }
   return initial;
+}
+
+// `stack` with every observation multiplied by 1 + N(0, sigma²), as camera noise leaves it.
+ObservationStack WithRelativeNoise(ObservationStack stack, float sigma, unsigned seed) {
+  std::mt19937 random(seed);
+  std::normal_distribution<float> noise(0.0f, sigma);
+  for (int c = kStackGeometryChannels; c < stack.image.num_channels(); ++c) {
+    for (float& v : stack.image.channel(c)) v *= 1 + noise(random);
+  }
+  return stack;
 }
 
 // cnn+ceres: the starts come from maps.
@@ -170,12 +185,8 @@ TEST(StackFitterTest, StartsEveryPixelFromInitialMapsWithoutClusters) {
 TEST(StackFitterTest, ALooserFunctionToleranceEndsTheRefinersFitsSooner) {
   const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
-  ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
-  std::mt19937 random(5);
-  std::normal_distribution<float> noise(0.0f, 0.05f);
-  for (int c = kStackGeometryChannels; c < stack.image.num_channels(); ++c) {
-    for (float& v : stack.image.channel(c)) v *= 1 + noise(random);
-  }
+  const ObservationStack stack =
+      WithRelativeNoise(sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {}), 0.05f, 5);
   const Image initial = PerturbedTruth(fabric);
   StackFitOptions options;
   options.initial_maps = &initial;
@@ -247,12 +258,7 @@ TEST(StackFitterTest, RetriesOnlyPixelsWellAboveTheStacksNoise) {
   const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 10, .height_px = 10, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
   const ObservationStack clean = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
-  ObservationStack noisy = clean;
-  std::mt19937 random(7);
-  std::normal_distribution<float> noise(0.0f, 0.15f);
-  for (int c = kStackGeometryChannels; c < noisy.image.num_channels(); ++c) {
-    for (float& v : noisy.image.channel(c)) v *= 1 + noise(random);
-  }
+  const ObservationStack noisy = WithRelativeNoise(clean, 0.15f, 7);
   const Image initial = PerturbedTruth(fabric);
   StackFitOptions options;
   options.initial_maps = &initial;
@@ -273,12 +279,7 @@ TEST(StackFitterTest, ThePriorsWeightFollowsTheStacksNoise) {
   const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 10, .height_px = 10, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
   const ObservationStack clean = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 16), {});
-  ObservationStack noisy = clean;
-  std::mt19937 random(7);
-  std::normal_distribution<float> noise(0.0f, 0.1f);
-  for (int c = kStackGeometryChannels; c < noisy.image.num_channels(); ++c) {
-    for (float& v : noisy.image.channel(c)) v *= 1 + noise(random);
-  }
+  const ObservationStack noisy = WithRelativeNoise(clean, 0.1f, 7);
   const Image initial = PerturbedTruth(fabric);
   StackFitOptions options;
   options.solver = PixelSolver::kBatchRefiner;
