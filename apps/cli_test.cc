@@ -36,6 +36,18 @@ TEST(CliTest, ADirectoryNamedLikeAConfigDoesNotShadowIt) {
   std::filesystem::remove_all(dir);
 }
 
+// Every command's --rig takes a rig's name as demo's does; a name that is no rig is named.
+TEST(CliTest, ARigIsFoundByItsNameAndAMissingOneIsNamed) {
+  const LoomRun plan = RunLoom("plan --rig tac7-mini --preset low");
+  EXPECT_EQ(plan.exit_code, 0) << plan.output;
+  EXPECT_NE(plan.output.find("with preset 'low'"), std::string::npos) << plan.output;
+  const LoomRun list = RunLoom("rig list --rig tac7-mini");
+  EXPECT_EQ(list.exit_code, 0) << list.output;
+  const LoomRun missing = RunLoom("sim render --rig no-such-rig --stack --size 8 --out /dev/null");
+  EXPECT_EQ(missing.exit_code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("no-such-rig"), std::string::npos) << missing.output;
+}
+
 TEST(CliTest, NoCommandIsAUsageError) {
   const LoomRun run = RunLoom("");
   EXPECT_EQ(run.exit_code, 2);

@@ -9,7 +9,7 @@ namespace loom::apps {
 namespace {
 
 Status ShowPlan(const std::string& rig_path, const std::string& preset_name, bool calibration, bool steps, bool yaml) {
-  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(rig_path));
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(rig_path)));
   LOOM_ASSIGN_OR_RETURN(const RigModel rig, file.Model());
   const scan::LightDriftSettings drift = scan::ReadLightDriftSettings(file);
   LOOM_RETURN_IF_ERROR(file.Finish());
@@ -38,7 +38,7 @@ int RunPlan(int argc, char** argv) {
   bool calibration = false;
   bool steps = false;
   bool yaml = false;
-  app.add_option("--rig", rig_path, "Rig YAML with a geometry: section")->required();
+  app.add_option("--rig", rig_path, "Rig YAML with a geometry: section, or its name in configs/rig/")->required();
   app.add_option("--preset", preset_name, "low, medium, high (configs/plans/) or a preset file");
   app.add_flag("--calibration", calibration, "The calibration scan instead of a material scan");
   app.add_flag("--steps", steps, "List every step");

@@ -22,8 +22,8 @@ Result<LoadedRig> LoadRigFile(const RigFile& file, const std::string& object) {
 
 }  // namespace
 
-Result<LoadedRig> LoadRig(const std::filesystem::path& path, const std::string& object) {
-  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(path));
+Result<LoadedRig> LoadRig(const std::string& rig, const std::string& object) {
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(rig)));
   return LoadRigFile(file, object);
 }
 
@@ -48,6 +48,9 @@ std::filesystem::path ResolveConfigPath(const std::string& folder, const std::st
 
 std::filesystem::path ResolvePresetPath(const std::string& preset) { return ResolveConfigPath("plans", preset); }
 
-std::filesystem::path ResolveRigPath(const std::string& rig) { return ResolveConfigPath("rig", rig); }
+std::filesystem::path ResolveRigPath(const std::string& rig) {
+  const std::filesystem::path found = ResolveConfigPath("rig", rig);
+  return std::filesystem::exists(found) ? found : std::filesystem::path(rig);
+}
 
 }  // namespace loom::apps

@@ -22,15 +22,16 @@ struct LoadedRig {
   acquisition::DeviceFaultPolicy device_faults;
 };
 
-// `object` replaces a simulated rig's `sample:` ("fabric:SEED", "white-tile", "chessboard",
-// "colour-chart"); empty keeps it.
-Result<LoadedRig> LoadRig(const std::filesystem::path& path, const std::string& object = "");
+// `rig`: a file, or a name (ResolveRigPath). `object` replaces a simulated rig's `sample:`
+// ("fabric:SEED", "white-tile", "chessboard", "colour-chart"); empty keeps it.
+Result<LoadedRig> LoadRig(const std::string& rig, const std::string& object = "");
 // The same from the text of a rig file (a scan's snapshot); `source` names it in messages.
 Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& source, const std::string& object = "");
 
 // A gloss preset by name (configs/plans/NAME.yaml, from here or loom's source tree) or path.
 std::filesystem::path ResolvePresetPath(const std::string& preset);
-// A rig by name (configs/rig/NAME.yaml, from here or loom's source tree) or path.
+// A rig by path or name (configs/rig/NAME.yaml, from here or loom's source tree); as given when
+// neither exists, so that the error names what the user wrote.
 std::filesystem::path ResolveRigPath(const std::string& rig);
 
 }  // namespace loom::apps

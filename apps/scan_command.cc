@@ -77,7 +77,7 @@ Status ApplyCrop(LoadedRig& loaded, double crop_mm, bool quiet) {
 
 Status NewScan(const std::string& rig_path, const std::string& preset, const std::string& object, bool calibration,
                double crop_mm, const fs::path& out, bool quiet) {
-  LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(rig_path));
+  LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(ResolveRigPath(rig_path)));
   LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, rig_path, object));
   LOOM_RETURN_IF_ERROR(ApplyCrop(loaded, crop_mm, quiet));
   const scan::PlanPurpose purpose = calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial;
@@ -117,7 +117,7 @@ int RunScan(int argc, char** argv) {
   std::string rig, preset = "low", object, out, resume, verify;
   bool calibration = false, quiet = false;
   double crop_mm = 0;
-  app.add_option("--rig", rig, "Rig YAML");
+  app.add_option("--rig", rig, "Rig YAML, or its name in configs/rig/");
   app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
   app.add_option("--object", object,
                  "What lies on the turntable; on a simulated rig: fabric:SEED, "

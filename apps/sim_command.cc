@@ -120,7 +120,7 @@ int RunSim(int argc, char** argv) {
   CLI::App* render = app.add_subcommand("render",
                                         "Render one camera frame (radiance + raw DN) or, with --stack, "
                                         "the fast-path observation stack");
-  render->add_option("--rig", r.rig, "Simulated rig YAML (with geometry:)")->required();
+  render->add_option("--rig", r.rig, "Simulated rig YAML (with geometry:), or its name in configs/rig/")->required();
   render->add_option("--object", r.object,
                      "What lies on the turntable instead of the rig's sample: fabric:SEED, "
                      "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");

@@ -161,7 +161,8 @@ int RunTrain(int argc, char** argv) {
   AddCommonOptions(app);
   TrainArguments args;
   fitting::CnnTrainingOptions& t = args.training;
-  app.add_option("--rig", args.rig, "Simulated rig YAML (its geometry renders the dataset)")->required();
+  app.add_option("--rig", args.rig, "Simulated rig YAML (its geometry renders the dataset), or its name in configs/rig/")
+      ->required();
   app.add_option("--preset", args.preset,
                  "Gloss preset whose material plan makes the observations; several separated by commas (low,medium,high) "
                  "take turns by material and need --input-layout paper");
