@@ -353,20 +353,21 @@ DeviceFaultPolicy ReadDeviceFaultPolicy(const RigFile& file) {
   if (!node) return policy;
   node->Optional("retries", &policy.retries);
   node->Optional("retry_delay_ms", &policy.retry_delay_ms);
-  if (policy.retries < 0 || policy.retries > 100) node->AddError("retries", "must be in [0, 100]");
-  if (!(policy.retry_delay_ms >= 0 && policy.retry_delay_ms <= 600000)) {
-    node->AddError("retry_delay_ms", "must be in [0, 600000] ms");
-  }
+  for (const auto& [key, problem] : policy.Problems()) node->AddError(key, problem);
   return policy;
+}
+
+std::vector<std::pair<std::string, std::string>> DeviceFaultPolicy::Problems() const {
+  std::vector<std::pair<std::string, std::string>> problems;
+  if (retries < 0 || retries > 100) problems.emplace_back("retries", "must be in [0, 100]");
+  if (!(retry_delay_ms >= 0 && retry_delay_ms <= 600000)) problems.emplace_back("retry_delay_ms", "must be in [0, 600000] ms");
+  return problems;
 }
 
 Status SequencerOptions::Check() const {
   std::vector<std::string> problems;
   if (max_retries < 0) problems.push_back("max_retries must be ≥ 0");
-  if (device_faults.retries < 0 || device_faults.retries > 100) problems.push_back("device_faults.retries must be in [0, 100]");
-  if (!(device_faults.retry_delay_ms >= 0 && device_faults.retry_delay_ms <= 600000)) {
-    problems.push_back("device_faults.retry_delay_ms must be in [0, 600000]");
-  }
+  for (const auto& [key, problem] : device_faults.Problems()) problems.push_back("device_faults." + key + " " + problem);
   if (!(black_level_dn >= 0 && std::isfinite(black_level_dn))) problems.push_back("black_level_dn must be ≥ 0 and finite");
   if (!(noise_floor_dn >= 0 && std::isfinite(noise_floor_dn))) problems.push_back("noise_floor_dn must be ≥ 0 and finite");
   if (!(noise_floor_sigmas > 0 && std::isfinite(noise_floor_sigmas))) {

@@ -30,6 +30,9 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/rig_file.h"
 #include "hal/rig.h"
@@ -48,6 +51,8 @@ namespace loom::acquisition {
 struct DeviceFaultPolicy {
   int retries = 2;
   double retry_delay_ms = 500;
+  // (key, what it must be) for each value out of range.
+  std::vector<std::pair<std::string, std::string>> Problems() const;
 };
 // The rig file's `device_faults:`, or the defaults; problems are recorded in its document.
 DeviceFaultPolicy ReadDeviceFaultPolicy(const RigFile& file);

@@ -174,19 +174,25 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
 // anyway, and 4 rank them as 8 do (the main job: same L1, 9 % less time).
 constexpr int kGridLights = 4;
 
-// A pixel's 8-connected neighbours that are fitted at or below `threshold`, best (lowest
-// relative RMS) first.
-std::vector<int> FittedNeighbours(const std::vector<PixelOutcome>& outcomes, int width, int height, int pixel, double threshold) {
-  const int x = pixel % width, y = pixel / width;
-  std::vector<int> fitted;
+// Calls visit(index) for each of pixel (x, y)'s 8-connected neighbours inside the image.
+template <typename Visit>
+void ForEachNeighbour(int width, int height, int x, int y, Visit visit) {
   for (int dy = -1; dy <= 1; ++dy) {
     for (int dx = -1; dx <= 1; ++dx) {
       const int nx = x + dx, ny = y + dy;
       if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= width || ny >= height) continue;
-      const int n = ny * width + nx;
-      if (outcomes[n].fitted && outcomes[n].rms <= threshold) fitted.push_back(n);
+      visit(ny * width + nx);
     }
   }
+}
+
+// A pixel's 8-connected neighbours that are fitted at or below `threshold`, best (lowest
+// relative RMS) first.
+std::vector<int> FittedNeighbours(const std::vector<PixelOutcome>& outcomes, int width, int height, int pixel, double threshold) {
+  std::vector<int> fitted;
+  ForEachNeighbour(width, height, pixel % width, pixel / width, [&](int n) {
+    if (outcomes[n].fitted && outcomes[n].rms <= threshold) fitted.push_back(n);
+  });
   std::sort(fitted.begin(), fitted.end(), [&](int a, int b) { return outcomes[a].rms < outcomes[b].rms; });
   return fitted;
 }
@@ -204,7 +210,8 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
                              const std::function<WardParams<double>(int)>& start_of, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width(), height = pixels.height();
   const int grid_starts = options.retry_grid_starts;
-  const int per_pixel = grid_starts + 1;  // the grid's starts, then the first fit
+  const int per_pixel = grid_starts + 1;                                               // the grid's starts, then the first fit
+  const int neighbour_starts = std::min(grid_starts, options.retry_neighbour_starts);  // among the grid's
   std::vector<std::vector<PixelObservation>> observations(retry.size());
   std::vector<WardParams<double>> starts(retry.size() * per_pixel);
   ParallelFor(static_cast<int>(retry.size()), options.threads, [&](int r) {
@@ -212,7 +219,7 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
     observations[r] = pixels.Observations(i % width, i / width);
     std::vector<WardParams<double>> candidates;
     for (int n : FittedNeighbours(outcomes, width, height, i, threshold)) {
-      if (static_cast<int>(candidates.size()) == std::min(grid_starts, options.retry_neighbour_starts)) break;
+      if (static_cast<int>(candidates.size()) == neighbour_starts) break;
       candidates.push_back(outcomes[n].params);
     }
     if (const int more = grid_starts - static_cast<int>(candidates.size()); more > 0) {
@@ -364,18 +371,14 @@ std::vector<WardParams<double>> NeighbourMedians(const std::vector<PixelOutcome>
     for (int x = 0; x < width; ++x) {
       std::array<std::vector<double>, 13> values;
       double c2 = 0, s2 = 0;
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int nx = x + dx, ny = y + dy;
-          if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= width || ny >= height) continue;
-          WardParams<double> p = outcomes[static_cast<size_t>(ny) * width + nx].params;
-          if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
-          const double v[13] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
-                                p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, 0,         p.f0};
-          for (int i = 0; i < 13; ++i) values[i].push_back(v[i]);
-          c2 += std::cos(2 * p.alpha), s2 += std::sin(2 * p.alpha);
-        }
-      }
+      ForEachNeighbour(width, height, x, y, [&](int n) {
+        WardParams<double> p = outcomes[n].params;
+        if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
+        const double v[13] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
+                              p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, 0,         p.f0};
+        for (int i = 0; i < 13; ++i) values[i].push_back(v[i]);
+        c2 += std::cos(2 * p.alpha), s2 += std::sin(2 * p.alpha);
+      });
       double m[13];
       for (int i = 0; i < 13; ++i) {
         std::vector<double>& v = values[i];
@@ -431,18 +434,25 @@ Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, R
 // tenth of the pixels shows (the median does not: from poor starts half the pixels may miss).
 // Noise-free stacks fit to < 1 % there and the floor decides; a reconstructed stack's camera
 // noise and pixel integration leave ~12 %.
+// The stack's noise level: the relative RMS that a tenth of the fitted pixels are at or below.
+// None without fitted pixels.
+std::optional<double> NoiseRms(std::vector<double> rms) {
+  if (rms.empty()) return std::nullopt;
+  const auto tenth = rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 10);
+  std::nth_element(rms.begin(), tenth, rms.end());
+  return *tenth;
+}
+
 double RetryThreshold(const std::vector<PixelOutcome>& outcomes, const StackFitOptions& options) {
   std::vector<double> rms;
   for (const PixelOutcome& o : outcomes) {
     if (o.fitted) rms.push_back(o.rms);
   }
-  if (rms.empty()) return options.retry_above_rms;
-  const auto tenth = rms.begin() + rms.size() / 10;
-  std::nth_element(rms.begin(), tenth, rms.end());
-  return std::max(options.retry_above_rms, options.retry_above_noise_rms * *tenth);
+  const std::optional<double> noise = NoiseRms(std::move(rms));
+  return noise ? std::max(options.retry_above_rms, options.retry_above_noise_rms * *noise) : options.retry_above_rms;
 }
 
-// The stack's noise level as the retries measure it (RetryThreshold), from a sparse grid of
+// The stack's noise level as the retries measure it (NoiseRms), from a sparse grid of
 // pixels refined from their starts without the prior: a biased fit would overstate it (on a
 // noise-free tac7 stack the prior's pull alone left a third of the pixels above 0.1). None
 // where no probed pixel has enough usable observations.
@@ -467,10 +477,7 @@ Result<std::optional<double>> ProbeNoiseRms(const StackPixels& pixels, const Obs
   for (const RefinedPixel& r : refined) {
     if (r.fitted) rms.push_back(r.rms);
   }
-  if (rms.empty()) return std::optional<double>();
-  const auto tenth = rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 10);
-  std::nth_element(rms.begin(), tenth, rms.end());
-  return std::optional<double>(*tenth);
+  return NoiseRms(std::move(rms));
 }
 
 // The cluster's start: its most typical pixels' observations pooled into one fit.

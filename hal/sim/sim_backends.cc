@@ -87,7 +87,7 @@ class SimCamera : public Camera {
     return Status::Ok();
   }
   Result<scan::RawFrame> DoWaitFrame(std::chrono::milliseconds timeout) override {
-    if (InjectedFailure()) {
+    if (world_->TakeInjectedFault(world_->camera_failures, name())) {
       queue_.clear();
       return Error(StatusCode::kUnavailable, "camera dropped out (injected by the simulator)");
     }
@@ -104,14 +104,6 @@ class SimCamera : public Camera {
   void Disarm() {
     if (armed_) world_->DisarmTrigger(*armed_);
     armed_.reset();
-  }
-
-  bool InjectedFailure() {
-    std::lock_guard lock(world_->mutex);
-    const auto it = world_->camera_failures.find(name());
-    if (it == world_->camera_failures.end() || it->second == 0) return false;
-    if (it->second > 0) --it->second;
-    return true;
   }
 
   scan::RawFrame Render() {

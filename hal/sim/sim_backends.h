@@ -86,14 +86,16 @@ struct SimWorld {
   // Device name → commands (LED drives, moves, the strip switched, patterns shown) that fail as if
   // the device had not answered (−1: all of them from now on). Making a device safe never fails.
   std::map<std::string, int> device_failures;
-  // Whether `device`'s next command fails; counts it off device_failures.
-  bool InjectedDeviceFault(const std::string& device) {
+  // Whether `device`'s next frame (camera_failures) or command (device_failures) fails; counts
+  // it off `failures`.
+  bool TakeInjectedFault(std::map<std::string, int>& failures, const std::string& device) {
     std::lock_guard lock(mutex);
-    const auto it = device_failures.find(device);
-    if (it == device_failures.end() || it->second == 0) return false;
+    const auto it = failures.find(device);
+    if (it == failures.end() || it->second == 0) return false;
     if (it->second > 0) --it->second;
     return true;
   }
+  bool InjectedDeviceFault(const std::string& device) { return TakeInjectedFault(device_failures, device); }
 };
 
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world);
