@@ -138,10 +138,16 @@ Status Sequencer::ApplyStep(const scan::Step& step) {
   return WaitUntilSettled();
 }
 
-Status Sequencer::SetExposure(hal::Camera& camera, double exposure_us) {
-  if (camera.settings().exposure_us == exposure_us && camera.state() == hal::DeviceState::kRunning) return Status::Ok();
+Status Sequencer::SetExposureAndWindow(hal::Camera& camera, const scan::Step& step, double exposure_us) {
+  const auto window = step.windows.find(camera.name());
+  const scan::Roi& roi = window != step.windows.end() ? window->second : scan_regions_.at(camera.name());
+  if (camera.settings().exposure_us == exposure_us && camera.settings().roi == roi &&
+      camera.state() == hal::DeviceState::kRunning) {
+    return Status::Ok();
+  }
   hal::CameraSettings settings = camera.settings();
   settings.exposure_us = exposure_us;
+  settings.roi = roi;
   // A free-running camera would expose while the rig changes: it is triggered by software.
   if (settings.trigger == hal::TriggerMode::kFreeRun) settings.trigger = hal::TriggerMode::kSoftware;
   if (camera.state() == hal::DeviceState::kRunning) LOOM_RETURN_IF_ERROR(camera.Stop());
@@ -188,7 +194,7 @@ Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step&
     std::vector<hal::Camera*> cameras;
     for (size_t i : to_capture) {
       LOOM_ASSIGN_OR_RETURN(hal::Camera* const camera, FindCamera(step.cameras[i]));
-      LOOM_RETURN_IF_ERROR(SetExposure(*camera, exposure_us));
+      LOOM_RETURN_IF_ERROR(SetExposureAndWindow(*camera, step, exposure_us));
       cameras.push_back(camera);
     }
     // The step's cameras are triggered together (one pulse for those on the hardware trigger),
@@ -388,6 +394,7 @@ Status SequencerOptions::Check() const {
 Status Sequencer::Run(const std::function<void(const ScanProgress&)>& progress) {
   LOOM_RETURN_IF_ERROR(options_.Check());
   LOOM_RETURN_IF_ERROR(rig_.OpenAndConfigure());
+  for (const auto& camera : rig_.cameras()) scan_regions_[camera->name()] = camera->settings().roi;
   LOOM_RETURN_IF_ERROR(rig_.StartAll());
   const Clock::time_point start = Clock::now();
   const int already = store_.steps_done();

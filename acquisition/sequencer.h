@@ -124,14 +124,17 @@ class Sequencer {
   Status CaptureLinearitySeries(const scan::Step& step, double shortest_us, const std::vector<scan::RawFrame>& shortest,
                                 int next_index, double min_us, double max_us);
   Result<scan::RawFrame> CaptureWithRetries(hal::Camera& camera, const scan::Step& step);
-  Status SetExposure(hal::Camera& camera, double exposure_us);
+  // The camera at `exposure_us`, reading the step's window for it (Step::windows) or the scan's
+  // own region; reconfigured only where either changes.
+  Status SetExposureAndWindow(hal::Camera& camera, const scan::Step& step, double exposure_us);
   Result<hal::Camera*> FindCamera(const std::string& name) const;
 
   hal::Rig& rig_;
   const scan::Plan& plan_;
   scan::CaptureStore& store_;
   SequencerOptions options_;
-  std::map<std::string, scan::DarkLevel> dark_;  // by camera
+  std::map<std::string, scan::DarkLevel> dark_;    // by camera
+  std::map<std::string, scan::Roi> scan_regions_;  // by camera: as configured when the run began
   scan::LightDriftTrack drift_;
   // What the sequencer knows the strip and projector are doing. Unknown (nullopt) until its first
   // step sets them: a resumed scan finds the rig as a killed process left it (the strip on, a

@@ -99,6 +99,32 @@ TEST_F(SequencerTest, ALinearitySeriesFollowsTheBracket) {
   EXPECT_NEAR(peak / (4095 - 64), 0.9, 0.05);
 }
 
+// A step's windows (a calibration object's, acquisition/crop_windows.h): its cameras read only
+// them, through the camera's region of interest, and the next step reads the scan's own region.
+TEST_F(SequencerTest, AStepsWindowsAreReadAndTheNextStepReadsTheWholeSensorAgain) {
+  scan::Plan plan = plan_;
+  ASSERT_GE(plan.steps.size(), 3u);
+  const scan::Roi window{8, 16, 64, 48};
+  plan.steps[1].windows = {{"cam0", window}};
+  scan::CaptureStore store = std::move(*scan::CaptureStore::Create(dir_, {"rig", "white tile", plan}));
+  Sequencer sequencer(*rig_, plan, store);
+  const Status done = sequencer.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  const CameraModel& camera = *model_.FindCamera("cam0");
+  const scan::Roi whole{0, 0, camera.width, camera.height};
+  int windowed = 0;
+  for (const scan::FrameRecord& record : store.records()) {
+    const scan::Roi expected = record.key.step == 1 && record.key.camera == "cam0" ? window : whole;
+    EXPECT_EQ(record.metadata.roi, expected) << "step " << record.key.step << " " << record.key.camera;
+    const Result<scan::RawFrame> frame = store.ReadFrame(record);
+    ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+    EXPECT_EQ(frame->width, expected.width);
+    EXPECT_EQ(frame->height, expected.height);
+    windowed += expected == window;
+  }
+  EXPECT_GE(windowed, 1);
+}
+
 // tac7-mini.yaml's settle times: LEDs 20 ms (a 2 s warm-up when first on), turntable 500 ms.
 // Waited on the simulated rig's virtual clock, the longest of what a step changed, and recorded.
 TEST_F(SequencerTest, ItWaitsTheSettleTimesOfWhatAStepChangesAndRecordsThem) {

@@ -75,16 +75,29 @@ Status ApplyCrop(LoadedRig& loaded, double crop_mm, bool quiet) {
   return Status::Ok();
 }
 
-Status NewScan(const std::string& rig_path, const std::string& preset, const std::string& object, bool calibration,
-               double crop_mm, const fs::path& out, bool quiet) {
-  LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(ResolveRigPath(rig_path)));
-  LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, rig_path, object));
-  LOOM_RETURN_IF_ERROR(ApplyCrop(loaded, crop_mm, quiet));
-  const scan::PlanPurpose purpose = calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial;
-  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan, MakePlan(loaded, preset, purpose));
+struct NewScanRequest {
+  std::string rig_path, preset = "low", object;
+  bool calibration = false;
+  bool object_windows = false;  // calibration objects read through their windows
+  double crop_mm = 0;
+  fs::path out;
+  bool quiet = false;
+};
+
+Status NewScan(const NewScanRequest& request) {
+  LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(ResolveRigPath(request.rig_path)));
+  LOOM_ASSIGN_OR_RETURN(LoadedRig loaded, LoadRigFromText(rig_text, request.rig_path, request.object));
+  LOOM_RETURN_IF_ERROR(ApplyCrop(loaded, request.crop_mm, request.quiet));
+  const scan::PlanPurpose purpose = request.calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial;
+  LOOM_ASSIGN_OR_RETURN(scan::Plan plan, MakePlan(loaded, request.preset, purpose));
+  if (request.object_windows) {
+    if (!loaded.model) return InvalidArgumentError("--object-windows", "needs the rig's geometry: where the cameras are");
+    LOOM_ASSIGN_OR_RETURN(plan, acquisition::WithObjectWindows(std::move(plan), *loaded.model, {}));
+  }
+  const std::string object = request.object.empty() ? "sample" : request.object;
   LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store,
-                        scan::CaptureStore::Create(out, {rig_text, object.empty() ? "sample" : object, plan, crop_mm}));
-  return RunScan(loaded, store.info().plan, store, quiet);
+                        scan::CaptureStore::Create(request.out, {rig_text, object, plan, request.crop_mm}));
+  return RunScan(loaded, store.info().plan, store, request.quiet);
 }
 
 Status ResumeScan(const fs::path& directory, bool quiet) {
@@ -114,31 +127,38 @@ int Verify(const fs::path& directory) {
 int RunScan(int argc, char** argv) {
   CLI::App app("Scan: run a measurement plan on a rig into a scan directory, resume one, or verify one", "loom scan");
   AddCommonOptions(app);
-  std::string rig, preset = "low", object, out, resume, verify;
-  bool calibration = false, quiet = false;
-  double crop_mm = 0;
-  app.add_option("--rig", rig, "Rig YAML, or its name in configs/rig/");
-  app.add_option("--preset", preset, "Gloss preset: low, medium, high or a file");
-  app.add_option("--object", object,
+  NewScanRequest request;
+  std::string resume, verify;
+  app.add_option("--rig", request.rig_path, "Rig YAML, or its name in configs/rig/");
+  app.add_option("--preset", request.preset, "Gloss preset: low, medium, high or a file");
+  app.add_option("--object", request.object,
                  "What lies on the turntable; on a simulated rig: fabric:SEED, "
                  "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
-  app.add_flag("--calibration", calibration, "Run the calibration plan");
-  app.add_option("--crop-mm", crop_mm,
+  app.add_flag("--calibration", request.calibration, "Run the calibration plan");
+  app.add_flag("--object-windows", request.object_windows,
+               "With --calibration: the steps of the calibration target, the chrome sphere and the colour chart read, "
+               "from every camera, only the window around where that object lies (the white tile's and the dark steps "
+               "read whole frames)");
+  app.add_option("--crop-mm", request.crop_mm,
                  "Scan a square crop of the sample of this side, centred: each camera reads only the window that sees "
                  "it (reconstruct it with --size = this / the stack's pixel size)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--out", out, "New scan directory");
+  app.add_option("--out", request.out, "New scan directory");
   app.add_option("--resume", resume, "Continue the interrupted scan in this directory");
   app.add_option("--verify", verify,
                  "Check the scan in this directory and change nothing: its journal, and every frame against its checksum");
-  app.add_flag("--quiet", quiet, "No progress output");
+  app.add_flag("--quiet", request.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (!verify.empty()) return Verify(verify);
-  if (resume.empty() && (rig.empty() || out.empty())) {
+  if (resume.empty() && (request.rig_path.empty() || request.out.empty())) {
     std::cerr << "error: loom scan needs --rig and --out (or --resume DIR)\n";
     return kExitUsage;
   }
-  return ExitCode(resume.empty() ? NewScan(rig, preset, object, calibration, crop_mm, out, quiet) : ResumeScan(resume, quiet));
+  if (request.object_windows && !request.calibration) {
+    std::cerr << "error: --object-windows needs --calibration: only a calibration scan places calibration objects\n";
+    return kExitUsage;
+  }
+  return ExitCode(resume.empty() ? NewScan(request) : ResumeScan(resume, request.quiet));
 }
 
 }  // namespace loom::apps

@@ -5,6 +5,8 @@
 // stops above the highest point. Ratios against the naive way: one thread, one block.
 #include <benchmark/benchmark.h>
 
+#include <map>
+
 #include "bench/bench_report.h"
 #include "core/heightmap.h"
 #include "core/rig_file.h"
@@ -56,6 +58,51 @@ void BM_RenderFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderFrame)->Args({0, 1})->Args({0, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RenderFrame)->Args({1, 2})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+// A tac7 calibration scan's frames (cam1, 2 × 2 supersampling, 2 threads), by range(0): 0 the
+// wedge target under all 29 LEDs, 1 the target under the projector's white pattern, 2 the chrome
+// sphere under one LED, 3 the white tile under one LED.
+const Scene& CalibrationScene(int which) {
+  static std::map<int, std::unique_ptr<Scene>> scenes;
+  std::unique_ptr<Scene>& scene = scenes[which];
+  if (scene) return *scene;
+  const Scene& full = Scenes(1);
+  const loom::RigModel& rig = full.rig();
+  loom::sim::SampleSpec spec;
+  spec.kind = which <= 1 ? "target" : which == 2 ? "chrome-sphere" : "white-tile";
+  spec.size_px = full.material().width();
+  spec.pixel_mm = full.material().pixel_mm;
+  spec.target = rig.calibration_target;
+  if (rig.light_probe) spec.probe = *rig.light_probe;
+  scene = std::make_unique<Scene>(rig, *loom::sim::MakeSample(spec));
+  return *scene;
+}
+
+loom::sim::SceneState CalibrationLights(int which) {
+  static const auto white = std::make_shared<const loom::sim::ProjectedImage>(
+      loom::sim::ProjectedImage{1280, 800, std::vector<uint8_t>(1280 * 800, 255)});
+  loom::sim::SceneState state;
+  if (which == 0) {
+    for (int led = 0; led < 29; ++led) state.leds.push_back({led, 250});
+  } else if (which == 1) {
+    state.projector_image = white;
+  } else {
+    state.leds = {{3, 1000}};
+  }
+  return state;
+}
+
+void BM_CalibrationFrame(benchmark::State& state) {
+  const int which = static_cast<int>(state.range(0));
+  const Scene& scene = CalibrationScene(which);
+  const loom::sim::SceneState lights = CalibrationLights(which);
+  for (auto _ : state) {
+    const loom::Image radiance = scene.RenderRadiance(1, lights, {.supersampling = 2, .threads = 2});
+    benchmark::DoNotOptimize(radiance.data());
+  }
+  state.SetItemsProcessed(state.iterations());  // frames
+}
+BENCHMARK(BM_CalibrationFrame)->DenseRange(0, 3)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 void BM_FastPathStack(benchmark::State& state) {
   const Scene& scene = Scenes(0);

@@ -26,10 +26,11 @@ constexpr int kWindowPx = 6;
 // rise above a tenth of it.
 Result<Eigen::Vector2d> Highlight(const LitView& view) {
   const Image& radiance = view.radiance;
+  const SeenPixels seen = SeenPixelsOf(view);
   int best_x = -1, best_y = -1;
   float best = 0;
-  for (int y = 0; y < radiance.height(); ++y) {
-    for (int x = 0; x < radiance.width(); ++x) {
+  for (int y = seen.y0; y < seen.y1; ++y) {
+    for (int x = seen.x0; x < seen.x1; ++x) {
       const float v = radiance.at(0, y, x);
       if (std::isnan(v)) return FailedPreconditionError(view.source, "the highlight saturated in every exposure");
       if (v > best) {
@@ -42,8 +43,8 @@ Result<Eigen::Vector2d> Highlight(const LitView& view) {
   if (best_x < 0) return FailedPreconditionError(view.source, "no highlight: the view is dark");
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   double weights = 0;
-  for (int y = std::max(0, best_y - kWindowPx); y <= std::min(radiance.height() - 1, best_y + kWindowPx); ++y) {
-    for (int x = std::max(0, best_x - kWindowPx); x <= std::min(radiance.width() - 1, best_x + kWindowPx); ++x) {
+  for (int y = std::max(seen.y0, best_y - kWindowPx); y <= std::min(seen.y1 - 1, best_y + kWindowPx); ++y) {
+    for (int x = std::max(seen.x0, best_x - kWindowPx); x <= std::min(seen.x1 - 1, best_x + kWindowPx); ++x) {
       const double w = radiance.at(0, y, x) - 0.1 * best;
       if (w <= 0) continue;
       sum += w * Eigen::Vector2d(x, y);
@@ -124,9 +125,10 @@ double ArmAngleDeg(const LinearLightModel& strip, const LedRay& ray) {
 // curved streak, off the strip's reflection: 0.4-0.7° of error here.)
 Result<double> StripArmAngleDeg(const RigModel& rig, const LitView& view) {
   const Image& radiance = view.radiance;
+  const SeenPixels seen = SeenPixelsOf(view);
   float brightest = 0;
-  for (int y = 0; y < radiance.height(); ++y) {
-    for (int x = 0; x < radiance.width(); ++x) {
+  for (int y = seen.y0; y < seen.y1; ++y) {
+    for (int x = seen.x0; x < seen.x1; ++x) {
       const float v = radiance.at(0, y, x);
       if (std::isnan(v)) return FailedPreconditionError(view.source, "the strip's reflection saturated in every exposure");
       brightest = std::max(brightest, v);
@@ -134,8 +136,8 @@ Result<double> StripArmAngleDeg(const RigModel& rig, const LitView& view) {
   }
   if (brightest <= 0) return FailedPreconditionError(view.source, "no reflection of the strip: the view is dark");
   double sum = 0, weights = 0;
-  for (int y = 0; y < radiance.height(); ++y) {
-    for (int x = 0; x < radiance.width(); ++x) {
+  for (int y = seen.y0; y < seen.y1; ++y) {
+    for (int x = seen.x0; x < seen.x1; ++x) {
       const double w = radiance.at(0, y, x) - brightest / 3.0;
       if (w <= 0) continue;
       const Result<LedRay> ray = MirroredRay(rig, *rig.light_probe, view, Eigen::Vector2d(x, y));

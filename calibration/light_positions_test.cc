@@ -5,7 +5,9 @@
 #include "calibration/light_positions.h"
 
 #include <gtest/gtest.h>
+
 #include <unistd.h>
+#include <limits>
 
 #include <filesystem>
 #include <fstream>
@@ -39,8 +41,12 @@ std::vector<LitView> ProbeViews(const RigModel& built) {
       state.leds = {{led, 1000}};
       LightingState lighting;
       lighting.leds = {{led, 1000}};
-      views.push_back({c, lighting, scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
-                       "cam" + std::to_string(c) + " led " + std::to_string(led), -1});
+      views.push_back({c,
+                       lighting,
+                       scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
+                       "cam" + std::to_string(c) + " led " + std::to_string(led),
+                       -1,
+                       {}});
     }
     for (double carriage_mm : {40.0, 120.0, 200.0, 280.0, 360.0}) {
       sim::SceneState state;
@@ -49,8 +55,12 @@ std::vector<LitView> ProbeViews(const RigModel& built) {
       LightingState lighting;
       lighting.linear_light_on = true;
       lighting.linear_light_mm = carriage_mm;
-      views.push_back({c, lighting, scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
-                       "cam" + std::to_string(c) + " strip at " + std::to_string(carriage_mm) + " mm", -1});
+      views.push_back({c,
+                       lighting,
+                       scene.RenderRadiance(c, state, {.supersampling = 2, .shadows = false, .threads = 0}),
+                       "cam" + std::to_string(c) + " strip at " + std::to_string(carriage_mm) + " mm",
+                       -1,
+                       {}});
     }
   }
   return views;
@@ -101,6 +111,36 @@ TEST_F(LightPositionsTest, FindsTheLedThatIsNotWhereTheYamlSays) {
   RigModel calibrated = nominal;
   ApplyLightPositions(*found, &calibrated);
   EXPECT_LT((calibrated.leds[kMovedLed].position_mm - built.leds[kMovedLed].position_mm).norm(), 5.0);
+}
+
+// A calibration scan read through windows (scan --object-windows): outside its window a view is
+// NaN, not saturation, and the highlights and streaks inside it give the same lights.
+TEST_F(LightPositionsTest, ViewsReadThroughAWindowGiveTheSameLights) {
+  const RigModel nominal = Nominal();
+  std::vector<LitView> windowed = *views_;
+  for (LitView& view : windowed) {
+    const CameraModel& camera = nominal.cameras[view.camera];
+    Eigen::Vector2d centre;
+    ASSERT_TRUE(camera.Project(camera.cam_from_rig * Eigen::Vector3d(0, 0, nominal.light_probe->radius_mm), &centre));
+    const int half = camera.height / 3;
+    view.window = {std::max(0, static_cast<int>(centre.x()) - half), std::max(0, static_cast<int>(centre.y()) - half), 2 * half,
+                   2 * half};
+    for (int y = 0; y < view.radiance.height(); ++y) {
+      for (int x = 0; x < view.radiance.width(); ++x) {
+        const bool inside = x >= view.window.x && y >= view.window.y && x < view.window.x + view.window.width &&
+                            y < view.window.y + view.window.height;
+        if (!inside) view.radiance.at(0, y, x) = std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+  }
+  const Result<LightPositions> whole = CalibrateLightPositions(nominal, *views_);
+  const Result<LightPositions> through_windows = CalibrateLightPositions(nominal, windowed);
+  ASSERT_TRUE(whole.ok()) << whole.status().ToString();
+  ASSERT_TRUE(through_windows.ok()) << through_windows.status().ToString();
+  for (size_t i = 0; i < whole->leds.size(); ++i) {
+    EXPECT_EQ(through_windows->leds[i].position_mm, whole->leds[i].position_mm) << whole->leds[i].led;
+  }
+  EXPECT_EQ(through_windows->linear_light->start_deg, whole->linear_light->start_deg);
 }
 
 TEST_F(LightPositionsTest, FindsTheLinearLightsArmTurned) {

@@ -63,7 +63,7 @@ class Views {
         radiance.at(0, y, x) = static_cast<float>(radiance.at(0, y, x) * response * noise(rng_));
       }
     }
-    return {camera, lighting, std::move(radiance), "view " + std::to_string(count_++), -1};
+    return {camera, lighting, std::move(radiance), "view " + std::to_string(count_++), -1, {}};
   }
 
  private:

@@ -127,6 +127,7 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
   view.radiance = Image(camera.width, camera.height, {"L"});
   std::fill(view.radiance.channel(0).begin(), view.radiance.channel(0).end(), std::numeric_limits<float>::quiet_NaN());
   const scan::Roi window = WindowOf(frames.front(), camera);
+  view.window = window;
   const double scale = noise.electrons_per_dn / (sensor.sensitivity * 1e-6);
   for (int y = 0; y < window.height; ++y) {
     for (int x = 0; x < window.width; ++x) {
@@ -146,10 +147,17 @@ Result<std::vector<LitView>> ScanRadiance::LitViews(StepKind kind) const {
       LOOM_ASSIGN_OR_RETURN(RadianceView view, View(step.index, camera));
       const std::string source = Where(step.index, camera) + " (" + std::string(StepKindName(kind)) + ")";
       LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(*rig_, view.state, source));
-      views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source, step.index});
+      views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source, step.index, view.window});
     }
   }
   return views;
+}
+
+SeenPixels SeenPixelsOf(const LitView& view) {
+  const scan::Roi& w = view.window;
+  if (w.width == 0 || w.height == 0) return {0, 0, view.radiance.width(), view.radiance.height()};
+  return {std::max(0, w.x), std::max(0, w.y), std::min(view.radiance.width(), w.x + w.width),
+          std::min(view.radiance.height(), w.y + w.height)};
 }
 
 // The lights of a view as the rig model names them; only the wheels in front of lit LEDs count.

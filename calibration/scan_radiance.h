@@ -26,8 +26,9 @@ namespace loom::calibration {
 struct RadianceView {
   int camera = 0;        // index into the rig's cameras
   scan::RigState state;  // what the devices did (the first frame's record)
-  Image radiance;        // channel "L"; NaN where every exposure saturated
+  Image radiance;        // channel "L"; NaN where every exposure saturated, and outside `window`
   int saturated_pixels = 0;
+  scan::Roi window;  // where on the sensor the frames were read (their region of interest)
 };
 
 // The lights of a view as the rig model names them (only the wheels in front of lit LEDs
@@ -40,8 +41,15 @@ struct LitView {
   LightingState lighting;
   Image radiance;  // channel "L", converted with rig's sensor model
   std::string source;
-  int step = -1;  // the scan's step it came from; −1 for a rendered one
+  int step = -1;     // the scan's step it came from; −1 for a rendered one
+  scan::Roi window;  // where the camera read: NaN outside it; 0 × 0 (a rendered one): the whole sensor
 };
+
+// The pixels of `view` that its camera read: x in [x0, x1), y in [y0, y1).
+struct SeenPixels {
+  int x0, y0, x1, y1;
+};
+SeenPixels SeenPixelsOf(const LitView& view);
 
 class ScanRadiance {
  public:

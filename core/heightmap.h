@@ -14,7 +14,9 @@ namespace loom {
 class Heightmap {
  public:
   // Shadowed() and FirstHit() skip the march across a block of this many pixels a side wherever
-  // the ray is above everything the block's heights can interpolate to.
+  // the ray is above everything the block's heights can interpolate to; and across blocks of
+  // twice, four times … that side (a maximum pyramid) while the ray stays above those, so that a
+  // ray far above a tall object's surface crosses it in a few steps.
   static constexpr int kDefaultBlockPx = 8;
 
   Heightmap() = default;
@@ -55,7 +57,8 @@ class Heightmap {
     double max_mm;
     double t_leave;
   };
-  Block BlockAlong(const Eigen::Vector2d& g, double ux, double uy) const;
+  // At pyramid level `level`: blocks of block_px_ · 2^level pixels a side.
+  Block BlockAlong(const Eigen::Vector2d& g, double ux, double uy, int level) const;
   void BuildBlockMaxima();
 
   std::vector<float> heights_mm_;
@@ -64,9 +67,12 @@ class Heightmap {
   double pixel_mm_ = 1;
   double max_height_mm_ = 0;
   int block_px_ = kDefaultBlockPx;
-  int blocks_x_ = 0;
-  int blocks_y_ = 0;
-  std::vector<float> block_max_mm_;
+  struct Level {
+    int blocks_x = 0;
+    int blocks_y = 0;
+    std::vector<float> max_mm;  // row-major
+  };
+  std::vector<Level> levels_;  // [0]: blocks of block_px_; each next one of twice the side
 };
 
 }  // namespace loom

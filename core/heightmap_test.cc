@@ -35,15 +35,16 @@ TEST(HeightmapTest, AWallCastsAShadowOnlyOnItsFarSide) {
   EXPECT_TRUE(map.Shadowed({2.0, 0, 0}, {-500, 0, -1}));  // below the horizon
 }
 
-// The march without blocks: every half-pixel sample up to the highest point, as Shadowed was
-// before it skipped any.
+// The march without blocks: every half-pixel sample (t = t_first + k·dt) up to the highest
+// point, as Shadowed was before it skipped any.
 bool ShadowedByMarchingEverySample(const Heightmap& map, const Eigen::Vector3d& p, const Eigen::Vector3d& light,
                                    double pixel_mm) {
   const Eigen::Vector3d s = (light - p).normalized();
   if (s.z() <= 0) return true;
   const double t_max = (map.max_height_mm() - p.z()) / s.z();
   const double dt = 0.5 * pixel_mm / std::max(s.head<2>().norm(), 1e-9);
-  for (double t = std::min(dt, t_max) * 0.5; t < t_max; t += dt) {
+  const double t_first = std::min(dt, t_max) * 0.5;
+  for (double k = 0, t = t_first; t < t_max; t = t_first + ++k * dt) {
     const Eigen::Vector3d q = p + t * s;
     if (q.z() < map.HeightAt(q.x(), q.y()) - 1e-4) return true;
   }
@@ -62,8 +63,8 @@ Eigen::Vector3d FirstHitByMarchingEverySample(const Heightmap& map, const Eigen:
     return p.z() <= map.HeightAt(p.x(), p.y());
   };
   double previous = t_top;
-  for (double t = t_top + dt;; t += dt) {
-    const double tt = std::min(t, t_bottom);
+  for (double k = 1;; ++k) {
+    const double tt = std::min(t_top + k * dt, t_bottom);
     if (below(tt)) {
       double lo = previous, hi = tt;
       while (hi - lo > 1e-5) (below(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
@@ -200,6 +201,41 @@ TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsFirstHits) {
     EXPECT_GT(on_the_grid, 8000) << block_px;
   }
   EXPECT_THROW(Heightmap(heights, kW, kH, kPixelMm).FirstHit({0, 0, 10}, {0, 0, 1}), CheckError);
+}
+
+TEST(HeightmapTest, OverTallObjectsThePyramidGivesTheFullMarchs) {
+  // A calibration scan's objects: a wedge rising 4 mm and a sphere 6 mm tall beside it, on a
+  // grid many blocks wide, where rays far above the surface cross coarse pyramid levels.
+  constexpr int kSide = 150;
+  constexpr double kFinePixelMm = 0.1;
+  std::vector<float> heights(kSide * kSide, 0.0f);
+  for (int y = 0; y < kSide; ++y) {
+    for (int x = 0; x < kSide; ++x) {
+      const double cx = (x - 110) * kFinePixelMm, cy = (y - 75) * kFinePixelMm, rho2 = cx * cx + cy * cy;
+      if (x < 70) heights[y * kSide + x] = static_cast<float>(1 + 3.0 * y / kSide);
+      if (rho2 < 9) heights[y * kSide + x] = static_cast<float>(3 + std::sqrt(9 - rho2));
+    }
+  }
+  const Heightmap map(heights, kSide, kSide, kFinePixelMm);
+  std::mt19937 random(13);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int shadowed = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const double x = (unit(random) - 0.5) * 1.2 * kSide * kFinePixelMm, y = (unit(random) - 0.5) * 1.2 * kSide * kFinePixelMm;
+    const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+    double elevation = 0;
+    const Eigen::Vector3d light = RandomLight(p, random, &elevation);
+    const bool expected = ShadowedByMarchingEverySample(map, p, light, kFinePixelMm);
+    ASSERT_EQ(map.Shadowed(p, light), expected) << "ray " << k << " from " << p.transpose();
+    shadowed += expected;
+    const Eigen::Vector3d eye = p + 300.0 * (light - p).normalized();
+    if (eye.z() > 10) {
+      const Eigen::Vector3d towards = (p - eye).normalized();
+      ASSERT_EQ(map.FirstHit(eye, towards), FirstHitByMarchingEverySample(map, eye, towards, kFinePixelMm)) << "ray " << k;
+    }
+  }
+  EXPECT_GT(shadowed, 2000);
+  EXPECT_LT(shadowed, 18000);
 }
 
 }  // namespace

@@ -76,13 +76,17 @@ Eigen::Vector3d CameraModel::Unproject(const Eigen::Vector2d& pixel) const {
   const double yd = (pixel.y() - K(1, 2)) / K(1, 1);
   const auto& d = distortion;
   double x = xd, y = yd;
-  for (int i = 0; i < 20; ++i) {  // fixed-point inversion, as OpenCV's undistortPoints
+  // Fixed-point inversion, as OpenCV's undistortPoints: 20 iterations, or fewer where an
+  // iteration no longer changes x and y (every later one would repeat it: the same answer).
+  for (int i = 0; i < 20; ++i) {
     const double r2 = x * x + y * y;
     const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
     const double dx = 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
     const double dy = d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
-    x = (xd - dx) / radial;
-    y = (yd - dy) / radial;
+    const double next_x = (xd - dx) / radial, next_y = (yd - dy) / radial;
+    if (next_x == x && next_y == y) break;
+    x = next_x;
+    y = next_y;
   }
   return Eigen::Vector3d(x, y, 1).normalized();
 }

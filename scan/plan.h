@@ -25,6 +25,7 @@
 // (probe exposure, bounded count) that the sequencer refines.
 
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -33,6 +34,7 @@
 #include "core/rig_file.h"
 #include "core/rig_model.h"
 #include "core/status.h"
+#include "scan/frame.h"
 #include "scan/rig_state.h"
 
 namespace loom::scan {
@@ -109,6 +111,9 @@ struct Step {
   std::string projector_pattern;            // empty: projector dark
   ScanObject object = ScanObject::kSample;  // what must lie on the turntable
   ExposureBracket exposure;
+  // Cameras that read only a region of interest for this step (a calibration object's window,
+  // acquisition/crop_windows.h), by name; the others read the scan's own region.
+  std::map<std::string, Roi> windows;
 
   // Images this step produces before bracketing (one per camera).
   int images() const { return static_cast<int>(cameras.size()); }

@@ -158,8 +158,24 @@ TEST(PlanTest, TheExpandedPlanRoundTripsThroughYaml) {
     ASSERT_TRUE(back.ok()) << back.status().ToString();
     EXPECT_EQ(*back, plan) << preset;
   }
-  const Plan calibration = *MakeCalibrationPlan(ShippedRigModel("tac7-mini"), LoadShippedPreset("low"));
+  Plan calibration = *MakeCalibrationPlan(ShippedRigModel("tac7-mini"), LoadShippedPreset("low"));
   EXPECT_EQ(*ParsePlanYaml(PlanToYaml(calibration), "plan.yaml"), calibration);
+  // A step that reads its cameras through windows keeps them.
+  calibration.steps[1].windows = {{calibration.steps[1].cameras[0], Roi{8, 16, 96, 64}}};
+  EXPECT_EQ(*ParsePlanYaml(PlanToYaml(calibration), "plan.yaml"), calibration);
+}
+
+TEST(PlanTest, BadWindowsAreNamed) {
+  const std::string text =
+      "schema_version: 1\nrig: r\npreset: low\npurpose: calibration\nsteps:\n"
+      "  - {index: 0, kind: target, cameras: [a, b], turntable_deg: 0, object: target, probe_exposure_us: 1, max_exposures: 1,"
+      " windows: {a: [0, 0, 0, 8], b: [1, 2, 3], c: [0, 0, 8, 8]}}\n";
+  const Result<Plan> plan = ParsePlanYaml(text, "SCAN/plan.yaml");
+  ASSERT_FALSE(plan.ok());
+  const std::string message = plan.status().ToString();
+  for (const char* part : {"steps[0].windows.a", "steps[0].windows.b", "steps[0].windows.c", "not one of the step's cameras"}) {
+    EXPECT_NE(message.find(part), std::string::npos) << part << " in " << message;
+  }
 }
 
 // Drift references: before the first lit step, at most every N steps after, on both sides of

@@ -2,6 +2,8 @@
 // reconstruction read the steps that were really planned, whatever the presets say today.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+
 #include "core/config.h"
 #include "scan/plan.h"
 
@@ -37,7 +39,30 @@ void EmitStep(YAML::Emitter& out, const Step& step) {
   out << YAML::Key << "probe_exposure_us" << YAML::Value << step.exposure.probe_us;
   out << YAML::Key << "max_exposures" << YAML::Value << step.exposure.max_exposures;
   if (step.exposure.linearity_series > 0) out << YAML::Key << "linearity_series" << YAML::Value << step.exposure.linearity_series;
+  if (!step.windows.empty()) {
+    out << YAML::Key << "windows" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (const auto& [camera, roi] : step.windows) {
+      out << YAML::Key << camera << YAML::Value << YAML::Flow << std::vector<int>{roi.x, roi.y, roi.width, roi.height};
+    }
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
+}
+
+// A step's windows: camera name → [x, y, width, height] inside the sensor, for a camera the
+// step uses.
+void ReadWindows(const ConfigNode& windows, Step& step) {
+  for (const std::string& camera : windows.Keys()) {
+    std::vector<int> roi;
+    windows.Required(camera, &roi);
+    if (std::find(step.cameras.begin(), step.cameras.end(), camera) == step.cameras.end()) {
+      windows.AddError(camera, "is not one of the step's cameras");
+    } else if (roi.size() != 4 || roi[0] < 0 || roi[1] < 0 || roi[2] < 1 || roi[3] < 1) {
+      windows.AddError(camera, "must be [x, y, width, height] with x, y >= 0 and width, height >= 1");
+    } else {
+      step.windows[camera] = {roi[0], roi[1], roi[2], roi[3]};
+    }
+  }
 }
 
 Step ReadStep(const ConfigNode& node, int expected_index) {
@@ -86,6 +111,7 @@ Step ReadStep(const ConfigNode& node, int expected_index) {
   if (step.exposure.max_exposures < 1) node.AddError("max_exposures", "must be >= 1");
   node.Optional("linearity_series", &step.exposure.linearity_series);
   if (step.exposure.linearity_series < 0) node.AddError("linearity_series", "must be >= 0");
+  if (std::optional<ConfigNode> windows = node.OptionalChild("windows")) ReadWindows(*windows, step);
   return step;
 }
 
