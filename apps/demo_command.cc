@@ -81,8 +81,12 @@ std::vector<std::string> WithSize(std::vector<std::string> arguments, int size_p
 Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
   const fs::path out(args.out);
   if (args.calibrate) {
-    LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan,
-                                     {"scan", "--rig", rig, "--calibration", "--out", (out / "calibration-scan").string()}));
+    std::vector<std::string> calibration_scan = {"scan",          "--rig", rig,
+                                                 "--calibration", "--out", (out / "calibration-scan").string()};
+    // A rig whose material scan reads a crop has sensors too large to read whole for every view
+    // of a calibration object.
+    if (args.crop_mm > 0) calibration_scan.push_back("--object-windows");
+    LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan, calibration_scan));
     LOOM_RETURN_IF_ERROR(
         stages->Run("calibrate geometry", RunCalibrate,
                     {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
@@ -213,7 +217,8 @@ int RunDemo(int argc, char** argv) {
       ->check(CLI::Range(8, 8192));
   app.add_option("--crop-mm", args.crop_mm,
                  "Scan only a centred square crop of the sample this wide, each camera reading the window that sees it "
-                 "(as loom scan --crop-mm; for rigs with large sensors, e.g. tac7 with --size 64 and 12.8)")
+                 "(as loom scan --crop-mm; for rigs with large sensors, e.g. tac7 with --size 64 and 12.8); the "
+                 "calibration scan then reads each calibration object through its windows (loom scan --object-windows)")
       ->check(CLI::Range(0.5, 1000.0));
   app.add_flag("!--no-calibration", args.calibrate,
                "No calibration scan: reconstruct with the rig YAML's geometry and radiometry (on a simulated rig without "
