@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include <nlohmann/json.hpp>
 
@@ -132,6 +133,22 @@ TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
   // Shown in the report as maps.
   EXPECT_TRUE(fs::exists(dir_ / "cnn+refine" / "report" / "unc.normal_deg.png"));
   EXPECT_TRUE(fs::exists(dir_ / "cnn+refine" / "report" / "unc.sigma_x.png"));
+}
+
+// The maps do not depend on the thread count (the CNN's tiles and the refiner's pixels are
+// shared out, never their sums): a fit on one thread and on three writes the same file.
+TEST_F(FitCommandTest, CnnPlusRefineWritesTheSameMapsOnAnyNumberOfThreads) {
+  for (const char* threads : {"1", "3"}) {
+    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                                " --method cnn+refine --quiet --threads " + threads + " --out " +
+                                (dir_ / (std::string("threads-") + threads)).string());
+    ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  }
+  const auto read = [](const fs::path& path) {
+    std::ifstream file(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(file), {});
+  };
+  EXPECT_EQ(read(dir_ / "threads-1" / "svbrdf.exr"), read(dir_ / "threads-3" / "svbrdf.exr"));
 }
 
 TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {

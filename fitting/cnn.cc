@@ -271,20 +271,25 @@ Status Cnn::Save(const std::filesystem::path& directory) const {
 Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int max_tile, int threads) const {
   LOOM_RETURN_IF_ERROR(CheckInput(*this, input));
   if (max_tile < 1) return InvalidArgumentError("CNN tile", "must be ≥ 1");
-  torch::set_num_threads(ThreadCount(threads));
+  // The tiles go to loom's threads, each tile's ops single-threaded: torch's own intra-op
+  // threads split a convolution's sums by their count, so that the maps (and every fit started
+  // from them) would change with --threads.
+  torch::set_num_threads(1);
   internal::KeepFreedMemoryForReuse();
-  c10::InferenceMode inference;
   net_->net->eval();
   const torch::Tensor padded = internal::PaddedInput(input);
   torch::Tensor out = torch::empty({kLabelSize, input.height, input.width});
   const int tile_height = EqualTileSide(input.height, max_tile), tile_width = EqualTileSide(input.width, max_tile);
-  for (int y = 0; y < input.height; y += tile_height) {
-    for (int x = 0; x < input.width; x += tile_width) {
-      const int h = std::min(tile_height, input.height - y), w = std::min(tile_width, input.width - x);
-      const torch::Tensor window = padded.narrow(2, y, h + 2 * kPatchHalo).narrow(3, x, w + 2 * kPatchHalo);
-      out.narrow(1, y, h).narrow(2, x, w).copy_(net_->net->ForwardDense(window.contiguous())[0]);
-    }
-  }
+  const int tiles_x = (input.width + tile_width - 1) / tile_width;
+  const int tiles = tiles_x * ((input.height + tile_height - 1) / tile_height);
+  ParallelFor(tiles, threads, [&](int tile) {
+    torch::set_num_threads(1);  // this thread's OpenMP team too
+    c10::InferenceMode inference;
+    const int y = tile / tiles_x * tile_height, x = tile % tiles_x * tile_width;
+    const int h = std::min(tile_height, input.height - y), w = std::min(tile_width, input.width - x);
+    const torch::Tensor window = padded.narrow(2, y, h + 2 * kPatchHalo).narrow(3, x, w + 2 * kPatchHalo);
+    out.narrow(1, y, h).narrow(2, x, w).copy_(net_->net->ForwardDense(window.contiguous())[0]);
+  });
   return FromTorch(out);
 }
 

@@ -57,6 +57,19 @@ TEST(CnnTest, DenseEvaluationEqualsTheSlidingWindow) {
   EXPECT_GT(spread, 1e-3) << "outputs do not depend on the input: the comparison proves nothing";
 }
 
+// The maps, and every fit started from them, do not change with the thread count: the tiles
+// are shared out, never a tile's sums (torch's intra-op threads would split those by their count).
+TEST(CnnTest, DenseEvaluationIsTheSameOnAnyNumberOfThreads) {
+  CnnModelInfo info = SmallModel(24);
+  info.architecture.width_divisor = 2;
+  Result<Cnn> cnn = Cnn::Create(info, 3);
+  ASSERT_TRUE(cnn.ok()) << cnn.status().ToString();
+  const CnnTensor input = RandomInput(24, 48, 40, 9);
+  const Result<CnnTensor> one = cnn->PredictDense(input, 16, 1);
+  ASSERT_TRUE(one.ok()) << one.status().ToString();
+  for (int threads : {2, 3}) EXPECT_EQ(cnn->PredictDense(input, 16, threads)->values, one->values) << threads << " threads";
+}
+
 TEST(CnnTest, PixelsNearTheEdgeSeeTheEdgeReplicated) {
   Result<Cnn> cnn = Cnn::Create(SmallModel(5), 6);
   ASSERT_TRUE(cnn.ok());
