@@ -111,6 +111,16 @@ int RunFit(int argc, char** argv) {
                  "refine methods: coarse to fine, each pixel first converged with its strips merged into this many "
                  "light samples, then finished with all of them (0: one pass)")
       ->check(CLI::Range(0, 4096));
+  app.add_option_function<int>(
+         "--strip-nodes",
+         [&args](int nodes) {
+           if (nodes > 0) args.options.pixels.strip_quadrature = fitting::StripQuadratureWithNodes(nodes);
+         },
+         "refine methods: the first fit integrates each linear light's strip by Gauss-Legendre quadrature with this "
+         "many nodes, a fifth of them either side of the span of the pixel's specular lobe, instead of the stack's "
+         "emitters (0: the emitters; 16 or 20: within 0.1 % of the continuous strip at the 99th percentile; "
+         "fitting/strip_quadrature.h, docs/benchmarks.md)")
+      ->check(CLI::Range(0, 127) & !CLI::Range(1, 4));
   app.add_option("--function-tolerance", args.options.refine_function_tolerance,
                  "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
                  "fraction (default 1e-4; Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")

@@ -135,6 +135,34 @@ TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
   EXPECT_TRUE(fs::exists(dir_ / "cnn+refine" / "report" / "unc.sigma_x.png"));
 }
 
+// The strips integrated by nodes around each pixel's lobe (fitting/strip_quadrature.h): the fit
+// says so in fit.json and recovers the fabric as the emitters' does; too few nodes to split the
+// strip are a usage error naming the option.
+TEST_F(FitCommandTest, CnnPlusRefineWithTheStripAsNodesRecoversTheFabric) {
+  const fs::path out = dir_ / "strip-nodes";
+  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                              " --method cnn+refine --strip-nodes 16 --quiet --out " + out.string());
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  std::ifstream fit_json(out / "fit.json");
+  const nlohmann::json summary = nlohmann::json::parse(fit_json);
+  EXPECT_EQ(summary["strip_nodes"], 16) << summary.dump(2);
+  EXPECT_GE(summary["pixels_nodes_replaced"].get<int>(), 0) << summary.dump(2);
+  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (out / "svbrdf.exr").string() + " --stack " +
+                               (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() +
+                               " --renderer-views 0 --out " + (out / "report").string());
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  std::ifstream report(out / "report/summary.json");
+  const nlohmann::json json = nlohmann::json::parse(report);
+  EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
+  EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
+  EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
+
+  const auto refused = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                                  " --method cnn+refine --strip-nodes 3 --quiet --out " + (dir_ / "strip-nodes-3").string());
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("--strip-nodes"), std::string::npos) << refused.output;
+}
+
 // The maps do not depend on the thread count (the CNN's tiles and the refiner's pixels are
 // shared out, never their sums): a fit on one thread and on three writes the same file.
 TEST_F(FitCommandTest, CnnPlusRefineWritesTheSameMapsOnAnyNumberOfThreads) {

@@ -7,9 +7,11 @@
 //
 //   bench_linear_light --json=linear_light.json
 //
-// Three forms: the strip sampled at N points; the stack's 32 emitters merged into N
-// (fitting::MergeLightSamples, what the refiner does with max_lights_per_observation = N); and
-// merged per observation by the lobe's width (StripSamplesFor), the diffuse term kept over all 32.
+// Five forms: the strip sampled at N points; the stack's 32 emitters merged into N
+// (fitting::MergeLightSamples, what the refiner does with max_lights_per_observation = N);
+// merged per observation by the lobe's width (StripSamplesFor), the diffuse term kept over all 32;
+// the continuous strip by composite Gauss–Legendre; and by Gauss–Legendre split at the lobe
+// (fitting/strip_quadrature.h, `loom fit --strip-nodes`).
 // Per N and form: the relative radiance error |L_N − L_ref| / L_ref of every observation whose L_ref is at
 // least 1 % of its pixel's mean (p50, p99, max), and the error relative to the pixel's mean
 // radiance, the unit the fit's residuals are in (p99, max); diffuse and specular alike.
@@ -27,6 +29,7 @@
 #include "fitting/batch_refiner.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
+#include "fitting/strip_quadrature.h"
 #include "sim/fabric.h"
 
 namespace {
@@ -42,6 +45,14 @@ double Quantile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
   return values[static_cast<size_t>(q * (values.size() - 1))];
+}
+
+// The error columns of a row: the relative errors of the observations at least 1 % of their
+// pixel's mean, and every observation's error relative to its pixel's mean.
+nlohmann::json ErrorColumns(const std::vector<double>& relative, const std::vector<double>& of_mean) {
+  return {{"relative_error_p50", Quantile(relative, 0.5)},     {"relative_error_p99", Quantile(relative, 0.99)},
+          {"relative_error_max", Quantile(relative, 1.0)},     {"error_of_pixel_mean_p99", Quantile(of_mean, 0.99)},
+          {"error_of_pixel_mean_max", Quantile(of_mean, 1.0)}, {"observations", relative.size()}};
 }
 
 // Every linear-light observation of point p (flat: local frame = sample frame) with the strip as
@@ -92,6 +103,45 @@ int StripSamplesFor(const PixelObservation& observation, double sigma, double sa
   return n / merged_per_sample;
 }
 
+// The light samples of `emitters` at point p (flat: local frame = sample frame).
+std::vector<LightSample> LightsAt(const std::vector<loom::PointEmitter>& emitters, const Eigen::Vector3d& p) {
+  std::vector<LightSample> lights;
+  for (const loom::PointEmitter& e : emitters) {
+    const Eigen::Vector3d to_light = e.position_mm - p;
+    lights.push_back({to_light.normalized(), e.IntensityTowards(p) / to_light.squaredNorm()});
+  }
+  return lights;
+}
+
+// The strip of every linear-light observation of StripObservations' order, from its 32 emitters.
+std::vector<loom::fitting::StripSegment> Strips(const loom::RigModel& rig) {
+  std::vector<loom::fitting::StripSegment> strips;
+  for (int k = 0; k < kStripPositions; ++k) {
+    loom::LightingState lighting;
+    lighting.linear_light_on = true;
+    lighting.linear_light_mm = rig.linear_light->travel_mm * k / (kStripPositions - 1);
+    for (int camera = 0; camera < static_cast<int>(rig.cameras.size()); ++camera) {
+      const auto described = loom::DescribeRigObservation(rig, camera, lighting);
+      LOOM_CHECK(described.ok()) << described.status().ToString();
+      strips.push_back(*loom::fitting::StripOfEmitters(described->emitters));
+    }
+  }
+  return strips;
+}
+
+// The strip as `panels` equal parts of `nodes` Gauss–Legendre nodes each.
+std::vector<loom::PointEmitter> CompositeGaussLegendre(const loom::fitting::StripSegment& strip, int panels, int nodes) {
+  std::vector<loom::PointEmitter> emitters;
+  for (int panel = 0; panel < panels; ++panel) {
+    for (const auto& [x, weight] : loom::fitting::GaussLegendreRule(nodes)) {
+      const double u = (panel + (1 + x) / 2) / panels;
+      emitters.push_back(
+          {strip.At(u), strip.axis, strip.intensity_per_mm * strip.LengthMm() / panels / 2 * weight, strip.falloff_exponent});
+    }
+  }
+  return emitters;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -136,14 +186,8 @@ int main(int argc, char** argv) {
           if (exact[k] >= 0.01 * mean) relative.push_back(error / exact[k]);
         }
       }
-      rows.push_back({{"form", merged ? "32 merged" : "sampled"},
-                      {"emitters", count},
-                      {"relative_error_p50", Quantile(relative, 0.5)},
-                      {"relative_error_p99", Quantile(relative, 0.99)},
-                      {"relative_error_max", Quantile(relative, 1.0)},
-                      {"error_of_pixel_mean_p99", Quantile(of_mean, 0.99)},
-                      {"error_of_pixel_mean_max", Quantile(of_mean, 1.0)},
-                      {"observations", relative.size()}});
+      rows.push_back({{"form", merged ? "32 merged" : "sampled"}, {"emitters", count}});
+      rows.back().update(ErrorColumns(relative, of_mean));
       std::cout << rows.back().dump() << std::endl;
     }
   }
@@ -182,14 +226,64 @@ int main(int argc, char** argv) {
     rows.push_back({{"form", "adaptive"},
                     {"samples_per_width", samples_per_width},
                     {"emitters", mean_count},
-                    {"relative_error_p50", Quantile(relative, 0.5)},
-                    {"relative_error_p99", Quantile(relative, 0.99)},
-                    {"relative_error_max", Quantile(relative, 1.0)},
-                    {"error_of_pixel_mean_p99", Quantile(of_mean, 0.99)},
-                    {"error_of_pixel_mean_max", Quantile(of_mean, 1.0)},
                     {"against_32_of_pixel_mean_p99", Quantile(against_model, 0.99)},
-                    {"against_32_of_pixel_mean_max", Quantile(against_model, 1.0)},
-                    {"observations", relative.size()}});
+                    {"against_32_of_pixel_mean_max", Quantile(against_model, 1.0)}});
+    rows.back().update(ErrorColumns(relative, of_mean));
+    std::cout << rows.back().dump() << std::endl;
+  }
+  // Gauss–Legendre on the continuous strip: composite (equal panels), and split at the lobe as the
+  // refiner's `loom fit --strip-nodes` places its nodes (fitting/strip_quadrature.h: the lobe's
+  // span scanned at the 32 emitters, the parts beside it). Nodes per observation against the
+  // same reference.
+  struct GaussForm {
+    const char* name;
+    int panels;  // composite: equal panels; split: nodes per side part
+    int nodes;   // per panel; split: in the lobe's span
+  };
+  const std::vector<GaussForm> gauss_forms = {{"gauss-legendre", 1, 16}, {"gauss-legendre", 2, 8}, {"gauss-legendre", 4, 4},
+                                              {"gauss-legendre", 4, 6},  {"gauss-legendre", 8, 4}, {"lobe-split", 2, 4},
+                                              {"lobe-split", 2, 6},      {"lobe-split", 3, 8},     {"lobe-split", 3, 10},
+                                              {"lobe-split", 4, 12}};
+  const std::vector<loom::fitting::StripSegment> strips = Strips(rig);
+  for (const GaussForm& form : gauss_forms) {
+    const bool split = std::strcmp(form.name, "lobe-split") == 0;
+    loom::fitting::StripQuadratureOptions quadrature;
+    quadrature.side_nodes = form.panels;
+    quadrature.lobe_nodes = form.nodes;
+    std::vector<double> relative, of_mean, counts_used;
+    for (size_t m = 0; m < materials.size(); ++m) {
+      const Eigen::Vector3d& p = points[m % points.size()];
+      const loom::fitting::WardLobe<double> lobe(materials[m]);
+      const std::vector<PixelObservation> reference = StripObservations(rig, kReferenceEmitters, p);
+      const std::vector<PixelObservation> model = StripObservations(rig, 32, p);  // the lobe is scanned at the 32
+      std::vector<double> exact(reference.size());
+      double mean = 0;
+      for (size_t k = 0; k < reference.size(); ++k) mean += (exact[k] = PredictRadiance(lobe, reference[k])) / reference.size();
+      for (size_t k = 0; k < reference.size(); ++k) {
+        std::vector<loom::PointEmitter> nodes;
+        if (split) {
+          std::vector<Eigen::Vector3d> l_local;
+          for (const LightSample& l : model[k].lights) l_local.push_back(l.l_local);
+          const auto span = loom::fitting::LobeSpan(l_local, model[k].v_local, materials[m], quadrature.lobe_fraction);
+          nodes = loom::fitting::StripNodes(strips[k], {0.0, 1.0}, span, quadrature);
+        } else {
+          nodes = CompositeGaussLegendre(strips[k], form.panels, form.nodes);
+        }
+        counts_used.push_back(static_cast<double>(nodes.size()));
+        PixelObservation integrated = reference[k];
+        integrated.lights = LightsAt(nodes, p);
+        const double error = std::abs(PredictRadiance(lobe, integrated) - exact[k]);
+        of_mean.push_back(error / mean);
+        if (exact[k] >= 0.01 * mean) relative.push_back(error / exact[k]);
+      }
+    }
+    double mean_count = 0;
+    for (double c : counts_used) mean_count += c / counts_used.size();
+    rows.push_back({{"form", form.name},
+                    {split ? "side_nodes" : "panels", form.panels},
+                    {split ? "lobe_nodes" : "nodes_per_panel", form.nodes},
+                    {"emitters", mean_count}});
+    rows.back().update(ErrorColumns(relative, of_mean));
     std::cout << rows.back().dump() << std::endl;
   }
   const nlohmann::json out = {

@@ -85,7 +85,8 @@ Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& 
     }
     // Cast shadows are left out: the test costs a ray march per emitter, and the robust loss
     // takes the few shadowed observations as outliers.
-    pixels = std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false});
+    pixels =
+        std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false, .strip_quadrature = std::nullopt});
   }
   return Material{internal::PaddedInput(e.input),
                   AsTensor(e.labels.labels).clone(),

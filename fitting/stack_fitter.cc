@@ -153,20 +153,86 @@ PixelOutcome OutcomeOf(const RefinedPixel& r) {
   return outcome;
 }
 
-// Step 4 on the refiner: every pixel from start_of(i).
+// Light samples per observation where the strips are integrated by nodes (StripQuadrature).
+std::vector<int> NodesPerObservation(const ObservationStack& stack, const StackPixels& pixels) {
+  std::vector<int> lights = EmittersPerObservation(stack);
+  for (size_t k = 0; k < lights.size(); ++k) {
+    if (stack.observations[k].group == ObservationGroup::kLinearLight) lights[k] = pixels.strip_quadrature().Nodes();
+  }
+  return lights;
+}
+
+// Of `candidates`, the pixels whose fit ended with a lobe outside the strip spans their nodes were
+// placed for (at placed_at(i)): their quadrature no longer holds there.
+std::vector<int> PixelsOutsideTheirNodes(const StackPixels& pixels, const std::vector<int>& candidates,
+                                         const std::function<WardParams<double>(int)>& placed_at,
+                                         const std::vector<PixelOutcome>& outcomes, int threads) {
+  const int width = pixels.width();
+  const StripQuadratureOptions& quadrature = pixels.strip_quadrature();
+  std::vector<char> outside(candidates.size(), 0);
+  ParallelFor(static_cast<int>(candidates.size()), threads, [&](int c) {
+    const int i = candidates[c];
+    if (!outcomes[i].fitted) return;
+    const auto placed = pixels.LobeSpans(i % width, i / width, placed_at(i), quadrature.lobe_fraction);
+    const auto ended = pixels.LobeSpans(i % width, i / width, outcomes[i].params, quadrature.moved_fraction);
+    for (size_t k = 0; k < placed.size() && !outside[c]; ++k) outside[c] = !StripNodesCover(placed[k], ended[k], quadrature);
+  });
+  std::vector<int> moved;
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    if (outside[c]) moved.push_back(candidates[c]);
+  }
+  return moved;
+}
+
+// Rounds of placing a pixel's nodes again where its fit ended, at most: a lobe that keeps moving
+// out of them after that keeps its last fit.
+constexpr int kNodePlacementRounds = 3;
+
+// Step 4 on the refiner: every pixel from start_of(i). Where the strips are integrated by nodes
+// around each pixel's lobe, the pixels whose lobe moved out of their nodes' span are refined
+// again from where they ended, with nodes placed there; `nodes_replaced` counts them (a pixel
+// once however many rounds it took).
 Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const ObservationStack& stack,
                                             const std::function<WardParams<double>(int)>& start_of, const RefineOptions& refine,
-                                            const std::function<void(int)>& progress) {
+                                            const std::function<void(int)>& progress, int& nodes_replaced) {
   const int width = pixels.width();
   const int count = width * pixels.height();
-  const RefineProblem problem{.pixels = count,
-                              .lights_per_observation = EmittersPerObservation(stack),
-                              .observations = [&](int i) { return pixels.Observations(i % width, i / width); },
-                              .start = start_of,
-                              .prior_mean = {}};
+  const bool nodes = pixels.integrates_strips();
+  const RefineProblem problem{
+      .pixels = count,
+      .lights_per_observation = nodes ? NodesPerObservation(stack, pixels) : EmittersPerObservation(stack),
+      .observations = [&](int i) { return pixels.Observations(i % width, i / width, start_of(i)); },
+      .start = start_of,
+      .prior_mean = {}};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
   std::vector<PixelOutcome> outcomes;
   for (const RefinedPixel& r : refined) outcomes.push_back(OutcomeOf(r));
+  nodes_replaced = 0;
+  if (!nodes) return outcomes;
+  std::vector<int> moved(count);
+  std::iota(moved.begin(), moved.end(), 0);
+  std::vector<WardParams<double>> placed_at(count);
+  for (int i = 0; i < count; ++i) placed_at[i] = start_of(i);
+  std::vector<char> replaced(count, 0);
+  for (int round = 0; round < kNodePlacementRounds; ++round) {
+    moved = PixelsOutsideTheirNodes(
+        pixels, moved, [&](int i) { return placed_at[i]; }, outcomes, refine.threads);
+    if (moved.empty()) break;
+    for (int i : moved) placed_at[i] = outcomes[i].params, replaced[i] = 1;
+    const RefineProblem again{
+        .pixels = static_cast<int>(moved.size()),
+        .lights_per_observation = problem.lights_per_observation,
+        .observations = [&](int k) { return pixels.Observations(moved[k] % width, moved[k] / width, placed_at[moved[k]]); },
+        .start = [&](int k) { return placed_at[moved[k]]; },
+        .prior_mean = [&](int k) { return start_of(moved[k]); }};
+    LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refitted, RefinePixels(again, refine));
+    for (size_t k = 0; k < moved.size(); ++k) {
+      const int iterations = outcomes[moved[k]].iterations + refitted[k].iterations;
+      outcomes[moved[k]] = OutcomeOf(refitted[k]);
+      outcomes[moved[k]].iterations = iterations;
+    }
+  }
+  nodes_replaced = static_cast<int>(std::count(replaced.begin(), replaced.end(), 1));
   return outcomes;
 }
 
@@ -579,6 +645,7 @@ nlohmann::json StackFitOptions::ToJson() const {
           {"prior_reference_noise_rms", refiner ? prior_reference_noise_rms : 0},
           {"smoothing_weight", refiner ? smoothing.weight : 0},
           {"strip_samples", max_lights_per_observation},
+          {"strip_nodes", refiner && pixels.strip_quadrature ? pixels.strip_quadrature->Nodes() : 0},
           {"coarse_samples", coarse_lights_per_observation},
           {"function_tolerance", refine_function_tolerance}};
 }
@@ -598,6 +665,7 @@ nlohmann::json StackFitSummary::ToJson() const {
           {"pixels_fitted", pixels_fitted},
           {"pixels_kept_at_cluster", pixels_kept_at_cluster},
           {"pixels_retried", pixels_retried},
+          {"pixels_nodes_replaced", pixels_nodes_replaced},
           {"pixels_propagated", pixels_propagated},
           {"pixels_retry_finished", pixels_retry_finished},
           {"retry_threshold_rms", retry_threshold_rms},
@@ -649,6 +717,9 @@ Status StackFitOptions::Check() const {
   if (!(retry_min_gain >= 0 && retry_min_gain < 1)) problems.push_back("retry_min_gain must be in [0, 1)");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());
+  if (pixels.strip_quadrature) {
+    if (Status s = pixels.strip_quadrature->Check(); !s.ok()) problems.push_back("pixels.strip_quadrature: " + s.message());
+  }
   for (const auto& [name, p] : {std::pair{"prior", prior}, {"smoothing", smoothing}}) {
     RefineOptions refine;
     refine.prior = p;
@@ -733,7 +804,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   }
   summary.prior_weight = refiner ? refine.prior.weight : 0;
   if (refiner) {
-    LOOM_ASSIGN_OR_RETURN(outcomes, RefineAll(pixels, stack, start_of, refine, pixel_progress));
+    LOOM_ASSIGN_OR_RETURN(outcomes, RefineAll(pixels, stack, start_of, refine, pixel_progress, summary.pixels_nodes_replaced));
   } else {
     ParallelFor(
         pixel_count, options.threads,

@@ -140,6 +140,9 @@ struct StackFitSummary {
   int pixels_retry_finished = 0;   // of those, fitted from a grid start with every light sample
                                    // (the refiner explores with fewer and finishes only the
                                    // pixels where a grid start wins; Ceres finishes all)
+  // First fits refined again because their lobe left the strip span their nodes were placed for
+  // (StackPixelOptions::strip_quadrature).
+  int pixels_nodes_replaced = 0;
   double retry_threshold_rms = 0;  // relative RMS above which they were
   double noise_rms = 0;            // the stack's, where the prior's weight follows it
   double prior_weight = 0;         // the prior's weight as applied

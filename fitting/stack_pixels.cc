@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/check.h"
 #include "core/geometry.h"
 
 namespace loom::fitting {
@@ -10,6 +11,9 @@ StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions&
   const auto heights = stack.image.channel(2);  // pos.Z
   heightmap_ =
       Heightmap(std::vector<float>(heights.begin(), heights.end()), stack.image.width(), stack.image.height(), stack.pixel_mm);
+  for (const StackObservation& o : stack.observations) {
+    strips_.push_back(o.group == ObservationGroup::kLinearLight ? StripOfEmitters(o.emitters) : std::nullopt);
+  }
 }
 
 Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
@@ -37,7 +41,35 @@ std::vector<PixelObservation> StackPixels::Observations(int x, int y, std::span<
   return observations;
 }
 
-void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out) const {
+std::vector<PixelObservation> StackPixels::Observations(int x, int y, const WardParams<double>& lobe) const {
+  if (!integrates_strips()) return Observations(x, y);
+  std::vector<PixelObservation> observations;
+  observations.reserve(stack_.observations.size());
+  const PixelFrame frame = FrameOf(x, y);
+  for (size_t k = 0; k < stack_.observations.size(); ++k) Observe(static_cast<int>(k), x, y, frame, observations, &lobe);
+  return observations;
+}
+
+std::vector<std::pair<double, double>> StackPixels::LobeSpans(int x, int y, const WardParams<double>& params,
+                                                              double fraction) const {
+  LOOM_CHECK(integrates_strips()) << "LobeSpans needs StackPixelOptions::strip_quadrature";
+  const PixelFrame frame = FrameOf(x, y);
+  std::vector<std::pair<double, double>> spans(stack_.observations.size(), {0.0, 1.0});
+  std::vector<Eigen::Vector3d> l_local;
+  for (size_t k = 0; k < spans.size(); ++k) {
+    if (!strips_[k]) continue;
+    const StackObservation& o = stack_.observations[k];
+    l_local.clear();
+    for (const PointEmitter& e : o.emitters)
+      l_local.push_back(frame.local_from_sample * (e.position_mm - frame.position).normalized());
+    const Eigen::Vector3d v_local = frame.local_from_sample * (o.camera_mm - frame.position).normalized();
+    spans[k] = LobeSpan(l_local, v_local, params, fraction);
+  }
+  return spans;
+}
+
+void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out,
+                          const WardParams<double>* lobe) const {
   const float radiance = stack_.image.at(ObservationStack::ObservationChannel(k), y, x);
   if (std::isnan(radiance)) return;
   const StackObservation& o = stack_.observations[k];
@@ -47,10 +79,36 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   observation.v_local = frame.local_from_sample * (o.camera_mm - p).normalized();
   observation.rgb_weights = o.rgb_weights;
   observation.source = k;
-  for (const PointEmitter& emitter : o.emitters) {
+  const bool integrate = lobe && strips_[k] && options_.strip_quadrature;
+  const auto shadowed = [&](const PointEmitter& emitter) {
+    return options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.clearing_slope);
+  };
+  std::vector<PointEmitter> nodes;
+  bool nodes_lit = false;  // every node lights the pixel: no test of each
+  if (integrate) {
+    // The nodes integrate the strip between the first and the last of the stack's emitters (its
+    // midpoints) that light the pixel, cut halfway to their dark neighbours: a shadow's or the
+    // horizon's edge, where the integrand jumps, is placed as well as the emitters place it.
+    thread_local std::vector<Eigen::Vector3d> l_local;
+    l_local.clear();
+    int first = -1, last = -1, lit = 0;
+    for (int i = 0; i < static_cast<int>(o.emitters.size()); ++i) {
+      const PointEmitter& e = o.emitters[i];
+      l_local.push_back(frame.local_from_sample * (e.position_mm - p).normalized());
+      if (!(e.IntensityTowards(p) > 0 && l_local.back().z() > 0) || shadowed(e)) continue;
+      if (first < 0) first = i;
+      last = i, ++lit;
+    }
+    if (first < 0) return;  // fully shadowed
+    const double count = static_cast<double>(o.emitters.size());
+    const StripQuadratureOptions& quadrature = *options_.strip_quadrature;
+    nodes = StripNodes(*strips_[k], {first / count, (last + 1) / count},
+                       LobeSpan(l_local, observation.v_local, *lobe, quadrature.lobe_fraction), quadrature);
+    nodes_lit = lit == last - first + 1;
+  }
+  for (const PointEmitter& emitter : integrate ? nodes : o.emitters) {
     const double intensity = emitter.IntensityTowards(p);
-    if (intensity <= 0) continue;
-    if (options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.clearing_slope)) continue;
+    if (intensity <= 0 || (!nodes_lit && shadowed(emitter))) continue;
     const Eigen::Vector3d to_light = emitter.position_mm - p;
     observation.lights.push_back({frame.local_from_sample * to_light.normalized(), intensity / to_light.squaredNorm()});
   }

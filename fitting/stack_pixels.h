@@ -10,14 +10,21 @@
 #include <span>
 #include <vector>
 
+#include <optional>
+#include <utility>
+
 #include "core/heightmap.h"
 #include "core/observation_stack.h"
 #include "fitting/pixel_fitter.h"
+#include "fitting/strip_quadrature.h"
 
 namespace loom::fitting {
 
 struct StackPixelOptions {
   bool cast_shadows = true;  // test every emitter against the stack's heightmap
+  // Set: Observations(x, y, lobe) integrates each linear light's strip by Gauss–Legendre nodes
+  // placed around that lobe (strip_quadrature.h) instead of the stack's emitters.
+  std::optional<StripQuadratureOptions> strip_quadrature;
 };
 
 class StackPixels {
@@ -32,6 +39,17 @@ class StackPixels {
   std::vector<PixelObservation> Observations(int x, int y) const;
   // The same among the observations `only` (stack indices), in their order.
   std::vector<PixelObservation> Observations(int x, int y, std::span<const int> only) const;
+  // The same, each linear-light strip integrated by StripNodes around the lobe of `lobe` (the
+  // parameters a fit starts from) when options.strip_quadrature is set; else as Observations(x, y).
+  std::vector<PixelObservation> Observations(int x, int y, const WardParams<double>& lobe) const;
+  // Per stack observation, the span of the strip (strip_quadrature.h's LobeSpan at `fraction` of
+  // the peak) where the lobe of `params` lies at pixel (x, y); {0, 1} for observations that are
+  // not a strip. With the spans at lobe_fraction of the parameters a fit's nodes were placed for,
+  // and at moved_fraction of those it ended at, StripNodesCover tells whether the nodes still
+  // hold. Needs options.strip_quadrature.
+  std::vector<std::pair<double, double>> LobeSpans(int x, int y, const WardParams<double>& params, double fraction) const;
+  bool integrates_strips() const { return options_.strip_quadrature.has_value(); }
+  const StripQuadratureOptions& strip_quadrature() const { return *options_.strip_quadrature; }
   // local_from_sample of the pixel's geometric frame.
   Eigen::Matrix3d LocalFromSample(int x, int y) const;
 
@@ -42,12 +60,15 @@ class StackPixels {
     double clearing_slope;  // Heightmap::ClearingSlope of the position: most lights need no march
   };
   PixelFrame FrameOf(int x, int y) const;
-  // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed.
-  void Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out) const;
+  // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed; its
+  // strip integrated around `lobe`'s span when given.
+  void Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out,
+               const WardParams<double>* lobe = nullptr) const;
 
   const ObservationStack& stack_;
   StackPixelOptions options_;
   Heightmap heightmap_;
+  std::vector<std::optional<StripSegment>> strips_;  // per stack observation: its linear light's strip
 };
 
 }  // namespace loom::fitting
