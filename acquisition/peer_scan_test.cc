@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 #include <umockdev.h>
 
+#include <csignal>
 #include <cstdlib>
+#include <functional>
 #include <sstream>
 #include <thread>
 
@@ -88,7 +90,11 @@ class PeerScanTest : public ::testing::Test {
     return yaml.str();
   }
 
-  void ScanAndCheck(const scan::Preset& preset, const std::string& trigger);
+  // `meanwhile`, if given, runs on a thread of its own while the sequencer does.
+  void ScanAndCheck(const scan::Preset& preset, const std::string& trigger, const std::function<void()>& meanwhile = {});
+
+  // The loom-modbus-sim processes, in the order the YAML names them.
+  Subprocess& LedController() { return peers_[4]; }
 
   UMockdevTestbed* testbed_ = nullptr;
   std::vector<std::unique_ptr<hal::testing::EmulatedFilterWheel>> wheels_;
@@ -98,7 +104,7 @@ class PeerScanTest : public ::testing::Test {
 
 // Runs `preset` of tac7's plan on the peers with the cameras in `trigger` mode and checks the
 // journal against the plan.
-void PeerScanTest::ScanAndCheck(const scan::Preset& preset, const std::string& trigger) {
+void PeerScanTest::ScanAndCheck(const scan::Preset& preset, const std::string& trigger, const std::function<void()>& meanwhile) {
   RigModel model = testing::ShippedRigModel("tac7");
   model.name = "tac7-peers";
   const scan::Plan plan = *scan::MakeMaterialPlan(model, preset);
@@ -127,7 +133,10 @@ void PeerScanTest::ScanAndCheck(const scan::Preset& preset, const std::string& t
   {
     hal::SafeStateGuard guard(**rig);
     Sequencer sequencer(**rig, plan, *store);
+    std::thread beside;
+    if (meanwhile) beside = std::thread(meanwhile);
     const Status done = sequencer.Run();
+    if (beside.joinable()) beside.join();
     ASSERT_TRUE(done.ok()) << done.ToString();
   }
   EXPECT_EQ(store->steps_done(), static_cast<int>(plan.steps.size()));
@@ -167,6 +176,19 @@ scan::Preset SmallPreset(std::vector<double> turntable_deg, int linear_light_pos
 }
 
 TEST_F(PeerScanTest, ATac7PlanRunsOnTheProtocolPeers) { ScanAndCheck(SmallPreset({0, 120}, 2), "software"); }
+
+// The LED controller frozen for longer than its watchdog's timeout (SIGSTOP, SIGCONT): loom's
+// requests to it time out meanwhile, and when it runs again its watchdog has tripped — LEDs off,
+// the controller disabled. The scan goes on (the device-fault policy applies the step again) and
+// every frame's LEDs are what the plan asked, as the controller reports them.
+TEST_F(PeerScanTest, AFrozenLedControllerWhoseWatchdogTrippedLeavesNoFrameDark) {
+  ScanAndCheck(SmallPreset({0, 120}, 2), "software", [this] {
+    std::this_thread::sleep_for(1500ms);
+    LedController().Signal(SIGSTOP);
+    std::this_thread::sleep_for(2500ms);  // the watchdog's timeout is 1.5 s
+    LedController().Signal(SIGCONT);
+  });
+}
 
 // The four cameras on their hardware trigger, from the fakes' free-running line pulses: every
 // capture drops the frames taken before it and keeps one exposed after the rig settled.

@@ -166,6 +166,23 @@ class Controller {
     LOOM_RETURN_IF_ERROR(link.Write(map::kCommand, map::kCommandEnable));
     return watchdog_.Arm();
   }
+  // Before a command that changes the outputs: a controller that went safe by itself (its
+  // watchdog tripped while loom could not reach it: a frozen link or controller) is enabled and
+  // armed again, with a warning naming it; its outputs were switched off, so the caller's
+  // command sets them anew. One status read.
+  Status EnableIfWentSafe() {
+    LOOM_ASSIGN_OR_RETURN(const uint16_t status, link.Read(map::kStatus));
+    if (status & map::kStatusEnabled) return Status::Ok();
+    LOOM_LOG(Warning) << link.device() << ": the controller had gone safe"
+                      << (status & map::kStatusWatchdogTripped ? " (its watchdog tripped: no heartbeat reached it in time)" : "")
+                      << "; enabling it again";
+    return Enable();
+  }
+  // Whether its outputs are on: a disabled controller drives no LED, strip or motor.
+  Result<bool> OutputsEnabled() {
+    LOOM_ASSIGN_OR_RETURN(const uint16_t status, link.Read(map::kStatus));
+    return (status & map::kStatusEnabled) != 0;
+  }
   Status Disable() {
     const Status disarmed = watchdog_.Disarm();
     const Status disabled = link.Write(map::kCommand, map::kCommandDisable);
@@ -265,7 +282,10 @@ class ModbusTurntable : public Turntable {
   Status DoClose() override { return controller_.Close(); }
   Status DoMakeSafe() override { return axis_.Stop(); }
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
-  Status DoMoveTo(double angle_deg) override { return axis_.MoveTo(angle_deg, settings().move_timeout_ms); }
+  Status DoMoveTo(double angle_deg) override {
+    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
+    return axis_.MoveTo(angle_deg, settings().move_timeout_ms);
+  }
   Result<double> DoAngle() override { return axis_.Position(); }
 
  private:
@@ -301,15 +321,20 @@ class ModbusLinearLight : public LinearLight {
     return stopped.ok() ? dark : stopped;
   }
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
-  Status DoMoveTo(double position_mm) override { return axis_.MoveTo(position_mm, settings().move_timeout_ms); }
+  Status DoMoveTo(double position_mm) override {
+    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
+    return axis_.MoveTo(position_mm, settings().move_timeout_ms);
+  }
   Status DoSetStrip(bool on, double intensity) override {
+    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
     const uint16_t values[2] = {static_cast<uint16_t>(on ? 1 : 0), static_cast<uint16_t>(std::lround(intensity * 1000))};
     return link_.Write(map::kLinearStripOn, values);
   }
   Result<LinearLightReadback> DoRead() override {
     LOOM_ASSIGN_OR_RETURN(const double position, axis_.Position());
     LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> strip, link_.Read(map::kLinearStripOn, 2));
-    return LinearLightReadback{position, strip[0] != 0, strip[1] / 1000.0};
+    LOOM_ASSIGN_OR_RETURN(const bool enabled, controller_.OutputsEnabled());
+    return LinearLightReadback{position, enabled && strip[0] != 0, strip[1] / 1000.0};
   }
 
  private:
@@ -341,6 +366,7 @@ class ModbusLedArray : public LedArray {
   }
   Status DoClose() override { return controller_.Close(); }
   Status DoDrive(std::span<const scan::LedDrive> leds) override {
+    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
     std::vector<uint16_t> currents(led_count(), 0);
     for (const scan::LedDrive& drive : leds) currents[drive.led] = static_cast<uint16_t>(std::lround(drive.current_ma));
     const Status written = link_.Write(map::kLedCurrents, currents);
@@ -369,6 +395,8 @@ class ModbusLedArray : public LedArray {
     LOOM_ASSIGN_OR_RETURN(const uint16_t temperature, link_.Read(map::kLedTemperature));
     LedArrayReadback readback;
     readback.current_ma.assign(currents.begin(), currents.end());
+    // Outputs disabled (stopped, or gone safe by itself): no LED is lit, whatever the currents.
+    if (!(status & map::kStatusEnabled)) std::fill(readback.current_ma.begin(), readback.current_ma.end(), 0.0);
     readback.temperature_c = temperature / 10.0;
     readback.over_temperature = (status & map::kStatusOverTemperature) != 0;
     return readback;

@@ -48,6 +48,7 @@ class ModbusLink {
   ModbusLink& operator=(const ModbusLink&) = delete;
 
   const ModbusEndpoint& endpoint() const { return endpoint_; }
+  const std::string& device() const { return device_; }
 
   Status Connect();
   void Close();
