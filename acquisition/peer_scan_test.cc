@@ -126,7 +126,9 @@ void PeerScanTest::ScanAndCheck(const scan::Preset& preset, const std::string& t
     ASSERT_TRUE(opened.ok()) << opened.ToString();
   }
 
-  const fs::path dir = fs::path(::testing::TempDir()) / ("peer_scan_" + trigger);
+  // One directory per test: ctest runs them as parallel processes.
+  const fs::path dir = fs::path(::testing::TempDir()) /
+                       ("peer_scan_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
   fs::remove_all(dir);
   auto store = scan::CaptureStore::Create(dir, {"peer rig", "fake cameras", plan});
   ASSERT_TRUE(store.ok());
@@ -187,6 +189,24 @@ TEST_F(PeerScanTest, AFrozenLedControllerWhoseWatchdogTrippedLeavesNoFrameDark) 
     LedController().Signal(SIGSTOP);
     std::this_thread::sleep_for(2500ms);  // the watchdog's timeout is 1.5 s
     LedController().Signal(SIGCONT);
+  });
+}
+
+// The LED controller killed and started again on its port mid-scan (a power cycle): loom's
+// connection is lost, the policy sets the step again over a new one, and the new controller —
+// disabled and unarmed — is enabled and armed before it is given the step's LEDs. Every
+// frame's LEDs are what the plan asked. (Its current limit is back at its default; loom holds
+// its own limit on every current it sends.)
+TEST_F(PeerScanTest, AnLedControllerRestartedMidScanIsEnabledAgain) {
+  const std::string port = endpoints_[0].substr(endpoints_[0].rfind(':') + 1);
+  ScanAndCheck(SmallPreset({0, 120}, 2), "software", [this, port] {
+    std::this_thread::sleep_for(1500ms);
+    LedController().Signal(SIGKILL);
+    LedController().Wait();
+    auto restarted = Subprocess::Start({LOOM_MODBUS_SIM, "--device", "leds", "--tcp", "127.0.0.1:" + port, "--led-count", "29"});
+    ASSERT_TRUE(restarted.ok()) << restarted.status().ToString();
+    ASSERT_TRUE(restarted->ReadLine(5s).ok());
+    LedController() = std::move(*restarted);
   });
 }
 

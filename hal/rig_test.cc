@@ -30,7 +30,9 @@ class RigTest : public ::testing::Test {
       endpoints_.push_back("tcp://" + line->substr(14));
       sims_.push_back(std::move(*sim));
     }
-    dir_ = std::filesystem::path(::testing::TempDir()) / "rig_test";
+    // One directory per test: ctest runs them as parallel processes, which wrote each other's rig.yaml.
+    dir_ = std::filesystem::path(::testing::TempDir()) /
+           ("rig_test_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::create_directories(dir_);
   }
 
