@@ -199,7 +199,7 @@ Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step&
     }
     // The step's cameras are triggered together (one pulse for those on the hardware trigger),
     // then read out; a camera that fails is retried on its own.
-    LOOM_ASSIGN_OR_RETURN(scan::RigState state, rig_.ReadState());
+    LOOM_ASSIGN_OR_RETURN(scan::RigState state, ReadStateWithRetries(step));
     state.settled_ms = SettledMs();
     const std::vector<Status> triggered = rig_.Trigger(cameras);
     for (size_t c = 0; c < cameras.size(); ++c) {
@@ -266,6 +266,29 @@ Status Sequencer::ApplyStepWithRetries(const scan::Step& step) {
     LOOM_LOG(Warning) << applied.ToString() << " at step " << step.index << " (attempt " << attempt + 1 << " of "
                       << policy.retries + 1 << "); setting the step again in " << policy.retry_delay_ms << " ms";
     LOOM_RETURN_IF_ERROR(rig_.clock().SleepFor(policy.retry_delay_ms / 1000));
+  }
+}
+
+// A device that times out or is unavailable while the rig's state is read may have gone safe
+// meanwhile (a controller frozen past its watchdog's timeout): the step is set again and the
+// state read again, as often as the device-fault policy allows.
+Result<scan::RigState> Sequencer::ReadStateWithRetries(const scan::Step& step) {
+  const DeviceFaultPolicy& policy = options_.device_faults;
+  for (int attempt = 0;; ++attempt) {
+    Result<scan::RigState> state = rig_.ReadState();
+    const bool transient =
+        !state.ok() && (state.status().code() == StatusCode::kTimeout || state.status().code() == StatusCode::kUnavailable);
+    if (state.ok() || !transient) return state;
+    const Status& failed = state.status();
+    if (attempt == policy.retries) {
+      return Status(failed.code(), failed.subject(),
+                    failed.message() + " reading the rig's state at step " + std::to_string(step.index) + ", after " +
+                        std::to_string(attempt + 1) + " attempts");
+    }
+    LOOM_LOG(Warning) << failed.ToString() << " reading the rig's state at step " << step.index << " (attempt " << attempt + 1
+                      << " of " << policy.retries + 1 << "); setting the step again in " << policy.retry_delay_ms << " ms";
+    LOOM_RETURN_IF_ERROR(rig_.clock().SleepFor(policy.retry_delay_ms / 1000));
+    LOOM_RETURN_IF_ERROR(ApplyStepWithRetries(step));
   }
 }
 

@@ -96,6 +96,9 @@ class Sequencer {
   Status ApplyStep(const scan::Step& step);
   // ApplyStep, again after a device's timeout (SequencerOptions::device_faults).
   Status ApplyStepWithRetries(const scan::Step& step);
+  // The rig's state for a capture; after a device's timeout while reading it, the step set again
+  // and the state read again (device_faults).
+  Result<scan::RigState> ReadStateWithRetries(const scan::Step& step);
   Status MoveWheel(hal::FilterWheel& wheel, int slot);
   Status DriveLeds(const scan::Step& step);
   Status SetLinearLight(const scan::Step& step);

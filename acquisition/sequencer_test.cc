@@ -219,6 +219,37 @@ TEST_F(SequencerTest, DevicesThatTimeOutBrieflyAreSetAgain) {
   for (const auto& [device, left] : world_->device_failures) EXPECT_EQ(left, 0) << device << "'s faults were not all met";
 }
 
+// The LED controller timing out while the rig's state is read for a capture: the step is set
+// again and the state read again (device_faults), and the scan ends complete.
+TEST_F(SequencerTest, ADeviceThatTimesOutWhileItsStateIsReadIsSetAgain) {
+  plan_ = *scan::MakeMaterialPlan(model_, TinyPreset({0}, 1));
+  world_->read_failures = {{"leds", 2}};
+  scan::CaptureStore store = NewStore();
+  SequencerOptions options;
+  options.device_faults = {.retries = 2, .retry_delay_ms = 10};
+  Sequencer sequencer(*rig_, plan_, store, options);
+  const Status done = sequencer.Run();
+  ASSERT_TRUE(done.ok()) << done.ToString();
+  EXPECT_EQ(store.steps_done(), static_cast<int>(plan_.steps.size()));
+  EXPECT_EQ(world_->read_failures["leds"], 0);
+}
+
+// One that stays out there stops the scan naming the reading, the step and the attempts.
+TEST_F(SequencerTest, ADeviceThatStaysOutWhileItsStateIsReadStopsTheScanNamingIt) {
+  plan_ = *scan::MakeMaterialPlan(model_, TinyPreset({0}, 1));
+  world_->read_failures = {{"leds", -1}};
+  scan::CaptureStore store = NewStore();
+  SequencerOptions options;
+  options.device_faults = {.retries = 1, .retry_delay_ms = 10};
+  Sequencer sequencer(*rig_, plan_, store, options);
+  const Status done = sequencer.Run();
+  ASSERT_FALSE(done.ok());
+  EXPECT_EQ(done.code(), StatusCode::kTimeout) << done.ToString();
+  for (const char* part : {"reading the rig's state at step", "after 2 attempts", "leds"}) {
+    EXPECT_NE(done.ToString().find(part), std::string::npos) << part << " in " << done.ToString();
+  }
+}
+
 // A device that stays out: the scan stops at that step with an error naming the device, the
 // step and the attempts; the rig is made safe; once the device is back the scan resumes and ends.
 TEST_F(SequencerTest, ADeviceThatStaysOutStopsTheScanNamingItAndResumesAfterwards) {

@@ -202,6 +202,7 @@ class SimLedArray : public LedArray {
     return Status::Ok();
   }
   Result<LedArrayReadback> DoRead() override {
+    if (world_->TakeInjectedFault(world_->read_failures, name())) return Error(StatusCode::kTimeout, "no reply (injected fault)");
     std::lock_guard lock(world_->mutex);
     LedArrayReadback read;
     read.current_ma.assign(led_count(), 0.0);

@@ -86,8 +86,10 @@ struct SimWorld {
   // Device name → commands (LED drives, moves, the strip switched, patterns shown) that fail as if
   // the device had not answered (−1: all of them from now on). Making a device safe never fails.
   std::map<std::string, int> device_failures;
-  // Whether `device`'s next frame (camera_failures) or command (device_failures) fails; counts
-  // it off `failures`.
+  // Device name → reads of its state (the LEDs' read-back) that fail as if it had not answered.
+  std::map<std::string, int> read_failures;
+  // Whether `device`'s next frame (camera_failures), command (device_failures) or read
+  // (read_failures) fails; counts it off `failures`.
   bool TakeInjectedFault(std::map<std::string, int>& failures, const std::string& device) {
     std::lock_guard lock(mutex);
     const auto it = failures.find(device);
