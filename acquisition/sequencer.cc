@@ -252,20 +252,24 @@ Status Sequencer::MeasureDrift(const scan::Step& step) {
   return Status::Ok();
 }
 
+Status Sequencer::RetryAfterDeviceFault(const Status& failed, const std::string& where, int attempt) {
+  const DeviceFaultPolicy& policy = options_.device_faults;
+  const bool transient = failed.code() == StatusCode::kTimeout || failed.code() == StatusCode::kUnavailable;
+  if (!transient) return failed;
+  if (attempt == policy.retries) {
+    return Status(failed.code(), failed.subject(),
+                  failed.message() + " " + where + ", after " + std::to_string(attempt + 1) + " attempts");
+  }
+  LOOM_LOG(Warning) << failed.ToString() << " " << where << " (attempt " << attempt + 1 << " of " << policy.retries + 1
+                    << "); setting the step again in " << policy.retry_delay_ms << " ms";
+  return rig_.clock().SleepFor(policy.retry_delay_ms / 1000);
+}
+
 Status Sequencer::ApplyStepWithRetries(const scan::Step& step) {
   for (int attempt = 0;; ++attempt) {
     const Status applied = ApplyStep(step);
-    const bool transient = applied.code() == StatusCode::kTimeout || applied.code() == StatusCode::kUnavailable;
-    const DeviceFaultPolicy& policy = options_.device_faults;
-    if (applied.ok() || !transient) return applied;
-    if (attempt == policy.retries) {
-      return Status(
-          applied.code(), applied.subject(),
-          applied.message() + " at step " + std::to_string(step.index) + ", after " + std::to_string(attempt + 1) + " attempts");
-    }
-    LOOM_LOG(Warning) << applied.ToString() << " at step " << step.index << " (attempt " << attempt + 1 << " of "
-                      << policy.retries + 1 << "); setting the step again in " << policy.retry_delay_ms << " ms";
-    LOOM_RETURN_IF_ERROR(rig_.clock().SleepFor(policy.retry_delay_ms / 1000));
+    if (applied.ok()) return applied;
+    LOOM_RETURN_IF_ERROR(RetryAfterDeviceFault(applied, "at step " + std::to_string(step.index), attempt));
   }
 }
 
@@ -273,21 +277,11 @@ Status Sequencer::ApplyStepWithRetries(const scan::Step& step) {
 // meanwhile (a controller frozen past its watchdog's timeout): the step is set again and the
 // state read again, as often as the device-fault policy allows.
 Result<scan::RigState> Sequencer::ReadStateWithRetries(const scan::Step& step) {
-  const DeviceFaultPolicy& policy = options_.device_faults;
   for (int attempt = 0;; ++attempt) {
     Result<scan::RigState> state = rig_.ReadState();
-    const bool transient =
-        !state.ok() && (state.status().code() == StatusCode::kTimeout || state.status().code() == StatusCode::kUnavailable);
-    if (state.ok() || !transient) return state;
-    const Status& failed = state.status();
-    if (attempt == policy.retries) {
-      return Status(failed.code(), failed.subject(),
-                    failed.message() + " reading the rig's state at step " + std::to_string(step.index) + ", after " +
-                        std::to_string(attempt + 1) + " attempts");
-    }
-    LOOM_LOG(Warning) << failed.ToString() << " reading the rig's state at step " << step.index << " (attempt " << attempt + 1
-                      << " of " << policy.retries + 1 << "); setting the step again in " << policy.retry_delay_ms << " ms";
-    LOOM_RETURN_IF_ERROR(rig_.clock().SleepFor(policy.retry_delay_ms / 1000));
+    if (state.ok()) return state;
+    LOOM_RETURN_IF_ERROR(
+        RetryAfterDeviceFault(state.status(), "reading the rig's state at step " + std::to_string(step.index), attempt));
     LOOM_RETURN_IF_ERROR(ApplyStepWithRetries(step));
   }
 }

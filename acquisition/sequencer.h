@@ -94,6 +94,11 @@ class Sequencer {
   Status PlaceObject(const scan::Step& step);
   // Sets the rig as `step` has it and waits until what changed has settled.
   Status ApplyStep(const scan::Step& step);
+  // After `failed` (`where`: what was being done, e.g. "at step 3") on try `attempt` (0-based):
+  // Ok once the policy's delay has passed when a retry is due (a device's timeout or absence,
+  // retries left; logged as a warning); else the error to stop with — `failed` itself, or it
+  // naming the attempts when they ran out (SequencerOptions::device_faults).
+  Status RetryAfterDeviceFault(const Status& failed, const std::string& where, int attempt);
   // ApplyStep, again after a device's timeout (SequencerOptions::device_faults).
   Status ApplyStepWithRetries(const scan::Step& step);
   // The rig's state for a capture; after a device's timeout while reading it, the step set again

@@ -79,7 +79,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   observation.v_local = frame.local_from_sample * (o.camera_mm - p).normalized();
   observation.rgb_weights = o.rgb_weights;
   observation.source = k;
-  const bool integrate = lobe && strips_[k] && options_.strip_quadrature;
+  const bool integrate = lobe && strips_[k];  // lobe: only from Observations(x, y, lobe), with the option set
   const auto shadowed = [&](const PointEmitter& emitter) {
     return options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.clearing_slope);
   };

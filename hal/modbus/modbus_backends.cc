@@ -172,17 +172,15 @@ class Controller {
   // command sets them anew. One status read.
   Status EnableIfWentSafe() {
     LOOM_ASSIGN_OR_RETURN(const uint16_t status, link.Read(map::kStatus));
-    if (status & map::kStatusEnabled) return Status::Ok();
+    if (OutputsEnabled(status)) return Status::Ok();
     LOOM_LOG(Warning) << link.device() << ": the controller had gone safe"
                       << (status & map::kStatusWatchdogTripped ? " (its watchdog tripped: no heartbeat reached it in time)" : "")
                       << "; enabling it again";
     return Enable();
   }
-  // Whether its outputs are on: a disabled controller drives no LED, strip or motor.
-  Result<bool> OutputsEnabled() {
-    LOOM_ASSIGN_OR_RETURN(const uint16_t status, link.Read(map::kStatus));
-    return (status & map::kStatusEnabled) != 0;
-  }
+  // Whether a controller of this status drives its outputs: a disabled one lights no LED or
+  // strip and moves no motor.
+  static bool OutputsEnabled(uint16_t status) { return (status & map::kStatusEnabled) != 0; }
   Status Disable() {
     const Status disarmed = watchdog_.Disarm();
     const Status disabled = link.Write(map::kCommand, map::kCommandDisable);
@@ -333,8 +331,8 @@ class ModbusLinearLight : public LinearLight {
   Result<LinearLightReadback> DoRead() override {
     LOOM_ASSIGN_OR_RETURN(const double position, axis_.Position());
     LOOM_ASSIGN_OR_RETURN(const std::vector<uint16_t> strip, link_.Read(map::kLinearStripOn, 2));
-    LOOM_ASSIGN_OR_RETURN(const bool enabled, controller_.OutputsEnabled());
-    return LinearLightReadback{position, enabled && strip[0] != 0, strip[1] / 1000.0};
+    LOOM_ASSIGN_OR_RETURN(const uint16_t status, link_.Read(map::kStatus));
+    return LinearLightReadback{position, Controller::OutputsEnabled(status) && strip[0] != 0, strip[1] / 1000.0};
   }
 
  private:
@@ -396,7 +394,7 @@ class ModbusLedArray : public LedArray {
     LedArrayReadback readback;
     readback.current_ma.assign(currents.begin(), currents.end());
     // Outputs disabled (stopped, or gone safe by itself): no LED is lit, whatever the currents.
-    if (!(status & map::kStatusEnabled)) std::fill(readback.current_ma.begin(), readback.current_ma.end(), 0.0);
+    if (!Controller::OutputsEnabled(status)) std::fill(readback.current_ma.begin(), readback.current_ma.end(), 0.0);
     readback.temperature_c = temperature / 10.0;
     readback.over_temperature = (status & map::kStatusOverTemperature) != 0;
     return readback;
