@@ -28,7 +28,7 @@
 #include "core/spectra.h"
 #include "core/testing/shipped_rig.h"
 #include "core/testing/subprocess.h"
-#include "hal/sim/sim_rig.h"
+#include "sim/rig_scene.h"
 
 namespace {
 
@@ -49,7 +49,7 @@ constexpr char kAsBuilt[] = R"(as_built:
 loom::RigModel Truth(const fs::path& rig_path) {
   const auto file = loom::RigFile::Load(rig_path);
   EXPECT_TRUE(file.ok()) << file.status().ToString();
-  return loom::hal::AsBuilt(*file, *file->Model());
+  return loom::sim::AsBuilt(*file, *file->Model());
 }
 
 nlohmann::json ReadJson(const fs::path& path) {

@@ -25,8 +25,11 @@ struct Command {
   int (*run)(int argc, char** argv);
 };
 
-// All commands, in the order `loom --help` lists them.
+// All commands of this build, in the order `loom --help` lists them (commands.cc; a trainer-only
+// build's: trainer_commands.cc).
 const std::vector<Command>& Commands();
+// What the build's libraries need before any command runs (main() calls it once).
+void StartLibraries(const char* program);
 
 // Options every command accepts: --log-level. Call before parsing.
 void AddCommonOptions(CLI::App& app);

@@ -3,8 +3,6 @@
 #include <cstring>
 #include <iostream>
 
-#include <glog/logging.h>
-
 #include "apps/command.h"
 #include "core/check.h"
 #include "core/log.h"
@@ -49,12 +47,7 @@ int Dispatch(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Ceres logs through glog: a rejected Levenberg-Marquardt step (a singular normal matrix,
-  // after which LM raises its damping, as designed) is a warning, thousands of them over a
-  // material's pixels. loom reports what went wrong in its own summaries instead.
-  google::InitGoogleLogging(argv[0]);
-  FLAGS_minloglevel = google::GLOG_ERROR;
-  FLAGS_logtostderr = true;
+  loom::apps::StartLibraries(argv[0]);
   try {
     return Dispatch(argc, argv);
   } catch (const loom::CheckError& e) {

@@ -3,6 +3,7 @@
 // logs of batch jobs stay short); silent when quiet. Not thread-safe: update from one thread.
 
 #include <chrono>
+#include <cstdint>
 #include <optional>
 #include <string>
 

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "acquisition/sequencer.h"
+#include "apps/config_paths.h"
 #include "core/rig_file.h"
 #include "hal/rig.h"
 #include "hal/sim/sim_rig.h"
@@ -27,11 +28,5 @@ struct LoadedRig {
 Result<LoadedRig> LoadRig(const std::string& rig, const std::string& object = "");
 // The same from the text of a rig file (a scan's snapshot); `source` names it in messages.
 Result<LoadedRig> LoadRigFromText(const std::string& text, const std::string& source, const std::string& object = "");
-
-// A gloss preset by name (configs/plans/NAME.yaml, from here or loom's source tree) or path.
-std::filesystem::path ResolvePresetPath(const std::string& preset);
-// A rig by path or name (configs/rig/NAME.yaml, from here or loom's source tree); as given when
-// neither exists, so that the error names what the user wrote.
-std::filesystem::path ResolveRigPath(const std::string& rig);
 
 }  // namespace loom::apps

@@ -10,6 +10,7 @@
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
 //    epoch, the options it was trained with, the test set's loss and per-channel RMSE.
 #include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -19,14 +20,16 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/command.h"
+#include "apps/config_paths.h"
 #include "apps/progress.h"
-#include "apps/rig_loader.h"
 #include "core/file_io.h"
+#include "core/rig_file.h"
 #include "core/version.h"
 #include "fitting/cnn_dataset.h"
 #include "fitting/cnn_training.h"
 #include "scan/plan.h"
 #include "sim/plan_observations.h"
+#include "sim/rig_scene.h"
 #include "sim/training_set.h"
 
 namespace loom::apps {
@@ -45,6 +48,7 @@ struct TrainArguments {
   std::string init;                    // a model to start from
   std::string scan_emulation;          // a sim match-scan file, for dataset.scan_like_share
   std::string input_layout = "stack";  // or "paper" (fitting/cnn_input.h)
+  std::string device = "cpu";          // or "cuda"
   int width_divisor = 8;
   double dropout = 0.02;
   fitting::CnnTrainingOptions training;
@@ -62,11 +66,13 @@ std::vector<std::string> PresetNames(const std::string& presets) {
 // Renders the fabrics of --materials missing from `dir` (sim/training_set.h), with each preset
 // in turn.
 Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
-  LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig));
-  if (!loaded.sim) {
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(args.rig)));
+  if (!file.Has("geometry")) {
     return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
   }
-  const std::shared_ptr<const sim::Scene> rig_scene = loaded.sim->world->scene();
+  LOOM_ASSIGN_OR_RETURN(const RigModel model, file.Model());
+  LOOM_ASSIGN_OR_RETURN(const sim::RigScene rig, sim::MakeRigScene(file, model, ""));
+  const std::shared_ptr<const sim::Scene> rig_scene = rig.scene;
   std::vector<sim::TrainingPlan> plans;
   for (const std::string& name : PresetNames(args.preset)) {
     LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(name)));
@@ -117,6 +123,10 @@ Status Train(TrainArguments args) {
   const fs::path out(args.out);
   const fs::path data = args.data.empty() ? out / "data" : fs::path(args.data);
   LOOM_RETURN_IF_ERROR(CheckDatasetArguments(args));
+  args.dataset.threads = args.training.threads;
+  args.training.device =
+      args.device == "cuda" ? fitting::CnnTrainingOptions::Device::kCuda : fitting::CnnTrainingOptions::Device::kCpu;
+  LOOM_RETURN_IF_ERROR(fitting::CheckTrainingDevice(args.training.device).WithContext("--device " + args.device));
   LOOM_RETURN_IF_ERROR(RenderDataset(args, data));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(data, args.validation, args.test));
   args.training.checkpoint_dir = out / "checkpoints";
@@ -214,7 +224,12 @@ int RunTrain(int argc, char** argv) {
                  "Training materials in memory at once (0: all); fewer stream the dataset from --data, "
                  "a window at a time (needs --steps-per-epoch)")
       ->check(CLI::Range(0, 100000000));
-  app.add_option("--threads", t.threads, "Torch threads (0: one per core)")->check(CLI::Range(0, 1024));
+  app.add_option("--threads", t.threads, "Threads that render and read the dataset, and torch's on the cpu (0: one per core)")
+      ->check(CLI::Range(0, 1024));
+  app.add_option("--device", args.device,
+                 "Where the network trains: cpu, or cuda (the first GPU; needs loom built against a CUDA LibTorch, "
+                 "docs/gpu-training.md). The dataset is rendered on the CPU either way")
+      ->check(CLI::IsMember({"cpu", "cuda"}));
   app.add_option("--seed", t.seed, "Seed of the weights, tiles and dropout");
   app.add_flag("--resume", t.resume, "Go on from OUT/checkpoints (same options as the interrupted run)");
   app.add_flag("--quiet", args.quiet, "No progress output");

@@ -35,6 +35,7 @@
 
 #include "core/status.h"
 #include "fitting/pixel_fitter.h"
+#include "fitting/strip_quadrature.h"  // MergeLightSamples
 
 namespace loom::fitting {
 
@@ -109,12 +110,6 @@ struct RefineProblem {
   // Where RefineOptions::prior pulls pixel i (empty: its start).
   std::function<WardParams<double>(int pixel)> prior_mean;
 };
-
-// A light list longer than `count` (a strip's emitters, in order along it) as `count` samples:
-// consecutive runs of about equal length merged into one each, at the run's irradiance-weighted
-// mean direction with its summed irradiance — the midpoint rule on a coarser partition of the
-// strip. Shorter lists come back as they are.
-std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& lights, int count);
 
 // GridInitialParams (pixel_fitter.h) on the refiner's kernel: the same candidates, each scored
 // with its least-squares albedos, 8 per vectorised call; a strip's emitters merged into at most

@@ -6,6 +6,7 @@
 // before them validate every epoch, the rest train. Examples are read on demand, so training
 // pairs can stay on disk and stream (CnnExampleSource) when the set is larger than memory.
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <random>
 
@@ -43,7 +44,21 @@ torch::Tensor LabelWeights() {
 // Per-channel weighted Huber (δ = 1), summed over valid pixels (N × 1 × H × W of 0/1).
 torch::Tensor HuberSum(const torch::Tensor& predicted, const torch::Tensor& target, const torch::Tensor& valid) {
   const torch::Tensor loss = F::huber_loss(predicted, target, F::HuberLossFuncOptions().reduction(torch::kNone).delta(1.0));
-  return (loss * LabelWeights() * valid).sum();
+  return (loss * LabelWeights().to(predicted.device()) * valid).sum();
+}
+
+// A copy of `cnn` with its weights on the CPU.
+Result<Cnn> CpuCopy(const Cnn& cnn) {
+  LOOM_ASSIGN_OR_RETURN(Cnn copy, Cnn::Create(cnn.info(), 0));
+  torch::NoGradGuard no_grad;
+  const auto from = cnn.net().net->named_parameters(), to = copy.net().net->named_parameters();
+  for (const auto& parameter : from) to[parameter.key()].copy_(parameter.value());
+  return copy;
+}
+
+Result<torch::Device> TrainingDevice(CnnTrainingOptions::Device device) {
+  LOOM_RETURN_IF_ERROR(CheckTrainingDevice(device));
+  return device == CnnTrainingOptions::Device::kCuda ? torch::Device(torch::kCUDA, 0) : torch::Device(torch::kCPU);
 }
 
 torch::Tensor AsTensor(const CnnTensor& t) {
@@ -56,12 +71,14 @@ torch::Tensor ValidTensor(const CnnLabels& labels) {
       .to(torch::kFloat32);
 }
 
-// N × C × H × W features with radiance noise (WithRadianceNoise).
+// N × C × H × W features with radiance noise (WithRadianceNoise). The noise is drawn on the CPU
+// (`generator` is a CPU one), so that it is the same on any device.
 torch::Tensor NoisyRadiance(const torch::Tensor& input, double relative_sigma, at::Generator& generator) {
   const torch::Tensor geometry = input.narrow(1, 0, kCnnGeometryChannels);
   const torch::Tensor features = input.narrow(1, kCnnGeometryChannels, input.size(1) - kCnnGeometryChannels);
   // The features are log(1 + L / scale): the noise multiplies L / scale = expm1(feature).
-  const torch::Tensor factor = 1 + relative_sigma * torch::randn(features.sizes(), generator, features.options());
+  const torch::Tensor noise = torch::randn(features.sizes(), generator, features.options().device(torch::kCPU));
+  const torch::Tensor factor = 1 + relative_sigma * noise.to(features.device());
   return torch::cat({geometry, torch::log1p(torch::clamp_min(torch::expm1(features) * factor, 0))}, 1);
 }
 
@@ -75,8 +92,8 @@ struct Material {
   std::shared_ptr<const StackPixels> pixels;
 };
 
-// A training example as tensors (copies: the example may go).
-Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& options) {
+// A training example as tensors on `device` (copies: the example may go).
+Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& options, const torch::Device& device) {
   std::shared_ptr<const StackPixels> pixels;
   if (options.rerender_weight > 0) {
     if (!e.stack) return InvalidArgumentError(e.name, "training example without its stack: the re-rendering loss needs it");
@@ -88,9 +105,9 @@ Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& 
     pixels =
         std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false, .strip_quadrature = std::nullopt});
   }
-  return Material{internal::PaddedInput(e.input),
-                  AsTensor(e.labels.labels).clone(),
-                  ValidTensor(e.labels),
+  return Material{internal::PaddedInput(e.input).to(device),
+                  AsTensor(e.labels.labels).to(device, /*non_blocking=*/false, /*copy=*/true),
+                  ValidTensor(e.labels).to(device),
                   e.input.height,
                   e.input.width,
                   e.stack,
@@ -143,7 +160,8 @@ torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predict
   if (labels.empty()) return {};
   const internal::RerenderBatch rerender = internal::MakeRerenderBatch(observations, options.rerender_strip_samples);
   if (rerender.radiance.numel() == 0) return {};
-  return internal::RerenderLoss(torch::stack(labels), rerender, options.rerender_huber);
+  // Rendered on the CPU, where the batch is: a few hundred pixels' observations.
+  return internal::RerenderLoss(torch::stack(labels).to(torch::kCPU), rerender, options.rerender_huber).to(predicted.device());
 }
 
 double LearningRate(const CnnTrainingOptions& options, int epoch) {  // epoch 0-based
@@ -197,6 +215,15 @@ CnnEpoch EpochFromJson(const Json& j) {
 
 }  // namespace
 
+Status CheckTrainingDevice(CnnTrainingOptions::Device device) {
+  if (device == CnnTrainingOptions::Device::kCuda && !torch::cuda::is_available()) {
+    return FailedPreconditionError("CNN training on cuda",
+                                   "no CUDA GPU is available to this build of LibTorch (Debian's libtorch is CPU-only): "
+                                   "train on the cpu, or build loom against a CUDA LibTorch (docs/gpu-training.md)");
+  }
+  return {};
+}
+
 std::string CnnHistoryJson(const std::vector<CnnEpoch>& history) {
   Json epochs = Json::array();
   for (const CnnEpoch& e : history) epochs.push_back(EpochJson(e));
@@ -232,8 +259,8 @@ Result<fs::path> CheckpointToResume(const fs::path& dir) {
 }
 
 // Replaces `cnn` and `optimizer` by the checkpoint's; returns the epochs it has done.
-Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::AdamOptions& adam, Cnn& cnn,
-                                     std::unique_ptr<torch::optim::Adam>& optimizer) {
+Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::AdamOptions& adam, const torch::Device& device,
+                                     Cnn& cnn, std::unique_ptr<torch::optim::Adam>& optimizer) {
   Result<fs::path> checkpoint = CheckpointToResume(dir);
   if (!checkpoint.ok()) return checkpoint.status();
   Result<Cnn> loaded = Cnn::Load(*checkpoint / "model");
@@ -243,11 +270,12 @@ Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::Ad
     return FailedPreconditionError((*checkpoint / "model").string(), "a checkpoint of another architecture");
   }
   cnn = std::move(*loaded);
+  cnn.net().net->to(device);
   optimizer = std::make_unique<torch::optim::Adam>(cnn.net().net->parameters(), adam);
   const fs::path history_path = *checkpoint / "history.json";
   std::vector<CnnEpoch> history;
   try {
-    torch::load(*optimizer, (*checkpoint / "optimizer.pt").string());
+    torch::load(*optimizer, (*checkpoint / "optimizer.pt").string(), device);
     Result<std::string> text = ReadFile(history_path);
     if (!text.ok()) return text.status();
     for (const Json& e : Json::parse(*text)) history.push_back(EpochFromJson(e));
@@ -273,6 +301,7 @@ nlohmann::json CnnTrainingOptions::ToJson() const {
           {"rerender_strip_samples", rerender_strip_samples},
           {"rerender_huber", rerender_huber},
           {"resident_materials", resident_materials},
+          {"device", device == Device::kCuda ? "cuda" : "cpu"},
           {"seed", seed}};
 }
 
@@ -327,12 +356,12 @@ namespace {
 
 // The training examples source.load(indices[i]) as materials, each checked.
 Result<std::vector<Material>> LoadMaterials(const Cnn& cnn, const CnnExampleSource& source, const std::vector<int>& indices,
-                                            const CnnTrainingOptions& options) {
+                                            const CnnTrainingOptions& options, const torch::Device& device) {
   std::vector<Material> materials;
   for (int i : indices) {
     LOOM_ASSIGN_OR_RETURN(const CnnExample example, source.load(i));
     LOOM_RETURN_IF_ERROR(CheckExamples(cnn, {example}, options.tile, "training"));
-    LOOM_ASSIGN_OR_RETURN(Material material, PrepareMaterial(example, options));
+    LOOM_ASSIGN_OR_RETURN(Material material, PrepareMaterial(example, options, device));
     materials.push_back(std::move(material));
   }
   return materials;
@@ -374,6 +403,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
   if (streaming && options.steps_per_epoch == 0) {
     return InvalidArgumentError("CnnTrainingOptions", "resident_materials below the training set needs steps_per_epoch");
   }
+  LOOM_ASSIGN_OR_RETURN(const torch::Device device, TrainingDevice(options.device));
   const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
   internal::KeepFreedMemoryForReuse();
@@ -383,10 +413,11 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
   std::unique_ptr<torch::optim::Adam> optimizer;
   std::vector<CnnEpoch> history;
   if (options.resume) {
-    Result<std::vector<CnnEpoch>> resumed = Resume(options.checkpoint_dir, adam, cnn, optimizer);
+    Result<std::vector<CnnEpoch>> resumed = Resume(options.checkpoint_dir, adam, device, cnn, optimizer);
     if (!resumed.ok()) return resumed.status();
     history = std::move(*resumed);
   } else {
+    cnn.net().net->to(device);
     optimizer = std::make_unique<torch::optim::Adam>(cnn.net().net->parameters(), adam);
   }
 
@@ -394,7 +425,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
   std::vector<Material> materials;
   int steps = options.steps_per_epoch;
   if (!streaming) {
-    LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, EpochWindows(train.count, options, 0).front(), options));
+    LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, EpochWindows(train.count, options, 0).front(), options, device));
     double valid_pixels = 0;
     for (const Material& m : materials) valid_pixels += m.valid.sum().item<double>();
     const int tile_samples = options.tile * options.tile * options.tiles_per_step;
@@ -419,7 +450,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
     for (size_t w = 0; w < windows.size(); ++w) {
       if (streaming) {
         materials.clear();  // before the next window: at most one window in memory
-        LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, windows[w], options));
+        LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, windows[w], options, device));
       }
       // The epoch's steps shared out among the windows by their size.
       const int window_end =
@@ -449,7 +480,12 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
     record.train_loss = loss_sum / steps;
     record.train_rerender_loss = rerender_sum / steps;
     record.samples_per_second = samples / std::chrono::duration<double>(Clock::now() - start).count();
-    Result<CnnScore> score = ScoreCnn(cnn, validation, threads);
+    // Validation and the checkpoint from a copy of the weights on the CPU: the network being
+    // trained stays where it is (moving it to the CPU and back between epochs crashed CUDA
+    // training in its next step, LibTorch 2.11).
+    LOOM_ASSIGN_OR_RETURN(const Cnn snapshot, CpuCopy(cnn));
+    Result<CnnScore> score = ScoreCnn(snapshot, validation, threads);
+    torch::set_num_threads(threads);  // ScoreCnn's inference sets one thread
     if (!score.ok()) return score.status();
     record.validation_loss = score->loss;
     record.validation_rmse = score->rmse;
@@ -457,10 +493,12 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
     const bool best = std::all_of(history.begin(), history.end(),
                                   [&](const CnnEpoch& e) { return record.validation_loss < e.validation_loss; });
     history.push_back(record);
-    if (options.checkpoint_dir.empty()) continue;
-    if (best) LOOM_RETURN_IF_ERROR(cnn.Save(options.checkpoint_dir / kBestModel));
-    LOOM_RETURN_IF_ERROR(SaveCheckpoint(cnn, *optimizer, history, options.checkpoint_dir));
+    if (!options.checkpoint_dir.empty()) {
+      if (best) LOOM_RETURN_IF_ERROR(snapshot.Save(options.checkpoint_dir / kBestModel));
+      LOOM_RETURN_IF_ERROR(SaveCheckpoint(snapshot, *optimizer, history, options.checkpoint_dir));
+    }
   }
+  net->to(torch::kCPU);
   net->eval();
   return history;
 }

@@ -16,6 +16,7 @@
 // the same thread count).
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -83,6 +84,10 @@ struct CnnTrainingOptions {
   // steps_per_epoch.
   int resident_materials = 0;
   int threads = 0;  // torch threads; 0: one per core
+  // Where the network trains: the CPU, or the first CUDA GPU (a LibTorch built with CUDA and a
+  // GPU needed; TrainCnn says so otherwise). The materials live on that device for the whole
+  // run; validation and the saved weights are on the CPU, so that any build reads them.
+  enum class Device { kCpu, kCuda } device = Device::kCpu;
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
   // loadable by Cnn::Load), optimizer.pt and history.json, replaced whole; and DIR/best/, the
@@ -93,6 +98,9 @@ struct CnnTrainingOptions {
   Status Check() const;                                      // every problem, naming the field
   nlohmann::json ToJson() const;                             // the settings (not the callbacks or paths)
 };
+
+// Whether `device` can train here: an error saying why not (no GPU, or a CPU-only LibTorch).
+Status CheckTrainingDevice(CnnTrainingOptions::Device device);
 
 // The label's 14 channels in order, for reports: a_d.R … F0.
 extern const std::array<const char*, 14> kLabelChannelNames;

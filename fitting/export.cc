@@ -89,22 +89,6 @@ Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const Sv
   return WriteSvbrdfPreviews(maps, dir);
 }
 
-Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path) {
-  if (path.extension() == ".axf") {
-    LOOM_ASSIGN_OR_RETURN(AxfMaps axf, ReadAxf(path));
-    return SvbrdfFile{std::move(axf.maps), axf.pixel_mm};
-  }
-  LOOM_ASSIGN_OR_RETURN(ExrImage exr, ReadExr(path));
-  if (!HasSvbrdfLayout(exr.image)) {
-    return InvalidArgumentError(path.string(), "not SVBRDF maps: the first channels must be n_s.X ... F0");
-  }
-  SvbrdfFile file{std::move(exr.image), 0};
-  if (const auto it = exr.attributes.find("loom.pixel_mm"); it != exr.attributes.end()) {
-    if (const double* mm = std::get_if<double>(&it->second)) file.pixel_mm = *mm;
-  }
-  return file;
-}
-
 Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, const std::string& prefix) {
   const int w = maps.width();
   const int h = maps.height();

@@ -11,6 +11,7 @@
 
 #include "core/exr_io.h"
 #include "core/image.h"
+#include "fitting/svbrdf_file.h"
 
 namespace loom::fitting {
 
@@ -25,16 +26,6 @@ struct SvbrdfProvenance {
 // DIR/svbrdf.exr (the maps, linear, svbrdf_maps.h's channels, with `provenance` and units as
 // attributes) and its previews (WriteSvbrdfPreviews); DIR is created.
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance);
-
-// Maps in svbrdf_maps.h's layout read back (svbrdf.exr, a simulator's truth, or, for a FILE.axf,
-// an AxF file's SVBRDF: axf_export.h), with their pixel size when the file states it
-// (loom.pixel_mm, AxF's WidthMM; 0 when it does not). A file in another layout is an error
-// naming it.
-struct SvbrdfFile {
-  Image maps;
-  double pixel_mm = 0;
-};
-Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path);
 
 // The previews' file names, in the order WriteSvbrdfPreviews writes them (without ".png").
 const std::vector<std::string>& SvbrdfPreviewNames();

@@ -143,4 +143,20 @@ std::vector<PointEmitter> StripNodes(const StripSegment& strip, std::pair<double
   return nodes;
 }
 
+std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& lights, int count) {
+  const int n = static_cast<int>(lights.size());
+  if (n <= count || count < 1) return lights;
+  std::vector<LightSample> merged;
+  for (int g = 0; g < count; ++g) {
+    Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+    double irradiance = 0;
+    for (int j = g * n / count; j < (g + 1) * n / count; ++j) {
+      direction += lights[j].irradiance * lights[j].l_local;
+      irradiance += lights[j].irradiance;
+    }
+    if (irradiance > 0) merged.push_back({direction.normalized(), irradiance});
+  }
+  return merged;
+}
+
 }  // namespace loom::fitting

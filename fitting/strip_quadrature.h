@@ -27,6 +27,7 @@
 #include "core/observation_stack.h"
 #include "core/status.h"
 #include "fitting/model/ward_gd10.h"
+#include "fitting/pixel_fitter.h"  // LightSample
 
 namespace loom::fitting {
 
@@ -89,5 +90,11 @@ inline bool StripNodesCover(std::pair<double, double> placed, std::pair<double, 
                             const StripQuadratureOptions& options) {
   return placed.first - options.margin <= span.first && span.second <= placed.second + options.margin;
 }
+
+// A light list longer than `count` (a strip's emitters, in order along it) as `count` samples:
+// consecutive runs of about equal length merged into one each, at the run's irradiance-weighted
+// mean direction with its summed irradiance — the midpoint rule on a coarser partition of the
+// strip. Shorter lists come back as they are.
+std::vector<LightSample> MergeLightSamples(const std::vector<LightSample>& lights, int count);
 
 }  // namespace loom::fitting

@@ -24,6 +24,7 @@
 // second `loom scan --resume` on the same directory) is refused naming the directory. Not
 // thread-safe.
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <ostream>

@@ -1,5 +1,6 @@
 #include "sim/sample.h"
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>

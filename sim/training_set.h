@@ -26,11 +26,13 @@ struct TrainingSetSpec {
   double out_of_model_share = 0;
   double scan_like_share = 0;
   ScanEmulation scan_emulation;   // needed when scan_like_share > 0
+  int threads = 0;                // materials rendered at once; 0: one per core (the files are the same)
   Status Check() const;           // every problem, naming the field
   nlohmann::json ToJson() const;  // every field, the emulation's when it is used
 };
 
-// Called after each material with how many are done, of how many, and its name.
+// Called after each material, by one rendering thread at a time (materials are rendered in
+// parallel, so in no fixed order), with how many are done, of how many, and its name.
 using TrainingSetProgress = std::function<void(int done, int total, const std::string& name)>;
 
 // What a material plan makes (plan_observations.h), under a name for the files (a preset's).

@@ -1,7 +1,9 @@
 #include "sim/training_set.h"
 
 #include <gtest/gtest.h>
+
 #include <unistd.h>
+#include <algorithm>
 
 #include "core/testing/shipped_rig.h"
 #include "sim/material.h"
@@ -36,6 +38,7 @@ TEST(TrainingSetTest, RendersEachFabricOnceWithItsTruthAndTheOutOfModelShareSpre
   ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, dir, [&](int, int, const std::string& name) {
                 names.push_back(name);
               }).ok());
+  std::sort(names.begin(), names.end());  // rendered in parallel
   EXPECT_EQ(names, (std::vector<std::string>{"fabric-1000", "fabric-1001", "fabric-1002-out-of-model"}));
   for (const std::string& name : names) {
     const Result<ObservationStack> stack = ReadObservationStack(dir / (name + ".stack.exr"));
@@ -67,6 +70,7 @@ TEST(TrainingSetTest, AScanLikeShareDegradesItsStacksAndKeepsTheirTruth) {
   ASSERT_TRUE(RenderTrainingSet(MiniRig(), kObservations, spec, scan_like_dir, [&](int, int, const std::string& name) {
                 names.push_back(name);
               }).ok());
+  std::sort(names.begin(), names.end());
   EXPECT_EQ(names, (std::vector<std::string>{"fabric-1000", "fabric-1001", "fabric-1002-scan-like", "fabric-1003-scan-like"}));
   const auto radiance = [](const fs::path& path) {
     const Result<ObservationStack> stack = ReadObservationStack(path);

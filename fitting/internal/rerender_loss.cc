@@ -1,9 +1,10 @@
 #include "fitting/internal/rerender_loss.h"
 
 #include <cmath>
+#include <cstdint>
 
-#include "fitting/batch_refiner.h"
 #include "fitting/model/ward_gd10.h"
+#include "fitting/strip_quadrature.h"
 
 namespace loom::fitting::internal {
 namespace {

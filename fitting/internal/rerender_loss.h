@@ -9,6 +9,7 @@
 // albedos' (a negative albedo renders negatively, so that its gradient pushes it back), the lobe
 // dropped beyond exponent 60 as the fitters drop it. Computed in double.
 
+#include <cstdint>
 #include <vector>
 
 #include <ATen/ATen.h>

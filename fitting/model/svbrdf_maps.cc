@@ -1,6 +1,9 @@
 #include "fitting/model/svbrdf_maps.h"
 
+#include <variant>
 #include <vector>
+
+#include "core/exr_io.h"
 
 namespace loom::fitting {
 
@@ -42,6 +45,18 @@ void SetParams(Image& maps, int x, int y, const WardParams<double>& p) {
   maps.at(10, y, x) = static_cast<float>(p.sigma_y);
   maps.at(11, y, x) = static_cast<float>(p.alpha);
   maps.at(12, y, x) = static_cast<float>(p.f0);
+}
+
+Result<SvbrdfFile> ReadSvbrdfExr(const std::filesystem::path& path) {
+  LOOM_ASSIGN_OR_RETURN(ExrImage exr, ReadExr(path));
+  if (!HasSvbrdfLayout(exr.image)) {
+    return InvalidArgumentError(path.string(), "not SVBRDF maps: the first channels must be n_s.X ... F0");
+  }
+  SvbrdfFile file{std::move(exr.image), 0};
+  if (const auto it = exr.attributes.find("loom.pixel_mm"); it != exr.attributes.end()) {
+    if (const double* mm = std::get_if<double>(&it->second)) file.pixel_mm = *mm;
+  }
+  return file;
 }
 
 }  // namespace loom::fitting

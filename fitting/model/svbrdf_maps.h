@@ -17,9 +17,11 @@
 // light resolves it), x = the sample frame's x axis made orthogonal to z.
 
 #include <array>
+#include <filesystem>
 #include <string>
 
 #include "core/image.h"
+#include "core/status.h"
 #include "fitting/model/ward_gd10.h"
 
 namespace loom::fitting {
@@ -38,5 +40,14 @@ void SetParams(Image& maps, int x, int y, const WardParams<double>& params);
 
 // True if the first 13 channels are kSvbrdfChannels in order.
 bool HasSvbrdfLayout(const Image& maps);
+
+// Maps in this layout as an OpenEXR file holds them (svbrdf.exr, a simulator's truth), with their
+// pixel size when the file states it (loom.pixel_mm; 0 when it does not). A file in another
+// layout is an error naming it.
+struct SvbrdfFile {
+  Image maps;
+  double pixel_mm = 0;
+};
+Result<SvbrdfFile> ReadSvbrdfExr(const std::filesystem::path& path);
 
 }  // namespace loom::fitting

@@ -1,0 +1,18 @@
+#!/bin/bash
+# The trainer-only build (LOOM_TRAINER_ONLY, docs/gpu-training.md) configures, and its `loom`
+# links the CNN's library but none of Ceres, OpenCV or the device libraries (glog comes with
+# Debian's LibTorch).
+# Usage: trainer_build_test.sh SOURCE_DIR BUILD_DIR
+set -euo pipefail
+source_dir=$1 build_dir=$2
+rm -rf "$build_dir"
+cmake -S "$source_dir" -B "$build_dir" -G Ninja -DLOOM_TRAINER_ONLY=ON > "$build_dir.log" 2>&1 ||
+  { cat "$build_dir.log"; echo "FAIL: the trainer-only build does not configure"; exit 1; }
+link=$(grep -A3 '^build apps/loom:' "$build_dir/build.ninja" | grep -m1 'LINK_LIBRARIES')
+for wanted in libloom_fitting_cnn.a libloom_sim.a libtorch; do
+  [[ $link == *"$wanted"* ]] || { echo "FAIL: loom does not link $wanted: $link"; exit 1; }
+done
+for unwanted in ceres opencv aravis modbus libusb libloom_fitting.a loom_hal loom_acquisition; do
+  [[ $link != *"$unwanted"* ]] || { echo "FAIL: the trainer-only loom links $unwanted: $link"; exit 1; }
+done
+echo "ok: the trainer-only loom links the CNN and none of Ceres, OpenCV or the devices"
