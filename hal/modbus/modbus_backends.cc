@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -167,16 +168,20 @@ class Controller {
     return watchdog_.Arm();
   }
   // Before a command that changes the outputs: a controller that went safe by itself (its
-  // watchdog tripped while loom could not reach it: a frozen link or controller) is enabled and
-  // armed again, with a warning naming it; its outputs were switched off, so the caller's
-  // command sets them anew. One status read.
-  Status EnableIfWentSafe() {
+  // watchdog tripped while loom could not reach it: a frozen link or controller) or restarted
+  // (its registers back at their power-up values) has the device's settings written again by
+  // `restore_settings` and is enabled and armed again, with a warning naming it; its outputs
+  // were switched off, so the caller's command sets them anew. One status read: the status as it
+  // was read comes back (a restarted axis is no longer homed).
+  Result<uint16_t> EnableIfWentSafe(const std::function<Status()>& restore_settings) {
     LOOM_ASSIGN_OR_RETURN(const uint16_t status, link.Read(map::kStatus));
-    if (OutputsEnabled(status)) return Status::Ok();
+    if (OutputsEnabled(status)) return status;
     LOOM_LOG(Warning) << link.device() << ": the controller had gone safe"
                       << (status & map::kStatusWatchdogTripped ? " (its watchdog tripped: no heartbeat reached it in time)" : "")
-                      << "; enabling it again";
-    return Enable();
+                      << "; writing its settings and enabling it again";
+    LOOM_RETURN_IF_ERROR(restore_settings());
+    LOOM_RETURN_IF_ERROR(Enable());
+    return status;
   }
   // Whether a controller of this status drives its outputs: a disabled one lights no LED or
   // strip and moves no motor.
@@ -218,6 +223,14 @@ class Axis {
   Status Home(int timeout_ms) {
     LOOM_RETURN_IF_ERROR(link_.Write(map::kCommand, map::kCommandHome));
     return WaitUntilSettled("homing", timeout_ms, map::kStatusHomed);
+  }
+
+  // An axis whose controller does not know its zero (after power-up or a restart: `status`
+  // without kStatusHomed) is homed first, so that a target means the same place as before.
+  Status HomeIfNotHomed(uint16_t status, int timeout_ms) {
+    if (status & map::kStatusHomed) return Status::Ok();
+    LOOM_LOG(Info) << description_ << ": not homed (powered up or restarted); homing before it moves";
+    return Home(timeout_ms);
   }
 
   Status Stop() { return link_.Write(map::kCommand, map::kCommandStop); }
@@ -281,7 +294,8 @@ class ModbusTurntable : public Turntable {
   Status DoMakeSafe() override { return axis_.Stop(); }
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
   Status DoMoveTo(double angle_deg) override {
-    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
+    LOOM_ASSIGN_OR_RETURN(const uint16_t status, controller_.EnableIfWentSafe([this] { return DoConfigure(settings()); }));
+    LOOM_RETURN_IF_ERROR(axis_.HomeIfNotHomed(status, settings().move_timeout_ms));
     return axis_.MoveTo(angle_deg, settings().move_timeout_ms);
   }
   Result<double> DoAngle() override { return axis_.Position(); }
@@ -320,11 +334,12 @@ class ModbusLinearLight : public LinearLight {
   }
   Status DoHome() override { return axis_.Home(settings().move_timeout_ms); }
   Status DoMoveTo(double position_mm) override {
-    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
+    LOOM_ASSIGN_OR_RETURN(const uint16_t status, controller_.EnableIfWentSafe([this] { return DoConfigure(settings()); }));
+    LOOM_RETURN_IF_ERROR(axis_.HomeIfNotHomed(status, settings().move_timeout_ms));
     return axis_.MoveTo(position_mm, settings().move_timeout_ms);
   }
   Status DoSetStrip(bool on, double intensity) override {
-    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
+    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe([this] { return DoConfigure(settings()); }).status());
     const uint16_t values[2] = {static_cast<uint16_t>(on ? 1 : 0), static_cast<uint16_t>(std::lround(intensity * 1000))};
     return link_.Write(map::kLinearStripOn, values);
   }
@@ -364,7 +379,7 @@ class ModbusLedArray : public LedArray {
   }
   Status DoClose() override { return controller_.Close(); }
   Status DoDrive(std::span<const scan::LedDrive> leds) override {
-    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe());
+    LOOM_RETURN_IF_ERROR(controller_.EnableIfWentSafe([this] { return DoConfigure(settings()); }).status());
     std::vector<uint16_t> currents(led_count(), 0);
     for (const scan::LedDrive& drive : leds) currents[drive.led] = static_cast<uint16_t>(std::lround(drive.current_ma));
     const Status written = link_.Write(map::kLedCurrents, currents);

@@ -132,6 +132,7 @@ TEST(ModbusTurntableTest, StalledMoveTimesOutNamingTheDeviceAndStops) {
   Simulator sim = StartSimulator("turntable");
   auto turntable = MakeDevice<Turntable>(DeviceYaml("tt", sim.endpoint));
   Bringup(*turntable, TurntableSettings{.speed_deg_s = 60, .move_timeout_ms = 300});
+  ASSERT_TRUE(turntable->MoveTo(0).ok());  // homed: the stall is the move's, not the homing's
   InjectFault(sim.endpoint, map::kInjectStall);
   const Status moved = turntable->MoveTo(45);
   EXPECT_EQ(moved.code(), StatusCode::kTimeout) << moved.ToString();
@@ -208,6 +209,26 @@ TEST(ModbusLinkTest, RestartedControllerIsReconnected) {
   EXPECT_TRUE(turntable->MoveTo(2).ok());
 }
 
+// A restarted controller comes back at its power-up values, unhomed: the turntable's next move
+// writes its speed again and homes it first, so that its angles mean what they meant.
+TEST(ModbusTurntableTest, ARestartedControllerHasItsSpeedBackAndIsHomedBeforeItMoves) {
+  Simulator sim = StartSimulator("turntable");
+  const std::string port = sim.endpoint.substr(sim.endpoint.rfind(':') + 1);
+  auto turntable = MakeDevice<Turntable>(DeviceYaml("tt", sim.endpoint));
+  Bringup(*turntable, TurntableSettings{.speed_deg_s = 45, .move_timeout_ms = 2000});
+  ASSERT_TRUE(turntable->MoveTo(5).ok());
+  sim.process.Kill();
+  Simulator restarted = StartSimulator("turntable", "tcp:127.0.0.1:" + port);
+  ModbusLink observer("test observer", *ParseModbusEndpoint(restarted.endpoint), 500ms);
+  ASSERT_TRUE(observer.Connect().ok());
+  ASSERT_NE(*observer.Read(map::kTurntableSpeed), 4500);  // the power-up speed: its maximum
+  EXPECT_EQ(*observer.Read(map::kStatus) & map::kStatusHomed, 0);
+  ASSERT_TRUE(turntable->MoveTo(2).ok());
+  EXPECT_EQ(*observer.Read(map::kTurntableSpeed), 4500);
+  EXPECT_NE(*observer.Read(map::kStatus) & map::kStatusHomed, 0);
+  EXPECT_NEAR(*turntable->Angle(), 2.0, 1e-9);
+}
+
 TEST(ModbusLedArrayTest, DrivesReadsBackAndRefusesBadRequests) {
   Simulator sim = StartSimulator("leds", "tcp:127.0.0.1:0", {"--led-count", "29", "--max-current-ma", "800"});
   auto leds = MakeDevice<LedArray>(DeviceYaml("leds", sim.endpoint));
@@ -249,6 +270,26 @@ TEST(ModbusLedArrayTest, OverTemperatureSwitchesOffAndIsReported) {
   ASSERT_TRUE(read.ok());
   EXPECT_TRUE(read->over_temperature);
   EXPECT_EQ(read->current_ma[0], 0);
+}
+
+// The controller's own current limit is what loom set, also after the controller restarted (it
+// powers up at its maximum): the limit is written again before it is enabled.
+TEST(ModbusLedArrayTest, ARestartedControllerHasItsCurrentLimitBack) {
+  Simulator sim = StartSimulator("leds", "tcp:127.0.0.1:0", {"--max-current-ma", "800"});
+  const std::string port = sim.endpoint.substr(sim.endpoint.rfind(':') + 1);
+  auto leds = MakeDevice<LedArray>(DeviceYaml("leds", sim.endpoint));
+  Bringup(*leds, LedArraySettings{.current_limit_ma = 300});
+  const scan::LedDrive drive[] = {{3, 250}};
+  ASSERT_TRUE(leds->Drive(drive).ok());
+  sim.process.Kill();
+  Simulator restarted = StartSimulator("leds", "tcp:127.0.0.1:" + port, {"--max-current-ma", "800"});
+  ModbusLink observer("test observer", *ParseModbusEndpoint(restarted.endpoint), 500ms);
+  ASSERT_TRUE(observer.Connect().ok());
+  ASSERT_EQ(*observer.Read(map::kLedCurrentLimit), 800);
+  ASSERT_TRUE(leds->Drive(drive).ok());
+  EXPECT_EQ(*observer.Read(map::kLedCurrentLimit), 300);
+  EXPECT_EQ(*observer.Read(map::kLedCurrents + 3), 250);
+  EXPECT_NE(*observer.Read(map::kStatus) & map::kStatusEnabled, 0);
 }
 
 // The camera trigger output: each FireTrigger() is one pulse, counted by the controller; a
