@@ -372,6 +372,25 @@ TEST(ModbusLinearLightTest, MovesWithinItsTravelAndSwitchesTheStrip) {
   EXPECT_FALSE(light->Read()->on);
 }
 
+// A disabled controller lights nothing, whatever its strip register holds: the read-back says
+// off (a frame's metadata must not say lit); the next SetStrip enables it again, lit.
+TEST(ModbusLinearLightTest, ADisabledControllersStripReadsBackOffAndTheNextSetStripLightsIt) {
+  Simulator sim = StartSimulator("linear-light");
+  auto light = MakeDevice<LinearLight>(DeviceYaml("strip", sim.endpoint));
+  Bringup(*light, LinearLightSettings{.speed_mm_s = 100, .move_timeout_ms = 5000});
+  ASSERT_TRUE(light->SetStrip(true, 0.5).ok());
+  ModbusLink observer("test observer", *ParseModbusEndpoint(sim.endpoint), 500ms);
+  ASSERT_TRUE(observer.Connect().ok());
+  ASSERT_TRUE(observer.Write(map::kCommand, map::kCommandDisable).ok());
+  ASSERT_TRUE(observer.Write(map::kLinearStripOn, 1).ok());  // the register says on
+  const Result<LinearLightReadback> off = light->Read();
+  ASSERT_TRUE(off.ok()) << off.status().ToString();
+  EXPECT_FALSE(off->on);
+  ASSERT_TRUE(light->SetStrip(true, 0.5).ok());
+  EXPECT_TRUE(light->Read()->on);
+  EXPECT_NE(*observer.Read(map::kStatus) & map::kStatusEnabled, 0);
+}
+
 TEST(ModbusRtuTest, TurntableAndLedsOverAPty) {
   Simulator turntable_sim = StartSimulator("turntable", "rtu");
   Simulator led_sim = StartSimulator("leds", "rtu");
