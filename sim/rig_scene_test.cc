@@ -2,29 +2,14 @@
 
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <sstream>
-
 #include "core/geometry.h"
+#include "core/testing/shipped_rig.h"
 
 namespace loom::sim {
 namespace {
 
-std::string ShippedRigText(const std::string& name) {
-  std::ifstream file(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-RigFile Parse(const std::string& text) {
-  Result<RigFile> file = RigFile::Parse(text, "tac7-mini.yaml");
-  EXPECT_TRUE(file.ok()) << file.status().ToString();
-  return std::move(*file);
-}
-
 TEST(RigSceneTest, AsBuiltMovesAndTurnsDevicesAboutTheirOwnCentres) {
-  const RigFile file = Parse(ShippedRigText("tac7-mini") + R"(as_built:
+  const RigFile file = testing::ShippedRigFile("tac7-mini", R"(as_built:
   cameras: [{name: cam1, move_mm: [2, -1.5, 1], rotate_deg: [0, 0, 90], sensitivity_scale: 0.5}]
   leds: [{index: 3, intensity_scale: 0.85, move_mm: [1, 2, 3]}]
   projector: {focal_scale: 1.03, shift_cx_px: 4}
@@ -52,9 +37,9 @@ TEST(RigSceneTest, AsBuiltMovesAndTurnsDevicesAboutTheirOwnCentres) {
 }
 
 TEST(RigSceneTest, AsBuiltNamesWhatTheGeometryDoesNotHave) {
-  const RigFile file = Parse(ShippedRigText("tac7-mini") +
-                             "as_built:\n  cameras: [{name: cam7, move_mm: [1, 0, 0]}]\n"
-                             "  leds: [{index: 999, intensity_scale: 2}]\n");
+  const RigFile file = testing::ShippedRigFile("tac7-mini",
+                                               "as_built:\n  cameras: [{name: cam7, move_mm: [1, 0, 0]}]\n"
+                                               "  leds: [{index: 999, intensity_scale: 2}]\n");
   AsBuilt(file, *file.Model());
   const std::string problems = file.Finish().ToString();
   EXPECT_NE(problems.find("no camera 'cam7'"), std::string::npos) << problems;
@@ -62,7 +47,7 @@ TEST(RigSceneTest, AsBuiltNamesWhatTheGeometryDoesNotHave) {
 }
 
 TEST(RigSceneTest, TheObjectAskedForReplacesTheSampleAndABadOneIsRefusedByName) {
-  const RigFile file = Parse(ShippedRigText("tac7-mini"));
+  const RigFile file = testing::ShippedRigFile("tac7-mini");
   const Result<RigScene> rig = MakeRigScene(file, *file.Model(), "fabric:5");
   ASSERT_TRUE(rig.ok()) << rig.status().ToString();
   EXPECT_EQ(rig->sample.seed, 5u);

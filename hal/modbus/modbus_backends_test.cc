@@ -47,6 +47,13 @@ Simulator StartSimulator(const std::string& device, const std::string& where = "
   return {std::move(*process), endpoint};
 }
 
+// `sim` killed and a fresh controller of `device` started on its port: a power cycle.
+Simulator PowerCycle(Simulator& sim, const std::string& device, const std::vector<std::string>& extra = {}) {
+  const std::string port = sim.endpoint.substr(sim.endpoint.rfind(':') + 1);
+  sim.process.Kill();
+  return StartSimulator(device, "tcp:127.0.0.1:" + port, extra);
+}
+
 // Writes the simulator-only fault-injection register through a second connection.
 void InjectFault(const std::string& endpoint, uint16_t fault) {
   ModbusLink link("test injector", *ParseModbusEndpoint(endpoint), 500ms);
@@ -213,12 +220,10 @@ TEST(ModbusLinkTest, RestartedControllerIsReconnected) {
 // writes its speed again and homes it first, so that its angles mean what they meant.
 TEST(ModbusTurntableTest, ARestartedControllerHasItsSpeedBackAndIsHomedBeforeItMoves) {
   Simulator sim = StartSimulator("turntable");
-  const std::string port = sim.endpoint.substr(sim.endpoint.rfind(':') + 1);
   auto turntable = MakeDevice<Turntable>(DeviceYaml("tt", sim.endpoint));
   Bringup(*turntable, TurntableSettings{.speed_deg_s = 45, .move_timeout_ms = 2000});
   ASSERT_TRUE(turntable->MoveTo(5).ok());
-  sim.process.Kill();
-  Simulator restarted = StartSimulator("turntable", "tcp:127.0.0.1:" + port);
+  Simulator restarted = PowerCycle(sim, "turntable");
   ModbusLink observer("test observer", *ParseModbusEndpoint(restarted.endpoint), 500ms);
   ASSERT_TRUE(observer.Connect().ok());
   ASSERT_NE(*observer.Read(map::kTurntableSpeed), 4500);  // the power-up speed: its maximum
@@ -276,13 +281,11 @@ TEST(ModbusLedArrayTest, OverTemperatureSwitchesOffAndIsReported) {
 // powers up at its maximum): the limit is written again before it is enabled.
 TEST(ModbusLedArrayTest, ARestartedControllerHasItsCurrentLimitBack) {
   Simulator sim = StartSimulator("leds", "tcp:127.0.0.1:0", {"--max-current-ma", "800"});
-  const std::string port = sim.endpoint.substr(sim.endpoint.rfind(':') + 1);
   auto leds = MakeDevice<LedArray>(DeviceYaml("leds", sim.endpoint));
   Bringup(*leds, LedArraySettings{.current_limit_ma = 300});
   const scan::LedDrive drive[] = {{3, 250}};
   ASSERT_TRUE(leds->Drive(drive).ok());
-  sim.process.Kill();
-  Simulator restarted = StartSimulator("leds", "tcp:127.0.0.1:" + port, {"--max-current-ma", "800"});
+  Simulator restarted = PowerCycle(sim, "leds", {"--max-current-ma", "800"});
   ModbusLink observer("test observer", *ParseModbusEndpoint(restarted.endpoint), 500ms);
   ASSERT_TRUE(observer.Connect().ok());
   ASSERT_EQ(*observer.Read(map::kLedCurrentLimit), 800);

@@ -2,27 +2,12 @@
 
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <sstream>
-
+#include "core/testing/shipped_rig.h"
 namespace loom::hal {
 namespace {
 
-std::string ShippedRigText(const std::string& name) {
-  std::ifstream file(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-RigFile Parse(const std::string& text) {
-  Result<RigFile> file = RigFile::Parse(text, "tac7-mini.yaml");
-  EXPECT_TRUE(file.ok()) << file.status().ToString();
-  return std::move(*file);
-}
-
 TEST(SimRigTest, PlacesWhatAPlanStepNeeds) {
-  const RigFile file = Parse(ShippedRigText("tac7-mini"));
+  const RigFile file = testing::ShippedRigFile("tac7-mini");
   const Result<SimRig> rig = MakeSimRig(file, *file.Model(), "fabric:5");
   ASSERT_TRUE(rig.ok()) << rig.status().ToString();
   EXPECT_EQ(rig->sample.seed, 5u);
