@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 
 #include <Eigen/Dense>
@@ -57,7 +58,7 @@ double Percentile(std::vector<double> values, double fraction) {
 double CornerRadius2(const CameraModel& camera, int x, int y) {
   SensorModel unit = camera.sensor;
   unit.vignetting = 1;
-  return 1 - unit.RelativeResponse(x, y, camera.width, camera.height);
+  return 1 - unit.QuadraticResponse(x, y, camera.width, camera.height);
 }
 
 // The light of a white-reference view: an LED index, or −1 for the linear light.
@@ -117,10 +118,40 @@ Result<TileView> OnTile(const RigModel& rig, const LitView& view, double albedo,
 struct FlatField {
   double vignetting = 0;
   double residual = 0;
+  std::shared_ptr<const Image> per_pixel;  // over the quadratic model
+  double per_pixel_max = 0;
 };
 
-// The vignetting model through the camera's ratio images: S · R_rig = k (1 − v q), linear in (k, k·v).
-Result<FlatField> FitFlatField(const CameraModel& camera, const std::vector<const TileView*>& views) {
+// The per-pixel map: the tile's response over the fitted quadratic model, smoothed by a
+// Gaussian of `smoothing_px` over the tile's pixels alone (normalised convolution), feathered
+// to 1 over about two widths beyond the tile, where nothing measured it.
+std::shared_ptr<const Image> PerPixelFlat(const CameraModel& camera, const std::map<int, double>& over_model, double smoothing_px,
+                                          double* largest_departure) {
+  cv::Mat value(camera.height, camera.width, CV_64F, cv::Scalar(0)), seen(camera.height, camera.width, CV_64F, cv::Scalar(0));
+  for (const auto& [pixel, v] : over_model) {
+    value.at<double>(pixel / camera.width, pixel % camera.width) = v - 1;
+    seen.at<double>(pixel / camera.width, pixel % camera.width) = 1;
+  }
+  if (smoothing_px > 0) {
+    cv::GaussianBlur(value, value, cv::Size(), smoothing_px, smoothing_px, cv::BORDER_CONSTANT);
+    cv::GaussianBlur(seen, seen, cv::Size(), smoothing_px, smoothing_px, cv::BORDER_CONSTANT);
+  }
+  auto flat = std::make_shared<Image>(camera.width, camera.height, std::vector<std::string>{"flat"});
+  *largest_departure = 0;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const double weight = seen.at<double>(y, x);
+      const double departure = weight > 1e-3 ? value.at<double>(y, x) / weight * std::min(1.0, 2 * weight) : 0;
+      flat->at(0, y, x) = static_cast<float>(1 + departure);
+      if (over_model.contains(y * camera.width + x)) *largest_departure = std::max(*largest_departure, std::abs(departure));
+    }
+  }
+  return flat;
+}
+
+// The vignetting model through the camera's ratio images: S · R_rig = k (1 − v q), linear in
+// (k, k·v); then, per pixel on the tile, what that model leaves.
+Result<FlatField> FitFlatField(const CameraModel& camera, const std::vector<const TileView*>& views, double smoothing_px) {
   std::map<int, std::pair<double, int>> shape;  // pixel → (Σ ratio / median, views)
   for (const TileView* view : views) {
     for (size_t i = 0; i < view->pixels.size(); ++i) {
@@ -135,7 +166,7 @@ Result<FlatField> FitFlatField(const CameraModel& camera, const std::vector<cons
   }
   Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
   Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
-  std::vector<std::array<double, 2>> samples;  // (q, y)
+  std::map<int, std::array<double, 2>> samples;  // pixel → (q, the response up to a scale)
   for (const auto& [pixel, sum_count] : shape) {
     const int x = pixel % camera.width, y = pixel / camera.width;
     const double q = CornerRadius2(camera, x, y);
@@ -143,27 +174,33 @@ Result<FlatField> FitFlatField(const CameraModel& camera, const std::vector<cons
     const Eigen::Vector2d row(1, -q);
     normal += row * row.transpose();
     rhs += row * value;
-    samples.push_back({q, value});
+    samples[pixel] = {q, value};
   }
   const Eigen::Vector2d solution = normal.ldlt().solve(rhs);  // (k, k·v)
-  FlatField flat{solution[1] / solution[0], 0};
+  FlatField flat{solution[1] / solution[0], 0, nullptr, 0};
   double sum2 = 0;
-  for (const auto& [q, value] : samples) {
+  std::map<int, double> over_model;
+  for (const auto& [pixel, q_value] : samples) {
+    const auto [q, value] = q_value;
     const double model = solution[0] * (1 - flat.vignetting * q);
     sum2 += (value - model) * (value - model) / (model * model);
+    over_model[pixel] = value / model;
   }
   flat.residual = std::sqrt(sum2 / samples.size());
+  flat.per_pixel = PerPixelFlat(camera, over_model, smoothing_px, &flat.per_pixel_max);
   return flat;
 }
 
 // The view's scale once the camera's flat field is taken out.
-double ScaleOf(const CameraModel& camera, const TileView& view, double vignetting) {
+double ScaleOf(const CameraModel& camera, const TileView& view, const FlatField& flat) {
+  SensorModel calibrated = camera.sensor;
+  calibrated.vignetting = flat.vignetting;
+  calibrated.flat_field = flat.per_pixel;
   std::vector<double> scaled;
   for (size_t i = 0; i < view.pixels.size(); ++i) {
     const int x = view.pixels[i] % camera.width, y = view.pixels[i] / camera.width;
-    const double flat =
-        (1 - vignetting * CornerRadius2(camera, x, y)) / camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
-    scaled.push_back(view.ratio[i] / flat);
+    scaled.push_back(view.ratio[i] * camera.sensor.RelativeResponse(x, y, camera.width, camera.height) /
+                     calibrated.RelativeResponse(x, y, camera.width, camera.height));
   }
   return Median(scaled);
 }
@@ -202,6 +239,80 @@ double TileSubtendsDeg(const RigModel& rig, const std::vector<TileView>& tiles, 
   return widest;
 }
 
+// Hat function k of `knots` equally spaced along the strip, at `along_mm` from its centre.
+double Hat(const LinearLightModel& strip, int knots, int k, double along_mm) {
+  const double t = (along_mm / strip.strip_length_mm + 0.5) * (knots - 1);
+  return std::max(0.0, 1 - std::abs(t - k));
+}
+
+// One row of the profile's least squares: the shares w_k of a tile pixel's predicted
+// irradiance by knot.
+Eigen::VectorXd KnotShares(const LinearLightModel& strip, const StackObservation& observation, const Eigen::Vector3d& p,
+                           int knots) {
+  Eigen::VectorXd shares = Eigen::VectorXd::Zero(knots);
+  for (int j = 0; j < static_cast<int>(observation.emitters.size()); ++j) {
+    const PointEmitter& emitter = observation.emitters[j];
+    const Eigen::Vector3d to_light = emitter.position_mm - p;
+    const double d2 = to_light.squaredNorm();
+    const double cos_incidence = to_light.z() / std::sqrt(d2);
+    if (cos_incidence <= 0) continue;
+    const double irradiance = emitter.IntensityTowards(p) * cos_incidence / d2;
+    for (int k = 0; k < knots; ++k) shares[k] += Hat(strip, knots, k, strip.SegmentOffsetMm(j)) * irradiance;
+  }
+  const double total = shares.sum();
+  return total > 0 ? Eigen::VectorXd(shares / total) : shares;
+}
+
+// The linear light's profile (the class comment in radiometry.h), times the rig's own.
+Result<std::vector<double>> FitStripProfile(const RigModel& rig, const std::vector<LitView>& white,
+                                            const std::vector<TileView>& tiles, const std::vector<FlatField>& flats,
+                                            const std::map<std::pair<int, int>, double>& scale, int knots) {
+  const LinearLightModel& strip = *rig.linear_light;
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(knots, knots);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(knots);
+  long rows = 0;
+  for (size_t v = 0; v < tiles.size(); ++v) {
+    const TileView& tile = tiles[v];
+    if (tile.led >= 0) continue;
+    const CameraModel& camera = rig.cameras[tile.camera];
+    LOOM_ASSIGN_OR_RETURN(const StackObservation observation, DescribeRigObservation(rig, tile.camera, white[v].lighting));
+    if (static_cast<int>(observation.emitters.size()) != strip.segments) {
+      return InternalError(white[v].source, "the linear light's view has " + std::to_string(observation.emitters.size()) +
+                                                " point sources, its model " + std::to_string(strip.segments));
+    }
+    SensorModel calibrated = camera.sensor;
+    calibrated.vignetting = flats[tile.camera].vignetting;
+    calibrated.flat_field = flats[tile.camera].per_pixel;
+    const double view_scale = scale.at({tile.camera, -1});
+    for (size_t i = 0; i < tile.pixels.size(); ++i) {
+      const int x = tile.pixels[i] % camera.width, y = tile.pixels[i] / camera.width;
+      const auto p = PointOnTurntable(rig, camera, white[v].lighting.turntable_deg, x, y);
+      const Eigen::VectorXd shares = KnotShares(strip, observation, *p, knots);
+      const double measured = tile.ratio[i] * camera.sensor.RelativeResponse(x, y, camera.width, camera.height) /
+                              (calibrated.RelativeResponse(x, y, camera.width, camera.height) * view_scale);
+      normal += shares * shares.transpose();
+      rhs += shares * measured;
+      ++rows;
+    }
+  }
+  if (rows == 0) return std::vector<double>();
+  // The curvature penalty, at a weight that leaves the data's level and slope alone and bends
+  // the profile only where the tile hardly tells knots apart.
+  Eigen::MatrixXd curvature = Eigen::MatrixXd::Zero(std::max(0, knots - 2), knots);
+  for (int k = 0; k + 2 < knots; ++k) curvature.row(k).segment(k, 3) << 1, -2, 1;
+  normal += 1e-3 * normal.trace() * curvature.transpose() * curvature;
+  const Eigen::VectorXd correction = normal.ldlt().solve(rhs);
+  std::vector<double> profile;
+  for (int k = 0; k < knots; ++k) {
+    const double along_mm = (static_cast<double>(k) / (knots - 1) - 0.5) * strip.strip_length_mm;
+    profile.push_back(strip.ProfileAt(along_mm) * correction[k]);
+  }
+  if (!std::ranges::all_of(profile, [](double p) { return std::isfinite(p) && p > 0; })) {
+    return FailedPreconditionError("linear light", "its profile along the strip fitted to a value that is not positive");
+  }
+  return profile;
+}
+
 Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white, const RadiometryOptions& options,
                          Radiometry* radiometry, std::vector<TileView>* tiles) {
   for (const LitView& view : white) {
@@ -215,13 +326,15 @@ Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white,
   std::map<std::pair<int, int>, double> scale;
   std::vector<FlatField> flats;
   for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
-    std::vector<const TileView*> views;
+    std::vector<const TileView*> led_views;  // the strip's profile would bend the flat field
     for (const TileView& tile : *tiles) {
-      if (tile.camera == c) views.push_back(&tile);
+      if (tile.camera == c && tile.led >= 0) led_views.push_back(&tile);
     }
-    LOOM_ASSIGN_OR_RETURN(const FlatField flat, FitFlatField(rig.cameras[c], views));
+    LOOM_ASSIGN_OR_RETURN(const FlatField flat, FitFlatField(rig.cameras[c], led_views, options.flat_smoothing_px));
     flats.push_back(flat);
-    for (const TileView* view : views) scale[{c, view->led}] = ScaleOf(rig.cameras[c], *view, flat.vignetting);
+    for (const TileView& tile : *tiles) {
+      if (tile.camera == c) scale[{c, tile.led}] = ScaleOf(rig.cameras[c], tile, flat);
+    }
   }
   std::vector<int> lights;
   for (int led = 0; led < static_cast<int>(rig.leds.size()); ++led) lights.push_back(led);
@@ -247,6 +360,8 @@ Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white,
     result.sensitivity = camera.sensor.sensitivity * result.sensitivity_change;
     result.vignetting = flats[c].vignetting;
     result.flat_field_residual = flats[c].residual;
+    result.flat_field = flats[c].per_pixel;
+    result.flat_field_max = flats[c].per_pixel_max;
     for (const TileView& tile : *tiles) {
       if (tile.camera == c) result.tile_pixels = std::max(result.tile_pixels, static_cast<int>(tile.pixels.size()));
     }
@@ -268,6 +383,9 @@ Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white,
       ++cameras;
     }
     result.camera_spread = std::sqrt(sum2 / cameras);
+    if (light < 0) {
+      LOOM_ASSIGN_OR_RETURN(result.profile, FitStripProfile(rig, white, *tiles, flats, scale, options.strip_profile_knots));
+    }
     radiometry->lights.push_back(result);
   }
   radiometry->tile_subtends_deg = TileSubtendsDeg(rig, *tiles, white, reference);
@@ -442,6 +560,8 @@ Result<LinearityByCamera> MeasureCameraLinearity(const ScanRadiance& scan, const
 Status RadiometryOptions::Check() const {
   std::vector<std::string> problems;
   if (edge_px < 0 || edge_px > 1000) problems.push_back("edge_px must be in [0, 1000]");
+  if (!(flat_smoothing_px >= 0 && flat_smoothing_px <= 50)) problems.push_back("flat_smoothing_px must be in [0, 50]");
+  if (strip_profile_knots < 2 || strip_profile_knots > 64) problems.push_back("strip_profile_knots must be in [2, 64]");
   return ProblemsStatus("RadiometryOptions", problems);
 }
 
@@ -472,11 +592,15 @@ void ApplyRadiometry(const Radiometry& radiometry, RigModel* rig) {
       if (camera.name != calibrated.name) continue;
       camera.sensor.sensitivity = calibrated.sensitivity;
       camera.sensor.vignetting = calibrated.vignetting;
+      camera.sensor.flat_field = calibrated.flat_field;
     }
   }
   for (const LightRadiometry& light : radiometry.lights) {
     if (light.led >= 0 && light.led < static_cast<int>(rig->leds.size())) rig->leds[light.led].intensity = light.intensity;
-    if (light.led < 0 && rig->linear_light) rig->linear_light->intensity_per_mm = light.intensity;
+    if (light.led < 0 && rig->linear_light) {
+      rig->linear_light->intensity_per_mm = light.intensity;
+      if (!light.profile.empty()) rig->linear_light->profile = light.profile;
+    }
   }
   for (const FilterRadiometry& filter : radiometry.filters) {
     for (FilterWheelModel& wheel : rig->filter_wheels) {

@@ -11,12 +11,27 @@
 //   light_scale[l] · camera_scale[c] · flat[c](x, y)
 // flat[c] is the sensor's vignetting model, 1 − v (r / r_corner)², fitted per camera by linear
 // least squares on the ratio images (each normalised by its median, averaged over the lights);
-// its residual says how well that model holds. The scales are medians. Only their product is
+// its residual says how well that model holds. What it leaves per pixel on the tile (lens
+// vignetting that is not quadratic, dust, a decentred optical axis) is the per-pixel flat field,
+// smoothed over flat_smoothing_px against the pixels' noise and feathered to 1 beyond the tile:
+// the tile stands where samples lie, so that is where it is measured and needed. One per camera:
+// the cameras are monochrome and the filters sit in front of LEDs, not lenses, so a filter
+// changes no camera's flat field. The scales are medians. Only their product is
 // observable: the reference camera (the top view unless chosen) keeps its sensitivity and the
 // lights carry the rest, which is what reflectance needs (radiance over irradiance).
 // The angular falloff of an LED is not observable this way: the tile subtends a few degrees from
 // a light half a metre away, over which cos^n changes less than the noise. It stays nominal;
 // the calibration reports the angle the tile subtends.
+//
+// Linear light: its white-reference view, the camera's flat field and the view's scale taken
+// out, also gives the strip's profile along its length. Each tile pixel's ratio is Σ_k P_k w_k,
+// w_k the share of the pixel's predicted irradiance coming from the stretch of strip around knot
+// k (hat functions over the strip's point sources): linear least squares for the P_k, with a
+// penalty on the profile's curvature. A tile point sees the whole strip, weighted by distance:
+// the tile's extent along the strip makes the profile's level and slope observable, its shape
+// far beyond the tile much less so (the penalty keeps it straight there). That is also where it
+// matters least: a sample's highlights come from the strip near its mirror points, within a
+// tile's size of the middle. The LED-lit views alone give the flat field.
 //
 // Colour chart (the rig YAML's colour_chart): each band-pass filter f in front of its LED. Per
 // patch p, the chart's radiance over the white reference's under the same LED (open slot), at
@@ -29,6 +44,7 @@
 // Linearity: every white-reference bracket's readings against the merged radiance
 // (hdr_merge.h's MeasureLinearity), per camera.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,6 +59,8 @@ namespace loom::calibration {
 struct RadiometryOptions {
   std::string reference_camera;  // keeps its sensitivity; empty: the camera looking most nearly straight down
   int edge_px = 3;               // tile and patch edges left out: their pixels mix two albedos
+  double flat_smoothing_px = 2;  // Gaussian σ of the per-pixel flat field over the tile (0: none)
+  int strip_profile_knots = 9;   // points of the linear light's profile along its strip
   Status Check() const;          // every problem, naming the field
 };
 
@@ -50,13 +68,15 @@ struct CameraRadiometry {
   std::string name;
   double black_dn = 0;  // from the dark step
   double read_noise_dn = 0;
-  double sensitivity = 0;          // electrons per (radiance unit · s) at the image centre
-  double sensitivity_change = 1;   // calibrated over the rig's
-  double vignetting = 0;           // v of 1 − v (r / r_corner)²
-  double flat_field_residual = 0;  // rms relative misfit of that model over the tile
-  int tile_pixels = 0;             // pixels that saw the tile (one view)
-  double linearity_deviation = 0;  // worst |reading / (radiance · t) − 1| of an exposure, over the tile
-  double linearity_max_dn = 0;     // the highest mean reading it was measured at
+  double sensitivity = 0;                   // electrons per (radiance unit · s) at the image centre
+  double sensitivity_change = 1;            // calibrated over the rig's
+  double vignetting = 0;                    // v of 1 − v (r / r_corner)²
+  double flat_field_residual = 0;           // rms relative misfit of that model over the tile
+  std::shared_ptr<const Image> flat_field;  // per pixel over that model (SensorModel::flat_field)
+  double flat_field_max = 0;                // its largest departure from 1 on the tile
+  int tile_pixels = 0;                      // pixels that saw the tile (one view)
+  double linearity_deviation = 0;           // worst |reading / (radiance · t) − 1| of an exposure, over the tile
+  double linearity_max_dn = 0;              // the highest mean reading it was measured at
 };
 
 struct LightRadiometry {
@@ -65,6 +85,9 @@ struct LightRadiometry {
   double intensity = 0;      // LedModel::intensity, or LinearLightModel::intensity_per_mm
   double change = 1;         // calibrated over the rig's
   double camera_spread = 0;  // relative spread of the scale between cameras
+  // The linear light only: its output along the strip (LinearLightModel::profile), fitted on the
+  // white reference; empty for an LED.
+  std::vector<double> profile;
 };
 
 struct FilterRadiometry {

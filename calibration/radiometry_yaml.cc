@@ -8,6 +8,7 @@
 
 #include "calibration/internal/provenance.h"
 #include "core/config.h"
+#include "core/exr_io.h"
 #include "core/file_io.h"
 
 namespace loom::calibration {
@@ -23,6 +24,10 @@ constexpr char kLedModel[] =
 constexpr char kLinearLightModel[] = "radiant intensity per mm of strip along its normal at full power, radiance units * mm";
 constexpr char kWheelModel[] =
     "a camera records weights . (R, G, B) of a linear-sRGB albedo through the slot; the open slot records 1";
+
+// A camera's per-pixel flat field: CAMERA-flat.exr beside CAMERA.yaml, its channel "flat" the
+// response over the quadratic model (core/rig_model.h's SensorModel::flat_field).
+constexpr char kFlatFieldSuffix[] = "-flat.exr";
 
 fs::path Folder(const fs::path& directory) { return directory / "radiometry"; }
 
@@ -51,8 +56,14 @@ Status WriteCamera(const fs::path& folder, const CameraRadiometry& c, const Radi
   out << YAML::Key << "vignetting" << YAML::Value << c.vignetting;
   out << YAML::Key << "black_dn" << YAML::Value << c.black_dn;
   out << YAML::Key << "read_noise_dn" << YAML::Value << c.read_noise_dn;
+  if (c.flat_field) {
+    const std::string flat_file = c.name + kFlatFieldSuffix;
+    LOOM_RETURN_IF_ERROR(WriteExr(folder / flat_file, *c.flat_field));
+    out << YAML::Key << "flat_field" << YAML::Value << flat_file;
+  }
   out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "flat_field_residual" << YAML::Value << c.flat_field_residual;
+  out << YAML::Key << "flat_field_max" << YAML::Value << c.flat_field_max;
   out << YAML::Key << "tile_pixels" << YAML::Value << c.tile_pixels;
   out << YAML::Key << "linearity_deviation" << YAML::Value;
   if (std::isnan(c.linearity_deviation)) {
@@ -88,6 +99,10 @@ Status WriteLights(const fs::path& folder, const Radiometry& r, const std::strin
     strip << YAML::Key << "intensity_per_mm" << YAML::Value << light.intensity;
     strip << YAML::Key << "change" << YAML::Value << light.change;
     strip << YAML::Key << "camera_spread" << YAML::Value << light.camera_spread;
+    if (!light.profile.empty()) {
+      strip << YAML::Key << "profile" << YAML::Value << YAML::Flow << light.profile;
+      strip << YAML::Comment("relative output along the strip, -sweep_axis end to +sweep_axis end, linear in between");
+    }
     LOOM_RETURN_IF_ERROR(EndFile(strip, from, folder / "linear_light.yaml"));
   }
   return Status::Ok();
@@ -140,6 +155,24 @@ Result<OpenedFile> Open(const fs::path& path, const std::string& device, const s
   return OpenedFile{std::move(doc), root};
 }
 
+// A flat field must be the camera's size, finite and positive: it divides every reading.
+Result<std::shared_ptr<const Image>> ReadFlatField(const fs::path& path, const CameraModel& camera) {
+  LOOM_ASSIGN_OR_RETURN(ExrImage file, ReadExr(path, {.channels = {"flat"}}));
+  const Image& flat = file.image;
+  if (flat.width() != camera.width || flat.height() != camera.height) {
+    return InvalidArgumentError(path.string(), "is " + std::to_string(flat.width()) + " x " + std::to_string(flat.height()) +
+                                                   " px, camera '" + camera.name + "' " + std::to_string(camera.width) + " x " +
+                                                   std::to_string(camera.height));
+  }
+  for (float v : flat.channel(0)) {
+    if (!(std::isfinite(v) && v > 0.05f && v < 20.0f)) {
+      return InvalidArgumentError(
+          path.string(), "holds a value of " + std::to_string(v) + ": a flat field's values must be finite, in (0.05, 20)");
+    }
+  }
+  return std::shared_ptr<const Image>(std::make_shared<Image>(std::move(file.image)));
+}
+
 Status ReadCamera(const fs::path& folder, const CameraModel& camera, Radiometry* r) {
   LOOM_ASSIGN_OR_RETURN(OpenedFile file, Open(folder / (camera.name + ".yaml"), "camera", camera.name, kCameraModel, r));
   CameraRadiometry c;
@@ -149,9 +182,14 @@ Status ReadCamera(const fs::path& folder, const CameraModel& camera, Radiometry*
   file.root.Required("vignetting", &c.vignetting);
   file.root.Required("black_dn", &c.black_dn);
   file.root.Required("read_noise_dn", &c.read_noise_dn);
+  std::string flat_file;
+  file.root.Optional("flat_field", &flat_file);
   file.root.Ignore("quality");  // how well it fitted: for people
   if (!(c.sensitivity > 0)) file.root.AddError("sensitivity", "must be > 0");
   LOOM_RETURN_IF_ERROR(file.doc.Finish());
+  if (!flat_file.empty()) {
+    LOOM_ASSIGN_OR_RETURN(c.flat_field, ReadFlatField(folder / flat_file, camera));
+  }
   r->cameras.push_back(c);
   return Status::Ok();
 }
@@ -190,6 +228,11 @@ Status ReadLinearLight(const fs::path& folder, Radiometry* r) {
   file.root.Required("intensity_per_mm", &light.intensity);
   file.root.Required("change", &light.change);
   file.root.Required("camera_spread", &light.camera_spread);
+  file.root.Optional("profile", &light.profile);
+  if (!light.profile.empty() && (light.profile.size() < 2 || light.profile.size() > 64 ||
+                                 !std::ranges::all_of(light.profile, [](double v) { return v > 0 && v <= 10; }))) {
+    file.root.AddError("profile", "must be 2 to 64 relative outputs, each in (0, 10]");
+  }
   LOOM_RETURN_IF_ERROR(file.doc.Finish());
   r->lights.push_back(light);
   return Status::Ok();

@@ -238,12 +238,12 @@ Status RadiometryCalibration::Write(const fs::path& calibration_directory) const
 void RadiometryCalibration::Report(std::ostream& out) const {
   const Radiometry& r = radiometry;
   out << std::defaultfloat << std::setprecision(4)
-      << "camera  sensitivity  change     vignetting  flat residual  black DN  read noise DN  linearity\n";
+      << "camera  sensitivity  change     vignetting  flat residual  per-pixel max  black DN  read noise DN  linearity\n";
   for (const CameraRadiometry& c : r.cameras) {
     out << std::left << std::setw(8) << c.name << std::setw(13) << c.sensitivity << std::setw(11)
         << (c.name == r.reference_camera ? std::string("reference") : std::to_string(c.sensitivity_change)) << std::setw(12)
-        << c.vignetting << std::setw(15) << c.flat_field_residual << std::setw(10) << c.black_dn << std::setw(15)
-        << c.read_noise_dn;
+        << c.vignetting << std::setw(15) << c.flat_field_residual << std::setw(15) << c.flat_field_max << std::setw(10)
+        << c.black_dn << std::setw(15) << c.read_noise_dn;
     if (std::isnan(c.linearity_deviation)) {
       out << "not measured\n";
     } else {

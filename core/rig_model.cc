@@ -104,6 +104,13 @@ Eigen::Vector3d LinearLightModel::StripCentre(double position_mm) const {
 
 Eigen::Vector3d LinearLightModel::StripNormal(double position_mm) const { return -StripCentre(position_mm).normalized(); }
 
+double LinearLightModel::ProfileAt(double along_mm) const {
+  if (profile.size() < 2) return profile.empty() ? 1.0 : profile.front();
+  const double t = std::clamp((along_mm / strip_length_mm + 0.5) * (profile.size() - 1), 0.0, profile.size() - 1.0);
+  const size_t k = std::min(static_cast<size_t>(t), profile.size() - 2);
+  return profile[k] + (t - k) * (profile[k + 1] - profile[k]);
+}
+
 Rigid3d TurntableModel::RigFromSample(double angle_deg) const {
   return RotationAboutAxis(axis_point_mm, axis_direction, DegToRad(angle_deg));
 }
@@ -123,11 +130,19 @@ std::vector<Eigen::Vector3d> CalibrationTargetModel::CornersInBoard() const {
   return corners;
 }
 
-double SensorModel::RelativeResponse(double x, double y, int width, int height) const {
+double SensorModel::QuadraticResponse(double x, double y, int width, int height) const {
   const double corner2 = 0.25 * (static_cast<double>(width) * width + static_cast<double>(height) * height);
   const double dx = x - (width - 1) / 2.0;
   const double dy = y - (height - 1) / 2.0;
   return 1 - vignetting * (dx * dx + dy * dy) / corner2;
+}
+
+double SensorModel::RelativeResponse(double x, double y, int width, int height) const {
+  const double quadratic = QuadraticResponse(x, y, width, height);
+  if (!flat_field) return quadratic;
+  const int px = static_cast<int>(std::lround(x)), py = static_cast<int>(std::lround(y));
+  if (px < 0 || py < 0 || px >= flat_field->width() || py >= flat_field->height()) return quadratic;
+  return quadratic * flat_field->at(0, py, px);
 }
 
 std::optional<int> FilterWheelModel::OpenSlot() const {
@@ -222,7 +237,12 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     node->Optional("intensity_per_mm", &light.intensity_per_mm);
     node->Optional("falloff_exponent", &light.falloff_exponent);
     node->Optional("segments", &light.segments);
+    node->Optional("profile", &light.profile);
     light.sweep_axis.normalize();
+    if (!light.profile.empty() && (light.profile.size() < 2 || light.profile.size() > 64 ||
+                                   !std::ranges::all_of(light.profile, [](double v) { return v > 0 && v <= 10; }))) {
+      node->AddError("profile", "must be 2 to 64 relative outputs, each in (0, 10]");
+    }
     if (light.travel_mm <= 0) node->AddError("travel_mm", "must be > 0");
     if (light.segments < 1) node->AddError("segments", "must be ≥ 1");
     rig.linear_light = light;

@@ -11,12 +11,14 @@
 // camera turns radiance into electrons with `sensitivity` (electrons per radiance unit per
 // second of exposure at the image centre), less vignetting towards the corners.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "core/config.h"
 #include "core/geometry.h"
+#include "core/image.h"
 #include "core/reference_objects.h"
 
 namespace loom {
@@ -28,10 +30,17 @@ struct SensorModel {
   double full_well_e = 10000;  // electrons
   double sensitivity = 2.0e6;  // electrons per (radiance unit · s)
   double vignetting = 0.25;    // relative loss at the image corner: 1 − v (r / r_corner)²
+  // Per pixel, the response over that quadratic model's (channel "flat", sensor-sized; 1 where
+  // nothing measured it), from radiometric calibration's white reference or a simulated rig's
+  // as-built optics; null: the quadratic model alone.
+  std::shared_ptr<const Image> flat_field;
   // Electrons per DN at unit gain: the ADC range spans the full well above the dark offset.
   double ElectronsPerDn() const { return full_well_e / ((1 << adc_bits) - 1 - dark_offset_dn); }
-  // Vignetting: the response at pixel (x, y) of a width × height image relative to the centre's.
+  // Vignetting: the response at pixel (x, y) of a width × height image relative to the centre's,
+  // times the flat field's value at the nearest pixel when there is one.
   double RelativeResponse(double x, double y, int width, int height) const;
+  // The quadratic model alone.
+  double QuadraticResponse(double x, double y, int width, int height) const;
 };
 
 struct CameraModel {
@@ -106,10 +115,17 @@ struct LinearLightModel {
   double intensity_per_mm = 4000;  // radiant intensity per mm of strip, along its normal, at full power
   double falloff_exponent = 1;
   int segments = 32;  // point sources the strip is integrated with
+  // Relative output along the strip at equally spaced points from its −sweep_axis end to its
+  // +sweep_axis end, linear in between (its LEDs are not all equally bright); empty: even.
+  std::vector<double> profile;
 
   // Centre of the strip and its emitting direction (unit, towards the sweep axis) at a carriage position.
   Eigen::Vector3d StripCentre(double position_mm) const;
   Eigen::Vector3d StripNormal(double position_mm) const;
+  // The profile at `along_mm` from the strip's centre along sweep_axis (1 without a profile).
+  double ProfileAt(double along_mm) const;
+  // Where the k-th of the `segments` point sources sits, from the strip's centre along sweep_axis.
+  double SegmentOffsetMm(int k) const { return (k + 0.5) * strip_length_mm / segments - strip_length_mm / 2; }
 };
 
 // The structured-light projector: a pinhole that emits the pattern it shows; a white pixel's

@@ -91,9 +91,10 @@ Result<StackObservation> DescribeRigObservation(const RigModel& rig, int camera,
     const Eigen::Vector3d normal = sample_from_rig.linear() * strip.StripNormal(lighting.linear_light_mm);
     const double segment_mm = strip.strip_length_mm / strip.segments;
     for (int k = 0; k < strip.segments; ++k) {
-      const Eigen::Vector3d source = centre + strip.sweep_axis * ((k + 0.5) * segment_mm - strip.strip_length_mm / 2);
-      o.emitters.push_back({sample_from_rig * source, normal,
-                            strip.intensity_per_mm * segment_mm * lighting.linear_light_intensity, strip.falloff_exponent});
+      const double along_mm = strip.SegmentOffsetMm(k);
+      o.emitters.push_back({sample_from_rig * (centre + strip.sweep_axis * along_mm), normal,
+                            strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * lighting.linear_light_intensity,
+                            strip.falloff_exponent});
     }
   }
   return o;

@@ -183,11 +183,12 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
     const Eigen::Vector3d normal = strip.StripNormal(state.linear_light_mm);
     const double segment_mm = strip.strip_length_mm / strip.segments;
     for (int k = 0; k < strip.segments; ++k) {
-      const Eigen::Vector3d source = centre + strip.sweep_axis * ((k + 0.5) * segment_mm - strip.strip_length_mm / 2);
+      const double along_mm = strip.SegmentOffsetMm(k);
+      const Eigen::Vector3d source = centre + strip.sweep_axis * along_mm;
       const double c = normal.dot((p_in_rig - source).normalized());
       if (c <= 0) continue;
-      const double intensity =
-          strip.intensity_per_mm * segment_mm * state.linear_light_intensity * CosinePower(c, strip.falloff_exponent);
+      const double intensity = strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * state.linear_light_intensity *
+                               CosinePower(c, strip.falloff_exponent);
       radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, reflectance, local_from_world,
                                       v_local, shadows);
     }

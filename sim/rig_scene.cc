@@ -27,6 +27,17 @@ void MoveCamera(const ConfigNode& node, CameraModel* camera) {
   node.Optional("sensitivity_scale", &sensitivity_scale);
   camera->sensor.sensitivity *= sensitivity_scale;
   node.Optional("vignetting", &camera->sensor.vignetting);
+  Eigen::Vector2d centre_px = Eigen::Vector2d::Zero();
+  double quartic = 0;
+  node.Optional("vignetting_centre_px", &centre_px);
+  node.Optional("vignetting_quartic", &quartic);
+  if (!centre_px.allFinite() || centre_px.cwiseAbs().maxCoeff() > 0.25 * std::max(camera->width, camera->height)) {
+    node.AddError("vignetting_centre_px", "must be finite and within a quarter of the sensor");
+  } else if (!(quartic >= 0 && quartic < 0.5)) {
+    node.AddError("vignetting_quartic", "must be in [0, 0.5)");
+  } else if (quartic > 0 || centre_px != Eigen::Vector2d::Zero()) {
+    camera->sensor.flat_field = NonQuadraticVignetting(*camera, centre_px, quartic);
+  }
 }
 
 template <typename Device>
@@ -40,6 +51,20 @@ Device* FindByName(std::vector<Device>& devices, const ConfigNode& node, const c
 }
 
 }  // namespace
+
+std::shared_ptr<const Image> NonQuadraticVignetting(const CameraModel& camera, const Eigen::Vector2d& centre_px, double quartic) {
+  auto flat = std::make_shared<Image>(camera.width, camera.height, std::vector<std::string>{"flat"});
+  SensorModel unit;
+  unit.vignetting = 1;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const double q = 1 - unit.QuadraticResponse(x - centre_px.x(), y - centre_px.y(), camera.width, camera.height);
+      const double response = 1 - camera.sensor.vignetting * q - quartic * q * q;
+      flat->at(0, y, x) = static_cast<float>(response / camera.sensor.QuadraticResponse(x, y, camera.width, camera.height));
+    }
+  }
+  return flat;
+}
 
 RigModel AsBuilt(const RigFile& file, RigModel model) {
   const std::optional<ConfigNode> as_built = file.Section("as_built");
@@ -76,10 +101,17 @@ RigModel AsBuilt(const RigFile& file, RigModel model) {
   }
   if (const std::optional<ConfigNode> node = as_built->OptionalChild("linear_light")) {
     double turn_deg = 0;
-    node->Required("turn_deg", &turn_deg);
+    std::vector<double> profile;
+    node->Optional("turn_deg", &turn_deg);
+    node->Optional("profile", &profile);
+    if (!profile.empty() &&
+        (profile.size() < 2 || profile.size() > 64 || !std::ranges::all_of(profile, [](double v) { return v > 0 && v <= 10; }))) {
+      node->AddError("profile", "must be 2 to 64 relative outputs, each in (0, 10]");
+    }
     if (model.linear_light) {
       model.linear_light->start_deg += turn_deg;
       model.linear_light->end_deg += turn_deg;
+      if (!profile.empty()) model.linear_light->profile = profile;
     } else {
       node->AddError("turn_deg", "the geometry has no linear light");
     }

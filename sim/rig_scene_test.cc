@@ -46,6 +46,39 @@ TEST(RigSceneTest, AsBuiltNamesWhatTheGeometryDoesNotHave) {
   EXPECT_NE(problems.find("no LED 999"), std::string::npos) << problems;
 }
 
+// A lens vignetting about a point off the image centre, with a quartic term, as a flat field over
+// the quadratic model; the strip's profile as built. Bad values are named.
+TEST(RigSceneTest, AsBuiltLensesAndStripsOutOfTheNominalModelsReach) {
+  const RigFile file = testing::ShippedRigFile("tac7-mini", R"(as_built:
+  cameras: [{name: cam1, vignetting: 0.2, vignetting_centre_px: [8, -6], vignetting_quartic: 0.1}]
+  linear_light: {profile: [0.8, 1, 1.2]}
+)");
+  const RigModel nominal = *file.Model();
+  const RigModel built = AsBuilt(file, nominal);
+  ASSERT_TRUE(file.Finish().ok()) << file.Finish().ToString();
+  EXPECT_FALSE(built.cameras[0].sensor.flat_field);
+  const CameraModel& camera = built.cameras[1];
+  ASSERT_TRUE(camera.sensor.flat_field);
+  // Next to the optical centre (79.5 + 8, 79.5 − 6) the response is 1; at pixel (80, 80),
+  // 1 − 0.2 q − 0.1 q², q its squared distance from the optical centre over the corner's.
+  const double corner2 = 0.25 * (camera.width * camera.width + camera.height * camera.height);
+  const double q = (7.5 * 7.5 + 6.5 * 6.5) / corner2;
+  EXPECT_NEAR(camera.sensor.RelativeResponse(88, 74, camera.width, camera.height), 1, 1e-4);
+  EXPECT_NEAR(camera.sensor.RelativeResponse(80, 80, camera.width, camera.height), 1 - 0.2 * q - 0.1 * q * q, 1e-6);
+  EXPECT_EQ(built.linear_light->profile, (std::vector<double>{0.8, 1, 1.2}));
+  EXPECT_DOUBLE_EQ(built.linear_light->ProfileAt(-built.linear_light->strip_length_mm / 4), 0.9);
+  EXPECT_DOUBLE_EQ(built.linear_light->start_deg, nominal.linear_light->start_deg);
+
+  const RigFile bad = testing::ShippedRigFile("tac7-mini", R"(as_built:
+  cameras: [{name: cam1, vignetting_quartic: .nan}]
+  linear_light: {profile: [1, 0]}
+)");
+  AsBuilt(bad, *bad.Model());
+  const std::string problems = bad.Finish().ToString();
+  EXPECT_NE(problems.find("vignetting_quartic"), std::string::npos) << problems;
+  EXPECT_NE(problems.find("profile"), std::string::npos) << problems;
+}
+
 TEST(RigSceneTest, TheObjectAskedForReplacesTheSampleAndABadOneIsRefusedByName) {
   const RigFile file = testing::ShippedRigFile("tac7-mini");
   const Result<RigScene> rig = MakeRigScene(file, *file.Model(), "fabric:5");
