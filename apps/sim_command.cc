@@ -3,6 +3,7 @@
 // statistics, and how a scan's reconstruction differs from the fast path (sim/scan_emulation.h).
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "apps/command.h"
 #include "apps/rig_loader.h"
@@ -46,18 +47,28 @@ Status Stats(int seeds, int size_px, const std::string& json_path) {
 }
 
 struct RenderArguments {
-  std::string rig, object, camera = "cam0", leds = "0:1000", preset = "low", truth, out;
+  std::string rig, object, camera = "cam0", leds = "0:1000", preset = "low", truth, scan_emulation, out;
   double angle_deg = 0, exposure_us = 10000;
   bool stack = false;
   int size_px = 0;
+  uint64_t seed = 1;
 };
 
 // The fast-path stack of the observations a material plan with the preset makes.
 Status RenderStack(const sim::Scene& scene, const RenderArguments& args) {
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
   LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PresetObservations(scene.rig(), preset));
+  std::optional<sim::ScanEmulation> emulation;
+  if (!args.scan_emulation.empty()) {
+    LOOM_ASSIGN_OR_RETURN(emulation, sim::LoadScanEmulation(args.scan_emulation));
+  }
   const sim::StackOptions options{.width_px = args.size_px, .height_px = args.size_px};
-  const ObservationStack stack = sim::RenderStack(scene, observations, options);
+  ObservationStack stack = sim::RenderStack(scene, observations, options);
+  if (emulation) {
+    const Status emulated = sim::EmulateScan(*emulation, args.seed, stack);
+    if (!emulated.ok()) return emulated.WithContext("--scan-emulation " + args.scan_emulation);
+    std::cout << "degraded as a scan: " << args.scan_emulation << " (seed " << args.seed << ")\n";
+  }
   LOOM_RETURN_IF_ERROR(WriteObservationStack(args.out, stack));
   if (!args.truth.empty()) {
     LOOM_RETURN_IF_ERROR(sim::WriteMaterial(sim::TruthOnStackGrid(scene, options), args.truth));
@@ -133,6 +144,10 @@ int RunSim(int argc, char** argv) {
   render->add_option("--size", r.size_px, "With --stack: its size in pixels (square, centred; 0: the sample's)")
       ->check(CLI::Range(0, 8192));
   render->add_option("--truth", r.truth, "With --stack: also write the ground-truth maps on its grid (OpenEXR)");
+  render->add_option("--scan-emulation", r.scan_emulation,
+                     "With --stack: degrade it as a scan's reconstruction would (camera footprints, gains, noise; a YAML "
+                     "from loom sim match-scan, e.g. configs/models/tac7-mini/scan-emulation.yaml)");
+  render->add_option("--seed", r.seed, "With --scan-emulation: the seed of its gains and noise");
   render->add_option("--out", r.out, "Output EXR")->required();
   int seeds = 200, stats_size_px = 256;
   std::string json_path;
