@@ -240,14 +240,16 @@ Status Sequencer::MeasureDark(const scan::Step& step) {
 
 Status Sequencer::MeasureDrift(const scan::Step& step) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
-  LOOM_ASSIGN_OR_RETURN(const double output, drift_.Add(step.index, step.turntable_deg, frames, dark_));
+  const bool strip = step.leds.empty();
+  LOOM_ASSIGN_OR_RETURN(const double output, drift_.Of(strip).Add(step.index, step.turntable_deg, frames, dark_));
   const double percent = (output - 1) * 100;
+  const char* lights = strip ? "the linear light" : "the LEDs";
   if (std::abs(percent) > options_.light_drift_warn_percent) {
-    LOOM_LOG(Warning) << "the lights have drifted " << percent << " % since the scan's first drift reference (step " << step.index
-                      << "; threshold " << options_.light_drift_warn_percent
-                      << " %): reconstruction corrects the LED-lit images for it";
+    LOOM_LOG(Warning) << lights << " have drifted " << percent << " % since the scan's first drift reference (step " << step.index
+                      << "; threshold " << options_.light_drift_warn_percent << " %): reconstruction corrects the images "
+                      << lights << " lit for it";
   } else {
-    LOOM_LOG(Info) << "light output at step " << step.index << ": " << output << " of the first drift reference's";
+    LOOM_LOG(Info) << "output of " << lights << " at step " << step.index << ": " << output << " of the first drift reference's";
   }
   return Status::Ok();
 }

@@ -143,7 +143,7 @@ class Sequencer {
   SequencerOptions options_;
   std::map<std::string, scan::DarkLevel> dark_;    // by camera
   std::map<std::string, scan::Roi> scan_regions_;  // by camera: as configured when the run began
-  scan::LightDriftTrack drift_;
+  scan::LightDrift drift_;
   // What the sequencer knows the strip and projector are doing. Unknown (nullopt) until its first
   // step sets them: a resumed scan finds the rig as a killed process left it (the strip on, a
   // pattern showing, a wheel in a filter).

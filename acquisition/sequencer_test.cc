@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <set>
 
@@ -439,11 +440,11 @@ TEST_F(SequencerTest, AHardwareTriggeredScanGivesTheFramesOfASoftwareTriggeredOn
 // LEDs whose output falls by 5 % through the scan (the sim's output drift): the plan's drift
 // references measure it, and reconstruction corrects the LED-lit observations to within 0.5 %
 // of a scan whose LEDs hold steady; uncorrected they are several percent off.
-TEST_F(SequencerTest, DriftReferencesCorrectLedsThatFadeThroughTheScan) {
+TEST_F(SequencerTest, DriftReferencesCorrectLedsAndAStripThatFadeThroughTheScan) {
   RigModel without_projector = model_;  // no structured light: the tile is taken as flat, as it is
   without_projector.projector.reset();
-  const scan::Plan plan = *scan::MakeMaterialPlan(without_projector, TinyPreset({0, 180}, 1), {.reference_every_steps = 8});
-  ASSERT_GE(plan.Images(scan::StepKind::kDriftReference), 8);
+  const scan::Plan plan = *scan::MakeMaterialPlan(without_projector, TinyPreset({0, 180}, 4), {.reference_every_steps = 8});
+  ASSERT_GE(plan.Images(scan::StepKind::kDriftReference), 16);
   reconstruction::ReconstructOptions options;
   options.width_px = options.height_px = 24;
   options.pixel_mm = 0.4;
@@ -451,6 +452,7 @@ TEST_F(SequencerTest, DriftReferencesCorrectLedsThatFadeThroughTheScan) {
                                         bool correct) -> Result<reconstruction::Reconstruction> {
     world_ = std::make_shared<hal::SimWorld>(std::make_shared<sim::Scene>(model_, sim::WhiteTile({64, 64, 0.4})), 1);
     world_->set_led_drift(drift_percent, 40);
+    world_->set_strip_drift(drift_percent, 20);  // the strip lights fewer frames: a fade as deep over them
     const std::unique_ptr<hal::Rig> rig = MakeRig();
     scan::CaptureStore store = *scan::CaptureStore::Create(dir_ / name, {"rig", "white tile", plan});
     LOOM_RETURN_IF_ERROR(Sequencer(*rig, plan, store).Run());
@@ -467,15 +469,17 @@ TEST_F(SequencerTest, DriftReferencesCorrectLedsThatFadeThroughTheScan) {
   EXPECT_LT(steady->light_drift.back().second, 1.001);
   EXPECT_GT(steady->light_drift.back().second, 0.999);
   EXPECT_LT(corrected->light_drift.back().second, 0.97);  // measured: the LEDs faded
+  ASSERT_FALSE(corrected->linear_light_drift.empty());
+  EXPECT_LT(corrected->linear_light_drift.back().second, 0.97);  // and the strip
   EXPECT_TRUE(corrected->light_drift_corrected);
   EXPECT_FALSE(uncorrected->light_drift_corrected);
 
-  // Median |fading / steady − 1| over the LED-lit observations' samples.
-  const auto median_error = [&](const reconstruction::Reconstruction& fading) {
+  // Median |fading / steady − 1| over the samples of the LED-lit (or the strip-lit) observations.
+  const auto median_error = [&](const reconstruction::Reconstruction& fading, bool strip_lit) {
     std::vector<double> errors;
     const ObservationStack& a = steady->stack;
     for (size_t k = 0; k < a.observations.size(); ++k) {
-      if (a.observations[k].group == ObservationGroup::kLinearLight) continue;  // LED-lit only
+      if ((a.observations[k].group == ObservationGroup::kLinearLight) != strip_lit) continue;
       const int channel = ObservationStack::ObservationChannel(static_cast<int>(k));
       for (int y = 0; y < a.image.height(); ++y) {
         for (int x = 0; x < a.image.width(); ++x) {
@@ -489,8 +493,13 @@ TEST_F(SequencerTest, DriftReferencesCorrectLedsThatFadeThroughTheScan) {
     std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
     return errors[errors.size() / 2];
   };
-  EXPECT_LT(median_error(*corrected), 0.005);
-  EXPECT_GT(median_error(*uncorrected), 0.015);
+  for (const bool strip_lit : {false, true}) {
+    const double corrected_error = median_error(*corrected, strip_lit), uncorrected_error = median_error(*uncorrected, strip_lit);
+    std::cout << (strip_lit ? "strip" : "LED") << "-lit observations against a steady scan's: " << 100 * corrected_error
+              << " % corrected, " << 100 * uncorrected_error << " % not\n";
+    EXPECT_LT(corrected_error, 0.005) << strip_lit;
+    EXPECT_GT(uncorrected_error, 0.015) << strip_lit;
+  }
 }
 
 TEST(SequencerOptionsTest, EveryBadValueIsRefusedNamingItsField) {

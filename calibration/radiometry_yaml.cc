@@ -229,9 +229,8 @@ Status ReadLinearLight(const fs::path& folder, Radiometry* r) {
   file.root.Required("change", &light.change);
   file.root.Required("camera_spread", &light.camera_spread);
   file.root.Optional("profile", &light.profile);
-  if (!light.profile.empty() && (light.profile.size() < 2 || light.profile.size() > 64 ||
-                                 !std::ranges::all_of(light.profile, [](double v) { return v > 0 && v <= 10; }))) {
-    file.root.AddError("profile", "must be 2 to 64 relative outputs, each in (0, 10]");
+  if (const std::string problem = LinearLightModel::ProfileProblem(light.profile); !problem.empty()) {
+    file.root.AddError("profile", problem);
   }
   LOOM_RETURN_IF_ERROR(file.doc.Finish());
   r->lights.push_back(light);

@@ -58,8 +58,8 @@ Result<ScanRadiance> ScanRadiance::Open(const scan::CaptureStore& store, const R
   return scan;
 }
 
-Result<scan::LightDriftTrack> ScanRadiance::LightDrift() const {
-  scan::LightDriftTrack track;
+Result<scan::LightDrift> ScanRadiance::LightDrift() const {
+  scan::LightDrift drift;
   for (const Step& step : plan().steps) {
     if (step.kind != StepKind::kDriftReference) continue;
     std::vector<scan::RawFrame> frames;
@@ -67,10 +67,10 @@ Result<scan::LightDriftTrack> ScanRadiance::LightDrift() const {
       LOOM_ASSIGN_OR_RETURN(std::vector<scan::RawFrame> bracket, Bracket(step.index, camera));
       frames.push_back(std::move(bracket.front()));
     }
-    const Result<double> added = track.Add(step.index, step.turntable_deg, frames, dark_);
+    const Result<double> added = drift.Of(step.leds.empty()).Add(step.index, step.turntable_deg, frames, dark_);
     if (!added.ok()) return added.status().WithContext("scan " + directory().string());
   }
-  return track;
+  return drift;
 }
 
 std::string ScanRadiance::Where(int step, const std::string& camera) const {

@@ -66,9 +66,9 @@ class ScanRadiance {
   SensorNoise NoiseOf(const std::string& camera, double gain_db) const;
   // Every view of every step of `kind`, with its lighting.
   Result<std::vector<LitView>> LitViews(scan::StepKind kind) const;
-  // The lights' drift through the scan, from its drift reference steps (scan/light_drift.h);
-  // without any, a track whose output is 1 everywhere.
-  Result<scan::LightDriftTrack> LightDrift() const;
+  // The LEDs' and the linear light's drift through the scan, from its drift reference steps
+  // (scan/light_drift.h); without any, tracks whose output is 1 everywhere.
+  Result<scan::LightDrift> LightDrift() const;
 
  private:
   ScanRadiance(const scan::CaptureStore& store, const RigModel& rig) : store_(&store), rig_(&rig) {}

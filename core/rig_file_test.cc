@@ -69,6 +69,30 @@ TEST(RigFileTest, AnLedRingOfImpossibleSizeIsAnErrorNotAnAllocation) {
   }
 }
 
+// A linear light's profile along its strip: read, interpolated between its points, and refused
+// naming the key when it cannot be one.
+TEST(RigFileTest, TheLinearLightsProfileIsReadAndABadOneIsNamed) {
+  const std::string strip =
+      "  linear_light: {arm_radius_mm: 450, strip_length_mm: 300, start_deg: -70, end_deg: 70, travel_mm: 400, profile: ";
+  std::string text = kRig;
+  text.replace(text.find("  leds:"), 0, strip + "[0.8, 1.0, 1.1]}\n");
+  const Result<RigModel> model = RigModelFromText(text, "bench.yaml");
+  ASSERT_TRUE(model.ok()) << model.status().ToString();
+  const LinearLightModel& light = *model->linear_light;
+  EXPECT_DOUBLE_EQ(light.ProfileAt(-150), 0.8);
+  EXPECT_DOUBLE_EQ(light.ProfileAt(-75), 0.9);
+  EXPECT_DOUBLE_EQ(light.ProfileAt(0), 1.0);
+  EXPECT_DOUBLE_EQ(light.ProfileAt(200), 1.1);  // beyond the strip: its end's
+  EXPECT_DOUBLE_EQ(LinearLightModel{}.ProfileAt(10), 1.0);
+  for (const char* bad : {"[1]", "[1, 0]", "[1, .nan]", "[1, 11]"}) {
+    std::string bad_text = kRig;
+    bad_text.replace(bad_text.find("  leds:"), 0, strip + bad + "}\n");
+    const Result<RigModel> refused = RigModelFromText(bad_text, "bench.yaml");
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_TRUE(Contains(refused.status(), "geometry.linear_light.profile")) << refused.status().ToString();
+  }
+}
+
 TEST(RigFileTest, ARigWithoutGeometryHasNoModelAndSaysWhichFile) {
   const Result<RigModel> model = RigModelFromText("schema_version: 1\nname: real\ndevices: {}\n", "real.yaml");
   ASSERT_FALSE(model.ok());

@@ -104,6 +104,12 @@ Eigen::Vector3d LinearLightModel::StripCentre(double position_mm) const {
 
 Eigen::Vector3d LinearLightModel::StripNormal(double position_mm) const { return -StripCentre(position_mm).normalized(); }
 
+std::string LinearLightModel::ProfileProblem(const std::vector<double>& profile) {
+  const bool valid = profile.empty() || (profile.size() >= 2 && profile.size() <= 64 &&
+                                         std::ranges::all_of(profile, [](double v) { return v > 0 && v <= 10; }));
+  return valid ? "" : "must be 2 to 64 relative outputs, each in (0, 10]";
+}
+
 double LinearLightModel::ProfileAt(double along_mm) const {
   if (profile.size() < 2) return profile.empty() ? 1.0 : profile.front();
   const double t = std::clamp((along_mm / strip_length_mm + 0.5) * (profile.size() - 1), 0.0, profile.size() - 1.0);
@@ -239,9 +245,8 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     node->Optional("segments", &light.segments);
     node->Optional("profile", &light.profile);
     light.sweep_axis.normalize();
-    if (!light.profile.empty() && (light.profile.size() < 2 || light.profile.size() > 64 ||
-                                   !std::ranges::all_of(light.profile, [](double v) { return v > 0 && v <= 10; }))) {
-      node->AddError("profile", "must be 2 to 64 relative outputs, each in (0, 10]");
+    if (const std::string problem = LinearLightModel::ProfileProblem(light.profile); !problem.empty()) {
+      node->AddError("profile", problem);
     }
     if (light.travel_mm <= 0) node->AddError("travel_mm", "must be > 0");
     if (light.segments < 1) node->AddError("segments", "must be ≥ 1");

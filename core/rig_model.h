@@ -124,6 +124,8 @@ struct LinearLightModel {
   Eigen::Vector3d StripNormal(double position_mm) const;
   // The profile at `along_mm` from the strip's centre along sweep_axis (1 without a profile).
   double ProfileAt(double along_mm) const;
+  // Why `profile` cannot be a strip's (empty or 2 to 64 values, each in (0, 10]), or "" if it can.
+  static std::string ProfileProblem(const std::vector<double>& profile);
   // Where the k-th of the `segments` point sources sits, from the strip's centre along sweep_axis.
   double SegmentOffsetMm(int k) const { return (k + 0.5) * strip_length_mm / segments - strip_length_mm / 2; }
 };

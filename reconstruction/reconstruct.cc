@@ -147,13 +147,15 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
   const std::vector<Eigen::Vector3d> normals = GeometricNormals(heights_d, w, h, options.pixel_mm, options.normal_blur_mm);
   const Heightmap heightmap(heights, w, h, options.pixel_mm);
 
-  LOOM_ASSIGN_OR_RETURN(const scan::LightDriftTrack drift, scan.LightDrift());
-  result.light_drift = drift.references();
-  result.light_drift_corrected = options.correct_light_drift && !drift.references().empty();
-  if (drift.MaxDriftPercent() > options.light_drift_warn_percent) {
-    LOOM_LOG(Warning) << "the lights drifted up to " << drift.MaxDriftPercent() << " % through the scan (threshold "
-                      << options.light_drift_warn_percent << " %)"
-                      << (result.light_drift_corrected ? ": the LED-lit observations are corrected" : ", not corrected");
+  LOOM_ASSIGN_OR_RETURN(const scan::LightDrift drift, scan.LightDrift());
+  result.light_drift = drift.leds.references();
+  result.linear_light_drift = drift.strip.references();
+  result.light_drift_corrected = options.correct_light_drift && !drift.leds.references().empty();
+  for (const bool strip : {false, true}) {
+    if (drift.Of(strip).MaxDriftPercent() <= options.light_drift_warn_percent) continue;
+    LOOM_LOG(Warning) << (strip ? "the linear light" : "the LEDs") << " drifted up to " << drift.Of(strip).MaxDriftPercent()
+                      << " % through the scan (threshold " << options.light_drift_warn_percent << " %)"
+                      << (result.light_drift_corrected ? ": the observations they lit are corrected" : ", not corrected");
   }
   const std::vector<ViewRef> views = FittingViews(scan.plan());
   std::vector<StackObservation> table(views.size());
@@ -189,9 +191,9 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
         }
         table[k] = *std::move(described);
         saturated += view->saturated_pixels;
-        const bool led_lit = !scan.plan().steps[views[k].step].leds.empty();
+        const bool strip_lit = scan.plan().steps[views[k].step].leds.empty();
         const float drift_scale =
-            result.light_drift_corrected && led_lit ? static_cast<float>(1 / drift.FactorAt(views[k].step)) : 1.0f;
+            result.light_drift_corrected ? static_cast<float>(1 / drift.Of(strip_lit).FactorAt(views[k].step)) : 1.0f;
         const CameraModel& cam = rig.cameras[view->camera];
         const Rigid3d cam_from_sample = cam.cam_from_rig * rig.turntable.RigFromSample(table[k].turntable_deg);
         const int channel = ObservationStack::ObservationChannel(k);
@@ -238,8 +240,12 @@ nlohmann::json Reconstruction::ToJson() const {
 nlohmann::json Reconstruction::LightDriftJson() const {
   nlohmann::json references = nlohmann::json::array();
   for (const auto& [step, output] : light_drift) references.push_back({{"step", step}, {"output", output}});
+  nlohmann::json strip_references = nlohmann::json::array();
+  for (const auto& [step, output] : linear_light_drift) strip_references.push_back({{"step", step}, {"output", output}});
   return {{"references", references},
           {"max_percent", scan::LightDriftTrack::MaxDriftPercentOf(light_drift)},
+          {"linear_light_references", strip_references},
+          {"linear_light_max_percent", scan::LightDriftTrack::MaxDriftPercentOf(linear_light_drift)},
           {"corrected", light_drift_corrected}};
 }
 

@@ -13,8 +13,9 @@
 //    where the relief hides the point from the camera. The table entry comes from what the
 //    devices recorded doing (frame metadata), not from what the plan asked.
 // 4. Drift: when the plan has drift references (scan/light_drift.h), every LED-lit observation
-//    is divided by the lights' output at its step, relative to the first reference; a drift
-//    beyond `light_drift_warn_percent` is logged as a warning. The linear light's is not known.
+//    is divided by the LEDs' output at its step, relative to the first reference, and every
+//    strip-lit one by the linear light's, from the strip's own references; a drift beyond
+//    `light_drift_warn_percent` is logged as a warning.
 // Geometry and light model come from `rig`: the rig YAML's nominal description, or a
 // calibrated one.
 
@@ -69,15 +70,16 @@ struct Reconstruction {
   ObservationStack stack;
   std::vector<CameraSampling> sampling;  // every camera of the rig, StackSampling
   std::string heightmap_camera;
-  int heightmap_filled = 0;                         // grid pixels without a triangulated height (filled from neighbours)
-  int saturated_pixels = 0;                         // camera pixels saturated in every exposure, over all views
-  double unseen_fraction = 0;                       // of observation samples: NaN (hidden or off the camera's image)
-  std::vector<std::pair<int, double>> light_drift;  // (step, output) of each drift reference
+  int heightmap_filled = 0;                                // grid pixels without a triangulated height (filled from neighbours)
+  int saturated_pixels = 0;                                // camera pixels saturated in every exposure, over all views
+  double unseen_fraction = 0;                              // of observation samples: NaN (hidden or off the camera's image)
+  std::vector<std::pair<int, double>> light_drift;         // (step, output) of each LED drift reference
+  std::vector<std::pair<int, double>> linear_light_drift;  // the same for the strip's references
   bool light_drift_corrected = false;
 
   // The stack's size and what the fields above say, as reconstruction.json keeps them.
   nlohmann::json ToJson() const;
-  nlohmann::json LightDriftJson() const;  // references, the largest drift, whether corrected
+  nlohmann::json LightDriftJson() const;  // references, the largest drift (LEDs, strip), whether corrected
   // A note for the operator when a camera samples the stack coarsely (below kFineSampling: the
   // stack is then blurred, not wrong), and how to sharpen it; empty otherwise.
   std::string CoarseSamplingNote() const;

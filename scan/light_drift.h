@@ -7,7 +7,8 @@
 // carry the chain from one angle to the next. Cameras are averaged.
 //
 // The correction assumes that every LED drifts as the reference LED does (they share a driver
-// and a heat sink); the linear light's drift is not measured.
+// and a heat sink). The linear light has its own references in a plan that sweeps it (the strip
+// alone at the middle of its travel, right after each LED reference), and its own track.
 
 #include <map>
 #include <string>
@@ -46,6 +47,16 @@ class LightDriftTrack {
   double angle_ = 0;
   double factor_at_angle_ = 1;  // the output when the current angle's baselines were taken
   std::vector<std::pair<int, double>> references_;
+};
+
+// The LEDs' and the linear light's drift, each from its own references.
+struct LightDrift {
+  LightDriftTrack leds;
+  LightDriftTrack strip;
+  // The track a drift reference, or an observation, belongs to: the strip's when the strip
+  // alone lit it.
+  LightDriftTrack& Of(bool strip_lit) { return strip_lit ? strip : leds; }
+  const LightDriftTrack& Of(bool strip_lit) const { return strip_lit ? strip : leds; }
 };
 
 }  // namespace loom::scan

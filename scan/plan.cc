@@ -153,27 +153,28 @@ class PlanBuilder {
 
   // Drift references (plan.h) among the steps built so far, which are renumbered.
   void InsertDriftReferences(int every) {
+    const bool strip = std::ranges::any_of(plan_.steps, [](const Step& s) { return s.kind == StepKind::kLinearLight; });
     std::vector<Step> steps;
     bool started = false;
     int since = 0;
     double angle = 0;
     for (Step& step : plan_.steps) {
       if (!started && IsObservationStep(step.kind)) {
-        steps.push_back(DriftReference(step.turntable_deg));
+        AddDriftReferences(step.turntable_deg, strip, steps);
         started = true;
       } else if (started && step.turntable_deg != angle) {
-        steps.push_back(DriftReference(angle));  // the same light just before and after the move
-        steps.push_back(DriftReference(step.turntable_deg));
+        AddDriftReferences(angle, strip, steps);  // the same light just before and after the move
+        AddDriftReferences(step.turntable_deg, strip, steps);
         since = 0;
       } else if (started && since >= every) {
-        steps.push_back(DriftReference(step.turntable_deg));
+        AddDriftReferences(step.turntable_deg, strip, steps);
         since = 0;
       }
       angle = step.turntable_deg;
       if (started) ++since;
       steps.push_back(std::move(step));
     }
-    if (started) steps.push_back(DriftReference(angle));
+    if (started) AddDriftReferences(angle, strip, steps);
     for (size_t i = 0; i < steps.size(); ++i) steps[i].index = static_cast<int>(i);
     plan_.steps = std::move(steps);
   }
@@ -181,16 +182,21 @@ class PlanBuilder {
   Plan Finish() { return std::move(plan_); }
 
  private:
-  // The LED nearest the zenith, through its wheel's open slot, every camera, one exposure.
-  Step DriftReference(double angle) const {
+  // The LED nearest the zenith, through its wheel's open slot, every camera, one exposure; and,
+  // in a plan with linear-light steps, the strip alone at the middle of its travel likewise.
+  void AddDriftReferences(double angle, bool strip, std::vector<Step>& steps) const {
     Step step;
     step.kind = StepKind::kDriftReference;
     step.cameras = AllCameras(rig_);
     step.turntable_deg = angle;
-    LightOnly(ZenithLed(rig_), step);
     step.exposure = preset_.exposure;
     step.exposure.max_exposures = 1;  // every reference at the same exposure: their ratios are the drift
-    return step;
+    Step led = step;
+    LightOnly(ZenithLed(rig_), led);
+    steps.push_back(std::move(led));
+    if (!strip) return;
+    step.linear_light_mm = rig_.linear_light->travel_mm / 2;
+    steps.push_back(std::move(step));
   }
 
   const RigModel& rig_;

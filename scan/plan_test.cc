@@ -179,7 +179,8 @@ TEST(PlanTest, BadWindowsAreNamed) {
 }
 
 // Drift references: before the first lit step, at most every N steps after, on both sides of
-// each turntable move and at the end; the LED nearest the zenith, every camera, one exposure.
+// each turntable move and at the end; the LED nearest the zenith, every camera, one exposure,
+// and the strip at the middle of its travel right after it.
 TEST(PlanTest, DriftReferencesSurroundTurntableMovesAndComeEveryNSteps) {
   const RigModel rig = ShippedRigModel("tac7");
   const Plan plain = *MakeMaterialPlan(rig, LoadShippedPreset("low"));
@@ -188,15 +189,27 @@ TEST(PlanTest, DriftReferencesSurroundTurntableMovesAndComeEveryNSteps) {
   EXPECT_EQ(plan.Images(StepKind::kMonochrome), plain.Images(StepKind::kMonochrome));
   EXPECT_EQ(*ParsePlanYaml(PlanToYaml(plan), "plan.yaml"), plan);
   int since = -1;  // steps since the last reference; −1 before the first
+  int led_references = 0, strip_references = 0;
   bool lit_seen = false;
   for (size_t i = 0; i < plan.steps.size(); ++i) {
     const Step& step = plan.steps[i];
     EXPECT_EQ(step.index, static_cast<int>(i));
     if (step.kind == StepKind::kDriftReference) {
       EXPECT_EQ(step.cameras.size(), rig.cameras.size());
-      ASSERT_EQ(step.leds.size(), 1u);
-      EXPECT_GT(rig.leds[step.leds[0].led].position_mm.normalized().z(), 0.99);  // the zenith LED
       EXPECT_EQ(step.exposure.max_exposures, 1);
+      if (step.linear_light_mm) {
+        // The strip's reference follows the LED's, at the middle of its travel, nothing else lit.
+        EXPECT_TRUE(step.leds.empty());
+        EXPECT_EQ(*step.linear_light_mm, rig.linear_light->travel_mm / 2);
+        ASSERT_GT(i, 0u);
+        EXPECT_EQ(plan.steps[i - 1].kind, StepKind::kDriftReference);
+        EXPECT_FALSE(plan.steps[i - 1].linear_light_mm.has_value());
+        ++strip_references;
+      } else {
+        ASSERT_EQ(step.leds.size(), 1u);
+        EXPECT_GT(rig.leds[step.leds[0].led].position_mm.normalized().z(), 0.99);  // the zenith LED
+        ++led_references;
+      }
       since = 0;
       continue;
     }
@@ -213,6 +226,8 @@ TEST(PlanTest, DriftReferencesSurroundTurntableMovesAndComeEveryNSteps) {
     }
   }
   EXPECT_EQ(plan.steps.back().kind, StepKind::kDriftReference);
+  EXPECT_GE(led_references, 10);
+  EXPECT_EQ(strip_references, led_references);  // the low preset sweeps the strip
 }
 
 TEST(PlanTest, ABadPlanFileNamesTheStepAndKey) {

@@ -104,10 +104,8 @@ RigModel AsBuilt(const RigFile& file, RigModel model) {
     std::vector<double> profile;
     node->Optional("turn_deg", &turn_deg);
     node->Optional("profile", &profile);
-    if (!profile.empty() &&
-        (profile.size() < 2 || profile.size() > 64 || !std::ranges::all_of(profile, [](double v) { return v > 0 && v <= 10; }))) {
-      node->AddError("profile", "must be 2 to 64 relative outputs, each in (0, 10]");
-    }
+    if (const std::string problem = LinearLightModel::ProfileProblem(profile); !problem.empty())
+      node->AddError("profile", problem);
     if (model.linear_light) {
       model.linear_light->start_deg += turn_deg;
       model.linear_light->end_deg += turn_deg;

@@ -119,10 +119,10 @@ class SimCamera : public Camera {
     // on the sensor, so the frame is the full frame's crop.
     const sim::SensorWindow window{s.roi.x, s.roi.y, s.roi.width, s.roi.height};
     const Image& radiance = RadianceOf(shown, state, window);
-    // Drifting LEDs scale the light as a longer exposure would; the noise seed stays the frame's.
-    const double led_output = state.leds.empty() ? 1.0 : world_->NextLedOutput();
+    // Drifting lights scale the light as a longer exposure would; the noise seed stays the frame's.
+    const double output = !state.leds.empty() ? world_->NextLedOutput() : state.linear_light_on ? world_->NextStripOutput() : 1.0;
     const std::vector<uint16_t> raw =
-        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us * led_output, s.gain}, FrameSeed(world_->seed, index_, state, s),
+        sim::CaptureRaw(radiance, model.sensor, {s.exposure_us * output, s.gain}, FrameSeed(world_->seed, index_, state, s),
                         window, model.width, model.height);
     const int shift = s.pixel_format == scan::PixelFormat::kMono16 ? 16 - model.sensor.adc_bits : 0;
     scan::RawFrame frame;
@@ -376,8 +376,12 @@ void SimWorld::DisarmTrigger(int handle) {
 
 double SimWorld::NextLedOutput() {
   std::lock_guard lock(mutex);
-  const double n = lit_frames_++;
-  return 1 + led_drift_percent_ / 100 * (1 - std::exp(-n / led_drift_frames_));
+  return led_drift_.Next();
+}
+
+double SimWorld::NextStripOutput() {
+  std::lock_guard lock(mutex);
+  return strip_drift_.Next();
 }
 
 void SimWorld::FireTrigger() {
@@ -390,6 +394,24 @@ void SimWorld::FireTrigger() {
   for (const auto& expose : cameras) expose();
 }
 
+namespace {
+
+// A simulated light's drift from its device entry (output_drift_percent, output_drift_frames).
+Status SetDriftFromConfig(const DeviceConfig& config, const std::string& kind, const std::function<void(double, double)>& set) {
+  if (!config.node.Has("output_drift_percent") && !config.node.Has("output_drift_frames")) return Status::Ok();
+  double drift_percent = 0, drift_frames = 100;
+  config.node.Optional("output_drift_percent", &drift_percent);
+  config.node.Optional("output_drift_frames", &drift_frames);
+  if (!(std::abs(drift_percent) < 100 && drift_frames >= 1 && drift_frames < 1e9)) {
+    return InvalidArgumentError(kind + " '" + config.name + "'",
+                                "output_drift_percent must be within ±100 and output_drift_frames in [1, 1e9)");
+  }
+  set(drift_percent, drift_frames);
+  return Status::Ok();
+}
+
+}  // namespace
+
 void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> world) {
   registry.MarkSimulated("sim");
   registry.Register<Camera>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Camera>> {
@@ -400,16 +422,7 @@ void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> wo
     return std::unique_ptr<Camera>(std::make_unique<SimCamera>(config, world, model, supersampling));
   });
   registry.Register<LedArray>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<LedArray>> {
-    if (config.node.Has("output_drift_percent") || config.node.Has("output_drift_frames")) {
-      double drift_percent = 0, drift_frames = 100;
-      config.node.Optional("output_drift_percent", &drift_percent);
-      config.node.Optional("output_drift_frames", &drift_frames);
-      if (!(std::abs(drift_percent) < 100 && drift_frames >= 1 && drift_frames < 1e9)) {
-        return InvalidArgumentError("LED array '" + config.name + "'",
-                                    "output_drift_percent must be within ±100 and output_drift_frames in [1, 1e9)");
-      }
-      world->set_led_drift(drift_percent, drift_frames);
-    }
+    LOOM_RETURN_IF_ERROR(SetDriftFromConfig(config, "LED array", [&](double p, double f) { world->set_led_drift(p, f); }));
     return std::unique_ptr<LedArray>(std::make_unique<SimLedArray>(config, world));
   });
   registry.Register<FilterWheel>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<FilterWheel>> {
@@ -424,6 +437,7 @@ void RegisterSimBackends(BackendRegistry& registry, std::shared_ptr<SimWorld> wo
     const auto& geometry = world->scene()->rig().linear_light;
     double travel_mm = geometry ? geometry->travel_mm : 400;
     config.node.Optional("travel_mm", &travel_mm);
+    LOOM_RETURN_IF_ERROR(SetDriftFromConfig(config, "linear light", [&](double p, double f) { world->set_strip_drift(p, f); }));
     return std::unique_ptr<LinearLight>(std::make_unique<SimLinearLight>(config, world, travel_mm));
   });
   registry.Register<Projector>("sim", [world](const DeviceConfig& config) -> Result<std::unique_ptr<Projector>> {

@@ -14,9 +14,11 @@
 // them (else from the backend keys travel_mm, native_width, native_height).
 // LEDs that drift: the LED array's keys `output_drift_percent: P, output_drift_frames: N` make
 // every LED's output 1 + P/100 · (1 − exp(−n/N)) for the n-th LED-lit frame rendered, as LEDs
-// warming through a scan do (0: no drift, the default). Such frames depend on when they are
+// warming through a scan do (0: no drift, the default); the same keys on the linear light make
+// its output drift so over the frames it alone lights. Such frames depend on when they are
 // taken: a resumed scan's no longer equal an uninterrupted one's.
 
+#include <cmath>
 #include <functional>
 #include <map>
 #include <memory>
@@ -58,12 +60,18 @@ struct SimWorld {
     std::lock_guard lock(mutex);
     return pulses_;
   }
-  // The LEDs' output for the next LED-lit frame (1 without drift), counting the frame.
+  // The LEDs' output for the next LED-lit frame (1 without drift), counting the frame; the
+  // linear light's likewise for the next frame it alone lights.
   double NextLedOutput();
+  double NextStripOutput();
+  // Output that settles exponentially to 1 + percent / 100 over `frames` lit frames.
   void set_led_drift(double percent, double frames) {
     std::lock_guard lock(mutex);
-    led_drift_percent_ = percent;
-    led_drift_frames_ = frames;
+    led_drift_ = {percent, frames, 0};
+  }
+  void set_strip_drift(double percent, double frames) {
+    std::lock_guard lock(mutex);
+    strip_drift_ = {percent, frames, 0};
   }
 
  private:
@@ -72,9 +80,12 @@ struct SimWorld {
   std::map<int, std::function<void()>> armed_;
   int next_handle_ = 0;
   int pulses_ = 0;
-  double led_drift_percent_ = 0;
-  double led_drift_frames_ = 1;
-  int lit_frames_ = 0;
+  struct Drift {
+    double percent = 0, frames = 1;
+    int lit_frames = 0;
+    double Next() { return 1 + percent / 100 * (1 - std::exp(-(lit_frames++) / frames)); }
+  };
+  Drift led_drift_, strip_drift_;
 
  public:
   uint64_t seed;
