@@ -29,15 +29,18 @@ std::optional<Eigen::Vector3d> PointOnTurntable(const RigModel& rig, const Camer
   return origin + direction * (-origin.z() / direction.z());
 }
 
+// The irradiance one emitter gives a flat surface (normal +z) at `p`.
+double Irradiance(const PointEmitter& emitter, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d to_light = emitter.position_mm - p;
+  const double d2 = to_light.squaredNorm();
+  const double cos_incidence = to_light.z() / std::sqrt(d2);
+  return cos_incidence > 0 ? emitter.IntensityTowards(p) * cos_incidence / d2 : 0;
+}
+
 // Radiance of a flat grey Lambertian surface of albedo 1 at `p` under the view's emitters.
 double UnitAlbedoRadiance(const StackObservation& observation, const Eigen::Vector3d& p) {
   double irradiance = 0;
-  for (const PointEmitter& emitter : observation.emitters) {
-    const Eigen::Vector3d to_light = emitter.position_mm - p;
-    const double d2 = to_light.squaredNorm();
-    const double cos_incidence = to_light.z() / std::sqrt(d2);
-    if (cos_incidence > 0) irradiance += emitter.IntensityTowards(p) * cos_incidence / d2;
-  }
+  for (const PointEmitter& emitter : observation.emitters) irradiance += Irradiance(emitter, p);
   return irradiance / std::numbers::pi;
 }
 
@@ -251,12 +254,7 @@ Eigen::VectorXd KnotShares(const LinearLightModel& strip, const StackObservation
                            int knots) {
   Eigen::VectorXd shares = Eigen::VectorXd::Zero(knots);
   for (int j = 0; j < static_cast<int>(observation.emitters.size()); ++j) {
-    const PointEmitter& emitter = observation.emitters[j];
-    const Eigen::Vector3d to_light = emitter.position_mm - p;
-    const double d2 = to_light.squaredNorm();
-    const double cos_incidence = to_light.z() / std::sqrt(d2);
-    if (cos_incidence <= 0) continue;
-    const double irradiance = emitter.IntensityTowards(p) * cos_incidence / d2;
+    const double irradiance = Irradiance(observation.emitters[j], p);
     for (int k = 0; k < knots; ++k) shares[k] += Hat(strip, knots, k, strip.SegmentOffsetMm(j)) * irradiance;
   }
   const double total = shares.sum();
