@@ -240,10 +240,9 @@ Status Sequencer::MeasureDark(const scan::Step& step) {
 
 Status Sequencer::MeasureDrift(const scan::Step& step) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::RawFrame> frames, CaptureExposure(step, step.exposure.probe_us, 0));
-  const bool strip = step.leds.empty();
-  LOOM_ASSIGN_OR_RETURN(const double output, drift_.Of(strip).Add(step.index, step.turntable_deg, frames, dark_));
+  LOOM_ASSIGN_OR_RETURN(const double output, drift_.Of(step).Add(step.index, step.turntable_deg, frames, dark_));
   const double percent = (output - 1) * 100;
-  const char* lights = strip ? "the linear light" : "the LEDs";
+  const char* lights = scan::LightDrift::StripLit(step) ? "the linear light" : "the LEDs";
   if (std::abs(percent) > options_.light_drift_warn_percent) {
     LOOM_LOG(Warning) << lights << " have drifted " << percent << " % since the scan's first drift reference (step " << step.index
                       << "; threshold " << options_.light_drift_warn_percent << " %): reconstruction corrects the images "

@@ -67,7 +67,7 @@ Result<scan::LightDrift> ScanRadiance::LightDrift() const {
       LOOM_ASSIGN_OR_RETURN(std::vector<scan::RawFrame> bracket, Bracket(step.index, camera));
       frames.push_back(std::move(bracket.front()));
     }
-    const Result<double> added = drift.Of(step.leds.empty()).Add(step.index, step.turntable_deg, frames, dark_);
+    const Result<double> added = drift.Of(step).Add(step.index, step.turntable_deg, frames, dark_);
     if (!added.ok()) return added.status().WithContext("scan " + directory().string());
   }
   return drift;

@@ -151,10 +151,11 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
   result.light_drift = drift.leds.references();
   result.linear_light_drift = drift.strip.references();
   result.light_drift_corrected = options.correct_light_drift && !drift.leds.references().empty();
-  for (const bool strip : {false, true}) {
-    if (drift.Of(strip).MaxDriftPercent() <= options.light_drift_warn_percent) continue;
-    LOOM_LOG(Warning) << (strip ? "the linear light" : "the LEDs") << " drifted up to " << drift.Of(strip).MaxDriftPercent()
-                      << " % through the scan (threshold " << options.light_drift_warn_percent << " %)"
+  for (const scan::LightDriftTrack* track : {&drift.leds, &drift.strip}) {
+    if (track->MaxDriftPercent() <= options.light_drift_warn_percent) continue;
+    LOOM_LOG(Warning) << (track == &drift.strip ? "the linear light" : "the LEDs") << " drifted up to "
+                      << track->MaxDriftPercent() << " % through the scan (threshold " << options.light_drift_warn_percent
+                      << " %)"
                       << (result.light_drift_corrected ? ": the observations they lit are corrected" : ", not corrected");
   }
   const std::vector<ViewRef> views = FittingViews(scan.plan());
@@ -191,9 +192,9 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
         }
         table[k] = *std::move(described);
         saturated += view->saturated_pixels;
-        const bool strip_lit = scan.plan().steps[views[k].step].leds.empty();
-        const float drift_scale =
-            result.light_drift_corrected ? static_cast<float>(1 / drift.Of(strip_lit).FactorAt(views[k].step)) : 1.0f;
+        const float drift_scale = result.light_drift_corrected
+                                      ? static_cast<float>(1 / drift.Of(scan.plan().steps[views[k].step]).FactorAt(views[k].step))
+                                      : 1.0f;
         const CameraModel& cam = rig.cameras[view->camera];
         const Rigid3d cam_from_sample = cam.cam_from_rig * rig.turntable.RigFromSample(table[k].turntable_deg);
         const int channel = ObservationStack::ObservationChannel(k);

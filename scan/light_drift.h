@@ -18,6 +18,7 @@
 #include "core/status.h"
 #include "scan/dark_level.h"
 #include "scan/frame.h"
+#include "scan/plan.h"
 
 namespace loom::scan {
 
@@ -54,9 +55,10 @@ struct LightDrift {
   LightDriftTrack leds;
   LightDriftTrack strip;
   // The track a drift reference, or an observation, belongs to: the strip's when the strip
-  // alone lit it.
-  LightDriftTrack& Of(bool strip_lit) { return strip_lit ? strip : leds; }
-  const LightDriftTrack& Of(bool strip_lit) const { return strip_lit ? strip : leds; }
+  // alone lit its step.
+  static bool StripLit(const Step& step) { return step.leds.empty() && step.linear_light_mm.has_value(); }
+  LightDriftTrack& Of(const Step& step) { return StripLit(step) ? strip : leds; }
+  const LightDriftTrack& Of(const Step& step) const { return StripLit(step) ? strip : leds; }
 };
 
 }  // namespace loom::scan
