@@ -158,69 +158,190 @@ bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light)
   return false;
 }
 
-// Why the bound holds. Shadowed samples the ray at horizontal distances ρ > 0 from p; a sample
-// at height z_p + m·ρ (m the ray's slope) is blocked where it is below the surface. For p on
-// or above the surface (z_p ≥ HeightAt(p)), two bounds on the surface cover every sample:
-//  - within kNearPx of p, the surface rises from HeightAt(p) at most as steeply as the steepest
-//    bilinear patch there (gradient G): no sample there is blocked if m ≥ G;
-//  - further out, HeightAt is at most the highest of the pixels within √2 pixels of the sample,
-//    so pixel q (height h_q, d_q from p) blocks no ray with m ≥ (h_q − z_p) / max(kNearPx,
-//    d_q − √2) pixels. Pixels in the 3 × 3 blocks around p's are taken one by one, blocks up to
-//    kBlockRings away by their maxima, the rest by the highest point.
-// Half the march's tolerance is kept as a margin for the march's own rounding.
-double Heightmap::ClearingSlope(const Eigen::Vector3d& p) const {
-  constexpr double kNearPx = 3;
+// Why the bound holds. Shadowed samples the ray at horizontal distances ρ > 0 from p, along the
+// light's azimuth φ; a sample at height z_p + m·ρ (m the ray's slope) is blocked where it is
+// below the surface. For p on or above the surface (z_p ≥ HeightAt(p)), bounds on the surface
+// cover every sample. A sample at azimuth φ lies only in regions of the grid that some ray from
+// p at azimuth φ enters, so each region counts only in the sectors of the azimuths that its
+// rectangle spans as seen from p. For a near radius r (each of kNearRadiiPx):
+//  - within r of p, the surface rises from HeightAt(p) along φ at most at the steepest rise
+//    along φ of the bilinear patches (cells between pixel centres) crossed: a patch whose slopes
+//    lie in [x_lo, x_hi] × [y_lo, y_hi] rises along u at most at u · (the corner of that box u
+//    points to). No sample there is blocked if m is larger;
+//  - beyond r, HeightAt within a patch is at most its highest corner, and within a block at
+//    most the block's maximum; a region nowhere above h, at distance d from p, blocks no ray
+//    with m ≥ (h − z_p) / max(r, d). Patches in the 3 × 3 blocks around p's are taken one by
+//    one, blocks up to kBlockRings away by their maxima, the rest by the highest point in
+//    every direction.
+// Each r gives a bound; each sector keeps the least (a short r suits a steep patch under p, a
+// long one a bump just beyond it). Half the march's tolerance is kept as a margin for the
+// march's own rounding.
+namespace {
+
+constexpr int kSectors = Heightmap::Horizon::kSectors;
+// The radii within which the surface is bounded by its patches' rises, beyond by their heights.
+constexpr std::array<double, 4> kNearRadiiPx = {0.75, 1.5, 2.25, 3};
+constexpr double kSectorsPerUnit = kSectors / 4.0;  // diamond angles run over [0, 4)
+
+// The diamond angle of direction (x, y): [0, 4), increasing with atan2(y, x) taken in [0, 2π),
+// a quarter turn per unit; 0 for (0, 0).
+double DiamondAngle(double x, double y) {
+  if (x == 0 && y == 0) return 0;
+  if (y >= 0) return x >= 0 ? y / (x + y) : 1 - x / (y - x);
+  return x < 0 ? 2 - y / (-x - y) : 3 + x / (x - y);
+}
+
+int SectorOf(double x, double y) { return std::min(kSectors - 1, static_cast<int>(DiamondAngle(x, y) * kSectorsPerUnit)); }
+
+// The unit directions at each sector's ends (no sector crosses an axis, so the signs of a
+// direction's components are its quadrant's throughout a sector).
+struct SectorEnds {
+  std::array<Eigen::Vector2d, kSectors + 1> direction;
+  SectorEnds() {
+    for (int k = 0; k <= kSectors; ++k) {
+      const double d = k / kSectorsPerUnit;
+      const int quadrant = std::min(3, static_cast<int>(d));
+      const double f = d - quadrant;
+      const Eigen::Vector2d v = quadrant == 0   ? Eigen::Vector2d(1 - f, f)
+                                : quadrant == 1 ? Eigen::Vector2d(-f, 1 - f)
+                                : quadrant == 2 ? Eigen::Vector2d(f - 1, -f)
+                                                : Eigen::Vector2d(f, f - 1);
+      direction[k] = v.normalized();
+    }
+  }
+};
+
+// The steepest rise along any azimuth of sector k across a bilinear patch whose slopes along x
+// and y lie in [x_lo, x_hi] and [y_lo, y_hi]: max over the sector's directions u of u · D, D the
+// corner of the slopes' box that u's quadrant points to.
+double SteepestRise(int k, double x_lo, double x_hi, double y_lo, double y_hi) {
+  static const SectorEnds ends;
+  const Eigen::Vector2d& a = ends.direction[k];
+  const Eigen::Vector2d& b = ends.direction[k + 1];
+  const Eigen::Vector2d mid = a + b;  // its signs are the sector's
+  const Eigen::Vector2d d(mid.x() >= 0 ? x_hi : x_lo, mid.y() >= 0 ? y_hi : y_lo);
+  // u · D peaks at D's own direction if that lies in the sector, else at one of its ends.
+  const bool inside = a.x() * d.y() - a.y() * d.x() >= 0 && d.x() * b.y() - d.y() * b.x() >= 0 && d.dot(mid) > 0;
+  return inside ? d.norm() : std::max(a.dot(d), b.dot(d));
+}
+
+// Calls visit(k) for every sector k that the diamond angles [lo, hi] touch (hi − lo ≥ 4: all
+// of them), with a little to spare at the ends for rounding.
+template <typename Visit>
+void ForSectors(double lo, double hi, Visit visit) {
+  constexpr double kSpare = 1e-9;
+  const int first = static_cast<int>(std::floor((lo - kSpare) * kSectorsPerUnit));
+  const int last = hi - lo >= 4 ? first + kSectors - 1 : static_cast<int>(std::floor((hi + kSpare) * kSectorsPerUnit));
+  for (int k = first; k <= std::min(last, first + kSectors - 1); ++k) visit(((k % kSectors) + kSectors) % kSectors);
+}
+
+// Raises the bound to `slope` in the sectors of the diamond angles [lo, hi].
+void Raise(Heightmap::Horizon& horizon, double lo, double hi, double slope) {
+  ForSectors(lo, hi, [&](int k) { horizon.slope[k] = std::max(horizon.slope[k], slope); });
+}
+
+// The diamond angles of the azimuths from the origin into an axis-aligned rectangle that does
+// not hold it (its extremes are at its corners, within half a turn of its centre's).
+std::pair<double, double> RectangleAzimuths(double x_lo, double y_lo, double side) {
+  const double centre = DiamondAngle(x_lo + side / 2, y_lo + side / 2);
+  double lo = 0, hi = 0;
+  for (const double x : {x_lo, x_lo + side}) {
+    for (const double y : {y_lo, y_lo + side}) {
+      double delta = DiamondAngle(x, y) - centre;
+      delta -= 4 * std::round(delta / 4);
+      lo = std::min(lo, delta), hi = std::max(hi, delta);
+    }
+  }
+  return {centre + lo, centre + hi};
+}
+
+}  // namespace
+
+bool Heightmap::Horizon::Clears(const Eigen::Vector3d& to_light) const {
+  const double horizontal = to_light.head<2>().norm();
+  return to_light.z() > steepest * horizontal || to_light.z() > slope[SectorOf(to_light.x(), to_light.y())] * horizontal;
+}
+
+Heightmap::Horizon Heightmap::HorizonAt(const Eigen::Vector3d& p) const {
+  constexpr int kPatchRings = 1;
   constexpr int kBlockRings = 4;
   const double margin = kShadowToleranceMm / 2;
+  Horizon horizon;
   // Below the surface (or the holder) no bound holds: the march decides.
-  if (p.z() < -margin || p.z() < HeightAt(p.x(), p.y()) - margin) return std::numeric_limits<double>::infinity();
+  if (p.z() < -margin || p.z() < HeightAt(p.x(), p.y()) - margin) {
+    horizon.slope.fill(std::numeric_limits<double>::infinity());
+    horizon.steepest = std::numeric_limits<double>::infinity();
+    return horizon;
+  }
   const Eigen::Vector2d g = GridPoint(p.x(), p.y());
   const auto pixel_height = [&](int x, int y) -> double {
     return x < 0 || y < 0 || x >= width_ || y >= height_ ? 0.0 : heights_mm_[static_cast<size_t>(y) * width_ + x];
   };
-  // Near p: the steepest patch (cell [x, x + 1] × [y, y + 1] between pixel centres).
-  double gradient = 0;
-  for (int y = static_cast<int>(std::floor(g.y() - kNearPx)); y <= static_cast<int>(std::floor(g.y() + kNearPx)); ++y) {
-    for (int x = static_cast<int>(std::floor(g.x() - kNearPx)); x <= static_cast<int>(std::floor(g.x() + kNearPx)); ++x) {
-      const double h00 = pixel_height(x, y), h10 = pixel_height(x + 1, y);
-      const double h01 = pixel_height(x, y + 1), h11 = pixel_height(x + 1, y + 1);
-      const double along_x = std::max(std::abs(h10 - h00), std::abs(h11 - h01));
-      const double along_y = std::max(std::abs(h01 - h00), std::abs(h11 - h10));
-      gradient = std::max(gradient, std::hypot(along_x, along_y) / pixel_mm_);
-    }
-  }
-  double slope = gradient;
-  // Further out.
-  const auto slope_over = [&](double height, double distance_px) {
-    return (height - margin - p.z()) / (std::max(kNearPx, distance_px - std::sqrt(2.0)) * pixel_mm_);
+  const auto distance_to = [&](double x_lo, double y_lo, double side) {
+    return std::hypot(std::max({x_lo - g.x(), g.x() - (x_lo + side), 0.0}), std::max({y_lo - g.y(), g.y() - (y_lo + side), 0.0}));
   };
+  // A region at distance_px ≥ `near_px` from p, nowhere above `height`, blocks no ray rising
+  // more steeply than this.
+  const auto slope_over = [&](double height, double distance_px, double near_px) {
+    return (height - margin - p.z()) / (std::max(near_px, distance_px) * pixel_mm_);
+  };
+  // The patches (cells [x, x + 1] × [y, y + 1] between pixel centres) of the blocks within
+  // kPatchRings of p's, each in the sectors of the azimuths it spans. Every near radius gives a
+  // bound of its own: rises within it, heights beyond it; each sector keeps the least.
+  std::array<std::array<double, kSectors>, kNearRadiiPx.size()> rise{}, height{};
   const int bx = static_cast<int>(std::floor((g.x() + 1) / block_px_));
   const int by = static_cast<int>(std::floor((g.y() + 1) / block_px_));
-  for (int y = std::max(0, (by - 1) * block_px_ - 1); y <= std::min(height_ - 1, (by + 2) * block_px_ - 1); ++y) {
-    for (int x = std::max(0, (bx - 1) * block_px_ - 1); x <= std::min(width_ - 1, (bx + 2) * block_px_ - 1); ++x) {
-      const double h = heights_mm_[static_cast<size_t>(y) * width_ + x];
-      if (h - margin > p.z()) slope = std::max(slope, slope_over(h, std::hypot(x - g.x(), y - g.y())));
+  for (int y = (by - kPatchRings) * block_px_ - 1; y < (by + kPatchRings + 1) * block_px_ - 1; ++y) {
+    for (int x = (bx - kPatchRings) * block_px_ - 1; x < (bx + kPatchRings + 1) * block_px_ - 1; ++x) {
+      const double h00 = pixel_height(x, y), h10 = pixel_height(x + 1, y);
+      const double h01 = pixel_height(x, y + 1), h11 = pixel_height(x + 1, y + 1);
+      const double highest = std::max({h00, h10, h01, h11});
+      const double distance = distance_to(x, y, 1);
+      const bool near = distance < kNearRadiiPx.back();
+      if (!near && highest - margin <= p.z()) continue;
+      // (px) Nearer, a patch's azimuths span half a turn or more: all sectors.
+      constexpr double kOnTheEdge = 1e-3;
+      const auto [lo, hi] = distance < kOnTheEdge ? std::pair<double, double>{0, 4} : RectangleAzimuths(x - g.x(), y - g.y(), 1);
+      const double x_lo = std::min(h10 - h00, h11 - h01) / pixel_mm_, x_hi = std::max(h10 - h00, h11 - h01) / pixel_mm_;
+      const double y_lo = std::min(h01 - h00, h11 - h10) / pixel_mm_, y_hi = std::max(h01 - h00, h11 - h10) / pixel_mm_;
+      ForSectors(lo, hi, [&](int k) {
+        const double steepest = near ? SteepestRise(k, x_lo, x_hi, y_lo, y_hi) : 0.0;
+        for (size_t r = 0; r < kNearRadiiPx.size(); ++r) {
+          if (distance < kNearRadiiPx[r]) rise[r][k] = std::max(rise[r][k], steepest);
+          // Its points beyond the radius, if it has any.
+          if (highest - margin > p.z() && distance + std::sqrt(2.0) >= kNearRadiiPx[r]) {
+            height[r][k] = std::max(height[r][k], slope_over(highest, distance, kNearRadiiPx[r]));
+          }
+        }
+      });
     }
   }
+  for (int k = 0; k < kSectors; ++k) {
+    horizon.slope[k] = std::numeric_limits<double>::infinity();
+    for (size_t r = 0; r < kNearRadiiPx.size(); ++r)
+      horizon.slope[k] = std::min(horizon.slope[k], std::max(rise[r][k], height[r][k]));
+  }
+  // Further out, blocks by their maxima, then the highest point.
   for (int j = std::max(0, by - kBlockRings); j <= std::min(levels_[0].blocks_y - 1, by + kBlockRings); ++j) {
     for (int i = std::max(0, bx - kBlockRings); i <= std::min(levels_[0].blocks_x - 1, bx + kBlockRings); ++i) {
-      if (std::abs(i - bx) <= 1 && std::abs(j - by) <= 1) continue;
+      if (std::abs(i - bx) <= kPatchRings && std::abs(j - by) <= kPatchRings) continue;
       const double h = levels_[0].max_mm[static_cast<size_t>(j) * levels_[0].blocks_x + i];
       if (h - margin <= p.z()) continue;
-      const double x_lo = i * block_px_ - 1.0, y_lo = j * block_px_ - 1.0;  // its pixels: x_lo … x_lo + block_px_
-      const double dx = std::max({x_lo - g.x(), g.x() - (x_lo + block_px_), 0.0});
-      const double dy = std::max({y_lo - g.y(), g.y() - (y_lo + block_px_), 0.0});
-      slope = std::max(slope, slope_over(h, std::hypot(dx, dy)));
+      const double x_lo = i * block_px_ - 1.0, y_lo = j * block_px_ - 1.0;  // the grid points it covers: from x_lo, y_lo
+      const auto [lo, hi] = RectangleAzimuths(x_lo - g.x(), y_lo - g.y(), block_px_);
+      Raise(horizon, lo, hi, slope_over(h, distance_to(x_lo, y_lo, block_px_), kNearRadiiPx.back()));
     }
   }
   // Every pixel beyond lies more than kBlockRings blocks from p.
-  if (max_height_mm_ - margin > p.z()) slope = std::max(slope, slope_over(max_height_mm_, kBlockRings * block_px_));
-  return slope;
+  if (max_height_mm_ - margin > p.z()) {
+    Raise(horizon, 0, 4, slope_over(max_height_mm_, kBlockRings * block_px_, kNearRadiiPx.back()));
+  }
+  horizon.steepest = *std::max_element(horizon.slope.begin(), horizon.slope.end());
+  return horizon;
 }
 
-bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double clearing_slope) const {
-  const Eigen::Vector3d s = light - p;
-  return s.z() < clearing_slope * s.head<2>().norm() && Shadowed(p, light);
+bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light, const Horizon& horizon) const {
+  return !horizon.Clears(light - p) && Shadowed(p, light);
 }
 
 Eigen::Vector3d Heightmap::FirstHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const {

@@ -143,17 +143,17 @@ TEST(HeightmapTest, TheHorizonBoundGivesTheFullMarchsShadows) {
   for (int block_px : kBlockSizesPx) {
     const Heightmap map(heights, kW, kH, kPixelMm, block_px);
     int shadowed = 0, cleared = 0;
-    for (int point = 0; point < 500; ++point) {
+    for (int point = 0; point < 1000; ++point) {
       const Eigen::Vector3d p = RandomSurfacePoint(map, random);
-      const double clearing_slope = map.ClearingSlope(p);
+      const Heightmap::Horizon horizon = map.HorizonAt(p);
       for (int k = 0; k < 40; ++k) {
         double elevation = 0;
         const Eigen::Vector3d light = RandomLight(p, random, &elevation);
         const bool expected = ShadowedByMarchingEverySample(map, p, light, kPixelMm);
-        ASSERT_EQ(map.Shadowed(p, light, clearing_slope), expected)
-            << "block " << block_px << ", light " << k << " from " << p.transpose() << ", bound " << clearing_slope;
+        ASSERT_EQ(map.Shadowed(p, light, horizon), expected)
+            << "block " << block_px << ", light " << k << " from " << p.transpose();
         shadowed += expected;
-        cleared += std::tan(elevation) >= clearing_slope;
+        cleared += horizon.Clears(light - p);
       }
     }
     EXPECT_GT(shadowed, 2000) << block_px;
@@ -174,10 +174,47 @@ TEST(HeightmapTest, OnAFabricsReliefTheHorizonBoundClearsMostLights) {
   for (int point = 0; point < 2000; ++point) {
     const double x = (unit(random) - 0.5) * 7.0, y = (unit(random) - 0.5) * 7.0;
     const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
-    cleared += std::tan(25 * M_PI / 180) >= map.ClearingSlope(p);
+    const double azimuth = 2 * M_PI * unit(random), elevation = 25 * M_PI / 180;
+    const Eigen::Vector3d to_light(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                                   std::sin(elevation));
+    cleared += map.HorizonAt(p).Clears(to_light);
     ++above;
   }
   EXPECT_GT(cleared, 0.9 * above);
+}
+
+TEST(HeightmapTest, AlongParallelThreadsTheHorizonIsLowerThanAcrossThem) {
+  // Ridges along x, 0.1 mm high every 0.8 mm (slopes up to 22°): a light 8° up clears them
+  // looking along the threads (within 10°) from most points, across them from far fewer. One
+  // bound for every azimuth, the steepest slope, cleared none of either.
+  std::vector<float> heights(160 * 160);
+  for (int y = 0; y < 160; ++y) {
+    for (int x = 0; x < 160; ++x) heights[y * 160 + x] = static_cast<float>(0.05 + 0.05 * std::sin(y * 0.4));
+  }
+  const Heightmap map(heights, 160, 160, 0.05);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int along = 0, across = 0, points = 0;
+  for (int point = 0; point < 1000; ++point) {
+    const double x = (unit(random) - 0.5) * 7.0, y = (unit(random) - 0.5) * 7.0;
+    const Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+    const Heightmap::Horizon horizon = map.HorizonAt(p);
+    const double spread = (unit(random) - 0.5) * 20 * M_PI / 180, elevation = 8 * M_PI / 180;
+    const auto towards = [&](double azimuth) {
+      return Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                             std::sin(elevation));
+    };
+    const double azimuth_along = (point % 2 ? M_PI : 0) + spread, azimuth_across = (point % 2 ? -M_PI : M_PI) / 2 + spread;
+    along += horizon.Clears(towards(azimuth_along));
+    across += horizon.Clears(towards(azimuth_across));
+    for (const double azimuth : {azimuth_along, azimuth_across}) {
+      const Eigen::Vector3d light = p + 400 * towards(azimuth);
+      ASSERT_EQ(map.Shadowed(p, light, horizon), ShadowedByMarchingEverySample(map, p, light, 0.05)) << p.transpose();
+    }
+    ++points;
+  }
+  EXPECT_GT(along, 0.7 * points);    // 788 of 1000
+  EXPECT_LT(across, 0.45 * points);  // 338
 }
 
 TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsFirstHits) {

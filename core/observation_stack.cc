@@ -116,7 +116,11 @@ std::optional<ObservationGroup> ObservationGroupFromName(std::string_view name) 
 }
 
 double PointEmitter::IntensityTowards(const Eigen::Vector3d& p_in_sample) const {
-  const double c = axis.dot((p_in_sample - position_mm).normalized());
+  return IntensityAlong((p_in_sample - position_mm).normalized());
+}
+
+double PointEmitter::IntensityAlong(const Eigen::Vector3d& from_emitter) const {
+  const double c = axis.dot(from_emitter);
   return c > 0 ? intensity * CosinePower(c, falloff_exponent) : 0.0;
 }
 

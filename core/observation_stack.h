@@ -46,6 +46,9 @@ struct PointEmitter {
   double falloff_exponent = 1;
 
   double IntensityTowards(const Eigen::Vector3d& p_in_sample) const;
+  // The same for a point in the unit direction `from_emitter` (the point minus position_mm,
+  // normalised): for a caller that has the direction already.
+  double IntensityAlong(const Eigen::Vector3d& from_emitter) const;
 };
 
 struct StackObservation {

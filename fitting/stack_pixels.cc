@@ -22,8 +22,9 @@ Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
 
 StackPixels::PixelFrame StackPixels::FrameOf(int x, int y) const {
   const Eigen::Vector3d position = stack_.Position(x, y);
-  const double clearing_slope = options_.cast_shadows ? heightmap_.ClearingSlope(position) : 0.0;
-  return {position, LocalFromSample(x, y), clearing_slope};
+  Heightmap::Horizon horizon;
+  if (options_.cast_shadows) horizon = heightmap_.HorizonAt(position);
+  return {position, LocalFromSample(x, y), horizon};
 }
 
 std::vector<PixelObservation> StackPixels::Observations(int x, int y) const {
@@ -81,7 +82,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   observation.source = k;
   const bool integrate = lobe && strips_[k];  // lobe: only from Observations(x, y, lobe), with the option set
   const auto shadowed = [&](const PointEmitter& emitter) {
-    return options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.clearing_slope);
+    return options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.horizon);
   };
   std::vector<PointEmitter> nodes;
   bool nodes_lit = false;  // every node lights the pixel: no test of each
@@ -106,11 +107,18 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
                        LobeSpan(l_local, observation.v_local, *lobe, quadrature.lobe_fraction), quadrature);
     nodes_lit = lit == last - first + 1;
   }
+  // Thousands of light samples per pixel: the direction to each is computed once (as
+  // normalized() would) for its falloff, its shadow test and the pixel's frame.
   for (const PointEmitter& emitter : integrate ? nodes : o.emitters) {
-    const double intensity = emitter.IntensityTowards(p);
-    if (intensity <= 0 || (!nodes_lit && shadowed(emitter))) continue;
     const Eigen::Vector3d to_light = emitter.position_mm - p;
-    observation.lights.push_back({frame.local_from_sample * to_light.normalized(), intensity / to_light.squaredNorm()});
+    const double distance2 = to_light.squaredNorm();
+    const Eigen::Vector3d l = to_light / std::sqrt(distance2);
+    const double intensity = emitter.IntensityAlong(-l);
+    if (intensity <= 0) continue;
+    if (!nodes_lit && options_.cast_shadows && !frame.horizon.Clears(to_light) && heightmap_.Shadowed(p, emitter.position_mm)) {
+      continue;
+    }
+    observation.lights.push_back({frame.local_from_sample * l, intensity / distance2});
   }
   if (!observation.lights.empty()) out.push_back(std::move(observation));
 }

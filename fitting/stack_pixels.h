@@ -57,7 +57,7 @@ class StackPixels {
   struct PixelFrame {
     Eigen::Vector3d position;
     Eigen::Matrix3d local_from_sample;
-    double clearing_slope;  // Heightmap::ClearingSlope of the position: most lights need no march
+    Heightmap::Horizon horizon;  // of the position: most lights need no march
   };
   PixelFrame FrameOf(int x, int y) const;
   // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed; its
