@@ -40,14 +40,15 @@ Result<BoardSpec> ParseBoardSpec(const std::string& text) {
   return board;
 }
 
-std::optional<std::vector<Eigen::Vector2d>> FindBoardCorners(const cv::Mat& grey, const BoardSpec& board) {
+std::optional<std::vector<Eigen::Vector2d>> FindBoardCorners(const cv::Mat& grey, const BoardSpec& board,
+                                                             const Eigen::Vector2d& origin) {
   std::vector<cv::Point2f> found;
   const cv::Size pattern(board.inner_cols, board.inner_rows);
   if (!cv::findChessboardCornersSB(grey, pattern, found, cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY)) {
     return std::nullopt;
   }
   std::vector<Eigen::Vector2d> corners;
-  for (const cv::Point2f& p : found) corners.emplace_back(p.x, p.y);
+  for (const cv::Point2f& p : found) corners.push_back(origin + Eigen::Vector2d(p.x, p.y));
   // A symmetric board is found in either of two orders (rotated by 180°): start from the
   // corner nearest the image's top-left so that the same view always numbers corners alike.
   if (corners.front().norm() > corners.back().norm()) {

@@ -35,7 +35,9 @@ Result<BoardSpec> ParseBoardSpec(const std::string& text);
 // subpixel; nothing if the whole board is not found. Uses OpenCV's sector-based detector
 // (findChessboardCornersSB), which is more accurate than the classic one and copes with small
 // squares; the board's orientation is made unambiguous by ordering from its top-left corner
-// as seen.
-std::optional<std::vector<Eigen::Vector2d>> FindBoardCorners(const cv::Mat& grey, const BoardSpec& board);
+// as seen. `grey` may be a crop of a larger image whose top-left pixel is at `origin` there: the
+// corners are then that image's (and so is the top-left they are ordered from).
+std::optional<std::vector<Eigen::Vector2d>> FindBoardCorners(const cv::Mat& grey, const BoardSpec& board,
+                                                             const Eigen::Vector2d& origin = Eigen::Vector2d::Zero());
 
 }  // namespace loom::calibration

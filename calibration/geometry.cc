@@ -153,6 +153,14 @@ cv::Mat ToGrey(const Image& radiance) {
   return grey;
 }
 
+// The part of a view's sensor that its frames read.
+cv::Rect WindowRect(const RadianceView& view) {
+  const scan::Roi& w = view.window;
+  const cv::Rect window(w.x, w.y, w.width > 0 ? w.width : view.radiance.width() - w.x,
+                        w.height > 0 ? w.height : view.radiance.height() - w.y);
+  return window & cv::Rect(0, 0, view.radiance.width(), view.radiance.height());
+}
+
 Eigen::Vector2d Centroid(const std::vector<Eigen::Vector2d>& points) {
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   for (const Eigen::Vector2d& p : points) sum += p;
@@ -218,7 +226,12 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
     for (const std::string& camera_name : step.cameras) {
       LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera_name));
       const scan::ViewId id{step.index, camera_name};
-      std::optional<std::vector<Eigen::Vector2d>> corners = FindBoardCorners(ToGrey(view.radiance), board);
+      // Only the window read (a calibration scan through object windows): outside it the view is
+      // unobserved, drawn white, and on tac7 that white was most of the image, on which the
+      // detector's normalisation (histogram equalisation) then lost the board in every view.
+      const cv::Rect window = WindowRect(view);
+      std::optional<std::vector<Eigen::Vector2d>> corners =
+          FindBoardCorners(ToGrey(view.radiance)(window), board, Eigen::Vector2d(window.x, window.y));
       if (!corners) {
         LOOM_LOG(Warning) << id.ToString() << ": target not found, view skipped";
         detected.skipped.push_back(id);
