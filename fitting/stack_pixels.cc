@@ -108,16 +108,13 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
     nodes_lit = lit == last - first + 1;
   }
   // Thousands of light samples per pixel: the direction to each is computed once (as
-  // normalized() would) for its falloff, its shadow test and the pixel's frame.
+  // normalized() would) for its falloff and the pixel's frame.
   for (const PointEmitter& emitter : integrate ? nodes : o.emitters) {
     const Eigen::Vector3d to_light = emitter.position_mm - p;
     const double distance2 = to_light.squaredNorm();
     const Eigen::Vector3d l = to_light / std::sqrt(distance2);
     const double intensity = emitter.IntensityAlong(-l);
-    if (intensity <= 0) continue;
-    if (!nodes_lit && options_.cast_shadows && !frame.horizon.Clears(to_light) && heightmap_.Shadowed(p, emitter.position_mm)) {
-      continue;
-    }
+    if (intensity <= 0 || (!nodes_lit && shadowed(emitter))) continue;
     observation.lights.push_back({frame.local_from_sample * l, intensity / distance2});
   }
   if (!observation.lights.empty()) out.push_back(std::move(observation));
