@@ -68,6 +68,11 @@ int ZenithLed(const RigModel& rig) {
 constexpr int kLinearitySeries = 7;
 // Carriage positions at which the chrome sphere is seen under the linear light.
 constexpr int kProbeStripPositions = 3;
+// The chrome sphere mirrors each LED's (and the strip's) emitting surface: its highlight
+// outshines the diffuse objects that a preset's bracket is sized for by orders of magnitude (on
+// tac7, still saturated after 5 exposures, each 4x shorter, from 10 ms). Its brackets may reach
+// this many exposures further; like every bracket they stop once nothing saturates.
+constexpr int kProbeExtraExposures = 2;
 
 class PlanBuilder {
  public:
@@ -85,6 +90,7 @@ class PlanBuilder {
     step.turntable_deg = turntable_deg;
     step.object = object;
     step.exposure = preset_.exposure;
+    if (kind == StepKind::kLightProbe) step.exposure.max_exposures += kProbeExtraExposures;
     plan_.steps.push_back(std::move(step));
     return plan_.steps.back();
   }
