@@ -59,6 +59,21 @@ void BM_RenderFrame(benchmark::State& state) {
 BENCHMARK(BM_RenderFrame)->Args({0, 1})->Args({0, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RenderFrame)->Args({1, 2})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
+// The same frame from its camera's hits traced once (Scene::TraceCamera), as a scan's steps at
+// one turntable angle render theirs: against BM_RenderFrame, what the rays' marches cost.
+void BM_RenderFrameFromHits(benchmark::State& state) {
+  const Scene& scene = Scenes(static_cast<int>(state.range(0)));
+  const loom::sim::SceneState lights{.leds = {{3, 1000}}};
+  const loom::sim::RenderOptions options{.supersampling = 2, .threads = static_cast<int>(state.range(1))};
+  const loom::sim::CameraHits hits = scene.TraceCamera(1, lights.turntable_deg, options);
+  for (auto _ : state) {
+    const loom::Image radiance = scene.RenderRadiance(hits, lights, options);
+    benchmark::DoNotOptimize(radiance.data());
+  }
+  state.SetItemsProcessed(state.iterations());  // frames
+}
+BENCHMARK(BM_RenderFrameFromHits)->Args({0, 1})->Args({0, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // A tac7 calibration scan's frames (cam1, 2 × 2 supersampling, 2 threads), by range(0): 0 the
 // wedge target under all 29 LEDs, 1 the target under the projector's white pattern, 2 the chrome
 // sphere under one LED, 3 the white tile under one LED.

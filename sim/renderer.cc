@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <thread>
 
 #include "core/check.h"
@@ -225,35 +226,64 @@ Status RenderOptions::Check() const {
   return ProblemsStatus("RenderOptions", problems);
 }
 
-Image Scene::RenderRadiance(int camera_index, const SceneState& state, const RenderOptions& options) const {
+bool CameraHits::Serve(int camera_index, double turntable, const RenderOptions& options) const {
+  return camera == camera_index && turntable_deg == turntable && window == options.window &&
+         supersampling == options.supersampling;
+}
+
+CameraHits Scene::TraceCamera(int camera_index, double turntable_deg, const RenderOptions& options) const {
   const Status checked = options.Check();
   LOOM_CHECK(checked.ok()) << checked.ToString();
   const CameraModel& camera = rig_.cameras.at(camera_index);
-  const Rigid3d sample_from_rig = rig_.turntable.RigFromSample(state.turntable_deg).inverse();
-  const Eigen::Vector3d eye = sample_from_rig * camera.CentreInRig();
+  const Rigid3d sample_from_rig = rig_.turntable.RigFromSample(turntable_deg).inverse();
   const Eigen::Matrix3d sample_from_cam = sample_from_rig.linear() * camera.cam_from_rig.linear().transpose();
   const SensorWindow& window = options.window;
   const bool whole = window.width == 0;
   LOOM_CHECK(whole || (window.x + window.width <= camera.width && window.y + window.height <= camera.height))
       << "window outside camera '" << camera.name << "'";
+  CameraHits hits{.camera = camera_index,
+                  .turntable_deg = turntable_deg,
+                  .window = window,
+                  .supersampling = options.supersampling,
+                  .width = whole ? camera.width : window.width,
+                  .height = whole ? camera.height : window.height,
+                  .eye = sample_from_rig * camera.CentreInRig()};
   const int x0 = whole ? 0 : window.x, y0 = whole ? 0 : window.y;
-  Image radiance(whole ? camera.width : window.width, whole ? camera.height : window.height, {"L"});
   const int ss = options.supersampling;
-  ForEachRow(radiance.height(), ThreadCount(options.threads), [&](int row) {
-    const int y = y0 + row;
-    for (int column = 0; column < radiance.width(); ++column) {
-      const int x = x0 + column;
-      double sum = 0;
+  hits.points.resize(static_cast<size_t>(hits.width) * hits.height * ss * ss);
+  ForEachRow(hits.height, ThreadCount(options.threads), [&](int row) {
+    Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * ss * ss;
+    for (int column = 0; column < hits.width; ++column) {
       for (int sy = 0; sy < ss; ++sy) {
         for (int sx = 0; sx < ss; ++sx) {
-          const Eigen::Vector2d pixel(x + (sx + 0.5) / ss - 0.5, y + (sy + 0.5) / ss - 0.5);
-          const Eigen::Vector3d direction = sample_from_cam * camera.Unproject(pixel);
-          if (const std::optional<Eigen::Vector3d> hit = Intersect(eye, direction)) {
-            sum += RadianceAt(*hit, eye, state, options.shadows);
-          }
+          const Eigen::Vector2d pixel(x0 + column + (sx + 0.5) / ss - 0.5, y0 + row + (sy + 0.5) / ss - 0.5);
+          const std::optional<Eigen::Vector3d> hit = Intersect(hits.eye, sample_from_cam * camera.Unproject(pixel));
+          *point++ = hit ? *hit : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
         }
       }
-      radiance.at(0, row, column) = static_cast<float>(sum / (ss * ss));
+    }
+  });
+  return hits;
+}
+
+Image Scene::RenderRadiance(int camera_index, const SceneState& state, const RenderOptions& options) const {
+  return RenderRadiance(TraceCamera(camera_index, state.turntable_deg, options), state, options);
+}
+
+Image Scene::RenderRadiance(const CameraHits& hits, const SceneState& state, const RenderOptions& options) const {
+  const Status checked = options.Check();
+  LOOM_CHECK(checked.ok()) << checked.ToString();
+  LOOM_CHECK(hits.Serve(hits.camera, state.turntable_deg, options)) << "camera hits traced for another render";
+  Image radiance(hits.width, hits.height, {"L"});
+  const int rays = options.supersampling * options.supersampling;
+  ForEachRow(radiance.height(), ThreadCount(options.threads), [&](int row) {
+    const Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * rays;
+    for (int column = 0; column < radiance.width(); ++column) {
+      double sum = 0;
+      for (int ray = 0; ray < rays; ++ray, ++point) {
+        if (!std::isnan(point->x())) sum += RadianceAt(*point, hits.eye, state, options.shadows);
+      }
+      radiance.at(0, row, column) = static_cast<float>(sum / rays);
     }
   });
   return radiance;

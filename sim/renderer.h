@@ -75,6 +75,25 @@ struct RenderOptions {
   Status Check() const;      // every problem, naming the field (RenderRadiance throws on one)
 };
 
+// Where a camera's rays meet the scene at one turntable angle: what every frame the camera takes
+// at that angle shares, whatever the lights. A scan renders a frame per step and keeps the angle
+// for dozens of steps, and marching each ray into the heightfield again was about 40 % of a
+// one-LED frame (bench_sim).
+struct CameraHits {
+  int camera = -1;
+  double turntable_deg = 0;
+  SensorWindow window;
+  int supersampling = 0;
+  int width = 0;  // of the rendered image (the window's, or the sensor's)
+  int height = 0;
+  Eigen::Vector3d eye = Eigen::Vector3d::Zero();  // the camera's centre, sample frame
+  // Per ray, pixel by pixel (row-major), each pixel's supersampling² rays row by row; a ray that
+  // misses the sample and its holder has NaN coordinates.
+  std::vector<Eigen::Vector3d> points;
+  // Whether these are the hits a render of `camera` at `turntable_deg` with `options` needs.
+  bool Serve(int camera, double turntable_deg, const RenderOptions& options) const;
+};
+
 class Scene {
  public:
   // The material lies on the turntable, centred on its axis.
@@ -85,6 +104,10 @@ class Scene {
 
   // Radiance (one channel, radiance units) seen by camera `camera` (index into rig().cameras).
   Image RenderRadiance(int camera, const SceneState& state, const RenderOptions& options = {}) const;
+  // The same from hits traced before (TraceCamera), which must serve this render (CHECKed):
+  // the same image, bit for bit.
+  Image RenderRadiance(const CameraHits& hits, const SceneState& state, const RenderOptions& options) const;
+  CameraHits TraceCamera(int camera, double turntable_deg, const RenderOptions& options = {}) const;
 
   // Radiance leaving the sample at sample-frame point `p` (on the surface) towards `eye` (a
   // sample-frame position), under `state`; also used by tests and by the fast path.

@@ -144,11 +144,18 @@ class SimCamera : public Camera {
   }
 
   // The radiance of the last frame is kept: an HDR bracket exposes the same scene several
-  // times, and rendering, not exposing, is what costs (2-3 frames per rendering in a scan).
+  // times, and rendering, not exposing, is what costs (2-3 frames per rendering in a scan). So
+  // are the camera's rays' hits, which the steps at one turntable angle share.
   const Image& RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state,
                           const sim::SensorWindow& window) {
     if (scene != rendered_scene_ || !(state == rendered_state_) || !(window == rendered_window_)) {
-      rendered_ = scene->RenderRadiance(index_, state, {.supersampling = supersampling_, .window = window});
+      const sim::RenderOptions options{.supersampling = supersampling_, .window = window};
+      if (scene != traced_scene_ || !hits_.Serve(index_, state.turntable_deg, options)) {
+        hits_ = sim::CameraHits{};  // the old hits freed before the new are traced
+        hits_ = scene->TraceCamera(index_, state.turntable_deg, options);
+        traced_scene_ = scene;
+      }
+      rendered_ = scene->RenderRadiance(hits_, state, options);
       rendered_scene_ = scene;
       rendered_state_ = state;
       rendered_window_ = window;
@@ -167,6 +174,8 @@ class SimCamera : public Camera {
   sim::SceneState rendered_state_;
   sim::SensorWindow rendered_window_;
   Image rendered_;
+  std::shared_ptr<const sim::Scene> traced_scene_;
+  sim::CameraHits hits_;
 };
 
 class SimLedArray : public LedArray {

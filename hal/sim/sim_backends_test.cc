@@ -113,6 +113,28 @@ TEST_F(SimBackendsTest, SameStateSameFrameAndTheTurntableMovesTheSample) {
   EXPECT_EQ(turned.metadata.rig_state.turntable_deg, 90);
 }
 
+// A camera traces its rays once per turntable angle (sim::CameraHits) and renders every step
+// at that angle from them: its frames are those of a camera that renders each afresh.
+TEST_F(SimBackendsTest, FramesFromRaysTracedForAnEarlierStepAreAFreshCamerasFrames) {
+  Result<std::unique_ptr<Rig>> fresh_rig = MakeRig(kRigYaml);  // its camera has traced nothing
+  ASSERT_TRUE(fresh_rig.ok()) << fresh_rig.status().ToString();
+  ASSERT_TRUE((*fresh_rig)->OpenAndConfigure().ok());
+  ASSERT_TRUE((*fresh_rig)->StartAll().ok());
+  Camera& camera = *rig_->cameras()[0];
+  const scan::LedDrive first[] = {{0, 800}};
+  const scan::LedDrive second[] = {{1, 1000}};
+  ASSERT_TRUE(rig_->leds()->Drive(first).ok());
+  const scan::RawFrame at_zero = *rig_->Snap(camera);
+  ASSERT_TRUE(rig_->turntable()->MoveTo(90).ok());
+  ASSERT_TRUE(rig_->Snap(camera).ok());  // traces the rays at 90°
+  ASSERT_TRUE(rig_->leds()->Drive(second).ok());
+  const scan::RawFrame reused = *rig_->Snap(camera);  // from them, under another light
+  const scan::RawFrame fresh = *(*fresh_rig)->Snap(*(*fresh_rig)->cameras()[0]);
+  EXPECT_EQ(fresh.metadata.rig_state.turntable_deg, 90);
+  EXPECT_EQ(reused.pixels, fresh.pixels);
+  EXPECT_NE(reused.pixels, at_zero.pixels);
+}
+
 TEST_F(SimBackendsTest, FilterWheelColoursTheLight) {
   Camera& camera = *rig_->cameras()[0];
   const scan::LedDrive drive[] = {{1, 1000}};  // the LED behind wheel0
