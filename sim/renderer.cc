@@ -144,7 +144,19 @@ double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3
   return intensity / distance2 * reflected;
 }
 
+Scene::TurntablePose Scene::PoseIn(const SceneState& state) const {
+  const Rigid3d rig_from_sample = rig_.turntable.RigFromSample(state.turntable_deg);
+  TurntablePose pose{rig_from_sample, rig_from_sample.inverse()};
+  if (rig_.projector) pose.projector_in_sample = pose.sample_from_rig * rig_.projector->proj_from_rig.inverse().translation();
+  return pose;
+}
+
 double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const {
+  return RadianceAt(p, eye, state, PoseIn(state), shadows);
+}
+
+double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, const TurntablePose& pose,
+                         bool shadows) const {
   Surface surface;
   if (const std::optional<int> pixel = MapPixel(p.x(), p.y())) {
     const int x = *pixel % material_.width(), y = *pixel / material_.width();
@@ -158,9 +170,8 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
   const Reflectance reflectance(surface.params, surface.beyond);
   const Eigen::Matrix3d local_from_world = surface.world_from_local.transpose();
   const Eigen::Vector3d v_local = local_from_world * (eye - p).normalized();
-  const Rigid3d rig_from_sample = rig_.turntable.RigFromSample(state.turntable_deg);
-  const Rigid3d sample_from_rig = rig_from_sample.inverse();
-  const Eigen::Vector3d p_in_rig = rig_from_sample * p;
+  const Rigid3d& sample_from_rig = pose.sample_from_rig;
+  const Eigen::Vector3d p_in_rig = pose.rig_from_sample * p;
   double radiance = 0;
   for (const LitLed& lit : state.leds) {
     if (lit.led < 0 || lit.led >= static_cast<int>(rig_.leds.size())) continue;
@@ -207,9 +218,8 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
       const int rows = std::min(image.height, projector.height);
       if (uv.x() > -0.5 && uv.y() > -0.5 && uv.x() < columns - 0.5 && uv.y() < rows - 0.5) {
         const double level = ProjectedLevel(image, std::clamp(uv.x(), 0.0, columns - 1.0), std::clamp(uv.y(), 0.0, rows - 1.0));
-        radiance +=
-            PointSourceRadiance(p, sample_from_rig * projector.proj_from_rig.inverse().translation(),
-                                projector.max_intensity * level, panchromatic_, reflectance, local_from_world, v_local, shadows);
+        radiance += PointSourceRadiance(p, pose.projector_in_sample, projector.max_intensity * level, panchromatic_, reflectance,
+                                        local_from_world, v_local, shadows);
       }
     }
   }
@@ -276,12 +286,13 @@ Image Scene::RenderRadiance(const CameraHits& hits, const SceneState& state, con
   LOOM_CHECK(hits.Serve(hits.camera, state.turntable_deg, options)) << "camera hits traced for another render";
   Image radiance(hits.width, hits.height, {"L"});
   const int rays = options.supersampling * options.supersampling;
+  const TurntablePose pose = PoseIn(state);
   ForEachRow(radiance.height(), ThreadCount(options.threads), [&](int row) {
     const Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * rays;
     for (int column = 0; column < radiance.width(); ++column) {
       double sum = 0;
       for (int ray = 0; ray < rays; ++ray, ++point) {
-        if (!std::isnan(point->x())) sum += RadianceAt(*point, hits.eye, state, options.shadows);
+        if (!std::isnan(point->x())) sum += RadianceAt(*point, hits.eye, state, pose, options.shadows);
       }
       radiance.at(0, row, column) = static_cast<float>(sum / rays);
     }

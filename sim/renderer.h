@@ -124,6 +124,16 @@ class Scene {
 
  private:
   struct Surface;  // BRDF parameters and local frame of one map pixel
+  // The turntable's pose in a state: computed once per frame rather than once per ray (its
+  // rotation's sines and inverse were an eighth of a frame from traced hits, perf).
+  struct TurntablePose {
+    Rigid3d rig_from_sample;
+    Rigid3d sample_from_rig;
+    Eigen::Vector3d projector_in_sample = Eigen::Vector3d::Zero();  // its centre, if the rig has one
+  };
+  TurntablePose PoseIn(const SceneState& state) const;
+  double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, const TurntablePose& pose,
+                    bool shadows) const;
   std::optional<int> MapPixel(double x_mm, double y_mm) const;
 
   RigModel rig_;
