@@ -152,11 +152,10 @@ Scene::TurntablePose Scene::PoseIn(const SceneState& state) const {
 }
 
 double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const {
-  return RadianceAt(p, eye, state, PoseIn(state), shadows);
+  return RadianceAt(ShadeAt(p), eye, state, PoseIn(state), shadows);
 }
 
-double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, const TurntablePose& pose,
-                         bool shadows) const {
+Scene::ShadingPoint Scene::ShadeAt(const Eigen::Vector3d& p) const {
   Surface surface;
   if (const std::optional<int> pixel = MapPixel(p.x(), p.y())) {
     const int x = *pixel % material_.width(), y = *pixel / material_.width();
@@ -167,8 +166,14 @@ double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, c
     surface.params.a_d = Eigen::Vector3d::Constant(kHolderAlbedo);
     surface.params.a_s = Eigen::Vector3d::Zero();
   }
-  const Reflectance reflectance(surface.params, surface.beyond);
-  const Eigen::Matrix3d local_from_world = surface.world_from_local.transpose();
+  return {p, Reflectance(surface.params, surface.beyond), surface.world_from_local.transpose()};
+}
+
+double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, const SceneState& state,
+                         const TurntablePose& pose, bool shadows) const {
+  const Eigen::Vector3d& p = point.p;
+  const Reflectance& reflectance = point.reflectance;
+  const Eigen::Matrix3d& local_from_world = point.local_from_world;
   const Eigen::Vector3d v_local = local_from_world * (eye - p).normalized();
   const Rigid3d& sample_from_rig = pose.sample_from_rig;
   const Eigen::Vector3d p_in_rig = pose.rig_from_sample * p;
@@ -292,7 +297,7 @@ Image Scene::RenderRadiance(const CameraHits& hits, const SceneState& state, con
     for (int column = 0; column < radiance.width(); ++column) {
       double sum = 0;
       for (int ray = 0; ray < rays; ++ray, ++point) {
-        if (!std::isnan(point->x())) sum += RadianceAt(*point, hits.eye, state, pose, options.shadows);
+        if (!std::isnan(point->x())) sum += RadianceAt(ShadeAt(*point), hits.eye, state, pose, options.shadows);
       }
       radiance.at(0, row, column) = static_cast<float>(sum / rays);
     }

@@ -112,6 +112,25 @@ class Scene {
   // Radiance leaving the sample at sample-frame point `p` (on the surface) towards `eye` (a
   // sample-frame position), under `state`; also used by tests and by the fast path.
   double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const;
+
+  // RadianceAt in parts, for renders of many points or many states: what a state gives every
+  // point (the turntable's pose) and what a point keeps under every state (its reflectance and
+  // frame), each computed once. The turntable's rotation per ray was an eighth of a frame, the
+  // point's anisotropy frame per observation a fifth of a fast-path stack (perf).
+  struct TurntablePose {
+    Rigid3d rig_from_sample;
+    Rigid3d sample_from_rig;
+    Eigen::Vector3d projector_in_sample = Eigen::Vector3d::Zero();  // its centre, if the rig has one
+  };
+  struct ShadingPoint {
+    Eigen::Vector3d p;
+    Reflectance reflectance;
+    Eigen::Matrix3d local_from_world;
+  };
+  TurntablePose PoseIn(const SceneState& state) const;
+  ShadingPoint ShadeAt(const Eigen::Vector3d& p) const;
+  double RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, const SceneState& state, const TurntablePose& pose,
+                    bool shadows) const;
   // First surface point along a sample-frame ray (direction unit), or nothing if it misses the
   // holder.
   std::optional<Eigen::Vector3d> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
@@ -124,16 +143,6 @@ class Scene {
 
  private:
   struct Surface;  // BRDF parameters and local frame of one map pixel
-  // The turntable's pose in a state: computed once per frame rather than once per ray (its
-  // rotation's sines and inverse were an eighth of a frame from traced hits, perf).
-  struct TurntablePose {
-    Rigid3d rig_from_sample;
-    Rigid3d sample_from_rig;
-    Eigen::Vector3d projector_in_sample = Eigen::Vector3d::Zero();  // its centre, if the rig has one
-  };
-  TurntablePose PoseIn(const SceneState& state) const;
-  double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, const TurntablePose& pose,
-                    bool shadows) const;
   std::optional<int> MapPixel(double x_mm, double y_mm) const;
 
   RigModel rig_;

@@ -64,6 +64,13 @@ ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>&
   result.rig = rig.name;
   result.source = "sim fast path";
   Image& stack = result.image;
+  // What each observation gives every pixel: the turntable's pose and the camera's centre.
+  std::vector<Scene::TurntablePose> poses;
+  std::vector<Eigen::Vector3d> eyes;
+  for (const Observation& observation : observations) {
+    poses.push_back(scene.PoseIn(observation.state));
+    eyes.push_back(poses.back().sample_from_rig * rig.cameras.at(observation.camera).CentreInRig());
+  }
   const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
@@ -78,15 +85,14 @@ ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>&
             stack.at(i, y, x) = static_cast<float>(p[i]);
             stack.at(3 + i, y, x) = static_cast<float>(normal[i]);
           }
+          const Scene::ShadingPoint point = scene.ShadeAt(p);
           for (size_t o = 0; o < observations.size(); ++o) {
-            const Observation& observation = observations[o];
-            const Rigid3d sample_from_rig = rig.turntable.RigFromSample(observation.state.turntable_deg).inverse();
-            const Eigen::Vector3d eye = sample_from_rig * rig.cameras.at(observation.camera).CentreInRig();
+            const Eigen::Vector3d& eye = eyes[o];
             // Seen only if the camera's ray to p meets the surface at p, not before it.
             const std::optional<Eigen::Vector3d> hit = scene.Intersect(eye, (p - eye).normalized());
             const bool visible = hit && (*hit - p).norm() < 0.5 * material.pixel_mm;
             stack.at(6 + static_cast<int>(o), y, x) =
-                visible ? static_cast<float>(scene.RadianceAt(p, eye, observation.state, options.shadows))
+                visible ? static_cast<float>(scene.RadianceAt(point, eye, observations[o].state, poses[o], options.shadows))
                         : std::numeric_limits<float>::quiet_NaN();
           }
         }
