@@ -132,15 +132,15 @@ bool Scene::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) con
   return heightmap_.max_height_mm() > 0 && heightmap_.Shadowed(p, light);
 }
 
-double Scene::PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
-                                  const Eigen::Vector3d& weights, const Reflectance& reflectance,
-                                  const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local, bool shadows) const {
+double Scene::PointSourceRadiance(const ShadingPoint& point, const Eigen::Vector3d& light, double intensity,
+                                  const Eigen::Vector3d& weights, const Eigen::Vector3d& v_local, bool shadows) const {
   if (intensity <= 0) return 0;
-  const Eigen::Vector3d to_light = light - p;
+  const Eigen::Vector3d to_light = light - point.p;
   const double distance2 = to_light.squaredNorm();
-  const double reflected = reflectance.EvaluateCos(local_from_world * (to_light / std::sqrt(distance2)), v_local, weights);
+  const double reflected =
+      point.reflectance.EvaluateCos(point.local_from_world * (to_light / std::sqrt(distance2)), v_local, weights);
   if (reflected <= 0) return 0;
-  if (shadows && Shadowed(p, light)) return 0;
+  if (shadows && Shadowed(point.p, light)) return 0;
   return intensity / distance2 * reflected;
 }
 
@@ -172,9 +172,7 @@ Scene::ShadingPoint Scene::ShadeAt(const Eigen::Vector3d& p) const {
 double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, const SceneState& state,
                          const TurntablePose& pose, bool shadows) const {
   const Eigen::Vector3d& p = point.p;
-  const Reflectance& reflectance = point.reflectance;
-  const Eigen::Matrix3d& local_from_world = point.local_from_world;
-  const Eigen::Vector3d v_local = local_from_world * (eye - p).normalized();
+  const Eigen::Vector3d v_local = point.local_from_world * (eye - p).normalized();
   const Rigid3d& sample_from_rig = pose.sample_from_rig;
   const Eigen::Vector3d p_in_rig = pose.rig_from_sample * p;
   double radiance = 0;
@@ -190,8 +188,8 @@ double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, 
         weights = filter_weights_[w][slot->second];
       }
     }
-    radiance += PointSourceRadiance(p, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma), weights,
-                                    reflectance, local_from_world, v_local, shadows);
+    radiance += PointSourceRadiance(point, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma),
+                                    weights, v_local, shadows);
   }
   if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
     // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
@@ -206,8 +204,7 @@ double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, 
       if (c <= 0) continue;
       const double intensity = strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * state.linear_light_intensity *
                                CosinePower(c, strip.falloff_exponent);
-      radiance += PointSourceRadiance(p, sample_from_rig * source, intensity, panchromatic_, reflectance, local_from_world,
-                                      v_local, shadows);
+      radiance += PointSourceRadiance(point, sample_from_rig * source, intensity, panchromatic_, v_local, shadows);
     }
   }
   if (rig_.projector && state.projector_image) {
@@ -223,8 +220,8 @@ double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, 
       const int rows = std::min(image.height, projector.height);
       if (uv.x() > -0.5 && uv.y() > -0.5 && uv.x() < columns - 0.5 && uv.y() < rows - 0.5) {
         const double level = ProjectedLevel(image, std::clamp(uv.x(), 0.0, columns - 1.0), std::clamp(uv.y(), 0.0, rows - 1.0));
-        radiance += PointSourceRadiance(p, pose.projector_in_sample, projector.max_intensity * level, panchromatic_, reflectance,
-                                        local_from_world, v_local, shadows);
+        radiance += PointSourceRadiance(point, pose.projector_in_sample, projector.max_intensity * level, panchromatic_, v_local,
+                                        shadows);
       }
     }
   }
@@ -262,7 +259,8 @@ CameraHits Scene::TraceCamera(int camera_index, double turntable_deg, const Rend
                   .supersampling = options.supersampling,
                   .width = whole ? camera.width : window.width,
                   .height = whole ? camera.height : window.height,
-                  .eye = sample_from_rig * camera.CentreInRig()};
+                  .eye = sample_from_rig * camera.CentreInRig(),
+                  .points = {}};
   const int x0 = whole ? 0 : window.x, y0 = whole ? 0 : window.y;
   const int ss = options.supersampling;
   hits.points.resize(static_cast<size_t>(hits.width) * hits.height * ss * ss);

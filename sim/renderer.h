@@ -157,9 +157,8 @@ class Scene {
 
   // Radiance at `p` from one point source at `light` (sample frame) of radiant intensity
   // `intensity` towards p, with `weights` for the albedos.
-  double PointSourceRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& light, double intensity,
-                             const Eigen::Vector3d& weights, const Reflectance& reflectance,
-                             const Eigen::Matrix3d& local_from_world, const Eigen::Vector3d& v_local, bool shadows) const;
+  double PointSourceRadiance(const ShadingPoint& point, const Eigen::Vector3d& light, double intensity,
+                             const Eigen::Vector3d& weights, const Eigen::Vector3d& v_local, bool shadows) const;
 };
 
 // The sensor: electrons → DN with noise, 16-bit container holding adc_bits values. `radiance`
