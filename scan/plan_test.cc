@@ -102,8 +102,8 @@ TEST(PlanTest, MiniRigAndCalibrationPlan) {
   EXPECT_EQ(calibration.Images(StepKind::kDark), 2);
   EXPECT_EQ(calibration.Images(StepKind::kLightProbe), (12 + 3) * 2);  // every LED and the strip at 3 positions
   // The chrome sphere's mirrored highlights may take a deeper bracket than the diffuse objects.
+  const int preset_exposures = LoadShippedPreset("low").exposure.max_exposures;
   for (const Step& step : calibration.steps) {
-    const int preset_exposures = LoadShippedPreset("low").exposure.max_exposures;
     EXPECT_EQ(step.exposure.max_exposures, preset_exposures + (step.kind == StepKind::kLightProbe ? 2 : 0)) << step.index;
   }
   // The projector's patterns (2 references, 9 Gray bits and their inverses, 4 phases for 320
