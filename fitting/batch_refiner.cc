@@ -31,6 +31,16 @@ constexpr double kMinRadius = 1e-32;
 constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kMinDiagonal = 1e-6;
 constexpr double kMaxDiagonal = 1e32;
+// Two departures from Ceres' trust-region rule, each measured (docs/benchmarks.md, session 30).
+// After a rejected step the next is at most the length where the parabola through the cost at
+// both ends and the slope at the start has its minimum, within [kRetreatMin, kRetreatMax] of the
+// rejected one: halving the radius from far above where the damping acts gave nearly the same
+// step again, and rejected runs of 5. After a step the quadratic model predicted within
+// kGoodModel, the radius grows kExtraGrowth times more.
+constexpr double kRetreatMin = 0.1;
+constexpr double kRetreatMax = 0.5;
+constexpr double kGoodModel = 0.1;
+constexpr double kExtraGrowth = 3;
 
 // Tangent index → ambient index: the normal's 2 tangent coordinates stand for n_s's 3.
 constexpr int Ambient(int i) { return i + 1; }
@@ -123,6 +133,9 @@ struct Lane {
   Matrix12 meat = Matrix12::Zero();   // Σ ψ(r)² g gᵀ
   double predicted_decrease = 0;
   double radius = kInitialRadius, decrease_factor = 2;
+  Vector12 step_scaled = Vector12::Zero();                    // the last trial step in the Jacobi-scaled space
+  double max_step = std::numeric_limits<double>::infinity();  // on the next trial step's scaled length
+  double step_slope = 0;                                      // the cost's slope along the last trial step
   int iterations = 0, used = 0;
   double inverse_scale = 1;
 };
@@ -217,7 +230,9 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
       g[i] = 0;
     }
     const Eigen::LLT<Matrix12> llt(a);
-    Vector12 delta = llt.info() == Eigen::Success ? Vector12(scale.cwiseProduct(llt.solve(-g))) : Vector12::Constant(NAN);
+    Vector12 scaled = llt.info() == Eigen::Success ? Vector12(llt.solve(-g)) : Vector12::Constant(NAN);
+    if (scaled.norm() > lane.max_step) scaled *= lane.max_step / scaled.norm();
+    const Vector12 delta = scale.cwiseProduct(scaled);
     if (delta.allFinite()) {
       const Vector12 taken = Move(lane.x, lane.basis, delta, lane.trial);
       double x_norm = 0;
@@ -225,7 +240,9 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
       if (taken.norm() <= options.parameter_tolerance * (std::sqrt(x_norm) + options.parameter_tolerance)) {
         return StepOutcome::kConverged;
       }
-      lane.predicted_decrease = -(taken.dot(lane.jtr) + 0.5 * taken.dot(lane.jtj * taken));
+      lane.step_slope = taken.dot(lane.jtr);
+      lane.predicted_decrease = -(lane.step_slope + 0.5 * taken.dot(lane.jtj * taken));
+      lane.step_scaled = taken.cwiseQuotient(scale);
       if (lane.predicted_decrease > 0) {
         lane.trial_basis = BasisOf(lane.trial);
         return StepOutcome::kReady;
@@ -236,6 +253,14 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
     lane.decrease_factor *= 2;
     if (lane.radius < kMinRadius) return StepOutcome::kConverged;
   }
+}
+
+// Where along a rejected step (as a fraction of it) the parabola through the cost at its start,
+// the slope there and the cost at its end has its minimum, bounded to the retreat's range.
+double RetreatFraction(const Lane& lane, double rejected_cost) {
+  const double curvature = rejected_cost - lane.cost - lane.step_slope;
+  const double minimum = curvature > 0 ? -lane.step_slope / (2 * curvature) : kRetreatMax;
+  return std::clamp(minimum, kRetreatMin, kRetreatMax);
 }
 
 void Accept(Lane& lane, const Evaluation& e) {
@@ -407,11 +432,14 @@ class Batch {
         lane.basis = lane.trial_basis;
         Accept(lane, e);
         lane.radius = std::min(kMaxRadius, lane.radius / std::max(1.0 / 3, 1 - std::pow(2 * ratio - 1, 3)));
+        if (std::abs(ratio - 1) < kGoodModel) lane.radius = std::min(kMaxRadius, kExtraGrowth * lane.radius);
         lane.decrease_factor = 2;
+        lane.max_step = std::numeric_limits<double>::infinity();
         converged = unresolved || std::abs(decrease) <= options_.function_tolerance * old_cost;
       } else {
         lane.radius /= lane.decrease_factor;
         lane.decrease_factor *= 2;
+        if (std::isfinite(e.cost)) lane.max_step = RetreatFraction(lane, e.cost) * lane.step_scaled.norm();
         converged = unresolved || lane.radius < kMinRadius;
       }
     }

@@ -167,7 +167,11 @@ TEST(StripQuadratureTest, SixteenNodesAroundTheLobeAreNearerTheContinuousStripTh
 
 // The stack fitter's first fits with the strips as nodes around each pixel's start: a pixel whose
 // lobe leaves the span its nodes were placed for is fitted again with nodes placed where it
-// ended; the fits end where the emitters' do.
+// ended; the normals end as near the truth as the emitters' fits, and where both find it, σ ends
+// where the emitters' does. (From these far starts the emitters' fits find more true normals,
+// 40 of 64 within 0.5° against the nodes' 36, since the refiner's retreat after a rejected
+// step: the nodes are placed for the start's lobe, so a path far from it follows a coarser
+// integral.)
 TEST(StripQuadratureTest, TheRefinerFitsWithNodesAndPlacesThemAgainWhereALobeMoved) {
   const sim::Material fabric = sim::GenerateFabric(5, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
@@ -194,7 +198,7 @@ TEST(StripQuadratureTest, TheRefinerFitsWithNodesAndPlacesThemAgainWhereALobeMov
   EXPECT_EQ(with_emitters->summary.pixels_nodes_replaced, 0);
   EXPECT_GT(with_nodes->summary.pixels_nodes_replaced, 0);
   EXPECT_EQ(with_nodes->summary.ToJson()["pixels_nodes_replaced"], with_nodes->summary.pixels_nodes_replaced);
-  std::vector<double> normal_deg, emitters_normal_deg, sigma_error, emitters_sigma_error;
+  std::vector<double> normal_deg, emitters_normal_deg, sigma_change;
   const auto angle_deg = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
     return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180 / M_PI;
   };
@@ -204,19 +208,24 @@ TEST(StripQuadratureTest, TheRefinerFitsWithNodesAndPlacesThemAgainWhereALobeMov
       const WardParams<double> nodes = GetParams(with_nodes->maps, x, y), emitters = GetParams(with_emitters->maps, x, y);
       normal_deg.push_back(angle_deg(truth.n_s, nodes.n_s));
       emitters_normal_deg.push_back(angle_deg(truth.n_s, emitters.n_s));
-      sigma_error.push_back(std::abs(nodes.sigma_x - truth.sigma_x) / truth.sigma_x);
-      emitters_sigma_error.push_back(std::abs(emitters.sigma_x - truth.sigma_x) / truth.sigma_x);
+      // σ compared only where both fits found the true normal: from starts this far off, either
+      // ends in a wrong basin for a third of the pixels, and which pixels differs with the path.
+      if (normal_deg.back() < 0.5 && emitters_normal_deg.back() < 0.5) {
+        sigma_change.push_back(std::abs(nodes.sigma_x - emitters.sigma_x) / emitters.sigma_x);
+      }
     }
   }
   std::cout << "normal error median / p90: with nodes " << Percentile(normal_deg, 0.5) << "° / " << Percentile(normal_deg, 0.9)
             << "°, with the emitters " << Percentile(emitters_normal_deg, 0.5) << "° / " << Percentile(emitters_normal_deg, 0.9)
-            << "°; σx error median " << 100 * Percentile(sigma_error, 0.5) << " % / "
-            << 100 * Percentile(emitters_sigma_error, 0.5) << " %; " << with_nodes->summary.pixels_nodes_replaced
+            << "°; within 0.5° " << std::count_if(normal_deg.begin(), normal_deg.end(), [](double d) { return d < 0.5; }) << " / "
+            << std::count_if(emitters_normal_deg.begin(), emitters_normal_deg.end(), [](double d) { return d < 0.5; })
+            << ", both at " << sigma_change.size() << " pixels, σx nodes / emitters there median "
+            << 100 * Percentile(sigma_change, 0.5) << " %; " << with_nodes->summary.pixels_nodes_replaced
             << " pixels' nodes placed again\n";
-  // As near the truth as the emitters' fits (both end in a wrong basin for a tenth of these starts).
   EXPECT_LT(Percentile(normal_deg, 0.5), Percentile(emitters_normal_deg, 0.5) + 0.1);
   EXPECT_LT(Percentile(normal_deg, 0.9), Percentile(emitters_normal_deg, 0.9) + 0.5);
-  EXPECT_LT(Percentile(sigma_error, 0.5), Percentile(emitters_sigma_error, 0.5) + 0.01);
+  ASSERT_GE(sigma_change.size(), 16u);
+  EXPECT_LT(Percentile(sigma_change, 0.5), 0.01);
 }
 
 }  // namespace
