@@ -576,7 +576,10 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
   std::vector<Eigen::Matrix3d> outer;  // w wᵀ per group
   for (const Eigen::Vector3d& w : weights) outer.push_back(w * w.transpose());
   std::vector<std::pair<double, WardParams<double>>> scored;
-  std::vector<std::array<double, 5>> sums(weights.size());  // Σ D², DS, S², D y, S y per group
+  // Σ D², DS, S², D y, S y per group, each for the batch's kLanes candidates side by side: the
+  // kernel writes an observation's lanes next to each other, so the sums run across them.
+  using LaneSums = std::array<std::array<double, kLanes>, 5>;
+  std::vector<LaneSums> sums(weights.size());
   internal::LaneInputs inputs{};
   for (size_t first = 0; first < candidates.size(); first += kLanes) {
     for (int lane = 0; lane < kLanes; ++lane) {
@@ -584,22 +587,26 @@ std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& 
       for (int i = 0; i < kAmbientParams; ++i) inputs.params[i][lane] = x[i];
     }
     internal::SumTermsLanes(data, inputs, diffuse.data(), specular.data());
-    for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
-      std::fill(sums.begin(), sums.end(), std::array<double, 5>{});
-      for (size_t u = 0; u < usable.observations.size(); ++u) {
-        const size_t k = static_cast<size_t>(usable.slots[u]) * kLanes + lane;
-        const double d = diffuse[k], sp = specular[k], y = usable.observations[u]->radiance;
-        std::array<double, 5>& sum = sums[group[u]];
-        sum[0] += d * d, sum[1] += d * sp, sum[2] += sp * sp, sum[3] += d * y, sum[4] += sp * y;
+    std::fill(sums.begin(), sums.end(), LaneSums{});
+    for (size_t u = 0; u < usable.observations.size(); ++u) {
+      const double* d = &diffuse[static_cast<size_t>(usable.slots[u]) * kLanes];
+      const double* sp = &specular[static_cast<size_t>(usable.slots[u]) * kLanes];
+      const double y = usable.observations[u]->radiance;
+      LaneSums& sum = sums[group[u]];
+      for (int lane = 0; lane < kLanes; ++lane) {
+        sum[0][lane] += d[lane] * d[lane], sum[1][lane] += d[lane] * sp[lane], sum[2][lane] += sp[lane] * sp[lane];
+        sum[3][lane] += d[lane] * y, sum[4][lane] += sp[lane] * y;
       }
+    }
+    for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
       Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
       for (size_t g = 0; g < weights.size(); ++g) {
-        normal.topLeftCorner<3, 3>() += sums[g][0] * outer[g];
-        normal.topRightCorner<3, 3>() += sums[g][1] * outer[g];
-        normal.bottomRightCorner<3, 3>() += sums[g][2] * outer[g];
-        rhs.head<3>() += sums[g][3] * weights[g];
-        rhs.tail<3>() += sums[g][4] * weights[g];
+        normal.topLeftCorner<3, 3>() += sums[g][0][lane] * outer[g];
+        normal.topRightCorner<3, 3>() += sums[g][1][lane] * outer[g];
+        normal.bottomRightCorner<3, 3>() += sums[g][2][lane] * outer[g];
+        rhs.head<3>() += sums[g][3][lane] * weights[g];
+        rhs.tail<3>() += sums[g][4][lane] * weights[g];
       }
       normal.bottomLeftCorner<3, 3>() = normal.topRightCorner<3, 3>().transpose();
       WardParams<double> candidate = candidates[first + lane];
