@@ -8,6 +8,8 @@ cd "$(dirname "$0")/.."
 packages=(
   # toolchain
   cmake ninja-build g++ pkg-config ccache iproute2 clang-format
+  # scripts/fuzz.sh: libFuzzer's clang with its runtime (ASan, UBSan, the fuzzer)
+  clang libclang-rt-14-dev
   # hardware backends
   libaravis-dev aravis-tools libusb-1.0-0-dev libmodbus-dev
   # algorithms and data

@@ -7,5 +7,9 @@ start=$(date +%s)
 bash scripts/install-deps.sh
 bash scripts/build.sh
 echo "build finished after $(( $(date +%s) - start )) s"
+# The readers of hostile input (rig and plan YAML, the capture store's journal, stack and map
+# files) fuzzed under ASan + UBSan, 20 s each: a crash, leak or hang fails the run.
+bash scripts/fuzz.sh 20
+echo "fuzzing finished after $(( $(date +%s) - start )) s"
 cd build
 ctest --output-on-failure --no-label-summary -j "$(nproc)"
