@@ -217,8 +217,13 @@ CameraBlock InitialBlock(const CameraModel& camera, const CalibrationTargetModel
 
 }  // namespace
 
-Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target) {
+std::optional<std::vector<Eigen::Vector2d>> FindTargetCorners(const RadianceView& view, const CalibrationTargetModel& target) {
   const BoardSpec board{"chessboard", target.inner_cols, target.inner_rows, target.square_mm};
+  const cv::Rect window = WindowRect(view);
+  return FindBoardCorners(ToGrey(view.radiance)(window), board, Eigen::Vector2d(window.x, window.y));
+}
+
+Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target) {
   const RigModel& rig = scan.rig();
   DetectedTargetViews detected;
   for (const scan::Step& step : scan.plan().steps) {
@@ -226,12 +231,7 @@ Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const Ca
     for (const std::string& camera_name : step.cameras) {
       LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera_name));
       const scan::ViewId id{step.index, camera_name};
-      // Only the window read (a calibration scan through object windows): outside it the view is
-      // unobserved, drawn white, and on tac7 that white was most of the image, on which the
-      // detector's normalisation (histogram equalisation) then lost the board in every view.
-      const cv::Rect window = WindowRect(view);
-      std::optional<std::vector<Eigen::Vector2d>> corners =
-          FindBoardCorners(ToGrey(view.radiance)(window), board, Eigen::Vector2d(window.x, window.y));
+      const std::optional<std::vector<Eigen::Vector2d>> corners = FindTargetCorners(view, target);
       if (!corners) {
         LOOM_LOG(Warning) << id.ToString() << ": target not found, view skipped";
         detected.skipped.push_back(id);

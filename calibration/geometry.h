@@ -18,6 +18,7 @@
 //     intrinsics are held at their prior, calibrated from close-up photos.
 // The turntable axis in a camera's frame is cam_from_rig's image of the rig's z axis.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,12 @@ struct DetectedTargetViews {
   std::vector<scan::ViewId> skipped;
 };
 Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target);
+
+// The target's inner corners in one view (sensor pixels, in the detector's order), sought only
+// in the window its frames read: outside it the view is unobserved (NaN), which the 8-bit image
+// draws white, and on a large sensor that white was most of the image, on which the detector's
+// normalisation (histogram equalisation) lost the board. Nothing when the board is not found.
+std::optional<std::vector<Eigen::Vector2d>> FindTargetCorners(const RadianceView& view, const CalibrationTargetModel& target);
 
 // `nominal` with the calibrated cameras, in the turntable's frame.
 RigModel ApplyGeometry(const RigModel& nominal, const RigGeometry& geometry);

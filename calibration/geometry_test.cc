@@ -18,6 +18,46 @@ using testing::WithSideCameraNudged;
 // The target as the operator put it: 0.4 mm and -0.3 mm off the axis.
 const TargetPlacement kPlacement{Eigen::Vector2d(0.4, -0.3), 0};
 
+// A view of a calibration scan through object windows, as tac7's: a 2048 × 1536 sensor read
+// only in an 816 × 624 window at (616, 456) (NaN elsewhere), the board's 70 px squares (7 × 5
+// inner corners) on a white margin inside it.
+RadianceView WindowedBoardView(const Eigen::Vector2d& first_corner, double square_px) {
+  RadianceView view;
+  view.window = {616, 456, 816, 624};
+  view.radiance = Image(2048, 1536, {"L"});
+  for (int y = 0; y < 1536; ++y) {
+    for (int x = 0; x < 2048; ++x) {
+      const bool inside = x >= view.window.x && x < view.window.x + view.window.width && y >= view.window.y &&
+                          y < view.window.y + view.window.height;
+      // Squares (i, j), i in [-1, 7), j in [-1, 5), the top-left one dark; pixel centres at integers.
+      const int i = static_cast<int>(std::floor((x - first_corner.x()) / square_px)) + 1;
+      const int j = static_cast<int>(std::floor((y - first_corner.y()) / square_px)) + 1;
+      const bool on_board = i >= 0 && i < 8 && j >= 0 && j < 6;
+      view.radiance.at(0, y, x) = !inside ? NAN : on_board && (i + j) % 2 == 0 ? 0.04f : 0.85f;
+    }
+  }
+  return view;
+}
+
+TEST(GeometryTest, TheTargetIsSoughtInTheWindowTheViewRead) {
+  const Eigen::Vector2d first_corner(616 + 230.5, 456 + 180.5);
+  RadianceView view = WindowedBoardView(first_corner, 70);
+  CalibrationTargetModel target;
+  const std::optional<std::vector<Eigen::Vector2d>> corners = FindTargetCorners(view, target);
+  ASSERT_TRUE(corners.has_value());
+  ASSERT_EQ(corners->size(), 35u);
+  // In sensor pixels, whichever of the board's orders the detector reads.
+  for (const Eigen::Vector2d& corner : *corners) {
+    const Eigen::Vector2d k = (corner - first_corner) / 70;
+    EXPECT_LT((k - k.array().round().matrix()).norm() * 70, 0.3) << corner.transpose();
+    EXPECT_TRUE(k.x() > -0.5 && k.x() < 6.5 && k.y() > -0.5 && k.y() < 4.5) << corner.transpose();
+  }
+  // The same view sought over the whole sensor, white where it was not read: the failure that
+  // lost the board in every tac7 view.
+  view.window = {};
+  EXPECT_FALSE(FindTargetCorners(view, target).has_value());
+}
+
 TEST(GeometryTest, FindsTheAsBuiltCamerasFromTheNominalOnes) {
   const RigModel nominal = SyntheticNominalRig();
   const RigModel as_built = WithSideCameraNudged(nominal);
