@@ -133,7 +133,7 @@ struct Lane {
   Matrix12 meat = Matrix12::Zero();   // Σ ψ(r)² g gᵀ
   double predicted_decrease = 0;
   double radius = kInitialRadius, decrease_factor = 2;
-  Vector12 step_scaled = Vector12::Zero();                    // the last trial step in the Jacobi-scaled space
+  double step_scaled_norm = 0;                                // the last trial step's length in the Jacobi-scaled space
   double max_step = std::numeric_limits<double>::infinity();  // on the next trial step's scaled length
   double step_slope = 0;                                      // the cost's slope along the last trial step
   int iterations = 0, used = 0;
@@ -242,7 +242,7 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
       }
       lane.step_slope = taken.dot(lane.jtr);
       lane.predicted_decrease = -(lane.step_slope + 0.5 * taken.dot(lane.jtj * taken));
-      lane.step_scaled = taken.cwiseQuotient(scale);
+      lane.step_scaled_norm = taken.cwiseQuotient(scale).norm();
       if (lane.predicted_decrease > 0) {
         lane.trial_basis = BasisOf(lane.trial);
         return StepOutcome::kReady;
@@ -439,7 +439,7 @@ class Batch {
       } else {
         lane.radius /= lane.decrease_factor;
         lane.decrease_factor *= 2;
-        if (std::isfinite(e.cost)) lane.max_step = RetreatFraction(lane, e.cost) * lane.step_scaled.norm();
+        if (std::isfinite(e.cost)) lane.max_step = RetreatFraction(lane, e.cost) * lane.step_scaled_norm;
         converged = unresolved || lane.radius < kMinRadius;
       }
     }

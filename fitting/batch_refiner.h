@@ -12,9 +12,10 @@
 // (internal/refine_kernel.h: structure-of-arrays, vectorised across pixels); each pixel then takes
 // its own LM step — a 12 × 12 normal-equation solve with Ceres' trust-region rules for damping
 // (but for a shorter retreat after a rejected step and faster growth after a well-predicted one:
-// batch_refiner.cc says why), its own convergence test (Ceres' function, gradient and parameter tolerances), and bounds
-// held by an active set (a parameter at a bound that the gradient pushes out is frozen for the
-// step) plus projection. A pixel that finishes hands its lane to the next one.
+// batch_refiner.cc says why), its own convergence test (Ceres' function, gradient and parameter
+// tolerances), and bounds held by an active set (a parameter at a bound that the gradient pushes
+// out is frozen for the step) plus projection. A pixel that finishes hands its lane to the next
+// one.
 //
 // Optionally the objective adds a Gaussian prior toward the start (the CNN's prediction) or
 // another estimate (RefineProblem::prior_mean: e.g. the neighbours' parameters):
