@@ -548,74 +548,124 @@ Status RefineOptions::Check() const {
   return ProblemsStatus("RefineOptions", problems);
 }
 
-std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& observations, double f0, int count,
-                                           int max_lights) {
-  const internal::UsableObservations usable = internal::Usable(observations);
-  if (usable.observations.empty()) return {};
-  std::vector<int> layout(*std::max_element(usable.slots.begin(), usable.slots.end()) + 1, 0);
-  for (size_t u = 0; u < usable.observations.size(); ++u) {
-    const int lights = static_cast<int>(usable.observations[u]->lights.size());
-    layout[usable.slots[u]] = max_lights > 0 ? std::min(lights, max_lights) : lights;
-  }
-  internal::LaneData data(layout);
-  internal::LoadLane(usable, 0, data);
-  for (int lane = 1; lane < kLanes; ++lane) data.CopyLane(0, data, lane);
-  const std::vector<WardParams<double>> candidates = internal::GridCandidates(f0);
-  std::vector<double> diffuse(layout.size() * kLanes), specular(layout.size() * kLanes);
-  // The albedos' normal equations are Σ over observations of (D², DS, S²) · w wᵀ and (D, S) · y w:
-  // observations that share colour weights w (every monochrome one) are summed as scalars first.
-  std::vector<Eigen::Vector3d> weights;  // distinct colour weights
-  std::vector<int> group;                // per usable observation: its index in `weights`
-  double squares = 0;                    // Σ y²
-  for (const PixelObservation* o : usable.observations) {
-    const auto found = std::find(weights.begin(), weights.end(), o->rgb_weights);
-    group.push_back(static_cast<int>(found - weights.begin()));
-    if (found == weights.end()) weights.push_back(o->rgb_weights);
-    squares += o->radiance * o->radiance;
-  }
-  std::vector<Eigen::Matrix3d> outer;  // w wᵀ per group
-  for (const Eigen::Vector3d& w : weights) outer.push_back(w * w.transpose());
-  std::vector<std::pair<double, WardParams<double>>> scored;
-  // Σ D², DS, S², D y, S y per group, each for the batch's kLanes candidates side by side: the
-  // kernel writes an observation's lanes next to each other, so the sums run across them.
-  using LaneSums = std::array<std::array<double, kLanes>, 5>;
-  std::vector<LaneSums> sums(weights.size());
-  internal::LaneInputs inputs{};
-  for (size_t first = 0; first < candidates.size(); first += kLanes) {
-    for (int lane = 0; lane < kLanes; ++lane) {
-      const Params x = Pack(candidates[std::min(first + lane, candidates.size() - 1)]);
-      for (int i = 0; i < kAmbientParams; ++i) inputs.params[i][lane] = x[i];
+namespace {
+
+// Scores lobe shapes for one pixel on the refiner's kernel, 8 per vectorised call: each with its
+// least-squares albedos, from the normal equations summed per colour-weight group.
+class GridScorer {
+ public:
+  GridScorer(const internal::UsableObservations& usable, int max_lights) : usable_(usable), data_(Layout(usable, max_lights)) {
+    internal::LoadLane(usable, 0, data_);
+    for (int lane = 1; lane < kLanes; ++lane) data_.CopyLane(0, data_, lane);
+    diffuse_.resize(data_.observations * kLanes), specular_.resize(data_.observations * kLanes);
+    // The albedos' normal equations are Σ over observations of (D², DS, S²) · w wᵀ and (D, S) · y w:
+    // observations that share colour weights w (every monochrome one) are summed as scalars first.
+    for (const PixelObservation* o : usable.observations) {
+      const auto found = std::find(weights_.begin(), weights_.end(), o->rgb_weights);
+      group_.push_back(static_cast<int>(found - weights_.begin()));
+      if (found == weights_.end()) weights_.push_back(o->rgb_weights);
+      squares_ += o->radiance * o->radiance;
     }
-    internal::SumTermsLanes(data, inputs, diffuse.data(), specular.data());
-    std::fill(sums.begin(), sums.end(), LaneSums{});
+    for (const Eigen::Vector3d& w : weights_) outer_.push_back(w * w.transpose());
+    sums_.resize(weights_.size());
+  }
+
+  // Each candidate with its albedos and its cost.
+  std::vector<std::pair<double, WardParams<double>>> Score(const std::vector<WardParams<double>>& candidates) {
+    std::vector<std::pair<double, WardParams<double>>> scored;
+    for (size_t first = 0; first < candidates.size(); first += kLanes) {
+      for (int lane = 0; lane < kLanes; ++lane) {
+        const Params x = Pack(candidates[std::min(first + lane, candidates.size() - 1)]);
+        for (int i = 0; i < kAmbientParams; ++i) inputs_.params[i][lane] = x[i];
+      }
+      internal::SumTermsLanes(data_, inputs_, diffuse_.data(), specular_.data());
+      SumAcrossObservations();
+      for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
+        scored.push_back(Solve(lane, candidates[first + lane]));
+      }
+    }
+    return scored;
+  }
+
+ private:
+  // Σ D², DS, S², D y, S y per group, for the call's kLanes candidates side by side: the kernel
+  // writes an observation's lanes next to each other, so the sums run across them.
+  using LaneSums = std::array<std::array<double, kLanes>, 5>;
+
+  static std::vector<int> Layout(const internal::UsableObservations& usable, int max_lights) {
+    std::vector<int> layout(*std::max_element(usable.slots.begin(), usable.slots.end()) + 1, 0);
     for (size_t u = 0; u < usable.observations.size(); ++u) {
-      const double* d = &diffuse[static_cast<size_t>(usable.slots[u]) * kLanes];
-      const double* sp = &specular[static_cast<size_t>(usable.slots[u]) * kLanes];
-      const double y = usable.observations[u]->radiance;
-      LaneSums& sum = sums[group[u]];
+      const int lights = static_cast<int>(usable.observations[u]->lights.size());
+      layout[usable.slots[u]] = max_lights > 0 ? std::min(lights, max_lights) : lights;
+    }
+    return layout;
+  }
+
+  void SumAcrossObservations() {
+    std::fill(sums_.begin(), sums_.end(), LaneSums{});
+    for (size_t u = 0; u < usable_.observations.size(); ++u) {
+      const double* d = &diffuse_[static_cast<size_t>(usable_.slots[u]) * kLanes];
+      const double* sp = &specular_[static_cast<size_t>(usable_.slots[u]) * kLanes];
+      const double y = usable_.observations[u]->radiance;
+      LaneSums& sum = sums_[group_[u]];
       for (int lane = 0; lane < kLanes; ++lane) {
         sum[0][lane] += d[lane] * d[lane], sum[1][lane] += d[lane] * sp[lane], sum[2][lane] += sp[lane] * sp[lane];
         sum[3][lane] += d[lane] * y, sum[4][lane] += sp[lane] * y;
       }
     }
-    for (int lane = 0; lane < kLanes && first + lane < candidates.size(); ++lane) {
-      Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
-      Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
-      for (size_t g = 0; g < weights.size(); ++g) {
-        normal.topLeftCorner<3, 3>() += sums[g][0][lane] * outer[g];
-        normal.topRightCorner<3, 3>() += sums[g][1][lane] * outer[g];
-        normal.bottomRightCorner<3, 3>() += sums[g][2][lane] * outer[g];
-        rhs.head<3>() += sums[g][3][lane] * weights[g];
-        rhs.tail<3>() += sums[g][4][lane] * weights[g];
-      }
-      normal.bottomLeftCorner<3, 3>() = normal.topRightCorner<3, 3>().transpose();
-      WardParams<double> candidate = candidates[first + lane];
-      const Eigen::Matrix<double, 6, 1> albedos = internal::SolveAlbedos(normal, rhs);
-      candidate.a_d = albedos.head<3>();
-      candidate.a_s = albedos.tail<3>();
-      scored.push_back({albedos.dot(normal * albedos) - 2 * albedos.dot(rhs) + squares, candidate});
-    }
   }
+
+  std::pair<double, WardParams<double>> Solve(int lane, WardParams<double> candidate) const {
+    Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    for (size_t g = 0; g < weights_.size(); ++g) {
+      normal.topLeftCorner<3, 3>() += sums_[g][0][lane] * outer_[g];
+      normal.topRightCorner<3, 3>() += sums_[g][1][lane] * outer_[g];
+      normal.bottomRightCorner<3, 3>() += sums_[g][2][lane] * outer_[g];
+      rhs.head<3>() += sums_[g][3][lane] * weights_[g];
+      rhs.tail<3>() += sums_[g][4][lane] * weights_[g];
+    }
+    normal.bottomLeftCorner<3, 3>() = normal.topRightCorner<3, 3>().transpose();
+    const Eigen::Matrix<double, 6, 1> albedos = internal::SolveAlbedos(normal, rhs);
+    candidate.a_d = albedos.head<3>();
+    candidate.a_s = albedos.tail<3>();
+    return {albedos.dot(normal * albedos) - 2 * albedos.dot(rhs) + squares_, candidate};
+  }
+
+  const internal::UsableObservations& usable_;
+  internal::LaneData data_;
+  internal::LaneInputs inputs_{};
+  std::vector<double> diffuse_, specular_;
+  std::vector<Eigen::Vector3d> weights_;  // distinct colour weights
+  std::vector<int> group_;                // per usable observation: its index in `weights_`
+  std::vector<Eigen::Matrix3d> outer_;    // w wᵀ per group
+  double squares_ = 0;                    // Σ y²
+  std::vector<LaneSums> sums_;
+};
+
+}  // namespace
+
+std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& observations, double f0, int count,
+                                           int max_lights, int normals_kept) {
+  const internal::UsableObservations usable = internal::Usable(observations);
+  if (usable.observations.empty()) return {};
+  GridScorer scorer(usable, max_lights);
+  if (normals_kept <= 0) return internal::Best(scorer.Score(internal::GridCandidates(f0)), count);
+  // Coarse to fine: the normals ranked by their best isotropic lobe, every shape at the best few.
+  std::vector<std::pair<double, WardParams<double>>> scored = scorer.Score(internal::GridCandidates(f0, true));
+  std::vector<Eigen::Vector3d> normals;
+  for (const WardParams<double>& p : internal::Best(scored, static_cast<int>(scored.size()))) {
+    if (std::none_of(normals.begin(), normals.end(), [&](const Eigen::Vector3d& n) { return n == p.n_s; }))
+      normals.push_back(p.n_s);
+    if (static_cast<int>(normals.size()) == normals_kept) break;
+  }
+  std::vector<WardParams<double>> anisotropic;
+  for (WardParams<double> candidate : internal::GridCandidates(f0)) {
+    if (candidate.sigma_x == candidate.sigma_y) continue;
+    if (std::none_of(normals.begin(), normals.end(), [&](const Eigen::Vector3d& n) { return n == candidate.n_s; })) continue;
+    anisotropic.push_back(candidate);
+  }
+  for (auto& s : scorer.Score(anisotropic)) scored.push_back(std::move(s));
   return internal::Best(std::move(scored), count);
 }
 

@@ -116,8 +116,10 @@ struct RefineProblem {
 // GridInitialParams (pixel_fitter.h) on the refiner's kernel: the same candidates, each scored
 // with its least-squares albedos, 8 per vectorised call; a strip's emitters merged into at most
 // `max_lights` samples (0: all; the scalar search takes every 4th). For the refiner's retries.
+// normals_kept > 0: coarse to fine, the normals ranked by their best isotropic lobe and every
+// lobe shape tried at the best `normals_kept` of them only.
 std::vector<WardParams<double>> GridStarts(const std::vector<PixelObservation>& observations, double f0, int count,
-                                           int max_lights = 8);
+                                           int max_lights = 8, int normals_kept = 0);
 
 // lights_per_observation for pixels given as lists (tests, benchmarks): per slot, the most any
 // of them has.

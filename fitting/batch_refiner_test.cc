@@ -393,25 +393,29 @@ TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaSh
 }
 
 // The batched grid search picks what the scalar one picks (its strip is merged to 8 samples, the
-// scalar one takes every 4th emitter: the ranking may differ among near ties, hence top 3).
+// scalar one takes every 4th emitter: the ranking may differ among near ties, hence top 3), also
+// coarse to fine, every lobe shape tried at only the 3 normals of best isotropic lobes.
 TEST(BatchRefinerTest, TheBatchedGridSearchPicksAStartOfTheScalarOnesTop) {
   const SimulatedStack simulated = NoisyFabricStack(3, 0.01, 19);
   const StackPixels pixels(simulated.stack);
-  for (int i = 0; i < 9; ++i) {
-    const std::vector<PixelObservation> observations = pixels.Observations(i % 3, i / 3);
-    const std::vector<WardParams<double>> batched = GridStarts(observations, 1.0, 1);
-    const std::vector<WardParams<double>> scalar = GridInitialParams(observations, 1.0, 3);
-    ASSERT_EQ(batched.size(), 1u);
-    const WardParams<double>& b = batched.front();
-    const bool among = std::any_of(scalar.begin(), scalar.end(), [&](const WardParams<double>& s) {
-      return s.n_s.isApprox(b.n_s) && s.sigma_x == b.sigma_x && s.sigma_y == b.sigma_y && s.alpha == b.alpha;
-    });
-    EXPECT_TRUE(among) << "pixel " << i << ": batched picked sigma " << b.sigma_x << "," << b.sigma_y << " alpha " << b.alpha
-                       << " n " << b.n_s.transpose() << "; scalar's best sigma " << scalar.front().sigma_x << ","
-                       << scalar.front().sigma_y << " alpha " << scalar.front().alpha << " n " << scalar.front().n_s.transpose();
-    EXPECT_TRUE((b.a_d.array() >= 0).all() && (b.a_d.array() <= kMaxAlbedo).all() && (b.a_s.array() >= 0).all() &&
-                (b.a_s.array() <= kMaxAlbedo).all())
-        << b.a_d.transpose() << " / " << b.a_s.transpose();
+  for (int normals_kept : {0, 3}) {
+    for (int i = 0; i < 9; ++i) {
+      const std::vector<PixelObservation> observations = pixels.Observations(i % 3, i / 3);
+      const std::vector<WardParams<double>> batched = GridStarts(observations, 1.0, 1, 8, normals_kept);
+      const std::vector<WardParams<double>> scalar = GridInitialParams(observations, 1.0, 3);
+      ASSERT_EQ(batched.size(), 1u);
+      const WardParams<double>& b = batched.front();
+      const bool among = std::any_of(scalar.begin(), scalar.end(), [&](const WardParams<double>& s) {
+        return s.n_s.isApprox(b.n_s) && s.sigma_x == b.sigma_x && s.sigma_y == b.sigma_y && s.alpha == b.alpha;
+      });
+      EXPECT_TRUE(among) << "normals kept " << normals_kept << ", pixel " << i << ": batched picked sigma " << b.sigma_x << ","
+                         << b.sigma_y << " alpha " << b.alpha << " n " << b.n_s.transpose() << "; scalar's best sigma "
+                         << scalar.front().sigma_x << "," << scalar.front().sigma_y << " alpha " << scalar.front().alpha << " n "
+                         << scalar.front().n_s.transpose();
+      EXPECT_TRUE((b.a_d.array() >= 0).all() && (b.a_d.array() <= kMaxAlbedo).all() && (b.a_s.array() >= 0).all() &&
+                  (b.a_s.array() <= kMaxAlbedo).all())
+          << b.a_d.transpose() << " / " << b.a_s.transpose();
+    }
   }
 }
 

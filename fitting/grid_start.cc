@@ -102,12 +102,13 @@ std::vector<WardParams<double>> Best(std::vector<std::pair<double, WardParams<do
   return best;
 }
 
-std::vector<WardParams<double>> GridCandidates(double f0) {
+std::vector<WardParams<double>> GridCandidates(double f0, bool isotropic_only) {
   static const std::vector<Eigen::Vector3d> normals = CandidateNormals();
   static const std::vector<LobeShape> shapes = CandidateShapes();
   std::vector<WardParams<double>> candidates;
   for (const Eigen::Vector3d& n : normals) {
     for (const LobeShape& shape : shapes) {
+      if (isotropic_only && shape.sigma_x != shape.sigma_y) continue;
       WardParams<double> candidate;
       candidate.n_s = n;
       candidate.sigma_x = shape.sigma_x;

@@ -153,6 +153,14 @@ struct StackFitSummary {
   double mean_observations = 0;  // usable per pixel
   double cluster_seconds = 0;
   double pixel_seconds = 0;
+  // pixel_seconds by stage (the refiner's; Ceres reports first fits and retries only).
+  struct StageSeconds {
+    double noise_probe = 0;  // the sparse fit that weighs the prior
+    double first_fits = 0;
+    double propagation = 0;
+    double retries = 0;  // grid search, exploration, refits
+    double smoothing = 0;
+  } stage_seconds;
   int threads = 0;
   double ms_per_pixel_per_thread() const { return pixels ? 1e3 * pixel_seconds * threads / pixels : 0; }
 

@@ -371,6 +371,11 @@ TEST_F(WrongBasinTest, TheRefinersGridRetriesBringPixelsOutOfAWrongBasin) {
   EXPECT_GE(s.pixels_retried, stuck);
   EXPECT_GE(s.pixels_retry_finished, stuck);
   EXPECT_LE(s.pixels_retry_finished, s.pixels_retried);
+  // fit.json's stages: each timed, inside the pixels' time.
+  const StackFitSummary::StageSeconds& stage = s.stage_seconds;
+  EXPECT_GT(stage.first_fits, 0);
+  EXPECT_GT(stage.retries, 0);
+  EXPECT_LE(stage.noise_probe + stage.first_fits + stage.propagation + stage.retries + stage.smoothing, s.pixel_seconds);
 }
 
 // Propagation: each misled pixel has well-fitted neighbours of the same fabric, whose fits are

@@ -13,7 +13,7 @@ namespace loom::fitting::internal {
 
 // 13 normals (up to 20° tilt) × 28 lobe shapes (σ from 0.03 to 0.3, isotropic and anisotropic at
 // 4 angles), albedos 0, F0 = f0.
-std::vector<WardParams<double>> GridCandidates(double f0);
+std::vector<WardParams<double>> GridCandidates(double f0, bool isotropic_only = false);
 
 // The `count` (at least 1) candidates of lowest cost, best first.
 std::vector<WardParams<double>> Best(std::vector<std::pair<double, WardParams<double>>> scored, int count);
