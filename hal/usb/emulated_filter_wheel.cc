@@ -221,7 +221,7 @@ bool EmulatedFilterWheel::HandleIoctl(UMockdevIoctlClient* client) {
       const int length = std::min<int>(room, static_cast<int>(pending.in_data.size()));
       // Same address space (umockdev-wrapper preloads into this process): write the IN data
       // straight behind the setup packet, as the kernel would.
-      std::memcpy(static_cast<uint8_t*>(urb->buffer) + 8, pending.in_data.data(), length);
+      if (length > 0) std::memcpy(static_cast<uint8_t*>(urb->buffer) + 8, pending.in_data.data(), length);
       urb->actual_length = pending.status == 0 ? length : 0;
       urb->status = pending.status;
       UMockdevIoctlData* pointer = umockdev_ioctl_data_resolve(arg, 0, sizeof(gpointer), nullptr);
