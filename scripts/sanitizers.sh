@@ -29,13 +29,16 @@ echo "$kind build finished after $(( $(date +%s) - start )) s"
 # umockdev's preload library comes before ASan's runtime in the wrapped tests: let it.
 export ASAN_OPTIONS=detect_leaks=1:verify_asan_link_order=0 UBSAN_OPTIONS=print_stacktrace=1 TSAN_OPTIONS=halt_on_error=1
 export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan-suppressions.txt"
+export TSAN_OPTIONS="$TSAN_OPTIONS:suppressions=$PWD/scripts/tsan-suppressions.txt"
 if [ "$kind" = address ]; then
   # Every test of the modules labelled without_torch (CMakeLists.txt).
   ctest --test-dir "$dir" -L '^without_torch$' --output-on-failure --no-label-summary -j "$(nproc)"
 else
+  failed=0
   for suite in "${suites[@]}"; do
     echo "== $suite"
-    "$(find "$dir" -name "$suite" -type f -executable | head -1)" --gtest_brief=1
+    "$(find "$dir" -name "$suite" -type f -executable | head -1)" --gtest_brief=1 || failed=1
   done
+  [ "$failed" = 0 ]
 fi
 echo "$kind lane finished after $(( $(date +%s) - start )) s"
