@@ -99,11 +99,12 @@ struct StackFitOptions {
   // residuals in units of their noise, so a fixed weight would weigh a noise-free stack's exact
   // data as little as a noisy one's and bias its fit toward the CNN. 0: prior.weight as it is.
   double prior_reference_noise_rms = 0;
-  // With the refiner: a second pass from the first one's maps with a prior toward each pixel's
-  // 3 × 3 neighbourhood (its median; weight 0: no second pass). Where a pixel's own data pin a
-  // parameter down the data win; where they leave it loose (a highlight between observations,
-  // α of a nearly isotropic lobe) the neighbours of the same appearance decide, which removes
-  // the speckle a free per-pixel fit leaves.
+  // With the refiner: a second pass with a prior toward each pixel's 5 × 5 neighbourhood's
+  // median lobe (a_s, σ, α; the pixel's own normal and a_d, which its data pin down), started
+  // there (weight 0: no second pass). Where a pixel's own data pin a parameter down the data
+  // win; where they leave it loose (a highlight between observations, α of a nearly isotropic
+  // lobe) the neighbours decide, which removes the speckle a free per-pixel fit leaves. With
+  // prior_reference_noise_rms > 0 the weight follows the stack's noise as the CNN prior's does.
   RefinePrior smoothing;
   // With the refiner: light samples per observation at most (RefineOptions::
   // max_lights_per_observation; 0: the stack's emitters, all of them).
@@ -146,6 +147,7 @@ struct StackFitSummary {
   double retry_threshold_rms = 0;  // relative RMS above which they were
   double noise_rms = 0;            // the stack's, where the prior's weight follows it
   double prior_weight = 0;         // the prior's weight as applied
+  double smoothing_weight = 0;     // the smoothing prior's, as applied (0: no smoothing pass)
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
   double f0 = 0;                 // the material's
