@@ -734,7 +734,9 @@ void StackFitSummary::Report(std::ostream& out) const {
       << mean_iterations << " iterations per pixel\n"
       << "time: clusters " << FormatDuration(cluster_seconds) << ", pixels " << FormatDuration(pixel_seconds) << " ("
       << ms_per_pixel_per_thread() << " ms per pixel per thread, " << threads << " threads; first fits " << std::setprecision(1)
-      << stage_seconds.first_fits << " s, retries " << stage_seconds.propagation + stage_seconds.retries << " s)\n";
+      << stage_seconds.first_fits << " s, retries " << stage_seconds.propagation + stage_seconds.retries << " s";
+  if (smoothing_weight > 0) out << ", smoothing " << stage_seconds.smoothing << " s";
+  out << ")\n";
 }
 
 Status StackFitOptions::Check() const {
