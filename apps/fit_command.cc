@@ -1,4 +1,5 @@
 // loom fit: an observation stack → SVBRDF maps (OpenEXR + PNG previews + fit.json).
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -31,13 +32,36 @@ fitting::StackFitOptions DefaultOptions() {
   // parameter's NRMSE below the CNN's, re-render L1 within 1 % of CNN + Ceres.
   options.prior.weight = 0.1;
   options.prior_reference_noise_rms = kPriorReferenceNoiseRms;
-  // Picked on the same training fabric: the smallest weight (of 1, 2, 3) at which the map noise
-  // of a_s, σ and α is at most 1.5× the truth's, with a_s' scale a third of the CNN prior's (at
-  // 0.09 a_s stayed 4.8× as noisy; at 0.03 1.6×, for the same re-render L1). Its cost: L1 +6 %,
-  // the maps nearer the truth (σ NRMSE 0.138 → 0.101, α 0.363 → 0.252).
-  options.smoothing.weight = 3;
-  options.smoothing.specular_albedo = 0.03;
   return options;
+}
+
+// The refiner's settings picked for a model's rig on its training fabrics, in the model
+// directory beside the CNN: the smoothing pass's weight and a_s scale (docs/benchmarks.md). They
+// differ by rig: tac7-mini's speckled maps gain from the pass, while on tac7's richer stacks the
+// same prior over-smooths σ and α. A model without the file leaves the built-in defaults (no
+// smoothing pass); --smoothing-weight overrides the file's weight.
+constexpr const char* kRefineSettingsFile = "refine.json";
+
+Status ApplyRefineSettings(const fs::path& model, bool smoothing_weight_given, fitting::StackFitOptions& options) {
+  const fs::path path = model / kRefineSettingsFile;
+  if (!fs::exists(path)) return Status::Ok();
+  LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(path));
+  const nlohmann::json json = nlohmann::json::parse(text, nullptr, false);
+  if (json.is_discarded() || !json.is_object()) return InvalidArgumentError(path.string(), "not a JSON object");
+  for (const auto& [key, value] : json.items()) {
+    if (key == "picked_on") continue;  // how the values were picked, for the reader
+    if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
+      return InvalidArgumentError(path.string() + ": " + key,
+                                  "unknown key (expected smoothing_weight, smoothing_specular_albedo or picked_on)");
+    }
+    const double number = value.is_number() ? value.get<double>() : NAN;
+    if (!(number >= 0 && number <= 1e6) || (key == "smoothing_specular_albedo" && number == 0)) {
+      return InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 1e6] (a scale > 0), not " + value.dump());
+    }
+  }
+  if (!smoothing_weight_given) options.smoothing.weight = json.value("smoothing_weight", options.smoothing.weight);
+  options.smoothing.specular_albedo = json.value("smoothing_specular_albedo", options.smoothing.specular_albedo);
+  return Status::Ok();
 }
 
 struct FitArguments {
@@ -47,6 +71,7 @@ struct FitArguments {
   std::string model;  // empty: configs/models/<the stack's rig>
   std::string f0 = "1";
   bool no_retries = false;
+  bool smoothing_weight_given = false;
   fitting::StackFitOptions options = DefaultOptions();
   bool quiet = false;
 };
@@ -60,6 +85,7 @@ Status Fit(FitArguments args) {
   if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
+  LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, args.smoothing_weight_given, options));
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
@@ -105,10 +131,12 @@ int RunFit(int argc, char** argv) {
                  "holds; the weight scales with the square of the stack's own, so that exact data outweigh the CNN "
                  "(default 0.16, the level the weight was picked at; 0: the weight as given)")
       ->check(CLI::Range(0.0, 10.0));
-  app.add_option("--smoothing-weight", args.options.smoothing.weight,
-                 "refine methods: weight of a second pass's prior toward each pixel's 5x5 neighbourhood's median lobe, "
-                 "scaled with the stack's noise as --prior-weight is (default 3; 0: no second pass)")
-      ->check(CLI::Range(0.0, 1e6));
+  CLI::Option* smoothing_weight =
+      app.add_option("--smoothing-weight", args.options.smoothing.weight,
+                     "refine methods: weight of a second pass's prior toward each pixel's 5x5 neighbourhood's median "
+                     "lobe, scaled with the stack's noise as --prior-weight is (default: the model directory's "
+                     "refine.json, 3 for tac7-mini; without one 0: no second pass)")
+          ->check(CLI::Range(0.0, 1e6));
   app.add_option("--strip-samples", args.options.max_lights_per_observation,
                  "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
                  "strip (0: all of them)")
@@ -131,7 +159,9 @@ int RunFit(int argc, char** argv) {
                  "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
                  "fraction (default 1e-4; Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")
       ->check(CLI::Range(0.0, 0.5));
-  app.add_option("--model", args.model, "CNN model directory (default: configs/models/<the stack's rig>)");
+  app.add_option("--model", args.model,
+                 "Model directory: the CNN, and in refine.json the refiner's settings picked for its rig (default: "
+                 "configs/models/<the stack's rig>)");
   app.add_option("--clusters", args.options.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
@@ -155,6 +185,7 @@ int RunFit(int argc, char** argv) {
                "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  args.smoothing_weight_given = smoothing_weight->count() > 0;
   return ExitCode(Fit(args));
 }
 

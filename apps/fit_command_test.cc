@@ -217,6 +217,38 @@ TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
   EXPECT_FALSE(fs::exists(dir_ / "missing" / "svbrdf.exr"));
 }
 
+// The refiner's settings picked for a rig live in its model directory (refine.json): loom fit
+// takes them unless an option overrides them, and refuses a file it cannot read as settings,
+// naming the file and the key.
+TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndABadOneIsRefused) {
+  const auto fit_json = [&](const std::string& options, const std::string& out) {
+    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                                " --method refine --clusters 2 --quiet --out " + (dir_ / out).string() + " " + options);
+    EXPECT_EQ(fit.exit_code, 0) << fit.output;
+    std::ifstream file(dir_ / out / "fit.json");
+    return nlohmann::json::parse(file);
+  };
+  EXPECT_EQ(fit_json("", "shipped")["smoothing_weight"], 3.0);  // configs/models/tac7-mini/refine.json
+  const fs::path model = dir_ / "refine-model";
+  fs::create_directories(model);
+  std::ofstream(model / "refine.json") << R"({"smoothing_weight": 2, "smoothing_specular_albedo": 0.05})";
+  EXPECT_EQ(fit_json("--model " + model.string(), "own")["smoothing_weight"], 2.0);
+  EXPECT_EQ(fit_json("--model " + model.string() + " --smoothing-weight 0", "overridden")["smoothing_weight"], 0.0);
+  EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
+
+  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"smoothing_weigth": 2})";
+  const auto typo = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                               " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "typo").string());
+  EXPECT_EQ(typo.exit_code, 1) << typo.output;
+  EXPECT_NE(typo.output.find((model / "refine.json").string() + ": smoothing_weigth"), std::string::npos) << typo.output;
+  EXPECT_FALSE(fs::exists(dir_ / "typo" / "svbrdf.exr"));
+  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"smoothing_weight": -1})";
+  const auto negative = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                                   " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "neg").string());
+  EXPECT_EQ(negative.exit_code, 1) << negative.output;
+  EXPECT_NE(negative.output.find("smoothing_weight"), std::string::npos) << negative.output;
+}
+
 // loom train end to end at toy size: renders its dataset, trains, and loom fit takes the model.
 TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   const fs::path model = dir_ / "model";
