@@ -520,6 +520,7 @@ Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, R
   std::vector<WardParams<double>> targets(outcomes.size());
   for (size_t i = 0; i < outcomes.size(); ++i) targets[i] = SmoothingTarget(medians[i], outcomes[i].params);
   refine.prior = smoothing;
+  refine.uncertainty = false;  // each pixel keeps the free fit's (below)
   const RefineProblem problem{static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
                               [&](int i) { return pixels.Observations(i % width, i / width); }, [&](int i) { return targets[i]; },
                               [&](int i) { return targets[i]; }};
