@@ -441,42 +441,40 @@ Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& sta
 // median's 8 noisy neighbours more often than a 5 × 5 one's 24.
 constexpr int kSmoothingRadius = 2;
 
-// The median of each parameter over a pixel's neighbours within kSmoothingRadius (σ compared
-// with σx ≥ σy, α through (cos 2α, sin 2α), the normal component-wise then normalised).
-std::vector<WardParams<double>> NeighbourMedians(const std::vector<PixelOutcome>& outcomes, int width, int height) {
-  std::vector<WardParams<double>> medians(outcomes.size());
+// The median lobe of a pixel's neighbours within kSmoothingRadius: a_s, σx, σy and F0 each the
+// median (σ compared with σx ≥ σy), α through (cos 2α, sin 2α). The normal and a_d are left at
+// their defaults: the smoothing target keeps the pixel's own (SmoothingTarget).
+std::vector<WardParams<double>> NeighbourLobes(const std::vector<PixelOutcome>& outcomes, int width, int height) {
+  std::vector<WardParams<double>> lobes(outcomes.size());
   ParallelFor(height, 0, [&](int y) {
     for (int x = 0; x < width; ++x) {
-      std::array<std::vector<double>, 13> values;
+      std::array<std::vector<double>, 6> values;  // a_s (3), σx, σy, F0
       double c2 = 0, s2 = 0;
       ForEachNeighbour(
           width, height, x, y,
           [&](int n) {
             WardParams<double> p = outcomes[n].params;
             if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
-            const double v[13] = {p.n_s.x(), p.n_s.y(), p.n_s.z(), p.a_d.x(), p.a_d.y(), p.a_d.z(), p.a_s.x(),
-                                  p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, 0,         p.f0};
-            for (int i = 0; i < 13; ++i) values[i].push_back(v[i]);
+            const double v[6] = {p.a_s.x(), p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, p.f0};
+            for (int i = 0; i < 6; ++i) values[i].push_back(v[i]);
             c2 += std::cos(2 * p.alpha), s2 += std::sin(2 * p.alpha);
           },
           kSmoothingRadius);
-      double m[13];
-      for (int i = 0; i < 13; ++i) {
+      double m[6];
+      for (int i = 0; i < 6; ++i) {
         std::vector<double>& v = values[i];
         std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
         m[i] = v[v.size() / 2];
       }
-      WardParams<double>& median = medians[static_cast<size_t>(y) * width + x];
-      median.n_s = Eigen::Vector3d(m[0], m[1], m[2]).normalized();
-      median.a_d = Eigen::Vector3d(m[3], m[4], m[5]);
-      median.a_s = Eigen::Vector3d(m[6], m[7], m[8]);
-      median.sigma_x = m[9];
-      median.sigma_y = m[10];
-      median.alpha = 0.5 * std::atan2(s2, c2);
-      median.f0 = m[12];
+      WardParams<double>& lobe = lobes[static_cast<size_t>(y) * width + x];
+      lobe.a_s = Eigen::Vector3d(m[0], m[1], m[2]);
+      lobe.sigma_x = m[3];
+      lobe.sigma_y = m[4];
+      lobe.alpha = 0.5 * std::atan2(s2, c2);
+      lobe.f0 = m[5];
     }
   });
-  return medians;
+  return lobes;
 }
 
 // `p` as the same lobe written the way `like` is: σx and σy in the same order (swapping them turns
@@ -491,14 +489,14 @@ WardParams<double> InTheConventionOf(WardParams<double> p, const WardParams<doub
 }
 
 // What the smoothing pass pulls a pixel toward, and starts it from: its neighbourhood's median
-// lobe (a_s, σ, α, F0) with the pixel's own normal and diffuse albedo. Those two are what every
+// lobe (NeighbourLobes: a_s, σ, α, F0) with the pixel's own normal and diffuse albedo. Those two are what every
 // observation pins down, and they carry the material's real texture (yarn colours, the weave's
 // slopes): on the training fabric (docs/benchmarks.md) pulling them toward the median too gave
 // a_d NRMSE 0.140 and n_s 0.081 against 0.088 and 0.045, and leaving them free let a_d take up
 // what the smoothed lobe no longer explained. Starting from the median rather than the first fit
 // lets a speckled pixel leave the basin its noise put it in (σ map noise 1.7× → 1.2× the truth's).
-WardParams<double> SmoothingTarget(const WardParams<double>& median, const WardParams<double>& own) {
-  WardParams<double> target = InTheConventionOf(median, own);
+WardParams<double> SmoothingTarget(const WardParams<double>& lobe, const WardParams<double>& own) {
+  WardParams<double> target = InTheConventionOf(lobe, own);
   target.n_s = own.n_s;
   target.a_d = own.a_d;
   return target;
@@ -536,9 +534,9 @@ ParamSigma WithTheShift(ParamSigma s, const WardParams<double>& free, const Ward
 Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine, const RefinePrior& smoothing,
                      const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();
-  const std::vector<WardParams<double>> medians = NeighbourMedians(outcomes, width, pixels.height());
+  const std::vector<WardParams<double>> lobes = NeighbourLobes(outcomes, width, pixels.height());
   std::vector<WardParams<double>> targets(outcomes.size());
-  for (size_t i = 0; i < outcomes.size(); ++i) targets[i] = SmoothingTarget(medians[i], outcomes[i].params);
+  for (size_t i = 0; i < outcomes.size(); ++i) targets[i] = SmoothingTarget(lobes[i], outcomes[i].params);
   refine.prior = smoothing;
   refine.uncertainty = false;  // each pixel states the free fit's, widened by its shift (below)
   const RefineProblem problem{static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
