@@ -142,9 +142,11 @@ void TheStackMatchesTheFastPathOutsideShadows(const fs::path& dir) {
   std::cout << "median relative error against the fast path " << 100 * median << " % over " << relative.size() << " samples\n";
   // Measured (2026-11-22): 1.51 % median; per observation the median ratio is 0.98-1.00, so no
   // radiometric bias. The rest is sampling: the fast path samples points, a camera pixel
-  // integrates the fabric's 0.2 mm texture and highlights over its footprint and bilinear
+  // integrates the fabric's 0.2 mm texture and highlights over its footprint and the
   // resampling spreads that further. The same scan with cameras 2 times finer than the stack
   // gives 2.0 %, with tac7-mini's own (as coarse as the stack) 6.3 % (ratios 0.89-1.12).
+  // Since cam1 (1.77 camera pixels per stack pixel) is interpolated bicubically rather than
+  // bilinearly: 1.89 % (2026-11-26; bicubic weights average fewer camera pixels).
   // Bound: the goal, 2 %.
   EXPECT_LT(median, 0.02);
 }

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include <Eigen/SVD>
+#include <opencv2/imgproc.hpp>
 
 #include "calibration/projector_columns.h"
 #include "calibration/scan_radiance.h"
@@ -32,6 +33,22 @@ using scan::Step;
 using scan::StepKind;
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kOffImage = -10;  // a camera pixel coordinate whose interpolation neighbourhood is off any image
+
+// A camera image (channel 0) sampled at (map_x, map_y): camera pixel coordinates, centres at
+// integers. NaN off the image and where the interpolation reaches a NaN (a saturated or unread
+// pixel). A camera that samples the stack finely (`fine`: at least kFineSampling camera pixels
+// per stack pixel) is interpolated bilinearly, which averages its noise over neighbouring
+// camera pixels; a coarser one bicubically, since bilinear interpolation would blur its
+// observations by up to half a stack pixel more, and a per-pixel fit of a fine weave reads that
+// blur as lobe shape and orientation (reconstruction/README.md).
+cv::Mat SampleCamera(const Image& image, const cv::Mat& map_x, const cv::Mat& map_y, bool fine) {
+  // Read only: remap's source.
+  const cv::Mat source(image.height(), image.width(), CV_32F, const_cast<float*>(image.channel(0).data()));
+  cv::Mat sampled;
+  cv::remap(source, sampled, map_x, map_y, fine ? cv::INTER_LINEAR : cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar(kNaN));
+  return sampled;
+}
 
 const CameraModel* TopCamera(const RigModel& rig) {
   const CameraModel* best = nullptr;
@@ -198,15 +215,23 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
         const CameraModel& cam = rig.cameras[view->camera];
         const Rigid3d cam_from_sample = cam.cam_from_rig * rig.turntable.RigFromSample(table[k].turntable_deg);
         const int channel = ObservationStack::ObservationChannel(k);
-        long long hidden = 0;
+        // Where each stack pixel lies in the camera image; off the image where the relief hides it.
+        cv::Mat map_x(h, w, CV_32F, cv::Scalar(kOffImage)), map_y(h, w, CV_32F, cv::Scalar(kOffImage));
         for (int y = 0; y < h; ++y) {
           for (int x = 0; x < w; ++x) {
             const Eigen::Vector3d p = result.stack.Position(x, y);
             Eigen::Vector2d pixel;
-            float value = kNaN;
-            if (!heightmap.Shadowed(p, table[k].camera_mm) && cam.Project(cam_from_sample * p, &pixel)) {
-              value = SampleBilinear(view->radiance, 0, pixel.x(), pixel.y());
-            }
+            if (heightmap.Shadowed(p, table[k].camera_mm) || !cam.Project(cam_from_sample * p, &pixel)) continue;
+            map_x.at<float>(y, x) = static_cast<float>(pixel.x());
+            map_y.at<float>(y, x) = static_cast<float>(pixel.y());
+          }
+        }
+        const cv::Mat sampled =
+            SampleCamera(view->radiance, map_x, map_y, result.sampling[view->camera].camera_px_per_stack_px >= kFineSampling);
+        long long hidden = 0;
+        for (int y = 0; y < h; ++y) {
+          for (int x = 0; x < w; ++x) {
+            const float value = sampled.at<float>(y, x);
             if (std::isnan(value)) ++hidden;
             stack.at(channel, y, x) = value * drift_scale;
           }
