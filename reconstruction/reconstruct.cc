@@ -33,22 +33,6 @@ using scan::Step;
 using scan::StepKind;
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr float kOffImage = -10;  // a camera pixel coordinate whose interpolation neighbourhood is off any image
-
-// A camera image (channel 0) sampled at (map_x, map_y): camera pixel coordinates, centres at
-// integers. NaN off the image and where the interpolation reaches a NaN (a saturated or unread
-// pixel). A camera that samples the stack finely (`fine`: at least kFineSampling camera pixels
-// per stack pixel) is interpolated bilinearly, which averages its noise over neighbouring
-// camera pixels; a coarser one bicubically, since bilinear interpolation would blur its
-// observations by up to half a stack pixel more, and a per-pixel fit of a fine weave reads that
-// blur as lobe shape and orientation (reconstruction/README.md).
-cv::Mat SampleCamera(const Image& image, const cv::Mat& map_x, const cv::Mat& map_y, bool fine) {
-  // Read only: remap's source.
-  const cv::Mat source(image.height(), image.width(), CV_32F, const_cast<float*>(image.channel(0).data()));
-  cv::Mat sampled;
-  cv::remap(source, sampled, map_x, map_y, fine ? cv::INTER_LINEAR : cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar(kNaN));
-  return sampled;
-}
 
 const CameraModel* TopCamera(const RigModel& rig) {
   const CameraModel* best = nullptr;
@@ -140,6 +124,30 @@ Status ReconstructOptions::Check() const {
   return ProblemsStatus("ReconstructOptions", problems);
 }
 
+std::vector<float> SampleCamera(const Image& image, const std::vector<Eigen::Vector2f>& pixels, double camera_px_per_stack_px) {
+  if (pixels.empty()) return {};
+  // remap's maps, rows of at most kRow coordinates (remap takes fewer than 2^15 rows and
+  // columns; kMaxStackSide² fits); NaN and the padding become a coordinate off the image.
+  constexpr size_t kRow = 16384;
+  constexpr float kOffImage = -10;
+  const int cols = static_cast<int>(std::min(pixels.size(), kRow));
+  const int rows = static_cast<int>((pixels.size() + kRow - 1) / kRow);
+  cv::Mat map_x(rows, cols, CV_32F, cv::Scalar(kOffImage)), map_y(rows, cols, CV_32F, cv::Scalar(kOffImage));
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    if (!pixels[i].allFinite()) continue;
+    map_x.at<float>(static_cast<int>(i / kRow), static_cast<int>(i % kRow)) = pixels[i].x();
+    map_y.at<float>(static_cast<int>(i / kRow), static_cast<int>(i % kRow)) = pixels[i].y();
+  }
+  // Read only: remap's source.
+  const cv::Mat source(image.height(), image.width(), CV_32F, const_cast<float*>(image.channel(0).data()));
+  cv::Mat sampled;
+  const int interpolation = camera_px_per_stack_px >= kFineSampling ? cv::INTER_LINEAR : cv::INTER_CUBIC;
+  cv::remap(source, sampled, map_x, map_y, interpolation, cv::BORDER_CONSTANT, cv::Scalar(kNaN));
+  std::vector<float> values(sampled.begin<float>(), sampled.end<float>());
+  values.resize(pixels.size());
+  return values;
+}
+
 Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigModel& rig, const ReconstructOptions& options,
                                    const std::function<void(const ReconstructProgress&)>& progress) {
   LOOM_RETURN_IF_ERROR(options.Check());
@@ -215,23 +223,22 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
         const CameraModel& cam = rig.cameras[view->camera];
         const Rigid3d cam_from_sample = cam.cam_from_rig * rig.turntable.RigFromSample(table[k].turntable_deg);
         const int channel = ObservationStack::ObservationChannel(k);
-        // Where each stack pixel lies in the camera image; off the image where the relief hides it.
-        cv::Mat map_x(h, w, CV_32F, cv::Scalar(kOffImage)), map_y(h, w, CV_32F, cv::Scalar(kOffImage));
+        // Where each stack pixel lies in the camera image; NaN where the relief hides it.
+        std::vector<Eigen::Vector2f> pixels(static_cast<size_t>(w) * h, Eigen::Vector2f::Constant(kNaN));
         for (int y = 0; y < h; ++y) {
           for (int x = 0; x < w; ++x) {
             const Eigen::Vector3d p = result.stack.Position(x, y);
             Eigen::Vector2d pixel;
             if (heightmap.Shadowed(p, table[k].camera_mm) || !cam.Project(cam_from_sample * p, &pixel)) continue;
-            map_x.at<float>(y, x) = static_cast<float>(pixel.x());
-            map_y.at<float>(y, x) = static_cast<float>(pixel.y());
+            pixels[static_cast<size_t>(y) * w + x] = pixel.cast<float>();
           }
         }
-        const cv::Mat sampled =
-            SampleCamera(view->radiance, map_x, map_y, result.sampling[view->camera].camera_px_per_stack_px >= kFineSampling);
+        const std::vector<float> sampled =
+            SampleCamera(view->radiance, pixels, result.sampling[view->camera].camera_px_per_stack_px);
         long long hidden = 0;
         for (int y = 0; y < h; ++y) {
           for (int x = 0; x < w; ++x) {
-            const float value = sampled.at<float>(y, x);
+            const float value = sampled[static_cast<size_t>(y) * w + x];
             if (std::isnan(value)) ++hidden;
             stack.at(channel, y, x) = value * drift_scale;
           }

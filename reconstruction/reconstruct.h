@@ -66,6 +66,15 @@ struct CameraSampling {
 std::vector<CameraSampling> StackSampling(const RigModel& rig, double pixel_mm);
 inline constexpr double kFineSampling = 2.0;  // camera pixels per stack pixel
 
+// Channel 0 of a camera image at `pixels` (camera pixel coordinates, centres at integers,
+// resolved to 1/32 px); NaN for a pixel given as NaN, off the image, or where the interpolation
+// reaches a NaN (a saturated or unread camera pixel). A camera that samples the stack finely
+// (`camera_px_per_stack_px` ≥ kFineSampling) is interpolated bilinearly, which averages its noise
+// over neighbouring camera pixels; a coarser one bicubically, since bilinear interpolation would
+// blur its observations by up to half a stack pixel more, and a per-pixel fit of a fine weave
+// reads that blur as lobe width and orientation (reconstruction/README.md).
+std::vector<float> SampleCamera(const Image& image, const std::vector<Eigen::Vector2f>& pixels, double camera_px_per_stack_px);
+
 struct Reconstruction {
   ObservationStack stack;
   std::vector<CameraSampling> sampling;  // every camera of the rig, StackSampling
