@@ -228,11 +228,15 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndABadOneIsRef
     std::ifstream file(dir_ / out / "fit.json");
     return nlohmann::json::parse(file);
   };
-  EXPECT_EQ(fit_json("", "shipped")["smoothing_weight"], 3.0);  // configs/models/tac7-mini/refine.json
+  const nlohmann::json shipped = fit_json("", "shipped");  // configs/models/tac7-mini/refine.json
+  EXPECT_EQ(shipped["smoothing_weight"], 3.0);
+  EXPECT_EQ(shipped["smoothing_specular_albedo"], 0.03);
   const fs::path model = dir_ / "refine-model";
   fs::create_directories(model);
   std::ofstream(model / "refine.json") << R"({"smoothing_weight": 2, "smoothing_specular_albedo": 0.05})";
-  EXPECT_EQ(fit_json("--model " + model.string(), "own")["smoothing_weight"], 2.0);
+  const nlohmann::json own = fit_json("--model " + model.string(), "own");
+  EXPECT_EQ(own["smoothing_weight"], 2.0);
+  EXPECT_EQ(own["smoothing_specular_albedo"], 0.05);
   EXPECT_EQ(fit_json("--model " + model.string() + " --smoothing-weight 0", "overridden")["smoothing_weight"], 0.0);
   EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
 

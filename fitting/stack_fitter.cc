@@ -703,6 +703,7 @@ nlohmann::json StackFitOptions::ToJson() const {
           {"prior_weight", refiner ? prior.weight : 0},
           {"prior_reference_noise_rms", refiner ? prior_reference_noise_rms : 0},
           {"smoothing_weight", refiner ? smoothing.weight : 0},
+          {"smoothing_specular_albedo", smoothing.specular_albedo},  // the pass's a_s scale
           {"strip_samples", max_lights_per_observation},
           {"strip_nodes", refiner && pixels.strip_quadrature ? pixels.strip_quadrature->Nodes() : 0},
           {"coarse_samples", coarse_lights_per_observation},
