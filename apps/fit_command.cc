@@ -36,13 +36,38 @@ fitting::StackFitOptions DefaultOptions() {
 }
 
 // The refiner's settings picked for a model's rig on its training fabrics, in the model
-// directory beside the CNN: the smoothing pass's weight and a_s scale (docs/benchmarks.md). They
-// differ by rig: tac7-mini's speckled maps gain from the pass, while on tac7's richer stacks the
-// same prior over-smooths σ and α. A model without the file leaves the built-in defaults (no
-// smoothing pass); --smoothing-weight overrides the file's weight.
+// directory beside the CNN: the smoothing pass's weight and a_s scale, and whether poor fits are
+// retried (docs/benchmarks.md). They differ by rig: tac7-mini's speckled maps gain from the pass,
+// which restarts every pixel from its neighbours' median lobe and so leaves the retries nothing
+// to gain there, while on tac7's richer stacks the same prior over-smooths σ and α. A model
+// without the file leaves the built-in defaults (retries, no smoothing pass); --smoothing-weight
+// and --retries / --no-retries override the file.
 constexpr const char* kRefineSettingsFile = "refine.json";
 
-Status ApplyRefineSettings(const fs::path& model, bool smoothing_weight_given, fitting::StackFitOptions& options) {
+struct GivenOnTheCommandLine {
+  bool smoothing_weight = false;
+  bool retries = false;
+};
+
+Status CheckRefineSetting(const fs::path& path, const std::string& key, const nlohmann::json& value) {
+  if (key == "retries") {
+    if (!value.is_boolean())
+      return InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
+    return Status::Ok();
+  }
+  if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
+    return InvalidArgumentError(path.string() + ": " + key,
+                                "unknown key (expected smoothing_weight, smoothing_specular_albedo, retries or picked_on)");
+  }
+  const double number = value.is_number() ? value.get<double>() : NAN;
+  if (!(number >= 0 && number <= 1e6) || (key == "smoothing_specular_albedo" && number == 0)) {
+    return InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 1e6] (a scale > 0), not " + value.dump());
+  }
+  return Status::Ok();
+}
+
+// `refiner`: the method fits with the batched refiner, whose settings these are.
+Status ApplyRefineSettings(const fs::path& model, bool refiner, GivenOnTheCommandLine given, fitting::StackFitOptions& options) {
   const fs::path path = model / kRefineSettingsFile;
   if (!fs::exists(path)) return Status::Ok();
   LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(path));
@@ -50,17 +75,11 @@ Status ApplyRefineSettings(const fs::path& model, bool smoothing_weight_given, f
   if (json.is_discarded() || !json.is_object()) return InvalidArgumentError(path.string(), "not a JSON object");
   for (const auto& [key, value] : json.items()) {
     if (key == "picked_on") continue;  // how the values were picked, for the reader
-    if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
-      return InvalidArgumentError(path.string() + ": " + key,
-                                  "unknown key (expected smoothing_weight, smoothing_specular_albedo or picked_on)");
-    }
-    const double number = value.is_number() ? value.get<double>() : NAN;
-    if (!(number >= 0 && number <= 1e6) || (key == "smoothing_specular_albedo" && number == 0)) {
-      return InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 1e6] (a scale > 0), not " + value.dump());
-    }
+    LOOM_RETURN_IF_ERROR(CheckRefineSetting(path, key, value));
   }
-  if (!smoothing_weight_given) options.smoothing.weight = json.value("smoothing_weight", options.smoothing.weight);
+  if (!given.smoothing_weight) options.smoothing.weight = json.value("smoothing_weight", options.smoothing.weight);
   options.smoothing.specular_albedo = json.value("smoothing_specular_albedo", options.smoothing.specular_albedo);
+  if (refiner && !given.retries) options.retry_poor_fits = json.value("retries", options.retry_poor_fits);
   return Status::Ok();
 }
 
@@ -70,8 +89,8 @@ struct FitArguments {
   std::string method = "ceres";
   std::string model;  // empty: configs/models/<the stack's rig>
   std::string f0 = "1";
-  bool no_retries = false;
-  bool smoothing_weight_given = false;
+  bool retries = false, no_retries = false;
+  GivenOnTheCommandLine given;
   fitting::StackFitOptions options = DefaultOptions();
   bool quiet = false;
 };
@@ -85,7 +104,8 @@ Status Fit(FitArguments args) {
   if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
-  LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, args.smoothing_weight_given, options));
+  const bool refiner = *method == fitting::FitMethod::kRefine || *method == fitting::FitMethod::kCnnRefine;
+  LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, refiner, args.given, options));
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
@@ -181,11 +201,17 @@ int RunFit(int argc, char** argv) {
                  "refine methods: of a retried pixel's explored starts, how many are its best-fitted neighbours' fits "
                  "(default 1; the grid search gives the rest)")
       ->check(CLI::Range(0, 8));
-  app.add_flag("--no-retries", args.no_retries,
-               "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
+  CLI::Option* retries = app.add_flag(
+      "--retries", args.retries,
+      "Retry poor fits from well-fitted neighbours and grid-searched starts (the default, but where the model "
+      "directory's refine.json turns them off for the refine methods: tac7-mini's, whose smoothing pass restarts every pixel)");
+  CLI::Option* no_retries =
+      app.add_flag("--no-retries", args.no_retries,
+                   "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
+  retries->excludes(no_retries);
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  args.smoothing_weight_given = smoothing_weight->count() > 0;
+  args.given = {.smoothing_weight = smoothing_weight->count() > 0, .retries = retries->count() + no_retries->count() > 0};
   return ExitCode(Fit(args));
 }
 

@@ -220,10 +220,10 @@ TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
 // The refiner's settings picked for a rig live in its model directory (refine.json): loom fit
 // takes them unless an option overrides them, and refuses a file it cannot read as settings,
 // naming the file and the key.
-TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndABadOneIsRefused) {
-  const auto fit_json = [&](const std::string& options, const std::string& out) {
-    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                                " --method refine --clusters 2 --quiet --out " + (dir_ / out).string() + " " + options);
+TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndTheRetriesAndABadOneIsRefused) {
+  const auto fit_json = [&](const std::string& options, const std::string& out, const std::string& method = "refine") {
+    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method " + method +
+                                " --clusters 2 --quiet --out " + (dir_ / out).string() + " " + options);
     EXPECT_EQ(fit.exit_code, 0) << fit.output;
     std::ifstream file(dir_ / out / "fit.json");
     return nlohmann::json::parse(file);
@@ -231,13 +231,19 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndABadOneIsRef
   const nlohmann::json shipped = fit_json("", "shipped");  // configs/models/tac7-mini/refine.json
   EXPECT_EQ(shipped["smoothing_weight"], 3.0);
   EXPECT_EQ(shipped["smoothing_specular_albedo"], 0.03);
+  EXPECT_EQ(shipped["retries"], false);
+  EXPECT_EQ(fit_json("--retries", "retried")["retries"], true);
+  EXPECT_EQ(fit_json("", "ceres", "ceres")["retries"], true);  // the refiner's settings, not Ceres'
   const fs::path model = dir_ / "refine-model";
   fs::create_directories(model);
   std::ofstream(model / "refine.json") << R"({"smoothing_weight": 2, "smoothing_specular_albedo": 0.05})";
   const nlohmann::json own = fit_json("--model " + model.string(), "own");
   EXPECT_EQ(own["smoothing_weight"], 2.0);
   EXPECT_EQ(own["smoothing_specular_albedo"], 0.05);
-  EXPECT_EQ(fit_json("--model " + model.string() + " --smoothing-weight 0", "overridden")["smoothing_weight"], 0.0);
+  EXPECT_EQ(own["retries"], true);
+  const nlohmann::json overridden = fit_json("--model " + model.string() + " --smoothing-weight 0 --no-retries", "overridden");
+  EXPECT_EQ(overridden["smoothing_weight"], 0.0);
+  EXPECT_EQ(overridden["retries"], false);
   EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
 
   std::ofstream(model / "refine.json", std::ios::trunc) << R"({"smoothing_weigth": 2})";
@@ -251,6 +257,11 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndABadOneIsRef
                                    " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "neg").string());
   EXPECT_EQ(negative.exit_code, 1) << negative.output;
   EXPECT_NE(negative.output.find("smoothing_weight"), std::string::npos) << negative.output;
+  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"retries": "no"})";
+  const auto not_bool = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                                   " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "nb").string());
+  EXPECT_EQ(not_bool.exit_code, 1) << not_bool.output;
+  EXPECT_NE(not_bool.output.find((model / "refine.json").string() + ": retries"), std::string::npos) << not_bool.output;
 }
 
 // loom train end to end at toy size: renders its dataset, trains, and loom fit takes the model.
