@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <sstream>
 
 #include "core/geometry.h"
 #include "scan/patterns.h"
@@ -152,6 +153,7 @@ Result<TriangulatedHeights> TriangulateHeights(const Image& columns, const Camer
   };
   TriangulatedHeights result;
   result.heights_mm.assign(static_cast<size_t>(grid.width) * grid.height, kNaN);
+  int decoded = 0;  // grid pixels where the camera decoded a column at all
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
       const double x = (i + 0.5 - grid.width / 2.0) * grid.pixel_mm;
@@ -160,6 +162,7 @@ Result<TriangulatedHeights> TriangulateHeights(const Image& columns, const Camer
       double h1 = 0.5;
       std::optional<double> f0 = mismatch(x, y, h0);
       std::optional<double> f1 = mismatch(x, y, h1);
+      if (f0 || f1) ++decoded;
       for (int iteration = 0; iteration < 30 && f0 && f1 && *f1 != *f0; ++iteration) {
         const double h2 = std::clamp(h1 - *f1 * (h1 - h0) / (*f1 - *f0), grid.min_height_mm, grid.max_height_mm);
         h0 = h1;
@@ -173,8 +176,16 @@ Result<TriangulatedHeights> TriangulateHeights(const Image& columns, const Camer
   }
   result.filled = FillHoles(result.heights_mm, grid.width, grid.height);
   if (std::isnan(result.heights_mm.front())) {
-    return FailedPreconditionError("structured light of camera '" + camera.name + "'",
-                                   "no pixel of the heightmap grid could be triangulated (pattern not seen?)");
+    const std::string where = "structured light of camera '" + camera.name + "'";
+    if (decoded == 0)
+      return FailedPreconditionError(where, "no projector column decoded on the heightmap grid (pattern not seen?)");
+    // Columns were seen but no height in range fits them: the geometry, not the patterns.
+    std::ostringstream message;
+    message << "the projector columns decoded at " << decoded << " of " << grid.width * grid.height
+            << " heightmap grid pixels fit no height in [" << grid.min_height_mm << ", " << grid.max_height_mm
+            << "] mm: the projector or the camera is not where the rig model puts it (recalibrate: loom calibrate "
+               "geometry), or the sample lies outside that height range";
+    return FailedPreconditionError(where, message.str());
   }
   return result;
 }

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "core/testing/shipped_rig.h"
 #include "scan/patterns.h"
 #include "scan/plan.h"
 
@@ -84,5 +85,52 @@ TEST(StructuredLightTest, BadDecodeOptionsAreRefusedNamingEachField) {
   EXPECT_NE(columns.status().ToString().find("DecodeOptions"), std::string::npos) << columns.status().ToString();
 }
 
+// The projector column each pixel of `camera` sees on the table (z = 0) at turntable 0°; NaN
+// where it sees no column.
+Image ColumnsOnTheTable(const CameraModel& camera, const ProjectorModel& projector, const TurntableModel& turntable) {
+  Image columns(camera.width, camera.height, {"column"});
+  const Rigid3d sample_from_rig = turntable.RigFromSample(0).inverse();
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const Eigen::Vector3d origin = camera.CentreInRig();
+      const Eigen::Vector3d direction = camera.cam_from_rig.linear().transpose() * camera.Unproject(Eigen::Vector2d(x, y));
+      columns.at(0, y, x) = std::nanf("");
+      if (direction.z() >= 0) continue;
+      const Eigen::Vector3d on_table = sample_from_rig * (origin + direction * (-origin.z() / direction.z()));
+      const Eigen::Vector3d q = projector.proj_from_rig * turntable.RigFromSample(0) * on_table;
+      if (q.z() <= 0) continue;
+      const double column = (projector.K * (q / q.z())).x();
+      if (column >= 0 && column < projector.width) columns.at(0, y, x) = static_cast<float>(column);
+    }
+  }
+  return columns;
+}
+
+TEST(TriangulateHeightsTest, AProjectorElsewhereThanTheModelSaysIsNamedNotTakenForAMissingPattern) {
+  const RigModel rig = testing::ShippedRigModel("tac7-mini");
+  ASSERT_TRUE(rig.projector.has_value());
+  const CameraModel& camera = rig.cameras[0];
+  const Image columns = ColumnsOnTheTable(camera, *rig.projector, rig.turntable);
+  const HeightmapGrid grid{16, 16, 0.5, -5, 5};
+
+  const Result<TriangulatedHeights> flat = TriangulateHeights(columns, camera, *rig.projector, rig.turntable, 0, grid);
+  ASSERT_TRUE(flat.ok()) << flat.status().ToString();
+  for (float h : flat->heights_mm) EXPECT_NEAR(h, 0, 0.01);
+
+  // Built 30 mm aside of where the model puts it: columns are seen, but no height explains them.
+  ProjectorModel moved = *rig.projector;
+  moved.proj_from_rig = moved.proj_from_rig * Rigid3d(Eigen::Translation3d(-30, 0, 0));
+  const Result<TriangulatedHeights> off = TriangulateHeights(columns, camera, moved, rig.turntable, 0, grid);
+  ASSERT_FALSE(off.ok());
+  EXPECT_NE(off.status().message().find("fit no height in [-5, 5] mm"), std::string::npos) << off.status().ToString();
+  EXPECT_NE(off.status().message().find("loom calibrate geometry"), std::string::npos) << off.status().ToString();
+  EXPECT_NE(off.status().ToString().find("camera 'cam0'"), std::string::npos) << off.status().ToString();
+
+  Image unseen = columns;
+  for (float& v : unseen.channel(0)) v = std::nanf("");
+  const Result<TriangulatedHeights> dark = TriangulateHeights(unseen, camera, *rig.projector, rig.turntable, 0, grid);
+  ASSERT_FALSE(dark.ok());
+  EXPECT_NE(dark.status().message().find("pattern not seen"), std::string::npos) << dark.status().ToString();
+}
 }  // namespace
 }  // namespace loom::calibration
