@@ -51,9 +51,8 @@ struct GivenOnTheCommandLine {
 
 Status CheckRefineSetting(const fs::path& path, const std::string& key, const nlohmann::json& value) {
   if (key == "retries") {
-    if (!value.is_boolean())
-      return InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
-    return Status::Ok();
+    return value.is_boolean() ? Status::Ok()
+                              : InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
   }
   if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
     return InvalidArgumentError(path.string() + ": " + key,
