@@ -246,22 +246,21 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndTheRetriesAn
   EXPECT_EQ(overridden["retries"], false);
   EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
 
-  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"smoothing_weigth": 2})";
-  const auto typo = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                               " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "typo").string());
-  EXPECT_EQ(typo.exit_code, 1) << typo.output;
-  EXPECT_NE(typo.output.find((model / "refine.json").string() + ": smoothing_weigth"), std::string::npos) << typo.output;
-  EXPECT_FALSE(fs::exists(dir_ / "typo" / "svbrdf.exr"));
-  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"smoothing_weight": -1})";
-  const auto negative = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                                   " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "neg").string());
-  EXPECT_EQ(negative.exit_code, 1) << negative.output;
-  EXPECT_NE(negative.output.find("smoothing_weight"), std::string::npos) << negative.output;
-  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"retries": "no"})";
-  const auto not_bool = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
-                                   " --method refine --quiet --model " + model.string() + " --out " + (dir_ / "nb").string());
-  EXPECT_EQ(not_bool.exit_code, 1) << not_bool.output;
-  EXPECT_NE(not_bool.output.find((model / "refine.json").string() + ": retries"), std::string::npos) << not_bool.output;
+  // A refine.json that loom fit must refuse: exit 1, no maps written.
+  const auto refused = [&](const std::string& settings, const std::string& out) {
+    std::ofstream(model / "refine.json", std::ios::trunc) << settings;
+    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+                                " --method refine --quiet --model " + model.string() + " --out " + (dir_ / out).string());
+    EXPECT_EQ(fit.exit_code, 1) << fit.output;
+    EXPECT_FALSE(fs::exists(dir_ / out / "svbrdf.exr"));
+    return fit.output;
+  };
+  const std::string typo = refused(R"({"smoothing_weigth": 2})", "typo");
+  EXPECT_NE(typo.find((model / "refine.json").string() + ": smoothing_weigth"), std::string::npos) << typo;
+  const std::string negative = refused(R"({"smoothing_weight": -1})", "neg");
+  EXPECT_NE(negative.find("smoothing_weight"), std::string::npos) << negative;
+  const std::string not_bool = refused(R"({"retries": "no"})", "nb");
+  EXPECT_NE(not_bool.find((model / "refine.json").string() + ": retries"), std::string::npos) << not_bool;
 }
 
 // loom train end to end at toy size: renders its dataset, trains, and loom fit takes the model.
