@@ -23,11 +23,13 @@
 // sweep's angles from the stack it was made from (the coarsest: tac7's low preset, 70 per
 // camera), and each of them stands for its bin, from midway to the previous angle to midway to
 // the next. A channel is the mean over its bin of the stack's sweep, linear between the sweep's
-// positions (and constant beyond its ends). So the medium and high presets' sweeps (140 and 825
-// positions) are averaged over each bin, as the paper downsamples them, without the first-order
-// error of averaging samples that do not lie symmetrically in a bin; a coarser sweep is in effect
-// interpolated; and the layout's own sweep is filtered by (1, 6, 1)/8, the same anti-aliasing for
-// every preset (a smooth sweep gives every preset the same channels to O(bin²)).
+// positions and constant beyond its ends (which may stop up to a bin short of the layout's
+// outermost angles: a calibrated arm never sweeps exactly its nominal range). So the medium and
+// high presets' sweeps (140 and 825 positions) are averaged over each bin, as the paper
+// downsamples them, without the first-order error of averaging samples that do not lie
+// symmetrically in a bin; a coarser sweep is in effect interpolated; and the layout's own sweep
+// is filtered by (1, 6, 1)/8, the same anti-aliasing for every preset (a smooth sweep gives every
+// preset the same channels to O(bin²)).
 
 #include <string>
 #include <vector>
@@ -77,7 +79,7 @@ Result<PaperInputLayout> PaperLayoutOf(const ObservationStack& stack);
 
 // The layout's input channels from `stack` (radiance channels as log(1 + L / radiance_scale),
 // unseen 0): an error naming the stack when its colour or monochrome observations are not the
-// layout's counts, or a sweep of the layout is missing or does not cover its angles.
+// layout's counts, or a sweep of the layout is missing or stops more than a bin short of its outermost angles.
 Result<CnnTensor> PaperInputFromStack(const ObservationStack& stack, const PaperInputLayout& layout, double radiance_scale);
 
 }  // namespace loom::fitting

@@ -156,6 +156,38 @@ TEST(PaperInputTest, FinerSweepsAreAveragedOverEachBinAndCoarserOnesInterpolated
   EXPECT_NEAR(radiance[4], 100 + angles[4] - (angles[4] - angles[3]) / 8, 1e-3);
 }
 
+// A calibrated arm never sweeps its nominal range (tac7 built 1.5° turned: −68.5° to 71.5°). Up
+// to a bin short of the layout's outermost angle, the sweep is held at its end value there; a
+// shortfall beyond that would invent a whole bin and is refused.
+TEST(PaperInputTest, ASweepUpToABinShortOfTheLayoutIsHeldAtItsEndAndFurtherIsRefused) {
+  const RigModel rig = testing::TacMiniGeometry();
+  const auto linear_in_angle = [](const StackObservation& o) {
+    return o.group == ObservationGroup::kLinearLight ? static_cast<float>(100 + StripAngleDeg(o)) : 1.0f;
+  };
+  const ObservationStack stack = StackOf(rig, testing::TacMiniObservations(rig, 5), linear_in_angle);
+  const Result<PaperInputLayout> layout = PaperLayoutOf(stack);
+  ASSERT_TRUE(layout.ok()) << layout.status().ToString();
+  const std::vector<double>& own = layout->sweeps[0].angles_deg;
+  const double step = own[1] - own[0];
+  const auto shifted = [&](double bins) {
+    PaperInputLayout moved = *layout;
+    for (PaperLinearSweep& sweep : moved.sweeps) {
+      for (double& angle : sweep.angles_deg) angle -= bins * step;
+    }
+    return moved;
+  };
+  // Three quarters of a bin short: the first bin lies wholly before the sweep's first position.
+  const PaperInputLayout short_of_it = shifted(0.75);
+  const Result<CnnTensor> input = PaperInputFromStack(stack, short_of_it, 1.0);
+  ASSERT_TRUE(input.ok()) << input.status().ToString();
+  const std::vector<double> radiance = SweepRadiance(*input, short_of_it, 0);
+  EXPECT_NEAR(radiance[0], 100 + own[0], 1e-3);
+  EXPECT_NEAR(radiance[2], 100 + short_of_it.sweeps[0].angles_deg[2], 1e-3);  // inside, as ever
+
+  const Status too_short = PaperInputFromStack(stack, shifted(1.25), 1.0).status();
+  EXPECT_TRUE(Contains(too_short, "test stack") && Contains(too_short, "spans")) << too_short.ToString();
+}
+
 TEST(PaperInputTest, UnseenPositionsAreLeftOutOfABinsMean) {
   const RigModel rig = testing::TacMiniGeometry();
   const auto value = [](const StackObservation& o) {
