@@ -41,6 +41,9 @@ constexpr double kRetreatMin = 0.1;
 constexpr double kRetreatMax = 0.5;
 constexpr double kGoodModel = 0.1;
 constexpr double kExtraGrowth = 3;
+// Light samples per observation from which a finished pixel is evaluated for its uncertainty in
+// its own lane rather than in a batch of finished pixels (Batch::Park).
+constexpr int kInPlaceSlotsPerObservation = 2;
 
 // Tangent index → ambient index: the normal's 2 tangent coordinates stand for n_s's 3.
 constexpr int Ambient(int i) { return i + 1; }
@@ -126,6 +129,7 @@ struct Lane {
   TangentBasis basis, trial_basis;
   bool at_start = true;  // the pending evaluation is of the start
   bool converged = false;
+  bool parked = false;  // the pending evaluation is the uncertainty's, at the solution
   double cost = 0, data_cost = 0, squares = 0, cost_resolution = 0;
   Vector12 jtr = Vector12::Zero();
   Matrix12 jtj = Matrix12::Zero();    // data + prior
@@ -347,7 +351,8 @@ class Batch {
         next_(next),
         done_(done),
         data_(problem.lights_per_observation),
-        parked_data_(problem.lights_per_observation) {
+        park_in_place_(data_.slots() >= kInPlaceSlotsPerObservation * data_.observations),
+        parked_data_(park_in_place_ ? std::vector<int>{} : problem.lights_per_observation) {
     inputs_.huber_scale = parked_inputs_.huber_scale = options.huber_scale;
     // A lane that never holds a pixel still runs through the kernel: give it finite parameters
     // (zeros would make n_s NaN, which sends libmvec's whole vector down its scalar path).
@@ -367,7 +372,14 @@ class Batch {
     while (std::any_of(lanes_.begin(), lanes_.end(), [](const Lane& l) { return l.pixel >= 0; })) {
       internal::EvaluateLanes(data_, inputs_, equations_);
       for (int p = 0; p < kLanes; ++p) {
-        if (lanes_[p].pixel >= 0) Advance(p);
+        if (lanes_[p].pixel < 0) continue;
+        if (lanes_[p].parked) {
+          Finish(lanes_[p], equations_, p);
+          inputs_.leverage[p] = 0;
+          Refill(p);
+        } else {
+          Advance(p);
+        }
       }
     }
     EvaluateParked();
@@ -455,10 +467,14 @@ class Batch {
     Park(p, converged);
   }
 
-  // A finished pixel waits in the parked batch for one more evaluation at its solution, with
-  // each observation's leverage (HC2) in the uncertainty's meat; its lane takes the next pixel.
-  // Parking keeps the uncertainty's sums out of the iterations' kernel calls: done there, they
-  // ran in two calls of three (some lane was always finishing) and doubled a point-lit fit.
+  // A finished pixel needs one more evaluation, at its solution, with each observation's
+  // leverage (HC2) in the uncertainty's meat. That evaluation sums the uncertainty's matrices for
+  // all kLanes lanes, so where a pixel's light samples are many (linear light), the pixel stays
+  // in its lane for it and its observations are loaded once. Where they are few (point-lit),
+  // those sums are most of a call, and finished pixels wait in a batch of their own, copied into
+  // it, evaluated together. (A/B, docs/benchmarks.md: the batch's copies, with two batches of
+  // light slots in the cache, took a fifth of tac7-mini's first fits; in place, a point-lit fit
+  // of 900 observations took an eighth longer.)
   void Park(int p, bool converged) {
     Lane& lane = lanes_[p];
     lane.converged = converged;
@@ -468,41 +484,53 @@ class Batch {
       Refill(p);
       return;
     }
+    if (park_in_place_) {
+      lane.parked = true;
+      SetUncertaintyInputs(lane, p, inputs_);
+      return;
+    }
     const int q = parked_count_++;
     data_.CopyLane(p, parked_data_, q);
     parked_[q] = lane;
-    for (int i = 0; i < kAmbientParams; ++i) parked_inputs_.params[i][q] = lane.x[i];
-    for (int c = 0; c < 3; ++c) {
-      parked_inputs_.tangent[0][c][q] = lane.basis.u[c];
-      parked_inputs_.tangent[1][c][q] = lane.basis.v[c];
-    }
-    parked_inputs_.inverse_scale[q] = lane.inverse_scale;
-    const Matrix12 inverse = FreeInverse(lane.jtj, options_);  // the hat matrix of the last LM step's
-    const bool usable = inverse.allFinite();
-    parked_inputs_.leverage[q] = usable ? 1 : 0;
-    for (int i = 0; i < kTangentParams; ++i) {
-      for (int j = i; j < kTangentParams; ++j) {
-        parked_inputs_.bread_inverse[internal::NormalIndex(i, j)][q] = usable ? inverse(i, j) : 0;
-      }
-    }
+    SetUncertaintyInputs(lane, q, parked_inputs_);
     Refill(p);
     if (parked_count_ == kLanes) EvaluateParked();
   }
 
-  // The parked pixels' uncertainty evaluation (lanes beyond parked_count_ hold stale, finite
-  // data and are ignored).
+  // Index `at` of `inputs` to evaluate `lane` at its solution with its observations' leverages.
+  void SetUncertaintyInputs(const Lane& lane, int at, internal::LaneInputs& inputs) const {
+    for (int i = 0; i < kAmbientParams; ++i) inputs.params[i][at] = lane.x[i];
+    for (int c = 0; c < 3; ++c) {
+      inputs.tangent[0][c][at] = lane.basis.u[c];
+      inputs.tangent[1][c][at] = lane.basis.v[c];
+    }
+    inputs.inverse_scale[at] = lane.inverse_scale;
+    const Matrix12 inverse = FreeInverse(lane.jtj, options_);  // the hat matrix of the last LM step's
+    const bool usable = inverse.allFinite();
+    inputs.leverage[at] = usable ? 1 : 0;
+    for (int i = 0; i < kTangentParams; ++i) {
+      for (int j = i; j < kTangentParams; ++j) {
+        inputs.bread_inverse[internal::NormalIndex(i, j)][at] = usable ? inverse(i, j) : 0;
+      }
+    }
+  }
+
+  // The batch of parked pixels' uncertainty evaluation (lanes beyond parked_count_ hold stale,
+  // finite data and are ignored).
   void EvaluateParked() {
     if (parked_count_ == 0) return;
     internal::EvaluateLanes(parked_data_, parked_inputs_, parked_equations_);
-    for (int q = 0; q < parked_count_; ++q) {
-      Lane& lane = parked_[q];
-      const Evaluation e = ReadLane(parked_equations_, q, prior_, lane.x, lane.basis, lane.prior_mean);
-      lane.bread = e.bread;
-      lane.meat = e.meat;
-      results_[lane.pixel] = Finished(lane, SigmaOf(lane, options_));
-      ++done_;
-    }
+    for (int q = 0; q < parked_count_; ++q) Finish(parked_[q], parked_equations_, q);
     parked_count_ = 0;
+  }
+
+  // The result of a pixel whose evaluation at its solution is index `at` of `equations`.
+  void Finish(Lane& lane, const internal::LaneEquations& equations, int at) {
+    const Evaluation e = ReadLane(equations, at, prior_, lane.x, lane.basis, lane.prior_mean);
+    lane.bread = e.bread;
+    lane.meat = e.meat;
+    results_[lane.pixel] = Finished(lane, SigmaOf(lane, options_));
+    ++done_;
   }
 
   static RefinedPixel Finished(const Lane& lane, const ParamSigma& sigma) {
@@ -520,7 +548,8 @@ class Batch {
   internal::LaneInputs inputs_{};
   internal::LaneEquations equations_{};
   std::array<Lane, kLanes> lanes_;
-  internal::LaneData parked_data_;
+  const bool park_in_place_;
+  internal::LaneData parked_data_;  // empty when parking in place
   internal::LaneInputs parked_inputs_{};
   internal::LaneEquations parked_equations_{};
   std::array<Lane, kLanes> parked_;
