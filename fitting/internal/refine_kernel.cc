@@ -58,12 +58,32 @@ constexpr float kInversePi = static_cast<float>(1 / kPi);
 #define LANES _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kLanes; ++p)
 
 // The lobe's parameter-dependent frame and constants, per lane: computed in double, kept in
-// float for the sums over light samples.
-struct LaneLobe {
-  alignas(32) float n[3][kLanes], t[3][kLanes], b[3][kLanes], t0[3][kLanes], dt[3][kLanes], db[3][kLanes];
-  alignas(32) float t0_dot_n[kLanes], inv_t_prime[kLanes], inv_sx2[kLanes], inv_sy2[kLanes];
-  alignas(32) float inv_sx[kLanes], inv_sy[kLanes], normalisation[kLanes], f0[kLanes];
+// float for the sums over light samples. kSpan = 2 kLanes holds them twice, for two light slots
+// side by side (SumLights).
+template <int kSpan>
+struct Lobe {
+  alignas(64) float n[3][kSpan], t[3][kSpan], b[3][kSpan], t0[3][kSpan], dt[3][kSpan], db[3][kSpan];
+  alignas(64) float t0_dot_n[kSpan], inv_t_prime[kSpan], inv_sx2[kSpan], inv_sy2[kSpan];
+  alignas(64) float inv_sx[kSpan], inv_sy[kSpan], normalisation[kSpan], f0[kSpan];
 };
+using LaneLobe = Lobe<kLanes>;
+constexpr int kSlotPair = 2 * kLanes;
+
+// `lobe` twice over, lane p at p and p + kLanes.
+Lobe<kSlotPair> Twice(const LaneLobe& lobe) {
+  Lobe<kSlotPair> twice;
+  const auto copy = [](const float* from, float* to) {
+    for (int p = 0; p < kLanes; ++p) to[p] = to[p + kLanes] = from[p];
+  };
+  for (int c = 0; c < 3; ++c) {
+    copy(lobe.n[c], twice.n[c]), copy(lobe.t[c], twice.t[c]), copy(lobe.b[c], twice.b[c]);
+    copy(lobe.t0[c], twice.t0[c]), copy(lobe.dt[c], twice.dt[c]), copy(lobe.db[c], twice.db[c]);
+  }
+  copy(lobe.t0_dot_n, twice.t0_dot_n), copy(lobe.inv_t_prime, twice.inv_t_prime);
+  copy(lobe.inv_sx2, twice.inv_sx2), copy(lobe.inv_sy2, twice.inv_sy2), copy(lobe.inv_sx, twice.inv_sx);
+  copy(lobe.inv_sy, twice.inv_sy), copy(lobe.normalisation, twice.normalisation), copy(lobe.f0, twice.f0);
+  return twice;
+}
 
 [[gnu::always_inline]] inline void PrepareLobe(const LaneInputs& in, LaneLobe& lobe) {
   const auto& x = in.params;
@@ -103,76 +123,117 @@ struct LaneLobe {
 // all 8 lanes (two in double), and exp() in float is cheaper than in double. An observation sums
 // at most a strip's few dozen samples, so float's rounding (~1e-7 relative) stays well below the
 // noise of any measured radiance; the residuals, the cost and the normal equations are in double.
-struct ObservationSums {
-  alignas(32) float radiance[kLanes], diffuse[kLanes], specular[kLanes], fresnel[kLanes];
-  alignas(32) float sigma_x[kLanes], sigma_y[kLanes], alpha[kLanes], n[3][kLanes];
+template <int kSpan>
+struct Sums {
+  alignas(64) float radiance[kSpan], diffuse[kSpan], specular[kSpan], fresnel[kSpan];
+  alignas(64) float sigma_x[kSpan], sigma_y[kSpan], alpha[kSpan], n[3][kSpan];
 };
+using ObservationSums = Sums<kLanes>;
 
-[[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const float* diffuse_albedo,
-                                             const float* specular_albedo, int first, int end, ObservationSums& s) {
-  LANES {
+// Adds the light slots from `slot` on (one for kSpan = kLanes, two for kSlotPair: they lie side
+// by side in LaneData) to `s`, lane by lane.
+template <int kSpan>
+[[gnu::always_inline]] inline void AddSlots(const LaneData& d, const Lobe<kSpan>& lobe, const float* diffuse_albedo,
+                                            const float* specular_albedo, int slot, Sums<kSpan>& s) {
+  const int o = slot * kLanes;
+  SLOT_POINTERS(d, o);
+  _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kSpan; ++p) {
+    const float nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
+    const float n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+    const float irradiance_p = irradiance[p];  // loaded unconditionally: a select vectorises, a branch not
+    const float e = n_dot_l > 0 ? irradiance_p : 0.0f;
+    const float h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
+    const float h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
+    const float h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
+    const float h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
+    const float inv_h_n = 1 / h_n;
+    const float inv_h_n2 = inv_h_n * inv_h_n;
+    const float tx = h_t * lobe.inv_sx2[p], by = h_b * lobe.inv_sy2[p];
+    const float exponent = (h_t * tx + h_b * by) * inv_h_n2;
+    // Beyond kNegligibleLobeExponent the lobe is dropped, as the Ceres cost drops it; clamping
+    // exp's argument keeps it within ExpOfNegative's range.
+    const float negligible = exponent > kNegligibleLobeExponent ? 0.0f : 1.0f;
+    const float clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
+    const float ward = negligible * ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
+    const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
+    const float specular = fresnel * ward;
+    const float e_cos = e * n_dot_l;
+    const float shading = e * (diffuse_albedo[p] * kInversePi + specular_albedo[p] * specular);
+    s.radiance[p] += shading * n_dot_l;
+    s.diffuse[p] += e_cos * kInversePi;
+    s.specular[p] += e_cos * specular;
+    s.fresnel[p] += e_cos * (1 - schlick[p]) * ward;
+    const float q = e_cos * specular_albedo[p] * specular;
+    s.sigma_x[p] += q * lobe.inv_sx[p] * (2 * h_t * tx * inv_h_n2 - 1);
+    s.sigma_y[p] += q * lobe.inv_sy[p] * (2 * h_b * by * inv_h_n2 - 1);
+    const float h_dt = hx[p] * lobe.dt[0][p] + hy[p] * lobe.dt[1][p] + hz[p] * lobe.dt[2][p];
+    const float h_db = hx[p] * lobe.db[0][p] + hy[p] * lobe.db[1][p] + hz[p] * lobe.db[2][p];
+    s.alpha[p] -= q * 2 * (tx * h_dt + by * h_db) * inv_h_n2;
+    // ∂h_t/∂n = −(t0 h_n + (t0·n)(h − t h_t)) / |t'|,  ∂h_b/∂n = t × h − (t0·n)(h × n − t h_b) / |t'|
+    const float t0n_itp = lobe.t0_dot_n[p] * lobe.inv_t_prime[p];
+    const float h_n_itp = h_n_raw * lobe.inv_t_prime[p];
+    const float t0x = lobe.t0[0][p], t0y = lobe.t0[1][p];
+    const float ttx = lobe.t[0][p], tty = lobe.t[1][p], ttz = lobe.t[2][p];
+    const float dht_x = -(t0x * h_n_itp + t0n_itp * (hx[p] - ttx * h_t));
+    const float dht_y = -(t0y * h_n_itp + t0n_itp * (hy[p] - tty * h_t));
+    const float dht_z = -(t0n_itp * (hz[p] - ttz * h_t));
+    const float hcn_x = hy[p] * nz - hz[p] * ny, hcn_y = hz[p] * nx - hx[p] * nz, hcn_z = hx[p] * ny - hy[p] * nx;
+    const float dhb_x = (tty * hz[p] - ttz * hy[p]) - t0n_itp * (hcn_x - ttx * h_b);
+    const float dhb_y = (ttz * hx[p] - ttx * hz[p]) - t0n_itp * (hcn_y - tty * h_b);
+    const float dhb_z = (ttx * hy[p] - tty * hx[p]) - t0n_itp * (hcn_z - ttz * h_b);
+    // ∂L/∂n = shading l + q (−4 h / h_n − ∂e/∂n),  ∂e/∂n = 2 (tx ∂h_t + by ∂h_b) / h_n² − 2 e h / h_n
+    const float g2 = 2 * inv_h_n2;
+    const float h_coeff = q * (2 * exponent - 4) * inv_h_n;
+    s.n[0][p] += shading * lx[p] + h_coeff * hx[p] - q * g2 * (tx * dht_x + by * dhb_x);
+    s.n[1][p] += shading * ly[p] + h_coeff * hy[p] - q * g2 * (tx * dht_y + by * dhb_y);
+    s.n[2][p] += shading * lz[p] + h_coeff * hz[p] - q * g2 * (tx * dht_z + by * dhb_z);
+  }
+}
+
+template <int kSpan>
+[[gnu::always_inline]] inline void Clear(Sums<kSpan>& s) {
+  _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kSpan; ++p) {
     s.radiance[p] = s.diffuse[p] = s.specular[p] = s.fresnel[p] = 0;
     s.sigma_x[p] = s.sigma_y[p] = s.alpha[p] = 0;
     s.n[0][p] = s.n[1][p] = s.n[2][p] = 0;
   }
-  // Every lane evaluates the whole model on every sample, so that a pixel's result does not
-  // depend on which pixels share its batch (the thread count, the order of work). A shortcut
-  // taken when no lane's lobe reaches a sample did: it rounded differently, and in float that
-  // changed where fits stopped; on this machine it saved nothing measurable (2026-11-25).
-  for (int slot = first; slot < end; ++slot) {
-    const int o = slot * kLanes;
-    SLOT_POINTERS(d, o);
-    LANES {
-      const float nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
-      const float n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
-      const float irradiance_p = irradiance[p];  // loaded unconditionally: a select vectorises, a branch not
-      const float e = n_dot_l > 0 ? irradiance_p : 0.0f;
-      const float h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
-      const float h_b = hx[p] * lobe.b[0][p] + hy[p] * lobe.b[1][p] + hz[p] * lobe.b[2][p];
-      const float h_n_raw = hx[p] * nx + hy[p] * ny + hz[p] * nz;
-      const float h_n = h_n_raw > kMinHalfwayCosine ? h_n_raw : kMinHalfwayCosine;
-      const float inv_h_n = 1 / h_n;
-      const float inv_h_n2 = inv_h_n * inv_h_n;
-      const float tx = h_t * lobe.inv_sx2[p], by = h_b * lobe.inv_sy2[p];
-      const float exponent = (h_t * tx + h_b * by) * inv_h_n2;
-      // Beyond kNegligibleLobeExponent the lobe is dropped, as the Ceres cost drops it; clamping
-      // exp's argument keeps it within ExpOfNegative's range.
-      const float negligible = exponent > kNegligibleLobeExponent ? 0.0f : 1.0f;
-      const float clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
-      const float ward = negligible * ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
-      const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
-      const float specular = fresnel * ward;
-      const float e_cos = e * n_dot_l;
-      const float shading = e * (diffuse_albedo[p] * kInversePi + specular_albedo[p] * specular);
-      s.radiance[p] += shading * n_dot_l;
-      s.diffuse[p] += e_cos * kInversePi;
-      s.specular[p] += e_cos * specular;
-      s.fresnel[p] += e_cos * (1 - schlick[p]) * ward;
-      const float q = e_cos * specular_albedo[p] * specular;
-      s.sigma_x[p] += q * lobe.inv_sx[p] * (2 * h_t * tx * inv_h_n2 - 1);
-      s.sigma_y[p] += q * lobe.inv_sy[p] * (2 * h_b * by * inv_h_n2 - 1);
-      const float h_dt = hx[p] * lobe.dt[0][p] + hy[p] * lobe.dt[1][p] + hz[p] * lobe.dt[2][p];
-      const float h_db = hx[p] * lobe.db[0][p] + hy[p] * lobe.db[1][p] + hz[p] * lobe.db[2][p];
-      s.alpha[p] -= q * 2 * (tx * h_dt + by * h_db) * inv_h_n2;
-      // ∂h_t/∂n = −(t0 h_n + (t0·n)(h − t h_t)) / |t'|,  ∂h_b/∂n = t × h − (t0·n)(h × n − t h_b) / |t'|
-      const float t0n_itp = lobe.t0_dot_n[p] * lobe.inv_t_prime[p];
-      const float h_n_itp = h_n_raw * lobe.inv_t_prime[p];
-      const float t0x = lobe.t0[0][p], t0y = lobe.t0[1][p];
-      const float ttx = lobe.t[0][p], tty = lobe.t[1][p], ttz = lobe.t[2][p];
-      const float dht_x = -(t0x * h_n_itp + t0n_itp * (hx[p] - ttx * h_t));
-      const float dht_y = -(t0y * h_n_itp + t0n_itp * (hy[p] - tty * h_t));
-      const float dht_z = -(t0n_itp * (hz[p] - ttz * h_t));
-      const float hcn_x = hy[p] * nz - hz[p] * ny, hcn_y = hz[p] * nx - hx[p] * nz, hcn_z = hx[p] * ny - hy[p] * nx;
-      const float dhb_x = (tty * hz[p] - ttz * hy[p]) - t0n_itp * (hcn_x - ttx * h_b);
-      const float dhb_y = (ttz * hx[p] - ttx * hz[p]) - t0n_itp * (hcn_y - tty * h_b);
-      const float dhb_z = (ttx * hy[p] - tty * hx[p]) - t0n_itp * (hcn_z - ttz * h_b);
-      // ∂L/∂n = shading l + q (−4 h / h_n − ∂e/∂n),  ∂e/∂n = 2 (tx ∂h_t + by ∂h_b) / h_n² − 2 e h / h_n
-      const float g2 = 2 * inv_h_n2;
-      const float h_coeff = q * (2 * exponent - 4) * inv_h_n;
-      s.n[0][p] += shading * lx[p] + h_coeff * hx[p] - q * g2 * (tx * dht_x + by * dhb_x);
-      s.n[1][p] += shading * ly[p] + h_coeff * hy[p] - q * g2 * (tx * dht_y + by * dhb_y);
-      s.n[2][p] += shading * lz[p] + h_coeff * hz[p] - q * g2 * (tx * dht_z + by * dhb_z);
-    }
+}
+
+// One observation's sums over its light slots [first, end), two slots at a time where it has
+// them: each slot's chain (the lobe's exponent, exp()'s polynomial, the sums) is long and
+// dependent, and two slots side by side fill an AVX-512 register (one slot's 8 floats fill half)
+// or give AVX2's out-of-order core two chains at once. Every lane evaluates the whole model on
+// every sample, so that a pixel's result does not depend on which pixels share its batch (the
+// thread count, the order of work). A shortcut taken when no lane's lobe reaches a sample did:
+// it rounded differently, and in float that changed where fits stopped; on this machine it saved
+// nothing measurable (2026-11-25).
+[[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const Lobe<kSlotPair>& lobe_twice,
+                                             const float* diffuse_albedo, const float* specular_albedo, int first, int end,
+                                             ObservationSums& s) {
+  Clear(s);
+  if (end - first < 2) {  // a point light: no pair to set up and fold (a point-lit fit took 8 % longer)
+    if (first < end) AddSlots(d, lobe, diffuse_albedo, specular_albedo, first, s);
+    return;
+  }
+  alignas(64) float diffuse_twice[kSlotPair], specular_twice[kSlotPair];
+  LANES {
+    diffuse_twice[p] = diffuse_twice[p + kLanes] = diffuse_albedo[p];
+    specular_twice[p] = specular_twice[p + kLanes] = specular_albedo[p];
+  }
+  Sums<kSlotPair> pair;
+  Clear(pair);
+  int slot = first;
+  for (; slot + 2 <= end; slot += 2) AddSlots(d, lobe_twice, diffuse_twice, specular_twice, slot, pair);
+  if (slot < end) AddSlots(d, lobe, diffuse_albedo, specular_albedo, slot, s);
+  LANES {
+    s.radiance[p] += pair.radiance[p] + pair.radiance[p + kLanes];
+    s.diffuse[p] += pair.diffuse[p] + pair.diffuse[p + kLanes];
+    s.specular[p] += pair.specular[p] + pair.specular[p + kLanes];
+    s.fresnel[p] += pair.fresnel[p] + pair.fresnel[p + kLanes];
+    s.sigma_x[p] += pair.sigma_x[p] + pair.sigma_x[p + kLanes];
+    s.sigma_y[p] += pair.sigma_y[p] + pair.sigma_y[p + kLanes];
+    s.alpha[p] += pair.alpha[p] + pair.alpha[p + kLanes];
+    for (int c = 0; c < 3; ++c) s.n[c][p] += pair.n[c][p] + pair.n[c][p + kLanes];
   }
 }
 
@@ -277,6 +338,7 @@ template <int kWidth>
                                                                                          LaneEquations& out) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
+  const Lobe<kSlotPair> lobe_twice = Twice(lobe);
   LANES { out.cost[p] = out.squares[p] = out.cost_resolution[p] = 0; }
   for (int i = 0; i < kTangentParams; ++i) LANES {
       out.jtr[i][p] = 0;
@@ -299,7 +361,7 @@ template <int kWidth>
       diffuse_albedo[p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
       specular_albedo[p] = d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
     }
-    SumLights(d, lobe, diffuse_albedo, specular_albedo, d.first_slot[k], d.first_slot[k + 1], s);
+    SumLights(d, lobe, lobe_twice, diffuse_albedo, specular_albedo, d.first_slot[k], d.first_slot[k + 1], s);
     LANES {
       // The model is 0 when the camera is below the shading normal's horizon.
       const double n_dot_v = lobe.n[0][p] * d.vx[o + p] + lobe.n[1][p] * d.vy[o + p] + lobe.n[2][p] * d.vz[o + p];
