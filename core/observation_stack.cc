@@ -119,11 +119,6 @@ double PointEmitter::IntensityTowards(const Eigen::Vector3d& p_in_sample) const 
   return IntensityAlong((p_in_sample - position_mm).normalized());
 }
 
-double PointEmitter::IntensityAlong(const Eigen::Vector3d& from_emitter) const {
-  const double c = axis.dot(from_emitter);
-  return c > 0 ? intensity * CosinePower(c, falloff_exponent) : 0.0;
-}
-
 Eigen::Vector3d ObservationStack::Position(int x, int y) const {
   return {image.at(0, y, x), image.at(1, y, x), image.at(2, y, x)};
 }

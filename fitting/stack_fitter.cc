@@ -821,7 +821,9 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   const int width = stack.image.width();
   const int height = stack.image.height();
   const int pixel_count = width * height;
-  const StackPixels pixels(stack, options.pixels);
+  StackPixelOptions frames = options.pixels;
+  frames.keep_frames = options.solver == PixelSolver::kBatchRefiner && options.smoothing.weight > 0;  // two passes
+  const StackPixels pixels(stack, frames);
   StackFit fit;
   StackFitSummary& summary = fit.summary;
   summary.pixels = pixel_count;

@@ -14,6 +14,10 @@ StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions&
   for (const StackObservation& o : stack.observations) {
     strips_.push_back(o.group == ObservationGroup::kLinearLight ? StripOfEmitters(o.emitters) : std::nullopt);
   }
+  if (options_.keep_frames) {
+    frame_filled_ = std::make_unique<std::once_flag[]>(stack.image.pixel_count());
+    frames_.resize(stack.image.pixel_count());
+  }
 }
 
 Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
@@ -21,6 +25,13 @@ Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
 }
 
 StackPixels::PixelFrame StackPixels::FrameOf(int x, int y) const {
+  if (!options_.keep_frames) return ComputeFrame(x, y);
+  const size_t i = static_cast<size_t>(y) * width() + x;
+  std::call_once(frame_filled_[i], [&] { frames_[i] = ComputeFrame(x, y); });
+  return frames_[i];
+}
+
+StackPixels::PixelFrame StackPixels::ComputeFrame(int x, int y) const {
   const Eigen::Vector3d position = stack_.Position(x, y);
   Heightmap::Horizon horizon;
   if (options_.cast_shadows) horizon = heightmap_.HorizonAt(position);
@@ -109,13 +120,15 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   }
   // Thousands of light samples per pixel: the direction to each is computed once (as
   // normalized() would) for its falloff and the pixel's frame.
-  for (const PointEmitter& emitter : integrate ? nodes : o.emitters) {
+  const std::vector<PointEmitter>& emitters = integrate ? nodes : o.emitters;
+  observation.lights.reserve(emitters.size());
+  for (const PointEmitter& emitter : emitters) {
     const Eigen::Vector3d to_light = emitter.position_mm - p;
     const double distance2 = to_light.squaredNorm();
     const Eigen::Vector3d l = to_light / std::sqrt(distance2);
     const double intensity = emitter.IntensityAlong(-l);
     if (intensity <= 0 || (!nodes_lit && shadowed(emitter))) continue;
-    observation.lights.push_back({frame.local_from_sample * l, intensity / distance2});
+    observation.lights.push_back({frame.local_from_sample.lazyProduct(l), intensity / distance2});
   }
   if (!observation.lights.empty()) out.push_back(std::move(observation));
 }

@@ -5,13 +5,14 @@
 // sample of irradiance I(p)/d². Emitters the heightmap (pos.Z) hides from the pixel are left
 // out; an observation with no emitter left is a shadow and is left out as well, so cast
 // shadows never reach the fit. The light model is the stack table's (core/observation_stack.h).
-// Thread-safety: immutable after construction; Observations() may run on many threads.
+// Thread-safety: Observations() may run on many threads (kept frames are filled once each).
 
-#include <span>
-#include <vector>
-
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <span>
 #include <utility>
+#include <vector>
 
 #include "core/heightmap.h"
 #include "core/observation_stack.h"
@@ -25,6 +26,10 @@ struct StackPixelOptions {
   // Set: Observations(x, y, lobe) integrates each linear light's strip by Gauss–Legendre nodes
   // placed around that lobe (strip_quadrature.h) instead of the stack's emitters.
   std::optional<StripQuadratureOptions> strip_quadrature;
+  // Remember each pixel's frame (its position, local frame and horizon bound: ~360 bytes) from
+  // its first Observations() on: worth it where every pixel is fitted more than once (a
+  // smoothing pass), since the horizon bound costs as much as a pixel's shadow tests.
+  bool keep_frames = false;
 };
 
 class StackPixels {
@@ -60,6 +65,7 @@ class StackPixels {
     Heightmap::Horizon horizon;  // of the position: most lights need no march
   };
   PixelFrame FrameOf(int x, int y) const;
+  PixelFrame ComputeFrame(int x, int y) const;
   // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed; its
   // strip integrated around `lobe`'s span when given.
   void Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out,
@@ -69,6 +75,9 @@ class StackPixels {
   StackPixelOptions options_;
   Heightmap heightmap_;
   std::vector<std::optional<StripSegment>> strips_;  // per stack observation: its linear light's strip
+  // With options_.keep_frames: each pixel's frame, filled under its flag on first use.
+  mutable std::unique_ptr<std::once_flag[]> frame_filled_;
+  mutable std::vector<PixelFrame> frames_;
 };
 
 }  // namespace loom::fitting

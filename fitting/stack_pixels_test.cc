@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/parallel.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
@@ -43,6 +44,37 @@ TEST(StackPixelsTest, TheTableAndTrueParametersReproduceTheFastPathStack) {
   EXPECT_LT(worst, 1e-4);  // float storage of the stack
   EXPECT_GT(compared, 24 * 24 * 80);
   EXPECT_GT(shadowed, 0) << "the fabric's relief should shadow some grazing LEDs";
+}
+
+// Kept frames change nothing: every pixel's observations, asked for twice from two threads (the
+// second time from the kept frame), equal those computed afresh, light by light.
+TEST(StackPixelsTest, KeptFramesGiveTheSameObservationsOnEveryCall) {
+  const sim::Material fabric = sim::GenerateFabric(7, {.width_px = 12, .height_px = 12, .pixel_mm = 0.2});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 5), {});
+  const StackPixels fresh(stack);
+  const StackPixels kept(stack, {.keep_frames = true});
+  const int count = stack.image.width() * stack.image.height();
+  std::vector<std::vector<PixelObservation>> first(count), second(count);
+  for (int round = 0; round < 2; ++round) {
+    std::vector<std::vector<PixelObservation>>& into = round == 0 ? first : second;
+    ParallelFor(count, 2, [&](int i) { into[i] = kept.Observations(i % stack.image.width(), i / stack.image.width()); });
+  }
+  for (int i = 0; i < count; ++i) {
+    const std::vector<PixelObservation> expected = fresh.Observations(i % stack.image.width(), i / stack.image.width());
+    for (const std::vector<PixelObservation>* got : {&first[i], &second[i]}) {
+      ASSERT_EQ(got->size(), expected.size()) << "pixel " << i;
+      for (size_t k = 0; k < expected.size(); ++k) {
+        EXPECT_EQ((*got)[k].source, expected[k].source);
+        EXPECT_EQ((*got)[k].v_local, expected[k].v_local);
+        ASSERT_EQ((*got)[k].lights.size(), expected[k].lights.size());
+        for (size_t l = 0; l < expected[k].lights.size(); ++l) {
+          EXPECT_EQ((*got)[k].lights[l].l_local, expected[k].lights[l].l_local);
+          EXPECT_EQ((*got)[k].lights[l].irradiance, expected[k].lights[l].irradiance);
+        }
+      }
+    }
+  }
 }
 
 }  // namespace
