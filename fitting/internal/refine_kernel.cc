@@ -44,16 +44,28 @@ constexpr float kInversePi = static_cast<float>(1 / kPi);
 
 // A light slot's parameter-free arrays as restrict pointers to its kLanes values, named as
 // LaneData's members (locals, so that the vectoriser sees they do not alias).
-#define SLOT_POINTERS(data, offset)                                \
-  const float* __restrict lx = &(data).lx[offset];                 \
-  const float* __restrict ly = &(data).ly[offset];                 \
-  const float* __restrict lz = &(data).lz[offset];                 \
-  const float* __restrict hx = &(data).hx[offset];                 \
-  const float* __restrict hy = &(data).hy[offset];                 \
-  const float* __restrict hz = &(data).hz[offset];                 \
-  const float* __restrict irradiance = &(data).irradiance[offset]; \
-  const float* __restrict inv_c2 = &(data).inv_c2[offset];         \
-  const float* __restrict schlick = &(data).schlick[offset]
+#define SLOT_POINTERS(data, offset)                \
+  const float* __restrict hx = &(data).hx[offset]; \
+  const float* __restrict hy = &(data).hy[offset]; \
+  const float* __restrict hz = &(data).hz[offset]; \
+  const float* __restrict irradiance = &(data).irradiance[offset]
+
+// A light sample's direction l, 1 / (l·h)² and Schlick's (1 − l·h)⁵, from its halfway vector h
+// and the view v (unit vectors: l = 2 (v·h) h − v, and l·h = v·h). Computed here rather than
+// stored, so that LaneData holds 4 floats a light slot instead of 9: loading a pixel into its
+// lane writes a float into every 32-byte row of each array, through the whole batch, and that
+// was a tenth of the main job's fit (perf). l·h > 0 for every real sample (l + v ≈ 0 is dropped
+// when the lane is loaded); the floor keeps empty slots, whose h may be another pixel's, finite.
+struct SlotGeometry {
+  float lx, ly, lz, inv_c2, schlick;
+};
+[[gnu::always_inline]] inline SlotGeometry GeometryOf(float hx, float hy, float hz, float vx, float vy, float vz) {
+  const float h_dot_v = hx * vx + hy * vy + hz * vz;
+  const float c = h_dot_v > kMinHalfwayCosine ? h_dot_v : kMinHalfwayCosine;
+  const float one_minus_c = 1 - c;
+  const float squared = one_minus_c * one_minus_c;
+  return {2 * h_dot_v * hx - vx, 2 * h_dot_v * hy - vy, 2 * h_dot_v * hz - vz, 1 / (c * c), squared * squared * one_minus_c};
+}
 
 #define LANES _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kLanes; ++p)
 
@@ -130,16 +142,25 @@ struct Sums {
 };
 using ObservationSums = Sums<kLanes>;
 
+// What an observation's light slots share, per lane: the colour-weighted albedos and the view.
+template <int kSpan>
+struct ObservationLanes {
+  alignas(64) float diffuse_albedo[kSpan], specular_albedo[kSpan], v[3][kSpan];
+};
+
 // Adds the light slots from `slot` on (one for kSpan = kLanes, two for kSlotPair: they lie side
 // by side in LaneData) to `s`, lane by lane.
 template <int kSpan>
-[[gnu::always_inline]] inline void AddSlots(const LaneData& d, const Lobe<kSpan>& lobe, const float* diffuse_albedo,
-                                            const float* specular_albedo, int slot, Sums<kSpan>& s) {
+[[gnu::always_inline]] inline void AddSlots(const LaneData& d, const Lobe<kSpan>& lobe, const ObservationLanes<kSpan>& ob,
+                                            int slot, Sums<kSpan>& s) {
   const int o = slot * kLanes;
   SLOT_POINTERS(d, o);
+  const float* __restrict diffuse_albedo = ob.diffuse_albedo;
+  const float* __restrict specular_albedo = ob.specular_albedo;
   _Pragma("GCC ivdep") _Pragma("GCC unroll 1") for (int p = 0; p < kSpan; ++p) {
+    const auto [lx, ly, lz, inv_c2, schlick] = GeometryOf(hx[p], hy[p], hz[p], ob.v[0][p], ob.v[1][p], ob.v[2][p]);
     const float nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
-    const float n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+    const float n_dot_l = nx * lx + ny * ly + nz * lz;
     const float irradiance_p = irradiance[p];  // loaded unconditionally: a select vectorises, a branch not
     const float e = n_dot_l > 0 ? irradiance_p : 0.0f;
     const float h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
@@ -154,15 +175,15 @@ template <int kSpan>
     // exp's argument keeps it within ExpOfNegative's range.
     const float negligible = exponent > kNegligibleLobeExponent ? 0.0f : 1.0f;
     const float clamped = exponent > kNegligibleLobeExponent ? kNegligibleLobeExponent : exponent;
-    const float ward = negligible * ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
-    const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
+    const float ward = negligible * ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2 * inv_h_n2 * inv_h_n2;
+    const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick;
     const float specular = fresnel * ward;
     const float e_cos = e * n_dot_l;
     const float shading = e * (diffuse_albedo[p] * kInversePi + specular_albedo[p] * specular);
     s.radiance[p] += shading * n_dot_l;
     s.diffuse[p] += e_cos * kInversePi;
     s.specular[p] += e_cos * specular;
-    s.fresnel[p] += e_cos * (1 - schlick[p]) * ward;
+    s.fresnel[p] += e_cos * (1 - schlick) * ward;
     const float q = e_cos * specular_albedo[p] * specular;
     s.sigma_x[p] += q * lobe.inv_sx[p] * (2 * h_t * tx * inv_h_n2 - 1);
     s.sigma_y[p] += q * lobe.inv_sy[p] * (2 * h_b * by * inv_h_n2 - 1);
@@ -184,9 +205,9 @@ template <int kSpan>
     // ∂L/∂n = shading l + q (−4 h / h_n − ∂e/∂n),  ∂e/∂n = 2 (tx ∂h_t + by ∂h_b) / h_n² − 2 e h / h_n
     const float g2 = 2 * inv_h_n2;
     const float h_coeff = q * (2 * exponent - 4) * inv_h_n;
-    s.n[0][p] += shading * lx[p] + h_coeff * hx[p] - q * g2 * (tx * dht_x + by * dhb_x);
-    s.n[1][p] += shading * ly[p] + h_coeff * hy[p] - q * g2 * (tx * dht_y + by * dhb_y);
-    s.n[2][p] += shading * lz[p] + h_coeff * hz[p] - q * g2 * (tx * dht_z + by * dhb_z);
+    s.n[0][p] += shading * lx + h_coeff * hx[p] - q * g2 * (tx * dht_x + by * dhb_x);
+    s.n[1][p] += shading * ly + h_coeff * hy[p] - q * g2 * (tx * dht_y + by * dhb_y);
+    s.n[2][p] += shading * lz + h_coeff * hz[p] - q * g2 * (tx * dht_z + by * dhb_z);
   }
 }
 
@@ -208,23 +229,23 @@ template <int kSpan>
 // it rounded differently, and in float that changed where fits stopped; on this machine it saved
 // nothing measurable (2026-11-25).
 [[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const Lobe<kSlotPair>& lobe_twice,
-                                             const float* diffuse_albedo, const float* specular_albedo, int first, int end,
-                                             ObservationSums& s) {
+                                             const ObservationLanes<kLanes>& ob, int first, int end, ObservationSums& s) {
   Clear(s);
   if (end - first < 2) {  // a point light: no pair to set up and fold (a point-lit fit took 8 % longer)
-    if (first < end) AddSlots(d, lobe, diffuse_albedo, specular_albedo, first, s);
+    if (first < end) AddSlots(d, lobe, ob, first, s);
     return;
   }
-  alignas(64) float diffuse_twice[kSlotPair], specular_twice[kSlotPair];
+  ObservationLanes<kSlotPair> twice;
   LANES {
-    diffuse_twice[p] = diffuse_twice[p + kLanes] = diffuse_albedo[p];
-    specular_twice[p] = specular_twice[p + kLanes] = specular_albedo[p];
+    twice.diffuse_albedo[p] = twice.diffuse_albedo[p + kLanes] = ob.diffuse_albedo[p];
+    twice.specular_albedo[p] = twice.specular_albedo[p + kLanes] = ob.specular_albedo[p];
+    for (int c = 0; c < 3; ++c) twice.v[c][p] = twice.v[c][p + kLanes] = ob.v[c][p];
   }
   Sums<kSlotPair> pair;
   Clear(pair);
   int slot = first;
-  for (; slot + 2 <= end; slot += 2) AddSlots(d, lobe_twice, diffuse_twice, specular_twice, slot, pair);
-  if (slot < end) AddSlots(d, lobe, diffuse_albedo, specular_albedo, slot, s);
+  for (; slot + 2 <= end; slot += 2) AddSlots(d, lobe_twice, twice, slot, pair);
+  if (slot < end) AddSlots(d, lobe, ob, slot, s);
   LANES {
     s.radiance[p] += pair.radiance[p] + pair.radiance[p + kLanes];
     s.diffuse[p] += pair.diffuse[p] + pair.diffuse[p + kLanes];
@@ -350,7 +371,8 @@ template <int kWidth>
   bool any_leverage = false;
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
   ObservationSums s;
-  alignas(32) float diffuse_albedo[kLanes], specular_albedo[kLanes];
+  ObservationLanes<kLanes> ob;
+  const float* specular_albedo = ob.specular_albedo;
   alignas(64) double weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
@@ -358,10 +380,11 @@ template <int kWidth>
     // The gradient, written where the chunk's sums over observations (Gram) will read it.
     double(*__restrict g)[kLanes] = reinterpret_cast<double(*)[kLanes]>(&d.gradients[static_cast<size_t>(c) * kTangentParams]);
     LANES {
-      diffuse_albedo[p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
-      specular_albedo[p] = d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
+      ob.diffuse_albedo[p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
+      ob.specular_albedo[p] = d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
+      ob.v[0][p] = d.vx[o + p], ob.v[1][p] = d.vy[o + p], ob.v[2][p] = d.vz[o + p];
     }
-    SumLights(d, lobe, lobe_twice, diffuse_albedo, specular_albedo, d.first_slot[k], d.first_slot[k + 1], s);
+    SumLights(d, lobe, lobe_twice, ob, d.first_slot[k], d.first_slot[k + 1], s);
     LANES {
       // The model is 0 when the camera is below the shading normal's horizon.
       const double n_dot_v = lobe.n[0][p] * d.vx[o + p] + lobe.n[1][p] * d.vy[o + p] + lobe.n[2][p] * d.vz[o + p];
@@ -421,14 +444,18 @@ template <int kWidth>
   PrepareLobe(in, lobe);
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
-    alignas(32) float diffuse_sum[kLanes], specular_sum[kLanes];
-    LANES { diffuse_sum[p] = specular_sum[p] = 0; }
+    alignas(32) float diffuse_sum[kLanes], specular_sum[kLanes], vx[kLanes], vy[kLanes], vz[kLanes];
+    LANES {
+      diffuse_sum[p] = specular_sum[p] = 0;
+      vx[p] = d.vx[o + p], vy[p] = d.vy[o + p], vz[p] = d.vz[o + p];
+    }
     for (int slot = d.first_slot[k]; slot < d.first_slot[k + 1]; ++slot) {
       const int i = slot * kLanes;
       SLOT_POINTERS(d, i);
       LANES {
+        const auto [lx, ly, lz, inv_c2, schlick] = GeometryOf(hx[p], hy[p], hz[p], vx[p], vy[p], vz[p]);
         const float nx = lobe.n[0][p], ny = lobe.n[1][p], nz = lobe.n[2][p];
-        const float n_dot_l = nx * lx[p] + ny * ly[p] + nz * lz[p];
+        const float n_dot_l = nx * lx + ny * ly + nz * lz;
         const float lit = irradiance[p] * n_dot_l;
         const float e_cos = n_dot_l > 0 ? lit : 0.0f;
         const float h_t = hx[p] * lobe.t[0][p] + hy[p] * lobe.t[1][p] + hz[p] * lobe.t[2][p];
@@ -441,8 +468,8 @@ template <int kWidth>
         // into a branch that stops the loop from vectorising (it did here). 80, not more: the
         // range of ExpOfNegative.
         const float clamped = exponent > 80.0f ? 80.0f : exponent;
-        const float ward = ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2[p] * inv_h_n2 * inv_h_n2;
-        const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick[p];
+        const float ward = ExpOfNegative(clamped) * lobe.normalisation[p] * inv_c2 * inv_h_n2 * inv_h_n2;
+        const float fresnel = lobe.f0[p] + (1 - lobe.f0[p]) * schlick;
         diffuse_sum[p] += e_cos * kInversePi;
         specular_sum[p] += e_cos * fresnel * ward;
       }
@@ -472,8 +499,8 @@ LaneData::LaneData(const std::vector<int>& slots_per_observation) : observations
   const size_t per_chunk = static_cast<size_t>(kChunkObservations) * kLanes;
   for (auto* v : {&weights, &weighted_residuals, &inlier_weights, &meat_weights}) v->assign(per_chunk, 0.0);
   gradients.assign(per_chunk * kTangentParams, 0.0);
-  for (auto* v : {&lx, &ly, &hx, &hy, &irradiance, &schlick}) v->assign(per_slot, 0.0);
-  for (auto* v : {&lz, &hz, &inv_c2}) v->assign(per_slot, 1.0);
+  for (auto* v : {&hx, &hy, &irradiance}) v->assign(per_slot, 0.0);
+  hz.assign(per_slot, 1.0);
   vz.assign(per_observation, 1.0);
 }
 
@@ -487,8 +514,7 @@ void LaneData::CopyLane(int lane, LaneData& to, int to_lane) const {
                       &LaneData::wg, &LaneData::wb}) {
     copy(this->*member, to.*member, observations);
   }
-  for (auto member : {&LaneData::lx, &LaneData::ly, &LaneData::lz, &LaneData::hx, &LaneData::hy, &LaneData::hz,
-                      &LaneData::irradiance, &LaneData::inv_c2, &LaneData::schlick}) {
+  for (auto member : {&LaneData::hx, &LaneData::hy, &LaneData::hz, &LaneData::irradiance}) {
     copy(this->*member, to.*member, slots());
   }
 }

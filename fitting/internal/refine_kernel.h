@@ -46,12 +46,10 @@ struct LaneData {
   std::vector<double> vx, vy, vz;        // towards the camera, local frame
   std::vector<double> wr, wg, wb;        // colour weights
   // Per light slot × lane: what does not depend on the parameters. Single precision: the sums
-  // over light samples run in float (refine_kernel.cc says why).
-  std::vector<float> lx, ly, lz;  // towards the light
+  // over light samples run in float (refine_kernel.cc says why). The direction to the light,
+  // 1 / (l·h)² and Schlick's (1 − l·h)⁵ follow from h and v (refine_kernel.cc: GeometryOf).
   std::vector<float> hx, hy, hz;  // normalize(l + v)
   std::vector<float> irradiance;  // 0: empty slot
-  std::vector<float> inv_c2;      // 1 / (l·h)²
-  std::vector<float> schlick;     // (1 − l·h)⁵
   // The kernel's scratch: per observation of a chunk of kChunkObservations × lane, the gradient
   // (12 each) and the weights of the sums over observations. Written by EvaluateLanes (hence
   // mutable): one LaneData per thread.

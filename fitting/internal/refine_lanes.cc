@@ -47,14 +47,9 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
     int light_slot = data.first_slot[slot];
     for (const LightSample& light : lights) {
       const Eigen::Vector3d h = (light.l_local + o.v_local).normalized();
-      const double c = std::clamp(light.l_local.dot(h), 0.0, 1.0);
-      const double one_minus_c = 1 - c;
       const size_t s = static_cast<size_t>(light_slot++) * kLanes + lane;
-      data.lx[s] = light.l_local.x(), data.ly[s] = light.l_local.y(), data.lz[s] = light.l_local.z();
       data.hx[s] = h.x(), data.hy[s] = h.y(), data.hz[s] = h.z();
       data.irradiance[s] = light.irradiance;
-      data.inv_c2[s] = 1 / (c * c);
-      data.schlick[s] = one_minus_c * one_minus_c * one_minus_c * one_minus_c * one_minus_c;
     }
   }
   const double mean = sum / usable.observations.size();

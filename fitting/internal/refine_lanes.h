@@ -2,7 +2,7 @@
 // A pixel's observations into the refiner's lanes (refine_kernel.h): which observations the
 // fit uses (as FitPixel: non-NaN radiance and at least one light), the batch slot of each (its
 // `source`, else its position in the list), and the packing of their light samples with what
-// does not depend on the parameters (h, 1/(l·h)², Schlick's (1 − l·h)⁵) computed once. Light
+// does not depend on the parameters (the halfway vector h) computed once. Light
 // samples the model zeroes whatever the parameters (l or v below the geometric horizon,
 // l + v ≈ 0) are dropped here, as the Ceres cost drops them; an observation with more light
 // samples than its slot holds has them merged (MergeLightSamples).
