@@ -45,6 +45,11 @@ float SmoothInAngle(const StackObservation& o) {
   return o.group == ObservationGroup::kLinearLight ? static_cast<float>(2 + std::cos(StripAngleDeg(o) * M_PI / 180)) : 1.0f;
 }
 
+// 100 + the strip's angle: a sweep linear in the angle, whose mean over any bin is exact.
+float LinearInAngle(const StackObservation& o) {
+  return o.group == ObservationGroup::kLinearLight ? static_cast<float>(100 + StripAngleDeg(o)) : 1.0f;
+}
+
 // The input's linear-light channels of sweep `s` (of `layout`) at pixel (0, 0), as radiance.
 std::vector<double> SweepRadiance(const CnnTensor& input, const PaperInputLayout& layout, int s) {
   int channel = kCnnGeometryChannels + 3 * layout.colour_observations + layout.monochrome_observations;
@@ -130,16 +135,13 @@ TEST(PaperInputTest, TheLayoutsOwnSweepIsFilteredOneSixOneAndColourIsPutIntoRgb)
 
 TEST(PaperInputTest, FinerSweepsAreAveragedOverEachBinAndCoarserOnesInterpolated) {
   const RigModel rig = testing::TacMiniGeometry();
-  const auto linear_in_angle = [](const StackObservation& o) {
-    return o.group == ObservationGroup::kLinearLight ? static_cast<float>(100 + StripAngleDeg(o)) : 1.0f;
-  };
-  const ObservationStack layout_stack = StackOf(rig, testing::TacMiniObservations(rig, 5), linear_in_angle);
+  const ObservationStack layout_stack = StackOf(rig, testing::TacMiniObservations(rig, 5), LinearInAngle);
   const Result<PaperInputLayout> layout = PaperLayoutOf(layout_stack);
   ASSERT_TRUE(layout.ok()) << layout.status().ToString();
   // Whether finer (13 positions), coarser (3) or the same, a sweep linear in the angle has its
   // value at each interior layout angle as the bin's mean.
   for (const int positions : {13, 3, 5, 9}) {
-    const ObservationStack stack = StackOf(rig, testing::TacMiniObservations(rig, positions), linear_in_angle);
+    const ObservationStack stack = StackOf(rig, testing::TacMiniObservations(rig, positions), LinearInAngle);
     const Result<CnnTensor> input = PaperInputFromStack(stack, *layout, 1.0);
     ASSERT_TRUE(input.ok()) << input.status().ToString();
     const std::vector<double> radiance = SweepRadiance(*input, *layout, 0);
@@ -149,7 +151,7 @@ TEST(PaperInputTest, FinerSweepsAreAveragedOverEachBinAndCoarserOnesInterpolated
     }
   }
   // The end bins reach half a bin beyond the sweep, where it is held at its end value.
-  const ObservationStack fine = StackOf(rig, testing::TacMiniObservations(rig, 13), linear_in_angle);
+  const ObservationStack fine = StackOf(rig, testing::TacMiniObservations(rig, 13), LinearInAngle);
   const std::vector<double> radiance = SweepRadiance(*PaperInputFromStack(fine, *layout, 1.0), *layout, 0);
   const std::vector<double>& angles = layout->sweeps[0].angles_deg;
   EXPECT_NEAR(radiance[0], 100 + angles[0] + (angles[1] - angles[0]) / 8, 1e-3);
@@ -161,10 +163,7 @@ TEST(PaperInputTest, FinerSweepsAreAveragedOverEachBinAndCoarserOnesInterpolated
 // shortfall beyond that would invent a whole bin and is refused.
 TEST(PaperInputTest, ASweepUpToABinShortOfTheLayoutIsHeldAtItsEndAndFurtherIsRefused) {
   const RigModel rig = testing::TacMiniGeometry();
-  const auto linear_in_angle = [](const StackObservation& o) {
-    return o.group == ObservationGroup::kLinearLight ? static_cast<float>(100 + StripAngleDeg(o)) : 1.0f;
-  };
-  const ObservationStack stack = StackOf(rig, testing::TacMiniObservations(rig, 5), linear_in_angle);
+  const ObservationStack stack = StackOf(rig, testing::TacMiniObservations(rig, 5), LinearInAngle);
   const Result<PaperInputLayout> layout = PaperLayoutOf(stack);
   ASSERT_TRUE(layout.ok()) << layout.status().ToString();
   const std::vector<double>& own = layout->sweeps[0].angles_deg;
@@ -190,12 +189,9 @@ TEST(PaperInputTest, ASweepUpToABinShortOfTheLayoutIsHeldAtItsEndAndFurtherIsRef
 
 TEST(PaperInputTest, UnseenPositionsAreLeftOutOfABinsMean) {
   const RigModel rig = testing::TacMiniGeometry();
-  const auto value = [](const StackObservation& o) {
-    return o.group == ObservationGroup::kLinearLight ? static_cast<float>(100 + StripAngleDeg(o)) : 1.0f;
-  };
-  const Result<PaperInputLayout> layout = PaperLayoutOf(StackOf(rig, testing::TacMiniObservations(rig, 5), value));
+  const Result<PaperInputLayout> layout = PaperLayoutOf(StackOf(rig, testing::TacMiniObservations(rig, 5), LinearInAngle));
   ASSERT_TRUE(layout.ok());
-  ObservationStack fine = StackOf(rig, testing::TacMiniObservations(rig, 13), value);
+  ObservationStack fine = StackOf(rig, testing::TacMiniObservations(rig, 13), LinearInAngle);
   // Unseen at pixel (0, 0): every linear observation of the finer sweep but one per bin (the
   // one at the layout's angle), so that only a mean of what is seen gives the sweep's value.
   std::vector<std::pair<double, int>> sweep;
