@@ -17,6 +17,9 @@ StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions&
   if (options_.keep_frames) {
     frame_filled_ = std::make_unique<std::once_flag[]>(stack.image.pixel_count());
     frames_.resize(stack.image.pixel_count());
+    hidden_.resize(stack.image.pixel_count());
+    size_t bits = 0;
+    for (const StackObservation& o : stack.observations) first_emitter_bit_.push_back(bits), bits += o.emitters.size();
   }
 }
 
@@ -27,8 +30,26 @@ Eigen::Matrix3d StackPixels::LocalFromSample(int x, int y) const {
 StackPixels::PixelFrame StackPixels::FrameOf(int x, int y) const {
   if (!options_.keep_frames) return ComputeFrame(x, y);
   const size_t i = static_cast<size_t>(y) * width() + x;
-  std::call_once(frame_filled_[i], [&] { frames_[i] = ComputeFrame(x, y); });
+  std::call_once(frame_filled_[i], [&] {
+    frames_[i] = ComputeFrame(x, y);
+    if (options_.cast_shadows) hidden_[i] = HiddenEmitters(x, y, frames_[i]);
+  });
   return frames_[i];
+}
+
+std::vector<uint64_t> StackPixels::HiddenEmitters(int x, int y, const PixelFrame& frame) const {
+  const size_t bits = first_emitter_bit_.empty() ? 0 : first_emitter_bit_.back() + stack_.observations.back().emitters.size();
+  std::vector<uint64_t> hidden((bits + 63) / 64, 0);
+  for (size_t k = 0; k < stack_.observations.size(); ++k) {
+    if (std::isnan(stack_.image.at(ObservationStack::ObservationChannel(static_cast<int>(k)), y, x))) continue;
+    const std::vector<PointEmitter>& emitters = stack_.observations[k].emitters;
+    for (size_t i = 0; i < emitters.size(); ++i) {
+      const size_t bit = first_emitter_bit_[k] + i;
+      if (heightmap_.Shadowed(frame.position, emitters[i].position_mm, frame.horizon))
+        hidden[bit / 64] |= uint64_t{1} << (bit % 64);
+    }
+  }
+  return hidden;
 }
 
 StackPixels::PixelFrame StackPixels::ComputeFrame(int x, int y) const {
@@ -95,6 +116,14 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   const auto shadowed = [&](const PointEmitter& emitter) {
     return options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.horizon);
   };
+  // Emitter i of the stack's: from the kept bits where there are some.
+  const uint64_t* hidden =
+      options_.keep_frames && options_.cast_shadows ? hidden_[static_cast<size_t>(y) * width() + x].data() : nullptr;
+  const auto hides = [&](int i) {
+    if (!hidden) return shadowed(o.emitters[i]);
+    const size_t bit = first_emitter_bit_[k] + i;
+    return ((hidden[bit / 64] >> (bit % 64)) & 1) != 0;
+  };
   std::vector<PointEmitter> nodes;
   bool nodes_lit = false;  // every node lights the pixel: no test of each
   if (integrate) {
@@ -107,7 +136,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
     for (int i = 0; i < static_cast<int>(o.emitters.size()); ++i) {
       const PointEmitter& e = o.emitters[i];
       l_local.push_back(frame.local_from_sample * (e.position_mm - p).normalized());
-      if (!(e.IntensityTowards(p) > 0 && l_local.back().z() > 0) || shadowed(e)) continue;
+      if (!(e.IntensityTowards(p) > 0 && l_local.back().z() > 0) || hides(i)) continue;
       if (first < 0) first = i;
       last = i, ++lit;
     }
@@ -122,12 +151,13 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   // normalized() would) for its falloff and the pixel's frame.
   const std::vector<PointEmitter>& emitters = integrate ? nodes : o.emitters;
   observation.lights.reserve(emitters.size());
-  for (const PointEmitter& emitter : emitters) {
+  for (int i = 0; i < static_cast<int>(emitters.size()); ++i) {
+    const PointEmitter& emitter = emitters[i];
     const Eigen::Vector3d to_light = emitter.position_mm - p;
     const double distance2 = to_light.squaredNorm();
     const Eigen::Vector3d l = to_light / std::sqrt(distance2);
     const double intensity = emitter.IntensityAlong(-l);
-    if (intensity <= 0 || (!nodes_lit && shadowed(emitter))) continue;
+    if (intensity <= 0 || (integrate ? !nodes_lit && shadowed(emitter) : hides(i))) continue;
     observation.lights.push_back({frame.local_from_sample.lazyProduct(l), intensity / distance2});
   }
   if (!observation.lights.empty()) out.push_back(std::move(observation));

@@ -7,6 +7,7 @@
 // shadows never reach the fit. The light model is the stack table's (core/observation_stack.h).
 // Thread-safety: Observations() may run on many threads (kept frames are filled once each).
 
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -26,9 +27,10 @@ struct StackPixelOptions {
   // Set: Observations(x, y, lobe) integrates each linear light's strip by Gauss–Legendre nodes
   // placed around that lobe (strip_quadrature.h) instead of the stack's emitters.
   std::optional<StripQuadratureOptions> strip_quadrature;
-  // Remember each pixel's frame (its position, local frame and horizon bound: ~360 bytes) from
-  // its first Observations() on: worth it where every pixel is fitted more than once (a
-  // smoothing pass), since the horizon bound costs as much as a pixel's shadow tests.
+  // Remember each pixel's frame (its position, local frame and horizon bound: ~360 bytes) and
+  // which of its observations' emitters the heightmap hides (a bit each) from its first
+  // Observations() on: worth it where every pixel is fitted more than once (a smoothing pass),
+  // since the horizon bound and the shadow tests are most of building its observations.
   bool keep_frames = false;
 };
 
@@ -66,6 +68,9 @@ class StackPixels {
   };
   PixelFrame FrameOf(int x, int y) const;
   PixelFrame ComputeFrame(int x, int y) const;
+  // Bit first_emitter_bit_[k] + i: emitter i of observation k is hidden from pixel (x, y) (0 for
+  // observations the pixel does not see).
+  std::vector<uint64_t> HiddenEmitters(int x, int y, const PixelFrame& frame) const;
   // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed; its
   // strip integrated around `lobe`'s span when given.
   void Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out,
@@ -75,9 +80,12 @@ class StackPixels {
   StackPixelOptions options_;
   Heightmap heightmap_;
   std::vector<std::optional<StripSegment>> strips_;  // per stack observation: its linear light's strip
-  // With options_.keep_frames: each pixel's frame, filled under its flag on first use.
+  // With options_.keep_frames: each pixel's frame and hidden emitters, filled under its flag on
+  // first use.
   mutable std::unique_ptr<std::once_flag[]> frame_filled_;
   mutable std::vector<PixelFrame> frames_;
+  mutable std::vector<std::vector<uint64_t>> hidden_;
+  std::vector<size_t> first_emitter_bit_;  // per stack observation
 };
 
 }  // namespace loom::fitting

@@ -47,14 +47,26 @@ TEST(StackPixelsTest, TheTableAndTrueParametersReproduceTheFastPathStack) {
 }
 
 // Kept frames change nothing: every pixel's observations, asked for twice from two threads (the
-// second time from the kept frame), equal those computed afresh, light by light.
+// second time from the kept frame and hidden emitters), equal those computed afresh, light by
+// light, on a relief that hides some of them.
 TEST(StackPixelsTest, KeptFramesGiveTheSameObservationsOnEveryCall) {
-  const sim::Material fabric = sim::GenerateFabric(7, {.width_px = 12, .height_px = 12, .pixel_mm = 0.2});
+  const sim::Material fabric = sim::GenerateFabric(7, {.width_px = 16, .height_px = 16, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);
   const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 5), {});
   const StackPixels fresh(stack);
-  const StackPixels kept(stack, {.keep_frames = true});
+  const StackPixels kept(stack, {.cast_shadows = true, .strip_quadrature = std::nullopt, .keep_frames = true});
+  const StackPixels unshadowed(stack, {.cast_shadows = false, .strip_quadrature = std::nullopt, .keep_frames = false});
   const int count = stack.image.width() * stack.image.height();
+  const auto light_count = [&](const StackPixels& pixels) {
+    size_t lights = 0;
+    for (int i = 0; i < count; ++i) {
+      for (const PixelObservation& o : pixels.Observations(i % stack.image.width(), i / stack.image.width())) {
+        lights += o.lights.size();
+      }
+    }
+    return lights;
+  };
+  ASSERT_LT(light_count(fresh), light_count(unshadowed)) << "the relief should hide some emitters";
   std::vector<std::vector<PixelObservation>> first(count), second(count);
   for (int round = 0; round < 2; ++round) {
     std::vector<std::vector<PixelObservation>>& into = round == 0 ? first : second;
