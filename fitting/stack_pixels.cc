@@ -18,8 +18,8 @@ StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions&
     frame_filled_ = std::make_unique<std::once_flag[]>(stack.image.pixel_count());
     frames_.resize(stack.image.pixel_count());
     hidden_.resize(stack.image.pixel_count());
-    size_t bits = 0;
-    for (const StackObservation& o : stack.observations) first_emitter_bit_.push_back(bits), bits += o.emitters.size();
+    for (const StackObservation& o : stack.observations)
+      first_emitter_bit_.push_back(emitter_bits_), emitter_bits_ += o.emitters.size();
   }
 }
 
@@ -38,8 +38,7 @@ StackPixels::PixelFrame StackPixels::FrameOf(int x, int y) const {
 }
 
 std::vector<uint64_t> StackPixels::HiddenEmitters(int x, int y, const PixelFrame& frame) const {
-  const size_t bits = first_emitter_bit_.empty() ? 0 : first_emitter_bit_.back() + stack_.observations.back().emitters.size();
-  std::vector<uint64_t> hidden((bits + 63) / 64, 0);
+  std::vector<uint64_t> hidden((emitter_bits_ + 63) / 64, 0);
   for (size_t k = 0; k < stack_.observations.size(); ++k) {
     if (std::isnan(stack_.image.at(ObservationStack::ObservationChannel(static_cast<int>(k)), y, x))) continue;
     const std::vector<PointEmitter>& emitters = stack_.observations[k].emitters;

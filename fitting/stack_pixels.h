@@ -87,6 +87,7 @@ class StackPixels {
   mutable std::vector<PixelFrame> frames_;
   mutable std::vector<std::vector<uint64_t>> hidden_;
   std::vector<size_t> first_emitter_bit_;  // per stack observation
+  size_t emitter_bits_ = 0;                // the stack's emitters, all observations'
 };
 
 }  // namespace loom::fitting

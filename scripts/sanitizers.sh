@@ -28,7 +28,8 @@ case "$kind" in
            suites=(core_test hal_modbus_test hal_aravis_test acquisition_sim_test) peers=(loom-modbus-sim) ;;
   *) echo "usage: $0 address|ci|thread" >&2; exit 2 ;;
 esac
-dir="build-${kind/ci/address}"
+dir="build-$kind"
+[ "$kind" = ci ] && dir=build-address  # the same flags as the full lane: one build for both
 start=$(date +%s)
 cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DLOOM_BUILD_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="-O2 -fno-omit-frame-pointer $flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" > /dev/null

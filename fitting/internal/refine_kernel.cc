@@ -372,7 +372,6 @@ template <int kWidth>
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
   ObservationSums s;
   ObservationLanes<kLanes> ob;
-  const float* specular_albedo = ob.specular_albedo;
   alignas(64) double weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
   for (int k = 0; k < d.observations; ++k) {
     const int o = k * kLanes;
@@ -412,7 +411,7 @@ template <int kWidth>
       g[8][p] = s.sigma_x[p] * seen;
       g[9][p] = s.sigma_y[p] * seen;
       g[10][p] = s.alpha[p] * seen;
-      g[11][p] = specular_albedo[p] * s.fresnel[p] * seen;
+      g[11][p] = ob.specular_albedo[p] * s.fresnel[p] * seen;
     }
     alignas(64) double h[kLanes];
     LANES { h[p] = 0; }
