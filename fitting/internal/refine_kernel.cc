@@ -353,6 +353,87 @@ template <int kWidth>
   }
 }
 
+// Observation k's colour-weighted albedos and view, per lane, at [offset, offset + kLanes) of `ob`.
+template <int kSpan>
+[[gnu::always_inline]] inline void SetObservation(const LaneData& d, const LaneInputs& in, int k, int offset,
+                                                  ObservationLanes<kSpan>& ob) {
+  const int o = k * kLanes;
+  LANES {
+    ob.diffuse_albedo[offset + p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
+    ob.specular_albedo[offset + p] =
+        d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
+    ob.v[0][offset + p] = d.vx[o + p], ob.v[1][offset + p] = d.vy[o + p], ob.v[2][offset + p] = d.vz[o + p];
+  }
+}
+
+// Observation k's residual, robust weights and gradient from its sums over light samples (at
+// [offset, offset + kLanes) of `s` and `ob`), added to the cost and written into the chunk's
+// scratch; the chunk's sums over observations once it is full.
+template <int kSpan>
+[[gnu::always_inline]] inline void AddObservation(const LaneData& d, const LaneInputs& in, const LaneLobe& lobe,
+                                                  const ObservationLanes<kSpan>& ob, const Sums<kSpan>& s, int offset, int k,
+                                                  bool any_leverage, LaneEquations& out) {
+  const int o = k * kLanes;
+  const int c = (k % kChunkObservations) * kLanes;  // in the chunk's scratch
+  // The gradient, written where the chunk's sums over observations (Gram) will read it.
+  double(*__restrict g)[kLanes] = reinterpret_cast<double(*)[kLanes]>(&d.gradients[static_cast<size_t>(c) * kTangentParams]);
+  const double a = in.huber_scale;
+  alignas(64) double weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
+  LANES {
+    const int q = offset + p;
+    // The model is 0 when the camera is below the shading normal's horizon.
+    const double n_dot_v = lobe.n[0][p] * d.vx[o + p] + lobe.n[1][p] * d.vy[o + p] + lobe.n[2][p] * d.vz[o + p];
+    const double inverse_scale = in.inverse_scale[p];
+    const double seen = n_dot_v > 0 ? inverse_scale : 0.0;
+    const double r = s.radiance[q] * seen - d.radiance[o + p] * inverse_scale;
+    const double abs_r = std::fabs(r);
+    const bool inlier = abs_r <= a;
+    const double rho = inlier ? r * r : 2 * a * abs_r - a * a;
+    const double w = d.weight[o + p] * (inlier ? 1.0 : a / (abs_r > 0 ? abs_r : 1.0));
+    out.cost[p] += 0.5 * d.weight[o + p] * rho;
+    out.squares[p] += d.weight[o + p] * r * r;
+    // The cost's sensitivity to the radiance's rounding: ψ(r) L, ψ(r) = min(|r|, a) Huber's.
+    const double sensitivity = (inlier ? abs_r : a) * s.radiance[q] * seen;
+    out.cost_resolution[p] += d.weight[o + p] * sensitivity * sensitivity;
+    weight[p] = w;
+    inlier_weight[p] = inlier ? d.weight[o + p] : 0.0;
+    weighted_r[p] = w * r;
+    const double gn_x = s.n[0][q] * seen, gn_y = s.n[1][q] * seen, gn_z = s.n[2][q] * seen;
+    g[0][p] = gn_x * in.tangent[0][0][p] + gn_y * in.tangent[0][1][p] + gn_z * in.tangent[0][2][p];
+    g[1][p] = gn_x * in.tangent[1][0][p] + gn_y * in.tangent[1][1][p] + gn_z * in.tangent[1][2][p];
+    const double diffuse = s.diffuse[q] * seen, specular = s.specular[q] * seen;
+    g[2][p] = d.wr[o + p] * diffuse, g[3][p] = d.wg[o + p] * diffuse, g[4][p] = d.wb[o + p] * diffuse;
+    g[5][p] = d.wr[o + p] * specular, g[6][p] = d.wg[o + p] * specular, g[7][p] = d.wb[o + p] * specular;
+    g[8][p] = s.sigma_x[q] * seen;
+    g[9][p] = s.sigma_y[q] * seen;
+    g[10][p] = s.alpha[q] * seen;
+    g[11][p] = ob.specular_albedo[q] * s.fresnel[q] * seen;
+  }
+  LANES {
+    d.weights[c + p] = weight[p];
+    d.weighted_residuals[c + p] = weighted_r[p];
+  }
+  if (any_leverage) {  // the uncertainty's weights, each observation's leverage in its meat
+    alignas(64) double h[kLanes];
+    LANES { h[p] = 0; }
+    for (int i = 0; i < kTangentParams; ++i) {
+      for (int j = i; j < kTangentParams; ++j) {
+        const int e = NormalIndex(i, j);
+        const double both = i == j ? 1.0 : 2.0;
+        LANES { h[p] += both * g[i][p] * in.bread_inverse[e][p] * g[j][p]; }
+      }
+    }
+    LANES {
+      const double leverage = in.leverage[p] * weight[p] * h[p];
+      const double kept = 1 - (leverage < 0.99 ? leverage : 0.99);
+      d.inlier_weights[c + p] = inlier_weight[p];
+      d.meat_weights[c + p] = weighted_r[p] * weighted_r[p] / kept;
+    }
+  }
+  const bool chunk_full = (k + 1) % kChunkObservations == 0 || k + 1 == d.observations;
+  if (chunk_full) SumObservations(d, k % kChunkObservations + 1, any_leverage, out);
+}
+
 }  // namespace
 
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void EvaluateLanes(const LaneData& d, const LaneInputs& in,
@@ -367,71 +448,30 @@ template <int kWidth>
   for (int i = 0; i < kNormalEntries; ++i) LANES {
       out.jtj[i][p] = out.bread[i][p] = out.meat[i][p] = 0;
     }
-  const double a = in.huber_scale;
   bool any_leverage = false;
   for (int p = 0; p < kLanes; ++p) any_leverage = any_leverage || in.leverage[p] != 0;
-  ObservationSums s;
-  ObservationLanes<kLanes> ob;
-  alignas(64) double weighted_r[kLanes], weight[kLanes], inlier_weight[kLanes];
-  for (int k = 0; k < d.observations; ++k) {
-    const int o = k * kLanes;
-    const int c = (k % kChunkObservations) * kLanes;  // in the chunk's scratch
-    // The gradient, written where the chunk's sums over observations (Gram) will read it.
-    double(*__restrict g)[kLanes] = reinterpret_cast<double(*)[kLanes]>(&d.gradients[static_cast<size_t>(c) * kTangentParams]);
-    LANES {
-      ob.diffuse_albedo[p] = d.wr[o + p] * in.params[3][p] + d.wg[o + p] * in.params[4][p] + d.wb[o + p] * in.params[5][p];
-      ob.specular_albedo[p] = d.wr[o + p] * in.params[6][p] + d.wg[o + p] * in.params[7][p] + d.wb[o + p] * in.params[8][p];
-      ob.v[0][p] = d.vx[o + p], ob.v[1][p] = d.vy[o + p], ob.v[2][p] = d.vz[o + p];
+  const auto single_slot = [&d](int k) { return d.first_slot[k + 1] - d.first_slot[k] == 1; };
+  for (int k = 0; k < d.observations;) {
+    // Two point-lit observations side by side (their slots are adjacent), as SumLights pairs a
+    // strip's samples: one observation's 8 floats fill half an AVX-512 register.
+    if (k + 1 < d.observations && single_slot(k) && single_slot(k + 1)) {
+      ObservationLanes<kSlotPair> both;
+      SetObservation(d, in, k, 0, both);
+      SetObservation(d, in, k + 1, kLanes, both);
+      Sums<kSlotPair> pair;
+      Clear(pair);
+      AddSlots(d, lobe_twice, both, d.first_slot[k], pair);
+      AddObservation(d, in, lobe, both, pair, 0, k, any_leverage, out);
+      AddObservation(d, in, lobe, both, pair, kLanes, k + 1, any_leverage, out);
+      k += 2;
+      continue;
     }
+    ObservationLanes<kLanes> ob;
+    SetObservation(d, in, k, 0, ob);
+    ObservationSums s;
     SumLights(d, lobe, lobe_twice, ob, d.first_slot[k], d.first_slot[k + 1], s);
-    LANES {
-      // The model is 0 when the camera is below the shading normal's horizon.
-      const double n_dot_v = lobe.n[0][p] * d.vx[o + p] + lobe.n[1][p] * d.vy[o + p] + lobe.n[2][p] * d.vz[o + p];
-      const double inverse_scale = in.inverse_scale[p];
-      const double seen = n_dot_v > 0 ? inverse_scale : 0.0;
-      const double r = s.radiance[p] * seen - d.radiance[o + p] * inverse_scale;
-      const double abs_r = std::fabs(r);
-      const bool inlier = abs_r <= a;
-      const double rho = inlier ? r * r : 2 * a * abs_r - a * a;
-      const double w = d.weight[o + p] * (inlier ? 1.0 : a / (abs_r > 0 ? abs_r : 1.0));
-      out.cost[p] += 0.5 * d.weight[o + p] * rho;
-      out.squares[p] += d.weight[o + p] * r * r;
-      // The cost's sensitivity to the radiance's rounding: ψ(r) L, ψ(r) = min(|r|, a) Huber's.
-      const double sensitivity = (inlier ? abs_r : a) * s.radiance[p] * seen;
-      out.cost_resolution[p] += d.weight[o + p] * sensitivity * sensitivity;
-      weight[p] = w;
-      inlier_weight[p] = inlier ? d.weight[o + p] : 0.0;
-      weighted_r[p] = w * r;
-      const double gn_x = s.n[0][p] * seen, gn_y = s.n[1][p] * seen, gn_z = s.n[2][p] * seen;
-      g[0][p] = gn_x * in.tangent[0][0][p] + gn_y * in.tangent[0][1][p] + gn_z * in.tangent[0][2][p];
-      g[1][p] = gn_x * in.tangent[1][0][p] + gn_y * in.tangent[1][1][p] + gn_z * in.tangent[1][2][p];
-      const double diffuse = s.diffuse[p] * seen, specular = s.specular[p] * seen;
-      g[2][p] = d.wr[o + p] * diffuse, g[3][p] = d.wg[o + p] * diffuse, g[4][p] = d.wb[o + p] * diffuse;
-      g[5][p] = d.wr[o + p] * specular, g[6][p] = d.wg[o + p] * specular, g[7][p] = d.wb[o + p] * specular;
-      g[8][p] = s.sigma_x[p] * seen;
-      g[9][p] = s.sigma_y[p] * seen;
-      g[10][p] = s.alpha[p] * seen;
-      g[11][p] = ob.specular_albedo[p] * s.fresnel[p] * seen;
-    }
-    alignas(64) double h[kLanes];
-    LANES { h[p] = 0; }
-    for (int i = 0; any_leverage && i < kTangentParams; ++i) {
-      for (int j = i; j < kTangentParams; ++j) {
-        const int e = NormalIndex(i, j);
-        const double both = i == j ? 1.0 : 2.0;
-        LANES { h[p] += both * g[i][p] * in.bread_inverse[e][p] * g[j][p]; }
-      }
-    }
-    LANES {
-      const double leverage = in.leverage[p] * weight[p] * h[p];
-      const double kept = 1 - (leverage < 0.99 ? leverage : 0.99);
-      d.weights[c + p] = weight[p];
-      d.weighted_residuals[c + p] = weighted_r[p];
-      d.inlier_weights[c + p] = inlier_weight[p];
-      d.meat_weights[c + p] = weighted_r[p] * weighted_r[p] / kept;
-    }
-    const bool chunk_full = (k + 1) % kChunkObservations == 0 || k + 1 == d.observations;
-    if (chunk_full) SumObservations(d, k % kChunkObservations + 1, any_leverage, out);
+    AddObservation(d, in, lobe, ob, s, 0, k, any_leverage, out);
+    ++k;
   }
   // Roundings independent across observations add in quadrature.
   LANES { out.cost_resolution[p] = kRadianceResolution * std::sqrt(out.cost_resolution[p]); }
