@@ -127,7 +127,7 @@ loom::fitting::RefineProblem ListProblem(const std::vector<std::vector<PixelObse
                                          const std::vector<WardParams<double>>& starts) {
   return {static_cast<int>(lists.size()),
           loom::fitting::LightsPerObservation(lists),
-          [&lists](int i) { return lists[i]; },
+          [&lists](int i, std::vector<PixelObservation>& into) { into = lists[i]; },
           [&starts](int i) { return starts[i]; },
           {}};
 }
@@ -242,8 +242,11 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
   options.threads = 1;
   options.fixed_f0 = f0;
   options.coarse_lights_per_observation = coarse;
-  const loom::fitting::RefineProblem problem{
-      static_cast<int>(c.lists.size()), c.lights, [&c](int i) { return c.lists[i]; }, [&c](int i) { return c.starts[i]; }, {}};
+  const loom::fitting::RefineProblem problem{static_cast<int>(c.lists.size()),
+                                             c.lights,
+                                             [&c](int i, std::vector<PixelObservation>& into) { into = c.lists[i]; },
+                                             [&c](int i) { return c.starts[i]; },
+                                             {}};
   int64_t fits = 0, iterations = 0;
   std::vector<loom::fitting::RefinedPixel> last;
   for (auto _ : state) {

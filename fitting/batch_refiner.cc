@@ -391,8 +391,8 @@ class Batch {
     Lane& lane = lanes_[p];
     lane.pixel = -1;
     for (int pixel = next_++; pixel < problem_.pixels; pixel = next_++) {
-      const std::vector<PixelObservation> all = problem_.observations(pixel);
-      const internal::UsableObservations usable = internal::Usable(all);
+      problem_.observations(pixel, observations_);
+      const internal::UsableObservations usable = internal::Usable(observations_);
       const WardParams<double> start = problem_.start(pixel);
       if (static_cast<int>(usable.observations.size()) < kNumWardParams) {
         results_[pixel] = {start, 0, 0, static_cast<int>(usable.observations.size()), 0, false, false, {}};
@@ -544,6 +544,7 @@ class Batch {
   std::vector<RefinedPixel>& results_;
   std::atomic<int>& next_;
   std::atomic<int>& done_;
+  std::vector<PixelObservation> observations_;  // the last pixel loaded's, its memory reused for the next
   internal::LaneData data_;
   internal::LaneInputs inputs_{};
   internal::LaneEquations equations_{};
@@ -662,6 +663,7 @@ class GridScorer {
   }
 
   const internal::UsableObservations& usable_;
+  std::vector<PixelObservation> observations_;  // the last pixel loaded's, its memory reused for the next
   internal::LaneData data_;
   internal::LaneInputs inputs_{};
   std::vector<double> diffuse_, specular_;

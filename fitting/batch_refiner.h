@@ -101,13 +101,15 @@ struct RefinedPixel {
   ParamSigma sigma;
 };
 
-// The pixels to refine. `observations(i)` gives pixel i's observations; an observation's slot
-// in the batch layout is its `source` (≥ 0, as StackPixels sets it) or else its position in the
-// list. `lights_per_observation[slot]` bounds the light samples any pixel has there.
+// The pixels to refine. `observations(i, into)` writes pixel i's observations into `into`,
+// replacing what it holds (a previous pixel's: its memory may be reused, as
+// StackPixels::ObservationsInto or a copy assignment do); an observation's slot in the batch
+// layout is its `source` (≥ 0, as StackPixels sets it) or else its position in the list.
+// `lights_per_observation[slot]` bounds the light samples any pixel has there.
 struct RefineProblem {
   int pixels = 0;
   std::vector<int> lights_per_observation;
-  std::function<std::vector<PixelObservation>(int pixel)> observations;
+  std::function<void(int pixel, std::vector<PixelObservation>& into)> observations;
   std::function<WardParams<double>(int pixel)> start;
   // Where RefineOptions::prior pulls pixel i (empty: its start).
   std::function<WardParams<double>(int pixel)> prior_mean;

@@ -227,11 +227,12 @@ TEST(BatchRefinerTest, EndsWithinOnePercentOfCeresCostFromTheSameStarts) {
     RefineOptions options;
     options.fixed_f0 = f0;
     options.coarse_lights_per_observation = coarse;
-    const RefineProblem problem{count,
-                                LightsPerStackObservation(simulated.stack),
-                                [&](int i) { return pixels.Observations(i % width, i / width); },
-                                [&](int i) { return starts[i]; },
-                                {}};
+    const RefineProblem problem{
+        count,
+        LightsPerStackObservation(simulated.stack),
+        [&](int i, std::vector<PixelObservation>& into) { into = pixels.Observations(i % width, i / width); },
+        [&](int i) { return starts[i]; },
+        {}};
     const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
     ASSERT_TRUE(refined.ok()) << refined.status().ToString();
     std::vector<double> relative;
@@ -271,8 +272,11 @@ TEST(BatchRefinerTest, MasksBoundsAndTooFewObservationsAreAsInTheCeresFit) {
   starts.push_back(GetParams(simulated.fabric.maps, 0, 1));
   RefineOptions options;
   options.fixed_f0 = starts[0].f0;
-  const RefineProblem problem{
-      3, LightsPerStackObservation(simulated.stack), [&](int i) { return lists[i]; }, [&](int i) { return starts[i]; }, {}};
+  const RefineProblem problem{3,
+                              LightsPerStackObservation(simulated.stack),
+                              [&](int i, std::vector<PixelObservation>& into) { into = lists[i]; },
+                              [&](int i) { return starts[i]; },
+                              {}};
   const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
   ASSERT_TRUE(refined.ok()) << refined.status().ToString();
   const PixelFitOptions ceres_options{.max_iterations = 30, .multi_start = false, .fixed_f0 = options.fixed_f0};
@@ -305,7 +309,9 @@ TEST(BatchRefinerTest, APixelsFitDoesNotDependOnItsBatchMates) {
     const auto pixel = [=](int i) { return reversed ? count - 1 - i : i; };
     const RefineProblem problem{count,
                                 LightsPerStackObservation(simulated.stack),
-                                [&, pixel](int i) { return pixels.Observations(pixel(i) % width, pixel(i) / width); },
+                                [&, pixel](int i, std::vector<PixelObservation>& into) {
+                                  into = pixels.Observations(pixel(i) % width, pixel(i) / width);
+                                },
                                 [&, pixel](int i) { return starts[pixel(i)]; },
                                 {}};
     Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
@@ -342,11 +348,12 @@ TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaSh
   }
   RefineOptions options;
   options.fixed_f0 = truths.front().f0;
-  const RefineProblem problem{count,
-                              LightsPerStackObservation(simulated.stack),
-                              [&](int i) { return pixels.Observations(i % width, i / width); },
-                              [&](int i) { return starts[i]; },
-                              {}};
+  const RefineProblem problem{
+      count,
+      LightsPerStackObservation(simulated.stack),
+      [&](int i, std::vector<PixelObservation>& into) { into = pixels.Observations(i % width, i / width); },
+      [&](int i) { return starts[i]; },
+      {}};
   const Result<std::vector<RefinedPixel>> refined = RefinePixels(problem, options);
   ASSERT_TRUE(refined.ok()) << refined.status().ToString();
   struct Coverage {
@@ -452,7 +459,7 @@ TEST(BatchRefinerTest, APriorHoldsTheFitNearItsMean) {
     options.prior.weight = weight;
     RefineProblem problem{1,
                           LightsPerStackObservation(simulated.stack),
-                          [&](int) { return pixels.Observations(0, 0); },
+                          [&](int, std::vector<PixelObservation>& into) { into = pixels.Observations(0, 0); },
                           [&](int) { return off; },
                           {}};
     if (mean_is_truth) problem.prior_mean = [&](int) { return truth; };
@@ -485,7 +492,7 @@ TEST(BatchRefinerTest, OptionsAreCheckedNamingEachField) {
     EXPECT_NE(status.message().find(field), std::string::npos) << field << " in " << status.message();
   }
   const RefineProblem empty{
-      0, {}, [](int) { return std::vector<PixelObservation>{}; }, [](int) { return WardParams<double>{}; }, {}};
+      0, {}, [](int, std::vector<PixelObservation>& into) { into.clear(); }, [](int) { return WardParams<double>{}; }, {}};
   const Result<std::vector<RefinedPixel>> none = RefinePixels(empty, {});
   ASSERT_TRUE(none.ok());
   EXPECT_TRUE(none->empty());

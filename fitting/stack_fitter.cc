@@ -201,7 +201,11 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
   const RefineProblem problem{
       .pixels = count,
       .lights_per_observation = nodes ? NodesPerObservation(stack, pixels) : EmittersPerObservation(stack),
-      .observations = [&](int i) { return pixels.Observations(i % width, i / width, start_of(i)); },
+      .observations =
+          [&](int i, std::vector<PixelObservation>& into) {
+            const WardParams<double> lobe = start_of(i);
+            pixels.ObservationsInto(i % width, i / width, &lobe, into);
+          },
       .start = start_of,
       .prior_mean = {}};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
@@ -219,12 +223,14 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
         pixels, moved, [&](int i) { return placed_at[i]; }, outcomes, refine.threads);
     if (moved.empty()) break;
     for (int i : moved) placed_at[i] = outcomes[i].params, replaced[i] = 1;
-    const RefineProblem again{
-        .pixels = static_cast<int>(moved.size()),
-        .lights_per_observation = problem.lights_per_observation,
-        .observations = [&](int k) { return pixels.Observations(moved[k] % width, moved[k] / width, placed_at[moved[k]]); },
-        .start = [&](int k) { return placed_at[moved[k]]; },
-        .prior_mean = [&](int k) { return start_of(moved[k]); }};
+    const RefineProblem again{.pixels = static_cast<int>(moved.size()),
+                              .lights_per_observation = problem.lights_per_observation,
+                              .observations =
+                                  [&](int k, std::vector<PixelObservation>& into) {
+                                    pixels.ObservationsInto(moved[k] % width, moved[k] / width, &placed_at[moved[k]], into);
+                                  },
+                              .start = [&](int k) { return placed_at[moved[k]]; },
+                              .prior_mean = [&](int k) { return start_of(moved[k]); }};
     LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refitted, RefinePixels(again, refine));
     for (size_t k = 0; k < moved.size(); ++k) {
       const int iterations = outcomes[moved[k]].iterations + refitted[k].iterations;
@@ -307,11 +313,12 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
   explore.max_lights_per_observation = options.retry_explore_lights;
   explore.coarse_lights_per_observation = 0;
   explore.uncertainty = false;
-  const RefineProblem explore_problem{.pixels = static_cast<int>(starts.size()),
-                                      .lights_per_observation = EmittersPerObservation(stack),
-                                      .observations = [&](int j) { return observations[j / per_pixel]; },
-                                      .start = [&](int j) { return starts[j]; },
-                                      .prior_mean = [&](int j) { return start_of(retry[j / per_pixel]); }};
+  const RefineProblem explore_problem{
+      .pixels = static_cast<int>(starts.size()),
+      .lights_per_observation = EmittersPerObservation(stack),
+      .observations = [&](int j, std::vector<PixelObservation>& into) { into = observations[j / per_pixel]; },
+      .start = [&](int j) { return starts[j]; },
+      .prior_mean = [&](int j) { return start_of(retry[j / per_pixel]); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> explored, RefinePixels(explore_problem, explore));
   // The pixels whose best explored grid start beats their explored first fit.
   std::vector<int> finish;  // indices into `retry`
@@ -331,11 +338,12 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
   }
   RefineOptions full = refine;
   full.coarse_lights_per_observation = 0;
-  const RefineProblem finish_problem{.pixels = static_cast<int>(finish.size()),
-                                     .lights_per_observation = EmittersPerObservation(stack),
-                                     .observations = [&](int k) { return observations[finish[k]]; },
-                                     .start = [&](int k) { return finish_starts[k]; },
-                                     .prior_mean = [&](int k) { return start_of(retry[finish[k]]); }};
+  const RefineProblem finish_problem{
+      .pixels = static_cast<int>(finish.size()),
+      .lights_per_observation = EmittersPerObservation(stack),
+      .observations = [&](int k, std::vector<PixelObservation>& into) { into = observations[finish[k]]; },
+      .start = [&](int k) { return finish_starts[k]; },
+      .prior_mean = [&](int k) { return start_of(retry[finish[k]]); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> finished, RefinePixels(finish_problem, full));
   for (size_t k = 0; k < finish.size(); ++k) {
     PixelOutcome& outcome = outcomes[retry[finish[k]]];
@@ -357,7 +365,10 @@ Result<int> RefitFromNeighbours(const StackPixels& pixels, const ObservationStac
   refine.coarse_lights_per_observation = 0;
   const RefineProblem problem{.pixels = static_cast<int>(targets.size()),
                               .lights_per_observation = EmittersPerObservation(stack),
-                              .observations = [&](int k) { return pixels.Observations(targets[k] % width, targets[k] / width); },
+                              .observations =
+                                  [&](int k, std::vector<PixelObservation>& into) {
+                                    pixels.ObservationsInto(targets[k] % width, targets[k] / width, nullptr, into);
+                                  },
                               .start = [&](int k) { return outcomes[sources[k]].params; },
                               .prior_mean = [&](int k) { return start_of(targets[k]); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine));
@@ -539,9 +550,10 @@ Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, R
   for (size_t i = 0; i < outcomes.size(); ++i) targets[i] = SmoothingTarget(lobes[i], outcomes[i].params);
   refine.prior = smoothing;
   refine.uncertainty = false;  // each pixel states the free fit's, widened by its shift (below)
-  const RefineProblem problem{static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
-                              [&](int i) { return pixels.Observations(i % width, i / width); }, [&](int i) { return targets[i]; },
-                              [&](int i) { return targets[i]; }};
+  const RefineProblem problem{
+      static_cast<int>(outcomes.size()), EmittersPerObservation(stack),
+      [&](int i, std::vector<PixelObservation>& into) { pixels.ObservationsInto(i % width, i / width, nullptr, into); },
+      [&](int i) { return targets[i]; }, [&](int i) { return targets[i]; }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine, progress));
   ParallelFor(static_cast<int>(outcomes.size()), refine.threads, [&](int i) {
     if (!outcomes[i].fitted || !refined[i].fitted) return;
@@ -594,7 +606,10 @@ Result<std::optional<double>> ProbeNoiseRms(const StackPixels& pixels, const Obs
   refine.uncertainty = false;
   const RefineProblem problem{.pixels = static_cast<int>(probe.size()),
                               .lights_per_observation = EmittersPerObservation(stack),
-                              .observations = [&](int k) { return pixels.Observations(probe[k] % width, probe[k] / width); },
+                              .observations =
+                                  [&](int k, std::vector<PixelObservation>& into) {
+                                    pixels.ObservationsInto(probe[k] % width, probe[k] / width, nullptr, into);
+                                  },
                               .start = [&](int k) { return start_of(probe[k]); },
                               .prior_mean = {}};
   LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine));

@@ -60,26 +60,35 @@ StackPixels::PixelFrame StackPixels::ComputeFrame(int x, int y) const {
 
 std::vector<PixelObservation> StackPixels::Observations(int x, int y) const {
   std::vector<PixelObservation> observations;
-  observations.reserve(stack_.observations.size());
-  const PixelFrame frame = FrameOf(x, y);
-  for (size_t k = 0; k < stack_.observations.size(); ++k) Observe(static_cast<int>(k), x, y, frame, observations);
+  ObservationsInto(x, y, nullptr, observations);
   return observations;
 }
 
 std::vector<PixelObservation> StackPixels::Observations(int x, int y, std::span<const int> only) const {
   std::vector<PixelObservation> observations;
   const PixelFrame frame = FrameOf(x, y);
-  for (int k : only) Observe(k, x, y, frame, observations);
+  for (int k : only) {
+    PixelObservation observation;
+    if (Observe(k, x, y, frame, observation)) observations.push_back(std::move(observation));
+  }
   return observations;
 }
 
 std::vector<PixelObservation> StackPixels::Observations(int x, int y, const WardParams<double>& lobe) const {
-  if (!integrates_strips()) return Observations(x, y);
   std::vector<PixelObservation> observations;
-  observations.reserve(stack_.observations.size());
-  const PixelFrame frame = FrameOf(x, y);
-  for (size_t k = 0; k < stack_.observations.size(); ++k) Observe(static_cast<int>(k), x, y, frame, observations, &lobe);
+  ObservationsInto(x, y, &lobe, observations);
   return observations;
+}
+
+void StackPixels::ObservationsInto(int x, int y, const WardParams<double>* lobe, std::vector<PixelObservation>& into) const {
+  if (!integrates_strips()) lobe = nullptr;
+  const PixelFrame frame = FrameOf(x, y);
+  size_t used = 0;
+  for (size_t k = 0; k < stack_.observations.size(); ++k) {
+    if (used == into.size()) into.emplace_back();
+    if (Observe(static_cast<int>(k), x, y, frame, into[used], lobe)) ++used;
+  }
+  into.resize(used);
 }
 
 std::vector<std::pair<double, double>> StackPixels::LobeSpans(int x, int y, const WardParams<double>& params,
@@ -100,13 +109,12 @@ std::vector<std::pair<double, double>> StackPixels::LobeSpans(int x, int y, cons
   return spans;
 }
 
-void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out,
+bool StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, PixelObservation& observation,
                           const WardParams<double>* lobe) const {
   const float radiance = stack_.image.at(ObservationStack::ObservationChannel(k), y, x);
-  if (std::isnan(radiance)) return;
+  if (std::isnan(radiance)) return false;
   const StackObservation& o = stack_.observations[k];
   const Eigen::Vector3d& p = frame.position;
-  PixelObservation observation;
   observation.radiance = radiance;
   observation.v_local = frame.local_from_sample * (o.camera_mm - p).normalized();
   observation.rgb_weights = o.rgb_weights;
@@ -139,7 +147,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
       if (first < 0) first = i;
       last = i, ++lit;
     }
-    if (first < 0) return;  // fully shadowed
+    if (first < 0) return false;  // fully shadowed
     const double count = static_cast<double>(o.emitters.size());
     const StripQuadratureOptions& quadrature = *options_.strip_quadrature;
     nodes = StripNodes(*strips_[k], {first / count, (last + 1) / count},
@@ -149,7 +157,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
   // Thousands of light samples per pixel: the direction to each is computed once (as
   // normalized() would) for its falloff and the pixel's frame.
   const std::vector<PointEmitter>& emitters = integrate ? nodes : o.emitters;
-  observation.lights.reserve(emitters.size());
+  observation.lights.clear();
   for (int i = 0; i < static_cast<int>(emitters.size()); ++i) {
     const PointEmitter& emitter = emitters[i];
     const Eigen::Vector3d to_light = emitter.position_mm - p;
@@ -159,7 +167,7 @@ void StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, std::vec
     if (intensity <= 0 || (integrate ? !nodes_lit && shadowed(emitter) : hides(i))) continue;
     observation.lights.push_back({frame.local_from_sample.lazyProduct(l), intensity / distance2});
   }
-  if (!observation.lights.empty()) out.push_back(std::move(observation));
+  return !observation.lights.empty();
 }
 
 }  // namespace loom::fitting

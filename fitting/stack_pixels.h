@@ -50,6 +50,11 @@ class StackPixels {
   // The same, each linear-light strip integrated by StripNodes around the lobe of `lobe` (the
   // parameters a fit starts from) when options.strip_quadrature is set; else as Observations(x, y).
   std::vector<PixelObservation> Observations(int x, int y, const WardParams<double>& lobe) const;
+  // Observations(x, y) and Observations(x, y, *lobe) written into `into`, replacing what it held
+  // and reusing its observations' memory: a fit builds thousands of light samples per pixel,
+  // each observation's in a vector of its own, and allocating them anew was a tenth of a
+  // point-lit refinement (2026-11-27).
+  void ObservationsInto(int x, int y, const WardParams<double>* lobe, std::vector<PixelObservation>& into) const;
   // Per stack observation, the span of the strip (strip_quadrature.h's LobeSpan at `fraction` of
   // the peak) where the lobe of `params` lies at pixel (x, y); {0, 1} for observations that are
   // not a strip. With the spans at lobe_fraction of the parameters a fit's nodes were placed for,
@@ -72,9 +77,9 @@ class StackPixels {
   // Bit first_emitter_bit_[k] + i: emitter i of observation k is hidden from pixel (x, y) (0 for
   // observations the pixel does not see).
   std::vector<uint64_t> HiddenEmitters(int x, int y, const PixelFrame& frame) const;
-  // Appends observation `k` of pixel (x, y) to `out` unless it is unseen or fully shadowed; its
-  // strip integrated around `lobe`'s span when given.
-  void Observe(int k, int x, int y, const PixelFrame& frame, std::vector<PixelObservation>& out,
+  // Observation `k` of pixel (x, y) into `observation` (its light samples' memory reused); false
+  // where it is unseen or fully shadowed. Its strip integrated around `lobe`'s span when given.
+  bool Observe(int k, int x, int y, const PixelFrame& frame, PixelObservation& observation,
                const WardParams<double>* lobe = nullptr) const;
 
   const ObservationStack& stack_;
