@@ -12,6 +12,13 @@ namespace {
 // A sample this far below the surface counts as blocked: the surface points that rays start
 // from are themselves bilinear interpolations, a little off the march's own.
 constexpr double kShadowToleranceMm = 1e-4;
+// A grid is planar where every height is within this of one plane (a float's rounding of a
+// height of 100 mm is 4e-6 mm)...
+constexpr double kPlanarToleranceMm = 1e-5;
+// ... and a point counts as on that plane within this (FirstHit's bisection stops within 1e-5 mm
+// along its ray). The two, and the bilinear interpolation's rounding, stay well inside
+// kShadowToleranceMm, which is why a planar grid's shortcut gives the march's answer.
+constexpr double kOnPlaneSlackMm = 2e-5;
 
 }  // namespace
 
@@ -23,6 +30,30 @@ Heightmap::Heightmap(std::vector<float> heights_mm, int width, int height, doubl
   // The holder (height 0) surrounds the grid, so the highest point is at least 0.
   max_height_mm_ = std::max(0.0f, heights_mm_.empty() ? 0.0f : *std::max_element(heights_mm_.begin(), heights_mm_.end()));
   BuildBlockMaxima();
+  plane_ = FitPlane();
+}
+
+// The plane through the corner pixels (0, 0), (W − 1, 0) and (0, H − 1), if every pixel lies on
+// it and the lowest pixel is at least one pixel's rise of the plane above the holder. Then, within
+// a pixel of the grid, HeightAt blends pixels on the plane with the holder's 0, each no higher
+// than the plane's extension there, so the surface is nowhere above the plane; beyond, the
+// holder's 0 lies below any surface point a ray could start from.
+std::optional<Heightmap::Plane> Heightmap::FitPlane() const {
+  if (width_ < 2 || height_ < 2) return std::nullopt;
+  const auto height = [&](int x, int y) -> double { return heights_mm_[static_cast<size_t>(y) * width_ + x]; };
+  const auto centre_x = [&](int x) { return (x + 0.5 - width_ / 2.0) * pixel_mm_; };
+  const auto centre_y = [&](int y) { return (y + 0.5 - height_ / 2.0) * pixel_mm_; };
+  Plane plane{0, (height(width_ - 1, 0) - height(0, 0)) / ((width_ - 1) * pixel_mm_),
+              (height(0, height_ - 1) - height(0, 0)) / ((height_ - 1) * pixel_mm_)};
+  plane.z0 = height(0, 0) - plane.dz_dx * centre_x(0) - plane.dz_dy * centre_y(0);
+  const double lowest_allowed = (std::abs(plane.dz_dx) + std::abs(plane.dz_dy)) * pixel_mm_;
+  for (int y = 0; y < height_; ++y) {
+    for (int x = 0; x < width_; ++x) {
+      const double z = height(x, y);
+      if (std::abs(z - plane.At(centre_x(x), centre_y(y))) > kPlanarToleranceMm || z < lowest_allowed) return std::nullopt;
+    }
+  }
+  return plane;
 }
 
 // Grid coordinates: pixel centres at integers. HeightAt reads pixels floor(g) and floor(g) + 1,
@@ -125,6 +156,13 @@ Heightmap::Block Heightmap::BlockAlong(const Eigen::Vector2d& g, double ux, doub
 bool Heightmap::Shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& light) const {
   const Eigen::Vector3d s = (light - p).normalized();
   if (s.z() <= 0) return true;
+  // On or above a planar surface, a ray that does not descend towards its plane stays above it
+  // and so above the whole surface (FitPlane): no march. Those are the long marches on a
+  // calibration target, every one up to the highest point (the target's 29-LED steps were most of
+  // tac7's calibration scan, two thirds of it in marches).
+  if (plane_ && p.z() - plane_->At(p.x(), p.y()) >= -kOnPlaneSlackMm && s.z() >= plane_->dz_dx * s.x() + plane_->dz_dy * s.y()) {
+    return false;
+  }
   const double t_max = (max_height_mm_ - p.z()) / s.z();
   const double horizontal = std::max(s.head<2>().norm(), 1e-9);
   const double dt = 0.5 * pixel_mm_ / horizontal;

@@ -6,6 +6,7 @@
 // Thread-safety: immutable after construction; concurrent reads are safe.
 
 #include <array>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,6 +28,10 @@ class Heightmap {
   // Bilinear between pixel centres, so the surface is continuous for ray marching.
   double HeightAt(double x_mm, double y_mm) const;
   double max_height_mm() const { return max_height_mm_; }
+  // Whether every height lies on one plane (a calibration target, a tile, a chart), with the grid's
+  // edges high enough that the holder around it stays below that plane: Shadowed() then clears a
+  // ray that does not descend towards the plane without marching it.
+  bool planar() const { return plane_.has_value(); }
 
   // True if the surface blocks the segment from surface point `p` towards the point `light`
   // (a light below the horizon is blocked). Marches at half a pixel up to the highest point;
@@ -76,6 +81,13 @@ class Heightmap {
   Block BlockAlong(const Eigen::Vector2d& g, double ux, double uy, int level) const;
   void BuildBlockMaxima();
 
+  // z = z0 + dz_dx·x + dz_dy·y (sample frame, mm) over the grid.
+  struct Plane {
+    double z0, dz_dx, dz_dy;
+    double At(double x_mm, double y_mm) const { return z0 + dz_dx * x_mm + dz_dy * y_mm; }
+  };
+  std::optional<Plane> FitPlane() const;
+
   std::vector<float> heights_mm_;
   int width_ = 0;
   int height_ = 0;
@@ -87,7 +99,8 @@ class Heightmap {
     int blocks_y = 0;
     std::vector<float> max_mm;  // row-major
   };
-  std::vector<Level> levels_;  // [0]: blocks of block_px_; each next one of twice the side
+  std::vector<Level> levels_;   // [0]: blocks of block_px_; each next one of twice the side
+  std::optional<Plane> plane_;  // set where planar()
 };
 
 }  // namespace loom

@@ -240,6 +240,55 @@ TEST(HeightmapTest, SkippingBlocksGivesTheFullMarchsFirstHits) {
   EXPECT_THROW(Heightmap(heights, kW, kH, kPixelMm).FirstHit({0, 0, 10}, {0, 0, 1}), CheckError);
 }
 
+// A calibration target's board (a plane tilted 25° about x, its centre 8 mm up) and a white tile
+// (flat, 5 mm up): planar, so Shadowed takes the plane's shortcut; it must give the full march's
+// answer from points on the grid and off it, and from a camera ray's hit (FirstHit stops within
+// its bisection's tolerance of the surface).
+TEST(HeightmapTest, OnAPlaneTheShortcutGivesTheFullMarchsShadows) {
+  constexpr int kPlaneW = 70, kPlaneH = 56;
+  constexpr double kPlanePixelMm = 0.1;
+  const double slope = std::tan(25 * M_PI / 180);
+  std::vector<float> board(kPlaneW * kPlaneH), tile(kPlaneW * kPlaneH, 5.0f);
+  for (int y = 0; y < kPlaneH; ++y) {
+    for (int x = 0; x < kPlaneW; ++x)
+      board[y * kPlaneW + x] = static_cast<float>(8 + (y + 0.5 - kPlaneH / 2.0) * kPlanePixelMm * slope);
+  }
+  std::mt19937 random(17);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (const std::vector<float>* heights : {&board, &tile}) {
+    const Heightmap map(*heights, kPlaneW, kPlaneH, kPlanePixelMm);
+    ASSERT_TRUE(map.planar());
+    int shadowed = 0;
+    for (int k = 0; k < 20000; ++k) {
+      const double x = (unit(random) - 0.5) * 1.4 * kPlaneW * kPlanePixelMm;
+      const double y = (unit(random) - 0.5) * 1.4 * kPlaneH * kPlanePixelMm;
+      Eigen::Vector3d p(x, y, map.HeightAt(x, y));
+      if (k % 2 == 1) p = map.FirstHit(p + Eigen::Vector3d(30, -20, 400), Eigen::Vector3d(-30, 20, -400).normalized());
+      double elevation = 0;
+      const Eigen::Vector3d light = RandomLight(p, random, &elevation);
+      const bool expected = ShadowedByMarchingEverySample(map, p, light, kPlanePixelMm);
+      ASSERT_EQ(map.Shadowed(p, light), expected) << "ray " << k << " from " << p.transpose();
+      shadowed += expected;
+    }
+    EXPECT_GT(shadowed, 1000);
+    EXPECT_LT(shadowed, 19000);
+  }
+}
+
+TEST(HeightmapTest, OnlyAPlaneAboveItsHolderIsPlanar) {
+  std::mt19937 random(7);
+  EXPECT_FALSE(Heightmap(RoughHeights(kW, kH, random), kW, kH, kPixelMm).planar());
+  // A plane down to the holder at one edge: the blend to the holder's 0 around the grid rises
+  // above the plane's extension there.
+  std::vector<float> reaching_the_holder(kW * kH);
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) reaching_the_holder[y * kW + x] = static_cast<float>(0.01 * x);
+  }
+  EXPECT_FALSE(Heightmap(reaching_the_holder, kW, kH, kPixelMm).planar());
+  std::vector<float> flat_on_the_holder(kW * kH, 0.0f);
+  EXPECT_TRUE(Heightmap(flat_on_the_holder, kW, kH, kPixelMm).planar());
+}
+
 TEST(HeightmapTest, OverTallObjectsThePyramidGivesTheFullMarchs) {
   // A calibration scan's objects: a wedge rising 4 mm and a sphere 6 mm tall beside it, on a
   // grid many blocks wide, where rays far above the surface cross coarse pyramid levels.
