@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
+#include "core/parallel.h"
 #include "core/spectra.h"
 
 namespace loom::calibration {
@@ -18,16 +19,25 @@ namespace {
 
 using scan::StepKind;
 
-// Where a camera pixel looks on the turntable's plane (z = 0 in the sample frame at the view's
-// angle), if it looks down at it.
-std::optional<Eigen::Vector3d> PointOnTurntable(const RigModel& rig, const CameraModel& camera, double turntable_deg, int x,
-                                                int y) {
-  const Rigid3d sample_from_cam = rig.turntable.RigFromSample(turntable_deg).inverse() * camera.cam_from_rig.inverse();
-  const Eigen::Vector3d origin = sample_from_cam.translation();
-  const Eigen::Vector3d direction = sample_from_cam.linear() * camera.Unproject(Eigen::Vector2d(x, y));
-  if (direction.z() >= 0) return std::nullopt;
-  return origin + direction * (-origin.z() / direction.z());
-}
+// Where a camera's pixels look on the turntable's plane (z = 0 in the sample frame at a view's
+// angle), for those that look down at it. The camera's pose is worked out once: per pixel it had
+// been a tenth of calibrating tac7's radiometry (perf, 2026-11-27).
+class TurntablePoints {
+ public:
+  TurntablePoints(const RigModel& rig, const CameraModel& camera, double turntable_deg)
+      : camera_(camera), sample_from_cam_(rig.turntable.RigFromSample(turntable_deg).inverse() * camera.cam_from_rig.inverse()) {}
+
+  std::optional<Eigen::Vector3d> At(int x, int y) const {
+    const Eigen::Vector3d origin = sample_from_cam_.translation();
+    const Eigen::Vector3d direction = sample_from_cam_.linear() * camera_.Unproject(Eigen::Vector2d(x, y));
+    if (direction.z() >= 0) return std::nullopt;
+    return origin + direction * (-origin.z() / direction.z());
+  }
+
+ private:
+  const CameraModel& camera_;
+  const Rigid3d sample_from_cam_;
+};
 
 // The irradiance one emitter gives a flat surface (normal +z) at `p`.
 double Irradiance(const PointEmitter& emitter, const Eigen::Vector3d& p) {
@@ -89,17 +99,22 @@ Result<TileView> OnTile(const RigModel& rig, const LitView& view, double albedo,
   LOOM_ASSIGN_OR_RETURN(const int led, LightOf(view));
   LOOM_ASSIGN_OR_RETURN(const StackObservation observation, DescribeRigObservation(rig, view.camera, view.lighting));
   const double weight = observation.rgb_weights.sum();
-  cv::Mat ratio(camera.height, camera.width, CV_64F, cv::Scalar(0));
+  const TurntablePoints points(rig, camera, view.lighting.turntable_deg);
+  cv::Mat ratio(camera.height, camera.width, CV_64F, cv::Scalar(std::numeric_limits<double>::quiet_NaN()));  // NaN: none
+  // Row by row on every core: a whole frame's pixels, each unprojected and lit by the model.
+  ParallelFor(camera.height, 0, [&](int y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const double measured = view.radiance.at(0, y, x);
+      const std::optional<Eigen::Vector3d> p = points.At(x, y);
+      if (!p || !std::isfinite(measured)) continue;
+      const double predicted = albedo * weight * UnitAlbedoRadiance(observation, *p);
+      if (predicted > 0) ratio.at<double>(y, x) = measured / predicted;
+    }
+  });
   std::vector<double> valid;
   for (int y = 0; y < camera.height; ++y) {
     for (int x = 0; x < camera.width; ++x) {
-      const double measured = view.radiance.at(0, y, x);
-      const std::optional<Eigen::Vector3d> p = PointOnTurntable(rig, camera, view.lighting.turntable_deg, x, y);
-      if (!p || !std::isfinite(measured)) continue;
-      const double predicted = albedo * weight * UnitAlbedoRadiance(observation, *p);
-      if (!(predicted > 0)) continue;
-      ratio.at<double>(y, x) = measured / predicted;
-      valid.push_back(measured / predicted);
+      if (!std::isnan(ratio.at<double>(y, x))) valid.push_back(ratio.at<double>(y, x));
     }
   }
   if (valid.empty()) return FailedPreconditionError(view.source, "no pixel looks at the turntable");
@@ -230,8 +245,9 @@ double TileSubtendsDeg(const RigModel& rig, const std::vector<TileView>& tiles, 
     const LedModel& led = rig.leds[tiles[v].led];
     const CameraModel& camera = rig.cameras[reference];
     double low = 180, high = 0;
+    const TurntablePoints points(rig, camera, white[v].lighting.turntable_deg);
     for (int pixel : tiles[v].pixels) {
-      const auto p = PointOnTurntable(rig, camera, white[v].lighting.turntable_deg, pixel % camera.width, pixel / camera.width);
+      const auto p = points.At(pixel % camera.width, pixel / camera.width);
       const Eigen::Vector3d p_rig = rig.turntable.RigFromSample(white[v].lighting.turntable_deg) * *p;
       const double angle = RadToDeg(std::acos(std::clamp(led.axis.dot((p_rig - led.position_mm).normalized()), -1.0, 1.0)));
       low = std::min(low, angle);
@@ -282,9 +298,10 @@ Result<std::vector<double>> FitStripProfile(const RigModel& rig, const std::vect
     calibrated.vignetting = flats[tile.camera].vignetting;
     calibrated.flat_field = flats[tile.camera].per_pixel;
     const double view_scale = scale.at({tile.camera, -1});
+    const TurntablePoints points(rig, camera, white[v].lighting.turntable_deg);
     for (size_t i = 0; i < tile.pixels.size(); ++i) {
       const int x = tile.pixels[i] % camera.width, y = tile.pixels[i] / camera.width;
-      const auto p = PointOnTurntable(rig, camera, white[v].lighting.turntable_deg, x, y);
+      const auto p = points.At(x, y);
       const Eigen::VectorXd shares = KnotShares(strip, observation, *p, knots);
       const double measured = tile.ratio[i] * camera.sensor.RelativeResponse(x, y, camera.width, camera.height) /
                               (calibrated.RelativeResponse(x, y, camera.width, camera.height) * view_scale);
@@ -396,9 +413,10 @@ Result<std::vector<double>> PatchRatios(const RigModel& rig, const LitView& char
   const CameraModel& camera = rig.cameras[chart.camera];
   const ColourChartModel& model = rig.colour_chart;
   std::vector<double> chart_sum(ColourChartModel::kPatches, 0), white_sum(ColourChartModel::kPatches, 0);
+  const TurntablePoints points(rig, camera, chart.lighting.turntable_deg);
   for (int pixel : tile.pixels) {
     const int x = pixel % camera.width, y = pixel / camera.width;
-    const auto p = PointOnTurntable(rig, camera, chart.lighting.turntable_deg, x, y);
+    const auto p = points.At(x, y);
     const int patch = model.PatchAt(p->x(), p->y());
     if (patch < 0) continue;
     const Eigen::Vector2d offset = p->head<2>() - model.PatchCentre(patch);
