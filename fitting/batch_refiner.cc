@@ -663,7 +663,6 @@ class GridScorer {
   }
 
   const internal::UsableObservations& usable_;
-  std::vector<PixelObservation> observations_;  // the last pixel loaded's, its memory reused for the next
   internal::LaneData data_;
   internal::LaneInputs inputs_{};
   std::vector<double> diffuse_, specular_;
