@@ -36,17 +36,18 @@ fitting::StackFitOptions DefaultOptions() {
 }
 
 // The refiner's settings picked for a model's rig on its training fabrics, in the model
-// directory beside the CNN: the smoothing pass's weight and a_s scale, and whether poor fits are
-// retried (docs/benchmarks.md). They differ by rig: tac7-mini's speckled maps gain from the pass,
-// which restarts every pixel from its neighbours' median lobe and so leaves the retries nothing
-// to gain there, while on tac7's richer stacks the same prior over-smooths σ and α. A model
-// without the file leaves the built-in defaults (retries, no smoothing pass); --smoothing-weight
-// and --retries / --no-retries override the file.
+// directory beside the CNN: the smoothing pass's weight and a_s scale, whether poor fits are
+// retried, and the function tolerance that ends a pixel's fit (docs/benchmarks.md). They differ by rig: tac7-mini's speckled maps
+// gain from the pass, which restarts every pixel from its neighbours' median lobe and so leaves the retries nothing to gain
+// there, while on tac7's richer stacks the same prior over-smooths σ and α. A model without the file leaves the built-in defaults
+// (retries, no smoothing pass, 1e-4);
+// --smoothing-weight, --retries / --no-retries and --function-tolerance override the file.
 constexpr const char* kRefineSettingsFile = "refine.json";
 
 struct GivenOnTheCommandLine {
   bool smoothing_weight = false;
   bool retries = false;
+  bool function_tolerance = false;
 };
 
 Status CheckRefineSetting(const fs::path& path, const std::string& key, const nlohmann::json& value) {
@@ -54,11 +55,17 @@ Status CheckRefineSetting(const fs::path& path, const std::string& key, const nl
     return value.is_boolean() ? Status::Ok()
                               : InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
   }
-  if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
-    return InvalidArgumentError(path.string() + ": " + key,
-                                "unknown key (expected smoothing_weight, smoothing_specular_albedo, retries or picked_on)");
-  }
   const double number = value.is_number() ? value.get<double>() : NAN;
+  if (key == "function_tolerance") {
+    return number >= 0 && number <= 0.5
+               ? Status::Ok()
+               : InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 0.5], not " + value.dump());
+  }
+  if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
+    return InvalidArgumentError(
+        path.string() + ": " + key,
+        "unknown key (expected smoothing_weight, smoothing_specular_albedo, retries, function_tolerance or picked_on)");
+  }
   if (!(number >= 0 && number <= 1e6) || (key == "smoothing_specular_albedo" && number == 0)) {
     return InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 1e6] (a scale > 0), not " + value.dump());
   }
@@ -79,6 +86,9 @@ Status ApplyRefineSettings(const fs::path& model, bool refiner, GivenOnTheComman
   if (!given.smoothing_weight) options.smoothing.weight = json.value("smoothing_weight", options.smoothing.weight);
   options.smoothing.specular_albedo = json.value("smoothing_specular_albedo", options.smoothing.specular_albedo);
   if (refiner && !given.retries) options.retry_poor_fits = json.value("retries", options.retry_poor_fits);
+  if (!given.function_tolerance) {
+    options.refine_function_tolerance = json.value("function_tolerance", options.refine_function_tolerance);
+  }
   return Status::Ok();
 }
 
@@ -174,10 +184,12 @@ int RunFit(int argc, char** argv) {
          "emitters (0: the emitters; 16 or 20: within 0.1 % of the continuous strip at the 99th percentile; "
          "fitting/strip_quadrature.h, docs/benchmarks.md)")
       ->check(CLI::Range(0, 127) & !CLI::Range(1, 4));
-  app.add_option("--function-tolerance", args.options.refine_function_tolerance,
-                 "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
-                 "fraction (default 1e-4; Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")
-      ->check(CLI::Range(0.0, 0.5));
+  CLI::Option* function_tolerance =
+      app.add_option("--function-tolerance", args.options.refine_function_tolerance,
+                     "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
+                     "fraction (default: the model directory's refine.json, 1e-3 for tac7-mini; without one 1e-4; "
+                     "Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")
+          ->check(CLI::Range(0.0, 0.5));
   app.add_option("--model", args.model,
                  "Model directory: the CNN, and in refine.json the refiner's settings picked for its rig (default: "
                  "configs/models/<the stack's rig>)");
@@ -210,7 +222,9 @@ int RunFit(int argc, char** argv) {
   retries->excludes(no_retries);
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  args.given = {.smoothing_weight = smoothing_weight->count() > 0, .retries = retries->count() + no_retries->count() > 0};
+  args.given = {.smoothing_weight = smoothing_weight->count() > 0,
+                .retries = retries->count() + no_retries->count() > 0,
+                .function_tolerance = function_tolerance->count() > 0};
   return ExitCode(Fit(args));
 }
 

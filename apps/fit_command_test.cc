@@ -220,7 +220,7 @@ TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
 // The refiner's settings picked for a rig live in its model directory (refine.json): loom fit
 // takes them unless an option overrides them, and refuses a file it cannot read as settings,
 // naming the file and the key.
-TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndTheRetriesAndABadOneIsRefused) {
+TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTheToleranceAndABadOneIsRefused) {
   const auto fit_json = [&](const std::string& options, const std::string& out, const std::string& method = "refine") {
     const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method " + method +
                                 " --clusters 2 --quiet --out " + (dir_ / out).string() + " " + options);
@@ -232,6 +232,7 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndTheRetriesAn
   EXPECT_EQ(shipped["smoothing_weight"], 3.0);
   EXPECT_EQ(shipped["smoothing_specular_albedo"], 0.03);
   EXPECT_EQ(shipped["retries"], false);
+  EXPECT_EQ(shipped["function_tolerance"], 1e-3);
   EXPECT_EQ(fit_json("--retries", "retried")["retries"], true);
   EXPECT_EQ(fit_json("", "ceres", "ceres")["retries"], true);  // the refiner's settings, not Ceres'
   const fs::path model = dir_ / "refine-model";
@@ -241,9 +242,14 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndTheRetriesAn
   EXPECT_EQ(own["smoothing_weight"], 2.0);
   EXPECT_EQ(own["smoothing_specular_albedo"], 0.05);
   EXPECT_EQ(own["retries"], true);
-  const nlohmann::json overridden = fit_json("--model " + model.string() + " --smoothing-weight 0 --no-retries", "overridden");
+  EXPECT_EQ(own["function_tolerance"], 1e-4);  // the built-in default where the file has none
+  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"smoothing_weight": 2, "function_tolerance": 0.002})";
+  EXPECT_EQ(fit_json("--model " + model.string(), "own-tolerance")["function_tolerance"], 0.002);
+  const nlohmann::json overridden =
+      fit_json("--model " + model.string() + " --smoothing-weight 0 --no-retries --function-tolerance 0.0005", "overridden");
   EXPECT_EQ(overridden["smoothing_weight"], 0.0);
   EXPECT_EQ(overridden["retries"], false);
+  EXPECT_EQ(overridden["function_tolerance"], 0.0005);
   EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
 
   // A refine.json that loom fit must refuse: exit 1, no maps written.
@@ -261,6 +267,8 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassAndTheRetriesAn
   EXPECT_NE(negative.find("smoothing_weight"), std::string::npos) << negative;
   const std::string not_bool = refused(R"({"retries": "no"})", "nb");
   EXPECT_NE(not_bool.find((model / "refine.json").string() + ": retries"), std::string::npos) << not_bool;
+  const std::string too_loose = refused(R"({"function_tolerance": 0.9})", "loose");
+  EXPECT_NE(too_loose.find((model / "refine.json").string() + ": function_tolerance"), std::string::npos) << too_loose;
 }
 
 // loom train end to end at toy size: renders its dataset, trains, and loom fit takes the model.
