@@ -19,6 +19,24 @@ UsableObservations Usable(const std::vector<PixelObservation>& all) {
   return usable;
 }
 
+namespace {
+
+// The light samples of `o` that the model does not zero whatever the parameters: v and l above
+// the geometric horizon, l + v not ≈ 0 (the Ceres cost drops the same ones).
+bool Lit(const PixelObservation& o, const LightSample& light) {
+  return o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20;
+}
+
+// Stores `light`'s h and irradiance in `slot` of `lane`.
+void StoreLight(const LightSample& light, const Eigen::Vector3d& v, int slot, int lane, LaneData& data) {
+  const Eigen::Vector3d h = (light.l_local + v).normalized();
+  const size_t s = static_cast<size_t>(slot) * kLanes + lane;
+  data.hx[s] = h.x(), data.hy[s] = h.y(), data.hz[s] = h.z();
+  data.irradiance[s] = light.irradiance;
+}
+
+}  // namespace
+
 double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
   data.ClearLane(lane);
   double sum = 0;
@@ -34,23 +52,23 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
     data.vx[i] = o.v_local.x(), data.vy[i] = o.v_local.y(), data.vz[i] = o.v_local.z();
     data.wr[i] = o.rgb_weights.x(), data.wg[i] = o.rgb_weights.y(), data.wb[i] = o.rgb_weights.z();
     sum += std::abs(o.radiance);
-    // The zero conditions that do not depend on the parameters drop a light, as the Ceres cost
-    // does; more lights than the slot holds (a strip's emitters) are merged along the strip.
+    // More lights than the slot holds (a strip's emitters) are merged along the strip; where they
+    // fit, each goes straight to its slot.
+    const int first = data.first_slot[slot];
+    const int capacity = data.first_slot[slot + 1] - first;
+    int light_slot = first;
+    if (static_cast<int>(o.lights.size()) <= capacity) {
+      for (const LightSample& light : o.lights) {
+        if (Lit(o, light)) StoreLight(light, o.v_local, light_slot++, lane, data);
+      }
+      continue;
+    }
     lights.clear();
     for (const LightSample& light : o.lights) {
-      if (o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) {
-        lights.push_back(light);
-      }
+      if (Lit(o, light)) lights.push_back(light);
     }
-    const int capacity = data.first_slot[slot + 1] - data.first_slot[slot];
     if (static_cast<int>(lights.size()) > capacity) lights = MergeLightSamples(lights, capacity);
-    int light_slot = data.first_slot[slot];
-    for (const LightSample& light : lights) {
-      const Eigen::Vector3d h = (light.l_local + o.v_local).normalized();
-      const size_t s = static_cast<size_t>(light_slot++) * kLanes + lane;
-      data.hx[s] = h.x(), data.hy[s] = h.y(), data.hz[s] = h.z();
-      data.irradiance[s] = light.irradiance;
-    }
+    for (const LightSample& light : lights) StoreLight(light, o.v_local, light_slot++, lane, data);
   }
   const double mean = sum / usable.observations.size();
   return mean > 0 ? 1 / mean : 1;
