@@ -4,6 +4,7 @@
 
 #include "core/check.h"
 #include "core/geometry.h"
+#include "fitting/internal/light_samples.h"
 
 namespace loom::fitting {
 
@@ -13,6 +14,7 @@ StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions&
       Heightmap(std::vector<float>(heights.begin(), heights.end()), stack.image.width(), stack.image.height(), stack.pixel_mm);
   for (const StackObservation& o : stack.observations) {
     strips_.push_back(o.group == ObservationGroup::kLinearLight ? StripOfEmitters(o.emitters) : std::nullopt);
+    emitter_arrays_.emplace_back(o.emitters);
   }
   if (options_.keep_frames) {
     frame_filled_ = std::make_unique<std::once_flag[]>(stack.image.pixel_count());
@@ -154,17 +156,30 @@ bool StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, PixelObs
                        LobeSpan(l_local, observation.v_local, *lobe, quadrature.lobe_fraction), quadrature);
     nodes_lit = lit == last - first + 1;
   }
-  // Thousands of light samples per pixel: the direction to each is computed once (as
-  // normalized() would) for its falloff and the pixel's frame.
-  const std::vector<PointEmitter>& emitters = integrate ? nodes : o.emitters;
   observation.lights.clear();
-  for (int i = 0; i < static_cast<int>(emitters.size()); ++i) {
-    const PointEmitter& emitter = emitters[i];
-    const Eigen::Vector3d to_light = emitter.position_mm - p;
+  if (!integrate) {
+    // The stack's emitters: their directions and irradiances all at once (light_samples.h).
+    thread_local internal::LightGeometry geometry;
+    internal::LightGeometryAt(emitter_arrays_[k], p, frame.local_from_sample, geometry);
+    const int count = emitter_arrays_[k].size();
+    std::vector<LightSample>& lights = observation.lights;
+    lights.resize(count);  // within the capacity the last pixel left: no allocation, no push_back's checks
+    int lit = 0;
+    for (int i = 0; i < count; ++i) {
+      if (!(geometry.irradiance[i] > 0) || hides(i)) continue;
+      lights[lit++] = {{geometry.lx[i], geometry.ly[i], geometry.lz[i]}, geometry.irradiance[i]};
+    }
+    lights.resize(lit);
+    return lit > 0;
+  }
+  // The strip's nodes, placed for this pixel: the direction to each is computed once (as
+  // normalized() would) for its falloff and the pixel's frame.
+  for (const PointEmitter& node : nodes) {
+    const Eigen::Vector3d to_light = node.position_mm - p;
     const double distance2 = to_light.squaredNorm();
     const Eigen::Vector3d l = to_light / std::sqrt(distance2);
-    const double intensity = emitter.IntensityAlong(-l);
-    if (intensity <= 0 || (integrate ? !nodes_lit && shadowed(emitter) : hides(i))) continue;
+    const double intensity = node.IntensityAlong(-l);
+    if (intensity <= 0 || (!nodes_lit && shadowed(node))) continue;
     observation.lights.push_back({frame.local_from_sample.lazyProduct(l), intensity / distance2});
   }
   return !observation.lights.empty();

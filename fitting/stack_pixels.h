@@ -17,6 +17,7 @@
 
 #include "core/heightmap.h"
 #include "core/observation_stack.h"
+#include "fitting/internal/light_samples.h"
 #include "fitting/pixel_fitter.h"
 #include "fitting/strip_quadrature.h"
 
@@ -85,7 +86,8 @@ class StackPixels {
   const ObservationStack& stack_;
   StackPixelOptions options_;
   Heightmap heightmap_;
-  std::vector<std::optional<StripSegment>> strips_;  // per stack observation: its linear light's strip
+  std::vector<std::optional<StripSegment>> strips_;      // per stack observation: its linear light's strip
+  std::vector<internal::EmitterArrays> emitter_arrays_;  // per stack observation: its emitters
   // With options_.keep_frames: each pixel's frame and hidden emitters, filled under its flag on
   // first use.
   mutable std::unique_ptr<std::once_flag[]> frame_filled_;

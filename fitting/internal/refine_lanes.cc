@@ -21,18 +21,20 @@ UsableObservations Usable(const std::vector<PixelObservation>& all) {
 
 namespace {
 
-// The light samples of `o` that the model does not zero whatever the parameters: v and l above
-// the geometric horizon, l + v not ≈ 0 (the Ceres cost drops the same ones).
-bool Lit(const PixelObservation& o, const LightSample& light) {
-  return o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20;
-}
-
-// Stores `light`'s h and irradiance in `slot` of `lane`.
-void StoreLight(const LightSample& light, const Eigen::Vector3d& v, int slot, int lane, LaneData& data) {
-  const Eigen::Vector3d h = (light.l_local + v).normalized();
+// Stores `light`'s halfway vector (l + v normalised) and irradiance in `slot` of `lane`, unless
+// the model zeroes it whatever the parameters: l below the geometric horizon (v is checked per
+// observation), or l + v ≈ 0. The Ceres cost drops the same ones. True where stored.
+[[gnu::always_inline]] inline bool StoreLight(const LightSample& light, const Eigen::Vector3d& v, int slot, int lane,
+                                              LaneData& data) {
+  if (!(light.l_local.z() > 0)) return false;
+  const Eigen::Vector3d sum = light.l_local + v;
+  const double norm2 = sum.squaredNorm();
+  if (!(norm2 >= 1e-20)) return false;
+  const Eigen::Vector3d h = sum * (1 / std::sqrt(norm2));  // one division, not normalized()'s three
   const size_t s = static_cast<size_t>(slot) * kLanes + lane;
   data.hx[s] = h.x(), data.hy[s] = h.y(), data.hz[s] = h.z();
   data.irradiance[s] = light.irradiance;
+  return true;
 }
 
 }  // namespace
@@ -56,19 +58,18 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
     // fit, each goes straight to its slot.
     const int first = data.first_slot[slot];
     const int capacity = data.first_slot[slot + 1] - first;
+    if (!(o.v_local.z() > 0)) continue;  // seen from below its horizon: no light counts
     int light_slot = first;
     if (static_cast<int>(o.lights.size()) <= capacity) {
-      for (const LightSample& light : o.lights) {
-        if (Lit(o, light)) StoreLight(light, o.v_local, light_slot++, lane, data);
-      }
+      for (const LightSample& light : o.lights) light_slot += StoreLight(light, o.v_local, light_slot, lane, data);
       continue;
     }
     lights.clear();
     for (const LightSample& light : o.lights) {
-      if (Lit(o, light)) lights.push_back(light);
+      if (light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) lights.push_back(light);
     }
     if (static_cast<int>(lights.size()) > capacity) lights = MergeLightSamples(lights, capacity);
-    for (const LightSample& light : lights) StoreLight(light, o.v_local, light_slot++, lane, data);
+    for (const LightSample& light : lights) light_slot += StoreLight(light, o.v_local, light_slot, lane, data);
   }
   const double mean = sum / usable.observations.size();
   return mean > 0 ? 1 / mean : 1;
