@@ -57,11 +57,11 @@ EmitterArrays::EmitterArrays(const std::vector<PointEmitter>& emitters) {
   for (int i = 0; i < n; ++i) {
     const double exponent = e.falloff_exponent[i];
     if (exponent == 1) continue;
-    const double tx = e.x[i] - px, ty = e.y[i] - py, tz = e.z[i] - pz;
+    const double tx = ex[i] - px, ty = ey[i] - py, tz = ez[i] - pz;
     const double distance2 = tx * tx + ty * ty + tz * tz;
     const double distance = std::sqrt(distance2);
-    const double c = e.ax[i] * (-tx / distance) + e.ay[i] * (-ty / distance) + e.az[i] * (-tz / distance);
-    irradiance[i] = c > 0 ? e.intensity[i] * CosinePower(c, exponent) / distance2 : 0;
+    const double c = ax[i] * (-tx / distance) + ay[i] * (-ty / distance) + az[i] * (-tz / distance);
+    irradiance[i] = c > 0 ? intensity[i] * CosinePower(c, exponent) / distance2 : 0;
   }
 }
 
