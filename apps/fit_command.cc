@@ -37,10 +37,11 @@ fitting::StackFitOptions DefaultOptions() {
 
 // The refiner's settings picked for a model's rig on its training fabrics, in the model
 // directory beside the CNN: the smoothing pass's weight and a_s scale, whether poor fits are
-// retried, and the function tolerance that ends a pixel's fit (docs/benchmarks.md). They differ by rig: tac7-mini's speckled maps
-// gain from the pass, which restarts every pixel from its neighbours' median lobe and so leaves the retries nothing to gain
-// there, while on tac7's richer stacks the same prior over-smooths σ and α. A model without the file leaves the built-in defaults
-// (retries, no smoothing pass, 1e-4);
+// retried, and the function tolerance that ends a pixel's fit (docs/benchmarks.md). They differ
+// by rig: tac7-mini's speckled maps gain from the pass, which restarts every pixel from its
+// neighbours' median lobe and so leaves the retries nothing to gain there (nor the first fit's
+// last small steps), while on tac7's richer stacks the same prior over-smooths σ and α. A model
+// without the file leaves the built-in defaults (retries, no smoothing pass, 1e-4);
 // --smoothing-weight, --retries / --no-retries and --function-tolerance override the file.
 constexpr const char* kRefineSettingsFile = "refine.json";
 

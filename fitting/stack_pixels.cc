@@ -156,14 +156,13 @@ bool StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, PixelObs
                        LobeSpan(l_local, observation.v_local, *lobe, quadrature.lobe_fraction), quadrature);
     nodes_lit = lit == last - first + 1;
   }
-  observation.lights.clear();
   if (!integrate) {
     // The stack's emitters: their directions and irradiances all at once (light_samples.h).
     thread_local internal::LightGeometry geometry;
     internal::LightGeometryAt(emitter_arrays_[k], p, frame.local_from_sample, geometry);
     const int count = emitter_arrays_[k].size();
     std::vector<LightSample>& lights = observation.lights;
-    lights.resize(count);  // within the capacity the last pixel left: no allocation, no push_back's checks
+    lights.resize(count);  // within the capacity the last pixel left: no allocation; then no push_back's checks
     int lit = 0;
     for (int i = 0; i < count; ++i) {
       if (!(geometry.irradiance[i] > 0) || hides(i)) continue;
@@ -174,6 +173,7 @@ bool StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, PixelObs
   }
   // The strip's nodes, placed for this pixel: the direction to each is computed once (as
   // normalized() would) for its falloff and the pixel's frame.
+  observation.lights.clear();
   for (const PointEmitter& node : nodes) {
     const Eigen::Vector3d to_light = node.position_mm - p;
     const double distance2 = to_light.squaredNorm();

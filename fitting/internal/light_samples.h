@@ -26,6 +26,7 @@ struct EmitterArrays {
 // it sends the pixel (I(−l) / d², PointEmitter::IntensityAlong; 0 where it faces away).
 struct LightGeometry {
   std::vector<double> lx, ly, lz, irradiance;
+  std::vector<double> cosine;  // of the angle off the emitter's axis (negative: facing away)
 };
 
 // LightGeometry of `emitters` at `p` (sample frame), `local_from_sample` the pixel's frame: what

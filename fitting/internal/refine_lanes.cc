@@ -21,16 +21,20 @@ UsableObservations Usable(const std::vector<PixelObservation>& all) {
 
 namespace {
 
-// Stores `light`'s halfway vector (l + v normalised) and irradiance in `slot` of `lane`, unless
-// the model zeroes it whatever the parameters: l below the geometric horizon (v is checked per
-// observation), or l + v ≈ 0. The Ceres cost drops the same ones. True where stored.
+// Whether the model can light an observation seen along `v` (above its geometric horizon: the
+// caller checks that once per observation) by `light` at all, whatever the parameters: l above
+// the horizon and l + v not ≈ 0. The Ceres cost drops the same ones.
+[[gnu::always_inline]] inline bool Counts(const LightSample& light, const Eigen::Vector3d& v) {
+  return light.l_local.z() > 0 && (light.l_local + v).squaredNorm() >= 1e-20;
+}
+
+// Stores `light`'s halfway vector (l + v normalised) and irradiance in `slot` of `lane` where it
+// Counts. True where stored.
 [[gnu::always_inline]] inline bool StoreLight(const LightSample& light, const Eigen::Vector3d& v, int slot, int lane,
                                               LaneData& data) {
-  if (!(light.l_local.z() > 0)) return false;
+  if (!Counts(light, v)) return false;
   const Eigen::Vector3d sum = light.l_local + v;
-  const double norm2 = sum.squaredNorm();
-  if (!(norm2 >= 1e-20)) return false;
-  const Eigen::Vector3d h = sum * (1 / std::sqrt(norm2));  // one division, not normalized()'s three
+  const Eigen::Vector3d h = sum * (1 / std::sqrt(sum.squaredNorm()));  // one division, not normalized()'s three
   const size_t s = static_cast<size_t>(slot) * kLanes + lane;
   data.hx[s] = h.x(), data.hy[s] = h.y(), data.hz[s] = h.z();
   data.irradiance[s] = light.irradiance;
@@ -66,7 +70,7 @@ double LoadLane(const UsableObservations& usable, int lane, LaneData& data) {
     }
     lights.clear();
     for (const LightSample& light : o.lights) {
-      if (light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) lights.push_back(light);
+      if (Counts(light, o.v_local)) lights.push_back(light);
     }
     if (static_cast<int>(lights.size()) > capacity) lights = MergeLightSamples(lights, capacity);
     for (const LightSample& light : lights) light_slot += StoreLight(light, o.v_local, light_slot, lane, data);
