@@ -146,9 +146,10 @@ torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predict
   std::vector<std::vector<PixelObservation>> observations;
   std::vector<torch::Tensor> labels;
   const int tile = static_cast<int>(predicted.size(2));
+  const torch::Tensor valid_tiles = batch.valid.to(torch::kCPU);  // one copy, not one per pixel from a GPU
   for (size_t b = 0; b < batch.origins.size(); ++b) {
     const TileOrigin& origin = batch.origins[b];
-    const torch::Tensor valid = batch.valid[static_cast<int64_t>(b)][0].flatten().nonzero().flatten();
+    const torch::Tensor valid = valid_tiles[static_cast<int64_t>(b)][0].flatten().nonzero().flatten();
     if (valid.numel() == 0) continue;
     for (int k = 0; k < options.rerender_pixels; ++k) {
       const int64_t at = valid[std::uniform_int_distribution<int64_t>(0, valid.numel() - 1)(rng)].item<int64_t>();
@@ -160,8 +161,9 @@ torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predict
   if (labels.empty()) return {};
   const internal::RerenderBatch rerender = internal::MakeRerenderBatch(observations, options.rerender_strip_samples);
   if (rerender.radiance.numel() == 0) return {};
-  // Rendered on the CPU, where the batch is: a few hundred pixels' observations.
-  return internal::RerenderLoss(torch::stack(labels).to(torch::kCPU), rerender, options.rerender_huber).to(predicted.device());
+  // Rendered where the network trains: on a GPU, a CPU rendering of a few hundred pixels'
+  // observations took most of each step.
+  return internal::RerenderLoss(torch::stack(labels), rerender.To(predicted.device()), options.rerender_huber);
 }
 
 double LearningRate(const CnnTrainingOptions& options, int epoch) {  // epoch 0-based

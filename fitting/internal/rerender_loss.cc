@@ -81,6 +81,11 @@ RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>
   return batch;
 }
 
+RerenderBatch RerenderBatch::To(const at::Device& device) const {
+  return {l.to(device),        irradiance.to(device),        sample_observation.to(device), v.to(device), weights.to(device),
+          radiance.to(device), observation_pixel.to(device), inverse_scale.to(device),      pixels};
+}
+
 at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& batch) {
   const at::Tensor x = labels.to(at::kDouble);
   // DecodeLabel, per pixel, but for the albedos' clamp at 0: the radiance is linear in them, and
@@ -123,7 +128,7 @@ at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& bat
   const at::Tensor fresnel = f0s + (1 - f0s) * at::pow(1 - c, 5);
   const at::Tensor shading = diffuse_albedo.index_select(0, o) / kPi + specular_albedo.index_select(0, o) * fresnel * ward;
   const at::Tensor sample_radiance = lit * batch.irradiance * shading * at::clamp_min(n_dot_l, 0.0);
-  return at::zeros({batch.v.size(0)}, at::kDouble).index_add(0, o, sample_radiance);
+  return at::zeros({batch.v.size(0)}, batch.v.options()).index_add(0, o, sample_radiance);
 }
 
 at::Tensor RerenderLoss(const at::Tensor& labels, const RerenderBatch& batch, double huber_delta) {

@@ -28,6 +28,9 @@ struct RerenderBatch {
   at::Tensor observation_pixel;   // O, int64
   at::Tensor inverse_scale;       // P: 1 / the pixel's mean observed radiance (1 if 0)
   int64_t pixels = 0;
+
+  // The same batch on `device` (where the labels it renders are: a GPU's training renders there).
+  RerenderBatch To(const at::Device& device) const;
 };
 
 // Each pixel's usable observations (finite radiance, a light, camera and light above the
