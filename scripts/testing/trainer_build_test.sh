@@ -12,7 +12,11 @@ link=$(grep -A3 '^build apps/loom:' "$build_dir/build.ninja" | grep -m1 'LINK_LI
 for wanted in libloom_fitting_cnn.a libloom_sim.a libtorch; do
   [[ $link == *"$wanted"* ]] || { echo "FAIL: loom does not link $wanted: $link"; exit 1; }
 done
+# libstdc++ before LibTorch, so that PyTorch's exported copy of std::filesystem does not
+# interpose (apps/CMakeLists.txt).
+stdcxx=${link%%-lstdc++*} torch=${link%%libtorch*}
+(( ${#stdcxx} < ${#torch} )) || { echo "FAIL: loom links LibTorch before libstdc++: $link"; exit 1; }
 for unwanted in ceres opencv aravis modbus libusb libloom_fitting.a loom_hal loom_acquisition; do
   [[ $link != *"$unwanted"* ]] || { echo "FAIL: the trainer-only loom links $unwanted: $link"; exit 1; }
 done
-echo "ok: the trainer-only loom links the CNN and none of Ceres, OpenCV or the devices"
+echo "ok: the trainer-only loom links libstdc++ first, the CNN, and none of Ceres, OpenCV or the devices"
