@@ -49,11 +49,18 @@ struct TrainArguments {
   std::string scan_emulation;          // a sim match-scan file, for dataset.scan_like_share
   std::string input_layout = "stack";  // or "paper" (fitting/cnn_input.h)
   std::string device = "cpu";          // or "cuda"
-  int width_divisor = 8;
+  int width_divisor = 0;               // 0: 8 for a new model, --init's own
   double dropout = 0.02;
   fitting::CnnTrainingOptions training;
   bool quiet = false;
 };
+
+// The network's width divisor: --width-divisor; without it 8 for a new model and --init's own
+// (0) for a fine-tuned one, which a given divisor widens (fitting::Cnn::Widened).
+int WidthDivisor(const TrainArguments& args) {
+  if (args.width_divisor > 0) return args.width_divisor;
+  return args.init.empty() ? 8 : 0;
+}
 
 // --preset's comma-separated names.
 std::vector<std::string> PresetNames(const std::string& presets) {
@@ -138,7 +145,7 @@ Status Train(TrainArguments args) {
                detail.str());
   };
   LOOM_ASSIGN_OR_RETURN(fitting::CnnDatasetTraining run,
-                        fitting::TrainOnDataset(dataset, {0, args.width_divisor, args.dropout}, args.init, args.training,
+                        fitting::TrainOnDataset(dataset, {0, WidthDivisor(args), args.dropout}, args.init, args.training,
                                                 args.input_layout == "paper" ? fitting::CnnInputKind::kPaperLayout
                                                                              : fitting::CnnInputKind::kStackObservations));
   fitting::Cnn& cnn = *run.model;
@@ -152,7 +159,7 @@ Status Train(TrainArguments args) {
   nlohmann::json report = run.ToJson();
   report["options"] = args.training.ToJson();
   report["options"].update(args.dataset.ToJson());
-  report["options"].update({{"width_divisor", args.width_divisor},
+  report["options"].update({{"width_divisor", cnn.info().architecture.width_divisor},
                             {"presets", PresetNames(args.preset)},
                             {"input_layout", args.input_layout},
                             {"dropout", args.dropout},
@@ -189,7 +196,9 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--size", args.dataset.size_px, "Material size in pixels (square)")->check(CLI::Range(16, 4096));
   app.add_option("--first-seed", args.dataset.first_seed,
                  "Seed of the first fabric (the main job's fabric:1 is not among the defaults)");
-  app.add_option("--width-divisor", args.width_divisor, "Network width: the paper's divided by this (1, 2, 4, 8, ...)")
+  app.add_option("--width-divisor", args.width_divisor,
+                 "Network width: the paper's divided by this (1, 2, 4, 8, ...; default 8, or --init's, which a smaller "
+                 "divisor widens: the same function, more units to train)")
       ->check(CLI::Range(1, 256));
   app.add_option("--dropout", args.dropout, "Dropout before the last layer")->check(CLI::Range(0.0, 0.9));
   app.add_option("--epochs", t.epochs, "Epochs")->check(CLI::Range(1, 100000));
@@ -213,7 +222,9 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--scan-emulation", args.scan_emulation,
                  "How scans degrade the fast path on this rig: a loom sim match-scan --out file (sim/scan_emulation.h)")
       ->check(CLI::ExistingFile);
-  app.add_option("--init", args.init, "Start from this model (fine-tuning): its weights, architecture and input normalisation")
+  app.add_option("--init", args.init,
+                 "Start from this model (fine-tuning): its weights, architecture (widened by a smaller --width-divisor) and "
+                 "input normalisation")
       ->check(CLI::ExistingDirectory);
   app.add_option("--rerender-weight", t.rerender_weight,
                  "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn_training.h)")

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <mutex>
+#include <random>
 
 #include <nlohmann/json.hpp>
 
@@ -251,6 +252,68 @@ Result<Cnn> Cnn::Load(const std::filesystem::path& directory) {
   }
   cnn->net().net->eval();
   return cnn;
+}
+
+namespace {
+
+// Each of `wide` units as the narrow unit it copies (k mod narrow), and the share of that unit's
+// outgoing weights it takes: positive, drawn from U(0.5, 1.5) and normalised over the copies.
+struct Widening {
+  torch::Tensor source;  // wide, int64
+  torch::Tensor share;   // wide, float
+};
+
+Widening WidenUnits(int64_t narrow, int64_t wide, std::mt19937_64& rng) {
+  const torch::Tensor source = torch::arange(wide, torch::kLong).remainder(narrow);
+  std::uniform_real_distribution<float> draw(0.5f, 1.5f);
+  std::vector<float> share(static_cast<size_t>(wide)), total(static_cast<size_t>(narrow), 0.0f);
+  for (int64_t k = 0; k < wide; ++k) total[static_cast<size_t>(k % narrow)] += share[static_cast<size_t>(k)] = draw(rng);
+  for (int64_t k = 0; k < wide; ++k) share[static_cast<size_t>(k)] /= total[static_cast<size_t>(k % narrow)];
+  return {source, torch::from_blob(share.data(), {wide}, torch::kFloat32).clone()};
+}
+
+// A layer's weight (out × in × …) with its outputs and inputs widened: rows copied from their
+// source units, input columns from theirs and scaled by their share.
+torch::Tensor WidenWeight(const torch::Tensor& weight, const Widening* out, const Widening* in) {
+  torch::Tensor w = out ? weight.index_select(0, out->source) : weight;
+  if (!in) return w;
+  std::vector<int64_t> shape(static_cast<size_t>(w.dim()), 1);
+  shape[1] = in->share.size(0);
+  return w.index_select(1, in->source) * in->share.view(shape);
+}
+
+}  // namespace
+
+Result<Cnn> Cnn::Widened(int width_divisor, uint64_t seed) const {
+  const int narrow_divisor = info_.architecture.width_divisor;
+  if (width_divisor < 1 || width_divisor > narrow_divisor || narrow_divisor % width_divisor != 0) {
+    return InvalidArgumentError("width divisor " + std::to_string(width_divisor),
+                                "a model of width divisor " + std::to_string(narrow_divisor) +
+                                    " widens only to a divisor of it (the same width or wider)");
+  }
+  CnnModelInfo info = info_;
+  info.architecture.width_divisor = width_divisor;
+  LOOM_ASSIGN_OR_RETURN(Cnn wide, Create(info, seed));
+  const std::array<int, 4> from = info_.architecture.HiddenWidths(), to = info.architecture.HiddenWidths();
+  std::mt19937_64 rng(seed);
+  std::array<Widening, 4> units;
+  for (size_t l = 0; l < units.size(); ++l) units[l] = WidenUnits(from[l], to[l], rng);
+  const internal::CnnNet& a = net_->net;
+  internal::CnnNet& b = wide.net_->net;
+  torch::NoGradGuard no_grad;
+  const std::array<std::pair<torch::nn::Conv2d, torch::nn::Conv2d>, 4> convs = {
+      {{a->conv1(), b->conv1()}, {a->conv2(), b->conv2()}, {a->conv3(), b->conv3()}, {a->conv4(), b->conv4()}}};
+  for (size_t l = 0; l < convs.size(); ++l) {
+    convs[l].second->weight.copy_(WidenWeight(convs[l].first->weight, &units[l], l > 0 ? &units[l - 1] : nullptr));
+    convs[l].second->bias.copy_(convs[l].first->bias.index_select(0, units[l].source));
+  }
+  // fc reads conv4's outputs flattened channel-major, 9 taps each: the taps of unit k are
+  // columns 9k … 9k + 8.
+  const torch::Tensor taps = torch::arange(9, torch::kLong);
+  const Widening columns{(units[3].source.unsqueeze(1) * 9 + taps).flatten(), units[3].share.repeat_interleave(9)};
+  b->fc()->weight.copy_(WidenWeight(a->fc()->weight, nullptr, &columns));
+  b->fc()->bias.copy_(a->fc()->bias);
+  return wide;
 }
 
 Status Cnn::Save(const std::filesystem::path& directory) const {

@@ -100,6 +100,12 @@ class Cnn {
   static Result<Cnn> Load(const std::filesystem::path& directory);
   Status Save(const std::filesystem::path& directory) const;
 
+  // This model at a wider `width_divisor` (one that divides its own) computing the same function:
+  // each hidden unit copied into the new ones, and each copy's share of its outgoing weights
+  // drawn at random (seeded) so that training tells the copies apart (Net2WiderNet, Chen et
+  // al. 2016). For fine-tuning a wider network from a trained narrow one.
+  Result<Cnn> Widened(int width_divisor, uint64_t seed) const;
+
   const CnnModelInfo& info() const { return info_; }
   CnnModelInfo& mutable_info() { return info_; }
 

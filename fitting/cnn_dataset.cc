@@ -121,7 +121,11 @@ Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint6
                                           " input channels) than the dataset's ('" + info.rig + "', " +
                                           std::to_string(info.architecture.input_channels) + ")");
   }
-  return cnn;
+  const int divisor = info.architecture.width_divisor;
+  if (divisor == 0 || divisor == cnn.info().architecture.width_divisor) return cnn;
+  Result<Cnn> wide = cnn.Widened(divisor, seed);
+  if (!wide.ok()) return InvalidArgumentError(init, wide.status().ToString());
+  return wide;
 }
 
 namespace {

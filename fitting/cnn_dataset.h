@@ -61,7 +61,8 @@ class CnnDataset {
 };
 
 // What training starts from: a new model for `info` (weights from `seed`), or the model in
-// `init` (fine-tuning, its input normalisation kept) when it takes the same stacks.
+// `init` (fine-tuning, its input normalisation kept) when it takes the same stacks — widened to
+// `info`'s width divisor where that is set (not 0) and differs from the model's (Cnn::Widened).
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed);
 
 // What TrainOnDataset did: every epoch, the one kept and its score on the test materials.

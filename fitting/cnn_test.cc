@@ -146,6 +146,41 @@ TEST(CnnTest, ASavedModelLoadsWithTheSameWeights) {
   fs::remove_all(dir);
 }
 
+TEST(CnnTest, AWidenedModelComputesWhatTheNarrowOneDid) {
+  Result<Cnn> narrow = Cnn::Create(SmallModel(8), 7);  // width divisor 16
+  ASSERT_TRUE(narrow.ok());
+  const Result<Cnn> wide = narrow->Widened(4, 3);
+  ASSERT_TRUE(wide.ok()) << wide.status().ToString();
+  EXPECT_EQ(wide->info().architecture.width_divisor, 4);
+  const CnnTensor input = RandomInput(8, 11, 9, 2);
+  const std::vector<float> a = narrow->PredictDense(input, 128, 1)->values, b = wide->PredictDense(input, 128, 1)->values;
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0, largest = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    worst = std::max(worst, static_cast<double>(std::abs(a[i] - b[i])));
+    largest = std::max(largest, static_cast<double>(std::abs(a[i])));
+  }
+  EXPECT_GT(largest, 1e-3);  // a function worth comparing
+  EXPECT_LT(worst, 1e-5 * std::max(1.0, largest));
+  // The copies' shares are drawn: another seed gives other weights for the same function.
+  const Result<Cnn> other = narrow->Widened(4, 4);
+  const fs::path dir_a = TempDir("wide_a"), dir_b = TempDir("wide_b");
+  ASSERT_TRUE(wide->Save(dir_a).ok() && other->Save(dir_b).ok());
+  EXPECT_NE(ReadFile(dir_a / "weights.pt").value(), ReadFile(dir_b / "weights.pt").value());
+  fs::remove_all(dir_a);
+  fs::remove_all(dir_b);
+}
+
+TEST(CnnTest, AModelWidensOnlyToADivisorOfItsOwnWidth) {
+  Result<Cnn> narrow = Cnn::Create(SmallModel(8), 7);  // width divisor 16
+  for (int divisor : {32, 3, 0}) {
+    const Result<Cnn> wide = narrow->Widened(divisor, 1);
+    ASSERT_FALSE(wide.ok()) << divisor;
+    EXPECT_NE(wide.status().ToString().find("width divisor " + std::to_string(divisor)), std::string::npos);
+  }
+  EXPECT_TRUE(narrow->Widened(16, 1).ok());  // the same width: a copy
+}
+
 TEST(CnnTest, ABrokenModelDirectoryIsAnErrorNamingTheFile) {
   const fs::path dir = TempDir("broken");
   Result<Cnn> cnn = Cnn::Create(SmallModel(8), 7);

@@ -18,6 +18,13 @@ class CnnNetImpl : public torch::nn::Module {
   // N × C × (H + 14) × (W + 14) → N × 14 × H × W: the same weights, fully convolutional.
   torch::Tensor ForwardDense(const torch::Tensor& input);
 
+  // The layers, for Cnn::Widened.
+  const torch::nn::Conv2d& conv1() const { return conv1_; }
+  const torch::nn::Conv2d& conv2() const { return conv2_; }
+  const torch::nn::Conv2d& conv3() const { return conv3_; }
+  const torch::nn::Conv2d& conv4() const { return conv4_; }
+  const torch::nn::Linear& fc() const { return fc_; }
+
  private:
   torch::Tensor Leaky(const torch::Tensor& x) const;
 
