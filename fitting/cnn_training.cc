@@ -144,7 +144,7 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
 torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predicted, const CnnTrainingOptions& options,
                                 std::mt19937_64& rng) {
   std::vector<std::vector<PixelObservation>> observations;
-  std::vector<torch::Tensor> labels;
+  std::vector<int64_t> pixels;  // flat indices into the batch's N × T × T output pixels
   const int tile = static_cast<int>(predicted.size(2));
   const torch::Tensor valid_tiles = batch.valid.to(torch::kCPU);  // one copy, not one per pixel from a GPU
   for (size_t b = 0; b < batch.origins.size(); ++b) {
@@ -155,15 +155,17 @@ torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predict
       const int64_t at = valid[std::uniform_int_distribution<int64_t>(0, valid.numel() - 1)(rng)].item<int64_t>();
       const int dy = static_cast<int>(at / tile), dx = static_cast<int>(at % tile);
       observations.push_back(origin.material->pixels->Observations(origin.x + dx, origin.y + dy));
-      labels.push_back(predicted[static_cast<int64_t>(b)].select(1, dy).select(1, dx));
+      pixels.push_back(static_cast<int64_t>(b) * tile * tile + at);
     }
   }
-  if (labels.empty()) return {};
+  if (pixels.empty()) return {};
   const internal::RerenderBatch rerender = internal::MakeRerenderBatch(observations, options.rerender_strip_samples);
   if (rerender.radiance.numel() == 0) return {};
-  // Rendered where the network trains: on a GPU, a CPU rendering of a few hundred pixels'
-  // observations took most of each step.
-  return internal::RerenderLoss(torch::stack(labels), rerender.To(predicted.device()), options.rerender_huber);
+  // The pixels' labels in one gather (a view per pixel cost a full-size gradient each in the
+  // backward pass), rendered where the network trains.
+  const torch::Tensor index = torch::tensor(pixels, torch::kLong).to(predicted.device());
+  const torch::Tensor labels = predicted.permute({0, 2, 3, 1}).reshape({-1, kLabelSize}).index_select(0, index);
+  return internal::RerenderLoss(labels, rerender.To(predicted.device()), options.rerender_huber);
 }
 
 double LearningRate(const CnnTrainingOptions& options, int epoch) {  // epoch 0-based
