@@ -1,5 +1,6 @@
 #include "fitting/internal/rerender_loss.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -12,10 +13,13 @@ namespace {
 constexpr double kMinNormalZ = 1e-3;            // DecodeLabel's
 constexpr double kNegligibleLobeExponent = 60;  // the fitters' (pixel_cost.cc)
 
-at::Tensor Doubles(const std::vector<double>& values, int64_t columns) {
+// The batch in float, as the rendering is: a training loss needs no more, and float halves the
+// memory and doubles the vector width (training at 1/8 width on one core: about 44,000 →
+// 55,000 samples/s against double).
+at::Tensor Floats(const std::vector<double>& values, int64_t columns) {
   const int64_t rows = static_cast<int64_t>(values.size()) / columns;
-  at::Tensor t = at::empty({rows, columns}, at::kDouble);
-  std::copy(values.begin(), values.end(), t.data_ptr<double>());
+  at::Tensor t = at::empty({rows, columns}, at::kFloat);
+  std::transform(values.begin(), values.end(), t.data_ptr<float>(), [](double v) { return static_cast<float>(v); });
   return columns == 1 ? t.view({rows}) : t;
 }
 
@@ -69,14 +73,14 @@ RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>
     inverse_scale.push_back(mean > 0 ? 1 / mean : 1);
   }
   RerenderBatch batch;
-  batch.l = Doubles(l, 3);
-  batch.irradiance = Doubles(irradiance, 1);
+  batch.l = Floats(l, 3);
+  batch.irradiance = Floats(irradiance, 1);
   batch.sample_observation = Indices(sample_observation);
-  batch.v = Doubles(v, 3);
-  batch.weights = Doubles(weights, 3);
-  batch.radiance = Doubles(radiance, 1);
+  batch.v = Floats(v, 3);
+  batch.weights = Floats(weights, 3);
+  batch.radiance = Floats(radiance, 1);
   batch.observation_pixel = Indices(observation_pixel);
-  batch.inverse_scale = Doubles(inverse_scale, 1);
+  batch.inverse_scale = Floats(inverse_scale, 1);
   batch.pixels = static_cast<int64_t>(pixels.size());
   return batch;
 }
@@ -87,7 +91,7 @@ RerenderBatch RerenderBatch::To(const at::Device& device) const {
 }
 
 at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& batch) {
-  const at::Tensor x = labels.to(at::kDouble);
+  const at::Tensor x = labels.to(at::kFloat);
   // DecodeLabel, per pixel, but for the albedos' clamp at 0: the radiance is linear in them, and
   // a negative one renders a negative radiance whose residual pushes it back (a clamp would
   // leave it there, with no gradient).
@@ -113,14 +117,14 @@ at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& bat
   const at::Tensor v = batch.v.index_select(0, o);
   const at::Tensor& l = batch.l;
   const at::Tensor n_dot_l = Dot(ns, l), n_dot_v = Dot(ns, v);
-  const at::Tensor lit = (n_dot_l > 0).logical_and(n_dot_v > 0).to(at::kDouble);
+  const at::Tensor lit = (n_dot_l > 0).logical_and(n_dot_v > 0).to(at::kFloat);
   const at::Tensor h = Normalized(l + v);
   const at::Tensor h_t = Dot(h, ts), h_b = Dot(h, bs), h_n = at::clamp_min(Dot(h, ns), 1e-3);
   const at::Tensor c = at::clamp(Dot(l, h), 1e-3, 1.0);
   const at::Tensor exponent = (h_t.square() / sigma_x.index_select(0, sample_pixel).square() +
                                h_b.square() / sigma_y.index_select(0, sample_pixel).square()) /
                               h_n.square();
-  const at::Tensor kept = (exponent <= kNegligibleLobeExponent).to(at::kDouble);
+  const at::Tensor kept = (exponent <= kNegligibleLobeExponent).to(at::kFloat);
   const at::Tensor ward = kept * at::exp(-at::clamp_max(exponent, kNegligibleLobeExponent)) /
                           (4 * kPi * sigma_x.index_select(0, sample_pixel) * sigma_y.index_select(0, sample_pixel) * c.square() *
                            h_n.square().square());

@@ -7,7 +7,7 @@
 // The model is pixel_fitter.h's PredictRadiance of DecodeLabel(label) (fitting/model/label.h):
 // the same clamps (σ ≥ kSigmaFloor, F0 ∈ [0, 1], n_s renormalised with n_z > 0) but for the
 // albedos' (a negative albedo renders negatively, so that its gradient pushes it back), the lobe
-// dropped beyond exponent 60 as the fitters drop it. Computed in double.
+// dropped beyond exponent 60 as the fitters drop it. Computed in float.
 
 #include <cstdint>
 #include <vector>
@@ -39,7 +39,7 @@ struct RerenderBatch {
 RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights);
 
 // The radiance of every observation of the batch under its pixel's label (P × 14, any float
-// type): O values, double.
+// type): O values, float.
 at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& batch);
 
 // Mean over the observations of Huber(δ = huber_delta) of (rendered − observed) · inverse_scale,

@@ -62,7 +62,8 @@ TEST(RerenderLossTest, RendersWhatPredictRadianceDoes) {
         if (!std::isfinite(o.radiance) || o.lights.empty()) continue;
         if (max_lights > 0) o.lights = MergeLightSamples(o.lights, max_lights);
         const double expected = PredictRadiance(lobe, o);
-        ASSERT_NEAR(rendered[k].item<double>(), expected, 1e-9 * (1 + std::abs(expected)))
+        // Rendered in float: within its rounding of the double prediction.
+        ASSERT_NEAR(rendered[k].item<double>(), expected, 2e-5 * (1 + std::abs(expected)))
             << "pixel " << p << ", observation " << k;
         ++k;
       }
@@ -86,7 +87,7 @@ TEST(RerenderLossTest, IsZeroAtTheTruthAndItsGradientPointsBackToIt) {
     off.push_back(p);
   }
   const RerenderBatch batch = MakeRerenderBatch(observations, 0);
-  // Float labels: the truth to ~1e-7, so its loss is ~0 but not exactly.
+  // Float labels and rendering: the truth to ~1e-6, so its loss is ~0 but not exactly.
   EXPECT_LT(RerenderLoss(LabelsOf(truth), batch, 0.1).item<double>(), 1e-10);
   at::Tensor labels = LabelsOf(off).requires_grad_(true);
   const at::Tensor loss = RerenderLoss(labels, batch, 0.1);
