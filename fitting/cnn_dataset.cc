@@ -124,7 +124,7 @@ Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint6
   const int divisor = info.architecture.width_divisor;
   if (divisor == 0 || divisor == cnn.info().architecture.width_divisor) return cnn;
   Result<Cnn> wide = cnn.Widened(divisor, seed);
-  if (!wide.ok()) return InvalidArgumentError(init, wide.status().ToString());
+  if (!wide.ok()) return InvalidArgumentError(init, wide.status().subject() + ": " + wide.status().message());
   return wide;
 }
 

@@ -470,7 +470,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
         torch::Tensor loss = HuberSum(predicted, batch.labels, batch.valid) / (count * kLabelSize);
         if (options.rerender_weight > 0) {
           if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
-            loss = loss + options.rerender_weight * rerender.to(torch::kFloat32);
+            loss = loss + options.rerender_weight * rerender;
             rerender_sum += rerender.item<double>();
           }
         }
