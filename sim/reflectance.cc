@@ -69,7 +69,9 @@ void SetBeyond(Image& maps, const BeyondLayout& layout, int x, int y, const Beyo
   for (size_t i = 0; i < kBeyondChannels.size(); ++i) maps.at(layout.channel[i], y, x) = static_cast<float>(values[i]);
 }
 
-Reflectance::Reflectance(const fitting::WardParams<double>& params, const BeyondGd10& beyond) : beyond_(beyond), lobe_(params) {
+Reflectance::Reflectance(const fitting::WardParams<double>& params, const BeyondGd10& beyond) : beyond_(beyond), params_(params) {
+  if (params.a_s.isZero() && !beyond.any()) return;
+  lobe_.emplace(params);
   if (!(beyond.meso_deg > 0)) return;
   const fitting::AnisotropyFrame<double> frame = fitting::MakeAnisotropyFrame(params.n_s, params.alpha);
   const double tilt = DegToRad(beyond.meso_deg);
@@ -81,10 +83,20 @@ Reflectance::Reflectance(const fitting::WardParams<double>& params, const Beyond
 }
 
 double Reflectance::EvaluateCos(const Eigen::Vector3d& l, const Eigen::Vector3d& v, const Eigen::Vector3d& weights) const {
-  if (facets_.empty()) return FacetCos(lobe_, l, v, weights);
+  if (!lobe_) return DiffuseCos(l, v, weights);
+  if (facets_.empty()) return FacetCos(*lobe_, l, v, weights);
   double sum = 0;
   for (const fitting::WardLobe<double>& facet : facets_) sum += FacetCos(facet, l, v, weights);
   return sum / static_cast<double>(facets_.size());
+}
+
+double Reflectance::DiffuseCos(const Eigen::Vector3d& l, const Eigen::Vector3d& v, const Eigen::Vector3d& weights) const {
+  // WardLobe::Terms' conditions, in its order; its specular term times a zero a_s added nothing.
+  const Eigen::Vector3d& n = params_.n_s;
+  if (l.z() <= 0 || v.z() <= 0) return 0;
+  const double n_dot_l = n.dot(l);
+  if (n_dot_l <= 0 || n.dot(v) <= 0 || (l + v).squaredNorm() < 1e-20) return 0;
+  return weights.dot(params_.a_d) * (1.0 / kPi) * n_dot_l;
 }
 
 double Reflectance::FacetCos(const fitting::WardLobe<double>& lobe, const Eigen::Vector3d& l, const Eigen::Vector3d& v,

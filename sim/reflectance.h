@@ -66,11 +66,17 @@ class Reflectance {
  private:
   double FacetCos(const fitting::WardLobe<double>& lobe, const Eigen::Vector3d& l, const Eigen::Vector3d& v,
                   const Eigen::Vector3d& weights) const;
+  // EvaluateCos of a Lambertian pixel: GD10's zero conditions, then a_d / π · cos θ_l.
+  double DiffuseCos(const Eigen::Vector3d& l, const Eigen::Vector3d& v, const Eigen::Vector3d& weights) const;
 
   BeyondGd10 beyond_;
+  fitting::WardParams<double> params_;
   // The pixel's own lobe, or with mesostructure its 4 tilted copies (a renderer builds one
-  // Reflectance per shaded point: without mesostructure nothing is allocated).
-  fitting::WardLobe<double> lobe_;
+  // Reflectance per shaded point: without mesostructure nothing is allocated). None for a
+  // Lambertian pixel (no specular albedo, nothing beyond GD10): the calibration objects and the
+  // holder, most of a calibration scan's points, whose lobe frame and exp() were a third of
+  // rendering it (perf, 2026-11-27) and multiplied a zero albedo.
+  std::optional<fitting::WardLobe<double>> lobe_;
   std::vector<fitting::WardLobe<double>> facets_;
 };
 

@@ -61,6 +61,28 @@ double DirectionalAlbedo(const Reflectance& reflectance, const Eigen::Vector3d& 
   return sum * (kPi / 2 / kTheta) * (2 * kPi / kPhi);
 }
 
+// A Lambertian pixel skips the lobe; what it returns is GD10's to the last bit, zero
+// conditions included (directions below the shading normal's horizon, a tilted normal).
+TEST(ReflectanceTest, ALambertianPixelIsGd10BitForBit) {
+  fitting::WardParams<double> p = Fabric();
+  p.a_s.setZero();
+  p.n_s = Direction(30, 50);
+  const fitting::WardLobe<double> lobe(p);
+  const Reflectance reflectance(p);
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> theta(-10, 95), phi(0, 360);
+  int lit = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3d l = Direction(theta(rng), phi(rng)), v = Direction(theta(rng), phi(rng));
+    const fitting::WardTerms<double> terms = lobe.Terms(l, v);
+    const double expected = (kWeights.dot(p.a_d) * terms.diffuse + kWeights.dot(p.a_s) * terms.specular) * terms.cos_l;
+    ASSERT_EQ(reflectance.EvaluateCos(l, v, kWeights), expected) << "l " << l.transpose() << ", v " << v.transpose();
+    lit += expected > 0;
+  }
+  EXPECT_GT(lit, 200);
+  EXPECT_LT(lit, 1800);
+}
+
 TEST(ReflectanceTest, TheCoatIsANormalisedGgxLobeWithItsOwnColour) {
   fitting::WardParams<double> p;  // no GD10 albedo: the coat alone
   p.f0 = 1;                       // F = 1: the coat's albedo is D G's

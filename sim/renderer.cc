@@ -314,7 +314,11 @@ std::vector<uint16_t> CaptureRawAt(const Image& radiance, const SensorModel& sen
   const double gain = std::pow(10.0, settings.gain_db / 20);
   const double dn_per_electron = gain / sensor.ElectronsPerDn();
   std::vector<uint16_t> raw(static_cast<size_t>(w) * h);
-  for (int y = 0; y < h; ++y) {
+  // Every pixel's noise comes from its own hash, so rows run on every core and give the same
+  // frame: a quarter of a calibration scan's time had been one core drawing noise for each
+  // exposure of a bracket (perf, 2026-11-27). Small frames are not worth the threads.
+  const int threads = static_cast<size_t>(w) * h >= 65536 ? ThreadCount(0) : 1;
+  ForEachRow(h, threads, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t out = static_cast<size_t>(y) * w + x;
       // The noise and vignetting of this pixel's place on the sensor.
@@ -330,7 +334,7 @@ std::vector<uint16_t> CaptureRawAt(const Image& radiance, const SensorModel& sen
       if (noise) dn += sensor.read_noise_e * dn_per_electron * StandardNormal(noise_seed, index, 1);
       raw[out] = static_cast<uint16_t>(std::clamp(std::round(dn), 0.0, max_dn));
     }
-  }
+  });
   return raw;
 }
 
