@@ -226,29 +226,32 @@ std::optional<std::vector<Eigen::Vector2d>> FindTargetCorners(const RadianceView
 Result<DetectedTargetViews> DetectTargetViews(const ScanRadiance& scan, const CalibrationTargetModel& target) {
   const RigModel& rig = scan.rig();
   DetectedTargetViews detected;
+  std::vector<scan::ViewId> ids;
   for (const scan::Step& step : scan.plan().steps) {
     if (step.kind != scan::StepKind::kTarget) continue;
-    for (const std::string& camera_name : step.cameras) {
-      LOOM_ASSIGN_OR_RETURN(const RadianceView view, scan.View(step.index, camera_name));
-      const scan::ViewId id{step.index, camera_name};
-      const std::optional<std::vector<Eigen::Vector2d>> corners = FindTargetCorners(view, target);
-      if (!corners) {
-        LOOM_LOG(Warning) << id.ToString() << ": target not found, view skipped";
-        detected.skipped.push_back(id);
-        continue;
-      }
-      const CameraModel& camera = rig.cameras[view.camera];
-      const Rigid3d cam_from_board =
-          camera.cam_from_rig * rig.turntable.RigFromSample(view.state.turntable_deg) * target.SampleFromBoard();
-      std::vector<Eigen::Vector2d> expected;
-      for (const Eigen::Vector3d& p : target.CornersInBoard()) {
-        Eigen::Vector2d pixel(0, 0);
-        camera.Project(cam_from_board * p, &pixel);
-        expected.push_back(pixel);
-      }
-      detected.views.push_back(
-          {view.camera, view.state.turntable_deg, id, OrderLike(*corners, expected, target.inner_cols, target.inner_rows)});
+    for (const std::string& camera_name : step.cameras) ids.push_back({step.index, camera_name});
+  }
+  LOOM_ASSIGN_OR_RETURN(const std::vector<RadianceView> views, scan.Views(ids));
+  for (size_t k = 0; k < ids.size(); ++k) {
+    const RadianceView& view = views[k];
+    const scan::ViewId& id = ids[k];
+    const std::optional<std::vector<Eigen::Vector2d>> corners = FindTargetCorners(view, target);
+    if (!corners) {
+      LOOM_LOG(Warning) << id.ToString() << ": target not found, view skipped";
+      detected.skipped.push_back(id);
+      continue;
     }
+    const CameraModel& camera = rig.cameras[view.camera];
+    const Rigid3d cam_from_board =
+        camera.cam_from_rig * rig.turntable.RigFromSample(view.state.turntable_deg) * target.SampleFromBoard();
+    std::vector<Eigen::Vector2d> expected;
+    for (const Eigen::Vector3d& p : target.CornersInBoard()) {
+      Eigen::Vector2d pixel(0, 0);
+      camera.Project(cam_from_board * p, &pixel);
+      expected.push_back(pixel);
+    }
+    detected.views.push_back(
+        {view.camera, view.state.turntable_deg, id, OrderLike(*corners, expected, target.inner_cols, target.inner_rows)});
   }
   return detected;
 }

@@ -59,12 +59,16 @@ Result<Image> DecodeScanColumns(const ScanRadiance& scan, const CameraModel& cam
   if (!rig.projector) {
     return FailedPreconditionError("rig '" + rig.name + "'", "the scan has structured light but the rig describes no projector");
   }
-  std::map<std::string, Image> patterns;
+  std::vector<scan::ViewId> ids;
+  std::vector<std::string> names;
   for (const Step& step : scan.plan().steps) {
     if (step.kind != StepKind::kStructuredLight || step.object != object || step.turntable_deg != turntable_deg) continue;
-    LOOM_ASSIGN_OR_RETURN(RadianceView view, scan.View(step.index, camera.name));
-    patterns[step.projector_pattern] = std::move(view.radiance);
+    ids.push_back({step.index, camera.name});
+    names.push_back(step.projector_pattern);
   }
+  LOOM_ASSIGN_OR_RETURN(std::vector<RadianceView> views, scan.Views(ids));
+  std::map<std::string, Image> patterns;
+  for (size_t k = 0; k < ids.size(); ++k) patterns[names[k]] = std::move(views[k].radiance);
   DecodeOptions decode;
   decode.projector_width = rig.projector->width;
   decode.phase_steps = 0;

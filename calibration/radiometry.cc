@@ -19,23 +19,54 @@ namespace {
 
 using scan::StepKind;
 
+// Every sensor pixel's ray in its camera's frame (CameraModel::Unproject), for each camera of the
+// rig, worked out once on every core: unprojected again for each view and pixel, they had been a
+// seventh of calibrating tac7's radiometry (perf, 2026-11-27).
+class SensorRays {
+ public:
+  explicit SensorRays(const RigModel& rig) : rig_(rig), rays_(rig.cameras.size()) {
+    for (size_t c = 0; c < rig.cameras.size(); ++c) {
+      const CameraModel& camera = rig.cameras[c];
+      std::vector<Eigen::Vector3d>& rays = rays_[c];
+      rays.resize(static_cast<size_t>(camera.width) * camera.height);
+      ParallelFor(camera.height, 0, [&](int y) {
+        for (int x = 0; x < camera.width; ++x)
+          rays[static_cast<size_t>(y) * camera.width + x] = camera.Unproject(Eigen::Vector2d(x, y));
+      });
+    }
+  }
+
+  const RigModel& rig() const { return rig_; }
+  const Eigen::Vector3d& At(int camera, int x, int y) const {
+    return rays_[camera][static_cast<size_t>(y) * rig_.cameras[camera].width + x];
+  }
+
+ private:
+  const RigModel& rig_;
+  std::vector<std::vector<Eigen::Vector3d>> rays_;  // by camera, row-major
+};
+
 // Where a camera's pixels look on the turntable's plane (z = 0 in the sample frame at a view's
 // angle), for those that look down at it. The camera's pose is worked out once: per pixel it had
 // been a tenth of calibrating tac7's radiometry (perf, 2026-11-27).
 class TurntablePoints {
  public:
-  TurntablePoints(const RigModel& rig, const CameraModel& camera, double turntable_deg)
-      : camera_(camera), sample_from_cam_(rig.turntable.RigFromSample(turntable_deg).inverse() * camera.cam_from_rig.inverse()) {}
+  TurntablePoints(const SensorRays& rays, int camera, double turntable_deg)
+      : rays_(rays),
+        camera_(camera),
+        sample_from_cam_(rays.rig().turntable.RigFromSample(turntable_deg).inverse() *
+                         rays.rig().cameras[camera].cam_from_rig.inverse()) {}
 
   std::optional<Eigen::Vector3d> At(int x, int y) const {
     const Eigen::Vector3d origin = sample_from_cam_.translation();
-    const Eigen::Vector3d direction = sample_from_cam_.linear() * camera_.Unproject(Eigen::Vector2d(x, y));
+    const Eigen::Vector3d direction = sample_from_cam_.linear() * rays_.At(camera_, x, y);
     if (direction.z() >= 0) return std::nullopt;
     return origin + direction * (-origin.z() / direction.z());
   }
 
  private:
-  const CameraModel& camera_;
+  const SensorRays& rays_;
+  const int camera_;
   const Rigid3d sample_from_cam_;
 };
 
@@ -94,12 +125,13 @@ struct TileView {
   double median = 0;
 };
 
-Result<TileView> OnTile(const RigModel& rig, const LitView& view, double albedo, int edge_px) {
+Result<TileView> OnTile(const SensorRays& rays, const LitView& view, double albedo, int edge_px) {
+  const RigModel& rig = rays.rig();
   const CameraModel& camera = rig.cameras.at(view.camera);
   LOOM_ASSIGN_OR_RETURN(const int led, LightOf(view));
   LOOM_ASSIGN_OR_RETURN(const StackObservation observation, DescribeRigObservation(rig, view.camera, view.lighting));
   const double weight = observation.rgb_weights.sum();
-  const TurntablePoints points(rig, camera, view.lighting.turntable_deg);
+  const TurntablePoints points(rays, view.camera, view.lighting.turntable_deg);
   cv::Mat ratio(camera.height, camera.width, CV_64F, cv::Scalar(std::numeric_limits<double>::quiet_NaN()));  // NaN: none
   // Row by row on every core: a whole frame's pixels, each unprojected and lit by the model.
   ParallelFor(camera.height, 0, [&](int y) {
@@ -140,15 +172,17 @@ struct FlatField {
   double per_pixel_max = 0;
 };
 
-// The per-pixel map: the tile's response over the fitted quadratic model, smoothed by a
-// Gaussian of `smoothing_px` over the tile's pixels alone (normalised convolution), feathered
-// to 1 over about two widths beyond the tile, where nothing measured it.
-std::shared_ptr<const Image> PerPixelFlat(const CameraModel& camera, const std::map<int, double>& over_model, double smoothing_px,
+// The per-pixel map: the tile's response over the fitted quadratic model (`over_model`, one per
+// sensor pixel, NaN off the tile), smoothed by a Gaussian of `smoothing_px` over the tile's pixels
+// alone (normalised convolution), feathered to 1 over about two widths beyond the tile, where
+// nothing measured it.
+std::shared_ptr<const Image> PerPixelFlat(const CameraModel& camera, const std::vector<double>& over_model, double smoothing_px,
                                           double* largest_departure) {
   cv::Mat value(camera.height, camera.width, CV_64F, cv::Scalar(0)), seen(camera.height, camera.width, CV_64F, cv::Scalar(0));
-  for (const auto& [pixel, v] : over_model) {
-    value.at<double>(pixel / camera.width, pixel % camera.width) = v - 1;
-    seen.at<double>(pixel / camera.width, pixel % camera.width) = 1;
+  for (size_t pixel = 0; pixel < over_model.size(); ++pixel) {
+    if (std::isnan(over_model[pixel])) continue;
+    value.at<double>(static_cast<int>(pixel)) = over_model[pixel] - 1;
+    seen.at<double>(static_cast<int>(pixel)) = 1;
   }
   if (smoothing_px > 0) {
     cv::GaussianBlur(value, value, cv::Size(), smoothing_px, smoothing_px, cv::BORDER_CONSTANT);
@@ -161,50 +195,59 @@ std::shared_ptr<const Image> PerPixelFlat(const CameraModel& camera, const std::
       const double weight = seen.at<double>(y, x);
       const double departure = weight > 1e-3 ? value.at<double>(y, x) / weight * std::min(1.0, 2 * weight) : 0;
       flat->at(0, y, x) = static_cast<float>(1 + departure);
-      if (over_model.contains(y * camera.width + x)) *largest_departure = std::max(*largest_departure, std::abs(departure));
+      if (!std::isnan(over_model[static_cast<size_t>(y) * camera.width + x])) {
+        *largest_departure = std::max(*largest_departure, std::abs(departure));
+      }
     }
   }
   return flat;
 }
 
 // The vignetting model through the camera's ratio images: S · R_rig = k (1 − v q), linear in
-// (k, k·v); then, per pixel on the tile, what that model leaves.
+// (k, k·v); then, per pixel on the tile, what that model leaves. Per sensor pixel in dense
+// arrays, in pixel order (a map by pixel had been a fifth of calibrating tac7's radiometry).
 Result<FlatField> FitFlatField(const CameraModel& camera, const std::vector<const TileView*>& views, double smoothing_px) {
-  std::map<int, std::pair<double, int>> shape;  // pixel → (Σ ratio / median, views)
+  const size_t sensor_pixels = static_cast<size_t>(camera.width) * camera.height;
+  std::vector<double> shape_sum(sensor_pixels, 0);  // Σ ratio / median
+  std::vector<int> shape_views(sensor_pixels, 0);
   for (const TileView* view : views) {
     for (size_t i = 0; i < view->pixels.size(); ++i) {
-      auto& [sum, count] = shape[view->pixels[i]];
-      sum += view->ratio[i] / view->median;
-      ++count;
+      shape_sum[view->pixels[i]] += view->ratio[i] / view->median;
+      ++shape_views[view->pixels[i]];
     }
   }
-  if (shape.size() < 100) {
-    return FailedPreconditionError("camera '" + camera.name + "'", "sees the white reference in " + std::to_string(shape.size()) +
+  const long seen = std::count_if(shape_views.begin(), shape_views.end(), [](int n) { return n > 0; });
+  if (seen < 100) {
+    return FailedPreconditionError("camera '" + camera.name + "'", "sees the white reference in " + std::to_string(seen) +
                                                                        " pixels: too few for its flat field (at least 100)");
   }
   Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
   Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
-  std::map<int, std::array<double, 2>> samples;  // pixel → (q, the response up to a scale)
-  for (const auto& [pixel, sum_count] : shape) {
-    const int x = pixel % camera.width, y = pixel / camera.width;
+  const double kNone = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> q_of(sensor_pixels, kNone), value_of(sensor_pixels, kNone);  // q, the response up to a scale
+  for (size_t pixel = 0; pixel < sensor_pixels; ++pixel) {
+    if (shape_views[pixel] == 0) continue;
+    const int x = static_cast<int>(pixel % camera.width), y = static_cast<int>(pixel / camera.width);
     const double q = CornerRadius2(camera, x, y);
-    const double value = sum_count.first / sum_count.second * camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
+    const double value =
+        shape_sum[pixel] / shape_views[pixel] * camera.sensor.RelativeResponse(x, y, camera.width, camera.height);
     const Eigen::Vector2d row(1, -q);
     normal += row * row.transpose();
     rhs += row * value;
-    samples[pixel] = {q, value};
+    q_of[pixel] = q;
+    value_of[pixel] = value;
   }
   const Eigen::Vector2d solution = normal.ldlt().solve(rhs);  // (k, k·v)
   FlatField flat{solution[1] / solution[0], 0, nullptr, 0};
   double sum2 = 0;
-  std::map<int, double> over_model;
-  for (const auto& [pixel, q_value] : samples) {
-    const auto [q, value] = q_value;
-    const double model = solution[0] * (1 - flat.vignetting * q);
-    sum2 += (value - model) * (value - model) / (model * model);
-    over_model[pixel] = value / model;
+  std::vector<double> over_model(sensor_pixels, kNone);
+  for (size_t pixel = 0; pixel < sensor_pixels; ++pixel) {
+    if (shape_views[pixel] == 0) continue;
+    const double model = solution[0] * (1 - flat.vignetting * q_of[pixel]);
+    sum2 += (value_of[pixel] - model) * (value_of[pixel] - model) / (model * model);
+    over_model[pixel] = value_of[pixel] / model;
   }
-  flat.residual = std::sqrt(sum2 / samples.size());
+  flat.residual = std::sqrt(sum2 / static_cast<double>(seen));
   flat.per_pixel = PerPixelFlat(camera, over_model, smoothing_px, &flat.per_pixel_max);
   return flat;
 }
@@ -237,15 +280,16 @@ int ReferenceCamera(const RigModel& rig, const std::string& name) {
 }
 
 // The widest angle the tile spans from a light, seen over the reference camera's views.
-double TileSubtendsDeg(const RigModel& rig, const std::vector<TileView>& tiles, const std::vector<LitView>& white,
+double TileSubtendsDeg(const SensorRays& rays, const std::vector<TileView>& tiles, const std::vector<LitView>& white,
                        int reference) {
+  const RigModel& rig = rays.rig();
   double widest = 0;
   for (size_t v = 0; v < tiles.size(); ++v) {
     if (tiles[v].camera != reference || tiles[v].led < 0) continue;
     const LedModel& led = rig.leds[tiles[v].led];
     const CameraModel& camera = rig.cameras[reference];
     double low = 180, high = 0;
-    const TurntablePoints points(rig, camera, white[v].lighting.turntable_deg);
+    const TurntablePoints points(rays, reference, white[v].lighting.turntable_deg);
     for (int pixel : tiles[v].pixels) {
       const auto p = points.At(pixel % camera.width, pixel / camera.width);
       const Eigen::Vector3d p_rig = rig.turntable.RigFromSample(white[v].lighting.turntable_deg) * *p;
@@ -278,9 +322,10 @@ Eigen::VectorXd KnotShares(const LinearLightModel& strip, const StackObservation
 }
 
 // The linear light's profile (the class comment in radiometry.h), times the rig's own.
-Result<std::vector<double>> FitStripProfile(const RigModel& rig, const std::vector<LitView>& white,
+Result<std::vector<double>> FitStripProfile(const SensorRays& rays, const std::vector<LitView>& white,
                                             const std::vector<TileView>& tiles, const std::vector<FlatField>& flats,
                                             const std::map<std::pair<int, int>, double>& scale, int knots) {
+  const RigModel& rig = rays.rig();
   const LinearLightModel& strip = *rig.linear_light;
   Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(knots, knots);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(knots);
@@ -298,7 +343,7 @@ Result<std::vector<double>> FitStripProfile(const RigModel& rig, const std::vect
     calibrated.vignetting = flats[tile.camera].vignetting;
     calibrated.flat_field = flats[tile.camera].per_pixel;
     const double view_scale = scale.at({tile.camera, -1});
-    const TurntablePoints points(rig, camera, white[v].lighting.turntable_deg);
+    const TurntablePoints points(rays, tile.camera, white[v].lighting.turntable_deg);
     for (size_t i = 0; i < tile.pixels.size(); ++i) {
       const int x = tile.pixels[i] % camera.width, y = tile.pixels[i] / camera.width;
       const auto p = points.At(x, y);
@@ -328,10 +373,11 @@ Result<std::vector<double>> FitStripProfile(const RigModel& rig, const std::vect
   return profile;
 }
 
-Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white, const RadiometryOptions& options,
+Status FitWhiteReference(const SensorRays& rays, const std::vector<LitView>& white, const RadiometryOptions& options,
                          Radiometry* radiometry, std::vector<TileView>* tiles) {
+  const RigModel& rig = rays.rig();
   for (const LitView& view : white) {
-    LOOM_ASSIGN_OR_RETURN(TileView tile, OnTile(rig, view, rig.white_reference.albedo, options.edge_px));
+    LOOM_ASSIGN_OR_RETURN(TileView tile, OnTile(rays, view, rig.white_reference.albedo, options.edge_px));
     tiles->push_back(std::move(tile));
   }
   const int reference = ReferenceCamera(rig, options.reference_camera);
@@ -399,21 +445,23 @@ Status FitWhiteReference(const RigModel& rig, const std::vector<LitView>& white,
     }
     result.camera_spread = std::sqrt(sum2 / cameras);
     if (light < 0) {
-      LOOM_ASSIGN_OR_RETURN(result.profile, FitStripProfile(rig, white, *tiles, flats, scale, options.strip_profile_knots));
+      LOOM_ASSIGN_OR_RETURN(result.profile, FitStripProfile(rays, white, *tiles, flats, scale, options.strip_profile_knots));
     }
     radiometry->lights.push_back(result);
   }
-  radiometry->tile_subtends_deg = TileSubtendsDeg(rig, *tiles, white, reference);
+  radiometry->tile_subtends_deg = TileSubtendsDeg(rays, *tiles, white, reference);
   return Status::Ok();
 }
 
 // Per patch, the chart's radiance over the white reference's at the same pixels (inner 60 % of
 // each patch, where both are valid).
-Result<std::vector<double>> PatchRatios(const RigModel& rig, const LitView& chart, const LitView& white, const TileView& tile) {
+Result<std::vector<double>> PatchRatios(const SensorRays& rays, const LitView& chart, const LitView& white,
+                                        const TileView& tile) {
+  const RigModel& rig = rays.rig();
   const CameraModel& camera = rig.cameras[chart.camera];
   const ColourChartModel& model = rig.colour_chart;
   std::vector<double> chart_sum(ColourChartModel::kPatches, 0), white_sum(ColourChartModel::kPatches, 0);
-  const TurntablePoints points(rig, camera, chart.lighting.turntable_deg);
+  const TurntablePoints points(rays, chart.camera, chart.lighting.turntable_deg);
   for (int pixel : tile.pixels) {
     const int x = pixel % camera.width, y = pixel / camera.width;
     const auto p = points.At(x, y);
@@ -449,8 +497,9 @@ Result<std::pair<int, int>> FilterOf(const RigModel& rig, const LitView& view) {
   return InvalidArgumentError(view.source, "a colour-chart view must be lit by one LED through a band-pass filter");
 }
 
-Status FitColour(const RigModel& rig, const std::vector<LitView>& white, const std::vector<TileView>& tiles,
+Status FitColour(const SensorRays& rays, const std::vector<LitView>& white, const std::vector<TileView>& tiles,
                  const std::vector<LitView>& chart, Radiometry* radiometry) {
+  const RigModel& rig = rays.rig();
   const double albedo = rig.white_reference.albedo;
   // (wheel, slot) → per camera view, the readings (albedo units) of the 24 patches.
   std::map<std::pair<int, int>, std::vector<std::vector<double>>> readings;
@@ -462,7 +511,7 @@ Status FitColour(const RigModel& rig, const std::vector<LitView>& white, const s
     if (w == white.size()) {
       return NotFoundError(view.source, "has no white-reference view of the same camera and LED to compare with");
     }
-    LOOM_ASSIGN_OR_RETURN(std::vector<double> ratios, PatchRatios(rig, view, white[w], tiles[w]));
+    LOOM_ASSIGN_OR_RETURN(std::vector<double> ratios, PatchRatios(rays, view, white[w], tiles[w]));
     for (double& r : ratios) r *= albedo;
     readings[filter].push_back(std::move(ratios));
   }
@@ -544,8 +593,9 @@ Result<Radiometry> FitRadiometry(const RigModel& rig, const std::vector<LitView>
   Radiometry radiometry;
   radiometry.white_albedo = rig.white_reference.albedo;
   std::vector<TileView> tiles;
-  LOOM_RETURN_IF_ERROR(FitWhiteReference(rig, white, options, &radiometry, &tiles));
-  LOOM_RETURN_IF_ERROR(FitColour(rig, white, tiles, chart, &radiometry));
+  const SensorRays rays(rig);
+  LOOM_RETURN_IF_ERROR(FitWhiteReference(rays, white, options, &radiometry, &tiles));
+  LOOM_RETURN_IF_ERROR(FitColour(rays, white, tiles, chart, &radiometry));
   return radiometry;
 }
 

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+
+#include "core/parallel.h"
 
 namespace loom::calibration {
 
@@ -139,16 +142,30 @@ Result<RadianceView> ScanRadiance::View(int step, const std::string& camera_name
   return view;
 }
 
+Result<std::vector<RadianceView>> ScanRadiance::Views(const std::vector<scan::ViewId>& ids) const {
+  std::vector<std::optional<Result<RadianceView>>> read(ids.size());
+  ParallelFor(static_cast<int>(ids.size()), 0, [&](int k) { read[k] = View(ids[k].step, ids[k].camera); });
+  std::vector<RadianceView> views;
+  for (std::optional<Result<RadianceView>>& view : read) {
+    LOOM_ASSIGN_OR_RETURN(RadianceView merged, std::move(*view));
+    views.push_back(std::move(merged));
+  }
+  return views;
+}
+
 Result<std::vector<LitView>> ScanRadiance::LitViews(StepKind kind) const {
-  std::vector<LitView> views;
+  std::vector<scan::ViewId> ids;
   for (const Step& step : plan().steps) {
     if (step.kind != kind) continue;
-    for (const std::string& camera : step.cameras) {
-      LOOM_ASSIGN_OR_RETURN(RadianceView view, View(step.index, camera));
-      const std::string source = Where(step.index, camera) + " (" + std::string(StepKindName(kind)) + ")";
-      LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(*rig_, view.state, source));
-      views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source, step.index, view.window});
-    }
+    for (const std::string& camera : step.cameras) ids.push_back({step.index, camera});
+  }
+  LOOM_ASSIGN_OR_RETURN(std::vector<RadianceView> read, Views(ids));
+  std::vector<LitView> views;
+  for (size_t k = 0; k < ids.size(); ++k) {
+    RadianceView& view = read[k];
+    const std::string source = Where(ids[k].step, ids[k].camera) + " (" + std::string(StepKindName(kind)) + ")";
+    LOOM_ASSIGN_OR_RETURN(LightingState lighting, LightingOf(*rig_, view.state, source));
+    views.push_back({view.camera, std::move(lighting), std::move(view.radiance), source, ids[k].step, view.window});
   }
   return views;
 }

@@ -60,6 +60,9 @@ class ScanRadiance {
   const RigModel& rig() const { return *rig_; }
   const std::filesystem::path& directory() const { return store_->directory(); }
   Result<RadianceView> View(int step, const std::string& camera) const;
+  // The views of `ids`, read and merged on every core (a calibration's time had been one core
+  // reading brackets one by one); on failure, the first in `ids`' order.
+  Result<std::vector<RadianceView>> Views(const std::vector<scan::ViewId>& ids) const;
   // The step's raw bracket for one camera, and what the HDR merge knows of that camera at the
   // bracket's gain: what View merges, for measurements on the raw readings (linearity).
   Result<std::vector<scan::RawFrame>> Bracket(int step, const std::string& camera) const;
