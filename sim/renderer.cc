@@ -146,8 +146,37 @@ double Scene::PointSourceRadiance(const ShadingPoint& point, const Eigen::Vector
 
 Scene::TurntablePose Scene::PoseIn(const SceneState& state) const {
   const Rigid3d rig_from_sample = rig_.turntable.RigFromSample(state.turntable_deg);
-  TurntablePose pose{rig_from_sample, rig_from_sample.inverse()};
+  TurntablePose pose;
+  pose.rig_from_sample = rig_from_sample;
+  pose.sample_from_rig = rig_from_sample.inverse();
   if (rig_.projector) pose.projector_in_sample = pose.sample_from_rig * rig_.projector->proj_from_rig.inverse().translation();
+  for (const LitLed& lit : state.leds) {
+    if (lit.led < 0 || lit.led >= static_cast<int>(rig_.leds.size())) continue;
+    const LedModel& led = rig_.leds[lit.led];
+    Eigen::Vector3d weights = panchromatic_;
+    for (size_t w = 0; w < rig_.filter_wheels.size(); ++w) {
+      const FilterWheelModel& wheel = rig_.filter_wheels[w];
+      const auto slot = state.filter_slots.find(static_cast<int>(w));
+      if (wheel.led == lit.led && slot != state.filter_slots.end() && slot->second >= 0 &&
+          slot->second < static_cast<int>(wheel.filters.size())) {
+        weights = filter_weights_[w][slot->second];
+      }
+    }
+    pose.leds.push_back({&led, lit.current_ma, pose.sample_from_rig * led.position_mm, weights});
+  }
+  if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
+    // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
+    const LinearLightModel& strip = *rig_.linear_light;
+    const Eigen::Vector3d centre = strip.StripCentre(state.linear_light_mm);
+    pose.strip_normal = strip.StripNormal(state.linear_light_mm);
+    const double segment_mm = strip.strip_length_mm / strip.segments;
+    for (int k = 0; k < strip.segments; ++k) {
+      const double along_mm = strip.SegmentOffsetMm(k);
+      const Eigen::Vector3d source = centre + strip.sweep_axis * along_mm;
+      pose.strip.push_back({source, pose.sample_from_rig * source,
+                            strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * state.linear_light_intensity});
+    }
+  }
   return pose;
 }
 
@@ -173,39 +202,17 @@ double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, 
                          const TurntablePose& pose, bool shadows) const {
   const Eigen::Vector3d& p = point.p;
   const Eigen::Vector3d v_local = point.local_from_world * (eye - p).normalized();
-  const Rigid3d& sample_from_rig = pose.sample_from_rig;
   const Eigen::Vector3d p_in_rig = pose.rig_from_sample * p;
   double radiance = 0;
-  for (const LitLed& lit : state.leds) {
-    if (lit.led < 0 || lit.led >= static_cast<int>(rig_.leds.size())) continue;
-    const LedModel& led = rig_.leds[lit.led];
-    Eigen::Vector3d weights = panchromatic_;
-    for (size_t w = 0; w < rig_.filter_wheels.size(); ++w) {
-      const FilterWheelModel& wheel = rig_.filter_wheels[w];
-      const auto slot = state.filter_slots.find(static_cast<int>(w));
-      if (wheel.led == lit.led && slot != state.filter_slots.end() && slot->second >= 0 &&
-          slot->second < static_cast<int>(wheel.filters.size())) {
-        weights = filter_weights_[w][slot->second];
-      }
-    }
-    radiance += PointSourceRadiance(point, sample_from_rig * led.position_mm, led.IntensityTowards(p_in_rig, lit.current_ma),
-                                    weights, v_local, shadows);
+  for (const TurntablePose::Led& led : pose.leds) {
+    radiance += PointSourceRadiance(point, led.in_sample, led.model->IntensityTowards(p_in_rig, led.current_ma), led.weights,
+                                    v_local, shadows);
   }
-  if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
-    // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
-    const LinearLightModel& strip = *rig_.linear_light;
-    const Eigen::Vector3d centre = strip.StripCentre(state.linear_light_mm);
-    const Eigen::Vector3d normal = strip.StripNormal(state.linear_light_mm);
-    const double segment_mm = strip.strip_length_mm / strip.segments;
-    for (int k = 0; k < strip.segments; ++k) {
-      const double along_mm = strip.SegmentOffsetMm(k);
-      const Eigen::Vector3d source = centre + strip.sweep_axis * along_mm;
-      const double c = normal.dot((p_in_rig - source).normalized());
-      if (c <= 0) continue;
-      const double intensity = strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * state.linear_light_intensity *
-                               CosinePower(c, strip.falloff_exponent);
-      radiance += PointSourceRadiance(point, sample_from_rig * source, intensity, panchromatic_, v_local, shadows);
-    }
+  for (const TurntablePose::StripSource& source : pose.strip) {
+    const double c = pose.strip_normal.dot((p_in_rig - source.in_rig).normalized());
+    if (c <= 0) continue;
+    const double intensity = source.intensity * CosinePower(c, rig_.linear_light->falloff_exponent);
+    radiance += PointSourceRadiance(point, source.in_sample, intensity, panchromatic_, v_local, shadows);
   }
   if (rig_.projector && state.projector_image) {
     // The grey level the projector throws on p. Its lens is slightly out of focus, as real
@@ -277,6 +284,12 @@ CameraHits Scene::TraceCamera(int camera_index, double turntable_deg, const Rend
     }
   });
   return hits;
+}
+
+bool Scene::Dark(const SceneState& state) const {
+  const TurntablePose pose = PoseIn(state);
+  return pose.strip.empty() && !(rig_.projector && state.projector_image) &&
+         std::ranges::none_of(pose.leds, [](const TurntablePose::Led& led) { return led.current_ma > 0; });
 }
 
 Image Scene::RenderRadiance(int camera_index, const SceneState& state, const RenderOptions& options) const {

@@ -108,6 +108,9 @@ class Scene {
   // the same image, bit for bit.
   Image RenderRadiance(const CameraHits& hits, const SceneState& state, const RenderOptions& options) const;
   CameraHits TraceCamera(int camera, double turntable_deg, const RenderOptions& options = {}) const;
+  // Whether no light reaches the sample under `state` (no LED driven, the linear light and the
+  // projector off): every render of it is 0, so a dark frame needs no rays traced.
+  bool Dark(const SceneState& state) const;
 
   // Radiance leaving the sample at sample-frame point `p` (on the surface) towards `eye` (a
   // sample-frame position), under `state`; also used by tests and by the fast path.
@@ -118,10 +121,26 @@ class Scene {
   // frame), each computed once. Per ray, the turntable's pose was a sixth of a frame from hits
   // (27.2 → 22.6 ms); per observation, the pose and the point's reflectance a third of a fast-path
   // stack (1.38 → 0.92 s; bench_sim).
+  // The state's lights are placed once too: per ray, a 29-LED target frame had looked up every
+  // LED's filter wheel slot and moved every LED into the sample frame again.
   struct TurntablePose {
     Rigid3d rig_from_sample;
     Rigid3d sample_from_rig;
     Eigen::Vector3d projector_in_sample = Eigen::Vector3d::Zero();  // its centre, if the rig has one
+    struct Led {
+      const LedModel* model;
+      double current_ma;
+      Eigen::Vector3d in_sample;
+      Eigen::Vector3d weights;  // through its filter, if one is in front of it
+    };
+    std::vector<Led> leds;  // the lit ones
+    struct StripSource {
+      Eigen::Vector3d in_rig;
+      Eigen::Vector3d in_sample;
+      double intensity;  // before the strip's falloff towards a point
+    };
+    std::vector<StripSource> strip;  // the linear light's point sources, when it is on
+    Eigen::Vector3d strip_normal = Eigen::Vector3d::Zero();
   };
   struct ShadingPoint {
     Eigen::Vector3d p;

@@ -261,5 +261,27 @@ TEST(RendererTest, ProjectorLightFollowsThePatternsGreyLevel) {
   EXPECT_EQ(scene.RadianceAt(left_point, {0, 0, 500}, SceneState{}, true), 0);  // dark projector
 }
 
+// A frame with every light off needs no rendering: Dark says so only where nothing can light
+// the sample, and there the render is 0 everywhere.
+TEST(RendererTest, OnlyAStateWithEveryLightOffIsDark) {
+  RigModel rig = TestRig();
+  LinearLightModel strip;
+  rig.linear_light = strip;
+  ProjectorModel projector;
+  projector.width = projector.height = 4;
+  rig.projector = projector;
+  const Scene scene(rig, WhiteLambertian());
+  const SceneState off{.leds = {{0, 0}}};
+  EXPECT_TRUE(scene.Dark(SceneState{}));
+  EXPECT_TRUE(scene.Dark(off));
+  const Image radiance = scene.RenderRadiance(0, off, {.supersampling = 1});
+  EXPECT_TRUE(std::ranges::all_of(radiance.channel(0), [](float v) { return v == 0; }));
+  EXPECT_FALSE(scene.Dark(SceneState{.leds = {{0, 1000}}}));
+  EXPECT_FALSE(scene.Dark(SceneState{.linear_light_on = true}));
+  EXPECT_TRUE(scene.Dark(SceneState{.linear_light_on = true, .linear_light_intensity = 0}));
+  EXPECT_FALSE(scene.Dark(
+      SceneState{.projector_image = std::make_shared<ProjectedImage>(ProjectedImage{4, 4, std::vector<uint8_t>(16)})}));
+}
+
 }  // namespace
 }  // namespace loom::sim

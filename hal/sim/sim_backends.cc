@@ -150,12 +150,18 @@ class SimCamera : public Camera {
                           const sim::SensorWindow& window) {
     if (scene != rendered_scene_ || !(state == rendered_state_) || !(window == rendered_window_)) {
       const sim::RenderOptions options{.supersampling = supersampling_, .window = window};
-      if (scene != traced_scene_ || !hits_.Serve(index_, state.turntable_deg, options)) {
-        hits_ = sim::CameraHits{};  // the old hits freed before the new are traced
-        hits_ = scene->TraceCamera(index_, state.turntable_deg, options);
-        traced_scene_ = scene;
+      const CameraModel& camera = scene->rig().cameras[index_];
+      if (scene->Dark(state)) {
+        rendered_ =
+            Image(window.width > 0 ? window.width : camera.width, window.height > 0 ? window.height : camera.height, {"L"});
+      } else {
+        if (scene != traced_scene_ || !hits_.Serve(index_, state.turntable_deg, options)) {
+          hits_ = sim::CameraHits{};  // the old hits freed before the new are traced
+          hits_ = scene->TraceCamera(index_, state.turntable_deg, options);
+          traced_scene_ = scene;
+        }
+        rendered_ = scene->RenderRadiance(hits_, state, options);
       }
-      rendered_ = scene->RenderRadiance(hits_, state, options);
       rendered_scene_ = scene;
       rendered_state_ = state;
       rendered_window_ = window;
