@@ -7,8 +7,10 @@
 // demo does a user can repeat by hand.
 #include <chrono>
 #include <filesystem>
+#include <future>
 #include <iomanip>
 #include <iostream>
+#include <mutex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -42,7 +44,8 @@ struct StageTime {
   double seconds = 0;
 };
 
-// Runs loom commands in this process, one stage each, and keeps how long each took.
+// Runs loom commands in this process, one stage each, and keeps how long each took. Two stages
+// may run at once, on two threads.
 class Stages {
  public:
   explicit Stages(bool quiet) : quiet_(quiet) {}
@@ -58,7 +61,10 @@ class Stages {
     for (std::string& argument : arguments) argv.push_back(argument.data());
     const auto start = std::chrono::steady_clock::now();
     const int exit = command(static_cast<int>(argv.size()), argv.data());
-    times_.push_back({name, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
+    {
+      std::lock_guard lock(mutex_);
+      times_.push_back({name, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
+    }
     std::cout.flush();
     if (exit != kExitOk) {
       return InternalError("demo stage '" + name + "'", "failed (exit " + std::to_string(exit) + "; its message is above)");
@@ -70,12 +76,25 @@ class Stages {
 
  private:
   bool quiet_;
+  std::mutex mutex_;
   std::vector<StageTime> times_;
 };
 
 std::vector<std::string> WithSize(std::vector<std::string> arguments, int size_px) {
   if (size_px > 0) arguments.insert(arguments.end(), {"--size", std::to_string(size_px)});
   return arguments;
+}
+
+Status ScanMaterial(const DemoArguments& args, const std::string& rig, Stages* stages) {
+  const fs::path out(args.out);
+  std::vector<std::string> scan = {
+      "scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out", (out / "scan").string()};
+  if (args.crop_mm > 0) {
+    std::ostringstream crop;
+    crop << args.crop_mm;
+    scan.insert(scan.end(), {"--crop-mm", crop.str()});
+  }
+  return stages->Run("material scan", RunScan, scan);
 }
 
 Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
@@ -87,21 +106,22 @@ Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stage
     // of a calibration object.
     if (args.crop_mm > 0) calibration_scan.push_back("--object-windows");
     LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan, calibration_scan));
+  }
+  // Calibrating needs the calibration scan, not the rig: it runs while the rig scans the
+  // material, as a lab's would. Here the simulated scan keeps both cores busy, and the
+  // calibration's stretches on one core fill what it leaves (tac7's demo 15 min 20 s -> 14 min 38 s).
+  std::future<Status> calibrated = std::async(std::launch::async, [&] {
+    if (!args.calibrate) return Status::Ok();
     LOOM_RETURN_IF_ERROR(
         stages->Run("calibrate geometry", RunCalibrate,
                     {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
-    LOOM_RETURN_IF_ERROR(
-        stages->Run("calibrate radiometry", RunCalibrate,
-                    {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()}));
-  }
-  std::vector<std::string> scan = {
-      "scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out", (out / "scan").string()};
-  if (args.crop_mm > 0) {
-    std::ostringstream crop;
-    crop << args.crop_mm;
-    scan.insert(scan.end(), {"--crop-mm", crop.str()});
-  }
-  LOOM_RETURN_IF_ERROR(stages->Run("material scan", RunScan, scan));
+    return stages->Run("calibrate radiometry", RunCalibrate,
+                       {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()});
+  });
+  const Status scanned = ScanMaterial(args, rig, stages);
+  const Status calibration = calibrated.get();
+  LOOM_RETURN_IF_ERROR(scanned);
+  LOOM_RETURN_IF_ERROR(calibration);
   std::vector<std::string> reconstruct = {"reconstruct", (out / "scan").string(), "--out", (out / "reconstruction").string()};
   if (args.calibrate) reconstruct.insert(reconstruct.end(), {"--calib", (out / "calib").string()});
   return stages->Run("reconstruct", RunReconstruct, WithSize(reconstruct, args.size_px));
@@ -136,7 +156,8 @@ Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {
 }
 
 // The evaluations and stage times as one document.
-Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::string& rig, const Stages& stages) {
+Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::string& rig, const Stages& stages,
+                                         double wall_seconds) {
   const fs::path out(args.out);
   nlohmann::ordered_json summary = {
       {"rig", rig}, {"object", args.object}, {"preset", args.preset}, {"loom_version", std::string(VersionWithCommit())}};
@@ -147,6 +168,7 @@ Result<nlohmann::ordered_json> Summarise(const DemoArguments& args, const std::s
   }
   if (args.crop_mm > 0) summary["crop_mm"] = args.crop_mm;
   for (const StageTime& stage : stages.times()) summary["stage_seconds"][stage.name] = stage.seconds;
+  summary["wall_seconds"] = wall_seconds;  // less than the stages' sum: calibrating ran during the material scan
   for (const std::string& method : args.methods) {
     LOOM_ASSIGN_OR_RETURN(nlohmann::ordered_json evaluation, ReadJson(out / ("report-" + method) / "summary.json"));
     evaluation["report"] = (out / ("report-" + method) / "index.html").string();
@@ -165,13 +187,12 @@ void PrintSummary(const nlohmann::ordered_json& summary) {
               << " px\n";
   }
   fitting::PrintEvaluationTable(std::cout, summary["methods"]);
-  std::cout << "\ntime per stage:";
-  double total = 0;
-  for (const auto& [stage, seconds] : summary["stage_seconds"].items()) total += seconds.get<double>();
+  std::cout << "\ntime per stage (calibrating during the material scan):";
   for (const auto& [stage, seconds] : summary["stage_seconds"].items()) {
     std::cout << "\n  " << std::left << std::setw(22) << stage << std::right << FormatDuration(seconds.get<double>());
   }
-  std::cout << "\n  " << std::left << std::setw(22) << "total" << std::right << FormatDuration(total) << "\n";
+  std::cout << "\n  " << std::left << std::setw(22) << "total (wall clock)" << std::right
+            << FormatDuration(summary["wall_seconds"].get<double>()) << "\n";
 }
 
 Status Demo(const DemoArguments& args) {
@@ -181,9 +202,11 @@ Status Demo(const DemoArguments& args) {
     return AlreadyExistsError(args.out, "is not empty: the demo writes a fresh directory (remove it, or pick another --out)");
   }
   Stages stages(args.quiet);
+  const auto start = std::chrono::steady_clock::now();
   LOOM_RETURN_IF_ERROR(CalibrateAndScan(args, rig, &stages));
   LOOM_RETURN_IF_ERROR(FitAndEvaluate(args, rig, &stages));
-  LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json summary, Summarise(args, rig, stages));
+  const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  LOOM_ASSIGN_OR_RETURN(const nlohmann::ordered_json summary, Summarise(args, rig, stages, wall_seconds));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(fs::path(args.out) / "summary.json", summary.dump(2) + "\n"));
   PrintSummary(summary);
   std::cout << "\nsummary: " << (fs::path(args.out) / "summary.json").string()
