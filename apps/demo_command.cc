@@ -98,6 +98,13 @@ Status ScanMaterial(const DemoArguments& args, const std::string& rig, Stages* s
   return stages->Run("material scan", RunScan, scan);
 }
 
+// Geometry, then radiometry, from the calibration scan in `out`.
+Status Calibrate(const fs::path& out, Stages* stages) {
+  const std::string scan = (out / "calibration-scan").string(), calib = (out / "calib").string();
+  LOOM_RETURN_IF_ERROR(stages->Run("calibrate geometry", RunCalibrate, {"calibrate", "geometry", scan, "--out", calib}));
+  return stages->Run("calibrate radiometry", RunCalibrate, {"calibrate", "radiometry", scan, "--calib", calib});
+}
+
 Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
   const fs::path out(args.out);
   if (args.calibrate) {
@@ -111,14 +118,8 @@ Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stage
   // Calibrating needs the calibration scan, not the rig: it runs while the rig scans the
   // material, as a lab's would. Here the simulated scan keeps both cores busy, and the
   // calibration's stretches on one core fill what it leaves (tac7's demo 15 min 20 s -> 14 min 38 s).
-  std::future<Status> calibrated = std::async(std::launch::async, [&] {
-    if (!args.calibrate) return Status::Ok();
-    LOOM_RETURN_IF_ERROR(
-        stages->Run("calibrate geometry", RunCalibrate,
-                    {"calibrate", "geometry", (out / "calibration-scan").string(), "--out", (out / "calib").string()}));
-    return stages->Run("calibrate radiometry", RunCalibrate,
-                       {"calibrate", "radiometry", (out / "calibration-scan").string(), "--calib", (out / "calib").string()});
-  });
+  std::future<Status> calibrated =
+      std::async(std::launch::async, [&] { return args.calibrate ? Calibrate(out, stages) : Status::Ok(); });
   const Status scanned = ScanMaterial(args, rig, stages);
   const Status calibration = calibrated.get();
   LOOM_RETURN_IF_ERROR(scanned);

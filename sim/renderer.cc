@@ -144,12 +144,12 @@ double Scene::PointSourceRadiance(const ShadingPoint& point, const Eigen::Vector
   return intensity / distance2 * reflected;
 }
 
-Scene::TurntablePose Scene::PoseIn(const SceneState& state) const {
+Scene::PlacedState Scene::Place(const SceneState& state) const {
   const Rigid3d rig_from_sample = rig_.turntable.RigFromSample(state.turntable_deg);
-  TurntablePose pose;
-  pose.rig_from_sample = rig_from_sample;
-  pose.sample_from_rig = rig_from_sample.inverse();
-  if (rig_.projector) pose.projector_in_sample = pose.sample_from_rig * rig_.projector->proj_from_rig.inverse().translation();
+  PlacedState placed;
+  placed.rig_from_sample = rig_from_sample;
+  placed.sample_from_rig = rig_from_sample.inverse();
+  if (rig_.projector) placed.projector_in_sample = placed.sample_from_rig * rig_.projector->proj_from_rig.inverse().translation();
   for (const LitLed& lit : state.leds) {
     if (lit.led < 0 || lit.led >= static_cast<int>(rig_.leds.size())) continue;
     const LedModel& led = rig_.leds[lit.led];
@@ -162,26 +162,26 @@ Scene::TurntablePose Scene::PoseIn(const SceneState& state) const {
         weights = filter_weights_[w][slot->second];
       }
     }
-    pose.leds.push_back({&led, lit.current_ma, pose.sample_from_rig * led.position_mm, weights});
+    placed.leds.push_back({&led, lit.current_ma, placed.sample_from_rig * led.position_mm, weights});
   }
   if (rig_.linear_light && state.linear_light_on && state.linear_light_intensity > 0) {
     // The strip as `segments` point sources, each emitting cos^n about the strip's normal.
     const LinearLightModel& strip = *rig_.linear_light;
     const Eigen::Vector3d centre = strip.StripCentre(state.linear_light_mm);
-    pose.strip_normal = strip.StripNormal(state.linear_light_mm);
+    placed.strip_normal = strip.StripNormal(state.linear_light_mm);
     const double segment_mm = strip.strip_length_mm / strip.segments;
     for (int k = 0; k < strip.segments; ++k) {
       const double along_mm = strip.SegmentOffsetMm(k);
       const Eigen::Vector3d source = centre + strip.sweep_axis * along_mm;
-      pose.strip.push_back({source, pose.sample_from_rig * source,
-                            strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * state.linear_light_intensity});
+      placed.strip.push_back({source, placed.sample_from_rig * source,
+                              strip.intensity_per_mm * strip.ProfileAt(along_mm) * segment_mm * state.linear_light_intensity});
     }
   }
-  return pose;
+  return placed;
 }
 
 double Scene::RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const {
-  return RadianceAt(ShadeAt(p), eye, state, PoseIn(state), shadows);
+  return RadianceAt(ShadeAt(p), eye, state, Place(state), shadows);
 }
 
 Scene::ShadingPoint Scene::ShadeAt(const Eigen::Vector3d& p) const {
@@ -199,17 +199,17 @@ Scene::ShadingPoint Scene::ShadeAt(const Eigen::Vector3d& p) const {
 }
 
 double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, const SceneState& state,
-                         const TurntablePose& pose, bool shadows) const {
+                         const PlacedState& placed, bool shadows) const {
   const Eigen::Vector3d& p = point.p;
   const Eigen::Vector3d v_local = point.local_from_world * (eye - p).normalized();
-  const Eigen::Vector3d p_in_rig = pose.rig_from_sample * p;
+  const Eigen::Vector3d p_in_rig = placed.rig_from_sample * p;
   double radiance = 0;
-  for (const TurntablePose::Led& led : pose.leds) {
+  for (const PlacedState::Led& led : placed.leds) {
     radiance += PointSourceRadiance(point, led.in_sample, led.model->IntensityTowards(p_in_rig, led.current_ma), led.weights,
                                     v_local, shadows);
   }
-  for (const TurntablePose::StripSource& source : pose.strip) {
-    const double c = pose.strip_normal.dot((p_in_rig - source.in_rig).normalized());
+  for (const PlacedState::StripSource& source : placed.strip) {
+    const double c = placed.strip_normal.dot((p_in_rig - source.in_rig).normalized());
     if (c <= 0) continue;
     const double intensity = source.intensity * CosinePower(c, rig_.linear_light->falloff_exponent);
     radiance += PointSourceRadiance(point, source.in_sample, intensity, panchromatic_, v_local, shadows);
@@ -227,8 +227,8 @@ double Scene::RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, 
       const int rows = std::min(image.height, projector.height);
       if (uv.x() > -0.5 && uv.y() > -0.5 && uv.x() < columns - 0.5 && uv.y() < rows - 0.5) {
         const double level = ProjectedLevel(image, std::clamp(uv.x(), 0.0, columns - 1.0), std::clamp(uv.y(), 0.0, rows - 1.0));
-        radiance += PointSourceRadiance(point, pose.projector_in_sample, projector.max_intensity * level, panchromatic_, v_local,
-                                        shadows);
+        radiance += PointSourceRadiance(point, placed.projector_in_sample, projector.max_intensity * level, panchromatic_,
+                                        v_local, shadows);
       }
     }
   }
@@ -287,9 +287,9 @@ CameraHits Scene::TraceCamera(int camera_index, double turntable_deg, const Rend
 }
 
 bool Scene::Dark(const SceneState& state) const {
-  const TurntablePose pose = PoseIn(state);
-  return pose.strip.empty() && !(rig_.projector && state.projector_image) &&
-         std::ranges::none_of(pose.leds, [](const TurntablePose::Led& led) { return led.current_ma > 0; });
+  const PlacedState placed = Place(state);
+  return placed.strip.empty() && !(rig_.projector && state.projector_image) &&
+         std::ranges::none_of(placed.leds, [](const PlacedState::Led& led) { return led.current_ma > 0; });
 }
 
 Image Scene::RenderRadiance(int camera_index, const SceneState& state, const RenderOptions& options) const {
@@ -302,13 +302,13 @@ Image Scene::RenderRadiance(const CameraHits& hits, const SceneState& state, con
   LOOM_CHECK(hits.Serve(hits.camera, state.turntable_deg, options)) << "camera hits traced for another render";
   Image radiance(hits.width, hits.height, {"L"});
   const int rays = options.supersampling * options.supersampling;
-  const TurntablePose pose = PoseIn(state);
+  const PlacedState placed = Place(state);
   ForEachRow(radiance.height(), ThreadCount(options.threads), [&](int row) {
     const Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * rays;
     for (int column = 0; column < radiance.width(); ++column) {
       double sum = 0;
       for (int ray = 0; ray < rays; ++ray, ++point) {
-        if (!std::isnan(point->x())) sum += RadianceAt(ShadeAt(*point), hits.eye, state, pose, options.shadows);
+        if (!std::isnan(point->x())) sum += RadianceAt(ShadeAt(*point), hits.eye, state, placed, options.shadows);
       }
       radiance.at(0, row, column) = static_cast<float>(sum / rays);
     }

@@ -117,13 +117,12 @@ class Scene {
   double RadianceAt(const Eigen::Vector3d& p, const Eigen::Vector3d& eye, const SceneState& state, bool shadows) const;
 
   // RadianceAt in parts, for renders of many points or many states: what a state gives every
-  // point (the turntable's pose) and what a point keeps under every state (its reflectance and
-  // frame), each computed once. Per ray, the turntable's pose was a sixth of a frame from hits
-  // (27.2 → 22.6 ms); per observation, the pose and the point's reflectance a third of a fast-path
-  // stack (1.38 → 0.92 s; bench_sim).
-  // The state's lights are placed once too: per ray, a 29-LED target frame had looked up every
-  // LED's filter wheel slot and moved every LED into the sample frame again.
-  struct TurntablePose {
+  // point (the turntable's pose, its lights placed in the sample frame) and what a point keeps
+  // under every state (its reflectance and frame), each computed once. Per ray, the turntable's
+  // pose was a sixth of a frame from hits (27.2 → 22.6 ms); per observation, the pose and the
+  // point's reflectance a third of a fast-path stack (1.38 → 0.92 s; bench_sim); per ray, a
+  // 29-LED target frame had looked up every LED's filter wheel slot and moved it again.
+  struct PlacedState {
     Rigid3d rig_from_sample;
     Rigid3d sample_from_rig;
     Eigen::Vector3d projector_in_sample = Eigen::Vector3d::Zero();  // its centre, if the rig has one
@@ -147,9 +146,9 @@ class Scene {
     Reflectance reflectance;
     Eigen::Matrix3d local_from_world;
   };
-  TurntablePose PoseIn(const SceneState& state) const;
+  PlacedState Place(const SceneState& state) const;
   ShadingPoint ShadeAt(const Eigen::Vector3d& p) const;
-  double RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, const SceneState& state, const TurntablePose& pose,
+  double RadianceAt(const ShadingPoint& point, const Eigen::Vector3d& eye, const SceneState& state, const PlacedState& placed,
                     bool shadows) const;
   // First surface point along a sample-frame ray (direction unit), or nothing if it misses the
   // holder.

@@ -64,11 +64,11 @@ ObservationStack RenderStack(const Scene& scene, const std::vector<Observation>&
   result.rig = rig.name;
   result.source = "sim fast path";
   Image& stack = result.image;
-  // What each observation gives every pixel: the turntable's pose and the camera's centre.
-  std::vector<Scene::TurntablePose> poses;
+  // What each observation gives every pixel: the turntable's pose, its lights and the camera's centre.
+  std::vector<Scene::PlacedState> poses;
   std::vector<Eigen::Vector3d> eyes;
   for (const Observation& observation : observations) {
-    poses.push_back(scene.PoseIn(observation.state));
+    poses.push_back(scene.Place(observation.state));
     eyes.push_back(poses.back().sample_from_rig * rig.cameras.at(observation.camera).CentreInRig());
   }
   const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
