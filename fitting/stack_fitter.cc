@@ -13,6 +13,7 @@
 
 #include "core/duration.h"
 #include "core/parallel.h"
+#include "fitting/internal/neighbour_lobes.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -446,48 +447,6 @@ Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& sta
   return finished;
 }
 
-// The smoothing pass's neighbourhood: the (2 r + 1)² square around a pixel. On the training
-// fabric (fabric:1003, docs/benchmarks.md) 5 × 5 against 3 × 3, at the same weight: σ NRMSE
-// 0.118 → 0.103, α 0.297 → 0.257 and a lower re-render L1; a one-pixel speckle outvotes a 3 × 3
-// median's 8 noisy neighbours more often than a 5 × 5 one's 24.
-constexpr int kSmoothingRadius = 2;
-
-// The median lobe of a pixel's neighbours within kSmoothingRadius: a_s, σx, σy and F0 each the
-// median (σ compared with σx ≥ σy), α through (cos 2α, sin 2α). The normal and a_d are left at
-// their defaults: the smoothing target keeps the pixel's own (SmoothingTarget).
-std::vector<WardParams<double>> NeighbourLobes(const std::vector<PixelOutcome>& outcomes, int width, int height) {
-  std::vector<WardParams<double>> lobes(outcomes.size());
-  ParallelFor(height, 0, [&](int y) {
-    for (int x = 0; x < width; ++x) {
-      std::array<std::vector<double>, 6> values;  // a_s (3), σx, σy, F0
-      double c2 = 0, s2 = 0;
-      ForEachNeighbour(
-          width, height, x, y,
-          [&](int n) {
-            WardParams<double> p = outcomes[n].params;
-            if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
-            const double v[6] = {p.a_s.x(), p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, p.f0};
-            for (int i = 0; i < 6; ++i) values[i].push_back(v[i]);
-            c2 += std::cos(2 * p.alpha), s2 += std::sin(2 * p.alpha);
-          },
-          kSmoothingRadius);
-      double m[6];
-      for (int i = 0; i < 6; ++i) {
-        std::vector<double>& v = values[i];
-        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-        m[i] = v[v.size() / 2];
-      }
-      WardParams<double>& lobe = lobes[static_cast<size_t>(y) * width + x];
-      lobe.a_s = Eigen::Vector3d(m[0], m[1], m[2]);
-      lobe.sigma_x = m[3];
-      lobe.sigma_y = m[4];
-      lobe.alpha = 0.5 * std::atan2(s2, c2);
-      lobe.f0 = m[5];
-    }
-  });
-  return lobes;
-}
-
 // `p` as the same lobe written the way `like` is: σx and σy in the same order (swapping them turns
 // α by 90°). Without this the prior would pull a pixel with σx < σy toward its neighbours' σx > σy
 // across the whole parameter space (it did: the σ map came out 14× noisier).
@@ -543,9 +502,11 @@ ParamSigma WithTheShift(ParamSigma s, const WardParams<double>& free, const Ward
 // The smoothing pass: every fitted pixel again, from and toward SmoothingTarget; the pixel
 // keeps what its data say where they say it.
 Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine, const RefinePrior& smoothing,
-                     const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
+                     const Image* guide, const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();
-  const std::vector<WardParams<double>> lobes = NeighbourLobes(outcomes, width, pixels.height());
+  std::vector<WardParams<double>> fits(outcomes.size());
+  for (size_t i = 0; i < outcomes.size(); ++i) fits[i] = outcomes[i].params;
+  const std::vector<WardParams<double>> lobes = internal::NeighbourLobes(fits, width, pixels.height(), guide);
   std::vector<WardParams<double>> targets(outcomes.size());
   for (size_t i = 0; i < outcomes.size(); ++i) targets[i] = SmoothingTarget(lobes[i], outcomes[i].params);
   refine.prior = smoothing;
@@ -932,7 +893,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     end_stage(stage.retries);
     if (smoothing.weight > 0) {
       LOOM_RETURN_IF_ERROR(SmoothingPass(
-          pixels, stack, refine, smoothing, [&](int done) { report("smoothing", done, pixel_count); }, outcomes));
+          pixels, stack, refine, smoothing, options.initial_maps, [&](int done) { report("smoothing", done, pixel_count); },
+          outcomes));
     }
     end_stage(stage.smoothing);
   } else {
