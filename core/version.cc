@@ -5,6 +5,8 @@
 #include <OpenEXR/OpenEXRConfig.h>
 #include <Eigen/Core>
 
+#include "loom_git_commit.h"  // generated at build time (cmake/LoomGitCommit.cmake)
+
 namespace loom {
 
 std::string_view Version() { return LOOM_VERSION; }
