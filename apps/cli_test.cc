@@ -96,6 +96,18 @@ TEST(CliTest, VersionNamesLoomAndItsLibraries) {
   EXPECT_EQ(RunLoom("version --short").output, std::string(loom::Version()) + "\n");
 }
 
+// The commit is looked up when loom is built, not when the build was configured: an incremental
+// build named the configure run's commit until 2026-11-27.
+TEST(CliTest, VersionNamesTheCommitItWasBuiltFrom) {
+  const LoomRun head = loom::testing::RunCommand("git -C " + std::string(LOOM_SOURCE_DIR) + " rev-parse --short HEAD");
+  if (head.exit_code != 0) GTEST_SKIP() << "not built from a git checkout";
+  const std::string commit = head.output.substr(0, head.output.find_first_of("\n"));
+  const LoomRun run = RunLoom("version");
+  EXPECT_TRUE(Contains(run.output, "(git " + commit + ")") || Contains(run.output, "(git " + commit + "-dirty)"))
+      << "HEAD is " << commit << "; loom says:\n"
+      << run.output;
+}
+
 TEST(CliTest, ShippedRigFilesLoad) {
   // Loading creates every device through its backend without connecting to any.
   const LoomRun run = RunLoom("rig list --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/peer.yaml");
