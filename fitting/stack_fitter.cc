@@ -500,7 +500,8 @@ ParamSigma WithTheShift(ParamSigma s, const WardParams<double>& free, const Ward
 }
 
 // The smoothing pass: every fitted pixel again, from and toward SmoothingTarget; the pixel
-// keeps what its data say where they say it.
+// keeps what its data say where they say it. `guide` (the CNN's maps, or nullptr) tells the
+// neighbours on the pixel's yarn from the others for the target's α (internal/neighbour_lobes.h).
 Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, RefineOptions refine, const RefinePrior& smoothing,
                      const Image* guide, const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();

@@ -101,7 +101,8 @@ struct StackFitOptions {
   double prior_reference_noise_rms = 0;
   // With the refiner: a second pass with a prior toward each pixel's 5 × 5 neighbourhood's
   // median lobe (a_s, σ, α; the pixel's own normal and a_d, which its data pin down), started
-  // there (weight 0: no second pass). Where a pixel's own data pin a parameter down the data
+  // there (weight 0: no second pass); α from the neighbours that initial_maps, where given, put
+  // on the pixel's yarn (fitting/internal/neighbour_lobes.h). Where a pixel's own data pin a parameter down the data
   // win; where they leave it loose (a highlight between observations, α of a nearly isotropic
   // lobe) the neighbours decide, which removes the speckle a free per-pixel fit leaves. With
   // prior_reference_noise_rms > 0 the weight follows the stack's noise as the CNN prior's does.
