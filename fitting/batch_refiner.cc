@@ -354,6 +354,7 @@ class Batch {
         park_in_place_(data_.slots() >= kInPlaceSlotsPerObservation * data_.observations),
         parked_data_(park_in_place_ ? std::vector<int>{} : problem.lights_per_observation) {
     inputs_.huber_scale = parked_inputs_.huber_scale = options.huber_scale;
+    parked_inputs_.normal_equations = false;  // the parked pixels' steps are done
     // A lane that never holds a pixel still runs through the kernel: give it finite parameters
     // (zeros would make n_s NaN, which sends libmvec's whole vector down its scalar path).
     for (internal::LaneInputs* inputs : {&inputs_, &parked_inputs_}) {

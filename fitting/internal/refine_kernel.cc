@@ -333,20 +333,25 @@ template <int kWidth>
 
 // A chunk's sums over observations, added to out, with the vector width and tiles that fit the
 // registers of the instruction set EvaluateLanes runs with: 32 zmm on AVX-512, 16 ymm on AVX2.
-[[gnu::always_inline]] inline void SumObservations(const LaneData& d, int n, bool any_leverage, LaneEquations& out) {
+[[gnu::always_inline]] inline void SumObservations(const LaneData& d, int n, bool normal_equations, bool any_leverage,
+                                                   LaneEquations& out) {
   static const bool wide = __builtin_cpu_supports("avx512f");
   const double* g = d.gradients.data();
   if (wide) {
-    Gram<8, 4, 4>(g, d.weights.data(), n, out.jtj);
-    Project<8>(g, d.weighted_residuals.data(), n, out.jtr);
+    if (normal_equations) {
+      Gram<8, 4, 4>(g, d.weights.data(), n, out.jtj);
+      Project<8>(g, d.weighted_residuals.data(), n, out.jtr);
+    }
     if (any_leverage) {  // the uncertainty's matrices only when some lane is at its solution
       Gram<8, 4, 4>(g, d.inlier_weights.data(), n, out.bread);
       Gram<8, 4, 4>(g, d.meat_weights.data(), n, out.meat);
     }
     return;
   }
-  Gram<4, 2, 4>(g, d.weights.data(), n, out.jtj);
-  Project<4>(g, d.weighted_residuals.data(), n, out.jtr);
+  if (normal_equations) {
+    Gram<4, 2, 4>(g, d.weights.data(), n, out.jtj);
+    Project<4>(g, d.weighted_residuals.data(), n, out.jtr);
+  }
   if (any_leverage) {
     Gram<4, 2, 4>(g, d.inlier_weights.data(), n, out.bread);
     Gram<4, 2, 4>(g, d.meat_weights.data(), n, out.meat);
@@ -431,7 +436,7 @@ template <int kSpan>
     }
   }
   const bool chunk_full = (k + 1) % kChunkObservations == 0 || k + 1 == d.observations;
-  if (chunk_full) SumObservations(d, k % kChunkObservations + 1, any_leverage, out);
+  if (chunk_full) SumObservations(d, k % kChunkObservations + 1, in.normal_equations, any_leverage, out);
 }
 
 }  // namespace

@@ -76,6 +76,9 @@ struct LaneInputs {
   alignas(64) double leverage[kLanes];
   alignas(64) double bread_inverse[kNormalEntries][kLanes];
   double huber_scale = 0.5;
+  // false: JᵀWr and JᵀWJ are left at 0 (a batch evaluated only for its pixels' uncertainty, whose
+  // steps are done, needs its bread and meat alone).
+  bool normal_equations = true;
 };
 
 // Per-lane outputs: ½ Σ ρ(r²) (Ceres' cost), JᵀWr, JᵀWJ (upper triangle) for the LM steps, and
