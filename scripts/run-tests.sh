@@ -11,8 +11,9 @@ echo "build finished after $(( $(date +%s) - start )) s"
 # files) fuzzed under ASan + UBSan, 20 s each: a crash, leak or hang fails the run.
 bash scripts/fuzz.sh 20
 echo "fuzzing finished after $(( $(date +%s) - start )) s"
-# The suites of core, scan and the BRDF model under ASan + UBSan (any report fails the run); the
-# rest of the sanitized suites is `scripts/sanitizers.sh address`, over CI's time on a cold cache.
+# The suites of core, scan, the BRDF model, the simulator, the sim devices, the sequencer and the
+# projector under ASan + UBSan (any report fails the run); the rest of the sanitized suites is
+# `scripts/sanitizers.sh address`, over CI's time on a cold cache.
 bash scripts/sanitizers.sh ci
 echo "sanitized suites finished after $(( $(date +%s) - start )) s"
 cd build
