@@ -164,8 +164,9 @@ int RunFit(int argc, char** argv) {
   CLI::Option* smoothing_weight =
       app.add_option("--smoothing-weight", args.options.smoothing.weight,
                      "refine methods: weight of a second pass's prior toward each pixel's 5x5 neighbourhood's median "
-                     "lobe, scaled with the stack's noise as --prior-weight is (default: the model directory's "
-                     "refine.json, 3 for tac7-mini; without one 0: no second pass)")
+                     "lobe (with cnn+refine, its anisotropy angle from the neighbours the CNN's maps put on the "
+                     "pixel's yarn), scaled with the stack's noise as --prior-weight is (default: the model "
+                     "directory's refine.json, 3 for tac7-mini; without one 0: no second pass)")
           ->check(CLI::Range(0.0, 1e6));
   app.add_option("--strip-samples", args.options.max_lights_per_observation,
                  "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
