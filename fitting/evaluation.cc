@@ -15,15 +15,6 @@
 namespace loom::fitting {
 namespace {
 
-// (σx, σy, α) and (σy, σx, α + π/2) are the same lobe: compare with σx ≥ σy.
-WardParams<double> Canonical(WardParams<double> p) {
-  if (p.sigma_x < p.sigma_y) {
-    std::swap(p.sigma_x, p.sigma_y);
-    p.alpha += kPi / 2;
-  }
-  return p;
-}
-
 struct LabelGroup {
   const char* name;
   int first;
@@ -46,8 +37,8 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
   const int pixels = maps.width() * maps.height();
   for (int y = 0; y < maps.height(); ++y) {
     for (int x = 0; x < maps.width(); ++x) {
-      const WardParams<double> fit = Canonical(GetParams(maps, x, y));
-      const WardParams<double> truth = Canonical(GetParams(reference, x, y));
+      const WardParams<double> fit = WithSigmaXLarger(GetParams(maps, x, y));
+      const WardParams<double> truth = WithSigmaXLarger(GetParams(reference, x, y));
       const Label a = EncodeLabel(fit);
       const Label b = EncodeLabel(truth);
       for (size_t g = 0; g < kLabelGroups.size(); ++g) {
@@ -74,7 +65,7 @@ double MeanSquaredLaplacian(const Image& maps, const LabelGroup& group) {
   if (w < 3 || h < 3) return 0;
   std::vector<Label> labels(static_cast<size_t>(w) * h);
   for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) labels[static_cast<size_t>(y) * w + x] = EncodeLabel(Canonical(GetParams(maps, x, y)));
+    for (int x = 0; x < w; ++x) labels[static_cast<size_t>(y) * w + x] = EncodeLabel(WithSigmaXLarger(GetParams(maps, x, y)));
   }
   const auto at = [&](int x, int y, int c) { return labels[static_cast<size_t>(y) * w + x][c]; };
   double sum = 0;

@@ -12,12 +12,6 @@
 namespace loom::fitting::internal {
 namespace {
 
-// The same lobe with σx ≥ σy (swapping them turns α by 90°).
-WardParams<double> Canonical(WardParams<double> p) {
-  if (p.sigma_x < p.sigma_y) std::swap(p.sigma_x, p.sigma_y), p.alpha += kPi / 2;
-  return p;
-}
-
 // The upper median, v[n / 2] of the sorted values.
 double Median(std::vector<double>& values) {
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
@@ -42,7 +36,8 @@ std::vector<WardParams<double>> NeighbourLobes(const std::vector<WardParams<doub
   if (guide) {
     guide_alpha.resize(fits.size());
     for (int y = 0; y < height; ++y) {
-      for (int x = 0; x < width; ++x) guide_alpha[static_cast<size_t>(y) * width + x] = Canonical(GetParams(*guide, x, y)).alpha;
+      for (int x = 0; x < width; ++x)
+        guide_alpha[static_cast<size_t>(y) * width + x] = WithSigmaXLarger(GetParams(*guide, x, y)).alpha;
     }
   }
   std::vector<WardParams<double>> lobes(fits.size());
@@ -56,7 +51,7 @@ std::vector<WardParams<double>> NeighbourLobes(const std::vector<WardParams<doub
         for (int nx = std::max(0, x - kSmoothingRadius); nx <= std::min(width - 1, x + kSmoothingRadius); ++nx) {
           const size_t n = static_cast<size_t>(ny) * width + nx;
           if (n == pixel) continue;
-          const WardParams<double> p = Canonical(fits[n]);
+          const WardParams<double> p = WithSigmaXLarger(fits[n]);
           const double weight = guide ? GuideWeight(guide_alpha[n], guide_alpha[pixel]) : 1.0;
           const double v[6] = {p.a_s.x(), p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, p.f0};
           for (int i = 0; i < 6; ++i) values[i].push_back(v[i]);

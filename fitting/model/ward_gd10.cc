@@ -1,6 +1,7 @@
 #include "fitting/model/ward_gd10.h"
 
 #include <sstream>
+#include <utility>
 
 namespace loom::fitting {
 namespace {
@@ -35,6 +36,14 @@ std::vector<std::string> CheckWardParams(const WardParams<double>& p) {
     problems.push_back(out.str());
   }
   return problems;
+}
+
+WardParams<double> WithSigmaXLarger(WardParams<double> params) {
+  if (params.sigma_x < params.sigma_y) {
+    std::swap(params.sigma_x, params.sigma_y);
+    params.alpha += kPi / 2;
+  }
+  return params;
 }
 
 }  // namespace loom::fitting

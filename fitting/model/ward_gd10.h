@@ -62,6 +62,9 @@ struct WardParams {
 // Every range violation of `params` (empty when valid), each naming the parameter.
 std::vector<std::string> CheckWardParams(const WardParams<double>& params);
 
+// The same lobe written with σx ≥ σy: (σx, σy, α) and (σy, σx, α + π/2) are one lobe.
+WardParams<double> WithSigmaXLarger(WardParams<double> params);
+
 // The anisotropy frame: t = normalize(t0 − (t0·n_s) n_s), b = n_s × t.
 template <typename T>
 struct AnisotropyFrame {

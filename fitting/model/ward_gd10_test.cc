@@ -291,5 +291,19 @@ TEST(WardGd10Test, CheckParamsNamesEveryProblem) {
   EXPECT_NE(problems[0].find("a_d.G"), std::string::npos) << problems[0];
 }
 
+// (σy, σx, α + π/2) is the lobe (σx, σy, α): written with σx ≥ σy, it evaluates the same.
+TEST(WardGd10Test, WithSigmaXLargerIsTheSameLobe) {
+  WardParams<double> p;
+  p.a_s = Vec3<double>(0.3, 0.3, 0.3);
+  p.sigma_x = 0.05, p.sigma_y = 0.2, p.alpha = 0.3;
+  const WardParams<double> q = WithSigmaXLarger(p);
+  EXPECT_EQ(q.sigma_x, 0.2);
+  EXPECT_EQ(q.sigma_y, 0.05);
+  EXPECT_DOUBLE_EQ(q.alpha, 0.3 + kPi / 2);
+  const Vec3<double> l = Vec3<double>(0.3, -0.2, 1).normalized(), v = Vec3<double>(-0.25, 0.3, 1).normalized();
+  EXPECT_NEAR(EvaluateWard(p, l, v).x(), EvaluateWard(q, l, v).x(), 1e-9 * EvaluateWard(p, l, v).x());
+  EXPECT_EQ(WithSigmaXLarger(q).alpha, q.alpha);  // already so: unchanged
+}
+
 }  // namespace
 }  // namespace loom::fitting
