@@ -1,14 +1,19 @@
 // `loom rig` against real peers: loom-modbus-sim controllers on 127.0.0.1, an
 // arv-fake-gv-camera-0.8 process on 127.0.0.1 (opened by address: unicast only), and the
-// recording projector.
+// recording projector; and `loom scan` killed against the same controllers.
 #include <gtest/gtest.h>
+#include <modbus.h>
+
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <thread>
 
 #include "core/exr_io.h"
 #include "core/testing/subprocess.h"
+#include "hal/modbus/register_map.h"
 
 namespace {
 
@@ -21,6 +26,51 @@ using LoomRun = loom::testing::CommandResult;
 LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(std::string(LOOM_BINARY) + " " + arguments); }
 
 bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// A Modbus TCP client of one controller (endpoint tcp://HOST:PORT), beside whatever loom process
+// drives it: the peer serves several connections. Reads do not feed the watchdog.
+class ControllerClient {
+ public:
+  explicit ControllerClient(const std::string& endpoint) {
+    const std::string address = endpoint.substr(std::string("tcp://").size());
+    const size_t colon = address.rfind(':');
+    context_ = modbus_new_tcp(address.substr(0, colon).c_str(), std::stoi(address.substr(colon + 1)));
+    connected_ = context_ != nullptr && modbus_connect(context_) == 0;
+  }
+  ~ControllerClient() {
+    if (context_ == nullptr) return;
+    modbus_close(context_);
+    modbus_free(context_);
+  }
+  ControllerClient(const ControllerClient&) = delete;
+  ControllerClient& operator=(const ControllerClient&) = delete;
+
+  bool connected() const { return connected_; }
+  // The holding registers [address, address + count); empty if the read failed.
+  std::vector<uint16_t> Read(int address, int count) {
+    std::vector<uint16_t> values(count);
+    if (modbus_read_registers(context_, address, count, values.data()) != count) return {};
+    return values;
+  }
+  uint16_t Status() {
+    const auto status = Read(loom::hal::modbus_map::kStatus, 1);
+    return status.empty() ? 0xFFFF : status[0];
+  }
+
+ private:
+  modbus_t* context_ = nullptr;
+  bool connected_ = false;
+};
+
+int LitLeds(ControllerClient& leds, int count) {
+  const auto currents = leds.Read(loom::hal::modbus_map::kLedCurrents, count);
+  return static_cast<int>(std::count_if(currents.begin(), currents.end(), [](uint16_t ma) { return ma > 0; }));
+}
 
 class RigCommandTest : public ::testing::Test {
  protected:
@@ -134,6 +184,60 @@ TEST_F(RigCommandTest, AKilledLoomLeavesNoLedLitWhenTheControllersWatchdogIsArme
     // (loom rig status reads the LEDs, then makes the rig safe: the next round starts dark.)
     const LoomRun after = RunLoom("rig status --rig " + rig_.string());
     EXPECT_TRUE(Contains(after.output, armed ? "29 LEDs, 0 lit" : "29 LEDs, 1 lit")) << after.output;
+  }
+}
+
+// The same for `loom scan`, killed while a step has an LED lit: the simulated tac7-mini with its
+// LED controller, turntable and linear light on the peers (its cameras, wheels and projector
+// stay simulated). Armed, every controller has gone safe within its watchdog's time — LEDs and
+// strip off, no axis busy, each disabled and flagged as tripped; unarmed, the LED stays lit.
+TEST_F(RigCommandTest, AScanKilledMidPlanLeavesEveryControllerSafeWhenTheirWatchdogsAreArmed) {
+  namespace map = loom::hal::modbus_map;
+  constexpr int kPeerLeds = 29;  // the LED peer's count; tac7-mini drives the first 12
+  // Armed first: the unarmed run leaves its LED lit.
+  for (const bool armed : {true, false}) {
+    SCOPED_TRACE(armed ? "watchdogs armed" : "no watchdogs");
+    const std::string watchdog = armed ? ", response_timeout_ms: 100, watchdog_ms: 300" : "";
+    std::string yaml = Slurp(fs::path(LOOM_SOURCE_DIR) / "configs/rig/tac7-mini.yaml");
+    const auto replace_line = [&yaml](const std::string& starting, const std::string& by) {
+      const size_t at = yaml.find(starting, yaml.find("\ndevices:"));
+      ASSERT_NE(at, std::string::npos) << starting;
+      yaml.replace(at, yaml.find('\n', at) - at, by);
+    };
+    replace_line("  leds: {", "  leds: {name: leds, backend: modbus, endpoint: \"" + endpoints_[0] + "\"" + watchdog + "}");
+    replace_line("  turntable: {",
+                 "  turntable: {name: turntable, backend: modbus, endpoint: \"" + endpoints_[1] + "\"" + watchdog + "}");
+    replace_line("  linear_light: {",
+                 "  linear_light: {name: linear_light, backend: modbus, endpoint: \"" + endpoints_[2] + "\"" + watchdog + "}");
+    const fs::path rig = dir_ / (armed ? "scan-rig-armed.yaml" : "scan-rig.yaml");
+    std::ofstream(rig) << yaml;
+
+    ControllerClient leds(endpoints_[0]), turntable(endpoints_[1]), strip(endpoints_[2]);
+    ASSERT_TRUE(leds.connected() && turntable.connected() && strip.connected());
+    auto loom = Subprocess::Start({LOOM_BINARY, "scan", "--rig", rig.string(), "--preset", "low", "--object", "white-tile",
+                                   "--quiet", "--out", (dir_ / (armed ? "scan-armed" : "scan")).string()});
+    ASSERT_TRUE(loom.ok());
+    const auto deadline = std::chrono::steady_clock::now() + 60s;
+    // (Quiet, the scan writes nothing to stdout before it ends: a line read is its end.)
+    while (LitLeds(leds, kPeerLeds) == 0 && std::chrono::steady_clock::now() < deadline) {
+      if (const auto line = loom->ReadLine(5ms); line.status().code() != loom::StatusCode::kTimeout) break;
+    }
+    loom->Signal(SIGKILL);
+    EXPECT_EQ(loom->Wait(), 128 + SIGKILL) << "the scan ended before an LED was lit";
+    std::this_thread::sleep_for(600ms);
+
+    if (!armed) {
+      EXPECT_GT(LitLeds(leds, kPeerLeds), 0);  // nobody switched it off
+      continue;
+    }
+    EXPECT_EQ(LitLeds(leds, kPeerLeds), 0);
+    EXPECT_EQ(strip.Read(map::kLinearStripOn, 1), std::vector<uint16_t>{0});
+    for (ControllerClient* controller : {&leds, &turntable, &strip}) {
+      const uint16_t status = controller->Status();
+      EXPECT_TRUE(status & map::kStatusWatchdogTripped) << status;
+      EXPECT_FALSE(status & map::kStatusEnabled) << status;
+      EXPECT_FALSE(status & map::kStatusBusy) << status;
+    }
   }
 }
 
