@@ -206,6 +206,8 @@ Result<std::vector<scan::RawFrame>> Sequencer::CaptureExposure(const scan::Step&
       Result<scan::RawFrame> frame = triggered[c].ok() ? cameras[c]->WaitFrame() : Result<scan::RawFrame>(triggered[c]);
       if (frame.ok()) {
         frame->metadata.rig_state = state;
+      } else if (frame.status().code() == StatusCode::kCancelled) {
+        return CancelledError("scan", "interrupted at step " + std::to_string(step.index));
       } else {
         LOOM_LOG(Warning) << frame.status().ToString() << "; retrying " << cameras[c]->name() << " alone";
         frame = CaptureWithRetries(*cameras[c], step);

@@ -21,13 +21,14 @@ int ThreadCount(int requested) {
   return requested > 0 ? requested : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
-// Runs body(y) for every row, rows interleaved over threads.
+// Runs body(y) for every row, rows interleaved over threads; rows not yet started are skipped
+// once `stop_requested` (if set) returns true.
 template <typename Body>
-void ForEachRow(int rows, int threads, Body body) {
+void ForEachRow(int rows, int threads, Body body, const std::function<bool()>& stop_requested = {}) {
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&, t] {
-      for (int y = t; y < rows; y += threads) body(y);
+      for (int y = t; y < rows && !(stop_requested && stop_requested()); y += threads) body(y);
     });
   }
   for (std::thread& worker : workers) worker.join();
@@ -271,18 +272,21 @@ CameraHits Scene::TraceCamera(int camera_index, double turntable_deg, const Rend
   const int x0 = whole ? 0 : window.x, y0 = whole ? 0 : window.y;
   const int ss = options.supersampling;
   hits.points.resize(static_cast<size_t>(hits.width) * hits.height * ss * ss);
-  ForEachRow(hits.height, ThreadCount(options.threads), [&](int row) {
-    Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * ss * ss;
-    for (int column = 0; column < hits.width; ++column) {
-      for (int sy = 0; sy < ss; ++sy) {
-        for (int sx = 0; sx < ss; ++sx) {
-          const Eigen::Vector2d pixel(x0 + column + (sx + 0.5) / ss - 0.5, y0 + row + (sy + 0.5) / ss - 0.5);
-          const std::optional<Eigen::Vector3d> hit = Intersect(hits.eye, sample_from_cam * camera.Unproject(pixel));
-          *point++ = hit ? *hit : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  ForEachRow(
+      hits.height, ThreadCount(options.threads),
+      [&](int row) {
+        Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * ss * ss;
+        for (int column = 0; column < hits.width; ++column) {
+          for (int sy = 0; sy < ss; ++sy) {
+            for (int sx = 0; sx < ss; ++sx) {
+              const Eigen::Vector2d pixel(x0 + column + (sx + 0.5) / ss - 0.5, y0 + row + (sy + 0.5) / ss - 0.5);
+              const std::optional<Eigen::Vector3d> hit = Intersect(hits.eye, sample_from_cam * camera.Unproject(pixel));
+              *point++ = hit ? *hit : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+            }
+          }
         }
-      }
-    }
-  });
+      },
+      options.stop_requested);
   return hits;
 }
 
@@ -303,16 +307,19 @@ Image Scene::RenderRadiance(const CameraHits& hits, const SceneState& state, con
   Image radiance(hits.width, hits.height, {"L"});
   const int rays = options.supersampling * options.supersampling;
   const PlacedState placed = Place(state);
-  ForEachRow(radiance.height(), ThreadCount(options.threads), [&](int row) {
-    const Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * rays;
-    for (int column = 0; column < radiance.width(); ++column) {
-      double sum = 0;
-      for (int ray = 0; ray < rays; ++ray, ++point) {
-        if (!std::isnan(point->x())) sum += RadianceAt(ShadeAt(*point), hits.eye, state, placed, options.shadows);
-      }
-      radiance.at(0, row, column) = static_cast<float>(sum / rays);
-    }
-  });
+  ForEachRow(
+      radiance.height(), ThreadCount(options.threads),
+      [&](int row) {
+        const Eigen::Vector3d* point = hits.points.data() + static_cast<size_t>(row) * hits.width * rays;
+        for (int column = 0; column < radiance.width(); ++column) {
+          double sum = 0;
+          for (int ray = 0; ray < rays; ++ray, ++point) {
+            if (!std::isnan(point->x())) sum += RadianceAt(ShadeAt(*point), hits.eye, state, placed, options.shadows);
+          }
+          radiance.at(0, row, column) = static_cast<float>(sum / rays);
+        }
+      },
+      options.stop_requested);
   return radiance;
 }
 

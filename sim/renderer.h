@@ -11,6 +11,7 @@
 // Deterministic: the noise of pixel (x, y) comes from (seed, x, y) only, whatever the threads.
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -72,7 +73,11 @@ struct RenderOptions {
   bool shadows = true;
   int threads = 0;           // 0 = one per core
   SensorWindow window = {};  // only these pixels are rendered (the image is the window's size)
-  Status Check() const;      // every problem, naming the field (RenderRadiance throws on one)
+  // Polled before each row of a trace or render, if set: once it returns true the rows not yet
+  // started are skipped, and the result is incomplete — its caller must discard it. So that a
+  // simulated camera under a rig's interrupt handler stops a long frame at SIGTERM or Ctrl-C.
+  std::function<bool()> stop_requested;
+  Status Check() const;  // every problem, naming the field (RenderRadiance throws on one)
 };
 
 // Where a camera's rays meet the scene at one turntable angle: what every frame the camera takes

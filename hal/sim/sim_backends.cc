@@ -6,6 +6,8 @@
 #include <optional>
 #include <vector>
 
+#include "core/interrupt.h"
+
 namespace loom::hal {
 namespace {
 
@@ -65,7 +67,10 @@ class SimCamera : public Camera {
   Status DoStart() override {
     queue_.clear();
     if (settings().trigger == TriggerMode::kHardware) {
-      armed_ = world_->ArmTrigger([this] { queue_.push_back(Render()); });
+      // A frame whose rendering was interrupted is not delivered; the sequencer sees the interrupt.
+      armed_ = world_->ArmTrigger([this] {
+        if (auto frame = Render(); frame.ok()) queue_.push_back(std::move(*frame));
+      });
     }
     return Status::Ok();
   }
@@ -79,7 +84,8 @@ class SimCamera : public Camera {
   }
   Status DoMakeSafe() override { return Status::Ok(); }
   Status DoTriggerSoftware() override {
-    queue_.push_back(Render());
+    LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, Render());
+    queue_.push_back(std::move(frame));
     return Status::Ok();
   }
   Status DoDiscardFrames() override {
@@ -91,8 +97,13 @@ class SimCamera : public Camera {
       queue_.clear();
       return Error(StatusCode::kUnavailable, "camera dropped out (injected by the simulator)");
     }
-    if (queue_.empty() && settings().trigger == TriggerMode::kFreeRun) queue_.push_back(Render());
+    if (queue_.empty() && settings().trigger == TriggerMode::kFreeRun) {
+      LOOM_ASSIGN_OR_RETURN(scan::RawFrame frame, Render());
+      queue_.push_back(std::move(frame));
+    }
     if (queue_.empty()) {
+      // A hardware-triggered frame that an interrupt stopped was never queued.
+      if (InterruptRequested()) return CancelledError(name(), "interrupted while rendering a frame");
       return Error(StatusCode::kTimeout, "no frame within " + std::to_string(timeout.count()) + " ms (not triggered)");
     }
     scan::RawFrame frame = std::move(queue_.front());
@@ -106,7 +117,9 @@ class SimCamera : public Camera {
     armed_.reset();
   }
 
-  scan::RawFrame Render() {
+  // Cancelled if the rig's interrupt handler saw SIGTERM or Ctrl-C while the frame was rendered:
+  // a large simulated frame takes seconds to minutes, which a stop must not wait for.
+  Result<scan::RawFrame> Render() {
     sim::SceneState state;
     {
       std::lock_guard lock(world_->mutex);
@@ -118,7 +131,9 @@ class SimCamera : public Camera {
     // Only the region of interest is rendered; its noise and vignetting are those of its place
     // on the sensor, so the frame is the full frame's crop.
     const sim::SensorWindow window{s.roi.x, s.roi.y, s.roi.width, s.roi.height};
-    const Image& radiance = RadianceOf(shown, state, window);
+    const Image* rendered = RadianceOf(shown, state, window);
+    if (rendered == nullptr) return CancelledError(name(), "interrupted while rendering a frame");
+    const Image& radiance = *rendered;
     // Drifting lights scale the light as a longer exposure would; the noise seed stays the frame's.
     const double output = !state.leds.empty() ? world_->NextLedOutput() : state.linear_light_on ? world_->NextStripOutput() : 1.0;
     const std::vector<uint16_t> raw =
@@ -145,11 +160,12 @@ class SimCamera : public Camera {
 
   // The radiance of the last frame is kept: an HDR bracket exposes the same scene several
   // times, and rendering, not exposing, is what costs (2-3 frames per rendering in a scan). So
-  // are the camera's rays' hits, which the steps at one turntable angle share.
-  const Image& RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state,
+  // are the camera's rays' hits, which the steps at one turntable angle share. nullptr if
+  // interrupted: what was traced or rendered then is incomplete, and neither is kept.
+  const Image* RadianceOf(const std::shared_ptr<const sim::Scene>& scene, const sim::SceneState& state,
                           const sim::SensorWindow& window) {
     if (scene != rendered_scene_ || !(state == rendered_state_) || !(window == rendered_window_)) {
-      const sim::RenderOptions options{.supersampling = supersampling_, .window = window};
+      const sim::RenderOptions options{.supersampling = supersampling_, .window = window, .stop_requested = InterruptRequested};
       const CameraModel& camera = scene->rig().cameras[index_];
       if (scene->Dark(state)) {
         rendered_ =
@@ -160,13 +176,17 @@ class SimCamera : public Camera {
           hits_ = scene->TraceCamera(index_, state.turntable_deg, options);
           traced_scene_ = scene;
         }
-        rendered_ = scene->RenderRadiance(hits_, state, options);
+        if (!InterruptRequested()) rendered_ = scene->RenderRadiance(hits_, state, options);
+      }
+      if (InterruptRequested()) {
+        traced_scene_ = rendered_scene_ = nullptr;
+        return nullptr;
       }
       rendered_scene_ = scene;
       rendered_state_ = state;
       rendered_window_ = window;
     }
-    return rendered_;
+    return &rendered_;
   }
 
   std::shared_ptr<SimWorld> world_;

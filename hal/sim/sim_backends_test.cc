@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "core/interrupt.h"
 #include "hal/device_status.h"
 #include "hal/rig.h"
 #include "sim/test_materials.h"
@@ -133,6 +134,33 @@ TEST_F(SimBackendsTest, FramesFromRaysTracedForAnEarlierStepAreAFreshCamerasFram
   EXPECT_EQ(fresh.metadata.rig_state.turntable_deg, 90);
   EXPECT_EQ(reused.pixels, fresh.pixels);
   EXPECT_NE(reused.pixels, at_zero.pixels);
+}
+
+// A frame whose rendering the rig's interrupt handler stops (SIGTERM, Ctrl-C) is refused as
+// cancelled, not delivered incomplete, and leaves nothing behind: once the interrupt is handled,
+// the camera's next frame is the one a camera that was never interrupted takes.
+TEST_F(SimBackendsTest, AnInterruptedFrameIsCancelledAndLeavesNothingBehind) {
+  Result<std::unique_ptr<Rig>> fresh_rig = MakeRig(kRigYaml);
+  ASSERT_TRUE(fresh_rig.ok()) << fresh_rig.status().ToString();
+  ASSERT_TRUE((*fresh_rig)->OpenAndConfigure().ok());
+  ASSERT_TRUE((*fresh_rig)->StartAll().ok());
+  Camera& camera = *rig_->cameras()[0];
+  const scan::LedDrive drive[] = {{0, 800}};
+  ASSERT_TRUE(rig_->leds()->Drive(drive).ok());
+  ASSERT_TRUE(rig_->Snap(camera).ok());             // rays traced and a frame rendered at 0°
+  ASSERT_TRUE(rig_->turntable()->MoveTo(90).ok());  // the next needs both anew
+
+  SetInterruptRequested(true);
+  const Status interrupted = camera.TriggerSoftware();
+  SetInterruptRequested(false);
+  EXPECT_EQ(interrupted.code(), StatusCode::kCancelled) << interrupted.ToString();
+  EXPECT_NE(interrupted.ToString().find("top"), std::string::npos) << interrupted.ToString();
+  EXPECT_EQ(camera.WaitFrame().status().code(), StatusCode::kTimeout);  // nothing delivered
+
+  const scan::RawFrame after = *rig_->Snap(camera);
+  const scan::RawFrame fresh = *(*fresh_rig)->Snap(*(*fresh_rig)->cameras()[0]);
+  EXPECT_EQ(fresh.metadata.rig_state.turntable_deg, 90);
+  EXPECT_EQ(after.pixels, fresh.pixels);
 }
 
 TEST_F(SimBackendsTest, FilterWheelColoursTheLight) {
