@@ -349,7 +349,7 @@ Result<scan::RawFrame> Rig::Snap(Camera& camera) {
   return frame;
 }
 
-SafeStateGuard::SafeStateGuard(Rig& rig) : rig_(rig) { InstallInterruptHandler(); }
+SafeStateGuard::SafeStateGuard(Rig& rig) : rig_(rig) {}
 
 SafeStateGuard::~SafeStateGuard() {
   const Status safe = rig_.MakeSafe();

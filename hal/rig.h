@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "core/config.h"
+#include "core/interrupt.h"
 #include "core/rig_file.h"
 #include "hal/clock.h"
 #include "hal/registry.h"
@@ -133,7 +134,8 @@ class Rig {
 };
 
 // Puts the rig in its safe state when it goes out of scope (failures are logged: a destructor
-// has nobody to return them to). Installs the SIGINT/SIGTERM handler (core/interrupt.h).
+// has nobody to return them to). Holds an InterruptScope (core/interrupt.h): while it lives,
+// SIGINT and SIGTERM ask the rig's operations to stop instead of killing the process.
 class SafeStateGuard {
  public:
   explicit SafeStateGuard(Rig& rig);
@@ -143,6 +145,7 @@ class SafeStateGuard {
 
  private:
   Rig& rig_;
+  InterruptScope interrupt_scope_;  // ends after the destructor has made the rig safe
 };
 
 }  // namespace loom::hal

@@ -166,7 +166,7 @@ TEST(ModbusTurntableTest, InterruptStopsAMoveWithCancelled) {
   Simulator sim = StartSimulator("turntable");
   auto turntable = MakeDevice<Turntable>(DeviceYaml("tt", sim.endpoint));
   Bringup(*turntable, TurntableSettings{.speed_deg_s = 1, .move_timeout_ms = 60000});
-  InstallInterruptHandler();
+  const InterruptScope scope;
   SetInterruptRequested(false);
   std::thread interrupter([] {
     std::this_thread::sleep_for(100ms);
