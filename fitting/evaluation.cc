@@ -33,6 +33,9 @@ double Percentile(std::vector<double> values, double q) {
 void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& evaluation) {
   std::array<double, kLabelGroups.size()> squares{};
   double product_squares = 0;
+  double anisotropic_alpha_squares = 0;
+  int anisotropic_pixels = 0;
+  constexpr LabelGroup kAlpha = kLabelGroups[4];
   std::vector<double> normal_deg;
   const int pixels = maps.width() * maps.height();
   for (int y = 0; y < maps.height(); ++y) {
@@ -47,6 +50,11 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
           squares[g] += d * d / kLabelGroups[g].count;
         }
       }
+      if (truth.sigma_x >= AnisotropicAlphaError::kMinSigmaRatio * truth.sigma_y) {
+        ++anisotropic_pixels;
+        for (int i = kAlpha.first; i < kAlpha.first + kAlpha.count; ++i)
+          anisotropic_alpha_squares += (a[i] - b[i]) * (a[i] - b[i]) / kAlpha.count;
+      }
       product_squares += (fit.a_s * fit.f0 - truth.a_s * truth.f0).squaredNorm() / 3;
       normal_deg.push_back(RadToDeg(std::acos(std::clamp(fit.n_s.normalized().dot(truth.n_s.normalized()), -1.0, 1.0))));
     }
@@ -55,6 +63,10 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
     evaluation.parameters.push_back({kLabelGroups[g].name, std::sqrt(squares[g] / pixels) / kLabelGroups[g].range});
   }
   evaluation.parameters.push_back({"a_s*F0", std::sqrt(product_squares / pixels)});
+  if (anisotropic_pixels > 0) {
+    evaluation.anisotropic_alpha = {std::sqrt(anisotropic_alpha_squares / anisotropic_pixels) / kAlpha.range,
+                                    static_cast<double>(anisotropic_pixels) / pixels};
+  }
   evaluation.normal_median_deg = Percentile(normal_deg, 0.5);
   evaluation.normal_p90_deg = Percentile(normal_deg, 0.9);
 }
@@ -213,6 +225,9 @@ void Evaluation::Report(std::ostream& out) const {
   if (!e.parameters.empty()) {
     out << "parameter NRMSE against the reference:";
     for (const ParameterError& p : e.parameters) out << "  " << p.name << " " << p.nrmse;
+    out << "\nalpha where the reference lobe is anisotropic (sigma_x >= " << std::setprecision(1)
+        << AnisotropicAlphaError::kMinSigmaRatio << " sigma_y, " << std::setprecision(0) << 100 * e.anisotropic_alpha.pixel_share
+        << " % of the pixels): " << std::setprecision(4) << e.anisotropic_alpha.nrmse;
     out << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 " << e.normal_p90_deg
         << " deg\n"
         << std::setprecision(4);

@@ -40,8 +40,18 @@ struct RenderError {
   double relative_l1 = 0;  // Σ|rendered − measured| / Σ|measured|
 };
 
+// The anisotropy angle's error where the data can fix it: over the pixels whose reference lobe
+// is anisotropic (σx ≥ kMinSigmaRatio σy). Of a lobe nearly round α is arbitrary, and those
+// pixels would otherwise weigh in the α NRMSE as much as any other.
+struct AnisotropicAlphaError {
+  static constexpr double kMinSigmaRatio = 1.5;
+  double nrmse = 0;        // as ParameterError's "alpha", over those pixels
+  double pixel_share = 0;  // of all pixels
+};
+
 struct Evaluation {
-  std::vector<ParameterError> parameters;  // empty without a reference
+  std::vector<ParameterError> parameters;   // empty without a reference
+  AnisotropicAlphaError anisotropic_alpha;  // with a reference
   double normal_median_deg = 0;
   double normal_p90_deg = 0;
   std::vector<MapNoise> map_noise;

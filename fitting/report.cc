@@ -189,7 +189,12 @@ Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::os
 std::string EvaluationJson(const Evaluation& e) {
   nlohmann::json json;
   for (const ParameterError& p : e.parameters) json["parameter_nrmse"][p.name] = p.nrmse;
-  if (!e.parameters.empty()) json["normal_error_deg"] = {{"median", e.normal_median_deg}, {"p90", e.normal_p90_deg}};
+  if (!e.parameters.empty()) {
+    json["normal_error_deg"] = {{"median", e.normal_median_deg}, {"p90", e.normal_p90_deg}};
+    json["alpha_where_anisotropic"] = {{"nrmse", e.anisotropic_alpha.nrmse},
+                                       {"pixel_share", e.anisotropic_alpha.pixel_share},
+                                       {"min_sigma_ratio", AnisotropicAlphaError::kMinSigmaRatio}};
+  }
   for (const MapNoise& n : e.map_noise) {
     json["map_noise"][n.name] = {
         {"fit", n.fit}, {"reference", n.reference}, {"ratio", n.reference > 0 ? n.fit / n.reference : 0.0}};

@@ -512,5 +512,45 @@ TEST_F(WrongBasinTest, TheRefinersPropagationTakesAWellFittedNeighboursBasin) {
   EXPECT_LE(s.pixels_propagated + s.pixels_retry_finished, s.pixels_retried);
 }
 
+// loom eval's α where the truth's lobe is anisotropic: an α error on nearly round lobes, where
+// the data cannot fix α, counts in the α NRMSE but not here; one on anisotropic lobes counts in
+// both, as in the α NRMSE's own units.
+TEST(EvaluationTest, AlphaWhereAnisotropicCountsOnlyTheLobesThatFixIt) {
+  const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 4), {});
+  Image truth = fabric.maps;
+  for (int y = 0; y < truth.height(); ++y) {
+    for (int x = 0; x < truth.width(); ++x) {
+      WardParams<double> p = GetParams(truth, x, y);
+      p.sigma_x = 0.3, p.sigma_y = x < 2 ? 0.1 : 0.25;  // a quarter of the pixels anisotropic (3×)
+      p.alpha = 0;
+      SetParams(truth, x, y, p);
+    }
+  }
+  const auto alpha_errors = [&](bool on_anisotropic) {
+    Image fit = truth;
+    for (int y = 0; y < fit.height(); ++y) {
+      for (int x = 0; x < fit.width(); ++x) {
+        if ((x < 2) != on_anisotropic) continue;
+        WardParams<double> p = GetParams(fit, x, y);
+        p.alpha = kPi / 4;  // (cos 2α, sin 2α) off by (−1, 1)
+        SetParams(fit, x, y, p);
+      }
+    }
+    const Result<Evaluation> evaluation = Evaluate(fit, truth, stack);
+    EXPECT_TRUE(evaluation.ok()) << evaluation.status().ToString();
+    const auto alpha = std::ranges::find(evaluation->parameters, std::string("alpha"), &ParameterError::name);
+    EXPECT_DOUBLE_EQ(evaluation->anisotropic_alpha.pixel_share, 0.25);
+    return std::pair{alpha->nrmse, evaluation->anisotropic_alpha.nrmse};
+  };
+  const auto [round_alpha, round_anisotropic] = alpha_errors(false);
+  EXPECT_NEAR(round_alpha, std::sqrt(0.75) / 2, 1e-6);  // RMS of 1 over 3/4 of the pixels, range 2
+  EXPECT_NEAR(round_anisotropic, 0, 1e-9);
+  const auto [anisotropic_alpha, anisotropic_anisotropic] = alpha_errors(true);
+  EXPECT_NEAR(anisotropic_alpha, std::sqrt(0.25) / 2, 1e-6);
+  EXPECT_NEAR(anisotropic_anisotropic, 0.5, 1e-6);
+}
+
 }  // namespace
 }  // namespace loom::fitting
