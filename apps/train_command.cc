@@ -230,6 +230,10 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--rerender-weight", t.rerender_weight,
                  "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn_training.h)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--alpha-weight", t.alpha_weight,
+                 "Weight of the anisotropy angle's (cos 2α, sin 2α) channels in the label loss (the paper's: 1; the "
+                 "validation and test losses keep it)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
       ->check(CLI::Range(1, 100000));
   app.add_option("--resident-materials", t.resident_materials,

@@ -75,6 +75,10 @@ struct CnnTrainingOptions {
   // with the stack's radiance: Huber with δ = `rerender_huber` on the residual relative to the
   // pixel's mean, the fitters' residual.
   double rerender_weight = 0;
+  // Weight of the (cos 2α, sin 2α) channels in the training's label loss: the paper's is 1, as
+  // for every channel but the albedos (a_d 20, a_s 10). The validation and test losses keep the
+  // paper's weights, so that runs with different weights compare.
+  double alpha_weight = 1;
   int rerender_pixels = 16;
   int rerender_strip_samples = 8;
   double rerender_huber = 0.1;

@@ -154,6 +154,28 @@ TEST(CnnTrainingTest, TrainingFeedsTheNetworkNoisyRadianceWhenAsked) {
   EXPECT_NE(exact_history->front().train_loss, noisy_history->front().train_loss);
 }
 
+// The anisotropy angle's weight: the same run with the angle's channels weighed 10× trains on a
+// larger loss (its tiles, weights and dropout the same, and a learning rate so small that the
+// network stays as it was: the losses differ by their weights alone); it is recorded, and checked.
+TEST(CnnTrainingTest, TheAlphaWeightWeighsTheAnglesChannelsInTheTrainingLoss) {
+  const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
+  CnnTrainingOptions options = FastOptions();
+  options.epochs = 1;
+  options.learning_rate_start = options.learning_rate_end = 1e-12;
+  Cnn paper = SmallCnn(), heavier = SmallCnn();
+  const Result<std::vector<CnnEpoch>> paper_history = TrainCnn(paper, train, validation, options);
+  options.alpha_weight = 10;
+  EXPECT_EQ(options.ToJson().at("alpha_weight"), 10);
+  const Result<std::vector<CnnEpoch>> heavier_history = TrainCnn(heavier, train, validation, options);
+  ASSERT_TRUE(paper_history.ok() && heavier_history.ok());
+  EXPECT_GT(heavier_history->front().train_loss, paper_history->front().train_loss);
+
+  for (const double bad : {0.0, -1.0, std::nan("")}) {
+    options.alpha_weight = bad;
+    EXPECT_NE(options.Check().ToString().find("alpha_weight"), std::string::npos) << bad;
+  }
+}
+
 // A simulated tac7-mini fabric as a training example, with its stack for the re-rendering loss.
 CnnExample SimulatedExample(uint64_t seed, CnnModelInfo& info) {
   const sim::Material fabric = sim::GenerateFabric(seed, {.width_px = 12, .height_px = 12, .pixel_mm = 0.2});
