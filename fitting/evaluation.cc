@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iomanip>
 #include <map>
+#include <string_view>
 
 #include "core/geometry.h"
 #include "core/parallel.h"
@@ -23,6 +24,8 @@ struct LabelGroup {
 };
 constexpr std::array<LabelGroup, 6> kLabelGroups = {
     {{"a_d", 0, 3, 1}, {"a_s", 3, 3, 1}, {"n_s", 6, 3, 2}, {"sigma", 9, 2, 1}, {"alpha", 11, 2, 2}, {"F0", 13, 1, 1}}};
+constexpr size_t kAlphaGroup = 4;
+static_assert(std::string_view(kLabelGroups[kAlphaGroup].name) == "alpha");
 
 double Percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
@@ -35,7 +38,6 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
   double product_squares = 0;
   double anisotropic_alpha_squares = 0;
   int anisotropic_pixels = 0;
-  constexpr LabelGroup kAlpha = kLabelGroups[4];
   std::vector<double> normal_deg;
   const int pixels = maps.width() * maps.height();
   for (int y = 0; y < maps.height(); ++y) {
@@ -44,16 +46,17 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
       const WardParams<double> truth = WithSigmaXLarger(GetParams(reference, x, y));
       const Label a = EncodeLabel(fit);
       const Label b = EncodeLabel(truth);
+      std::array<double, kLabelGroups.size()> pixel_squares{};
       for (size_t g = 0; g < kLabelGroups.size(); ++g) {
         for (int i = 0; i < kLabelGroups[g].count; ++i) {
           const double d = a[kLabelGroups[g].first + i] - b[kLabelGroups[g].first + i];
-          squares[g] += d * d / kLabelGroups[g].count;
+          pixel_squares[g] += d * d / kLabelGroups[g].count;
         }
+        squares[g] += pixel_squares[g];
       }
       if (truth.sigma_x >= AnisotropicAlphaError::kMinSigmaRatio * truth.sigma_y) {
         ++anisotropic_pixels;
-        for (int i = kAlpha.first; i < kAlpha.first + kAlpha.count; ++i)
-          anisotropic_alpha_squares += (a[i] - b[i]) * (a[i] - b[i]) / kAlpha.count;
+        anisotropic_alpha_squares += pixel_squares[kAlphaGroup];
       }
       product_squares += (fit.a_s * fit.f0 - truth.a_s * truth.f0).squaredNorm() / 3;
       normal_deg.push_back(RadToDeg(std::acos(std::clamp(fit.n_s.normalized().dot(truth.n_s.normalized()), -1.0, 1.0))));
@@ -64,7 +67,7 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
   }
   evaluation.parameters.push_back({"a_s*F0", std::sqrt(product_squares / pixels)});
   if (anisotropic_pixels > 0) {
-    evaluation.anisotropic_alpha = {std::sqrt(anisotropic_alpha_squares / anisotropic_pixels) / kAlpha.range,
+    evaluation.anisotropic_alpha = {std::sqrt(anisotropic_alpha_squares / anisotropic_pixels) / kLabelGroups[kAlphaGroup].range,
                                     static_cast<double>(anisotropic_pixels) / pixels};
   }
   evaluation.normal_median_deg = Percentile(normal_deg, 0.5);
@@ -225,9 +228,11 @@ void Evaluation::Report(std::ostream& out) const {
   if (!e.parameters.empty()) {
     out << "parameter NRMSE against the reference:";
     for (const ParameterError& p : e.parameters) out << "  " << p.name << " " << p.nrmse;
-    out << "\nalpha where the reference lobe is anisotropic (sigma_x >= " << std::setprecision(1)
-        << AnisotropicAlphaError::kMinSigmaRatio << " sigma_y, " << std::setprecision(0) << 100 * e.anisotropic_alpha.pixel_share
-        << " % of the pixels): " << std::setprecision(4) << e.anisotropic_alpha.nrmse;
+    if (e.anisotropic_alpha.pixel_share > 0) {
+      out << "\nalpha where the reference lobe is anisotropic (sigma_x >= " << std::setprecision(1)
+          << AnisotropicAlphaError::kMinSigmaRatio << " sigma_y, " << std::setprecision(0)
+          << 100 * e.anisotropic_alpha.pixel_share << " % of the pixels): " << std::setprecision(4) << e.anisotropic_alpha.nrmse;
+    }
     out << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 " << e.normal_p90_deg
         << " deg\n"
         << std::setprecision(4);
