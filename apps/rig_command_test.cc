@@ -219,11 +219,13 @@ TEST_F(RigCommandTest, AScanKilledMidPlanLeavesEveryControllerSafeWhenTheirWatch
     ASSERT_TRUE(loom.ok());
     const auto deadline = std::chrono::steady_clock::now() + 60s;
     // (Quiet, the scan writes nothing to stdout before it ends: a line read is its end.)
-    while (LitLeds(leds, kPeerLeds) == 0 && std::chrono::steady_clock::now() < deadline) {
+    bool lit = false;
+    while (!(lit = LitLeds(leds, kPeerLeds) > 0) && std::chrono::steady_clock::now() < deadline) {
       if (const auto line = loom->ReadLine(5ms); line.status().code() != loom::StatusCode::kTimeout) break;
     }
     loom->Signal(SIGKILL);
     EXPECT_EQ(loom->Wait(), 128 + SIGKILL) << "the scan ended before an LED was lit";
+    ASSERT_TRUE(lit) << "no LED was lit within 60 s: nothing to leave safe";
     std::this_thread::sleep_for(600ms);
 
     if (!armed) {
