@@ -1,4 +1,4 @@
-// loom scan on the simulated tac7-mini: a scan killed with SIGKILL at ten points across its plan and resumed
+// loom scan on the simulated tac7-mini: a scan killed with SIGKILL at twenty points across its plan and resumed
 // each time ends identical to an uninterrupted scan of the same seed — same frames, same pixels,
 // none lost, none twice — and `loom scan --verify` finds it intact, then names a frame altered.
 #include <gtest/gtest.h>
@@ -62,7 +62,7 @@ class ScanCommandTest : public ::testing::Test {
   fs::path preset_;
 };
 
-TEST_F(ScanCommandTest, KilledTenTimesAndResumedEqualsUninterrupted) {
+TEST_F(ScanCommandTest, KilledTwentyTimesAndResumedEqualsUninterrupted) {
   const fs::path reference = dir_ / "reference";
   auto whole = Subprocess::Start(ScanArgs(reference));
   ASSERT_TRUE(whole.ok());
@@ -70,23 +70,24 @@ TEST_F(ScanCommandTest, KilledTenTimesAndResumedEqualsUninterrupted) {
   const std::map<std::string, std::string> expected = Frames(reference);
   ASSERT_GT(expected.size(), 40u);
 
-  // Ten kills spread over the whole plan (dark, structured light, colour through the filter
-  // wheels, point-lit, linear light): each when the journal reaches the next tenth of the
+  // Twenty kills spread over the whole plan (dark, structured light, colour through the filter
+  // wheels, point-lit, linear light): each when the journal reaches the next twenty-first of the
   // uninterrupted scan's lines; the last resume runs to the end.
+  constexpr int kKills = 20;
   const fs::path interrupted = dir_ / "interrupted";
   const int total_lines = JournalLines(reference);
   int kills = 0;
   bool complete = false;
-  for (int run = 0; run <= 10 && !complete; ++run) {
+  for (int run = 0; run <= kKills && !complete; ++run) {
     const bool started = fs::exists(interrupted / "scan.yaml");
     std::vector<std::string> args =
         started ? std::vector<std::string>{LOOM_BINARY, "scan", "--resume", interrupted.string(), "--quiet"}
                 : ScanArgs(interrupted);
     auto scan = Subprocess::Start(args);
     ASSERT_TRUE(scan.ok());
-    if (run < 10) {
+    if (run < kKills) {
       const auto deadline = std::chrono::steady_clock::now() + 120s;
-      while (JournalLines(interrupted) < total_lines * (run + 1) / 11 && std::chrono::steady_clock::now() < deadline) {
+      while (JournalLines(interrupted) < total_lines * (run + 1) / (kKills + 1) && std::chrono::steady_clock::now() < deadline) {
         std::this_thread::sleep_for(2ms);
       }
       scan->Signal(SIGKILL);
@@ -100,7 +101,7 @@ TEST_F(ScanCommandTest, KilledTenTimesAndResumedEqualsUninterrupted) {
     }
   }
   ASSERT_TRUE(complete);
-  EXPECT_EQ(kills, 10);
+  EXPECT_EQ(kills, kKills);
   EXPECT_EQ(Frames(interrupted), expected);
 
   // loom scan --verify: the resumed scan is intact; a frame altered afterwards is named, exit 1.

@@ -157,6 +157,51 @@ TEST_F(CaptureStoreTest, ACrashMidAppendIsRepairedOnResume) {
   for (const FrameRecord& record : after->records()) EXPECT_TRUE(after->ReadFrame(record).ok()) << record.file;
 }
 
+// A crash can tear the journal's last append after any byte. At every position the torn record
+// is dropped with its frame, the records before it stay, and capturing the frame again leaves
+// each frame exactly once with the pixels it had: none lost, none twice.
+TEST_F(CaptureStoreTest, AJournalTornAtEveryBytePositionLosesAndDuplicatesNothing) {
+  const FrameKey kept{0, "cam0", 0};
+  const FrameKey torn{1, "cam0", 0};
+  std::string last_record;
+  std::string journal_before;
+  {
+    CaptureStore store = MakeStore();
+    ASSERT_TRUE(store.Append(kept, Frame(0)).ok());
+    journal_before = *ReadFile(dir_ / "journal.jsonl");
+    ASSERT_TRUE(store.Append(torn, Frame(1)).ok());
+    last_record = ReadFile(dir_ / "journal.jsonl")->substr(journal_before.size());
+  }
+  const fs::path torn_frame = dir_ / "frames" / "s00001_cam0_e00.exr";
+  const fs::path saved_frame = dir_ / "saved.exr";
+  fs::copy_file(torn_frame, saved_frame);
+  ASSERT_GT(last_record.size(), 100u);
+  ASSERT_EQ(last_record.back(), '\n');
+
+  for (size_t bytes = 0; bytes < last_record.size(); ++bytes) {
+    SCOPED_TRACE("torn after " + std::to_string(bytes) + " bytes of the last record");
+    ASSERT_TRUE(WriteFileAtomically(dir_ / "journal.jsonl", journal_before + last_record.substr(0, bytes)).ok());
+    fs::copy_file(saved_frame, torn_frame, fs::copy_options::overwrite_existing);
+    {
+      Result<CaptureStore> resumed = CaptureStore::Open(dir_, /*repair=*/true);
+      ASSERT_TRUE(resumed.ok()) << resumed.status().ToString();
+      ASSERT_EQ(resumed->records().size(), 1u);
+      EXPECT_TRUE(resumed->Has(kept));
+      EXPECT_FALSE(fs::exists(torn_frame));
+      ASSERT_TRUE(resumed->Append(torn, Frame(1)).ok());
+    }
+    const Result<CaptureStore> after = CaptureStore::Open(dir_);
+    ASSERT_TRUE(after.ok()) << after.status().ToString();
+    ASSERT_EQ(after->records().size(), 2u);
+    EXPECT_EQ(*ReadFile(dir_ / "journal.jsonl"), journal_before + last_record);
+    for (int i = 0; i < 2; ++i) {
+      const Result<RawFrame> frame = after->ReadFrame(after->records()[i]);
+      ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+      EXPECT_EQ(frame->pixels, Frame(i).pixels);
+    }
+  }
+}
+
 TEST_F(CaptureStoreTest, APlanFileThatDisagreesWithScanYamlIsAnError) {
   MakeStore();
   Plan other = TwoStepPlan();
