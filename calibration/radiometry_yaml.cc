@@ -10,6 +10,7 @@
 #include "core/config.h"
 #include "core/exr_io.h"
 #include "core/file_io.h"
+#include "core/output_directory.h"
 
 namespace loom::calibration {
 namespace {
@@ -260,8 +261,11 @@ Status ReadWheel(const fs::path& folder, const FilterWheelModel& wheel, Radiomet
 }  // namespace
 
 Status WriteRadiometry(const fs::path& directory, const Radiometry& radiometry, const std::string& from) {
-  const fs::path folder = Folder(directory);
-  LOOM_RETURN_IF_ERROR(CreateDirectories(folder));
+  LOOM_RETURN_IF_ERROR(CreateDirectories(directory));
+  // A recalibration replaces the folder whole: a run that fails or is killed half-way leaves the
+  // old calibration as it was, not some of its files beside new ones.
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory staged, OutputDirectory::Replacing(Folder(directory), "radiometric calibration"));
+  const fs::path& folder = staged.partial();
   for (const CameraRadiometry& camera : radiometry.cameras) LOOM_RETURN_IF_ERROR(WriteCamera(folder, camera, radiometry, from));
   LOOM_RETURN_IF_ERROR(WriteLights(folder, radiometry, from));
   std::vector<std::string> wheels;
@@ -269,7 +273,7 @@ Status WriteRadiometry(const fs::path& directory, const Radiometry& radiometry, 
     if (std::find(wheels.begin(), wheels.end(), f.wheel) == wheels.end()) wheels.push_back(f.wheel);
   }
   for (const std::string& wheel : wheels) LOOM_RETURN_IF_ERROR(WriteWheel(folder, wheel, radiometry, from));
-  return Status::Ok();
+  return staged.Commit();
 }
 
 Result<Radiometry> ReadRadiometry(const fs::path& directory, const RigModel& rig) {

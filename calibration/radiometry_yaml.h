@@ -23,7 +23,7 @@
 
 namespace loom::calibration {
 
-// Writes DIR/radiometry/*.yaml; `from`: the scan.
+// Writes DIR/radiometry/*.yaml, replacing an earlier radiometry/ whole; `from`: the scan.
 Status WriteRadiometry(const std::filesystem::path& directory, const Radiometry& radiometry, const std::string& from);
 // Reads DIR/radiometry/ for `rig` (the device names and counts it must match).
 Result<Radiometry> ReadRadiometry(const std::filesystem::path& directory, const RigModel& rig);

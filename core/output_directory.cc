@@ -1,24 +1,49 @@
 #include "core/output_directory.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <stdio.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 
 namespace loom {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+fs::path WithoutTrailingSlash(const fs::path& directory) {
+  return directory.has_filename() ? directory : directory.parent_path();
+}
+
+}  // namespace
+
 Result<OutputDirectory> OutputDirectory::Create(const fs::path& directory, const std::string& what) {
   std::error_code error;
-  const fs::path final_path = directory.has_filename() ? directory : directory.parent_path();
+  const fs::path final_path = WithoutTrailingSlash(directory);
   if (fs::exists(final_path, error) && !(fs::is_directory(final_path, error) && fs::is_empty(final_path, error))) {
     return AlreadyExistsError(what + " " + final_path.string(),
                               "exists and is not an empty directory: outputs never replace what is there (remove it, "
                               "or pick another)");
   }
+  return Stage(final_path, /*replaces=*/false);
+}
+
+Result<OutputDirectory> OutputDirectory::Replacing(const fs::path& directory, const std::string& what) {
+  std::error_code error;
+  const fs::path final_path = WithoutTrailingSlash(directory);
+  if (fs::exists(final_path, error) && !fs::is_directory(final_path, error)) {
+    return AlreadyExistsError(what + " " + final_path.string(), "exists and is not a directory: it is not replaced");
+  }
+  return Stage(final_path, /*replaces=*/true);
+}
+
+Result<OutputDirectory> OutputDirectory::Stage(const fs::path& final_path, bool replaces) {
+  std::error_code error;
   const fs::path parent = final_path.parent_path().empty() ? fs::path(".") : final_path.parent_path();
   const std::string prefix = "." + final_path.filename().string() + ".partial-";
   // Partial directories of earlier runs that failed or were killed (not those of a process still
@@ -33,11 +58,14 @@ Result<OutputDirectory> OutputDirectory::Create(const fs::path& directory, const
   const fs::path partial = parent / (prefix + std::to_string(::getpid()));
   fs::create_directories(partial, error);
   if (error) return IoError(partial.string(), "cannot create the output directory: " + error.message());
-  return OutputDirectory(final_path, partial);
+  return OutputDirectory(final_path, partial, replaces);
 }
 
 OutputDirectory::OutputDirectory(OutputDirectory&& other) noexcept
-    : final_(std::move(other.final_)), partial_(std::move(other.partial_)), committed_(other.committed_) {
+    : final_(std::move(other.final_)),
+      partial_(std::move(other.partial_)),
+      replaces_(other.replaces_),
+      committed_(other.committed_) {
   other.committed_ = true;  // the moved-from object owns nothing
 }
 
@@ -49,6 +77,15 @@ OutputDirectory::~OutputDirectory() {
 
 Status OutputDirectory::Commit() {
   std::error_code error;
+  if (replaces_ && fs::is_directory(final_, error)) {
+    if (::renameat2(AT_FDCWD, partial_.c_str(), AT_FDCWD, final_.c_str(), RENAME_EXCHANGE) != 0) {
+      return IoError(final_.string(),
+                     std::string("cannot exchange the finished output for the old one: ") + std::strerror(errno));
+    }
+    committed_ = true;
+    fs::remove_all(partial_, error);  // now the old output
+    return Status::Ok();
+  }
   fs::remove(final_, error);  // empty, if it exists
   fs::rename(partial_, final_, error);
   if (error) return IoError(final_.string(), "cannot move the finished output into place: " + error.message());

@@ -63,5 +63,40 @@ TEST_F(OutputDirectoryTest, NeverReplacesWhatIsThereAndTidiesAKilledRunsPartialD
   EXPECT_TRUE(fs::is_directory(root_ / "rec"));
 }
 
+// A recalibration's output: the old one stays whole until the new one is complete, then the new
+// one stands whole in its place — never a mix of the two, never neither.
+TEST_F(OutputDirectoryTest, AReplacingOutputSwapsInWholeOrLeavesTheOldOneAsItWas) {
+  const fs::path radiometry = root_ / "radiometry";
+  fs::create_directories(radiometry);
+  std::ofstream(radiometry / "cam0.yaml") << "old";
+  std::ofstream(radiometry / "wheel1.yaml") << "old";  // a file the new output does not have
+  {
+    Result<OutputDirectory> failed = OutputDirectory::Replacing(radiometry, "radiometry");
+    ASSERT_TRUE(failed.ok()) << failed.status().ToString();
+    std::ofstream(failed->partial() / "cam0.yaml") << "half";
+  }  // never committed
+  std::ifstream old(radiometry / "cam0.yaml");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(old), {}), "old");
+  EXPECT_TRUE(fs::exists(radiometry / "wheel1.yaml"));
+
+  Result<OutputDirectory> out = OutputDirectory::Replacing(radiometry, "radiometry");
+  ASSERT_TRUE(out.ok()) << out.status().ToString();
+  std::ofstream(out->partial() / "cam0.yaml") << "new";
+  ASSERT_TRUE(out->Commit().ok());
+  std::ifstream replaced(radiometry / "cam0.yaml");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(replaced), {}), "new");
+  EXPECT_FALSE(fs::exists(radiometry / "wheel1.yaml"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(root_), fs::directory_iterator()), 1);  // the old one is gone
+
+  Result<OutputDirectory> fresh = OutputDirectory::Replacing(root_ / "new", "radiometry");  // nothing to replace
+  ASSERT_TRUE(fresh.ok());
+  ASSERT_TRUE(fresh->Commit().ok());
+  EXPECT_TRUE(fs::is_directory(root_ / "new"));
+  std::ofstream(root_ / "file") << "x";
+  const Result<OutputDirectory> over_file = OutputDirectory::Replacing(root_ / "file", "radiometry");
+  ASSERT_FALSE(over_file.ok());
+  EXPECT_NE(over_file.status().ToString().find("radiometry " + (root_ / "file").string()), std::string::npos);
+}
+
 }  // namespace
 }  // namespace loom
