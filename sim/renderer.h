@@ -76,7 +76,7 @@ struct RenderOptions {
   // Polled before each row of a trace or render, if set: once it returns true the rows not yet
   // started are skipped, and the result is incomplete — its caller must discard it. So that a
   // simulated camera under a rig's interrupt handler stops a long frame at SIGTERM or Ctrl-C.
-  std::function<bool()> stop_requested;
+  std::function<bool()> stop_requested = {};
   Status Check() const;  // every problem, naming the field (RenderRadiance throws on one)
 };
 
