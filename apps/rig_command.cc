@@ -10,6 +10,7 @@
 
 #include "apps/command.h"
 #include "apps/rig_loader.h"
+#include "core/file_io.h"
 #include "core/interrupt.h"
 #include "hal/aravis/aravis_backend.h"
 #include "hal/device_status.h"
@@ -67,8 +68,10 @@ int StatusOfAll(Rig& rig) {
 Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
   if (path.ends_with(".png")) {
     const cv::Mat image(frame.height, frame.width, CV_16UC1, const_cast<uint16_t*>(frame.pixels.data()));
-    if (!cv::imwrite(path, image)) return IoError(path, "cannot write PNG");
-    return Status::Ok();
+    // Encoded in memory and written through a temporary file: the PNG appears only whole.
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", image, png)) return IoError(path, "cannot encode PNG");
+    return WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   }
   if (!path.ends_with(".exr")) return InvalidArgumentError("--out " + path, "must end in .exr or .png");
   return scan::WriteFrameExr(frame, path);

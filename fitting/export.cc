@@ -35,12 +35,15 @@ namespace internal {
 uint8_t Unit8(double v) { return static_cast<uint8_t>(std::lround(255 * std::clamp(v, 0.0, 1.0))); }
 
 Status WritePng(const std::filesystem::path& path, const cv::Mat& image) {
+  // Encoded in memory and written through a temporary file, so that every write is checked (on
+  // a full disk imwrite may leave an empty file behind) and the file appears only whole.
+  std::vector<uchar> png;
   try {
-    if (cv::imwrite(path.string(), image)) return Status::Ok();
+    if (!cv::imencode(".png", image, png)) return IoError(path.string(), "cannot encode the PNG");
   } catch (const cv::Exception& e) {
-    return IoError(path.string(), std::string("cannot write: ") + e.what());
+    return IoError(path.string(), std::string("cannot encode the PNG: ") + e.what());
   }
-  return IoError(path.string(), "cannot write the PNG");
+  return WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 }  // namespace internal
