@@ -4,20 +4,22 @@
 #   scripts/sanitizers.sh address   # ASan + UBSan (any report fails the run), in build-address/
 #   scripts/sanitizers.sh ci        # the same over the suites CI can afford (below), in build-address/
 #   scripts/sanitizers.sh thread    # TSan over ParallelFor, the sequencer and camera streams, in build-thread/
-# The address lane runs every test of the modules that never load LibTorch (286 tests: fitting's
+# The address lane runs every test of the modules that never load LibTorch (298 tests: fitting's
 # suites link the CNN, apps' run the loom binary). Here, 2 cores: its build 13.4 min from an
-# empty compiler cache (seconds from a warm one), its tests 7.6 min (the sequencer's drift test
-# alone 4.2 min, 12× its normal time). Not all of it in CI: with the normal build, the fuzzers and
-# the normal suite it would take CI past its 30 minutes on a machine whose cache is empty (a new
-# clone path misses ccache: a clean clone's .ci/run took 18 min 19 s here, 2026-11-26). CI runs the
-# `ci` lane: the suites of core (configs, images, EXR, geometry, ParallelFor), scan (the capture
-# store, its journal and plans), the BRDF model, the simulator (fabrics, renderer, scan
-# emulation), the sim backends of every device, the sequencer's unit tests and the projector,
-# under ASan + UBSan: 184 tests. From an empty cache here (2026-11-27, CCACHE_DISABLE=1): the first
-# three suites 199 s, the other four 190 s more (hal_sim 99, sim 59, acquisition 18, projector
-# 14); seconds from a warm one; their tests about 15 s. Left to the `address` lane: calibration and
-# reconstruction (their OpenCV-heavy build, 269 s more from an empty cache; their tests 25 s) and
-# the suites that need peers.
+# empty compiler cache (seconds from a warm one); its tests 7.9 min on one core beside a training
+# run (2026-11-27: 298/298, 0 reports; the sequencer's drift test alone 90 s, 10x its normal
+# time). README command (2), and so CI, runs the `ci` lane always and the whole `address` lane
+# when the run had reached the `ci` lane's end within 10 minutes, i.e. from a warm compiler
+# cache: from an empty one the whole lane would take CI past its 30 minutes (a clean clone's
+# .ci/run took 18 min 19 s here before any sanitized suite, 2026-11-26). The `ci` lane: the
+# suites of core (configs, images, EXR, geometry, ParallelFor), scan (the capture store, its
+# journal and plans), the BRDF model, the simulator (fabrics, renderer, scan emulation), the sim
+# backends of every device, the sequencer's unit tests and the projector, under ASan + UBSan:
+# 184 tests. From an empty cache here (2026-11-27, CCACHE_DISABLE=1): the first three suites
+# 199 s, the other four 190 s more (hal_sim 99, sim 59, acquisition 18, projector 14); seconds
+# from a warm one; their tests about 15 s. The rest of the address lane: calibration and
+# reconstruction (their OpenCV-heavy build, 269 s more from an empty cache; their tests 25 s)
+# and the suites that need peers.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:-address}
