@@ -4,14 +4,16 @@
 #   scripts/sanitizers.sh address   # ASan + UBSan (any report fails the run), in build-address/
 #   scripts/sanitizers.sh ci        # the same over the suites CI can afford (below), in build-address/
 #   scripts/sanitizers.sh thread    # TSan over ParallelFor, the sequencer and camera streams, in build-thread/
+# A second argument, SECONDS, bounds the build: if it has not finished by then no test runs and
+# the script exits 3 (what is built so far stays for the next run).
 # The address lane runs every test of the modules that never load LibTorch (298 tests: fitting's
 # suites link the CNN, apps' run the loom binary). Here, 2 cores: its build 13.4 min from an
 # empty compiler cache (seconds from a warm one); its tests 7.9 min on one core beside a training
 # run (2026-11-27: 298/298, 0 reports; the sequencer's drift test alone 90 s, 10x its normal
 # time). README command (2), and so CI, runs the `ci` lane always and the whole `address` lane
-# when the run had reached the `ci` lane's end within 10 minutes, i.e. from a warm compiler
-# cache: from an empty one the whole lane would take CI past its 30 minutes (a clean clone's
-# .ci/run took 18 min 19 s here before any sanitized suite, 2026-11-26). The `ci` lane: the
+# when its build finishes by the run's 16th minute (a warm compiler cache): from an empty one the
+# whole lane would take CI past its 30 minutes (a clean clone's .ci/run took 18 min 19 s here
+# before any sanitized suite, 2026-11-26). The `ci` lane: the
 # suites of core (configs, images, EXR, geometry, ParallelFor), scan (the capture store, its
 # journal and plans), the BRDF model, the simulator (fabrics, renderer, scan emulation), the sim
 # backends of every device, the sequencer's unit tests and the projector, under ASan + UBSan:
@@ -23,6 +25,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:-address}
+build_seconds=${2:-0}
 case "$kind" in
   address) flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
            suites=(core_test scan_test scan_full_disk_test sim_test fitting_model_test hal_modbus_test hal_aravis_test
@@ -40,7 +43,18 @@ dir="build-$kind"
 start=$(date +%s)
 cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DLOOM_BUILD_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="-O2 -fno-omit-frame-pointer $flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" > /dev/null
-cmake --build "$dir" -j "$(nproc)" --target "${suites[@]}" "${peers[@]}"
+build=(cmake --build "$dir" -j "$(nproc)" --target "${suites[@]}" "${peers[@]}")
+if (( build_seconds > 0 )); then
+  code=0
+  timeout "$build_seconds" "${build[@]}" || code=$?
+  if (( code == 124 )); then
+    echo "$kind build not finished within $build_seconds s: its tests not run"
+    exit 3
+  fi
+  (( code == 0 )) || exit "$code"
+else
+  "${build[@]}"
+fi
 echo "$kind build finished after $(( $(date +%s) - start )) s"
 # umockdev's preload library comes before ASan's runtime in the wrapped tests: let it.
 export ASAN_OPTIONS=detect_leaks=1:verify_asan_link_order=0 UBSAN_OPTIONS=print_stacktrace=1 TSAN_OPTIONS=halt_on_error=1
