@@ -14,8 +14,7 @@ echo "fuzzing finished after $(( $(date +%s) - start )) s"
 # The suites of core, scan, the BRDF model, the simulator, the sim devices, the sequencer and the
 # projector under ASan + UBSan (any report fails the run).
 bash scripts/sanitizers.sh ci
-elapsed=$(( $(date +%s) - start ))
-echo "sanitized suites finished after $elapsed s"
+echo "sanitized suites finished after $(( $(date +%s) - start )) s"
 # Every other test that does not load LibTorch (peers, calibration, reconstruction) under ASan +
 # UBSan too, if its build finishes by the run's 16th minute: its tests take about 8 min and the
 # normal suite's about 5, so the run stays within CI's 30 minutes. From a warm compiler cache it
