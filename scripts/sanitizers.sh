@@ -17,8 +17,8 @@
 # 16.5 min from a warm main build (2026-11-27: the lane's build 355 s, its 299 tests 231 s on 2
 # cores, the normal 471 tests 239 s). The `ci` lane: the suites of core (configs, images, EXR,
 # geometry, ParallelFor), scan (the capture store, its journal and plans), the BRDF model, the
-# simulator (fabrics, renderer, scan emulation), the sim backends of every device, the sequencer's unit tests and the projector, under ASan + UBSan:
-# 184 tests. From an empty cache here (2026-11-27, CCACHE_DISABLE=1): the first three suites
+# simulator (fabrics, renderer, scan emulation), the sim backends of every device, the
+# sequencer's unit tests and the projector, under ASan + UBSan: 184 tests. From an empty cache here (2026-11-27, CCACHE_DISABLE=1): the first three suites
 # 199 s, the other four 190 s more (hal_sim 99, sim 59, acquisition 18, projector 14); seconds
 # from a warm one; their tests about 15 s. The rest of the address lane: calibration and
 # reconstruction (their OpenCV-heavy build, 269 s more from an empty cache; their tests 25 s)
