@@ -234,6 +234,10 @@ int RunTrain(int argc, char** argv) {
                  "Weight of the anisotropy angle's (cos 2α, sin 2α) channels in the label loss (the paper's: 1; the "
                  "validation and test losses keep it)")
       ->check(CLI::PositiveNumber);
+  app.add_option("--normal-lobe-reference", t.normal_lobe_reference,
+                 "Lobe width (rad) below which the shading normal's label error weighs more, by (width / σ_min)² up to "
+                 "100 (0: the paper's weight; fitting/cnn_training.h)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
       ->check(CLI::Range(1, 100000));
   app.add_option("--resident-materials", t.resident_materials,

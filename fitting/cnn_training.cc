@@ -12,6 +12,7 @@
 #include "core/file_io.h"
 #include "core/parallel.h"
 #include "fitting/internal/cnn_net.h"
+#include "fitting/internal/label_loss.h"
 #include "fitting/internal/rerender_loss.h"
 #include "fitting/model/label.h"
 #include "fitting/stack_pixels.h"
@@ -25,7 +26,6 @@ const std::array<const char*, 14> kLabelChannelNames = {"a_d.R",    "a_d.G",    
 namespace {
 
 namespace fs = std::filesystem;
-namespace F = torch::nn::functional;
 using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -33,22 +33,6 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kLastCheckpoint = "last";
 constexpr const char* kNextCheckpoint = "next";
 constexpr const char* kBestModel = "best";
-
-// The paper's weights of the label channels, the anisotropy angle's times `alpha_weight`.
-torch::Tensor LabelWeights(double alpha_weight = 1) {
-  std::array<float, kLabelSize> w;
-  w.fill(1);
-  for (int c = 0; c < 3; ++c) w[c] = 20, w[3 + c] = 10;  // the paper's w(a_d), w(a_s)
-  w[11] = w[12] = static_cast<float>(alpha_weight);      // cos 2α, sin 2α
-  return torch::from_blob(w.data(), {1, kLabelSize, 1, 1}, torch::kFloat32).clone();
-}
-
-// Per-channel weighted Huber (δ = 1), summed over valid pixels (N × 1 × H × W of 0/1).
-torch::Tensor HuberSum(const torch::Tensor& predicted, const torch::Tensor& target, const torch::Tensor& valid,
-                       const torch::Tensor& weights = LabelWeights()) {
-  const torch::Tensor loss = F::huber_loss(predicted, target, F::HuberLossFuncOptions().reduction(torch::kNone).delta(1.0));
-  return (loss * weights.to(predicted.device()) * valid).sum();
-}
 
 // A copy of `cnn` with its weights on the CPU.
 Result<Cnn> CpuCopy(const Cnn& cnn) {
@@ -305,6 +289,7 @@ nlohmann::json CnnTrainingOptions::ToJson() const {
           {"radiance_noise", radiance_noise},
           {"rerender_weight", rerender_weight},
           {"alpha_weight", alpha_weight},
+          {"normal_lobe_reference", normal_lobe_reference},
           {"rerender_pixels", rerender_pixels},
           {"rerender_strip_samples", rerender_strip_samples},
           {"rerender_huber", rerender_huber},
@@ -324,6 +309,9 @@ Status CnnTrainingOptions::Check() const {
   if (!(radiance_noise >= 0)) problems.push_back("radiance_noise must be ≥ 0");
   if (!(rerender_weight >= 0)) problems.push_back("rerender_weight must be ≥ 0");
   if (!(alpha_weight > 0) || !std::isfinite(alpha_weight)) problems.push_back("alpha_weight must be finite and > 0");
+  if (!(normal_lobe_reference >= 0) || !std::isfinite(normal_lobe_reference)) {
+    problems.push_back("normal_lobe_reference must be finite and ≥ 0");
+  }
   if (rerender_pixels < 1) problems.push_back("rerender_pixels must be ≥ 1");
   if (rerender_strip_samples < 0) problems.push_back("rerender_strip_samples must be ≥ 0");
   if (!(rerender_huber > 0)) problems.push_back("rerender_huber must be > 0");
@@ -350,7 +338,7 @@ Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& example
     if (!predicted.ok()) return predicted.status();
     c10::InferenceMode inference;
     const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
-    loss_sum += HuberSum(p, t, valid).item<double>();
+    loss_sum += internal::HuberSum(p, t, valid, internal::LabelChannelWeights()).item<double>();
     const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
     for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
     score.pixels += static_cast<int64_t>(valid.sum().item<double>());
@@ -441,7 +429,7 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
     if (steps == 0) steps = std::max(1, static_cast<int>(std::ceil(valid_pixels / tile_samples)));
   }
   internal::CnnNet& net = cnn.net().net;
-  const torch::Tensor label_weights = LabelWeights(options.alpha_weight).to(device);
+  const torch::Tensor channel_weights = internal::LabelChannelWeights(options.alpha_weight).to(device);
   for (int epoch = static_cast<int>(history.size()); epoch < options.epochs; ++epoch) {
     const Clock::time_point start = Clock::now();
     CnnEpoch record;
@@ -473,7 +461,9 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
         const torch::Tensor input =
             options.radiance_noise > 0 ? NoisyRadiance(batch.input, options.radiance_noise, noise) : batch.input;
         const torch::Tensor predicted = net->ForwardDense(input);
-        torch::Tensor loss = HuberSum(predicted, batch.labels, batch.valid, label_weights) / (count * kLabelSize);
+        const torch::Tensor label_weights =
+            internal::NormalLobeWeights(channel_weights, batch.labels, options.normal_lobe_reference);
+        torch::Tensor loss = internal::HuberSum(predicted, batch.labels, batch.valid, label_weights) / (count * kLabelSize);
         if (options.rerender_weight > 0) {
           if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
             loss = loss + options.rerender_weight * rerender;

@@ -79,6 +79,11 @@ struct CnnTrainingOptions {
   // for every channel but the albedos (a_d 20, a_s 10). The validation and test losses keep the
   // paper's weights, so that runs with different weights compare.
   double alpha_weight = 1;
+  // > 0: the shading normal's channels in the training's label loss weighted by
+  // (normal_lobe_reference / σ_min)², between 1 and 100, σ_min the narrower of the pixel's true
+  // lobe widths (internal/label_loss.h): an error in n_s costs as much as it is wide against
+  // the lobe. 0: the paper's weight. The validation and test losses keep the paper's weights.
+  double normal_lobe_reference = 0;
   int rerender_pixels = 16;
   int rerender_strip_samples = 8;
   double rerender_huber = 0.1;

@@ -176,6 +176,26 @@ TEST(CnnTrainingTest, TheAlphaWeightWeighsTheAnglesChannelsInTheTrainingLoss) {
   }
 }
 
+TEST(CnnTrainingTest, TheNormalLobeReferenceWeighsTheNormalsInTheTrainingLossButNotInValidation) {
+  const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
+  CnnTrainingOptions options = FastOptions();
+  options.epochs = 1;
+  options.learning_rate_start = options.learning_rate_end = 1e-12;
+  Cnn paper = SmallCnn(), weighted = SmallCnn();
+  const Result<std::vector<CnnEpoch>> paper_history = TrainCnn(paper, train, validation, options);
+  options.normal_lobe_reference = 10;  // wider than any lobe: every normal weighs more
+  EXPECT_EQ(options.ToJson().at("normal_lobe_reference"), 10);
+  const Result<std::vector<CnnEpoch>> weighted_history = TrainCnn(weighted, train, validation, options);
+  ASSERT_TRUE(paper_history.ok() && weighted_history.ok());
+  EXPECT_GT(weighted_history->front().train_loss, paper_history->front().train_loss);
+  EXPECT_NEAR(weighted_history->front().validation_loss, paper_history->front().validation_loss, 1e-6);
+
+  for (const double bad : {-1.0, std::nan(""), HUGE_VAL}) {
+    options.normal_lobe_reference = bad;
+    EXPECT_NE(options.Check().ToString().find("normal_lobe_reference"), std::string::npos) << bad;
+  }
+}
+
 // A simulated tac7-mini fabric as a training example, with its stack for the re-rendering loss.
 CnnExample SimulatedExample(uint64_t seed, CnnModelInfo& info) {
   const sim::Material fabric = sim::GenerateFabric(seed, {.width_px = 12, .height_px = 12, .pixel_mm = 0.2});

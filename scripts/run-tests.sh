@@ -4,6 +4,20 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$(date +%s)
+# The build folders take about 6.5 GB (build/ 3.4, build-address/ 2.7, build-fuzz/ 0.2) and the
+# compiler writes its temporaries to TMPDIR: say so now rather than as a compiler's "No space
+# left on device" minutes into the build (a CI run failed so, 2026-11-27).
+need_free_gib() {  # FOLDER GIB
+  local free_kib
+  free_kib=$(df -Pk "$1" | awk 'NR == 2 {print $4}')
+  if (( free_kib < $2 * 1024 * 1024 )); then
+    echo "error: $(( free_kib / 1024 )) MiB free in $1 ($(df -P "$1" | awk 'NR == 2 {print $6}')), the build and" \
+      "tests need $2 GiB: free some space there" >&2
+    exit 1
+  fi
+}
+need_free_gib . 7
+need_free_gib "${TMPDIR:-/tmp}" 1
 bash scripts/install-deps.sh
 bash scripts/build.sh
 echo "build finished after $(( $(date +%s) - start )) s"

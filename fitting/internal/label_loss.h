@@ -1,0 +1,29 @@
+#pragma once
+// The CNN's label loss (Merzbach et al. 2019, §"Loss"): a Huber distance per label channel
+// (fitting/model/label.h), weighted per channel as the paper weighs them, and optionally per
+// pixel for the shading normal by how narrow the true lobe is. Included by cnn_training.cc and
+// its test only (ATen, not all of torch).
+
+#include <ATen/ATen.h>
+
+namespace loom::fitting::internal {
+
+// The paper's weights of the 14 label channels (a_d 20, a_s 10, every other 1), the anisotropy
+// angle's (cos 2α, sin 2α) times `alpha_weight`: 1 × 14 × 1 × 1.
+at::Tensor LabelChannelWeights(double alpha_weight = 1);
+
+// `channel_weights` with the shading normal's channels (n_s, 6..8) of each pixel multiplied by
+// (reference / σ_min)², clamped to [1, kMaxNormalLobeWeight], σ_min the narrower of the pixel's
+// true lobe widths (decoded from `labels`' σx', σy'; N × 14 × H × W). A normal's error moves the
+// highlight by that angle, which costs the re-rendering as much as it is wide against the lobe:
+// on the glossiest fabrics the CNN's normals err by a lobe width (configs/models/tac7-mini/
+// README.md). Lobes wider than `reference` keep the paper's weight; `reference` 0 returns
+// `channel_weights` as they are.
+inline constexpr double kMaxNormalLobeWeight = 100;  // so that the narrowest pixels cannot drown the batch
+at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor& labels, double reference);
+
+// The weighted Huber (δ = 1) of `predicted` against `target` (N × 14 × H × W), summed over the
+// valid pixels (`valid`: N × 1 × H × W of 0/1). `weights` broadcast against the labels.
+at::Tensor HuberSum(const at::Tensor& predicted, const at::Tensor& target, const at::Tensor& valid, const at::Tensor& weights);
+
+}  // namespace loom::fitting::internal
