@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <random>
+#include <utility>
 
 #include "fitting/model/label.h"
 #include "fitting/testing/tac7_mini.h"
@@ -154,42 +156,49 @@ TEST(CnnTrainingTest, TrainingFeedsTheNetworkNoisyRadianceWhenAsked) {
   EXPECT_NE(exact_history->front().train_loss, noisy_history->front().train_loss);
 }
 
-// The anisotropy angle's weight: the same run with the angle's channels weighed 10× trains on a
-// larger loss (its tiles, weights and dropout the same, and a learning rate so small that the
-// network stays as it was: the losses differ by their weights alone); it is recorded, and checked.
-TEST(CnnTrainingTest, TheAlphaWeightWeighsTheAnglesChannelsInTheTrainingLoss) {
+// The first epoch of one run without and with `weigh` applied to its options: its tiles, weights
+// and dropout the same, and a learning rate so small that the network stays as it was, so that
+// the losses differ by the loss's weights alone.
+std::pair<CnnEpoch, CnnEpoch> FirstEpochWithoutAndWith(const std::function<void(CnnTrainingOptions&)>& weigh) {
   const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
   CnnTrainingOptions options = FastOptions();
   options.epochs = 1;
   options.learning_rate_start = options.learning_rate_end = 1e-12;
-  Cnn paper = SmallCnn(), heavier = SmallCnn();
-  const Result<std::vector<CnnEpoch>> paper_history = TrainCnn(paper, train, validation, options);
+  Cnn without = SmallCnn(), with = SmallCnn();
+  const Result<std::vector<CnnEpoch>> without_history = TrainCnn(without, train, validation, options);
+  weigh(options);
+  const Result<std::vector<CnnEpoch>> with_history = TrainCnn(with, train, validation, options);
+  if (!without_history.ok() || !with_history.ok()) {
+    ADD_FAILURE() << without_history.status().ToString() << " / " << with_history.status().ToString();
+    return {};
+  }
+  return {without_history->front(), with_history->front()};
+}
+
+// The anisotropy angle's channels weighed 10×: a larger training loss; recorded, and checked.
+TEST(CnnTrainingTest, TheAlphaWeightWeighsTheAnglesChannelsInTheTrainingLoss) {
+  const auto [paper, heavier] = FirstEpochWithoutAndWith([](CnnTrainingOptions& o) { o.alpha_weight = 10; });
+  EXPECT_GT(heavier.train_loss, paper.train_loss);
+
+  CnnTrainingOptions options;
   options.alpha_weight = 10;
   EXPECT_EQ(options.ToJson().at("alpha_weight"), 10);
-  const Result<std::vector<CnnEpoch>> heavier_history = TrainCnn(heavier, train, validation, options);
-  ASSERT_TRUE(paper_history.ok() && heavier_history.ok());
-  EXPECT_GT(heavier_history->front().train_loss, paper_history->front().train_loss);
-
   for (const double bad : {0.0, -1.0, std::nan("")}) {
     options.alpha_weight = bad;
     EXPECT_NE(options.Check().ToString().find("alpha_weight"), std::string::npos) << bad;
   }
 }
 
+// Every normal weighed more (a reference wider than any lobe): a larger training loss, the
+// validation loss (the paper's weights) the same; recorded, and checked.
 TEST(CnnTrainingTest, TheNormalLobeReferenceWeighsTheNormalsInTheTrainingLossButNotInValidation) {
-  const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
-  CnnTrainingOptions options = FastOptions();
-  options.epochs = 1;
-  options.learning_rate_start = options.learning_rate_end = 1e-12;
-  Cnn paper = SmallCnn(), weighted = SmallCnn();
-  const Result<std::vector<CnnEpoch>> paper_history = TrainCnn(paper, train, validation, options);
-  options.normal_lobe_reference = 10;  // wider than any lobe: every normal weighs more
-  EXPECT_EQ(options.ToJson().at("normal_lobe_reference"), 10);
-  const Result<std::vector<CnnEpoch>> weighted_history = TrainCnn(weighted, train, validation, options);
-  ASSERT_TRUE(paper_history.ok() && weighted_history.ok());
-  EXPECT_GT(weighted_history->front().train_loss, paper_history->front().train_loss);
-  EXPECT_NEAR(weighted_history->front().validation_loss, paper_history->front().validation_loss, 1e-6);
+  const auto [paper, weighted] = FirstEpochWithoutAndWith([](CnnTrainingOptions& o) { o.normal_lobe_reference = 10; });
+  EXPECT_GT(weighted.train_loss, paper.train_loss);
+  EXPECT_NEAR(weighted.validation_loss, paper.validation_loss, 1e-6);
 
+  CnnTrainingOptions options;
+  options.normal_lobe_reference = 10;
+  EXPECT_EQ(options.ToJson().at("normal_lobe_reference"), 10);
   for (const double bad : {-1.0, std::nan(""), HUGE_VAL}) {
     options.normal_lobe_reference = bad;
     EXPECT_NE(options.Check().ToString().find("normal_lobe_reference"), std::string::npos) << bad;
