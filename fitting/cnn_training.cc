@@ -333,12 +333,13 @@ Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& example
   CnnScore score;
   double loss_sum = 0;
   std::array<double, 14> squares{};
+  const torch::Tensor paper_weights = internal::LabelChannelWeights();
   for (const CnnExample& e : examples) {
     Result<CnnTensor> predicted = cnn.PredictDense(e.input, kDenseTile, threads);
     if (!predicted.ok()) return predicted.status();
     c10::InferenceMode inference;
     const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
-    loss_sum += internal::HuberSum(p, t, valid, internal::LabelChannelWeights()).item<double>();
+    loss_sum += internal::HuberSum(p, t, valid, paper_weights).item<double>();
     const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
     for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
     score.pixels += static_cast<int64_t>(valid.sum().item<double>());

@@ -13,6 +13,10 @@ constexpr int kSigmaChannel = 9;   // σx', σy': 9, 10
 
 }  // namespace
 
+at::Tensor DecodeSigma(const at::Tensor& encoded) {
+  return at::clamp_min(0.01 * (at::pow(101.0, at::clamp_min(encoded, 0.0)) - 1.0), kSigmaFloor);
+}
+
 at::Tensor LabelChannelWeights(double alpha_weight) {
   std::array<float, kLabelSize> w;
   w.fill(1);
@@ -23,11 +27,9 @@ at::Tensor LabelChannelWeights(double alpha_weight) {
 
 at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor& labels, double reference) {
   if (reference <= 0) return channel_weights;
-  // σ = 0.01 (101^σ' − 1), DecodeSigma in torch ops; the narrower of the two widths.
-  const at::Tensor encoded = std::get<0>(labels.narrow(1, kSigmaChannel, 2).min(1, /*keepdim=*/true));
-  const at::Tensor sigma = 0.01 * (at::pow(101.0, encoded) - 1);
-  const at::Tensor normal_weight =
-      at::clamp(at::pow(reference / at::clamp_min(sigma, kSigmaFloor), 2), 1.0, kMaxNormalLobeWeight);  // N × 1 × H × W
+  // The narrower of the two widths (σ' grows with σ).
+  const at::Tensor sigma = DecodeSigma(std::get<0>(labels.narrow(1, kSigmaChannel, 2).min(1, /*keepdim=*/true)));
+  const at::Tensor normal_weight = at::clamp(at::pow(reference / sigma, 2), 1.0, kMaxNormalLobeWeight);  // N × 1 × H × W
   at::Tensor is_normal = at::zeros({1, kLabelSize, 1, 1}, labels.options());
   is_normal.narrow(1, kNormalChannel, 3).fill_(1);
   return channel_weights.to(labels.device()) * (1 + is_normal * (normal_weight - 1));

@@ -1,12 +1,16 @@
 #pragma once
 // The CNN's label loss (Merzbach et al. 2019, §"Loss"): a Huber distance per label channel
 // (fitting/model/label.h), weighted per channel as the paper weighs them, and optionally per
-// pixel for the shading normal by how narrow the true lobe is. Included by cnn_training.cc and
-// its test only (ATen, not all of torch).
+// pixel for the shading normal by how narrow the true lobe is; and the label's σ decoded in torch
+// ops, which the re-rendering loss renders with. Included by cnn_training.cc, rerender_loss.cc
+// and their tests only (ATen, not all of torch).
 
 #include <ATen/ATen.h>
 
 namespace loom::fitting::internal {
+
+// σ from its label encoding (label.h's DecodeSigma): 0.01 (101^σ' − 1), σ' ≥ 0, σ ≥ kSigmaFloor.
+at::Tensor DecodeSigma(const at::Tensor& encoded);
 
 // The paper's weights of the 14 label channels (a_d 20, a_s 10, every other 1), the anisotropy
 // angle's (cos 2α, sin 2α) times `alpha_weight`: 1 × 14 × 1 × 1.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "fitting/internal/label_loss.h"
 #include "fitting/model/ward_gd10.h"
 #include "fitting/strip_quadrature.h"
 
@@ -32,11 +33,6 @@ at::Tensor Indices(const std::vector<int64_t>& values) {
 at::Tensor Dot(const at::Tensor& a, const at::Tensor& b) { return (a * b).sum(1); }
 
 at::Tensor Normalized(const at::Tensor& a) { return a / a.norm(2, 1, true); }
-
-// σ from its label encoding (label.h): 0.01 (101^σ' − 1), σ' ≥ 0, σ ≥ kSigmaFloor.
-at::Tensor DecodeSigma(const at::Tensor& encoded) {
-  return at::clamp_min(0.01 * (at::pow(101.0, at::clamp_min(encoded, 0.0)) - 1.0), kSigmaFloor);
-}
 
 }  // namespace
 
