@@ -240,6 +240,10 @@ int RunTrain(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
       ->check(CLI::Range(1, 100000));
+  app.add_option("--rerender-lobe-reference", t.rerender_lobe_reference,
+                 "Lobe width (rad) below which the re-rendering loss draws a pixel more often, by (width / σ_min)² up "
+                 "to 100 (0: uniformly; fitting/cnn_training.h)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--resident-materials", t.resident_materials,
                  "Training materials in memory at once (0: all); fewer stream the dataset from --data, "
                  "a window at a time (needs --steps-per-epoch)")

@@ -126,20 +126,22 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
   return {torch::cat(inputs), torch::cat(labels), torch::cat(valid), std::move(origins)};
 }
 
-// The re-rendering loss of a batch's predictions (N × 14 × T × T) at `per_tile` random valid
-// pixels of each tile; nothing (an undefined tensor) when no tile has one.
+// The re-rendering loss of a batch's predictions (N × 14 × T × T) at `rerender_pixels` valid pixels of
+// each tile, drawn uniformly or as narrow as their true lobes are (rerender_lobe_reference);
+// nothing (an undefined tensor) when no tile has one.
 torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predicted, const CnnTrainingOptions& options,
                                 std::mt19937_64& rng) {
   std::vector<std::vector<PixelObservation>> observations;
   std::vector<int64_t> pixels;  // flat indices into the batch's N × T × T output pixels
   const int tile = static_cast<int>(predicted.size(2));
-  const torch::Tensor valid_tiles = batch.valid.to(torch::kCPU);  // one copy, not one per pixel from a GPU
+  // On the CPU in one copy, not one per pixel from a GPU.
+  torch::Tensor draw_weights = batch.valid.to(torch::kCPU);
+  if (options.rerender_lobe_reference > 0) {
+    draw_weights = draw_weights * internal::LobeNarrowness(batch.labels.to(torch::kCPU), options.rerender_lobe_reference);
+  }
   for (size_t b = 0; b < batch.origins.size(); ++b) {
     const TileOrigin& origin = batch.origins[b];
-    const torch::Tensor valid = valid_tiles[static_cast<int64_t>(b)][0].flatten().nonzero().flatten();
-    if (valid.numel() == 0) continue;
-    for (int k = 0; k < options.rerender_pixels; ++k) {
-      const int64_t at = valid[std::uniform_int_distribution<int64_t>(0, valid.numel() - 1)(rng)].item<int64_t>();
+    for (const int64_t at : internal::DrawPixels(draw_weights[static_cast<int64_t>(b)][0], options.rerender_pixels, rng)) {
       const int dy = static_cast<int>(at / tile), dx = static_cast<int>(at % tile);
       observations.push_back(origin.material->pixels->Observations(origin.x + dx, origin.y + dy));
       pixels.push_back(static_cast<int64_t>(b) * tile * tile + at);
@@ -291,6 +293,7 @@ nlohmann::json CnnTrainingOptions::ToJson() const {
           {"alpha_weight", alpha_weight},
           {"normal_lobe_reference", normal_lobe_reference},
           {"rerender_pixels", rerender_pixels},
+          {"rerender_lobe_reference", rerender_lobe_reference},
           {"rerender_strip_samples", rerender_strip_samples},
           {"rerender_huber", rerender_huber},
           {"resident_materials", resident_materials},
@@ -313,6 +316,9 @@ Status CnnTrainingOptions::Check() const {
     problems.push_back("normal_lobe_reference must be finite and ≥ 0");
   }
   if (rerender_pixels < 1) problems.push_back("rerender_pixels must be ≥ 1");
+  if (!(rerender_lobe_reference >= 0) || !std::isfinite(rerender_lobe_reference)) {
+    problems.push_back("rerender_lobe_reference must be finite and ≥ 0");
+  }
   if (rerender_strip_samples < 0) problems.push_back("rerender_strip_samples must be ≥ 0");
   if (!(rerender_huber > 0)) problems.push_back("rerender_huber must be > 0");
   if (resident_materials < 0) problems.push_back("resident_materials must be ≥ 0");

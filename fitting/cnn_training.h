@@ -85,6 +85,11 @@ struct CnnTrainingOptions {
   // the lobe. 0: the paper's weight. The validation and test losses keep the paper's weights.
   double normal_lobe_reference = 0;
   int rerender_pixels = 16;
+  // > 0: the re-rendering loss's pixels drawn with probability ∝ (rerender_lobe_reference /
+  // σ_min)², between 1 and 100 (the normal's lobe weight above), instead of uniformly among a
+  // tile's valid pixels: the glossy pixels, whose normals the CNN misses by a lobe width, are
+  // rendered more often. 0: uniformly.
+  double rerender_lobe_reference = 0;
   int rerender_strip_samples = 8;
   double rerender_huber = 0.1;
   // Training materials in memory at once (0: all, loaded once). Fewer: each epoch goes through

@@ -256,6 +256,37 @@ TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) 
   EXPECT_NE(refused.status().ToString().find("fabric 4"), std::string::npos) << refused.status().ToString();
 }
 
+// The re-rendered pixels drawn by their lobe widths: the same first epoch renders other pixels (a
+// learning rate so small that only the pixels can tell the runs apart); recorded, and checked.
+TEST(CnnTrainingTest, TheRerenderLobeReferenceDrawsOtherPixelsToRender) {
+  CnnModelInfo info;
+  const std::vector<CnnExample> train = {SimulatedExample(3, info), SimulatedExample(4, info)};
+  const std::vector<CnnExample> validation = {SimulatedExample(5, info)};
+  CnnTrainingOptions options = FastOptions();
+  options.tile = 6;
+  options.epochs = 1;
+  options.rerender_pixels = 4;
+  options.rerender_weight = 1;
+  options.learning_rate_start = options.learning_rate_end = 1e-12;
+  std::vector<double> rerender_loss;
+  // 0.3 rad: wider than some of these fabrics' lobes and narrower than others.
+  for (const double reference : {0.0, 0.3}) {
+    Result<Cnn> cnn = Cnn::Create(info, 3);
+    ASSERT_TRUE(cnn.ok());
+    options.rerender_lobe_reference = reference;
+    const Result<std::vector<CnnEpoch>> history = TrainCnn(*cnn, train, validation, options);
+    ASSERT_TRUE(history.ok()) << history.status().ToString();
+    rerender_loss.push_back(history->front().train_rerender_loss);
+  }
+  EXPECT_NE(rerender_loss[0], rerender_loss[1]);
+
+  EXPECT_EQ(options.ToJson().at("rerender_lobe_reference"), 0.3);
+  for (const double bad : {-1.0, std::nan(""), HUGE_VAL}) {
+    options.rerender_lobe_reference = bad;
+    EXPECT_NE(options.Check().ToString().find("rerender_lobe_reference"), std::string::npos) << bad;
+  }
+}
+
 TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
   const std::vector<CnnExample> train = {Example(1), Example(2)}, validation = {Example(3)};
   CnnTrainingOptions options = FastOptions();

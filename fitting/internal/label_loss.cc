@@ -25,11 +25,15 @@ at::Tensor LabelChannelWeights(double alpha_weight) {
   return at::from_blob(w.data(), {1, kLabelSize, 1, 1}, at::kFloat).clone();
 }
 
-at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor& labels, double reference) {
-  if (reference <= 0) return channel_weights;
+at::Tensor LobeNarrowness(const at::Tensor& labels, double reference) {
   // The narrower of the two widths (σ' grows with σ).
   const at::Tensor sigma = DecodeSigma(std::get<0>(labels.narrow(1, kSigmaChannel, 2).min(1, /*keepdim=*/true)));
-  const at::Tensor normal_weight = at::clamp(at::pow(reference / sigma, 2), 1.0, kMaxNormalLobeWeight);  // N × 1 × H × W
+  return at::clamp(at::pow(reference / sigma, 2), 1.0, kMaxNormalLobeWeight);
+}
+
+at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor& labels, double reference) {
+  if (reference <= 0) return channel_weights;
+  const at::Tensor normal_weight = LobeNarrowness(labels, reference);  // N × 1 × H × W
   at::Tensor is_normal = at::zeros({1, kLabelSize, 1, 1}, labels.options());
   is_normal.narrow(1, kNormalChannel, 3).fill_(1);
   return channel_weights.to(labels.device()) * (1 + is_normal * (normal_weight - 1));

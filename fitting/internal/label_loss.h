@@ -16,14 +16,17 @@ at::Tensor DecodeSigma(const at::Tensor& encoded);
 // angle's (cos 2α, sin 2α) times `alpha_weight`: 1 × 14 × 1 × 1.
 at::Tensor LabelChannelWeights(double alpha_weight = 1);
 
-// `channel_weights` with the shading normal's channels (n_s, 6..8) of each pixel multiplied by
-// (reference / σ_min)², clamped to [1, kMaxNormalLobeWeight], σ_min the narrower of the pixel's
-// true lobe widths (decoded from `labels`' σx', σy'; N × 14 × H × W). A normal's error moves the
-// highlight by that angle, which costs the re-rendering as much as it is wide against the lobe:
-// on the glossiest fabrics the CNN's normals err by a lobe width (configs/models/tac7-mini/
-// README.md). Lobes wider than `reference` keep the paper's weight; `reference` 0 returns
-// `channel_weights` as they are.
+// How narrow each pixel's true lobe is against `reference` (rad): (reference / σ_min)², clamped
+// to [1, kMaxNormalLobeWeight], σ_min the narrower of the pixel's lobe widths (decoded from
+// `labels`' σx', σy'; N × 14 × H × W): N × 1 × H × W. A normal's error moves the highlight by
+// that angle, which costs the re-rendering as much as it is wide against the lobe: on the
+// glossiest fabrics the CNN's normals err by a lobe width (configs/models/tac7-mini/README.md).
 inline constexpr double kMaxNormalLobeWeight = 100;  // so that the narrowest pixels cannot drown the batch
+at::Tensor LobeNarrowness(const at::Tensor& labels, double reference);
+
+// `channel_weights` with the shading normal's channels (n_s, 6..8) of each pixel multiplied by
+// its LobeNarrowness: lobes wider than `reference` keep the paper's weight; `reference` 0
+// returns `channel_weights` as they are.
 at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor& labels, double reference);
 
 // The weighted Huber (δ = 1) of `predicted` against `target` (N × 14 × H × W), summed over the

@@ -36,6 +36,16 @@ at::Tensor Normalized(const at::Tensor& a) { return a / a.norm(2, 1, true); }
 
 }  // namespace
 
+std::vector<int64_t> DrawPixels(const at::Tensor& weights, int count, std::mt19937_64& rng) {
+  const at::Tensor w = weights.to(at::kCPU, at::kDouble).contiguous().flatten();
+  if (w.numel() == 0 || !(w.sum().item<double>() > 0)) return {};
+  const double* begin = w.data_ptr<double>();
+  std::discrete_distribution<int64_t> pick(begin, begin + w.numel());
+  std::vector<int64_t> drawn(static_cast<size_t>(count));
+  for (int64_t& pixel : drawn) pixel = pick(rng);
+  return drawn;
+}
+
 RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights) {
   std::vector<double> l, irradiance, v, weights, radiance, inverse_scale;
   std::vector<int64_t> sample_observation, observation_pixel;

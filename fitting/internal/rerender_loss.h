@@ -10,6 +10,7 @@
 // dropped beyond exponent 60 as the fitters drop it. Computed in float.
 
 #include <cstdint>
+#include <random>
 #include <vector>
 
 #include <ATen/ATen.h>
@@ -32,6 +33,11 @@ struct RerenderBatch {
   // The same batch on `device` (where the labels it renders are: a GPU's training renders there).
   RerenderBatch To(const at::Device& device) const;
 };
+
+// `count` flat indices into a tile's pixels, drawn with replacement with probability ∝ `weights`
+// (the tile's H × W, ≥ 0, 0 where a pixel is not valid): the pixels the re-rendering loss
+// renders. None when every weight is 0.
+std::vector<int64_t> DrawPixels(const at::Tensor& weights, int count, std::mt19937_64& rng);
 
 // Each pixel's usable observations (finite radiance, a light, camera and light above the
 // geometric horizon), a strip's emitters merged into at most `max_lights` samples (0: all;

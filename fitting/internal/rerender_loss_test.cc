@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <random>
 
 #include "fitting/batch_refiner.h"
@@ -100,6 +102,22 @@ TEST(RerenderLossTest, IsZeroAtTheTruthAndItsGradientPointsBackToIt) {
   EXPECT_GT(gradient.narrow(1, 0, 3).sum().item<double>(), 0);
   const at::Tensor stepped = (labels - 1e-3 * gradient / gradient.norm()).detach();
   EXPECT_LT(RerenderLoss(stepped, batch, 0.1).item<double>(), loss.item<double>());
+}
+
+// A 4 × 4 tile: one pixel weighed 100, one not valid (0), the rest 1. 4,000 draws land on the
+// heavy one 100/114 of the time (the share's own spread is 0.005), never on the invalid one.
+TEST(RerenderLossTest, DrawsPixelsInProportionToTheirWeightsAndNeverAnInvalidOne) {
+  at::Tensor weights = at::ones({4, 4}, at::kFloat);
+  weights[1][2] = 100;
+  weights[3][0] = 0;
+  std::mt19937_64 rng(5);
+  const std::vector<int64_t> drawn = DrawPixels(weights, 4000, rng);
+  ASSERT_EQ(drawn.size(), 4000u);
+  const auto heavy = std::count(drawn.begin(), drawn.end(), 1 * 4 + 2);
+  EXPECT_NEAR(static_cast<double>(heavy) / drawn.size(), 100.0 / 114, 0.02);
+  EXPECT_EQ(std::count(drawn.begin(), drawn.end(), 3 * 4 + 0), 0);
+  EXPECT_TRUE(std::all_of(drawn.begin(), drawn.end(), [](int64_t p) { return p >= 0 && p < 16; }));
+  EXPECT_TRUE(DrawPixels(at::zeros({4, 4}, at::kFloat), 8, rng).empty());
 }
 
 }  // namespace
