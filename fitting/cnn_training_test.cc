@@ -221,14 +221,26 @@ CnnExample SimulatedExample(uint64_t seed, CnnModelInfo& info) {
           std::move(stack)};
 }
 
-TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) {
+// Two simulated training fabrics and a validation one, and options whose tiles fit them.
+struct SimulatedSplit {
   CnnModelInfo info;
-  const std::vector<CnnExample> train = {SimulatedExample(3, info), SimulatedExample(4, info)};
-  const std::vector<CnnExample> validation = {SimulatedExample(5, info)};
-  CnnTrainingOptions options = FastOptions();
-  options.tile = 6;
-  options.epochs = 4;
-  options.rerender_pixels = 8;
+  std::vector<CnnExample> train, validation;
+  CnnTrainingOptions options;
+};
+
+SimulatedSplit SimulatedFabrics(int epochs, int rerender_pixels) {
+  SimulatedSplit split;
+  split.train = {SimulatedExample(3, split.info), SimulatedExample(4, split.info)};
+  split.validation = {SimulatedExample(5, split.info)};
+  split.options = FastOptions();
+  split.options.tile = 6;
+  split.options.epochs = epochs;
+  split.options.rerender_pixels = rerender_pixels;
+  return split;
+}
+
+TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) {
+  auto [info, train, validation, options] = SimulatedFabrics(/*epochs=*/4, /*rerender_pixels=*/8);
   // Two copies of one network trained on the labels alone (from a random start its normals lie
   // below the horizon, where nothing renders), then on with and without the re-rendering loss;
   // a weight of 1e-9 only records the loss.
@@ -259,17 +271,12 @@ TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) 
 // The re-rendered pixels drawn by their lobe widths: the same first epoch renders other pixels (a
 // learning rate so small that only the pixels can tell the runs apart); recorded, and checked.
 TEST(CnnTrainingTest, TheRerenderLobeReferenceDrawsOtherPixelsToRender) {
-  CnnModelInfo info;
-  const std::vector<CnnExample> train = {SimulatedExample(3, info), SimulatedExample(4, info)};
-  const std::vector<CnnExample> validation = {SimulatedExample(5, info)};
-  CnnTrainingOptions options = FastOptions();
-  options.tile = 6;
-  options.epochs = 1;
-  options.rerender_pixels = 4;
+  auto [info, train, validation, options] = SimulatedFabrics(/*epochs=*/1, /*rerender_pixels=*/4);
   options.rerender_weight = 1;
   options.learning_rate_start = options.learning_rate_end = 1e-12;
   std::vector<double> rerender_loss;
-  // 0.3 rad: wider than some of these fabrics' lobes and narrower than others.
+  // 0.3 rad: these fabrics' lobes are narrower than that by more in some pixels than in others,
+  // so the draws' weights differ between pixels.
   for (const double reference : {0.0, 0.3}) {
     Result<Cnn> cnn = Cnn::Create(info, 3);
     ASSERT_TRUE(cnn.ok());
