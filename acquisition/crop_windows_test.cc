@@ -1,4 +1,5 @@
 #include "acquisition/crop_windows.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +15,7 @@ namespace loom::acquisition {
 namespace {
 
 RigModel Rig(const std::string& name) {
-  const Result<RigModel> rig = LoadRigModel(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + name + ".yaml");
+  const Result<RigModel> rig = LoadRigModel(loom::testing::SourceDir() + "/configs/rig/" + name + ".yaml");
   EXPECT_TRUE(rig.ok()) << rig.status().ToString();
   return rig.ok() ? *rig : RigModel{};
 }
@@ -71,7 +72,7 @@ TEST(CropWindowsTest, BadOptionsAreNamed) {
 // sensor on average; the white tile's and the dark steps read whole frames.
 TEST(ObjectWindowsTest, EachCalibrationObjectIsInsideItsStepsWindows) {
   const RigModel rig = Rig("tac7");
-  const Result<scan::Preset> preset = scan::LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/low.yaml");
+  const Result<scan::Preset> preset = scan::LoadPreset(loom::testing::SourceDir() + "/configs/plans/low.yaml");
   ASSERT_TRUE(preset.ok()) << preset.status().ToString();
   const Result<scan::Plan> plan = WithObjectWindows(*scan::MakeCalibrationPlan(rig, *preset), rig, {});
   ASSERT_TRUE(plan.ok()) << plan.status().ToString();
@@ -118,7 +119,7 @@ TEST(ObjectWindowsTest, EachCalibrationObjectIsInsideItsStepsWindows) {
 
 TEST(ObjectWindowsTest, AnObjectTheRigDoesNotDescribeIsNamed) {
   RigModel rig = Rig("tac7-mini");
-  const Result<scan::Preset> preset = scan::LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/low.yaml");
+  const Result<scan::Preset> preset = scan::LoadPreset(loom::testing::SourceDir() + "/configs/plans/low.yaml");
   ASSERT_TRUE(preset.ok()) << preset.status().ToString();
   const scan::Plan plan = *scan::MakeCalibrationPlan(rig, *preset);
   rig.light_probe.reset();

@@ -15,6 +15,7 @@
 
 #include "acquisition/sequencer.h"
 #include "core/config.h"
+#include "core/testing/build_tree.h"
 #include "core/testing/shipped_rig.h"
 #include "core/testing/subprocess.h"
 #include "hal/aravis/aravis_backend.h"
@@ -47,7 +48,7 @@ class PeerScanTest : public ::testing::Test {
     const std::pair<const char*, std::vector<std::string>> controllers[] = {
         {"leds", {"--led-count", "29"}}, {"turntable", {}}, {"linear-light", {"--max-speed", "5000"}}};
     for (const auto& [device, extra] : controllers) {
-      std::vector<std::string> argv = {LOOM_MODBUS_SIM, "--device", device, "--tcp", "127.0.0.1:0"};
+      std::vector<std::string> argv = {loom::testing::ModbusSimBinary(), "--device", device, "--tcp", "127.0.0.1:0"};
       argv.insert(argv.end(), extra.begin(), extra.end());
       auto sim = Subprocess::Start(argv);
       ASSERT_TRUE(sim.ok());
@@ -206,7 +207,8 @@ TEST_F(PeerScanTest, AnLedControllerRestartedMidScanIsEnabledAgain) {
     std::this_thread::sleep_for(1500ms);
     LedController().Signal(SIGKILL);
     LedController().Wait();
-    auto restarted = Subprocess::Start({LOOM_MODBUS_SIM, "--device", "leds", "--tcp", "127.0.0.1:" + port, "--led-count", "29"});
+    auto restarted = Subprocess::Start(
+        {loom::testing::ModbusSimBinary(), "--device", "leds", "--tcp", "127.0.0.1:" + port, "--led-count", "29"});
     ASSERT_TRUE(restarted.ok()) << restarted.status().ToString();
     ASSERT_TRUE(restarted->ReadLine(5s).ok());
     LedController() = std::move(*restarted);

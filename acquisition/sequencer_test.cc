@@ -2,6 +2,7 @@
 // stays out stops the scan with an error naming it, the rig safe and the store consistent; the
 // other devices' timeouts likewise (device_faults).
 #include "acquisition/sequencer.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -50,7 +51,7 @@ class SequencerTest : public ::testing::Test {
   }
 
   // The sim rig on world_, as a new `loom scan` process would load it (`path`: another YAML).
-  std::unique_ptr<hal::Rig> MakeRig(const fs::path& path = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml") {
+  std::unique_ptr<hal::Rig> MakeRig(const fs::path& path = loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml") {
     hal::BackendRegistry registry;
     hal::RegisterSimBackends(registry, world_);
     auto rig = hal::Rig::Load(path, registry);
@@ -413,7 +414,7 @@ TEST_F(SequencerTest, AHardwareTriggeredScanGivesTheFramesOfASoftwareTriggeredOn
     ASSERT_TRUE(Sequencer(*rig_, plan_, store).Run().ok());
     for (const scan::FrameRecord& r : store.records()) software[r.file] = r.checksum;
   }
-  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  std::ifstream in(loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml");
   std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   for (size_t at; (at = yaml.find("trigger: software")) != std::string::npos;) yaml.replace(at, 17, "trigger: hardware");
   yaml.replace(yaml.find("\ndevices:\n") + 10, 0, "  trigger: {source: leds}\n");

@@ -14,13 +14,14 @@
 #include <string>
 #include <vector>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kCorpus = fs::path(LOOM_SOURCE_DIR) / "apps/testdata/bad-input";
+const fs::path kCorpus = fs::path(loom::testing::SourceDir()) / "apps/testdata/bad-input";
 
 struct BadInputCase {
   std::string name;
@@ -52,7 +53,7 @@ std::string Slurp(const fs::path& path) {
 
 std::string Substituted(std::string text, const fs::path& dir) {
   for (const auto& [key, value] : {std::pair<std::string, std::string>{"{dir}", dir.string()},
-                                   std::pair<std::string, std::string>{"{configs}", LOOM_SOURCE_DIR "/configs"}}) {
+                                   std::pair<std::string, std::string>{"{configs}", loom::testing::SourceDir() + "/configs"}}) {
     for (size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + value.size())) {
       text.replace(at, key.size(), value);
     }
@@ -69,9 +70,9 @@ fs::path TinyScan() {
   static const fs::path scan = [] {
     const fs::path dir = fs::path(::testing::TempDir()) / ("bad_input_scan_" + std::to_string(::getpid()));
     fs::remove_all(dir);
-    const auto run = loom::testing::RunCommand(std::string(LOOM_BINARY) +
-                                               " scan --rig " LOOM_SOURCE_DIR "/configs/rig/tac7-mini.yaml --preset " +
-                                               (kCorpus / "tiny-preset.yaml").string() + " --out " + dir.string() + " --quiet");
+    const auto run = loom::testing::RunCommand(loom::testing::LoomBinary() + " scan --rig " + loom::testing::SourceDir() +
+                                               "/configs/rig/tac7-mini.yaml --preset " + (kCorpus / "tiny-preset.yaml").string() +
+                                               " --out " + dir.string() + " --quiet");
     EXPECT_EQ(run.exit_code, 0) << run.output;
     return dir;
   }();
@@ -81,7 +82,7 @@ fs::path TinyScan() {
 // Writes what the case's command reads into `dir`.
 void Prepare(const YAML::Node& c, const fs::path& dir) {
   if (const YAML::Node rig = c["rig"]) {
-    std::string text = Slurp(fs::path(LOOM_SOURCE_DIR) / "configs/rig" / (rig["from"].as<std::string>() + ".yaml"));
+    std::string text = Slurp(fs::path(loom::testing::SourceDir()) / "configs/rig" / (rig["from"].as<std::string>() + ".yaml"));
     const YAML::Node replace = rig["replace"];
     for (size_t i = 0; i + 1 < replace.size(); i += 2) {
       text = ReplacedFirst(text, replace[i].as<std::string>(), replace[i + 1].as<std::string>());
@@ -116,7 +117,7 @@ TEST_P(BadInputTest, IsRefusedWithItsExitCodeNamingTheCulprit) {
   Prepare(c, dir);
   if (HasFailure()) return;
   // `timeout`: a case that hangs fails (exit 124) instead of stalling the suite.
-  const auto run = loom::testing::RunCommand("timeout 60 " + std::string(LOOM_BINARY) + " " +
+  const auto run = loom::testing::RunCommand("timeout 60 " + loom::testing::LoomBinary() + " " +
                                              Substituted(c["command"].as<std::string>(), dir));
   EXPECT_EQ(run.exit_code, c["exit"].as<int>()) << run.output;
   const std::string names = Substituted(c["names"].as<std::string>(), dir);

@@ -29,6 +29,7 @@
 #include "core/config.h"
 #include "core/rig_model.h"
 #include "core/spectra.h"
+#include "core/testing/build_tree.h"
 #include "core/testing/shipped_rig.h"
 #include "core/testing/subprocess.h"
 #include "sim/rig_scene.h"
@@ -38,7 +39,7 @@ namespace {
 namespace fs = std::filesystem;
 using loom::testing::RunCommand;
 
-std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
+std::string Loom(const std::string& arguments) { return loom::testing::LoomBinary() + " " + arguments; }
 
 constexpr char kAsBuilt[] = R"(as_built:
   cameras: [{name: cam1, move_mm: [2, -1.5, 1], rotate_deg: [0.3, -0.3, 0.2], sensitivity_scale: 0.92, vignetting: 0.18,
@@ -289,7 +290,7 @@ TEST(CalibrateCommandTest, FindsTheAsBuiltCamerasFromACalibrationScan) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("calibrate_command_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  std::ifstream nominal(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  std::ifstream nominal(loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml");
   std::stringstream text;
   text << nominal.rdbuf() << kAsBuilt;
   std::ofstream(dir / "rig.yaml") << text.str();

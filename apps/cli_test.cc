@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 #include "core/version.h"
 
@@ -12,7 +13,7 @@ namespace {
 
 using LoomRun = loom::testing::CommandResult;
 
-LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(std::string(LOOM_BINARY) + " " + arguments); }
+LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(loom::testing::LoomBinary() + " " + arguments); }
 
 bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
@@ -29,8 +30,8 @@ TEST(CliTest, HelpListsEveryCommand) {
 TEST(CliTest, ADirectoryNamedLikeAConfigDoesNotShadowIt) {
   const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("cli_config_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir / "low");
-  const LoomRun run = loom::testing::RunCommand("cd " + dir.string() + " && " + std::string(LOOM_BINARY) + " plan --rig " +
-                                                LOOM_SOURCE_DIR + "/configs/rig/tac7-mini.yaml --preset low");
+  const LoomRun run = loom::testing::RunCommand("cd " + dir.string() + " && " + loom::testing::LoomBinary() + " plan --rig " +
+                                                loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml --preset low");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("with preset 'low'"), std::string::npos) << run.output;
   std::filesystem::remove_all(dir);
@@ -73,7 +74,7 @@ TEST(CliTest, EveryCommandHasHelp) {
 
 TEST(CliTest, CalibrateIntrinsicsFromPhotosWritesACalibrationFile) {
   const std::string out = ::testing::TempDir() + "/cli_intrinsics.yaml";
-  const LoomRun run = RunLoom("calibrate intrinsics --images '" + std::string(LOOM_SOURCE_DIR) +
+  const LoomRun run = RunLoom("calibrate intrinsics --images '" + loom::testing::SourceDir() +
                               "/calibration/testdata/opencv-left/left0*.jpg' --board chessboard:9x6:25 --name cam3 --out " + out);
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_TRUE(Contains(run.output, "board found in 9 of 9 images")) << run.output;
@@ -99,7 +100,7 @@ TEST(CliTest, VersionNamesLoomAndItsLibraries) {
 // The commit is looked up when loom is built, not when the build was configured: an incremental
 // build named the configure run's commit until 2026-11-27.
 TEST(CliTest, VersionNamesTheCommitItWasBuiltFrom) {
-  const LoomRun head = loom::testing::RunCommand("git -C " + std::string(LOOM_SOURCE_DIR) + " rev-parse --short HEAD");
+  const LoomRun head = loom::testing::RunCommand("git -C " + loom::testing::SourceDir() + " rev-parse --short HEAD");
   if (head.exit_code != 0) GTEST_SKIP() << "not built from a git checkout";
   const std::string commit = head.output.substr(0, head.output.find_first_of("\n"));
   const LoomRun run = RunLoom("version");
@@ -110,7 +111,7 @@ TEST(CliTest, VersionNamesTheCommitItWasBuiltFrom) {
 
 TEST(CliTest, ShippedRigFilesLoad) {
   // Loading creates every device through its backend without connecting to any.
-  const LoomRun run = RunLoom("rig list --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/peer.yaml");
+  const LoomRun run = RunLoom("rig list --rig " + loom::testing::SourceDir() + "/configs/rig/peer.yaml");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_TRUE(Contains(run.output, "rig 'peer'")) << run.output;
   EXPECT_TRUE(Contains(run.output, "5 devices")) << run.output;
@@ -118,25 +119,25 @@ TEST(CliTest, ShippedRigFilesLoad) {
 
 TEST(CliTest, SimulatedRigsLoadAndSnap) {
   for (const char* rig : {"tac7", "tac7-mini"}) {
-    const LoomRun list = RunLoom("rig list --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig + ".yaml");
+    const LoomRun list = RunLoom("rig list --rig " + loom::testing::SourceDir() + "/configs/rig/" + rig + ".yaml");
     EXPECT_EQ(list.exit_code, 0) << list.output;
     EXPECT_TRUE(Contains(list.output, "simulated")) << list.output;
   }
   const std::string out = ::testing::TempDir() + "/tac7_mini_cam1.exr";
-  const LoomRun snap = RunLoom("rig snap --rig " + std::string(LOOM_SOURCE_DIR) +
+  const LoomRun snap = RunLoom("rig snap --rig " + loom::testing::SourceDir() +
                                "/configs/rig/tac7-mini.yaml --camera cam1 --leds 3:1000 --out " + out);
   EXPECT_EQ(snap.exit_code, 0) << snap.output;
   EXPECT_TRUE(Contains(snap.output, "160x160 Mono12")) << snap.output;
 }
 
 TEST(CliTest, PlanShowsCountsAndDuration) {
-  const LoomRun run = RunLoom("plan --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7.yaml --preset high");
+  const LoomRun run = RunLoom("plan --rig " + loom::testing::SourceDir() + "/configs/rig/tac7.yaml --preset high");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_TRUE(Contains(run.output, "monochrome           87 steps    348 images")) << run.output;
   EXPECT_TRUE(Contains(run.output, "linear light        825 steps   3300 images")) << run.output;
   EXPECT_TRUE(Contains(run.output, "colour               50 steps    100 images")) << run.output;
   EXPECT_TRUE(Contains(run.output, "estimated duration:")) << run.output;
-  const LoomRun missing = RunLoom("plan --rig " + std::string(LOOM_SOURCE_DIR) + "/configs/rig/peer.yaml");
+  const LoomRun missing = RunLoom("plan --rig " + loom::testing::SourceDir() + "/configs/rig/peer.yaml");
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_TRUE(Contains(missing.output, "has no 'geometry:' section")) << missing.output;
 }

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 
 namespace {
@@ -17,12 +18,12 @@ namespace {
 namespace fs = std::filesystem;
 using loom::testing::RunCommand;
 
-std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
+std::string Loom(const std::string& arguments) { return loom::testing::LoomBinary() + " " + arguments; }
 
 TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("demo_command_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
-  const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml";
+  const std::string rig = loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml";
   const auto demo = RunCommand(Loom("demo --rig " + rig + " --size 24 --methods cnn+refine --quiet --out " + dir.string()));
   ASSERT_EQ(demo.exit_code, 0) << demo.output;
   std::cout << demo.output.substr(demo.output.find("== summary"));

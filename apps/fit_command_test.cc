@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 
 namespace {
@@ -31,7 +32,7 @@ class FitCommandTest : public ::testing::Test {
       fs::copy_file(fs::path(rendered) / "truth.exr", dir_ / "truth.exr");
       return;
     }
-    const auto render = RunCommand(std::string(LOOM_BINARY) + " sim render --rig " + LOOM_SOURCE_DIR +
+    const auto render = RunCommand(loom::testing::LoomBinary() + " sim render --rig " + loom::testing::SourceDir() +
                                    "/configs/rig/tac7-mini.yaml --stack --size 12 --truth " + (dir_ / "truth.exr").string() +
                                    " --out " + (dir_ / "stack.exr").string());
     ASSERT_EQ(render.exit_code, 0) << render.output;
@@ -42,13 +43,13 @@ class FitCommandTest : public ::testing::Test {
 fs::path FitCommandTest::dir_;
 
 TEST_F(FitCommandTest, FitsAndEvaluatesAgainstTheTruth) {
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --clusters 2 --out " +
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --clusters 2 --out " +
                               (dir_ / "fit").string() + " --quiet");
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   for (const char* file : {"svbrdf.exr", "fit.json", "diffuse.png", "normal.png", "sigma.png"}) {
     EXPECT_TRUE(fs::exists(dir_ / "fit" / file)) << file;
   }
-  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "fit/svbrdf.exr").string() + " --stack " +
+  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (dir_ / "fit/svbrdf.exr").string() + " --stack " +
                                (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() + " --out " +
                                (dir_ / "report").string());
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
@@ -73,14 +74,14 @@ TEST_F(FitCommandTest, FitsAndEvaluatesAgainstTheTruth) {
 // be (tac7-mini's measured footprints, gains and noise), so that the truth no longer re-renders
 // it exactly; a missing emulation file is named.
 TEST_F(FitCommandTest, AStackRenderedAsAScanIsAsFarFromTheTruthAsAScan) {
-  const std::string render = std::string(LOOM_BINARY) + " sim render --rig " + LOOM_SOURCE_DIR +
+  const std::string render = loom::testing::LoomBinary() + " sim render --rig " + loom::testing::SourceDir() +
                              "/configs/rig/tac7-mini.yaml --stack --size 12 --seed 3 --scan-emulation ";
-  const auto scan_like = RunCommand(render + LOOM_SOURCE_DIR + "/configs/models/tac7-mini/scan-emulation.yaml --out " +
+  const auto scan_like = RunCommand(render + loom::testing::SourceDir() + "/configs/models/tac7-mini/scan-emulation.yaml --out " +
                                     (dir_ / "scan-like.exr").string());
   ASSERT_EQ(scan_like.exit_code, 0) << scan_like.output;
   EXPECT_NE(scan_like.output.find("seed 3"), std::string::npos) << scan_like.output;
   const auto eval =
-      RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "truth.exr").string() + " --stack " +
+      RunCommand(loom::testing::LoomBinary() + " eval " + (dir_ / "truth.exr").string() + " --stack " +
                  (dir_ / "scan-like.exr").string() + " --renderer-views 0 --out " + (dir_ / "truth-on-scan-like").string());
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   std::ifstream summary(dir_ / "truth-on-scan-like/summary.json");
@@ -105,7 +106,7 @@ TEST_F(FitCommandTest, ACorruptStackIsAnErrorNamingTheFile) {
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     std::ofstream(corrupt, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   }
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + corrupt.string() + " --out " + (dir_ / "bad").string());
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + corrupt.string() + " --out " + (dir_ / "bad").string());
   EXPECT_EQ(fit.exit_code, 1) << fit.output;
   EXPECT_NE(fit.output.find("corrupt.exr"), std::string::npos) << fit.output;
   EXPECT_FALSE(fs::exists(dir_ / "bad" / "svbrdf.exr"));
@@ -114,10 +115,10 @@ TEST_F(FitCommandTest, ACorruptStackIsAnErrorNamingTheFile) {
 // Fits with `method` (the shipped tac7-mini model for the CNN) and evaluates against the truth.
 nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method, const std::string& options = "") {
   const fs::path out = dir / method;
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir / "stack.exr").string() + " --method " + method +
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir / "stack.exr").string() + " --method " + method +
                               " --out " + out.string() + " --quiet " + options);
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
-  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (out / "svbrdf.exr").string() + " --stack " +
+  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (out / "svbrdf.exr").string() + " --stack " +
                                (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() + " --out " +
                                (out / "report").string());
   EXPECT_EQ(eval.exit_code, 0) << eval.output;
@@ -169,14 +170,14 @@ TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
 // strip are a usage error naming the option.
 TEST_F(FitCommandTest, CnnPlusRefineWithTheStripAsNodesRecoversTheFabric) {
   const fs::path out = dir_ / "strip-nodes";
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
                               " --method cnn+refine --strip-nodes 16 --quiet --out " + out.string());
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   std::ifstream fit_json(out / "fit.json");
   const nlohmann::json summary = nlohmann::json::parse(fit_json);
   EXPECT_EQ(summary["strip_nodes"], 16) << summary.dump(2);
   EXPECT_GE(summary["pixels_nodes_replaced"].get<int>(), 0) << summary.dump(2);
-  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (out / "svbrdf.exr").string() + " --stack " +
+  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (out / "svbrdf.exr").string() + " --stack " +
                                (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() +
                                " --renderer-views 0 --out " + (out / "report").string());
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
@@ -186,7 +187,7 @@ TEST_F(FitCommandTest, CnnPlusRefineWithTheStripAsNodesRecoversTheFabric) {
   EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
   EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
 
-  const auto refused = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+  const auto refused = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
                                   " --method cnn+refine --strip-nodes 3 --quiet --out " + (dir_ / "strip-nodes-3").string());
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
   EXPECT_NE(refused.output.find("--strip-nodes"), std::string::npos) << refused.output;
@@ -196,7 +197,7 @@ TEST_F(FitCommandTest, CnnPlusRefineWithTheStripAsNodesRecoversTheFabric) {
 // shared out, never their sums): a fit on one thread and on three writes the same file.
 TEST_F(FitCommandTest, CnnPlusRefineWritesTheSameMapsOnAnyNumberOfThreads) {
   for (const char* threads : {"1", "3"}) {
-    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
                                 " --method cnn+refine --quiet --threads " + threads + " --out " +
                                 (dir_ / (std::string("threads-") + threads)).string());
     ASSERT_EQ(fit.exit_code, 0) << fit.output;
@@ -210,7 +211,7 @@ TEST_F(FitCommandTest, CnnPlusRefineWritesTheSameMapsOnAnyNumberOfThreads) {
 
 TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
   const std::string model = (dir_ / "no-such-model").string();
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method cnn --model " +
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --method cnn --model " +
                               model + " --out " + (dir_ / "missing").string());
   EXPECT_EQ(fit.exit_code, 1) << fit.output;
   EXPECT_NE(fit.output.find(model), std::string::npos) << fit.output;
@@ -222,7 +223,7 @@ TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
 // naming the file and the key.
 TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTheToleranceAndABadOneIsRefused) {
   const auto fit_json = [&](const std::string& options, const std::string& out, const std::string& method = "refine") {
-    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method " + method +
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --method " + method +
                                 " --clusters 2 --quiet --out " + (dir_ / out).string() + " " + options);
     EXPECT_EQ(fit.exit_code, 0) << fit.output;
     std::ifstream file(dir_ / out / "fit.json");
@@ -255,7 +256,7 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTh
   // A refine.json that loom fit must refuse: exit 1, no maps written.
   const auto refused = [&](const std::string& settings, const std::string& out) {
     std::ofstream(model / "refine.json", std::ios::trunc) << settings;
-    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() +
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
                                 " --method refine --quiet --model " + model.string() + " --out " + (dir_ / out).string());
     EXPECT_EQ(fit.exit_code, 1) << fit.output;
     EXPECT_FALSE(fs::exists(dir_ / out / "svbrdf.exr"));
@@ -275,8 +276,8 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTh
 TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   const fs::path model = dir_ / "model";
   const auto train = RunCommand(
-      std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR + "/configs/rig/tac7-mini.yaml --out " + model.string() +
-      " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --radiance-noise 0.05 --quiet");
+      loom::testing::LoomBinary() + " train --rig " + loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml --out " +
+      model.string() + " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 2 --radiance-noise 0.05 --quiet");
   ASSERT_EQ(train.exit_code, 0) << train.output;
   for (const char* file :
        {"model.json", "weights.pt", "training.json", "data/fabric-1000.stack.exr", "checkpoints/last/history.json"}) {
@@ -287,7 +288,7 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_EQ(training["epochs"].size(), 2u);
   EXPECT_EQ(training["options"]["radiance_noise"], 0.05);  // what it was trained with, for whoever reuses it
   EXPECT_EQ(training["options"]["size_px"], 16);
-  const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + (dir_ / "stack.exr").string() + " --method cnn --model " +
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --method cnn --model " +
                               model.string() + " --out " + (dir_ / "toy").string());
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_TRUE(fs::exists(dir_ / "toy" / "svbrdf.exr"));
@@ -296,8 +297,8 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   // disk one training material at a time.
   const fs::path tuned = dir_ / "tuned";
   const auto tune =
-      RunCommand(std::string(LOOM_BINARY) + " train --rig " + LOOM_SOURCE_DIR + "/configs/rig/tac7-mini.yaml --out " +
-                 tuned.string() + " --init " + model.string() +
+      RunCommand(loom::testing::LoomBinary() + " train --rig " + loom::testing::SourceDir() +
+                 "/configs/rig/tac7-mini.yaml --out " + tuned.string() + " --init " + model.string() +
                  " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4 --resident-materials 1 --steps-per-epoch 4"
                  " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --quiet");
   ASSERT_EQ(tune.exit_code, 0) << tune.output;
@@ -317,9 +318,9 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
 // One model of the paper's input layout for two presets: its dataset takes turns between them,
 // and loom fit takes either preset's stacks with it.
 TEST_F(FitCommandTest, OneModelOfThePapersLayoutTakesEveryPresetsStacks) {
-  const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml";
+  const std::string rig = loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml";
   const fs::path model = dir_ / "paper-model";
-  const std::string train = std::string(LOOM_BINARY) + " train --rig " + rig + " --out " + model.string() +
+  const std::string train = loom::testing::LoomBinary() + " train --rig " + rig + " --out " + model.string() +
                             " --preset low,medium --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1"
                             " --steps-per-epoch 2 --quiet";
   const auto refused = RunCommand(train);
@@ -338,13 +339,13 @@ TEST_F(FitCommandTest, OneModelOfThePapersLayoutTakesEveryPresetsStacks) {
   for (const nlohmann::json& sweep : info["paper_layout"]["linear_sweeps"]) EXPECT_EQ(sweep["angles_deg"].size(), 70u);
 
   const fs::path medium = dir_ / "medium.exr";
-  const auto render = RunCommand(std::string(LOOM_BINARY) + " sim render --rig " + rig +
+  const auto render = RunCommand(loom::testing::LoomBinary() + " sim render --rig " + rig +
                                  " --preset medium --stack --size 12 --out " + medium.string());
   ASSERT_EQ(render.exit_code, 0) << render.output;
   for (const fs::path& stack : {dir_ / "stack.exr", medium}) {
     const fs::path out = dir_ / ("paper-fit-" + stack.stem().string());
-    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + stack.string() + " --method cnn --model " + model.string() +
-                                " --out " + out.string());
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + stack.string() + " --method cnn --model " +
+                                model.string() + " --out " + out.string());
     EXPECT_EQ(fit.exit_code, 0) << stack << ": " << fit.output;
     EXPECT_TRUE(fs::exists(out / "svbrdf.exr")) << stack;
   }
@@ -353,22 +354,22 @@ TEST_F(FitCommandTest, OneModelOfThePapersLayoutTakesEveryPresetsStacks) {
 // The shipped tac7 model (configs/models/tac7, the paper's input layout) takes every preset's
 // stacks of the paper's rig, and its maps of one fabric agree across the presets.
 TEST_F(FitCommandTest, TheShippedTac7ModelTakesEveryPresetsStacks) {
-  const std::string rig = std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7.yaml";
+  const std::string rig = loom::testing::SourceDir() + "/configs/rig/tac7.yaml";
   for (const std::string preset : {"low", "medium", "high"}) {
     const fs::path stack = dir_ / ("tac7-" + preset + ".exr");
-    const auto render = RunCommand(std::string(LOOM_BINARY) + " sim render --rig " + rig + " --preset " + preset +
+    const auto render = RunCommand(loom::testing::LoomBinary() + " sim render --rig " + rig + " --preset " + preset +
                                    " --object fabric:1985 --stack --size 8 --out " + stack.string());
     ASSERT_EQ(render.exit_code, 0) << render.output;
-    const auto fit = RunCommand(std::string(LOOM_BINARY) + " fit " + stack.string() + " --method cnn --out " +
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + stack.string() + " --method cnn --out " +
                                 (dir_ / ("tac7-cnn-" + preset)).string());
     ASSERT_EQ(fit.exit_code, 0) << preset << ": " << fit.output;
     EXPECT_NE(fit.output.find("932 input channels"), std::string::npos) << fit.output;
   }
   for (const std::string preset : {"medium", "high"}) {
     const auto eval =
-        RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / ("tac7-cnn-" + preset) / "svbrdf.exr").string() + " --stack " +
-                   (dir_ / "tac7-low.exr").string() + " --reference " + (dir_ / "tac7-cnn-low" / "svbrdf.exr").string() +
-                   " --out " + (dir_ / ("tac7-agree-" + preset)).string());
+        RunCommand(loom::testing::LoomBinary() + " eval " + (dir_ / ("tac7-cnn-" + preset) / "svbrdf.exr").string() +
+                   " --stack " + (dir_ / "tac7-low.exr").string() + " --reference " +
+                   (dir_ / "tac7-cnn-low" / "svbrdf.exr").string() + " --out " + (dir_ / ("tac7-agree-" + preset)).string());
     ASSERT_EQ(eval.exit_code, 0) << eval.output;
     std::ifstream file(dir_ / ("tac7-agree-" + preset) / "summary.json");
     const nlohmann::json summary = nlohmann::json::parse(file);
@@ -383,16 +384,16 @@ TEST_F(FitCommandTest, TheShippedTac7ModelTakesEveryPresetsStacks) {
 }
 
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {
-  const auto material = RunCommand(std::string(LOOM_BINARY) + " sim material --size 8 --out " + (dir_ / "m8").string());
+  const auto material = RunCommand(loom::testing::LoomBinary() + " sim material --size 8 --out " + (dir_ / "m8").string());
   ASSERT_EQ(material.exit_code, 0) << material.output;
-  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "m8/svbrdf.exr").string() + " --stack " +
+  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (dir_ / "m8/svbrdf.exr").string() + " --stack " +
                                (dir_ / "stack.exr").string() + " --out " + (dir_ / "r2").string());
   EXPECT_EQ(eval.exit_code, 1) << eval.output;
   EXPECT_NE(eval.output.find("8x8 px does not match the stack's 12x12"), std::string::npos) << eval.output;
 }
 
 TEST_F(FitCommandTest, AMissingMapFileIsNamed) {
-  const auto eval = RunCommand(std::string(LOOM_BINARY) + " eval " + (dir_ / "missing.exr").string() + " --stack " +
+  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (dir_ / "missing.exr").string() + " --stack " +
                                (dir_ / "stack.exr").string() + " --out " + (dir_ / "r3").string());
   EXPECT_EQ(eval.exit_code, 1) << eval.output;
   EXPECT_NE(eval.output.find("missing.exr"), std::string::npos) << eval.output;

@@ -18,6 +18,7 @@
 
 #include "core/exr_io.h"
 #include "core/observation_stack.h"
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 
 namespace {
@@ -25,7 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using loom::testing::RunCommand;
 
-std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
+std::string Loom(const std::string& arguments) { return loom::testing::LoomBinary() + " " + arguments; }
 
 // Replaces every `from` in `text`; returns how many there were.
 int ReplaceAll(std::string& text, const std::string& from, const std::string& to) {
@@ -40,7 +41,7 @@ int ReplaceAll(std::string& text, const std::string& from, const std::string& to
 // 0.073 mm, and the stack is resampled from finer images. This rig is tac7-mini with cameras at
 // 0.08 mm (2.5 times finer than the stack) and, to keep the scan short, a 64 px (12.8 mm) sample.
 void WriteFineCameraRig(const fs::path& path) {
-  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  std::ifstream in(loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml");
   std::stringstream text;
   text << in.rdbuf();
   std::string rig = text.str();

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "core/exr_io.h"
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 #include "hal/modbus/register_map.h"
 
@@ -23,7 +24,7 @@ using namespace std::chrono_literals;
 
 using LoomRun = loom::testing::CommandResult;
 
-LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(std::string(LOOM_BINARY) + " " + arguments); }
+LoomRun RunLoom(const std::string& arguments) { return loom::testing::RunCommand(loom::testing::LoomBinary() + " " + arguments); }
 
 bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
@@ -79,7 +80,7 @@ class RigCommandTest : public ::testing::Test {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     for (const char* device : {"leds", "turntable", "linear-light"}) {
-      auto sim = Subprocess::Start({LOOM_MODBUS_SIM, "--device", device, "--tcp", "127.0.0.1:0"});
+      auto sim = Subprocess::Start({loom::testing::ModbusSimBinary(), "--device", device, "--tcp", "127.0.0.1:0"});
       ASSERT_TRUE(sim.ok());
       auto line = sim->ReadLine(5s);
       ASSERT_TRUE(line.ok());
@@ -154,7 +155,8 @@ TEST_F(RigCommandTest, MoveSnapAndLeds) {
 }
 
 TEST_F(RigCommandTest, CtrlCEndsPromptlyWithTheLedsOff) {
-  auto loom = Subprocess::Start({LOOM_BINARY, "rig", "leds", "--rig", rig_.string(), "--on", "4:120", "--hold-s", "60"});
+  auto loom =
+      Subprocess::Start({loom::testing::LoomBinary(), "rig", "leds", "--rig", rig_.string(), "--on", "4:120", "--hold-s", "60"});
   ASSERT_TRUE(loom.ok());
   const auto line = loom->ReadLine(10s);
   ASSERT_TRUE(line.ok()) << line.status().ToString();
@@ -173,7 +175,8 @@ TEST_F(RigCommandTest, AKilledLoomLeavesNoLedLitWhenTheControllersWatchdogIsArme
   for (const bool armed : {false, true}) {
     SCOPED_TRACE(armed ? "watchdog armed" : "no watchdog");
     const fs::path rig = armed ? WriteRig(endpoints_[0], ", response_timeout_ms: 100, watchdog_ms: 300") : rig_;
-    auto loom = Subprocess::Start({LOOM_BINARY, "rig", "leds", "--rig", rig.string(), "--on", "4:120", "--hold-s", "60"});
+    auto loom =
+        Subprocess::Start({loom::testing::LoomBinary(), "rig", "leds", "--rig", rig.string(), "--on", "4:120", "--hold-s", "60"});
     ASSERT_TRUE(loom.ok());
     const auto line = loom->ReadLine(10s);
     ASSERT_TRUE(line.ok()) << line.status().ToString();
@@ -198,7 +201,7 @@ TEST_F(RigCommandTest, AScanKilledMidPlanLeavesEveryControllerSafeWhenTheirWatch
   for (const bool armed : {true, false}) {
     SCOPED_TRACE(armed ? "watchdogs armed" : "no watchdogs");
     const std::string watchdog = armed ? ", response_timeout_ms: 100, watchdog_ms: 300" : "";
-    std::string yaml = Slurp(fs::path(LOOM_SOURCE_DIR) / "configs/rig/tac7-mini.yaml");
+    std::string yaml = Slurp(fs::path(loom::testing::SourceDir()) / "configs/rig/tac7-mini.yaml");
     const auto replace_line = [&yaml](const std::string& starting, const std::string& by) {
       const size_t at = yaml.find(starting, yaml.find("\ndevices:"));
       ASSERT_NE(at, std::string::npos) << starting;
@@ -214,8 +217,8 @@ TEST_F(RigCommandTest, AScanKilledMidPlanLeavesEveryControllerSafeWhenTheirWatch
 
     ControllerClient leds(endpoints_[0]), turntable(endpoints_[1]), strip(endpoints_[2]);
     ASSERT_TRUE(leds.connected() && turntable.connected() && strip.connected());
-    auto loom = Subprocess::Start({LOOM_BINARY, "scan", "--rig", rig.string(), "--preset", "low", "--object", "white-tile",
-                                   "--quiet", "--out", (dir_ / (armed ? "scan-armed" : "scan")).string()});
+    auto loom = Subprocess::Start({loom::testing::LoomBinary(), "scan", "--rig", rig.string(), "--preset", "low", "--object",
+                                   "white-tile", "--quiet", "--out", (dir_ / (armed ? "scan-armed" : "scan")).string()});
     ASSERT_TRUE(loom.ok());
     const auto deadline = std::chrono::steady_clock::now() + 60s;
     // (Quiet, the scan writes nothing to stdout before it ends: a line read is its end.)

@@ -11,6 +11,7 @@
 #include <map>
 #include <thread>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 #include "scan/capture_store.h"
 
@@ -34,9 +35,17 @@ class ScanCommandTest : public ::testing::Test {
   }
 
   std::vector<std::string> ScanArgs(const fs::path& out) const {
-    return {LOOM_BINARY, "scan",           "--rig",    std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml",
-            "--preset",  preset_.string(), "--object", "fabric:5",
-            "--out",     out.string(),     "--quiet"};
+    return {loom::testing::LoomBinary(),
+            "scan",
+            "--rig",
+            loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml",
+            "--preset",
+            preset_.string(),
+            "--object",
+            "fabric:5",
+            "--out",
+            out.string(),
+            "--quiet"};
   }
 
   // key → checksum of every frame of a scan, verified on the way.
@@ -81,7 +90,7 @@ TEST_F(ScanCommandTest, KilledTwentyTimesAndResumedEqualsUninterrupted) {
   for (int run = 0; run <= kKills && !complete; ++run) {
     const bool started = fs::exists(interrupted / "scan.yaml");
     std::vector<std::string> args =
-        started ? std::vector<std::string>{LOOM_BINARY, "scan", "--resume", interrupted.string(), "--quiet"}
+        started ? std::vector<std::string>{loom::testing::LoomBinary(), "scan", "--resume", interrupted.string(), "--quiet"}
                 : ScanArgs(interrupted);
     auto scan = Subprocess::Start(args);
     ASSERT_TRUE(scan.ok());
@@ -105,7 +114,7 @@ TEST_F(ScanCommandTest, KilledTwentyTimesAndResumedEqualsUninterrupted) {
   EXPECT_EQ(Frames(interrupted), expected);
 
   // loom scan --verify: the resumed scan is intact; a frame altered afterwards is named, exit 1.
-  const std::string verify = std::string(LOOM_BINARY) + " scan --verify ";
+  const std::string verify = loom::testing::LoomBinary() + " scan --verify ";
   const auto intact = loom::testing::RunCommand(verify + interrupted.string());
   EXPECT_EQ(intact.exit_code, 0) << intact.output;
   EXPECT_NE(intact.output.find("intact"), std::string::npos) << intact.output;

@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 
 namespace {
@@ -20,12 +21,12 @@ namespace {
 namespace fs = std::filesystem;
 using loom::testing::RunCommand;
 
-std::string Loom(const std::string& arguments) { return std::string(LOOM_BINARY) + " " + arguments; }
+std::string Loom(const std::string& arguments) { return loom::testing::LoomBinary() + " " + arguments; }
 
 TEST(Tac7CropTest, TheDemoScansReconstructsFitsAndScoresACropOfThePapersRig) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("tac7_crop_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
-  const auto demo = RunCommand(Loom("demo --rig " + std::string(LOOM_SOURCE_DIR) +
+  const auto demo = RunCommand(Loom("demo --rig " + loom::testing::SourceDir() +
                                     "/configs/rig/tac7.yaml --object fabric:3 --crop-mm 3.2 --size 16 --no-calibration"
                                     " --methods refine --out " +
                                     dir.string()));

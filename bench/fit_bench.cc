@@ -21,6 +21,7 @@
 
 #include "bench/bench_report.h"
 #include "core/rig_file.h"
+#include "core/testing/build_tree.h"
 #include "fitting/batch_refiner.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
@@ -196,7 +197,7 @@ struct StackCase {
 };
 
 StackCase MakeStackCase(const std::string& rig_name, int strip_positions) {
-  const auto loaded = loom::LoadRigModel(std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig_name + ".yaml");
+  const auto loaded = loom::LoadRigModel(loom::testing::SourceDir() + "/configs/rig/" + rig_name + ".yaml");
   LOOM_CHECK(loaded.ok()) << loaded.status().ToString();
   const loom::RigModel& rig = *loaded;
   const loom::sim::Material fabric = loom::sim::GenerateFabric(5, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});

@@ -14,6 +14,7 @@
 
 #include "bench/bench_report.h"
 #include "bench/fake_camera_peers.h"
+#include "core/testing/build_tree.h"
 #include "core/testing/subprocess.h"
 #include "hal/modbus/modbus_link.h"
 #include "hal/modbus/register_map.h"
@@ -126,7 +127,7 @@ struct ModbusPeer {
 };
 
 ModbusPeer StartModbus(bool rtu) {
-  std::vector<std::string> argv = {LOOM_MODBUS_SIM, "--device", "leds"};
+  std::vector<std::string> argv = {loom::testing::ModbusSimBinary(), "--device", "leds"};
   if (rtu) {
     argv.push_back("--rtu");
   } else {

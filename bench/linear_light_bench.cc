@@ -26,6 +26,7 @@
 
 #include "core/rig_file.h"
 #include "core/rig_observation.h"
+#include "core/testing/build_tree.h"
 #include "fitting/batch_refiner.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/pixel_fitter.h"
@@ -149,7 +150,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strncmp(argv[i], "--json=", 7) == 0) json_path = argv[i] + 7;
   }
-  const auto loaded = loom::LoadRigModel(std::string(LOOM_SOURCE_DIR) + "/configs/rig/tac7-mini.yaml");
+  const auto loaded = loom::LoadRigModel(loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml");
   LOOM_CHECK(loaded.ok()) << loaded.status().ToString();
   const loom::RigModel& rig = *loaded;
   std::vector<WardParams<double>> materials;

@@ -11,6 +11,7 @@
 #include "core/heightmap.h"
 #include "core/rig_file.h"
 #include "core/rig_model.h"
+#include "core/testing/build_tree.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/sample.h"
 #include "sim/stack.h"
@@ -21,7 +22,7 @@ namespace {
 using loom::sim::Scene;
 
 std::unique_ptr<Scene> LoadScene(const std::string& rig) {
-  const std::string path = std::string(LOOM_SOURCE_DIR) + "/configs/rig/" + rig + ".yaml";
+  const std::string path = loom::testing::SourceDir() + "/configs/rig/" + rig + ".yaml";
   auto file = loom::RigFile::Load(path);
   if (!file.ok()) return nullptr;
   auto model = file->Model();

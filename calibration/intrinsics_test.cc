@@ -1,5 +1,6 @@
 // Intrinsics from ordinary photos: the 13 chessboard photos OpenCV ships (testdata/opencv-left).
 #include "calibration/intrinsics.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -20,7 +21,7 @@ namespace fs = std::filesystem;
 
 std::vector<std::string> LeftPhotos() {
   std::vector<std::string> files;
-  for (const auto& entry : fs::directory_iterator(fs::path(LOOM_SOURCE_DIR) / "calibration/testdata/opencv-left")) {
+  for (const auto& entry : fs::directory_iterator(fs::path(loom::testing::SourceDir()) / "calibration/testdata/opencv-left")) {
     if (entry.path().extension() == ".jpg") files.push_back(entry.path().string());
   }
   std::sort(files.begin(), files.end());
@@ -91,7 +92,7 @@ TEST(IntrinsicsTest, AnImageWithoutTheBoardIsSkippedAndTooFewViewsAreAnError) {
 }
 
 TEST(IntrinsicsTest, PhotosFoundByAGlobCalibrateACameraAndAGlobWithoutFilesIsNamed) {
-  const std::string dir = std::string(LOOM_SOURCE_DIR) + "/calibration/testdata/opencv-left/";
+  const std::string dir = loom::testing::SourceDir() + "/calibration/testdata/opencv-left/";
   const BoardSpec board = *ParseBoardSpec("chessboard:9x6:25");
   const Result<CameraCalibration> calibration = CalibrateFromPhotos(dir + "left0[1-5].jpg", board, "cam7");
   ASSERT_TRUE(calibration.ok()) << calibration.status().ToString();

@@ -25,10 +25,8 @@ function(loom_test name)
     set(ARG_LABELS unit)
   endif()
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest_main GTest::gmock)
-  target_compile_definitions(${name} PRIVATE
-    LOOM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-)
+  # loom_testing: the source tree's path (core/testing/build_tree.h), never a compile definition.
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} loom_testing GTest::gtest_main GTest::gmock)
   loom_set_warnings(${name})
   set(properties LABELS "${ARG_LABELS}")
   if(ARG_RESOURCE_LOCK)

@@ -2,6 +2,7 @@
 // HDF5 itself; a round trip back to the maps; a file laid out as other writers lay theirs out;
 // damaged files named.
 #include "fitting/axf_export.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
@@ -278,7 +279,7 @@ TEST_F(AxfExportTest, AFileThatMakesHdf5AllocateWithoutBoundIsRefused) {
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
   GTEST_SKIP() << "the guard's memory limit is off under the sanitizers";
 #endif
-  const fs::path path = fs::path(LOOM_SOURCE_DIR) / "fitting/fuzz/known/hdf5-local-heap-unbounded-memory.axf";
+  const fs::path path = fs::path(loom::testing::SourceDir()) / "fitting/fuzz/known/hdf5-local-heap-unbounded-memory.axf";
   const Result<AxfMaps> read = ReadAxf(path);
   ASSERT_FALSE(read.ok());
   EXPECT_TRUE(read.status().subject().starts_with(path.string())) << read.status().ToString();

@@ -1,4 +1,5 @@
 #include "fitting/cnn_input.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -33,7 +34,7 @@ ObservationStack StackOf(const RigModel& rig, const std::vector<sim::Observation
 }
 
 std::vector<sim::Observation> PresetObservations(const RigModel& rig, const std::string& preset_name) {
-  const Result<scan::Preset> preset = scan::LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/" + preset_name + ".yaml");
+  const Result<scan::Preset> preset = scan::LoadPreset(loom::testing::SourceDir() + "/configs/plans/" + preset_name + ".yaml");
   EXPECT_TRUE(preset.ok()) << preset.status().ToString();
   const Result<std::vector<sim::Observation>> observations = sim::PresetObservations(rig, *preset);
   EXPECT_TRUE(observations.ok()) << observations.status().ToString();

@@ -1,6 +1,7 @@
 // The Rig against real peers: built from a rig YAML, brought up, and put in its safe state on
 // every exit path.
 #include "hal/rig.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -23,7 +24,7 @@ class RigTest : public ::testing::Test {
   void SetUp() override {
     RegisterModbusBackends(registry_);
     for (const char* device : {"leds", "turntable", "linear-light"}) {
-      Result<Subprocess> sim = Subprocess::Start({LOOM_MODBUS_SIM, "--device", device, "--tcp", "127.0.0.1:0"});
+      Result<Subprocess> sim = Subprocess::Start({loom::testing::ModbusSimBinary(), "--device", device, "--tcp", "127.0.0.1:0"});
       ASSERT_TRUE(sim.ok());
       Result<std::string> line = sim->ReadLine(5s);
       ASSERT_TRUE(line.ok());

@@ -1,4 +1,5 @@
 #include "scan/plan.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +17,7 @@ namespace {
 using loom::testing::ShippedRigModel;
 
 Preset LoadShippedPreset(const std::string& name) {
-  Result<Preset> preset = LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/" + name + ".yaml");
+  Result<Preset> preset = LoadPreset(loom::testing::SourceDir() + "/configs/plans/" + name + ".yaml");
   EXPECT_TRUE(preset.ok()) << preset.status().ToString();
   return *preset;
 }

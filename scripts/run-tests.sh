@@ -19,8 +19,18 @@ need_free_gib() {  # FOLDER GIB
 need_free_gib . 7
 need_free_gib "${TMPDIR:-/tmp}" 1
 bash scripts/install-deps.sh
+# The compiler cache's hits and misses so far ("0 0" without ccache): a cold cache is what makes a
+# run slow, so the build's line says how warm it was.
+ccache_counts() {
+  ccache --print-stats 2> /dev/null |
+    awk '$1 ~ /^(direct|preprocessed)_cache_hit$/ {hits += $2} $1 == "cache_miss" {misses = $2}
+         END {print hits + 0, misses + 0}'
+}
+read -r hits_before misses_before < <(ccache_counts)
 bash scripts/build.sh
-echo "build finished after $(( $(date +%s) - start )) s"
+read -r hits misses < <(ccache_counts)
+echo "build finished after $(( $(date +%s) - start )) s (compiler cache: $(( hits - hits_before )) hits," \
+  "$(( misses - misses_before )) misses)"
 # The readers of hostile input (rig and plan YAML, the capture store's journal, stack and map
 # files) fuzzed under ASan + UBSan, 20 s each: a crash, leak or hang fails the run.
 bash scripts/fuzz.sh 20

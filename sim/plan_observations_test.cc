@@ -1,6 +1,7 @@
 // The observations a material plan makes on the shipped tac7-mini, and a plan that names a
 // camera the rig does not have.
 #include "sim/plan_observations.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,7 @@ namespace {
 
 TEST(PlanObservationsTest, APresetsMaterialPlanGivesOneObservationPerCameraOfEveryLitStep) {
   const RigModel rig = loom::testing::ShippedRigModel("tac7-mini");
-  const Result<scan::Preset> preset = scan::LoadPreset(std::string(LOOM_SOURCE_DIR) + "/configs/plans/low.yaml");
+  const Result<scan::Preset> preset = scan::LoadPreset(loom::testing::SourceDir() + "/configs/plans/low.yaml");
   ASSERT_TRUE(preset.ok()) << preset.status().ToString();
   const Result<std::vector<Observation>> observations = PresetObservations(rig, *preset);
   ASSERT_TRUE(observations.ok()) << observations.status().ToString();

@@ -1,4 +1,5 @@
 #include "fitting/model/label.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +18,7 @@ TEST(LabelTest, SigmaEncodingMapsUnitIntervalOntoItself) {
 }
 
 TEST(LabelTest, MatchesReferenceLabels) {
-  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/fitting/model/testdata/ward_gd10_reference.json");
+  std::ifstream in(loom::testing::SourceDir() + "/fitting/model/testdata/ward_gd10_reference.json");
   ASSERT_TRUE(in);
   const nlohmann::json reference = nlohmann::json::parse(in);
   for (const nlohmann::json& c : reference["cases"]) {

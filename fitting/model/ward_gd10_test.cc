@@ -1,6 +1,7 @@
 // The GD10 Ward model against shared/reference (copied to testdata/), plus the properties every
 // loom BRDF must have: non-negativity, reciprocity, energy ≤ 1, derivatives, symmetries.
 #include "fitting/model/ward_gd10.h"
+#include "core/testing/build_tree.h"
 
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
@@ -16,7 +17,7 @@ using Json = nlohmann::json;
 
 const Json& Reference() {
   static const Json reference = [] {
-    const std::string path = std::string(LOOM_SOURCE_DIR) + "/fitting/model/testdata/ward_gd10_reference.json";
+    const std::string path = loom::testing::SourceDir() + "/fitting/model/testdata/ward_gd10_reference.json";
     std::ifstream in(path);
     if (!in) throw std::runtime_error("cannot open " + path);
     return Json::parse(in);

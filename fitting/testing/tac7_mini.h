@@ -2,7 +2,7 @@
 // Test helpers: tac7-mini's geometry (configs/rig/tac7-mini.yaml) and the observations its low
 // preset makes — every LED at 3 turntable angles, the filtered LEDs through their filters, and
 // the strip at evenly spaced positions — as the simulator's fast path renders them.
-// Header-only, for the fitting tests (which define LOOM_SOURCE_DIR).
+// Header-only, for the fitting tests.
 
 #include <string>
 #include <vector>

@@ -1,6 +1,7 @@
 // The modbus backend against loom-modbus-sim, a real Modbus peer on 127.0.0.1 (TCP) or a pty
 // (RTU): moves, LEDs, faults, a frozen and a restarted controller, and the rig's safe state.
 #include "hal/modbus/modbus_backends.h"
+#include "core/testing/build_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -28,7 +29,7 @@ struct Simulator {
 // Starts loom-modbus-sim and waits for its "listening ..." line.
 Simulator StartSimulator(const std::string& device, const std::string& where = "tcp:127.0.0.1:0",
                          std::vector<std::string> extra = {}) {
-  std::vector<std::string> argv = {LOOM_MODBUS_SIM, "--device", device};
+  std::vector<std::string> argv = {loom::testing::ModbusSimBinary(), "--device", device};
   if (where == "rtu") {
     argv.push_back("--rtu");
   } else {
