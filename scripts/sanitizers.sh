@@ -8,7 +8,8 @@
 # the script exits 3 (what is built so far stays for the next run).
 # The address lane runs every test of the modules that never load LibTorch (299 tests: fitting's
 # suites link the CNN, apps' run the loom binary). Here, 2 cores: its build 13.4 min from an empty
-# compiler cache (seconds from a warm one); its tests 7.9 min on one core beside a training run
+# compiler cache (14.0 min on 2026-11-28 with debug info as line tables only, which barely helps
+# under the sanitizers; seconds from a warm one); its tests 7.9 min on one core beside a training run
 # (2026-11-27: 298/298, 0 reports; the sequencer's drift test alone 90 s, 10x its normal time).
 # README command (2), and so CI, runs the `ci` lane always and the whole `address` lane when its
 # build finishes by the run's 16th minute (a warm compiler cache): from an empty one the whole lane
