@@ -16,6 +16,7 @@ const std::vector<Command>& Commands() {
       {"reconstruct", "Reconstruct a scan: heightmap and calibrated HDR observation stack in the top view", RunReconstruct},
       {"fit", "Fit SVBRDF maps to an observation stack (Ceres, the CNN, or the CNN refined by Ceres)", RunFit},
       {"train", "Train the SVBRDF CNN for a rig and preset on simulated materials", RunTrain},
+      {"model", "Show a trained CNN (rig, input, width, weights, training), or copy it with float16 weights", RunModel},
       {"eval", "Evaluate fitted maps: re-render error, parameter error, an HTML report", RunEval},
       {"export", "Export fitted maps for renderers (glTF with anisotropy)", RunExport},
       {"sim", "The simulator: procedural materials, frames and observation stacks", RunSim},

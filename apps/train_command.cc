@@ -51,6 +51,7 @@ struct TrainArguments {
   std::string device = "cpu";          // or "cuda"
   int width_divisor = 0;               // 0: 8 for a new model, --init's own
   double dropout = 0.02;
+  std::string weights = "float32";  // how MODEL/weights.pt stores them; checkpoints keep float32
   fitting::CnnTrainingOptions training;
   bool quiet = false;
 };
@@ -156,6 +157,7 @@ Status Train(TrainArguments args) {
             << cnn.info().architecture.input_channels << " input channels; radiance scale " << cnn.info().radiance_scale << "\n";
   run.Report(std::cout);
   cnn.mutable_info().training = TrainingDescription(args, run);
+  cnn.mutable_info().weights = *fitting::WeightStorageFromName(args.weights);
   LOOM_RETURN_IF_ERROR(cnn.Save(out));
   nlohmann::json report = run.ToJson();
   report["options"] = args.training.ToJson();
@@ -164,6 +166,7 @@ Status Train(TrainArguments args) {
                             {"presets", PresetNames(args.preset)},
                             {"input_layout", args.input_layout},
                             {"dropout", args.dropout},
+                            {"weights", args.weights},
                             {"init", args.init},
                             {"scan_emulation_file", args.scan_emulation}});
   report["loom_version"] = std::string(VersionWithCommit());
@@ -202,6 +205,10 @@ int RunTrain(int argc, char** argv) {
                  "divisor widens: the same function, more units to train)")
       ->check(CLI::Range(1, 256));
   app.add_option("--dropout", args.dropout, "Dropout before the last layer")->check(CLI::Range(0.0, 0.9));
+  app.add_option("--weights", args.weights,
+                 "How OUT/weights.pt stores the trained weights: float32, or float16 (half the file, for a model kept in "
+                 "git; checkpoints stay float32; loom model converts a trained model)")
+      ->check(CLI::IsMember({"float32", "float16"}));
   app.add_option("--epochs", t.epochs, "Epochs")->check(CLI::Range(1, 100000));
   app.add_option("--tile", t.tile, "Output pixels per training tile side")->check(CLI::Range(1, 1024));
   app.add_option("--tiles-per-step", t.tiles_per_step, "Tiles per Adam step")->check(CLI::Range(1, 1024));

@@ -88,6 +88,10 @@ using Json = nlohmann::json;
 constexpr const char* kInfoFile = "model.json";
 constexpr const char* kWeightsFile = "weights.pt";
 
+torch::ScalarType TorchType(WeightStorage storage) {
+  return storage == WeightStorage::kFloat16 ? torch::kFloat16 : torch::kFloat32;
+}
+
 CnnTensor FromTorch(const torch::Tensor& t) {
   const torch::Tensor c = t.contiguous();
   CnnTensor out;
@@ -130,6 +134,8 @@ Json InfoToJson(const CnnModelInfo& info) {
                {"rig", info.rig},
                {"observation_groups", groups},
                {"training", info.training}};
+  // Only when not the default, so that a float32 model's model.json reads as before.
+  if (info.weights != WeightStorage::kFloat32) json["weights"] = WeightStorageName(info.weights);
   if (info.paper_layout) json["paper_layout"] = info.paper_layout->ToJson();
   return json;
 }
@@ -149,11 +155,24 @@ CnnModelInfo InfoFromJson(const Json& j) {
     info.observation_groups.push_back(*group);
   }
   info.training = j.value("training", "");
+  const std::string weights = j.value("weights", WeightStorageName(WeightStorage::kFloat32));
+  const std::optional<WeightStorage> storage = WeightStorageFromName(weights);
+  if (!storage) throw std::invalid_argument("weights '" + weights + "' is neither float32 nor float16");
+  info.weights = *storage;
   if (j.contains("paper_layout")) info.paper_layout = PaperInputLayout::FromJson(j.at("paper_layout"));
   return info;
 }
 
 }  // namespace
+
+const char* WeightStorageName(WeightStorage storage) { return storage == WeightStorage::kFloat16 ? "float16" : "float32"; }
+
+std::optional<WeightStorage> WeightStorageFromName(const std::string& name) {
+  for (WeightStorage storage : {WeightStorage::kFloat32, WeightStorage::kFloat16}) {
+    if (name == WeightStorageName(storage)) return storage;
+  }
+  return std::nullopt;
+}
 
 std::array<int, 4> CnnArchitecture::HiddenWidths() const {
   const int d = std::max(1, width_divisor);
@@ -172,6 +191,13 @@ double CnnArchitecture::DenseFlopsPerPixel() const {
   const double macs =
       1.0 * input_channels * w[0] + 1.0 * w[0] * w[1] + 9.0 * w[1] * w[2] + 9.0 * w[2] * w[3] + 9.0 * w[3] * kLabelSize;
   return 2 * macs;
+}
+
+int64_t CnnArchitecture::WeightCount() const {
+  const std::array<int, 4> w = HiddenWidths();
+  const auto layer = [](int64_t inputs, int64_t outputs) { return inputs * outputs + outputs; };
+  return layer(input_channels, w[0]) + layer(w[0], w[1]) + layer(9 * w[1], w[2]) + layer(9 * w[2], w[3]) +
+         layer(9 * w[3], kLabelSize);
 }
 
 Status CnnArchitecture::Check() const {
@@ -236,10 +262,14 @@ Result<Cnn> Cnn::Load(const std::filesystem::path& directory) {
   // torch::load takes whatever shapes the file has: compare them with model.json's architecture.
   std::vector<std::vector<int64_t>> expected;
   for (const torch::Tensor& p : cnn->net().net->parameters()) expected.push_back(p.sizes().vec());
+  // torch::load keeps each parameter's type and takes the file's bytes as that type: load into
+  // parameters of the type model.json names, and check the bytes' count below.
+  cnn->net().net->to(TorchType(info.weights));
   try {
     torch::load(cnn->net().net, weights.string());
   } catch (const std::exception& e) {
-    return InvalidArgumentError(weights.string(), std::string("not weights of this architecture: ") + e.what());
+    return InvalidArgumentError(weights.string(), std::string("not weights of this architecture stored as ") +
+                                                      WeightStorageName(info.weights) + ": " + e.what());
   }
   const std::vector<torch::Tensor> loaded = cnn->net().net->parameters();
   for (size_t i = 0; i < loaded.size(); ++i) {
@@ -249,7 +279,14 @@ Result<Cnn> Cnn::Load(const std::filesystem::path& directory) {
                                                         " input channels, width divisor " +
                                                         std::to_string(info.architecture.width_divisor) + ")");
     }
+    const torch::Tensor& p = loaded[i];
+    if (p.storage().nbytes() != static_cast<size_t>(p.numel()) * p.element_size()) {
+      return InvalidArgumentError(weights.string(), std::string("its weights are not stored as ") +
+                                                        WeightStorageName(info.weights) + ", as " + info_path.string() +
+                                                        " says they are");
+    }
   }
+  cnn->net().net->to(torch::kFloat32);  // float16 weights compute in float32
   cnn->net().net->eval();
   return cnn;
 }
@@ -316,13 +353,30 @@ Result<Cnn> Cnn::Widened(int width_divisor, uint64_t seed) const {
   return wide;
 }
 
+namespace {
+
+// The network to write to weights.pt: `cnn`'s own in float32, else a copy in its info's storage
+// (rounding a copy, never the weights being used).
+internal::CnnNet StoredNet(const Cnn& cnn) {
+  const internal::CnnNet& net = cnn.net().net;
+  if (cnn.info().weights == WeightStorage::kFloat32) return net;
+  internal::CnnNet stored(cnn.info().architecture);
+  stored->to(TorchType(cnn.info().weights));
+  torch::NoGradGuard no_grad;
+  const std::vector<torch::Tensor> from = net->parameters(), to = stored->parameters();
+  for (size_t i = 0; i < from.size(); ++i) to[i].copy_(from[i]);
+  return stored;
+}
+
+}  // namespace
+
 Status Cnn::Save(const std::filesystem::path& directory) const {
   LOOM_RETURN_IF_ERROR(CreateDirectories(directory));
   // Weights first, to a temporary name: model.json names a complete model or none.
   const std::filesystem::path weights = directory / kWeightsFile;
   const std::filesystem::path partial = directory / (std::string(kWeightsFile) + ".partial");
   try {
-    torch::save(net_->net, partial.string());
+    torch::save(StoredNet(*this), partial.string());
   } catch (const std::exception& e) {
     return IoError(partial.string(), e.what());
   }

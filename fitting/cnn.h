@@ -57,8 +57,15 @@ struct CnnArchitecture {
   // Multiply-adds per output pixel, ×2 = FLOPs: sliding window (each patch on its own) and dense.
   double SlidingFlopsPerPixel() const;
   double DenseFlopsPerPixel() const;
-  Status Check() const;  // every problem, naming the field
+  int64_t WeightCount() const;  // weights and biases
+  Status Check() const;         // every problem, naming the field
 };
+
+// How weights.pt stores a model's weights. float16 halves the file, for a model that lives in
+// git; the network computes in float32 either way.
+enum class WeightStorage { kFloat32, kFloat16 };
+const char* WeightStorageName(WeightStorage storage);  // "float32", "float16"
+std::optional<WeightStorage> WeightStorageFromName(const std::string& name);
 
 // What a trained model expects of its input and how it was made: written next to its weights.
 struct CnnModelInfo {
@@ -70,6 +77,8 @@ struct CnnModelInfo {
   // it; without, exactly the stacks of `observation_groups`.
   std::optional<PaperInputLayout> paper_layout;
   std::string training;  // free text: data, epochs, validation errors
+  // Save writes the weights so; Load checks weights.pt against it. Training keeps float32.
+  WeightStorage weights = WeightStorage::kFloat32;
 };
 
 // The network input of a stack under `info`'s layout (its paper layout, or else the stack's own

@@ -113,6 +113,8 @@ Result<CnnExample> CnnDataset::Example(int i, const CnnModelInfo& info, bool kee
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed) {
   if (init.empty()) return Cnn::Create(info, seed);
   LOOM_ASSIGN_OR_RETURN(Cnn cnn, Cnn::Load(init));
+  // Training's checkpoints keep full precision, whatever storage the start came in.
+  cnn.mutable_info().weights = WeightStorage::kFloat32;
   const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
   if (cnn.info().architecture.input_channels != info.architecture.input_channels || cnn.info().rig != info.rig ||
       cnn.info().observation_groups != info.observation_groups || layout(cnn.info()) != layout(info)) {

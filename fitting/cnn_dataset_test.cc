@@ -106,6 +106,13 @@ TEST(CnnDatasetTest, FineTuningNeedsAModelForTheSameStacks) {
   ASSERT_TRUE(fresh.ok()) << fresh.status().ToString();
   ASSERT_TRUE(fresh->Save(dir).ok());
   EXPECT_TRUE(StartingCnn(info, dir.string(), 1).ok());
+  // A start stored as float16 trains (and checkpoints) in float32.
+  Cnn half = *fresh;
+  half.mutable_info().weights = WeightStorage::kFloat16;
+  ASSERT_TRUE(half.Save(dir / "half").ok());
+  const Result<Cnn> from_half = StartingCnn(info, (dir / "half").string(), 1);
+  ASSERT_TRUE(from_half.ok()) << from_half.status().ToString();
+  EXPECT_EQ(from_half->info().weights, WeightStorage::kFloat32);
   CnnModelInfo other = info;
   other.architecture.input_channels += 1;
   other.observation_groups.push_back(ObservationGroup::kColour);

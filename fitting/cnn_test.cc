@@ -126,6 +126,7 @@ TEST(CnnTest, ThePaperArchitecturesWorkPerPixel) {
   EXPECT_NEAR(paper.SlidingFlopsPerPixel() / 1e6, 475, 1);
   EXPECT_NEAR(paper.DenseFlopsPerPixel() / 1e6, 13.3, 0.1);
   EXPECT_EQ(paper.HiddenWidths(), (std::array<int, 4>{512, 256, 512, 1024}));
+  EXPECT_NEAR(paper.WeightCount() / 1e6, 6.64, 0.005);  // README: the paper's width has 6.6 M weights
   const CnnArchitecture small{.input_channels = 232, .width_divisor = 8};
   EXPECT_EQ(small.HiddenWidths(), (std::array<int, 4>{64, 32, 64, 128}));
   EXPECT_FALSE((CnnArchitecture{.input_channels = 0, .width_divisor = 3, .dropout = 1}).Check().ok());
@@ -144,6 +145,52 @@ TEST(CnnTest, ASavedModelLoadsWithTheSameWeights) {
   const CnnTensor input = RandomInput(8, 9, 9, 2);
   EXPECT_EQ(cnn->PredictDense(input, 128, 1)->values, loaded->PredictDense(input, 128, 1)->values);
   fs::remove_all(dir);
+}
+
+// float16 storage halves weights.pt; the loaded model computes from the rounded weights, and
+// saving rounds a copy, not the model that saved.
+TEST(CnnTest, AModelStoredAsFloat16LoadsItsWeightsRounded) {
+  const fs::path dir32 = TempDir("save32"), dir16 = TempDir("save16");
+  Result<Cnn> cnn = Cnn::Create(SmallModel(8), 7);
+  ASSERT_TRUE(cnn.ok() && cnn->Save(dir32).ok());
+  const CnnTensor input = RandomInput(8, 9, 9, 2);
+  const std::vector<float> before = cnn->PredictDense(input, 128, 1)->values;
+  cnn->mutable_info().weights = WeightStorage::kFloat16;
+  ASSERT_TRUE(cnn->Save(dir16).ok());
+  EXPECT_EQ(cnn->PredictDense(input, 128, 1)->values, before);
+  // WeightCount counts what the file holds: 4 bytes each, and the archive's few kB around them.
+  const double weight_bytes = 4.0 * cnn->info().architecture.WeightCount();
+  EXPECT_GT(static_cast<double>(fs::file_size(dir32 / "weights.pt")), weight_bytes);
+  EXPECT_LT(static_cast<double>(fs::file_size(dir32 / "weights.pt")), weight_bytes + 32768);
+  EXPECT_LT(fs::file_size(dir16 / "weights.pt"), 0.6 * fs::file_size(dir32 / "weights.pt"));
+  EXPECT_NE(ReadFile(dir16 / "model.json").value().find("\"weights\": \"float16\""), std::string::npos);
+  EXPECT_EQ(ReadFile(dir32 / "model.json").value().find("\"weights\""), std::string::npos);  // as before the option
+  Result<Cnn> loaded = Cnn::Load(dir16);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+  EXPECT_EQ(loaded->info().weights, WeightStorage::kFloat16);
+  EXPECT_EQ(Cnn::Load(dir32)->info().weights, WeightStorage::kFloat32);
+  const std::vector<float> after = loaded->PredictDense(input, 128, 1)->values;
+  ASSERT_EQ(after.size(), before.size());
+  double worst = 0, largest = 0;
+  for (size_t i = 0; i < after.size(); ++i) {
+    worst = std::max(worst, static_cast<double>(std::abs(after[i] - before[i])));
+    largest = std::max(largest, static_cast<double>(std::abs(before[i])));
+  }
+  EXPECT_GT(worst, 0);  // rounded: 11 significant bits
+  EXPECT_LT(worst, 1e-2 * std::max(1.0, largest));
+  // Weights stored otherwise than model.json says are refused, naming the file.
+  fs::copy_file(dir32 / "weights.pt", dir16 / "weights.pt", fs::copy_options::overwrite_existing);
+  const Result<Cnn> wider = Cnn::Load(dir16);
+  ASSERT_FALSE(wider.ok());
+  EXPECT_NE(wider.status().ToString().find("weights.pt: its weights are not stored as float16"), std::string::npos)
+      << wider.status().ToString();
+  ASSERT_TRUE(cnn->Save(dir16 / "half").ok());
+  fs::copy_file(dir16 / "half" / "weights.pt", dir32 / "weights.pt", fs::copy_options::overwrite_existing);
+  const Result<Cnn> narrower = Cnn::Load(dir32);
+  ASSERT_FALSE(narrower.ok());
+  EXPECT_NE(narrower.status().ToString().find("stored as float32"), std::string::npos) << narrower.status().ToString();
+  fs::remove_all(dir32);
+  fs::remove_all(dir16);
 }
 
 TEST(CnnTest, AWidenedModelComputesWhatTheNarrowOneDid) {

@@ -1,0 +1,99 @@
+// loom model: what a trained CNN takes and how it was made, or a copy of it with its weights
+// stored otherwise (float16 halves weights.pt, for a model that lives in git).
+//
+//   loom model configs/models/tac7-mini
+//   loom model MODEL --out DIR --weights float16
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <map>
+
+#include "apps/command.h"
+#include "core/file_io.h"
+#include "fitting/cnn.h"
+
+namespace loom::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string GroupCounts(const std::vector<ObservationGroup>& groups) {
+  std::map<std::string, int> counts;
+  for (ObservationGroup g : groups) ++counts[std::string(ObservationGroupName(g))];
+  std::string text;
+  for (const auto& [name, count] : counts) text += (text.empty() ? "" : ", ") + std::to_string(count) + " " + name;
+  return text;
+}
+
+void Describe(const fs::path& dir, const fitting::CnnModelInfo& info) {
+  const fitting::CnnArchitecture& a = info.architecture;
+  const std::array<int, 4> w = a.HiddenWidths();
+  std::cout << "model " << dir.string() << "\n"
+            << "  rig " << info.rig << ", " << a.input_channels << " input channels; "
+            << (info.paper_layout ? "the paper's layout (every preset of the rig)"
+                                  : "observations: " + GroupCounts(info.observation_groups))
+            << "\n"
+            << "  width divisor " << a.width_divisor << " (" << w[0] << ", " << w[1] << ", " << w[2] << ", " << w[3]
+            << " features), " << std::setprecision(3) << a.WeightCount() / 1e6 << " M weights, " << a.DenseFlopsPerPixel() / 1e6
+            << " MFLOP per pixel, dropout " << a.dropout << "\n"
+            << "  weights " << fitting::WeightStorageName(info.weights) << ", " << std::setprecision(4)
+            << fs::file_size(dir / "weights.pt") / 1e6 << " MB; radiance scale " << info.radiance_scale << "\n"
+            << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";
+}
+
+// The model in `to` with its weights stored as `storage`, and the files beside it (refine.json,
+// README.md, ...) copied; folders (checkpoints/, data/) stay behind.
+Status Convert(const fs::path& from, const fs::path& to, fitting::WeightStorage storage) {
+  std::error_code error;
+  if (fs::exists(to) && fs::equivalent(from, to, error)) {
+    return InvalidArgumentError(to.string(), "is the model itself: convert into another folder, the original stays");
+  }
+  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(from));
+  cnn.mutable_info().weights = storage;
+  LOOM_RETURN_IF_ERROR(cnn.Save(to));
+  for (const fs::directory_entry& entry : fs::directory_iterator(from)) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_regular_file() || name == "model.json" || name == "weights.pt") continue;
+    fs::copy_file(entry.path(), to / name, fs::copy_options::overwrite_existing, error);
+    if (error) return IoError((to / name).string(), "cannot copy " + entry.path().string() + ": " + error.message());
+  }
+  std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(storage) << ", " << std::setprecision(4)
+            << fs::file_size(to / "weights.pt") / 1e6 << " MB\n";
+  return Status::Ok();
+}
+
+Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights) {
+  if (out.empty()) {
+    if (!weights.empty()) return InvalidArgumentError("--weights", "converts into --out DIR: give one");
+    LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
+    Describe(model, cnn.info());
+    return Status::Ok();
+  }
+  const std::optional<fitting::WeightStorage> storage = fitting::WeightStorageFromName(weights.empty() ? "float32" : weights);
+  return Convert(model, out, *storage);
+}
+
+}  // namespace
+
+int RunModel(int argc, char** argv) {
+  CLI::App app(
+      "Show a trained CNN: its rig and input, width, weights and training; or copy it with its weights "
+      "stored otherwise",
+      "loom model");
+  AddCommonOptions(app);
+  std::string model, out, weights;
+  app.add_option("model", model, "Model folder (model.json + weights.pt), e.g. configs/models/tac7-mini")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--out", out,
+                 "Write a copy of the model here (with the files beside it: refine.json, README.md, ...) instead of "
+                 "showing it");
+  app.add_option("--weights", weights,
+                 "How the copy stores its weights: float32, or float16 (half the file; the network computes in float32 "
+                 "either way, from weights rounded to 11 significant bits)")
+      ->check(CLI::IsMember({"float32", "float16"}));
+  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  return ExitCode(RunModelCommand(model, out, weights));
+}
+
+}  // namespace loom::apps
