@@ -294,13 +294,13 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_TRUE(fs::exists(dir_ / "toy" / "svbrdf.exr"));
 
   // Fine-tuned from it, on a dataset half out of model, with the re-rendering loss, streamed from
-  // disk one training material at a time.
+  // disk one training material at a time; stored as float16 (its checkpoints as float32).
   const fs::path tuned = dir_ / "tuned";
   const auto tune =
       RunCommand(loom::testing::LoomBinary() + " train --rig " + loom::testing::SourceDir() +
                  "/configs/rig/tac7-mini.yaml --out " + tuned.string() + " --init " + model.string() +
                  " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4 --resident-materials 1 --steps-per-epoch 4"
-                 " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --quiet");
+                 " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --weights float16 --quiet");
   ASSERT_EQ(tune.exit_code, 0) << tune.output;
   for (const char* file :
        {"data/fabric-1000.stack.exr", "data/fabric-1001-out-of-model.stack.exr", "data/fabric-1003-out-of-model.truth.exr"}) {
@@ -313,6 +313,13 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_EQ(tuned_training["options"]["resident_materials"], 1);
   EXPECT_NE(tune.output.find("2 training (read 1 at a time)"), std::string::npos) << tune.output;
   EXPECT_GT(tuned_training["epochs"][0]["train_rerender_loss"].get<double>(), 0);
+  EXPECT_EQ(tuned_training["options"]["weights"], "float16");
+  std::ifstream tuned_model(tuned / "model.json"), checkpoint_model(tuned / "checkpoints/last/model/model.json");
+  EXPECT_EQ(nlohmann::json::parse(tuned_model)["weights"], "float16");
+  EXPECT_FALSE(nlohmann::json::parse(checkpoint_model).contains("weights"));  // float32
+  const auto tuned_fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
+                                    " --method cnn --model " + tuned.string() + " --out " + (dir_ / "tuned-fit").string());
+  EXPECT_EQ(tuned_fit.exit_code, 0) << tuned_fit.output;
 }
 
 // One model of the paper's input layout for two presets: its dataset takes turns between them,
