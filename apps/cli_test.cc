@@ -109,26 +109,30 @@ TEST(CliTest, VersionNamesTheCommitItWasBuiltFrom) {
       << run.output;
 }
 
-// loom model shows the shipped model and copies it with float16 weights: half the file, the
-// files beside it copied, the original never overwritten.
-TEST(CliTest, ModelShowsAModelAndCopiesItWithFloat16Weights) {
+// loom model shows the shipped model (stored as float16) and copies it with float32 weights and
+// back: twice the file and half again, the files beside it copied, the original never overwritten.
+TEST(CliTest, ModelShowsAModelAndCopiesItWithOtherWeights) {
   const std::string shipped = loom::testing::SourceDir() + "/configs/models/tac7-mini";
   const LoomRun show = RunLoom("model " + shipped);
   EXPECT_EQ(show.exit_code, 0) << show.output;
   EXPECT_TRUE(Contains(show.output, "rig tac7-mini, 232 input channels")) << show.output;
-  EXPECT_TRUE(Contains(show.output, "weights float32")) << show.output;
-  const std::filesystem::path copy = std::filesystem::path(::testing::TempDir()) / ("cli_model_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(copy);
-  const LoomRun convert = RunLoom("model " + shipped + " --out " + copy.string() + " --weights float16");
-  ASSERT_EQ(convert.exit_code, 0) << convert.output;
-  EXPECT_LT(std::filesystem::file_size(copy / "weights.pt"), 0.51 * std::filesystem::file_size(shipped + "/weights.pt"));
-  EXPECT_TRUE(std::filesystem::exists(copy / "refine.json"));
-  EXPECT_TRUE(Contains(RunLoom("model " + copy.string()).output, "weights float16"));
-  const LoomRun in_place = RunLoom("model " + copy.string() + " --out " + copy.string() + " --weights float32");
+  EXPECT_TRUE(Contains(show.output, "weights float16")) << show.output;
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("cli_model_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const LoomRun wide = RunLoom("model " + shipped + " --out " + (dir / "32").string() + " --weights float32");
+  ASSERT_EQ(wide.exit_code, 0) << wide.output;
+  const LoomRun narrow = RunLoom("model " + (dir / "32").string() + " --out " + (dir / "16").string() + " --weights float16");
+  ASSERT_EQ(narrow.exit_code, 0) << narrow.output;
+  const auto size = [](const std::filesystem::path& model) { return std::filesystem::file_size(model / "weights.pt"); };
+  EXPECT_GT(size(dir / "32"), 1.98 * size(shipped));
+  EXPECT_EQ(size(dir / "16"), size(shipped));
+  EXPECT_TRUE(std::filesystem::exists(dir / "16" / "refine.json"));
+  EXPECT_TRUE(Contains(RunLoom("model " + (dir / "32").string()).output, "weights float32"));
+  const LoomRun in_place = RunLoom("model " + (dir / "16").string() + " --out " + (dir / "16").string() + " --weights float32");
   EXPECT_EQ(in_place.exit_code, 1) << in_place.output;
   EXPECT_TRUE(Contains(in_place.output, "is the model itself")) << in_place.output;
-  EXPECT_EQ(RunLoom("model " + copy.string() + " --weights float64 --out /tmp").exit_code, 2);
-  std::filesystem::remove_all(copy);
+  EXPECT_EQ(RunLoom("model " + shipped + " --weights float64 --out " + dir.string()).exit_code, 2);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(CliTest, ShippedRigFilesLoad) {
