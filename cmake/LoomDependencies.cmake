@@ -14,6 +14,17 @@ find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d highgui
 find_package(Ceres 2 REQUIRED)
 find_package(OpenEXR 3 CONFIG REQUIRED)
 find_package(Torch REQUIRED)
+# LibTorch's CMake config links libtorch and libtorch_cpu with --no-as-needed (so that CUDA kernels,
+# which register themselves when their library loads, are never dropped), and so every executable
+# that links loom_fitting loaded them, even those that never run the CNN. Loading them costs about
+# 0.8 s of CPU (their static initialisers register every operator): fitting_test's 66 tests paid it
+# once each. Debian's LibTorch has no CUDA: link them only where the CNN's code needs them.
+foreach(torch_target torch_cpu torch)
+  set_property(TARGET ${torch_target}_library PROPERTY INTERFACE_LINK_LIBRARIES
+    "-Wl,--as-needed,\"$<TARGET_FILE:${torch_target}>\",--no-as-needed"
+    "$<TARGET_PROPERTY:${torch_target},INTERFACE_LINK_LIBRARIES>")
+endforeach()
+list(REMOVE_ITEM TORCH_LIBRARIES torch)  # torch_library brings it, as needed, with its usage requirements
 find_package(Threads REQUIRED)
 
 if(LOOM_BUILD_TESTS)

@@ -54,7 +54,7 @@ TEST(ResultTest, ValueAndErrorPropagate) {
 TEST(ResultTest, ReadingAFailedResultIsABug) {
   const Result<int> failed = Half(3);
   EXPECT_THROW(static_cast<void>(failed.value()), CheckError);
-  EXPECT_THROW(Result<int>(Status::Ok()), CheckError);
+  EXPECT_THROW(static_cast<void>(Result<int>(Status::Ok())), CheckError);
 }
 
 TEST(ResultTest, MoveOnlyValues) {

@@ -2,8 +2,8 @@
 # Builds loom's libFuzzer targets with clang (ASan + UBSan) in build-fuzz/ and runs each for
 # SECONDS (default 60), seeded from the corpus/ folder beside its source; crashes, leaks, undefined
 # behaviour and slow inputs fail the run and land in build-fuzz/findings/. README command (2), and
-# so CI, runs it for 20 s per target before the tests (issue #24); its random seed is fixed, so a
-# run on one binary explores the same inputs first.
+# so CI, runs it for 20 s per target before the tests (issue #24), as many targets at once as the
+# machine has cores; its random seed is fixed, so a run on one binary explores the same inputs first.
 #   scripts/fuzz.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,16 +15,30 @@ declare -A corpus=([rig_model_fuzzer]=core/fuzz/corpus [plan_fuzzer]=scan/fuzz/c
   [journal_fuzzer]=scan/fuzz/journal-corpus [stack_fuzzer]=core/fuzz/stack-corpus [maps_fuzzer]=fitting/fuzz/maps-corpus)
 cmake --build build-fuzz -j "$(nproc)" --target "${!corpus[@]}"
 mkdir -p build-fuzz/findings
-failed=0
-for fuzzer in "${!corpus[@]}"; do
-  work="build-fuzz/corpus-$fuzzer"
+# One target per core at a time (each is single-threaded), every target's report printed whole.
+fuzz_one() {  # FUZZER LOG
+  local work="build-fuzz/corpus-$1" binary
   mkdir -p "$work"
-  echo "== $fuzzer, $seconds s"
-  binary=$(find build-fuzz -name "$fuzzer" -type f -executable | head -1)
+  binary=$(find build-fuzz -name "$1" -type f -executable | head -1)
   # malloc may return NULL, as glibc's does for an impossible size: HDF5 asks for exabytes when a
   # header is damaged and reports the failure (loom's own `new` still throws, and is found).
   ASAN_OPTIONS=allocator_may_return_null=1 LSAN_OPTIONS=suppressions=fitting/fuzz/lsan.supp \
-    "$binary" "$work" "${corpus[$fuzzer]}" -max_total_time="$seconds" -seed=1 -timeout=10 -rss_limit_mb=2048 \
-    -artifact_prefix=build-fuzz/findings/"$fuzzer"- -print_final_stats=1 2>&1 | tail -12 || failed=1
+    "$binary" "$work" "${corpus[$1]}" -max_total_time="$seconds" -seed=1 -timeout=10 -rss_limit_mb=2048 \
+    -artifact_prefix=build-fuzz/findings/"$1"- -print_final_stats=1 > "$2" 2>&1
+}
+fuzzers=("${!corpus[@]}")
+failed=0
+for ((first = 0; first < ${#fuzzers[@]}; first += $(nproc))); do
+  batch=("${fuzzers[@]:first:$(nproc)}")
+  pids=()
+  for fuzzer in "${batch[@]}"; do
+    fuzz_one "$fuzzer" "build-fuzz/$fuzzer.log" &
+    pids+=($!)
+  done
+  for i in "${!batch[@]}"; do
+    wait "${pids[$i]}" || failed=1
+    echo "== ${batch[$i]}, $seconds s"
+    tail -12 "build-fuzz/${batch[$i]}.log"
+  done
 done
 exit "$failed"
