@@ -4,7 +4,6 @@
 #   scripts/sanitizers.sh address   # ASan + UBSan (any report fails the run), in build-asan/
 #   scripts/sanitizers.sh ci        # the same over the suites CI can afford (below), in build-asan/
 #   scripts/sanitizers.sh thread    # TSan over ParallelFor, the sequencer and camera streams, in build-thread/
-#   scripts/sanitizers.sh configure # only configures build-asan/ (scripts/fuzz.sh builds the fuzzers there)
 # A second argument, SECONDS, bounds the build: if it has not finished by then no test runs and
 # the script exits 3 (what is built so far stays for the next run).
 # The address lane runs every test of the modules that never load LibTorch (299 tests: fitting's
@@ -32,13 +31,9 @@ build_seconds=${2:-0}
 # The ASan + UBSan lanes build with clang at -O1 (what ASan's own documentation advises): here their
 # objects took 0.45-0.65x the time g++ -O2 took under the same sanitizers (2026-11-28: the capture
 # store 58 -> 35 s, the observation stack 23 -> 13 s, the sim backends' test 22 -> 10 s). The TSan
-# lane stays g++ -O2, as its GLib suppressions were found with it. build-asan/ also holds the
-# libFuzzer targets (scripts/fuzz.sh): its code carries the fuzzers' coverage instrumentation
-# (-fsanitize=fuzzer-no-link), so that the libraries both lanes use build once, not twice (from an
-# empty compiler cache the fuzzers' own build took 203 s of CPU, 160 of them core, scan and the model).
-compiler=(-DCMAKE_CXX_COMPILER=clang++) opt=-O1 fuzzing=(-DLOOM_BUILD_FUZZERS=ON) coverage=-fsanitize=fuzzer-no-link
+# lane stays g++ -O2, as its GLib suppressions were found with it.
+compiler=(-DCMAKE_CXX_COMPILER=clang++) opt=-O1
 case "$kind" in
-  configure) flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined" ;;
   address) flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
            suites=(core_test scan_test scan_full_disk_test sim_test fitting_model_test hal_modbus_test hal_aravis_test
                    hal_aravis_netns_test hal_usb_test hal_projector_test hal_sim_test acquisition_test
@@ -46,16 +41,15 @@ case "$kind" in
            peers=(loom-modbus-sim) ;;
   ci)      flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
            suites=(core_test scan_test fitting_model_test sim_test hal_sim_test acquisition_test hal_projector_test) peers=() ;;
-  thread)  flags="-fsanitize=thread" compiler=() opt=-O2 fuzzing=() coverage=
+  thread)  flags="-fsanitize=thread" compiler=() opt=-O2
            suites=(core_test hal_modbus_test hal_aravis_test acquisition_sim_test) peers=(loom-modbus-sim) ;;
-  *) echo "usage: $0 address|ci|thread|configure" >&2; exit 2 ;;
+  *) echo "usage: $0 address|ci|thread" >&2; exit 2 ;;
 esac
 dir="build-$kind"
 [ "$kind" != thread ] && dir=build-asan  # the same flags for the ci lane as the full one: one build for both
 start=$(date +%s)
-cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DLOOM_BUILD_BENCH=OFF "${compiler[@]}" "${fuzzing[@]}" \
-  -DCMAKE_CXX_FLAGS="$opt -fno-omit-frame-pointer $flags $coverage" -DCMAKE_EXE_LINKER_FLAGS="$flags" > /dev/null
-[ "$kind" = configure ] && exit 0
+cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DLOOM_BUILD_BENCH=OFF "${compiler[@]}" \
+  -DCMAKE_CXX_FLAGS="$opt -fno-omit-frame-pointer $flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" > /dev/null
 build=(cmake --build "$dir" -j "$(nproc)" --target "${suites[@]}" "${peers[@]}")
 if (( build_seconds > 0 )); then
   code=0
