@@ -36,14 +36,14 @@ echo "build finished after $(( $(date +%s) - start )) s (compiler cache: $(( hit
 # files) fuzzed under ASan + UBSan, 20 s each: a crash, leak or hang fails the run.
 bash scripts/fuzz.sh 20
 echo "fuzzing finished after $(( $(date +%s) - start )) s"
-# The suites of core, scan, the BRDF model, the simulator, the sim devices, the sequencer and the
-# projector under ASan + UBSan (any report fails the run).
+# The suites of core, scan and the BRDF model under ASan + UBSan (any report fails the run).
 bash scripts/sanitizers.sh ci
 echo "sanitized suites finished after $(( $(date +%s) - start )) s"
-# Every other test that does not load LibTorch (peers, calibration, reconstruction) under ASan +
-# UBSan too, if its build finishes by the run's 16th minute: its tests take about 8 min and the
-# normal suite's about 5, so the run stays within CI's 30 minutes. From a warm compiler cache it
-# does (the build takes seconds); from an empty one (13.4 min for the whole lane) it does not.
+# Every other test that does not load LibTorch (the simulator, the devices and their peers, the
+# sequencer, calibration, reconstruction) under ASan + UBSan too, if its build finishes by the run's
+# 16th minute: its tests take about 7 min and the normal suite's about 6.5, so the run stays within
+# CI's 30 minutes. From a warm compiler cache it does (the build takes seconds); from an empty one
+# it does not, and the run takes about 28 min on a fresh machine with 2 cores (sanitizers.sh).
 build_deadline=$(( start + 16 * 60 - $(date +%s) ))
 code=0
 if (( build_deadline > 0 )); then
