@@ -314,6 +314,7 @@ Status Sequencer::CaptureStep(const scan::Step& step) {
       // Lit but weak: some signal above black, less than the noise floor. Unlit pixels (off
       // the sample, in shadow) would never leave the floor: they do not ask for more.
       const auto [black, floor] = BlackAndFloor(frame.metadata.camera);
+      // Captured by copy: clang 14 (the sanitized lanes' compiler) cannot capture structured bindings.
       const size_t count = std::count_if(frame.pixels.begin(), frame.pixels.end(), [black = black, floor = floor](uint16_t v) {
         const double signal = v - black;
         return signal > floor / 3 && signal < floor;
