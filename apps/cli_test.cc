@@ -25,6 +25,20 @@ TEST(CliTest, HelpListsEveryCommand) {
   EXPECT_TRUE(Contains(run.output, "  help ")) << run.output;
 }
 
+// LibTorch is loaded by the commands that use the CNN, not by every start (fitting/internal/
+// cnn_engine.h: ~0.9 s of CPU and ~150 MB each): the dynamic loader's log names what it loads.
+TEST(CliTest, OnlyTheCommandsThatUseTheCnnLoadLibTorch) {
+  const LoomRun version = loom::testing::RunCommand("LD_DEBUG=files " + loom::testing::LoomBinary() + " version");
+  EXPECT_EQ(version.exit_code, 0) << version.output;
+  EXPECT_TRUE(Contains(version.output, "libstdc++")) << version.output;  // the log is there
+  EXPECT_FALSE(Contains(version.output, "libtorch")) << version.output;
+  const LoomRun model = loom::testing::RunCommand("LD_DEBUG=files " + loom::testing::LoomBinary() + " model " +
+                                                  loom::testing::SourceDir() + "/configs/models/tac7-mini");
+  EXPECT_EQ(model.exit_code, 0) << model.output;
+  EXPECT_TRUE(Contains(model.output, "libloom_cnn_torch.so")) << model.output;
+  EXPECT_TRUE(Contains(model.output, "libtorch_cpu.so")) << model.output;
+}
+
 // A config named by NAME (`--preset low`, demo's `--rig tac7`) is configs/<folder>/NAME.yaml even
 // where the working directory holds a directory of that name (a model's, a scan's).
 TEST(CliTest, ADirectoryNamedLikeAConfigDoesNotShadowIt) {

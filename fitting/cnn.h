@@ -1,6 +1,7 @@
 #pragma once
 // The paper's CNN (Merzbach et al. 2019): a 15 × 15 patch of a stack around a pixel → the
-// pixel's 14-d label (fitting/model/label.h). LibTorch behind this torch-free interface.
+// pixel's 14-d label (fitting/model/label.h). LibTorch behind this torch-free interface, loaded
+// by the first call that needs it (internal/cnn_engine.h), so that no other code pays for it.
 //
 // | layer | kind                          | output (patch form)   | paper widths | width_divisor 8 |
 // |-------|-------------------------------|-----------------------|--------------|-----------------|
@@ -133,10 +134,11 @@ class Cnn {
   // prediction, decoded labels.
   Result<Image> PredictMaps(const ObservationStack& stack, int threads = 0) const;
 
+  // The torch module, for the CNN engine's code (internal/cnn_engine.h), which makes every Cnn.
+  Cnn(CnnModelInfo info, std::shared_ptr<internal::CnnNetHolder> net);
   internal::CnnNetHolder& net() const { return *net_; }
 
  private:
-  Cnn(CnnModelInfo info, std::shared_ptr<internal::CnnNetHolder> net);
   CnnModelInfo info_;
   std::shared_ptr<internal::CnnNetHolder> net_;
 };

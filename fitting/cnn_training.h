@@ -141,11 +141,13 @@ Result<std::vector<CnnEpoch>> TrainCnn(Cnn& cnn, const CnnExampleSource& train, 
 
 // The epochs as a JSON array (what checkpoints keep in history.json).
 std::string CnnHistoryJson(const std::vector<CnnEpoch>& history);
+// The epochs of such an array; DataLoss naming `file` when `text` is not one.
+Result<std::vector<CnnEpoch>> ParseCnnHistory(const std::string& text, const std::string& file);
 
 // The augmentation of CnnTrainingOptions::radiance_noise on one input (CnnInputFromStack's
 // features): every observation's radiance multiplied by its own 1 + relative_sigma · N(0, 1)
 // (clamped at 0); the geometry channels and unseen observations (0) as they were.
-CnnTensor WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed);
+Result<CnnTensor> WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed);
 
 // Loss and per-channel RMSE of `cnn` on `examples` (dense, whole materials, no dropout).
 struct CnnScore {

@@ -113,7 +113,9 @@ TEST(CnnTrainingTest, RadianceNoiseMultipliesTheObservationsAndLeavesTheGeometry
   CnnTensor input = Example(1).input;
   const int first_radiance = kCnnGeometryChannels * input.height * input.width;
   std::fill_n(input.values.begin() + first_radiance, input.width, 0.0f);  // its first row unseen
-  const CnnTensor noisy = WithRadianceNoise(input, 0.1, 7);
+  const Result<CnnTensor> noisy_result = WithRadianceNoise(input, 0.1, 7);
+  ASSERT_TRUE(noisy_result.ok()) << noisy_result.status().ToString();
+  const CnnTensor& noisy = *noisy_result;
   ASSERT_EQ(noisy.values.size(), input.values.size());
   double sum = 0, sum2 = 0;
   int count = 0;
@@ -136,7 +138,7 @@ TEST(CnnTrainingTest, RadianceNoiseMultipliesTheObservationsAndLeavesTheGeometry
   const double mean = sum / count, sigma = std::sqrt(sum2 / count - mean * mean);
   EXPECT_NEAR(mean, 1, 0.02) << count;  // 1128 factors: the mean's own spread is 0.003
   EXPECT_NEAR(sigma, 0.1, 0.01) << count;
-  EXPECT_NE(WithRadianceNoise(input, 0.1, 8).values, noisy.values);  // the seed draws anew
+  EXPECT_NE(WithRadianceNoise(input, 0.1, 8)->values, noisy.values);  // the seed draws anew
 
   CnnTrainingOptions negative = FastOptions();
   negative.radiance_noise = -0.1;

@@ -2,7 +2,7 @@
 // The CNN's label loss (Merzbach et al. 2019, §"Loss"): a Huber distance per label channel
 // (fitting/model/label.h), weighted per channel as the paper weighs them, and optionally per
 // pixel for the shading normal by how narrow the true lobe is; and the label's σ decoded in torch
-// ops, which the re-rendering loss renders with. Included by cnn_training.cc, rerender_loss.cc
+// ops, which the re-rendering loss renders with. Included by internal/cnn_trainer.cc, rerender_loss.cc
 // and their tests only (ATen, not all of torch).
 
 #include <ATen/ATen.h>

@@ -2,7 +2,7 @@
 // The CNN's re-rendering loss (issue #22; the paper names it as future work): the GD10 model in
 // torch ops, so that a network's predicted labels are rendered under a pixel's own observations
 // (lights, view, colour weights) and compared with what was observed, with gradients back to
-// the labels. Included by cnn_training.cc and its test only (ATen, not all of torch).
+// the labels. Included by internal/cnn_trainer.cc and its test only (ATen, not all of torch).
 //
 // The model is pixel_fitter.h's PredictRadiance of DecodeLabel(label) (fitting/model/label.h):
 // the same clamps (σ ≥ kSigmaFloor, F0 ∈ [0, 1], n_s renormalised with n_z > 0) but for the
