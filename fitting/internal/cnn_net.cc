@@ -13,6 +13,7 @@
 
 #include "core/file_io.h"
 #include "core/parallel.h"
+#include "fitting/internal/torch_cnn.h"
 #include "fitting/model/label.h"
 
 namespace loom::fitting {

@@ -1,7 +1,6 @@
 #pragma once
-// The torch module behind fitting/cnn.h (layer table there), and what the CNN engine
-// (internal/cnn_engine.h) does with it: Cnn's LibTorch side. Included by the engine's files and
-// its tests only: <torch/torch.h> costs ~16 s and ~1 GB per translation unit.
+// The torch module behind fitting/cnn.h (layer table there). Included by cnn_net.cc and
+// cnn_trainer.cc only: <torch/torch.h> costs ~16 s and ~1 GB per translation unit.
 #include <torch/torch.h>
 
 #include "fitting/cnn.h"
@@ -49,13 +48,5 @@ void KeepFreedMemoryForReuse();
 
 // Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated.
 torch::Tensor PaddedInput(const CnnTensor& input);
-
-// Cnn's members that need LibTorch, as fitting/cnn.h describes them.
-Result<Cnn> CreateCnn(const CnnModelInfo& info, uint64_t seed);
-Result<Cnn> LoadCnn(const std::filesystem::path& directory);
-Status SaveCnn(const Cnn& cnn, const std::filesystem::path& directory);
-Result<Cnn> WidenCnn(const Cnn& narrow, int width_divisor, uint64_t seed);
-Result<CnnTensor> PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads);
-Result<CnnTensor> PredictSlidingLabels(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch, int threads);
 
 }  // namespace loom::fitting::internal

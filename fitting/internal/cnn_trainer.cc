@@ -1,4 +1,4 @@
-#include "fitting/internal/cnn_trainer.h"
+#include "fitting/internal/torch_cnn.h"
 
 #include <algorithm>
 #include <chrono>

@@ -2,8 +2,7 @@
 // fitting/cnn.h and cnn_training.h, exported as the module's one symbol.
 
 #include "fitting/internal/cnn_engine.h"
-#include "fitting/internal/cnn_net.h"
-#include "fitting/internal/cnn_trainer.h"
+#include "fitting/internal/torch_cnn.h"
 
 namespace loom::fitting::internal {
 namespace {
