@@ -337,6 +337,25 @@ TEST(CnnTrainingTest, ResumingWithoutACheckpointIsAnErrorNamingTheDirectory) {
   EXPECT_NE(history.status().ToString().find(options.checkpoint_dir.string()), std::string::npos);
 }
 
+// A checkpoint's history.json read back as written; a damaged one is DataLoss naming the file.
+TEST(CnnTrainingTest, AHistoryReadsBackAndADamagedOneIsNamed) {
+  CnnEpoch epoch;
+  epoch.epoch = 3;
+  epoch.learning_rate = 1e-4;
+  epoch.validation_loss = 0.25;
+  epoch.validation_rmse[11] = 0.5;
+  const Result<std::vector<CnnEpoch>> history = ParseCnnHistory(CnnHistoryJson({epoch, epoch}), "history.json");
+  ASSERT_TRUE(history.ok()) << history.status().ToString();
+  ASSERT_EQ(history->size(), 2u);
+  EXPECT_EQ((*history)[1].epoch, 3);
+  EXPECT_EQ((*history)[1].learning_rate, 1e-4);
+  EXPECT_EQ((*history)[1].validation_rmse[11], 0.5);
+  const Result<std::vector<CnnEpoch>> damaged = ParseCnnHistory("[{\"epoch\": 1}]", "run/last/history.json");
+  ASSERT_FALSE(damaged.ok());
+  EXPECT_EQ(damaged.status().code(), StatusCode::kDataLoss);
+  EXPECT_NE(damaged.status().ToString().find("run/last/history.json"), std::string::npos) << damaged.status().ToString();
+}
+
 TEST(CnnTrainingTest, AnExampleOfTheWrongShapeIsNamed) {
   CnnExample small = Example(1);
   small.name = "tiny.stack.exr";
