@@ -43,7 +43,10 @@ struct CnnNetHolder {
 // to the system. torch frees and re-allocates its activations (~100 MB each at the paper's
 // widths) at every layer; glibc serves blocks that large from fresh mmaps, and their first-touch
 // page faults cost this machine more than the convolutions (a 630² paper-size inference: 50 s →
-// 23 s, bench/cnn_bench.cc). The price: the process keeps its peak heap until it exits.
+// 23 s, bench/cnn_bench.cc, 2026-11-22, in the main thread's CPU time). The price: the process
+// keeps its peak heap until it exits. In wall time (2026-11-28, three runs each) the 630²
+// inference took 55.7–63.0 s with it and 55.6–57.5 s without, ~36–42 s of system time either
+// way: no gain measurable now (docs/benchmarks.md, "The paper's CNN").
 void KeepFreedMemoryForReuse();
 
 // Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated.
