@@ -123,8 +123,8 @@ class Cnn {
   // `max_tile` × `max_tile` output pixels (+ halo), `threads` torch threads (0: one per core).
   // Larger tiles recompute less halo (630² in 3 × 3 tiles of 210: 6 % more work than one tile;
   // in 5 × 5 of 126: 12 %); a 630² paper-size input peaks at 4.5 GB (bench/cnn_bench.cc).
-  // Prediction and training set the process's malloc to keep freed memory for reuse
-  // (internal/cnn_net.h: KeepFreedMemoryForReuse, which says why).
+  // Prediction and training put torch's large tensors on huge pages and set the process's
+  // malloc to keep freed memory for reuse (internal/cnn_net.h: SetUpTensorMemory says why).
   Result<CnnTensor> PredictDense(const CnnTensor& input, int max_tile = kDenseTile, int threads = 0) const;
   // The same outputs the sliding-window way, for pixels [first, first + count) in row-major
   // order (14 × count, as a 14 × 1 × count tensor), `batch` patches per forward pass.

@@ -1,14 +1,17 @@
 #include "fitting/internal/cnn_net.h"
 
 #include <malloc.h>
+#include <sys/mman.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
 #include <mutex>
 #include <random>
 
+#include <c10/core/CPUAllocator.h>
 #include <nlohmann/json.hpp>
 
 #include "core/file_io.h"
@@ -56,11 +59,40 @@ torch::Tensor CnnNetImpl::ForwardDense(const torch::Tensor& input) {
   return F::conv2d(dropout_->forward(x), kernel, F::Conv2dFuncOptions().bias(fc_->bias).dilation(4));
 }
 
-void KeepFreedMemoryForReuse() {
+namespace {
+
+constexpr size_t kHugePage = size_t{2} << 20;
+constexpr size_t kTorchAlignment = 64;  // c10's own CPU allocator's
+
+void FreeTensorMemory(void* data) { std::free(data); }
+
+// torch's CPU allocator, but blocks of a huge page or more aligned to huge pages and advised to
+// the kernel as such (transparent huge pages, which Debian's kernel gives on madvise).
+class HugePageTensorAllocator final : public c10::Allocator {
+ public:
+  c10::DataPtr allocate(size_t bytes) const override {
+    const c10::Device cpu(c10::DeviceType::CPU);
+    if (bytes == 0) return {nullptr, nullptr, &FreeTensorMemory, cpu};
+    const bool huge = bytes >= kHugePage;
+    const size_t alignment = huge ? kHugePage : kTorchAlignment;
+    const size_t size = (bytes + alignment - 1) / alignment * alignment;
+    void* data = std::aligned_alloc(alignment, size);
+    if (data == nullptr) throw std::bad_alloc();
+    if (huge) madvise(data, size, MADV_HUGEPAGE);  // only advice: without it the memory still works
+    return {data, data, &FreeTensorMemory, cpu};
+  }
+  c10::DeleterFnPtr raw_deleter() const override { return &FreeTensorMemory; }
+};
+
+}  // namespace
+
+void SetUpTensorMemory() {
   static std::once_flag once;
   std::call_once(once, [] {
     mallopt(M_MMAP_MAX, 0);
     mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+    static HugePageTensorAllocator allocator;
+    c10::SetCPUAllocator(&allocator, /*priority=*/1);  // above c10's default (0)
   });
 }
 
@@ -317,7 +349,7 @@ Result<CnnTensor> internal::PredictDenseLabels(const Cnn& cnn, const CnnTensor& 
   // threads split a convolution's sums by their count, so that the maps (and every fit started
   // from them) would change with --threads.
   torch::set_num_threads(1);
-  internal::KeepFreedMemoryForReuse();
+  internal::SetUpTensorMemory();
   cnn.net().net->eval();
   const torch::Tensor padded = internal::PaddedInput(input);
   torch::Tensor out = torch::empty({kLabelSize, input.height, input.width});
@@ -344,7 +376,7 @@ Result<CnnTensor> internal::PredictSlidingLabels(const Cnn& cnn, const CnnTensor
                                                           ") of " + std::to_string(pixels) + ", batch " + std::to_string(batch));
   }
   torch::set_num_threads(ThreadCount(threads));
-  internal::KeepFreedMemoryForReuse();
+  internal::SetUpTensorMemory();
   c10::InferenceMode inference;
   cnn.net().net->eval();
   const torch::Tensor padded = internal::PaddedInput(input)[0];

@@ -39,15 +39,16 @@ struct CnnNetHolder {
   CnnNet net;
 };
 
-// Sets glibc's malloc, once per process, to keep freed memory for reuse instead of returning it
-// to the system. torch frees and re-allocates its activations (~100 MB each at the paper's
-// widths) at every layer; glibc serves blocks that large from fresh mmaps, and their first-touch
-// page faults cost this machine more than the convolutions (a 630² paper-size inference: 50 s →
-// 23 s, bench/cnn_bench.cc, 2026-11-22, in the main thread's CPU time). The price: the process
-// keeps its peak heap until it exits. In wall time (2026-11-28, three runs each) the 630²
-// inference took 55.7–63.0 s with it and 55.6–57.5 s without, ~36–42 s of system time either
-// way: no gain measurable now (docs/benchmarks.md, "The paper's CNN").
-void KeepFreedMemoryForReuse();
+// Sets, once per process, how torch's CPU tensors get their memory: blocks of 2 MiB or more on
+// transparent huge pages (2 MiB-aligned and madvised; Debian's kernel gives them on madvise),
+// and glibc's malloc keeping freed memory for reuse instead of returning it to the system.
+// torch frees and re-allocates its activations (~100 MB each at the paper's widths) at every
+// layer, and on 4 KiB pages their first-touch page faults cost this machine about as much as
+// the convolutions: a 630² paper-size dense inference (bench/cnn_bench.cc, 2026-11-28) took
+// 52.5 s with 33 s of system time; with huge pages (glibc's malloc.hugetlb tunable, the same
+// advice for all of malloc) 27.6 s. Keeping freed memory alone gained nothing measurable in wall
+// time (docs/benchmarks.md, "The paper's CNN"). The price: the process keeps its peak heap.
+void SetUpTensorMemory();
 
 // Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated.
 torch::Tensor PaddedInput(const CnnTensor& input);

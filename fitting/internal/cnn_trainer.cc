@@ -315,7 +315,7 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
   LOOM_ASSIGN_OR_RETURN(const torch::Device device, TrainingDevice(options.device));
   const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
-  internal::KeepFreedMemoryForReuse();
+  internal::SetUpTensorMemory();
 
   const torch::optim::AdamOptions adam =
       torch::optim::AdamOptions(options.learning_rate_start).betas({0.9, 0.999}).eps(1e-8).weight_decay(options.weight_decay);
