@@ -122,7 +122,7 @@ class Cnn {
   // Labels (14 × H × W) of every pixel of `input` (C × H × W), dense, in equal tiles of at most
   // `max_tile` × `max_tile` output pixels (+ halo), `threads` torch threads (0: one per core).
   // Larger tiles recompute less halo (630² in 3 × 3 tiles of 210: 6 % more work than one tile;
-  // in 5 × 5 of 126: 12 %); a 630² paper-size input peaks at 4.5 GB (bench/cnn_bench.cc).
+  // in 5 × 5 of 126: 12 %); a 630² paper-size input peaks at about 5 GB (bench/cnn_bench.cc).
   // Prediction and training put torch's large tensors on huge pages and set the process's
   // malloc to keep freed memory for reuse (internal/cnn_net.h: SetUpTensorMemory says why).
   Result<CnnTensor> PredictDense(const CnnTensor& input, int max_tile = kDenseTile, int threads = 0) const;
