@@ -17,6 +17,10 @@
 # reconstructed stacks instead: each fabric scanned on the simulated rig (`loom scan`, about a
 # minute each on tac7-mini) and reconstructed with that calibration (`loom reconstruct --calib`),
 # with the camera blur, noise and calibration error that the fast path leaves out.
+# SCAN_EMULATION (a `loom sim match-scan` file, e.g. configs/models/tac7/scan-emulation.yaml)
+# scores scan-like stacks instead, without a scan: the fast path degraded as that rig's scans
+# were measured to be (`sim render --stack --scan-emulation`, its gains and noise seeded by the
+# fabric's seed), for rigs whose scans take minutes per fabric.
 #
 # LOOM (default build/apps/loom), RIG (configs/rig/tac7-mini.yaml), PRESET (low), MODEL (the
 # rig's default), SIZE (32 px), METHODS (ceres cnn cnn+ceres cnn+refine; ceres must be among them) can be
@@ -41,6 +45,10 @@ kind=${KIND:-fabric}
 read -r -a methods <<< "${METHODS:-ceres cnn cnn+ceres cnn+refine}"
 model_option=()
 if [[ -n "${MODEL:-}" ]]; then model_option=(--model "$MODEL"); fi
+if [[ -n "${CALIB:-}" && -n "${SCAN_EMULATION:-}" ]]; then
+  echo "error: CALIB (reconstructed stacks) and SCAN_EMULATION (scan-like stacks) pick different sets: set one" >&2
+  exit 2
+fi
 
 mkdir -p "$out"
 scores="$out/scores.tsv"
@@ -48,8 +56,10 @@ printf "seed\tmethod\trerender_l1\tnormal_median_deg\ta_d_nrmse\n" > "$scores"
 for seed in "${seeds[@]}"; do
   dir="$out/$seed"
   mkdir -p "$dir"
+  emulation_option=()
+  if [[ -n "${SCAN_EMULATION:-}" ]]; then emulation_option=(--scan-emulation "$SCAN_EMULATION" --seed "$seed"); fi
   "$loom" sim render --rig "$rig" --stack --preset "$preset" --object "$kind:$seed" --size "$size" \
-    --truth "$dir/truth.exr" --out "$dir/stack.exr" > /dev/null
+    "${emulation_option[@]}" --truth "$dir/truth.exr" --out "$dir/stack.exr" > /dev/null
   if [[ -n "${CALIB:-}" ]]; then
     rm -rf "$dir/scan" "$dir/reconstruction"
     "$loom" scan --rig "$rig" --preset "$preset" --object "$kind:$seed" --out "$dir/scan" --quiet > /dev/null
@@ -75,7 +85,7 @@ for seed in "${seeds[@]}"; do
 done
 
 echo
-echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstructed with $CALIB}): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE"
+echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstructed with $CALIB}${SCAN_EMULATION:+, scan-like by $SCAN_EMULATION}): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE"
 awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5 }
   END {
     if (!("ceres" in n)) { print "error: METHODS has no ceres to compare with" > "/dev/stderr"; exit 1 }
