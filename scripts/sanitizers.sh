@@ -6,16 +6,15 @@
 #   scripts/sanitizers.sh thread    # TSan over ParallelFor, the sequencer and camera streams, in build-thread/
 # A second argument, SECONDS, bounds the build: if it has not finished by then no test runs and
 # the script exits 3 (what is built so far stays for the next run).
-# The address lane runs every test of the modules that never load LibTorch (299 tests: fitting's
-# CNN tests load it, apps' run the loom binary, which loads it for the CNN's commands); the `ci`
-# lane the suites of core (configs, images, EXR, geometry, ParallelFor), scan (the capture
-# store, its journal and plans) and the BRDF model: 121 tests. README command (2), and so CI,
-# runs the `ci` lane always and the whole `address` lane when its build finishes by the run's
-# 16th minute, i.e. from a warm compiler cache. Here, 2
-# cores, from an empty compiler cache (2026-11-28): the `ci` lane's build 159 s, its tests 22 s; the
-# whole lane's 299 tests 6.7 min. With the simulator, the sim devices, the sequencer and the
-# projector in the `ci` lane too (sessions 39-48), its build took 318 s and a fresh machine's run of
-# command (2) 30-31 min, over CI's 30.
+# The address lane runs every test of the modules that never load LibTorch (299 tests: fitting's CNN
+# tests load it, apps' run the loom binary, which loads it for the CNN's commands); the `ci` lane
+# the suites of core (configs, images, EXR, geometry, ParallelFor), scan (the capture store, its
+# journal and plans) and the BRDF model: 121 tests. README command (2), and so CI, runs the `ci`
+# lane always and the whole `address` lane when its build finishes by the run's 16th minute, i.e.
+# from a warm compiler cache. Here, 2 cores, from an empty compiler cache (2026-11-28): the `ci`
+# lane's build 159 s, its tests 22 s; the whole lane's 299 tests 6.7 min. With the simulator, the
+# sim devices, the sequencer and the projector in the `ci` lane too (sessions 39-48), its build took
+# 318 s and a fresh machine's run of command (2) 30-31 min, over CI's 30.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:-address}
