@@ -293,6 +293,25 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_TRUE(fs::exists(dir_ / "toy" / "svbrdf.exr"));
 
+  // loom model --score gives the kept model's validation and test losses again, from its dataset
+  // alone; a model for another rig's stacks is refused, naming a stack.
+  const fs::path score_file = dir_ / "score.json";
+  const auto score = RunCommand(loom::testing::LoomBinary() + " model " + model.string() + " --score " +
+                                (model / "data").string() + " --validation 1 --test 1 --json " + score_file.string());
+  ASSERT_EQ(score.exit_code, 0) << score.output;
+  EXPECT_NE(score.output.find("(2 training, 1 validation, 1 test materials)"), std::string::npos) << score.output;
+  std::ifstream score_stream(score_file);
+  const nlohmann::json scored = nlohmann::json::parse(score_stream);
+  const nlohmann::json& kept = training["epochs"][training["kept_epoch"].get<int>() - 1];
+  EXPECT_NEAR(scored["validation"]["loss"].get<double>(), kept["validation_loss"].get<double>(), 1e-5);
+  EXPECT_NEAR(scored["test"]["loss"].get<double>(), training["test"]["loss"].get<double>(), 1e-5);
+  EXPECT_EQ(scored["test"]["pixels"], 16 * 16);
+  const auto other_rig = RunCommand(loom::testing::LoomBinary() + " model " + loom::testing::SourceDir() +
+                                    "/configs/models/tac7 --score " + (model / "data").string() + " --validation 1 --test 1");
+  EXPECT_EQ(other_rig.exit_code, 1) << other_rig.output;
+  EXPECT_NE(other_rig.output.find("fabric-1002.stack.exr"), std::string::npos) << other_rig.output;
+  EXPECT_NE(other_rig.output.find("the model is for rig 'tac7'"), std::string::npos) << other_rig.output;
+
   // Fine-tuned from it, on a dataset half out of model, with the re-rendering loss, streamed from
   // disk one training material at a time; stored as float16 (its checkpoints as float32).
   const fs::path tuned = dir_ / "tuned";

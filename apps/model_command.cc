@@ -1,16 +1,21 @@
-// loom model: what a trained CNN takes and how it was made, or a copy of it with its weights
-// stored otherwise (float16 halves weights.pt, for a model that lives in git).
+// loom model: what a trained CNN takes and how it was made, a copy of it with its weights
+// stored otherwise (float16 halves weights.pt, for a model that lives in git), or its score on a
+// training dataset's held-out materials (to choose between checkpoints without training on).
 //
 //   loom model configs/models/tac7-mini
 //   loom model MODEL --out DIR --weights float16
+//   loom model MODEL --score DATA --validation 12 --test 12 [--json FILE]
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <map>
 
+#include <nlohmann/json.hpp>
+
 #include "apps/command.h"
 #include "core/file_io.h"
 #include "fitting/cnn.h"
+#include "fitting/cnn_dataset.h"
 
 namespace loom::apps {
 namespace {
@@ -62,7 +67,45 @@ Status Convert(const fs::path& from, const fs::path& to, fitting::WeightStorage 
   return Status::Ok();
 }
 
-Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights) {
+struct ScoreArguments {
+  std::string data;  // empty: no scoring
+  int validation = 3;
+  int test = 3;
+  int threads = 0;
+  std::string json;
+};
+
+void ReportScore(const std::string& set, int materials, const fitting::CnnScore& score) {
+  std::cout << std::setprecision(4) << set << " loss " << score.loss << " on " << materials << " materials (" << score.pixels
+            << " pixels); RMSE per label channel:\n   ";
+  fitting::ReportRmsePerChannel(std::cout, score);
+  std::cout << "\n";
+}
+
+// The model's label loss and RMSE on DATA's validation and test materials, split as loom train
+// splits them (the last --test by name, the --validation before them).
+Status Score(const fs::path& model, const ScoreArguments& args) {
+  LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
+  LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(args.data, args.validation, args.test));
+  LOOM_ASSIGN_OR_RETURN(const fitting::CnnHeldOutScore score, fitting::ScoreOnHeldOut(cnn, dataset, args.threads));
+  std::cout << "model " << model.string() << " on dataset " << args.data << " (" << dataset.train_count() << " training, "
+            << dataset.validation_count() << " validation, " << dataset.test_count() << " test materials)\n";
+  ReportScore("validation", dataset.validation_count(), score.validation);
+  ReportScore("test", dataset.test_count(), score.test);
+  if (args.json.empty()) return Status::Ok();
+  const nlohmann::json report = {
+      {"model", model.string()},
+      {"dataset", args.data},
+      {"materials",
+       {{"train", dataset.train_count()}, {"validation", dataset.validation_count()}, {"test", dataset.test_count()}}},
+      {"label_channels", fitting::kLabelChannelNames},
+      {"validation", fitting::CnnScoreJson(score.validation)},
+      {"test", fitting::CnnScoreJson(score.test)}};
+  return WriteFileAtomically(args.json, report.dump(2) + "\n");
+}
+
+Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights, const ScoreArguments& score) {
+  if (!score.data.empty()) return Score(model, score);
   if (out.empty()) {
     if (!weights.empty()) return InvalidArgumentError("--weights", "converts into --out DIR: give one");
     LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
@@ -77,8 +120,8 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
 
 int RunModel(int argc, char** argv) {
   CLI::App app(
-      "Show a trained CNN: its rig and input, width, weights and training; or copy it with its weights "
-      "stored otherwise",
+      "Show a trained CNN: its rig and input, width, weights and training; copy it with its weights "
+      "stored otherwise; or score it on a training dataset's held-out materials",
       "loom model");
   AddCommonOptions(app);
   std::string model, out, weights;
@@ -92,8 +135,27 @@ int RunModel(int argc, char** argv) {
                  "How the copy stores its weights: float32, or float16 (half the file; the network computes in float32 "
                  "either way, from weights rounded to 11 significant bits)")
       ->check(CLI::IsMember({"float32", "float16"}));
+  ScoreArguments score;
+  CLI::Option* score_option =
+      app.add_option("--score", score.data,
+                     "Score the model on this loom train dataset's held-out materials (NAME.stack.exr + NAME.truth.exr): "
+                     "label loss and RMSE per channel on its validation and test sets, as loom train reports them")
+          ->check(CLI::ExistingDirectory)
+          ->excludes("--out")
+          ->excludes("--weights");
+  app.add_option("--validation", score.validation,
+                 "With --score: the validation materials, as loom train --validation split them")
+      ->check(CLI::Range(1, 100000))
+      ->needs(score_option);
+  app.add_option("--test", score.test, "With --score: the test materials (the last by name), as loom train --test split them")
+      ->check(CLI::Range(1, 100000))
+      ->needs(score_option);
+  app.add_option("--threads", score.threads, "With --score: threads that read the stacks and run the network (0: one per core)")
+      ->check(CLI::Range(0, 1024))
+      ->needs(score_option);
+  app.add_option("--json", score.json, "With --score: also write the scores to this JSON file")->needs(score_option);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  return ExitCode(RunModelCommand(model, out, weights));
+  return ExitCode(RunModelCommand(model, out, weights, score));
 }
 
 }  // namespace loom::apps

@@ -105,8 +105,12 @@ Result<CnnExample> CnnDataset::Example(int i, const CnnModelInfo& info, bool kee
   if (truth.maps.width() != stack->image.width() || truth.maps.height() != stack->image.height()) {
     return InvalidArgumentError(truth_path.string(), "not on the grid of its stack " + stack->source);
   }
-  LOOM_ASSIGN_OR_RETURN(CnnTensor input, CnnInputFromStack(*stack, info));
-  return CnnExample{truth_path.string(), std::move(input), CnnLabelsFromMaps(truth.maps),
+  Result<CnnTensor> input = CnnInputFromStack(*stack, info);
+  if (!input.ok()) {  // the stack's own name ("sim fast path") does not say which file it is
+    const Status& why = input.status();
+    return Status(why.code(), pairs_[static_cast<size_t>(i)].stack.string(), why.subject() + ": " + why.message());
+  }
+  return CnnExample{truth_path.string(), std::move(*input), CnnLabelsFromMaps(truth.maps),
                     keep_stack ? std::move(stack) : nullptr};
 }
 
@@ -186,10 +190,33 @@ Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnAr
   return run;
 }
 
+Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset, int threads) {
+  const int first_validation = dataset.train_count();
+  const int first_test = first_validation + dataset.validation_count();
+  CnnHeldOutScore score;
+  LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> validation,
+                        ReadExamples(dataset, first_validation, dataset.validation_count(), cnn.info(), false, threads));
+  LOOM_ASSIGN_OR_RETURN(score.validation, ScoreCnn(cnn, validation, threads));
+  LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> test,
+                        ReadExamples(dataset, first_test, dataset.test_count(), cnn.info(), false, threads));
+  LOOM_ASSIGN_OR_RETURN(score.test, ScoreCnn(cnn, test, threads));
+  return score;
+}
+
+nlohmann::json CnnScoreJson(const CnnScore& score) {
+  return {{"loss", score.loss}, {"rmse", score.rmse}, {"pixels", score.pixels}};
+}
+
+void ReportRmsePerChannel(std::ostream& out, const CnnScore& score) {
+  out << std::fixed << std::setprecision(3);
+  for (int c = 0; c < kLabelSize; ++c) out << (c == 0 ? "" : "  ") << kLabelChannelNames[c] << " " << score.rmse[c];
+  out << std::defaultfloat;
+}
+
 nlohmann::json CnnDatasetTraining::ToJson() const {
   return {{"epochs", nlohmann::json::parse(CnnHistoryJson(history))},
           {"kept_epoch", kept.epoch},
-          {"test", {{"loss", test.loss}, {"rmse", test.rmse}, {"pixels", test.pixels}}},
+          {"test", CnnScoreJson(test)},
           {"label_channels", kLabelChannelNames},
           {"materials", {{"train", train_materials}, {"validation", validation_materials}, {"test", test_materials}}}};
 }
@@ -201,10 +228,9 @@ void CnnDatasetTraining::Report(std::ostream& out) const {
         << " samples/s)" << std::defaultfloat << "\n";
   }
   out << std::setprecision(4) << "kept epoch " << kept.epoch << " (lowest validation loss " << kept.validation_loss
-      << ")\ntest loss " << test.loss << " on " << test_materials << " materials; RMSE per label channel:\n " << std::fixed
-      << std::setprecision(3);
-  for (int c = 0; c < kLabelSize; ++c) out << "  " << kLabelChannelNames[c] << " " << test.rmse[c];
-  out << std::defaultfloat << "\n";
+      << ")\ntest loss " << test.loss << " on " << test_materials << " materials; RMSE per label channel:\n   ";
+  ReportRmsePerChannel(out, test);
+  out << "\n";
 }
 
 }  // namespace loom::fitting

@@ -65,6 +65,21 @@ class CnnDataset {
 // `info`'s width divisor where that is set (not 0) and differs from the model's (Cnn::Widened).
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed);
 
+// A trained model on a dataset's held-out materials: the label loss and per-channel RMSE on its
+// validation and on its test materials, each stack read as the model sees it (loom model
+// --score). The same measure as training's validation loss and test score, so that checkpoints
+// and shipped models compare on the fabrics a run held out without training any further.
+struct CnnHeldOutScore {
+  CnnScore validation;
+  CnnScore test;
+};
+Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset, int threads);
+
+// `score` as JSON: loss, rmse (per label channel) and pixels.
+nlohmann::json CnnScoreJson(const CnnScore& score);
+// The RMSE per label channel on one line: "a_d.R 0.012  a_d.G ...".
+void ReportRmsePerChannel(std::ostream& out, const CnnScore& score);
+
 // What TrainOnDataset did: every epoch, the one kept and its score on the test materials.
 struct CnnDatasetTraining {
   std::vector<CnnEpoch> history;

@@ -159,6 +159,36 @@ TEST(CnnDatasetTest, TrainsKeepsTheBestEpochAndScoresItOnTheTestSet) {
   EXPECT_EQ(json["kept_epoch"], best.epoch);
   ASSERT_EQ(streamed->history.size(), 2u);  // its tiles come a window of materials at a time: other steps
   EXPECT_TRUE(std::isfinite(streamed->test.loss));
+
+  // Scored again afterwards on the same split, the kept model gives what training reported for
+  // it; another model (the streamed run's) scores otherwise.
+  const Result<CnnHeldOutScore> again = ScoreOnHeldOut(*resident->model, *dataset, 1);
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  EXPECT_NEAR(again->validation.loss, resident->kept.validation_loss, 1e-6 * resident->kept.validation_loss);
+  EXPECT_NEAR(again->test.loss, resident->test.loss, 1e-6 * resident->test.loss);
+  EXPECT_EQ(again->validation.pixels, 16 * 16);
+  EXPECT_EQ(again->test.rmse, resident->test.rmse);
+  const Result<CnnHeldOutScore> other = ScoreOnHeldOut(*streamed->model, *dataset, 1);
+  ASSERT_TRUE(other.ok()) << other.status().ToString();
+  EXPECT_NE(other->test.loss, again->test.loss);
+  fs::remove_all(dir);
+}
+
+// A model for other stacks is refused, naming the stack it cannot read.
+TEST(CnnDatasetTest, ScoringNeedsAModelForTheDatasetsStacks) {
+  const fs::path dir = FourPairs("cnn_dataset_score");
+  const Result<CnnDataset> dataset = CnnDataset::Open(dir, 1, 1);
+  ASSERT_TRUE(dataset.ok()) << dataset.status().ToString();
+  CnnModelInfo info;
+  info.architecture = {kCnnGeometryChannels + 4, 32, 0.02};
+  info.rig = "tac7-mini";
+  info.observation_groups.assign(4, ObservationGroup::kMonochrome);
+  const Result<Cnn> other = Cnn::Create(info, 1);
+  ASSERT_TRUE(other.ok()) << other.status().ToString();
+  const Result<CnnHeldOutScore> score = ScoreOnHeldOut(*other, *dataset, 1);
+  ASSERT_FALSE(score.ok());
+  EXPECT_TRUE(Contains(score.status(), "fabric-1002.stack.exr")) << score.status().ToString();
+  EXPECT_TRUE(Contains(score.status(), "not the layout the model was trained on")) << score.status().ToString();
   fs::remove_all(dir);
 }
 
