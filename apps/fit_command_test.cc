@@ -312,14 +312,15 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_NE(other_rig.output.find("fabric-1002.stack.exr"), std::string::npos) << other_rig.output;
   EXPECT_NE(other_rig.output.find("the model is for rig 'tac7'"), std::string::npos) << other_rig.output;
 
-  // Fine-tuned from it, on a dataset half out of model, with the re-rendering loss, streamed from
-  // disk one training material at a time; stored as float16 (its checkpoints as float32).
+  // Fine-tuned from it with the centre skip added, on a dataset half out of model, with the
+  // re-rendering loss, streamed from disk one training material at a time; stored as float16
+  // (its checkpoints as float32).
   const fs::path tuned = dir_ / "tuned";
   const auto tune =
       RunCommand(loom::testing::LoomBinary() + " train --rig " + loom::testing::SourceDir() +
                  "/configs/rig/tac7-mini.yaml --out " + tuned.string() + " --init " + model.string() +
                  " --out-of-model-share 0.5 --rerender-weight 1 --rerender-pixels 4 --resident-materials 1 --steps-per-epoch 4"
-                 " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --weights float16 --quiet");
+                 " --materials 4 --validation 1 --test 1 --size 16 --tile 8 --epochs 1 --weights float16 --centre-skip --quiet");
   ASSERT_EQ(tune.exit_code, 0) << tune.output;
   for (const char* file :
        {"data/fabric-1000.stack.exr", "data/fabric-1001-out-of-model.stack.exr", "data/fabric-1003-out-of-model.truth.exr"}) {
@@ -334,7 +335,10 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_GT(tuned_training["epochs"][0]["train_rerender_loss"].get<double>(), 0);
   EXPECT_EQ(tuned_training["options"]["weights"], "float16");
   std::ifstream tuned_model(tuned / "model.json"), checkpoint_model(tuned / "checkpoints/last/model/model.json");
-  EXPECT_EQ(nlohmann::json::parse(tuned_model)["weights"], "float16");
+  const nlohmann::json tuned_info = nlohmann::json::parse(tuned_model);
+  EXPECT_EQ(tuned_info["weights"], "float16");
+  EXPECT_EQ(tuned_info["architecture"]["centre_skip"], true);
+  EXPECT_EQ(tuned_training["options"]["centre_skip"], true);
   EXPECT_FALSE(nlohmann::json::parse(checkpoint_model).contains("weights"));  // float32
   const auto tuned_fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
                                     " --method cnn --model " + tuned.string() + " --out " + (dir_ / "tuned-fit").string());

@@ -40,7 +40,7 @@ void Describe(const fs::path& dir, const fitting::CnnModelInfo& info) {
             << "\n"
             << "  width divisor " << a.width_divisor << " (" << w[0] << ", " << w[1] << ", " << w[2] << ", " << w[3]
             << " features), " << std::setprecision(3) << a.WeightCount() / 1e6 << " M weights, " << a.DenseFlopsPerPixel() / 1e6
-            << " MFLOP per pixel, dropout " << a.dropout << "\n"
+            << " MFLOP per pixel, dropout " << a.dropout << (a.centre_skip ? ", centre skip" : "") << "\n"
             << "  weights " << fitting::WeightStorageName(info.weights) << ", " << std::setprecision(4)
             << fs::file_size(dir / "weights.pt") / 1e6 << " MB; radiance scale " << info.radiance_scale << "\n"
             << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";

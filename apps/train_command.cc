@@ -51,6 +51,7 @@ struct TrainArguments {
   std::string device = "cpu";          // or "cuda"
   int width_divisor = 0;               // 0: 8 for a new model, --init's own
   double dropout = 0.02;
+  bool centre_skip = false;
   std::string weights = "float32";  // how MODEL/weights.pt stores them; checkpoints keep float32
   fitting::CnnTrainingOptions training;
   bool quiet = false;
@@ -101,7 +102,8 @@ std::string TrainingDescription(const TrainArguments& args, const fitting::CnnDa
        << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << ", scan-like share "
        << args.dataset.scan_like_share << "), preset " << args.preset << (args.init.empty() ? "" : ", from " + args.init)
        << (args.init.empty() || args.width_divisor == 0 ? "" : " at width divisor " + std::to_string(args.width_divisor))
-       << "; test loss " << run.test.loss << " on " << run.test_materials << " held-out fabrics; loom " << VersionWithCommit();
+       << (args.centre_skip ? ", with the centre skip" : "") << "; test loss " << run.test.loss << " on " << run.test_materials
+       << " held-out fabrics; loom " << VersionWithCommit();
   return text.str();
 }
 
@@ -146,10 +148,11 @@ Status Train(TrainArguments args) {
     bar.Update(static_cast<int64_t>(p.epoch - 1) * p.steps + p.step, static_cast<int64_t>(p.epochs) * p.steps, "steps",
                detail.str());
   };
-  LOOM_ASSIGN_OR_RETURN(fitting::CnnDatasetTraining run,
-                        fitting::TrainOnDataset(dataset, {0, WidthDivisor(args), args.dropout}, args.init, args.training,
-                                                args.input_layout == "paper" ? fitting::CnnInputKind::kPaperLayout
-                                                                             : fitting::CnnInputKind::kStackObservations));
+  LOOM_ASSIGN_OR_RETURN(
+      fitting::CnnDatasetTraining run,
+      fitting::TrainOnDataset(
+          dataset, {0, WidthDivisor(args), args.dropout, args.centre_skip}, args.init, args.training,
+          args.input_layout == "paper" ? fitting::CnnInputKind::kPaperLayout : fitting::CnnInputKind::kStackObservations));
   fitting::Cnn& cnn = *run.model;
   std::cout << "dataset " << data.string() << ": " << run.train_materials << " training"
             << (run.streamed ? " (read " + std::to_string(args.training.resident_materials) + " at a time)" : "") << ", "
@@ -163,6 +166,7 @@ Status Train(TrainArguments args) {
   report["options"] = args.training.ToJson();
   report["options"].update(args.dataset.ToJson());
   report["options"].update({{"width_divisor", cnn.info().architecture.width_divisor},
+                            {"centre_skip", cnn.info().architecture.centre_skip},
                             {"presets", PresetNames(args.preset)},
                             {"input_layout", args.input_layout},
                             {"dropout", args.dropout},
@@ -205,6 +209,9 @@ int RunTrain(int argc, char** argv) {
                  "divisor widens: the same function, more units to train)")
       ->check(CLI::Range(1, 256));
   app.add_option("--dropout", args.dropout, "Dropout before the last layer")->check(CLI::Range(0.0, 0.9));
+  app.add_flag("--centre-skip", args.centre_skip,
+               "Add a linear readout of each pixel's own features to its label (loom's, not the paper's; added to an "
+               "--init model as zeros: the same function to start from)");
   app.add_option("--weights", args.weights,
                  "How OUT/weights.pt stores the trained weights: float32, or float16 (half the file, for a model kept in "
                  "git; checkpoints stay float32; loom model converts a trained model)")

@@ -25,14 +25,14 @@ std::array<int, 4> CnnArchitecture::HiddenWidths() const {
 double CnnArchitecture::SlidingFlopsPerPixel() const {
   const std::array<int, 4> w = HiddenWidths();
   const double macs = 225.0 * input_channels * w[0] + 225.0 * w[0] * w[1] + 49.0 * 9 * w[1] * w[2] + 9.0 * 9 * w[2] * w[3] +
-                      9.0 * w[3] * kLabelSize;
+                      9.0 * w[3] * kLabelSize + (centre_skip ? 1.0 * w[1] * kLabelSize : 0.0);
   return 2 * macs;
 }
 
 double CnnArchitecture::DenseFlopsPerPixel() const {
   const std::array<int, 4> w = HiddenWidths();
-  const double macs =
-      1.0 * input_channels * w[0] + 1.0 * w[0] * w[1] + 9.0 * w[1] * w[2] + 9.0 * w[2] * w[3] + 9.0 * w[3] * kLabelSize;
+  const double macs = 1.0 * input_channels * w[0] + 1.0 * w[0] * w[1] + 9.0 * w[1] * w[2] + 9.0 * w[2] * w[3] +
+                      9.0 * w[3] * kLabelSize + (centre_skip ? 1.0 * w[1] * kLabelSize : 0.0);
   return 2 * macs;
 }
 
@@ -40,7 +40,7 @@ int64_t CnnArchitecture::WeightCount() const {
   const std::array<int, 4> w = HiddenWidths();
   const auto layer = [](int64_t inputs, int64_t outputs) { return inputs * outputs + outputs; };
   return layer(input_channels, w[0]) + layer(w[0], w[1]) + layer(9 * w[1], w[2]) + layer(9 * w[2], w[3]) +
-         layer(9 * w[3], kLabelSize);
+         layer(9 * w[3], kLabelSize) + (centre_skip ? layer(w[1], kLabelSize) : 0);
 }
 
 Status CnnArchitecture::Check() const {
@@ -100,7 +100,16 @@ Status Cnn::Save(const std::filesystem::path& directory) const {
 
 Result<Cnn> Cnn::Widened(int width_divisor, uint64_t seed) const {
   LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
-  return engine->Widened(*this, width_divisor, seed);
+  CnnArchitecture wide = info_.architecture;
+  wide.width_divisor = width_divisor;
+  return engine->Grown(*this, wide, seed);
+}
+
+Result<Cnn> Cnn::WithCentreSkip() const {
+  LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
+  CnnArchitecture with_skip = info_.architecture;
+  with_skip.centre_skip = true;
+  return engine->Grown(*this, with_skip, 0);
 }
 
 Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int max_tile, int threads) const {

@@ -11,7 +11,9 @@
 // | conv4 | 3 × 3, stride 2               | 3 × 3 × w4            | 1024         | 128             |
 // | fc    | fully connected 9·w4 → 14     | 14                    |              |                 |
 // LeakyReLU (0.01) after every convolution, no batch normalisation (it would lose the input's
-// absolute intensity, which the albedos need), dropout before fc (training only).
+// absolute intensity, which the albedos need), dropout before fc (training only). Optionally
+// (CnnArchitecture::centre_skip, not the paper's) a 1 × 1 readout w2 → 14 of conv2's features
+// at the patch's centre pixel, added to fc's output.
 //
 // Two evaluations of the same weights:
 //  - sliding window: one patch per output pixel, as the paper infers (475 MFLOP per pixel at
@@ -53,6 +55,10 @@ struct CnnArchitecture {
   int input_channels = 934;  // the paper's; 4 + observations for a loom stack
   int width_divisor = 1;     // divides the hidden widths 512, 256, 512, 1024 (1: the paper's)
   double dropout = 0.02;     // before fc, training only (the paper's text; its figure says 0.1)
+  // loom's, not the paper's: a linear readout of conv2's features at the patch's centre pixel
+  // added to fc's output, a short path from the pixel's own observations to its label (the
+  // paper's path to them runs through two 3 × 3 stride-2 layers shared with its neighbours).
+  bool centre_skip = false;
 
   std::array<int, 4> HiddenWidths() const;
   // Multiply-adds per output pixel, ×2 = FLOPs: sliding window (each patch on its own) and dense.
@@ -115,6 +121,9 @@ class Cnn {
   // drawn at random (seeded) so that training tells the copies apart (Net2WiderNet, Chen et
   // al. 2016). For fine-tuning a wider network from a trained narrow one.
   Result<Cnn> Widened(int width_divisor, uint64_t seed) const;
+  // This model with CnnArchitecture::centre_skip added, its weights zero: the same function,
+  // for fine-tuning with the skip from a model trained without it.
+  Result<Cnn> WithCentreSkip() const;
 
   const CnnModelInfo& info() const { return info_; }
   CnnModelInfo& mutable_info() { return info_; }

@@ -128,10 +128,13 @@ Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint6
                                           std::to_string(info.architecture.input_channels) + ")");
   }
   const int divisor = info.architecture.width_divisor;
-  if (divisor == 0 || divisor == cnn.info().architecture.width_divisor) return cnn;
-  Result<Cnn> wide = cnn.Widened(divisor, seed);
-  if (!wide.ok()) return InvalidArgumentError(init, wide.status().subject() + ": " + wide.status().message());
-  return wide;
+  if (divisor != 0 && divisor != cnn.info().architecture.width_divisor) {
+    Result<Cnn> wide = cnn.Widened(divisor, seed);
+    if (!wide.ok()) return InvalidArgumentError(init, wide.status().subject() + ": " + wide.status().message());
+    cnn = std::move(*wide);
+  }
+  if (!info.architecture.centre_skip || cnn.info().architecture.centre_skip) return cnn;
+  return cnn.WithCentreSkip();
 }
 
 namespace {

@@ -62,7 +62,8 @@ class CnnDataset {
 
 // What training starts from: a new model for `info` (weights from `seed`), or the model in
 // `init` (fine-tuning, its input normalisation kept) when it takes the same stacks — widened to
-// `info`'s width divisor where that is set (not 0) and differs from the model's (Cnn::Widened).
+// `info`'s width divisor where that is set (not 0) and differs from the model's (Cnn::Widened),
+// and given the centre skip where `info` has it and the model has not (Cnn::WithCentreSkip).
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed);
 
 // A trained model on a dataset's held-out materials: the label loss and per-channel RMSE on its

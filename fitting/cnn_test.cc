@@ -228,6 +228,46 @@ TEST(CnnTest, AModelWidensOnlyToADivisorOfItsOwnWidth) {
   EXPECT_TRUE(narrow->Widened(16, 1).ok());  // the same width: a copy
 }
 
+double LargestDifference(const std::vector<float>& a, const std::vector<float>& b) {
+  EXPECT_EQ(a.size(), b.size());
+  double worst = 0;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) worst = std::max(worst, static_cast<double>(std::abs(a[i] - b[i])));
+  return worst;
+}
+
+// The centre skip: dense and sliding agree with it; added to a trained model it starts at zero
+// (the same function), it is saved and loaded, and widening keeps what it computes.
+TEST(CnnTest, TheCentreSkipReadsEachPixelsOwnFeatures) {
+  CnnModelInfo info = SmallModel(8);
+  info.architecture.centre_skip = true;
+  const Result<Cnn> skip = Cnn::Create(info, 3);
+  ASSERT_TRUE(skip.ok()) << skip.status().ToString();
+  EXPECT_EQ(info.architecture.WeightCount() - SmallModel(8).architecture.WeightCount(), (256 / 16 + 1) * kLabelSize);
+  const CnnTensor input = RandomInput(8, 13, 11, 2);
+  const std::vector<float> dense = skip->PredictDense(input, 8, 1)->values;
+  EXPECT_LE(LargestDifference(dense, skip->PredictSliding(input, 0, 13 * 11, 32, 1)->values), 1e-4);
+
+  const Result<Cnn> plain = Cnn::Create(SmallModel(8), 3);
+  const Result<Cnn> added = plain->WithCentreSkip();
+  ASSERT_TRUE(added.ok()) << added.status().ToString();
+  EXPECT_TRUE(added->info().architecture.centre_skip);
+  const std::vector<float> before = plain->PredictDense(input, 128, 1)->values;
+  EXPECT_EQ(added->PredictDense(input, 128, 1)->values, before);
+  EXPECT_GT(LargestDifference(dense, before), 1e-3);  // the same seed's weights with a non-zero skip differ
+
+  const fs::path dir = TempDir("skip");
+  ASSERT_TRUE(skip->Save(dir).ok());
+  EXPECT_NE(ReadFile(dir / "model.json").value().find("\"centre_skip\": true"), std::string::npos);
+  const Result<Cnn> loaded = Cnn::Load(dir);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+  EXPECT_EQ(loaded->PredictDense(input, 8, 1)->values, dense);
+  const Result<Cnn> wide = skip->Widened(4, 5);
+  ASSERT_TRUE(wide.ok()) << wide.status().ToString();
+  EXPECT_TRUE(wide->info().architecture.centre_skip);
+  EXPECT_LT(LargestDifference(wide->PredictDense(input, 8, 1)->values, dense), 1e-5);
+  fs::remove_all(dir);
+}
+
 TEST(CnnTest, ABrokenModelDirectoryIsAnErrorNamingTheFile) {
   const fs::path dir = TempDir("broken");
   Result<Cnn> cnn = Cnn::Create(SmallModel(8), 7);

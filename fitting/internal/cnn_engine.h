@@ -26,7 +26,8 @@ class CnnEngine {
   virtual Result<Cnn> Create(const CnnModelInfo& info, uint64_t seed) const = 0;
   virtual Result<Cnn> Load(const std::filesystem::path& directory) const = 0;
   virtual Status Save(const Cnn& cnn, const std::filesystem::path& directory) const = 0;
-  virtual Result<Cnn> Widened(const Cnn& cnn, int width_divisor, uint64_t seed) const = 0;
+  // Cnn::Widened and WithCentreSkip: `cnn` as architecture `to`, the same function.
+  virtual Result<Cnn> Grown(const Cnn& cnn, const CnnArchitecture& to, uint64_t seed) const = 0;
   virtual Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads) const = 0;
   virtual Result<CnnTensor> PredictSliding(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch,
                                            int threads) const = 0;
@@ -42,7 +43,7 @@ class CnnEngine {
 // The module's one exported symbol: a C function returning its engine, which lives as long as
 // the process (the module is never unloaded). The suffix changes whenever CnnEngine does, so
 // that a module built from other sources is refused rather than called.
-inline constexpr const char* kCnnEngineEntry = "loom_cnn_engine_v1";
+inline constexpr const char* kCnnEngineEntry = "loom_cnn_engine_v2";
 using CnnEngineEntry = const CnnEngine* (*)();
 
 // Loads `module` and returns its engine; an error names the module and says what went wrong.

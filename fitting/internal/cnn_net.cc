@@ -31,6 +31,7 @@ CnnNetImpl::CnnNetImpl(const CnnArchitecture& architecture) {
   conv4_ = register_module("conv4", nn::Conv2d(nn::Conv2dOptions(w[2], w[3], 3).stride(2)));
   fc_ = register_module("fc", nn::Linear(9 * w[3], kLabelSize));
   dropout_ = register_module("dropout", nn::Dropout(architecture.dropout));
+  if (architecture.centre_skip) skip_ = register_module("skip", nn::Linear(w[1], kLabelSize));
   width4_ = w[3];
 }
 
@@ -38,25 +39,32 @@ torch::Tensor CnnNetImpl::Leaky(const torch::Tensor& x) const { return torch::le
 
 torch::Tensor CnnNetImpl::ForwardPatches(const torch::Tensor& patches) {
   torch::Tensor x = Leaky(conv1_->forward(patches.contiguous(at::MemoryFormat::ChannelsLast)));
-  x = Leaky(conv2_->forward(x));
-  x = Leaky(conv3_->forward(x));
+  const torch::Tensor features = Leaky(conv2_->forward(x));
+  x = Leaky(conv3_->forward(features));
   x = Leaky(conv4_->forward(x));
-  return fc_->forward(dropout_->forward(x.flatten(1)));
+  const torch::Tensor out = fc_->forward(dropout_->forward(x.flatten(1)));
+  if (!skip_) return out;
+  return out + skip_->forward(features.select(2, kPatchHalo).select(2, kPatchHalo));
 }
 
 torch::Tensor CnnNetImpl::ForwardDense(const torch::Tensor& input) {
   namespace F = torch::nn::functional;
   // Channels-last lets oneDNN run the 1 × 1 layers and fc 2-3× faster here (bench/cnn_bench.cc).
   torch::Tensor x = Leaky(conv1_->forward(input.contiguous(at::MemoryFormat::ChannelsLast)));
-  x = Leaky(conv2_->forward(x));
+  const torch::Tensor features = Leaky(conv2_->forward(x));
   // A stride-2 layer's outputs for every pixel: stride 1, and each later layer's taps spread by
   // the strides before it (dilation 2 for conv4, 4 for fc).
-  x = Leaky(F::conv2d(x, conv3_->weight, F::Conv2dFuncOptions().bias(conv3_->bias)));
+  x = Leaky(F::conv2d(features, conv3_->weight, F::Conv2dFuncOptions().bias(conv3_->bias)));
   x = Leaky(F::conv2d(x, conv4_->weight, F::Conv2dFuncOptions().bias(conv4_->bias).dilation(2)));
   // fc's inputs are conv4's 3 × 3 × w4 outputs flattened channel-major: the same weights
   // as a 14 × w4 × 3 × 3 kernel.
   const torch::Tensor kernel = fc_->weight.view({kLabelSize, width4_, 3, 3});
-  return F::conv2d(dropout_->forward(x), kernel, F::Conv2dFuncOptions().bias(fc_->bias).dilation(4));
+  const torch::Tensor out = F::conv2d(dropout_->forward(x), kernel, F::Conv2dFuncOptions().bias(fc_->bias).dilation(4));
+  if (!skip_) return out;
+  // Each output pixel's own features sit kPatchHalo in from its window's corner.
+  const torch::Tensor centres = features.narrow(2, kPatchHalo, out.size(2)).narrow(3, kPatchHalo, out.size(3));
+  const torch::Tensor readout = skip_->weight.view({kLabelSize, skip_->weight.size(1), 1, 1});
+  return out + F::conv2d(centres, readout, F::Conv2dFuncOptions().bias(skip_->bias));
 }
 
 namespace {
@@ -165,8 +173,10 @@ Json InfoToJson(const CnnModelInfo& info) {
                {"rig", info.rig},
                {"observation_groups", groups},
                {"training", info.training}};
-  // Only when not the default, so that a float32 model's model.json reads as before.
+  // Only when not the default, so that a float32 model's model.json reads as before (and a
+  // model without the centre skip's).
   if (info.weights != WeightStorage::kFloat32) json["weights"] = WeightStorageName(info.weights);
+  if (info.architecture.centre_skip) json["architecture"]["centre_skip"] = true;
   if (info.paper_layout) json["paper_layout"] = info.paper_layout->ToJson();
   return json;
 }
@@ -178,6 +188,7 @@ CnnModelInfo InfoFromJson(const Json& j) {
   info.architecture.input_channels = a.at("input_channels").get<int>();
   info.architecture.width_divisor = a.at("width_divisor").get<int>();
   info.architecture.dropout = a.at("dropout").get<double>();
+  info.architecture.centre_skip = a.value("centre_skip", false);
   info.radiance_scale = j.at("radiance_scale").get<double>();
   info.rig = j.at("rig").get<std::string>();
   for (const Json& g : j.at("observation_groups")) {
@@ -277,20 +288,27 @@ torch::Tensor WidenWeight(const torch::Tensor& weight, const Widening* out, cons
 
 }  // namespace
 
-Result<Cnn> internal::WidenCnn(const Cnn& narrow, int width_divisor, uint64_t seed) {
-  const int narrow_divisor = narrow.info().architecture.width_divisor;
+Result<Cnn> internal::GrowCnn(const Cnn& narrow, const CnnArchitecture& to, uint64_t seed) {
+  const CnnArchitecture& from = narrow.info().architecture;
+  const int width_divisor = to.width_divisor, narrow_divisor = from.width_divisor;
   if (width_divisor < 1 || width_divisor > narrow_divisor || narrow_divisor % width_divisor != 0) {
     return InvalidArgumentError("width divisor " + std::to_string(width_divisor),
                                 "a model of width divisor " + std::to_string(narrow_divisor) +
                                     " widens only to a divisor of it (the same width or wider)");
   }
+  if (from.centre_skip && !to.centre_skip) {
+    return InvalidArgumentError("centre skip", "a model with one keeps it: without it, it would compute another function");
+  }
+  if (to.input_channels != from.input_channels || to.dropout != from.dropout) {
+    return InvalidArgumentError("architecture", "only the width and the centre skip grow: the input and dropout stay");
+  }
   CnnModelInfo info = narrow.info();
-  info.architecture.width_divisor = width_divisor;
+  info.architecture = to;
   LOOM_ASSIGN_OR_RETURN(Cnn wide, CreateCnn(info, seed));
-  const std::array<int, 4> from = narrow.info().architecture.HiddenWidths(), to = info.architecture.HiddenWidths();
+  const std::array<int, 4> narrow_widths = from.HiddenWidths(), wide_widths = to.HiddenWidths();
   std::mt19937_64 rng(seed);
   std::array<Widening, 4> units;
-  for (size_t l = 0; l < units.size(); ++l) units[l] = WidenUnits(from[l], to[l], rng);
+  for (size_t l = 0; l < units.size(); ++l) units[l] = WidenUnits(narrow_widths[l], wide_widths[l], rng);
   const CnnNet& a = narrow.net().net;
   CnnNet& b = wide.net().net;
   torch::NoGradGuard no_grad;
@@ -306,6 +324,13 @@ Result<Cnn> internal::WidenCnn(const Cnn& narrow, int width_divisor, uint64_t se
   const Widening columns{(units[3].source.unsqueeze(1) * 9 + taps).flatten(), units[3].share.repeat_interleave(9)};
   b->fc()->weight.copy_(WidenWeight(a->fc()->weight, nullptr, &columns));
   b->fc()->bias.copy_(a->fc()->bias);
+  if (a->skip()) {  // reads conv2's units, widened as conv3 reads them
+    b->skip()->weight.copy_(WidenWeight(a->skip()->weight, nullptr, &units[1]));
+    b->skip()->bias.copy_(a->skip()->bias);
+  } else if (b->skip()) {  // added: zero until training moves it
+    b->skip()->weight.zero_();
+    b->skip()->bias.zero_();
+  }
   return wide;
 }
 

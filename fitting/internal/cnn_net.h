@@ -24,12 +24,14 @@ class CnnNetImpl : public torch::nn::Module {
   const torch::nn::Conv2d& conv3() const { return conv3_; }
   const torch::nn::Conv2d& conv4() const { return conv4_; }
   const torch::nn::Linear& fc() const { return fc_; }
+  const torch::nn::Linear& skip() const { return skip_; }  // null without CnnArchitecture::centre_skip
 
  private:
   torch::Tensor Leaky(const torch::Tensor& x) const;
 
   torch::nn::Conv2d conv1_{nullptr}, conv2_{nullptr}, conv3_{nullptr}, conv4_{nullptr};
   torch::nn::Linear fc_{nullptr};
+  torch::nn::Linear skip_{nullptr};
   torch::nn::Dropout dropout_{nullptr};
   int width4_ = 0;
 };

@@ -16,7 +16,9 @@ namespace loom::fitting::internal {
 Result<Cnn> CreateCnn(const CnnModelInfo& info, uint64_t seed);
 Result<Cnn> LoadCnn(const std::filesystem::path& directory);
 Status SaveCnn(const Cnn& cnn, const std::filesystem::path& directory);
-Result<Cnn> WidenCnn(const Cnn& narrow, int width_divisor, uint64_t seed);
+// `from` as architecture `to`, computing the same function: wider (Net2WiderNet, Cnn::Widened)
+// and with the centre skip added as zeros; an error for any other change.
+Result<Cnn> GrowCnn(const Cnn& from, const CnnArchitecture& to, uint64_t seed);
 Result<CnnTensor> PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads);
 Result<CnnTensor> PredictSlidingLabels(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch, int threads);
 

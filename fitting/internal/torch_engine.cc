@@ -12,9 +12,7 @@ class TorchCnnEngine final : public CnnEngine {
   Result<Cnn> Create(const CnnModelInfo& info, uint64_t seed) const override { return CreateCnn(info, seed); }
   Result<Cnn> Load(const std::filesystem::path& directory) const override { return LoadCnn(directory); }
   Status Save(const Cnn& cnn, const std::filesystem::path& directory) const override { return SaveCnn(cnn, directory); }
-  Result<Cnn> Widened(const Cnn& cnn, int width_divisor, uint64_t seed) const override {
-    return WidenCnn(cnn, width_divisor, seed);
-  }
+  Result<Cnn> Grown(const Cnn& cnn, const CnnArchitecture& to, uint64_t seed) const override { return GrowCnn(cnn, to, seed); }
   Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads) const override {
     return PredictDenseLabels(cnn, input, max_tile, threads);
   }
@@ -39,7 +37,7 @@ class TorchCnnEngine final : public CnnEngine {
 }  // namespace loom::fitting::internal
 
 // The entry point internal::kCnnEngineEntry names.
-extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v1() {
+extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v2() {
   static const loom::fitting::internal::TorchCnnEngine engine;
   return &engine;
 }
