@@ -173,18 +173,14 @@ Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnAr
   LOOM_ASSIGN_OR_RETURN(Cnn cnn, StartingCnn(new_info, init, options.seed));
   const CnnModelInfo info = cnn.info();
   const bool keep_stacks = options.rerender_weight > 0;
-  const auto example = [&](int i) { return dataset.Example(i, info, keep_stacks); };
-  std::vector<CnnExample> train;
-  if (!run.streamed) {
-    LOOM_ASSIGN_OR_RETURN(train, ReadExamples(dataset, 0, run.train_materials, info, keep_stacks, options.threads));
-  }
+  // The trainer reads the training materials through this (all at once, or a window at a time
+  // when streamed) and keeps them as its own tensors: holding the examples here as well doubled
+  // what a resident training set took.
+  const CnnExampleSource source{run.train_materials, [&](int i) { return dataset.Example(i, info, keep_stacks); }};
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> validation,
                         ReadExamples(dataset, run.train_materials, run.validation_materials, info, keep_stacks, options.threads));
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> test, ReadExamples(dataset, run.train_materials + run.validation_materials,
                                                                          run.test_materials, info, false, options.threads));
-  const CnnExampleSource source =
-      run.streamed ? CnnExampleSource{run.train_materials, example}
-                   : CnnExampleSource{run.train_materials, [&](int i) -> Result<CnnExample> { return train[i]; }};
   LOOM_ASSIGN_OR_RETURN(run.history, TrainCnn(cnn, source, validation, options));
   run.kept = *std::min_element(run.history.begin(), run.history.end(),
                                [](const CnnEpoch& a, const CnnEpoch& b) { return a.validation_loss < b.validation_loss; });
