@@ -102,8 +102,8 @@ std::string TrainingDescription(const TrainArguments& args, const fitting::CnnDa
        << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << ", scan-like share "
        << args.dataset.scan_like_share << "), preset " << args.preset << (args.init.empty() ? "" : ", from " + args.init)
        << (args.init.empty() || args.width_divisor == 0 ? "" : " at width divisor " + std::to_string(args.width_divisor))
-       << (args.centre_skip ? ", with the centre skip" : "") << "; test loss " << run.test.loss << " on " << run.test_materials
-       << " held-out fabrics; loom " << VersionWithCommit();
+       << (run.model->info().architecture.centre_skip ? ", with the centre skip" : "") << "; test loss " << run.test.loss
+       << " on " << run.test_materials << " held-out fabrics; loom " << VersionWithCommit();
   return text.str();
 }
 

@@ -35,6 +35,15 @@ fs::path FourPairs(const std::string& name) {
   return dir;
 }
 
+// A model of tac7-mini for stacks of `observations` monochrome observations.
+CnnModelInfo MonochromeModel(int observations) {
+  CnnModelInfo info;
+  info.architecture = {kCnnGeometryChannels + observations, 32, 0.02};
+  info.rig = "tac7-mini";
+  info.observation_groups.assign(static_cast<size_t>(observations), ObservationGroup::kMonochrome);
+  return info;
+}
+
 TEST(CnnDatasetTest, SplitsByNameAndDescribesTheModelItsStacksNeed) {
   const fs::path dir = FourPairs("cnn_dataset");
   const Result<CnnDataset> dataset = CnnDataset::Open(dir, 1, 1);
@@ -98,10 +107,7 @@ TEST(CnnDatasetTest, ReferencesMayBeAxfFiles) {
 
 TEST(CnnDatasetTest, FineTuningNeedsAModelForTheSameStacks) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("cnn_dataset_init_" + std::to_string(::getpid()));
-  CnnModelInfo info;
-  info.architecture = {kCnnGeometryChannels + 3, 32, 0.02};
-  info.rig = "tac7-mini";
-  info.observation_groups.assign(3, ObservationGroup::kMonochrome);
+  const CnnModelInfo info = MonochromeModel(3);
   const Result<Cnn> fresh = StartingCnn(info, "", 1);
   ASSERT_TRUE(fresh.ok()) << fresh.status().ToString();
   ASSERT_TRUE(fresh->Save(dir).ok());
@@ -179,11 +185,7 @@ TEST(CnnDatasetTest, ScoringNeedsAModelForTheDatasetsStacks) {
   const fs::path dir = FourPairs("cnn_dataset_score");
   const Result<CnnDataset> dataset = CnnDataset::Open(dir, 1, 1);
   ASSERT_TRUE(dataset.ok()) << dataset.status().ToString();
-  CnnModelInfo info;
-  info.architecture = {kCnnGeometryChannels + 4, 32, 0.02};
-  info.rig = "tac7-mini";
-  info.observation_groups.assign(4, ObservationGroup::kMonochrome);
-  const Result<Cnn> other = Cnn::Create(info, 1);
+  const Result<Cnn> other = Cnn::Create(MonochromeModel(4), 1);
   ASSERT_TRUE(other.ok()) << other.status().ToString();
   const Result<CnnHeldOutScore> score = ScoreOnHeldOut(*other, *dataset, 1);
   ASSERT_FALSE(score.ok());
