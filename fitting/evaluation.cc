@@ -33,11 +33,17 @@ double Percentile(std::vector<double> values, double q) {
   return values[static_cast<size_t>(q * (values.size() - 1))];
 }
 
+// How far apart two lobe angles are, in degrees: 0–90, since α and α + π are the same lobe.
+double AngleBetweenLobesDeg(double alpha, double other) {
+  const double difference = std::abs(std::remainder(alpha - other, kPi));
+  return RadToDeg(difference);
+}
+
 void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& evaluation) {
   std::array<double, kLabelGroups.size()> squares{};
   double product_squares = 0;
   double anisotropic_alpha_squares = 0;
-  int anisotropic_pixels = 0;
+  std::vector<double> anisotropic_alpha_deg;
   std::vector<double> normal_deg;
   const int pixels = maps.width() * maps.height();
   for (int y = 0; y < maps.height(); ++y) {
@@ -55,8 +61,8 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
         squares[g] += pixel_squares[g];
       }
       if (truth.sigma_x >= AnisotropicAlphaError::kMinSigmaRatio * truth.sigma_y) {
-        ++anisotropic_pixels;
         anisotropic_alpha_squares += pixel_squares[kAlphaGroup];
+        anisotropic_alpha_deg.push_back(AngleBetweenLobesDeg(fit.alpha, truth.alpha));
       }
       product_squares += (fit.a_s * fit.f0 - truth.a_s * truth.f0).squaredNorm() / 3;
       normal_deg.push_back(RadToDeg(std::acos(std::clamp(fit.n_s.normalized().dot(truth.n_s.normalized()), -1.0, 1.0))));
@@ -66,9 +72,12 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
     evaluation.parameters.push_back({kLabelGroups[g].name, std::sqrt(squares[g] / pixels) / kLabelGroups[g].range});
   }
   evaluation.parameters.push_back({"a_s*F0", std::sqrt(product_squares / pixels)});
-  if (anisotropic_pixels > 0) {
+  if (const auto anisotropic_pixels = static_cast<double>(anisotropic_alpha_deg.size()); anisotropic_pixels > 0) {
+    const auto turned_across = std::ranges::count_if(anisotropic_alpha_deg, [](double deg) { return deg > 45; });
     evaluation.anisotropic_alpha = {std::sqrt(anisotropic_alpha_squares / anisotropic_pixels) / kLabelGroups[kAlphaGroup].range,
-                                    static_cast<double>(anisotropic_pixels) / pixels};
+                                    anisotropic_pixels / pixels, Percentile(anisotropic_alpha_deg, 0.5),
+                                    Percentile(anisotropic_alpha_deg, 0.9),
+                                    static_cast<double>(turned_across) / anisotropic_pixels};
   }
   evaluation.normal_median_deg = Percentile(normal_deg, 0.5);
   evaluation.normal_p90_deg = Percentile(normal_deg, 0.9);
@@ -231,7 +240,10 @@ void Evaluation::Report(std::ostream& out) const {
     if (e.anisotropic_alpha.pixel_share > 0) {
       out << "\nalpha where the reference lobe is anisotropic (sigma_x >= " << std::setprecision(1)
           << AnisotropicAlphaError::kMinSigmaRatio << " sigma_y, " << std::setprecision(0)
-          << 100 * e.anisotropic_alpha.pixel_share << " % of the pixels): " << std::setprecision(4) << e.anisotropic_alpha.nrmse;
+          << 100 * e.anisotropic_alpha.pixel_share << " % of the pixels): " << std::setprecision(4) << e.anisotropic_alpha.nrmse
+          << std::setprecision(1) << ", angle off by median " << e.anisotropic_alpha.median_deg << " deg, p90 "
+          << e.anisotropic_alpha.p90_deg << " deg, over 45 deg at " << 100 * e.anisotropic_alpha.share_over_45_deg
+          << " % of them";
     }
     out << std::setprecision(2) << "\nshading normal error: median " << e.normal_median_deg << " deg, p90 " << e.normal_p90_deg
         << " deg\n"

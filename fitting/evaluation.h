@@ -47,6 +47,11 @@ struct AnisotropicAlphaError {
   static constexpr double kMinSigmaRatio = 1.5;
   double nrmse = 0;        // as ParameterError's "alpha", over those pixels
   double pixel_share = 0;  // of all pixels
+  // The lobe's angle off the truth's in degrees (0–90: α is defined modulo 180°), over those
+  // pixels: a spread of small errors and a share of lobes turned across tell different stories.
+  double median_deg = 0;
+  double p90_deg = 0;
+  double share_over_45_deg = 0;  // of those pixels
 };
 
 struct Evaluation {

@@ -193,6 +193,10 @@ std::string EvaluationJson(const Evaluation& e) {
     json["normal_error_deg"] = {{"median", e.normal_median_deg}, {"p90", e.normal_p90_deg}};
     json["alpha_where_anisotropic"] = {{"nrmse", e.anisotropic_alpha.nrmse},
                                        {"pixel_share", e.anisotropic_alpha.pixel_share},
+                                       {"angle_error_deg",
+                                        {{"median", e.anisotropic_alpha.median_deg},
+                                         {"p90", e.anisotropic_alpha.p90_deg},
+                                         {"share_over_45", e.anisotropic_alpha.share_over_45_deg}}},
                                        {"min_sigma_ratio", AnisotropicAlphaError::kMinSigmaRatio}};
   }
   for (const MapNoise& n : e.map_noise) {

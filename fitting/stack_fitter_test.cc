@@ -552,5 +552,32 @@ TEST(EvaluationTest, AlphaWhereAnisotropicCountsOnlyTheLobesThatFixIt) {
   EXPECT_NEAR(anisotropic_anisotropic, 0.5, 1e-6);
 }
 
+// The same pixels' angle error in degrees, modulo 180° and whichever way the fit orders σx, σy:
+// three quarters of the lobes 10° off (one of them written as 170°, one with σ swapped and α
+// turned 90° to match), a quarter turned across (80° off).
+TEST(EvaluationTest, AlphaWhereAnisotropicStatesTheAngleErrorInDegrees) {
+  const sim::Material fabric = sim::GenerateFabric(3, {.width_px = 8, .height_px = 8, .pixel_mm = 0.2});
+  const sim::Scene scene(testing::TacMiniGeometry(), fabric);
+  const ObservationStack stack = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 4), {});
+  Image truth = fabric.maps, fit = fabric.maps;
+  for (int y = 0; y < truth.height(); ++y) {
+    for (int x = 0; x < truth.width(); ++x) {
+      WardParams<double> p = GetParams(truth, x, y);
+      p.sigma_x = 0.3, p.sigma_y = 0.1, p.alpha = 0;
+      SetParams(truth, x, y, p);
+      const double off_deg = x < 2 ? -80 : x < 4 ? 170 : 10;
+      p.alpha = DegToRad(off_deg);
+      if (x == 7) p.sigma_x = 0.1, p.sigma_y = 0.3, p.alpha = DegToRad(off_deg + 90);
+      SetParams(fit, x, y, p);
+    }
+  }
+  const Result<Evaluation> evaluation = Evaluate(fit, truth, stack);
+  ASSERT_TRUE(evaluation.ok()) << evaluation.status().ToString();
+  EXPECT_DOUBLE_EQ(evaluation->anisotropic_alpha.pixel_share, 1);
+  EXPECT_NEAR(evaluation->anisotropic_alpha.median_deg, 10, 1e-4);  // the maps hold float32
+  EXPECT_NEAR(evaluation->anisotropic_alpha.p90_deg, 80, 1e-4);
+  EXPECT_DOUBLE_EQ(evaluation->anisotropic_alpha.share_over_45_deg, 0.25);
+}
+
 }  // namespace
 }  // namespace loom::fitting
