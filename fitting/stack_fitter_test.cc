@@ -4,12 +4,15 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <map>
 #include <random>
 
 #include "fitting/evaluation.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "fitting/report.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"
@@ -577,6 +580,9 @@ TEST(EvaluationTest, AlphaWhereAnisotropicStatesTheAngleErrorInDegrees) {
   EXPECT_NEAR(evaluation->anisotropic_alpha.median_deg, 10, 1e-4);  // the maps hold float32
   EXPECT_NEAR(evaluation->anisotropic_alpha.p90_deg, 80, 1e-4);
   EXPECT_DOUBLE_EQ(evaluation->anisotropic_alpha.share_over_45_deg, 0.25);
+  const nlohmann::json json = nlohmann::json::parse(EvaluationJson(*evaluation));  // report.json's
+  EXPECT_NEAR(json["alpha_where_anisotropic"]["angle_error_deg"]["p90"].get<double>(), 80, 1e-4);
+  EXPECT_DOUBLE_EQ(json["alpha_where_anisotropic"]["angle_error_deg"]["share_over_45"].get<double>(), 0.25);
 }
 
 }  // namespace
