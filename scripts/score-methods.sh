@@ -3,7 +3,8 @@
 # seed, the simulator's noise-free fast-path stack of a preset's plan (`loom sim render --stack
 # --truth`), fitted by every method (`loom fit`) and evaluated against the ground truth (`loom
 # eval`); then per method the mean re-render L1 against the measured values and its ratio to
-# Ceres alone's, the mean shading-normal error and the mean a_d NRMSE.
+# Ceres alone's, the mean shading-normal error, the mean a_d NRMSE and the mean of the fabrics'
+# median anisotropy-angle errors (where the truth's lobe is anisotropic; `loom eval`).
 #
 #   scripts/score-methods.sh OUT [SEEDS...]      (default seeds: 1984-1999, those the shipped
 #                                                 tac7-mini model held out as its test set)
@@ -52,7 +53,7 @@ fi
 
 mkdir -p "$out"
 scores="$out/scores.tsv"
-printf "seed\tmethod\trerender_l1\tnormal_median_deg\ta_d_nrmse\n" > "$scores"
+printf "seed\tmethod\trerender_l1\tnormal_median_deg\ta_d_nrmse\talpha_median_deg\n" > "$scores"
 for seed in "${seeds[@]}"; do
   dir="$out/$seed"
   mkdir -p "$dir"
@@ -75,20 +76,22 @@ for seed in "${seeds[@]}"; do
     l1=$(sed -n 's/.*against the measured values.*:  all \([0-9.]*\).*/\1/p' <<< "$report")
     normal=$(sed -n 's/^shading normal error: median \([0-9.]*\) deg.*/\1/p' <<< "$report")
     a_d=$(sed -n 's/.*NRMSE against the reference:  a_d \([0-9.]*\).*/\1/p' <<< "$report")
+    # "… angle off by median 6.3 deg …": only where the truth has anisotropic lobes, else nan.
+    alpha=$(sed -n 's/.*angle off by median \([0-9.]*\) deg.*/\1/p' <<< "$report")
     if [[ -z "$l1" || -z "$normal" || -z "$a_d" ]]; then
       echo "error: could not read the scores of $kind:$seed ($method) from loom eval's output:" >&2
       echo "$report" >&2
       exit 1
     fi
-    printf "%s\t%s\t%s\t%s\t%s\n" "$seed" "$method" "$l1" "$normal" "$a_d" | tee -a "$scores"
+    printf "%s\t%s\t%s\t%s\t%s\t%s\n" "$seed" "$method" "$l1" "$normal" "$a_d" "${alpha:-nan}" | tee -a "$scores"
   done
 done
 
 echo
-echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstructed with $CALIB}${SCAN_EMULATION:+, scan-like by $SCAN_EMULATION}): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE"
-awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5 }
+echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstructed with $CALIB}${SCAN_EMULATION:+, scan-like by $SCAN_EMULATION}): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE, alpha median (deg)"
+awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5; alpha[$2] += $6 }
   END {
     if (!("ceres" in n)) { print "error: METHODS has no ceres to compare with" > "/dev/stderr"; exit 1 }
-    for (m in n) printf "%-10s L1 %.5f (%.3fx)  normal %.2f  a_d %.4f\n", m, l1[m] / n[m], l1[m] / l1["ceres"],
-                        normal[m] / n[m], ad[m] / n[m]
+    for (m in n) printf "%-10s L1 %.5f (%.3fx)  normal %.2f  a_d %.4f  alpha %.1f\n", m, l1[m] / n[m], l1[m] / l1["ceres"],
+                        normal[m] / n[m], ad[m] / n[m], alpha[m] / n[m]
   }' "$scores" | sort
