@@ -33,12 +33,6 @@ double Percentile(std::vector<double> values, double q) {
   return values[static_cast<size_t>(q * (values.size() - 1))];
 }
 
-// How far apart two lobe angles are, in degrees: 0–90, since α and α + π are the same lobe.
-double AngleBetweenLobesDeg(double alpha, double other) {
-  const double difference = std::abs(std::remainder(alpha - other, kPi));
-  return RadToDeg(difference);
-}
-
 void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& evaluation) {
   std::array<double, kLabelGroups.size()> squares{};
   double product_squares = 0;
@@ -62,7 +56,7 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
       }
       if (truth.sigma_x >= AnisotropicAlphaError::kMinSigmaRatio * truth.sigma_y) {
         anisotropic_alpha_squares += pixel_squares[kAlphaGroup];
-        anisotropic_alpha_deg.push_back(AngleBetweenLobesDeg(fit.alpha, truth.alpha));
+        anisotropic_alpha_deg.push_back(RadToDeg(AngleBetweenLobes(fit.alpha, truth.alpha)));
       }
       product_squares += (fit.a_s * fit.f0 - truth.a_s * truth.f0).squaredNorm() / 3;
       normal_deg.push_back(RadToDeg(std::acos(std::clamp(fit.n_s.normalized().dot(truth.n_s.normalized()), -1.0, 1.0))));

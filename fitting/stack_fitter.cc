@@ -494,8 +494,7 @@ ParamSigma WithTheShift(ParamSigma s, const WardParams<double>& free, const Ward
   }
   s.sigma_x = std::hypot(s.sigma_x, free.sigma_x - smoothed.sigma_x);
   s.sigma_y = std::hypot(s.sigma_y, free.sigma_y - smoothed.sigma_y);
-  double d = std::fmod(std::abs(free.alpha - smoothed.alpha), kPi);
-  s.alpha_deg = std::hypot(s.alpha_deg, RadToDeg(std::min(d, kPi - d)));
+  s.alpha_deg = std::hypot(s.alpha_deg, RadToDeg(AngleBetweenLobes(free.alpha, smoothed.alpha)));
   return s;
 }
 

@@ -76,7 +76,8 @@ for seed in "${seeds[@]}"; do
     l1=$(sed -n 's/.*against the measured values.*:  all \([0-9.]*\).*/\1/p' <<< "$report")
     normal=$(sed -n 's/^shading normal error: median \([0-9.]*\) deg.*/\1/p' <<< "$report")
     a_d=$(sed -n 's/.*NRMSE against the reference:  a_d \([0-9.]*\).*/\1/p' <<< "$report")
-    # "… angle off by median 6.3 deg …": only where the truth has anisotropic lobes, else nan.
+    # "… angle off by median 6.3 deg …": only where the truth has anisotropic lobes, else nan
+    # (left out of the method's mean, which is over the fabrics that have them).
     alpha=$(sed -n 's/.*angle off by median \([0-9.]*\) deg.*/\1/p' <<< "$report")
     if [[ -z "$l1" || -z "$normal" || -z "$a_d" ]]; then
       echo "error: could not read the scores of $kind:$seed ($method) from loom eval's output:" >&2
@@ -89,9 +90,9 @@ done
 
 echo
 echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstructed with $CALIB}${SCAN_EMULATION:+, scan-like by $SCAN_EMULATION}): mean re-render L1 (ratio to ceres), normal median (deg), a_d NRMSE, alpha median (deg)"
-awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5; alpha[$2] += $6 }
+awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5; if ($6 != "nan") { na[$2]++; alpha[$2] += $6 } }
   END {
     if (!("ceres" in n)) { print "error: METHODS has no ceres to compare with" > "/dev/stderr"; exit 1 }
     for (m in n) printf "%-10s L1 %.5f (%.3fx)  normal %.2f  a_d %.4f  alpha %.1f\n", m, l1[m] / n[m], l1[m] / l1["ceres"],
-                        normal[m] / n[m], ad[m] / n[m], alpha[m] / n[m]
+                        normal[m] / n[m], ad[m] / n[m], na[m] ? alpha[m] / na[m] : "nan"
   }' "$scores" | sort

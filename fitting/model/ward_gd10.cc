@@ -46,4 +46,6 @@ WardParams<double> WithSigmaXLarger(WardParams<double> params) {
   return params;
 }
 
+double AngleBetweenLobes(double alpha, double other) { return std::abs(std::remainder(alpha - other, kPi)); }
+
 }  // namespace loom::fitting

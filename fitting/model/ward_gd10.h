@@ -65,6 +65,9 @@ std::vector<std::string> CheckWardParams(const WardParams<double>& params);
 // The same lobe written with σx ≥ σy: (σx, σy, α) and (σy, σx, α + π/2) are one lobe.
 WardParams<double> WithSigmaXLarger(WardParams<double> params);
 
+// How far apart two lobe angles are, in [0, π/2] radians: α and α + π are the same lobe.
+double AngleBetweenLobes(double alpha, double other);
+
 // The anisotropy frame: t = normalize(t0 − (t0·n_s) n_s), b = n_s × t.
 template <typename T>
 struct AnisotropyFrame {
