@@ -16,6 +16,7 @@
 
 #include "core/file_io.h"
 #include "core/parallel.h"
+#include "fitting/internal/patch_windows.h"
 #include "fitting/internal/torch_cnn.h"
 #include "fitting/model/label.h"
 
@@ -105,18 +106,9 @@ void SetUpTensorMemory() {
 }
 
 torch::Tensor PaddedInput(const CnnTensor& input) {
-  const int64_t c = input.channels, h = input.height, w = input.width, k = kPatchHalo;
-  const torch::Tensor t = torch::from_blob(const_cast<float*>(input.values.data()), {1, c, h, w}, torch::kFloat32);
-  // Copies rather than torch's replicate padding, which took 2.7 s of a 630² paper-size input.
-  torch::Tensor padded = torch::empty({1, c, h + 2 * k, w + 2 * k});
-  torch::Tensor rows = padded.narrow(2, k, h);
-  rows.narrow(3, k, w).copy_(t);
-  rows.narrow(3, 0, k).copy_(t.narrow(3, 0, 1).expand({1, c, h, k}));
-  rows.narrow(3, k + w, k).copy_(t.narrow(3, w - 1, 1).expand({1, c, h, k}));
-  // Whole padded rows, so the corners take the corner pixel.
-  padded.narrow(2, 0, k).copy_(padded.narrow(2, k, 1).expand({1, c, k, w + 2 * k}));
-  padded.narrow(2, k + h, k).copy_(padded.narrow(2, k + h - 1, 1).expand({1, c, k, w + 2 * k}));
-  return padded;
+  const torch::Tensor t =
+      torch::from_blob(const_cast<float*>(input.values.data()), {1, input.channels, input.height, input.width}, torch::kFloat32);
+  return EdgePadded(t, kPatchHalo);
 }
 
 }  // namespace internal

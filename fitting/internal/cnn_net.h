@@ -52,7 +52,8 @@ struct CnnNetHolder {
 // time (docs/benchmarks.md, "The paper's CNN"). The price: the process keeps its peak heap.
 void SetUpTensorMemory();
 
-// Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated.
+// Input C × H × W (the CnnTensor) as a 1 × C × (H + 14) × (W + 14) tensor, edge-replicated
+// (patch_windows.h's EdgePadded).
 torch::Tensor PaddedInput(const CnnTensor& input);
 
 }  // namespace loom::fitting::internal

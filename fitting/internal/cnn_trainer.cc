@@ -12,6 +12,7 @@
 #include "core/parallel.h"
 #include "fitting/internal/cnn_net.h"
 #include "fitting/internal/label_loss.h"
+#include "fitting/internal/patch_windows.h"
 #include "fitting/internal/rerender_loss.h"
 #include "fitting/model/label.h"
 #include "fitting/stack_pixels.h"
@@ -63,7 +64,7 @@ torch::Tensor NoisyRadiance(const torch::Tensor& input, double relative_sigma, a
 }
 
 // One training material as tensors: the input, labels and validity. The input is kept unpadded
-// (a tile's halo is cut with its window, TileWindow): padded, a 32² material's 932 channels
+// (a tile's halo is cut with its window, patch_windows.h): padded, a 32² material's 932 channels
 // took twice the memory, and a 1,656-fabric tac7 set did not fit in 24 GB.
 struct Material {
   torch::Tensor input;   // 1 × C × H × W
@@ -108,16 +109,6 @@ struct Batch {
   std::vector<TileOrigin> origins;
 };
 
-// A tile's input: the window of `tile` outputs at (x, y) with its kPatchHalo border, edge
-// pixels replicated where the border leaves the material (what PaddedInput gives inference).
-torch::Tensor TileWindow(const torch::Tensor& input, int x, int y, int tile) {
-  const auto indices = [&](int first, int64_t extent) {
-    const auto options = torch::TensorOptions().dtype(torch::kLong).device(input.device());
-    return torch::arange(first - kPatchHalo, first + tile + kPatchHalo, options).clamp(0, extent - 1);
-  };
-  return input.index_select(2, indices(y, input.size(2))).index_select(3, indices(x, input.size(3)));
-}
-
 Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, std::mt19937_64& rng) {
   std::vector<torch::Tensor> inputs, labels, valid;
   std::vector<TileOrigin> origins;
@@ -125,7 +116,7 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
     const Material& m = materials[std::uniform_int_distribution<size_t>(0, materials.size() - 1)(rng)];
     const int y = std::uniform_int_distribution<int>(0, m.height - tile)(rng);
     const int x = std::uniform_int_distribution<int>(0, m.width - tile)(rng);
-    inputs.push_back(TileWindow(m.input, x, y, tile));
+    inputs.push_back(internal::TileWindow(m.input, x, y, tile, kPatchHalo));
     labels.push_back(m.labels.narrow(2, y, tile).narrow(3, x, tile));
     valid.push_back(m.valid.narrow(2, y, tile).narrow(3, x, tile));
     origins.push_back({&m, x, y});
