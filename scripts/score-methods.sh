@@ -93,6 +93,7 @@ echo "over ${#seeds[@]} ${kind}s (${size} px, preset $preset${CALIB:+, reconstru
 awk -F'\t' 'NR > 1 { n[$2]++; l1[$2] += $3; normal[$2] += $4; ad[$2] += $5; if ($6 != "nan") { na[$2]++; alpha[$2] += $6 } }
   END {
     if (!("ceres" in n)) { print "error: METHODS has no ceres to compare with" > "/dev/stderr"; exit 1 }
-    for (m in n) printf "%-10s L1 %.5f (%.3fx)  normal %.2f  a_d %.4f  alpha %.1f\n", m, l1[m] / n[m], l1[m] / l1["ceres"],
-                        normal[m] / n[m], ad[m] / n[m], na[m] ? alpha[m] / na[m] : "nan"
+    # The angle as text: printf %f of the string "nan" is nan in mawk but 0.0 in gawk.
+    for (m in n) printf "%-10s L1 %.5f (%.3fx)  normal %.2f  a_d %.4f  alpha %s\n", m, l1[m] / n[m], l1[m] / l1["ceres"],
+                        normal[m] / n[m], ad[m] / n[m], na[m] ? sprintf("%.1f", alpha[m] / na[m]) : "nan"
   }' "$scores" | sort
