@@ -97,10 +97,12 @@ Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
 // What the dataset's stacks are and where the model came from, kept in model.json.
 std::string TrainingDescription(const TrainArguments& args, const fitting::CnnDatasetTraining& run) {
   std::ostringstream text;
-  text << "epoch " << run.kept.epoch << " (lowest validation loss, " << run.kept.validation_loss << ") of " << run.history.size()
-       << " epochs on " << run.train_materials << " simulated fabrics (" << args.dataset.size_px << " px, seeds "
-       << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share << ", scan-like share "
-       << args.dataset.scan_like_share << "), preset " << args.preset << (args.init.empty() ? "" : ", from " + args.init)
+  text << "epoch " << run.kept.epoch << " (lowest validation "
+       << (run.kept.validation_rerender_loss > 0 ? "objective, " : "loss, ") << run.kept.validation_objective << ") of "
+       << run.history.size() << " epochs on " << run.train_materials << " simulated fabrics (" << args.dataset.size_px
+       << " px, seeds " << args.dataset.first_seed << "…, out-of-model share " << args.dataset.out_of_model_share
+       << ", scan-like share " << args.dataset.scan_like_share << "), preset " << args.preset
+       << (args.init.empty() ? "" : ", from " + args.init)
        << (args.init.empty() || args.width_divisor == 0 ? "" : " at width divisor " + std::to_string(args.width_divisor))
        << (run.model->info().architecture.centre_skip ? ", with the centre skip" : "") << "; test loss " << run.test.loss
        << " on " << run.test_materials << " held-out fabrics; loom " << VersionWithCommit();
@@ -242,7 +244,8 @@ int RunTrain(int argc, char** argv) {
                  "input normalisation")
       ->check(CLI::ExistingDirectory);
   app.add_option("--rerender-weight", t.rerender_weight,
-                 "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn_training.h)")
+                 "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn_training.h); the kept epoch is then "
+                 "the one with the lowest sum of both on the validation fabrics")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--alpha-weight", t.alpha_weight,
                  "Weight of the anisotropy angle's (cos 2α, sin 2α) channels in the label loss (the paper's: 1; the "

@@ -182,8 +182,7 @@ Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnAr
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> test, ReadExamples(dataset, run.train_materials + run.validation_materials,
                                                                          run.test_materials, info, false, options.threads));
   LOOM_ASSIGN_OR_RETURN(run.history, TrainCnn(cnn, source, validation, options));
-  run.kept = *std::min_element(run.history.begin(), run.history.end(),
-                               [](const CnnEpoch& a, const CnnEpoch& b) { return a.validation_loss < b.validation_loss; });
+  run.kept = KeptEpoch(run.history);
   LOOM_ASSIGN_OR_RETURN(run.model, Cnn::Load(options.checkpoint_dir / "best"));
   LOOM_ASSIGN_OR_RETURN(run.test, ScoreCnn(*run.model, test, options.threads));
   return run;
@@ -223,11 +222,13 @@ nlohmann::json CnnDatasetTraining::ToJson() const {
 void CnnDatasetTraining::Report(std::ostream& out) const {
   for (const CnnEpoch& e : history) {
     out << std::setprecision(4) << "epoch " << e.epoch << ": lr " << e.learning_rate << ", train " << e.train_loss
-        << ", validation " << e.validation_loss << " (" << std::fixed << std::setprecision(0) << e.samples_per_second
-        << " samples/s)" << std::defaultfloat << "\n";
+        << ", validation " << e.validation_loss;
+    if (e.validation_rerender_loss > 0) out << " + re-rendering " << e.validation_rerender_loss;
+    out << " (" << std::fixed << std::setprecision(0) << e.samples_per_second << " samples/s)" << std::defaultfloat << "\n";
   }
-  out << std::setprecision(4) << "kept epoch " << kept.epoch << " (lowest validation loss " << kept.validation_loss
-      << ")\ntest loss " << test.loss << " on " << test_materials << " materials; RMSE per label channel:\n   ";
+  out << std::setprecision(4) << "kept epoch " << kept.epoch << " (lowest validation "
+      << (kept.validation_rerender_loss > 0 ? "objective " : "loss ") << kept.validation_objective << ")\ntest loss " << test.loss
+      << " on " << test_materials << " materials; RMSE per label channel:\n   ";
   ReportRmsePerChannel(out, test);
   out << "\n";
 }

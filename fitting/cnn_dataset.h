@@ -84,7 +84,7 @@ void ReportRmsePerChannel(std::ostream& out, const CnnScore& score);
 // What TrainOnDataset did: every epoch, the one kept and its score on the test materials.
 struct CnnDatasetTraining {
   std::vector<CnnEpoch> history;
-  CnnEpoch kept;  // the epoch with the lowest validation loss
+  CnnEpoch kept;  // the epoch with the lowest validation objective (CnnEpoch)
   CnnScore test;  // of the kept epoch, on the test materials
   int train_materials = 0;
   int validation_materials = 0;

@@ -1,5 +1,6 @@
 #include "fitting/cnn_training.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "fitting/internal/cnn_engine.h"
@@ -20,6 +21,8 @@ Json EpochJson(const CnnEpoch& e) {
           {"train_loss", e.train_loss},
           {"train_rerender_loss", e.train_rerender_loss},
           {"validation_loss", e.validation_loss},
+          {"validation_rerender_loss", e.validation_rerender_loss},
+          {"validation_objective", e.validation_objective},
           {"validation_rmse", e.validation_rmse},
           {"seconds", e.seconds},
           {"samples_per_second", e.samples_per_second}};
@@ -32,6 +35,9 @@ CnnEpoch EpochFromJson(const Json& j) {
   e.train_loss = j.at("train_loss").get<double>();
   e.train_rerender_loss = j.value("train_rerender_loss", 0.0);  // absent in histories before the loss existed
   e.validation_loss = j.at("validation_loss").get<double>();
+  // Absent in histories before the objective existed: those runs kept the lowest label loss.
+  e.validation_rerender_loss = j.value("validation_rerender_loss", 0.0);
+  e.validation_objective = j.value("validation_objective", e.validation_loss);
   e.validation_rmse = j.at("validation_rmse").get<std::array<double, 14>>();
   e.seconds = j.at("seconds").get<double>();
   e.samples_per_second = j.at("samples_per_second").get<double>();
@@ -39,6 +45,11 @@ CnnEpoch EpochFromJson(const Json& j) {
 }
 
 }  // namespace
+
+const CnnEpoch& KeptEpoch(const std::vector<CnnEpoch>& history) {
+  return *std::min_element(history.begin(), history.end(),
+                           [](const CnnEpoch& a, const CnnEpoch& b) { return a.validation_objective < b.validation_objective; });
+}
 
 std::string CnnHistoryJson(const std::vector<CnnEpoch>& history) {
   Json epochs = Json::array();

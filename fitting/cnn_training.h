@@ -105,7 +105,7 @@ struct CnnTrainingOptions {
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
   // loadable by Cnn::Load), optimizer.pt and history.json, replaced whole; and DIR/best/, the
-  // model of the epoch with the lowest validation loss so far.
+  // model of the epoch with the lowest validation objective so far (CnnEpoch).
   std::filesystem::path checkpoint_dir;
   bool resume = false;                                       // continue after the last epoch in checkpoint_dir
   std::function<void(const CnnTrainingProgress&)> progress;  // after every step
@@ -122,13 +122,24 @@ extern const std::array<const char*, 14> kLabelChannelNames;
 struct CnnEpoch {
   int epoch = 0;
   double learning_rate = 0;
-  double train_loss = 0;                     // mean over the epoch's steps (label + weighted re-rendering loss)
-  double train_rerender_loss = 0;            // the re-rendering loss alone, unweighted (0 when off)
-  double validation_loss = 0;                // over every valid pixel of the validation materials
+  double train_loss = 0;           // mean over the epoch's steps (label + weighted re-rendering loss)
+  double train_rerender_loss = 0;  // the re-rendering loss alone, unweighted (0 when off)
+  double validation_loss = 0;      // label loss over every valid pixel of the validation materials
+  // With the re-rendering loss: its value (unweighted) on 512 valid pixels of each validation
+  // material, drawn once for the run (uniformly, not by lobe width); 0 when off.
+  double validation_rerender_loss = 0;
+  // What the run keeps the epoch with the lowest of: validation_loss + rerender_weight ·
+  // validation_rerender_loss, the training's objective on the validation materials (the label
+  // loss alone when the re-rendering loss is off: there the label loss stopped tracking the
+  // re-rendering once that loss trained, configs/models/tac7/README.md).
+  double validation_objective = 0;
   std::array<double, 14> validation_rmse{};  // per label channel
   double seconds = 0;                        // training and validation
   double samples_per_second = 0;             // patch samples (valid tile outputs) trained per second
 };
+
+// The epoch a run keeps: the first with the lowest validation objective. `history` not empty.
+const CnnEpoch& KeptEpoch(const std::vector<CnnEpoch>& history);
 
 // Trains `cnn` in place and returns every epoch's record (with resume: from the first epoch,
 // the earlier ones read from the checkpoint). Every example must have the model's input

@@ -246,7 +246,7 @@ TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) 
   // Two copies of one network trained on the labels alone (from a random start its normals lie
   // below the horizon, where nothing renders), then on with and without the re-rendering loss;
   // a weight of 1e-9 only records the loss.
-  std::vector<double> rerender_loss;
+  std::vector<double> rerender_loss, validation_rerender_loss;
   for (const double weight : {1e-9, 10.0}) {
     Result<Cnn> cnn = Cnn::Create(info, 3);
     ASSERT_TRUE(cnn.ok());
@@ -254,12 +254,20 @@ TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) 
     CnnTrainingOptions more = options;
     more.rerender_weight = weight;
     more.learning_rate_start = more.learning_rate_end = 1e-3;
-    const Result<std::vector<CnnEpoch>> history = TrainCnn(*cnn, train, validation, more);
+    // Validated on a training fabric: two fabrics teach the re-rendering of no other.
+    const Result<std::vector<CnnEpoch>> history = TrainCnn(*cnn, train, {train[0]}, more);
     ASSERT_TRUE(history.ok()) << history.status().ToString();
     rerender_loss.push_back(history->back().train_rerender_loss);
+    validation_rerender_loss.push_back(history->back().validation_rerender_loss);
+    for (const CnnEpoch& e : *history) {
+      EXPECT_DOUBLE_EQ(e.validation_objective, e.validation_loss + weight * e.validation_rerender_loss) << e.epoch;
+    }
   }
   EXPECT_GT(rerender_loss[0], 0);
   EXPECT_LT(rerender_loss[1], 0.7 * rerender_loss[0]);
+  // Validation renders what training renders (on its own pixels, drawn uniformly): 0.70× here.
+  EXPECT_GT(validation_rerender_loss[0], 0);
+  EXPECT_LT(validation_rerender_loss[1], 0.8 * validation_rerender_loss[0]);
 
   std::vector<CnnExample> without_stacks = train;
   without_stacks[1].stack.reset();
@@ -294,6 +302,50 @@ TEST(CnnTrainingTest, TheRerenderLobeReferenceDrawsOtherPixelsToRender) {
     options.rerender_lobe_reference = bad;
     EXPECT_NE(options.Check().ToString().find("rerender_lobe_reference"), std::string::npos) << bad;
   }
+}
+
+// Validation renders the same pixels every epoch (a learning rate so small that only other
+// pixels could change the loss), and none without the re-rendering loss.
+TEST(CnnTrainingTest, ValidationReRendersTheSamePixelsEveryEpoch) {
+  auto [info, train, validation, options] = SimulatedFabrics(/*epochs=*/2, /*rerender_pixels=*/4);
+  options.learning_rate_start = options.learning_rate_end = 1e-12;
+  for (const double weight : {0.0, 1.0}) {
+    Result<Cnn> cnn = Cnn::Create(info, 3);
+    ASSERT_TRUE(cnn.ok());
+    options.rerender_weight = weight;
+    const Result<std::vector<CnnEpoch>> history = TrainCnn(*cnn, train, validation, options);
+    ASSERT_TRUE(history.ok()) << history.status().ToString();
+    const CnnEpoch &first = history->front(), &second = history->back();
+    if (weight == 0) {
+      EXPECT_EQ(first.validation_rerender_loss, 0);
+      EXPECT_EQ(first.validation_objective, first.validation_loss);
+      continue;
+    }
+    EXPECT_GT(first.validation_rerender_loss, 0);
+    EXPECT_NEAR(second.validation_rerender_loss, first.validation_rerender_loss, 1e-6 * first.validation_rerender_loss);
+  }
+}
+
+// The kept epoch is the one with the lowest objective, which with the re-rendering loss need not
+// have the lowest label loss; histories written before the objective existed keep by the label loss.
+TEST(CnnTrainingTest, TheKeptEpochHasTheLowestValidationObjective) {
+  std::vector<CnnEpoch> history(3);
+  for (int i = 0; i < 3; ++i) history[i].epoch = i + 1;
+  history[0].validation_loss = 0.020, history[0].validation_rerender_loss = 0.030;
+  history[1].validation_loss = 0.022, history[1].validation_rerender_loss = 0.020;
+  history[2].validation_loss = 0.021, history[2].validation_rerender_loss = 0.025;
+  for (CnnEpoch& e : history) e.validation_objective = e.validation_loss + 10 * e.validation_rerender_loss;
+  EXPECT_EQ(KeptEpoch(history).epoch, 2);
+
+  nlohmann::json old = nlohmann::json::parse(CnnHistoryJson(history));
+  for (nlohmann::json& e : old) {
+    e.erase("validation_rerender_loss");
+    e.erase("validation_objective");
+  }
+  const Result<std::vector<CnnEpoch>> read = ParseCnnHistory(old.dump(), "history.json");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(KeptEpoch(*read).epoch, 1);
+  EXPECT_EQ((*read)[2].validation_objective, 0.021);
 }
 
 TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
@@ -344,12 +396,16 @@ TEST(CnnTrainingTest, AHistoryReadsBackAndADamagedOneIsNamed) {
   epoch.learning_rate = 1e-4;
   epoch.validation_loss = 0.25;
   epoch.validation_rmse[11] = 0.5;
+  epoch.validation_rerender_loss = 0.03;
+  epoch.validation_objective = 0.55;
   const Result<std::vector<CnnEpoch>> history = ParseCnnHistory(CnnHistoryJson({epoch, epoch}), "history.json");
   ASSERT_TRUE(history.ok()) << history.status().ToString();
   ASSERT_EQ(history->size(), 2u);
   EXPECT_EQ((*history)[1].epoch, 3);
   EXPECT_EQ((*history)[1].learning_rate, 1e-4);
   EXPECT_EQ((*history)[1].validation_rmse[11], 0.5);
+  EXPECT_EQ((*history)[1].validation_rerender_loss, 0.03);
+  EXPECT_EQ((*history)[1].validation_objective, 0.55);
   const Result<std::vector<CnnEpoch>> damaged = ParseCnnHistory("[{\"epoch\": 1}]", "run/last/history.json");
   ASSERT_FALSE(damaged.ok());
   EXPECT_EQ(damaged.status().code(), StatusCode::kDataLoss);

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -252,17 +253,23 @@ CnnTensor internal::NoisyInput(const CnnTensor& input, double relative_sigma, ui
           std::vector<float>(noisy.data_ptr<float>(), noisy.data_ptr<float>() + noisy.numel())};
 }
 
-Result<CnnScore> internal::ScoreCnnLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) {
+namespace {
+
+// ScoreCnnLabels, with `on_prediction(i, labels)` (if set) seeing example i's predicted labels.
+Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads,
+                             const std::function<void(size_t, const torch::Tensor&)>& on_prediction) {
   LOOM_RETURN_IF_ERROR(CheckExamples(cnn, examples, 1, "scored"));
   CnnScore score;
   double loss_sum = 0;
   std::array<double, 14> squares{};
   const torch::Tensor paper_weights = internal::LabelChannelWeights();
-  for (const CnnExample& e : examples) {
-    Result<CnnTensor> predicted = PredictDenseLabels(cnn, e.input, kDenseTile, threads);
+  for (size_t i = 0; i < examples.size(); ++i) {
+    const CnnExample& e = examples[i];
+    Result<CnnTensor> predicted = internal::PredictDenseLabels(cnn, e.input, kDenseTile, threads);
     if (!predicted.ok()) return predicted.status();
     c10::InferenceMode inference;
     const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
+    if (on_prediction) on_prediction(i, p);
     loss_sum += internal::HuberSum(p, t, valid, paper_weights).item<double>();
     const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
     for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
@@ -273,7 +280,59 @@ Result<CnnScore> internal::ScoreCnnLabels(const Cnn& cnn, const std::vector<CnnE
   for (int c = 0; c < kLabelSize; ++c) score.rmse[c] = std::sqrt(squares[c] / score.pixels);
   return score;
 }
+
+}  // namespace
+
+Result<CnnScore> internal::ScoreCnnLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) {
+  return ScoreLabels(cnn, examples, threads, {});
+}
+
 namespace {
+
+// A validation material's re-rendering probe: valid pixels drawn once, uniformly, with their
+// observations. Every epoch renders the same pixels from its predictions, so that epochs compare
+// on the re-rendering as they do on the labels.
+struct RerenderProbe {
+  torch::Tensor pixels;  // flat indices into the material's H × W
+  internal::RerenderBatch batch;
+};
+
+// Pixels a validation material's probe renders: enough that epochs a few per cent apart in the
+// loss are told apart, few enough that a tac7 material's observations stay in tens of MB.
+constexpr int kProbePixels = 512;
+constexpr uint64_t kProbeSeed = 0x9e3779b97f4a7c15;  // not the run's seed: probes compare across runs too
+
+// The validation materials' probes when the re-rendering loss trains (none otherwise).
+Result<std::vector<RerenderProbe>> MakeRerenderProbes(const std::vector<CnnExample>& validation,
+                                                      const CnnTrainingOptions& options) {
+  std::vector<RerenderProbe> probes;
+  if (options.rerender_weight == 0) return probes;
+  std::mt19937_64 rng(kProbeSeed);
+  for (const CnnExample& e : validation) {
+    if (!e.stack) return InvalidArgumentError(e.name, "validation example without its stack: the re-rendering loss needs it");
+    if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
+      return InvalidArgumentError(e.name, "validation example whose stack is not the input's size");
+    }
+    const StackPixels stack_pixels(*e.stack, StackPixelOptions{.cast_shadows = false, .strip_quadrature = std::nullopt});
+    const std::vector<int64_t> drawn = internal::DrawPixels(ValidTensor(e.labels)[0][0], kProbePixels, rng);
+    std::vector<std::vector<PixelObservation>> observations;
+    for (const int64_t at : drawn) {
+      observations.push_back(
+          stack_pixels.Observations(static_cast<int>(at % e.input.width), static_cast<int>(at / e.input.width)));
+    }
+    probes.push_back(
+        {torch::tensor(drawn, torch::kLong), internal::MakeRerenderBatch(observations, options.rerender_strip_samples)});
+  }
+  return probes;
+}
+
+// The re-rendering loss of a material's predicted labels (1 × 14 × H × W) at its probe's pixels;
+// 0 where the probe has no usable observation.
+double ProbeRerenderLoss(const RerenderProbe& probe, const torch::Tensor& predicted, double huber_delta) {
+  if (probe.batch.radiance.numel() == 0) return 0;
+  const torch::Tensor labels = predicted[0].reshape({kLabelSize, -1}).t().index_select(0, probe.pixels);
+  return internal::RerenderLoss(labels, probe.batch, huber_delta).item<double>();
+}
 
 // The training examples source.load(indices[i]) as materials, each checked.
 Result<std::vector<Material>> LoadMaterials(const Cnn& cnn, const CnnExampleSource& source, const std::vector<int>& indices,
@@ -325,6 +384,7 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
   if (streaming && options.steps_per_epoch == 0) {
     return InvalidArgumentError("CnnTrainingOptions", "resident_materials below the training set needs steps_per_epoch");
   }
+  LOOM_ASSIGN_OR_RETURN(const std::vector<RerenderProbe> probes, MakeRerenderProbes(validation, options));
   LOOM_ASSIGN_OR_RETURN(const torch::Device device, TrainingDevice(options.device));
   const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
@@ -409,15 +469,19 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
     // trained stays where it is (moving it to the CPU and back between epochs crashed CUDA
     // training in its next step, LibTorch 2.11).
     LOOM_ASSIGN_OR_RETURN(const Cnn snapshot, CpuCopy(cnn));
-    Result<CnnScore> score = ScoreCnnLabels(snapshot, validation, threads);
+    double probe_loss = 0;
+    Result<CnnScore> score = ScoreLabels(snapshot, validation, threads, [&](size_t i, const torch::Tensor& predicted) {
+      if (!probes.empty()) probe_loss += ProbeRerenderLoss(probes[i], predicted, options.rerender_huber) / probes.size();
+    });
     torch::set_num_threads(threads);  // ScoreCnn's inference sets one thread
     if (!score.ok()) return score.status();
     record.validation_loss = score->loss;
     record.validation_rmse = score->rmse;
+    record.validation_rerender_loss = probe_loss;
+    record.validation_objective = record.validation_loss + options.rerender_weight * probe_loss;
     record.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    const bool best = std::all_of(history.begin(), history.end(),
-                                  [&](const CnnEpoch& e) { return record.validation_loss < e.validation_loss; });
     history.push_back(record);
+    const bool best = KeptEpoch(history).epoch == record.epoch;
     if (!options.checkpoint_dir.empty()) {
       if (best) LOOM_RETURN_IF_ERROR(SaveCnn(snapshot, options.checkpoint_dir / kBestModel));
       LOOM_RETURN_IF_ERROR(SaveCheckpoint(snapshot, *optimizer, history, options.checkpoint_dir));
