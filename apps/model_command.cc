@@ -76,14 +76,14 @@ struct ScoreArguments {
 };
 
 void ReportScore(const std::string& set, int materials, const fitting::CnnScore& score) {
-  std::cout << std::setprecision(4) << set << " loss " << score.loss << " on " << materials << " materials (" << score.pixels
-            << " pixels); RMSE per label channel:\n   ";
+  std::cout << std::setprecision(4) << set << " loss " << score.loss << ", re-rendering loss " << score.rerender_loss << " on "
+            << materials << " materials (" << score.pixels << " pixels); RMSE per label channel:\n   ";
   fitting::ReportRmsePerChannel(std::cout, score);
   std::cout << "\n";
 }
 
-// The model's label loss and RMSE on DATA's validation and test materials, split as loom train
-// splits them (the last --test by name, the --validation before them).
+// The model's label loss, RMSE and re-rendering loss on DATA's validation and test materials,
+// split as loom train splits them (the last --test by name, the --validation before them).
 Status Score(const fs::path& model, const ScoreArguments& args) {
   LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(args.data, args.validation, args.test));
@@ -139,7 +139,8 @@ int RunModel(int argc, char** argv) {
   CLI::Option* score_option =
       app.add_option("--score", score.data,
                      "Score the model on this loom train dataset's held-out materials (NAME.stack.exr + NAME.truth.exr): "
-                     "label loss and RMSE per channel on its validation and test sets, as loom train reports them")
+                     "label loss, RMSE per channel and re-rendering loss on its validation and test sets, as loom train "
+                     "reports them")
           ->check(CLI::ExistingDirectory)
           ->excludes("--out")
           ->excludes("--weights");

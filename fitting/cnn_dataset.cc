@@ -192,17 +192,18 @@ Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset
   const int first_validation = dataset.train_count();
   const int first_test = first_validation + dataset.validation_count();
   CnnHeldOutScore score;
+  // With their stacks: the score's re-rendering loss needs them.
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> validation,
-                        ReadExamples(dataset, first_validation, dataset.validation_count(), cnn.info(), false, threads));
+                        ReadExamples(dataset, first_validation, dataset.validation_count(), cnn.info(), true, threads));
   LOOM_ASSIGN_OR_RETURN(score.validation, ScoreCnn(cnn, validation, threads));
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> test,
-                        ReadExamples(dataset, first_test, dataset.test_count(), cnn.info(), false, threads));
+                        ReadExamples(dataset, first_test, dataset.test_count(), cnn.info(), true, threads));
   LOOM_ASSIGN_OR_RETURN(score.test, ScoreCnn(cnn, test, threads));
   return score;
 }
 
 nlohmann::json CnnScoreJson(const CnnScore& score) {
-  return {{"loss", score.loss}, {"rmse", score.rmse}, {"pixels", score.pixels}};
+  return {{"loss", score.loss}, {"rmse", score.rmse}, {"pixels", score.pixels}, {"rerender_loss", score.rerender_loss}};
 }
 
 void ReportRmsePerChannel(std::ostream& out, const CnnScore& score) {

@@ -66,10 +66,12 @@ class CnnDataset {
 // and given the centre skip where `info` has it and the model has not (Cnn::WithCentreSkip).
 Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint64_t seed);
 
-// A trained model on a dataset's held-out materials: the label loss and per-channel RMSE on its
-// validation and on its test materials, each stack read as the model sees it (loom model
-// --score). The same measure as training's validation loss and test score, so that checkpoints
-// and shipped models compare on the fabrics a run held out without training any further.
+// A trained model on a dataset's held-out materials: the label loss, per-channel RMSE and
+// re-rendering loss on its validation and on its test materials, each stack read as the model
+// sees it (loom model --score). The same measures as training's validation loss and test score
+// (and, on the validation set, the validation_rerender_loss of a run with the default δ and
+// strip samples), so that checkpoints and shipped models compare on the fabrics a run held out
+// without training any further.
 struct CnnHeldOutScore {
   CnnScore validation;
   CnnScore test;

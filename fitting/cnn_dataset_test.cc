@@ -177,6 +177,20 @@ TEST(CnnDatasetTest, TrainsKeepsTheBestEpochAndScoresItOnTheTestSet) {
   const Result<CnnHeldOutScore> other = ScoreOnHeldOut(*streamed->model, *dataset, 1);
   ASSERT_TRUE(other.ok()) << other.status().ToString();
   EXPECT_NE(other->test.loss, again->test.loss);
+
+  // Trained with the re-rendering loss, the kept epoch's validation re-rendering loss is what
+  // scoring its model again gives: the same pixels rendered the same way.
+  options.checkpoint_dir = dir / "rerender";
+  options.resident_materials = 0;
+  options.rerender_weight = 1;
+  const Result<CnnDatasetTraining> rerendered = TrainOnDataset(*dataset, {0, 32, 0.02}, "", options);
+  ASSERT_TRUE(rerendered.ok()) << rerendered.status().ToString();
+  EXPECT_GT(rerendered->kept.validation_rerender_loss, 0);
+  const Result<CnnHeldOutScore> rescored = ScoreOnHeldOut(*rerendered->model, *dataset, 1);
+  ASSERT_TRUE(rescored.ok()) << rescored.status().ToString();
+  EXPECT_NEAR(rescored->validation.rerender_loss, rerendered->kept.validation_rerender_loss,
+              1e-6 * rerendered->kept.validation_rerender_loss);
+  EXPECT_GT(rescored->test.rerender_loss, 0);
   fs::remove_all(dir);
 }
 

@@ -126,7 +126,7 @@ struct CnnEpoch {
   double train_rerender_loss = 0;  // the re-rendering loss alone, unweighted (0 when off)
   double validation_loss = 0;      // label loss over every valid pixel of the validation materials
   // With the re-rendering loss: its value (unweighted) on 512 valid pixels of each validation
-  // material, drawn once for the run (uniformly, not by lobe width); 0 when off.
+  // material, drawn once for the run (uniformly, not by lobe width; CnnScore::rerender_loss); 0 when off.
   double validation_rerender_loss = 0;
   // What the run keeps the epoch with the lowest of: validation_loss + rerender_weight ·
   // validation_rerender_loss, the training's objective on the validation materials (the label
@@ -165,6 +165,10 @@ struct CnnScore {
   double loss = 0;
   std::array<double, 14> rmse{};
   int64_t pixels = 0;
+  // When every example has its stack: the re-rendering loss (CnnTrainingOptions' default δ and
+  // strip samples) on 512 valid pixels of each, drawn from the example's index: what training's
+  // validation_rerender_loss measures on the same set. 0 otherwise.
+  double rerender_loss = 0;
 };
 Result<CnnScore> ScoreCnn(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads = 0);
 

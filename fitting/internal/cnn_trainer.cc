@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -255,41 +254,7 @@ CnnTensor internal::NoisyInput(const CnnTensor& input, double relative_sigma, ui
 
 namespace {
 
-// ScoreCnnLabels, with `on_prediction(i, labels)` (if set) seeing example i's predicted labels.
-Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads,
-                             const std::function<void(size_t, const torch::Tensor&)>& on_prediction) {
-  LOOM_RETURN_IF_ERROR(CheckExamples(cnn, examples, 1, "scored"));
-  CnnScore score;
-  double loss_sum = 0;
-  std::array<double, 14> squares{};
-  const torch::Tensor paper_weights = internal::LabelChannelWeights();
-  for (size_t i = 0; i < examples.size(); ++i) {
-    const CnnExample& e = examples[i];
-    Result<CnnTensor> predicted = internal::PredictDenseLabels(cnn, e.input, kDenseTile, threads);
-    if (!predicted.ok()) return predicted.status();
-    c10::InferenceMode inference;
-    const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
-    if (on_prediction) on_prediction(i, p);
-    loss_sum += internal::HuberSum(p, t, valid, paper_weights).item<double>();
-    const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
-    for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
-    score.pixels += static_cast<int64_t>(valid.sum().item<double>());
-  }
-  if (score.pixels == 0) return InvalidArgumentError("CNN score", "no valid pixels in the examples");
-  score.loss = loss_sum / (static_cast<double>(score.pixels) * kLabelSize);
-  for (int c = 0; c < kLabelSize; ++c) score.rmse[c] = std::sqrt(squares[c] / score.pixels);
-  return score;
-}
-
-}  // namespace
-
-Result<CnnScore> internal::ScoreCnnLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) {
-  return ScoreLabels(cnn, examples, threads, {});
-}
-
-namespace {
-
-// A validation material's re-rendering probe: valid pixels drawn once, uniformly, with their
+// A scored material's re-rendering probe: valid pixels drawn once, uniformly, with their
 // observations. Every epoch renders the same pixels from its predictions, so that epochs compare
 // on the re-rendering as they do on the labels.
 struct RerenderProbe {
@@ -297,31 +262,30 @@ struct RerenderProbe {
   internal::RerenderBatch batch;
 };
 
-// Pixels a validation material's probe renders: enough that epochs a few per cent apart in the
-// loss are told apart, few enough that a tac7 material's observations stay in tens of MB.
+// Pixels a probe renders: enough that epochs a few per cent apart in the loss are told apart, few
+// enough that a tac7 material's observations stay in tens of MB.
 constexpr int kProbePixels = 512;
 constexpr uint64_t kProbeSeed = 0x9e3779b97f4a7c15;  // not the run's seed: probes compare across runs too
 
-// The validation materials' probes when the re-rendering loss trains (none otherwise).
-Result<std::vector<RerenderProbe>> MakeRerenderProbes(const std::vector<CnnExample>& validation,
-                                                      const CnnTrainingOptions& options) {
+// The examples' probes, each drawn from its index, so that a set scored again (loom model
+// --score) renders the pixels its training validated on.
+Result<std::vector<RerenderProbe>> MakeRerenderProbes(const std::vector<CnnExample>& examples, int strip_samples) {
   std::vector<RerenderProbe> probes;
-  if (options.rerender_weight == 0) return probes;
-  std::mt19937_64 rng(kProbeSeed);
-  for (const CnnExample& e : validation) {
-    if (!e.stack) return InvalidArgumentError(e.name, "validation example without its stack: the re-rendering loss needs it");
+  for (size_t i = 0; i < examples.size(); ++i) {
+    const CnnExample& e = examples[i];
+    if (!e.stack) return InvalidArgumentError(e.name, "example without its stack: the re-rendering loss needs it");
     if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
-      return InvalidArgumentError(e.name, "validation example whose stack is not the input's size");
+      return InvalidArgumentError(e.name, "example whose stack is not the input's size");
     }
     const StackPixels stack_pixels(*e.stack, StackPixelOptions{.cast_shadows = false, .strip_quadrature = std::nullopt});
+    std::mt19937_64 rng(kProbeSeed + i);
     const std::vector<int64_t> drawn = internal::DrawPixels(ValidTensor(e.labels)[0][0], kProbePixels, rng);
     std::vector<std::vector<PixelObservation>> observations;
     for (const int64_t at : drawn) {
       observations.push_back(
           stack_pixels.Observations(static_cast<int>(at % e.input.width), static_cast<int>(at / e.input.width)));
     }
-    probes.push_back(
-        {torch::tensor(drawn, torch::kLong), internal::MakeRerenderBatch(observations, options.rerender_strip_samples)});
+    probes.push_back({torch::tensor(drawn, torch::kLong), internal::MakeRerenderBatch(observations, strip_samples)});
   }
   return probes;
 }
@@ -333,6 +297,45 @@ double ProbeRerenderLoss(const RerenderProbe& probe, const torch::Tensor& predic
   const torch::Tensor labels = predicted[0].reshape({kLabelSize, -1}).t().index_select(0, probe.pixels);
   return internal::RerenderLoss(labels, probe.batch, huber_delta).item<double>();
 }
+
+// ScoreCnnLabels, with the re-rendering loss at `probes` (one per example; none: not scored).
+Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads,
+                             const std::vector<RerenderProbe>& probes, double huber_delta) {
+  LOOM_RETURN_IF_ERROR(CheckExamples(cnn, examples, 1, "scored"));
+  CnnScore score;
+  double loss_sum = 0, rerender_sum = 0;
+  std::array<double, 14> squares{};
+  const torch::Tensor paper_weights = internal::LabelChannelWeights();
+  for (size_t i = 0; i < examples.size(); ++i) {
+    const CnnExample& e = examples[i];
+    Result<CnnTensor> predicted = internal::PredictDenseLabels(cnn, e.input, kDenseTile, threads);
+    if (!predicted.ok()) return predicted.status();
+    c10::InferenceMode inference;
+    const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
+    if (!probes.empty()) rerender_sum += ProbeRerenderLoss(probes[i], p, huber_delta);
+    loss_sum += internal::HuberSum(p, t, valid, paper_weights).item<double>();
+    const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
+    for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
+    score.pixels += static_cast<int64_t>(valid.sum().item<double>());
+  }
+  if (score.pixels == 0) return InvalidArgumentError("CNN score", "no valid pixels in the examples");
+  score.loss = loss_sum / (static_cast<double>(score.pixels) * kLabelSize);
+  for (int c = 0; c < kLabelSize; ++c) score.rmse[c] = std::sqrt(squares[c] / score.pixels);
+  score.rerender_loss = probes.empty() ? 0 : rerender_sum / static_cast<double>(examples.size());
+  return score;
+}
+
+}  // namespace
+
+Result<CnnScore> internal::ScoreCnnLabels(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) {
+  const bool with_stacks = std::all_of(examples.begin(), examples.end(), [](const CnnExample& e) { return e.stack != nullptr; });
+  if (!with_stacks) return ScoreLabels(cnn, examples, threads, {}, 0);
+  const CnnTrainingOptions defaults;
+  LOOM_ASSIGN_OR_RETURN(const std::vector<RerenderProbe> probes, MakeRerenderProbes(examples, defaults.rerender_strip_samples));
+  return ScoreLabels(cnn, examples, threads, probes, defaults.rerender_huber);
+}
+
+namespace {
 
 // The training examples source.load(indices[i]) as materials, each checked.
 Result<std::vector<Material>> LoadMaterials(const Cnn& cnn, const CnnExampleSource& source, const std::vector<int>& indices,
@@ -384,7 +387,10 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
   if (streaming && options.steps_per_epoch == 0) {
     return InvalidArgumentError("CnnTrainingOptions", "resident_materials below the training set needs steps_per_epoch");
   }
-  LOOM_ASSIGN_OR_RETURN(const std::vector<RerenderProbe> probes, MakeRerenderProbes(validation, options));
+  std::vector<RerenderProbe> probes;  // the validation's, when the re-rendering loss trains
+  if (options.rerender_weight > 0) {
+    LOOM_ASSIGN_OR_RETURN(probes, MakeRerenderProbes(validation, options.rerender_strip_samples));
+  }
   LOOM_ASSIGN_OR_RETURN(const torch::Device device, TrainingDevice(options.device));
   const int threads = ThreadCount(options.threads);
   torch::set_num_threads(threads);
@@ -469,16 +475,13 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
     // trained stays where it is (moving it to the CPU and back between epochs crashed CUDA
     // training in its next step, LibTorch 2.11).
     LOOM_ASSIGN_OR_RETURN(const Cnn snapshot, CpuCopy(cnn));
-    double probe_loss = 0;
-    Result<CnnScore> score = ScoreLabels(snapshot, validation, threads, [&](size_t i, const torch::Tensor& predicted) {
-      if (!probes.empty()) probe_loss += ProbeRerenderLoss(probes[i], predicted, options.rerender_huber) / probes.size();
-    });
+    Result<CnnScore> score = ScoreLabels(snapshot, validation, threads, probes, options.rerender_huber);
     torch::set_num_threads(threads);  // ScoreCnn's inference sets one thread
     if (!score.ok()) return score.status();
     record.validation_loss = score->loss;
     record.validation_rmse = score->rmse;
-    record.validation_rerender_loss = probe_loss;
-    record.validation_objective = record.validation_loss + options.rerender_weight * probe_loss;
+    record.validation_rerender_loss = score->rerender_loss;
+    record.validation_objective = record.validation_loss + options.rerender_weight * score->rerender_loss;
     record.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     history.push_back(record);
     const bool best = KeptEpoch(history).epoch == record.epoch;
