@@ -180,7 +180,7 @@ Result<CnnDatasetTraining> TrainOnDataset(const CnnDataset& dataset, const CnnAr
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> validation,
                         ReadExamples(dataset, run.train_materials, run.validation_materials, info, keep_stacks, options.threads));
   LOOM_ASSIGN_OR_RETURN(const std::vector<CnnExample> test, ReadExamples(dataset, run.train_materials + run.validation_materials,
-                                                                         run.test_materials, info, false, options.threads));
+                                                                         run.test_materials, info, keep_stacks, options.threads));
   LOOM_ASSIGN_OR_RETURN(run.history, TrainCnn(cnn, source, validation, options));
   run.kept = KeptEpoch(run.history);
   LOOM_ASSIGN_OR_RETURN(run.model, Cnn::Load(options.checkpoint_dir / "best"));
@@ -203,7 +203,9 @@ Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset
 }
 
 nlohmann::json CnnScoreJson(const CnnScore& score) {
-  return {{"loss", score.loss}, {"rmse", score.rmse}, {"pixels", score.pixels}, {"rerender_loss", score.rerender_loss}};
+  nlohmann::json json = {{"loss", score.loss}, {"rmse", score.rmse}, {"pixels", score.pixels}};
+  if (score.rerender_loss > 0) json["rerender_loss"] = score.rerender_loss;  // scored with the stacks
+  return json;
 }
 
 void ReportRmsePerChannel(std::ostream& out, const CnnScore& score) {
@@ -228,8 +230,10 @@ void CnnDatasetTraining::Report(std::ostream& out) const {
     out << " (" << std::fixed << std::setprecision(0) << e.samples_per_second << " samples/s)" << std::defaultfloat << "\n";
   }
   out << std::setprecision(4) << "kept epoch " << kept.epoch << " (lowest validation "
-      << (kept.validation_rerender_loss > 0 ? "objective " : "loss ") << kept.validation_objective << ")\ntest loss " << test.loss
-      << " on " << test_materials << " materials; RMSE per label channel:\n   ";
+      << (kept.validation_rerender_loss > 0 ? "objective " : "loss ") << kept.validation_objective << ")\ntest loss "
+      << test.loss;
+  if (test.rerender_loss > 0) out << " + re-rendering " << test.rerender_loss;
+  out << " on " << test_materials << " materials; RMSE per label channel:\n   ";
   ReportRmsePerChannel(out, test);
   out << "\n";
 }

@@ -78,7 +78,7 @@ struct CnnHeldOutScore {
 };
 Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset, int threads);
 
-// `score` as JSON: loss, rmse (per label channel) and pixels.
+// `score` as JSON: loss, rmse (per label channel), pixels and, when scored with the stacks, rerender_loss.
 nlohmann::json CnnScoreJson(const CnnScore& score);
 // The RMSE per label channel on one line: "a_d.R 0.012  a_d.G ...".
 void ReportRmsePerChannel(std::ostream& out, const CnnScore& score);

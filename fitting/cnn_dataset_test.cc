@@ -190,7 +190,10 @@ TEST(CnnDatasetTest, TrainsKeepsTheBestEpochAndScoresItOnTheTestSet) {
   ASSERT_TRUE(rescored.ok()) << rescored.status().ToString();
   EXPECT_NEAR(rescored->validation.rerender_loss, rerendered->kept.validation_rerender_loss,
               1e-6 * rerendered->kept.validation_rerender_loss);
+  EXPECT_NEAR(rescored->test.rerender_loss, rerendered->test.rerender_loss, 1e-6 * rerendered->test.rerender_loss);
   EXPECT_GT(rescored->test.rerender_loss, 0);
+  EXPECT_FALSE(resident->ToJson()["test"].contains("rerender_loss"));  // not measured without the loss
+  EXPECT_EQ(rerendered->ToJson()["test"]["rerender_loss"], rerendered->test.rerender_loss);
   fs::remove_all(dir);
 }
 
