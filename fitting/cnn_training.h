@@ -130,8 +130,9 @@ struct CnnEpoch {
   double validation_rerender_loss = 0;
   // What the run keeps the epoch with the lowest of: validation_loss + rerender_weight ·
   // validation_rerender_loss, the training's objective on the validation materials (the label
-  // loss alone when the re-rendering loss is off: there the label loss stopped tracking the
-  // re-rendering once that loss trained, configs/models/tac7/README.md).
+  // loss alone when the re-rendering loss is off). With that loss on, the label loss alone had
+  // stopped tracking the re-rendering (configs/models/tac7/README.md). A checkpoint written
+  // before this field existed reads it as its label loss.
   double validation_objective = 0;
   std::array<double, 14> validation_rmse{};  // per label channel
   double seconds = 0;                        // training and validation
