@@ -132,7 +132,8 @@ struct CnnEpoch {
   // validation_rerender_loss, the training's objective on the validation materials (the label
   // loss alone when the re-rendering loss is off). With that loss on, the label loss alone had
   // stopped tracking the re-rendering (configs/models/tac7/README.md). A checkpoint written
-  // before this field existed reads it as its label loss.
+  // before this field existed reads it as its label loss, and resuming it with the re-rendering
+  // loss on is refused (its epochs were kept by another measure).
   double validation_objective = 0;
   std::array<double, 14> validation_rmse{};  // per label channel
   double seconds = 0;                        // training and validation

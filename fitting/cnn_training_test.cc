@@ -379,6 +379,35 @@ TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
   fs::remove_all(TempDir("interrupted"));
 }
 
+// The run keeps the lowest objective over the resumed epochs and its own: resumed with another
+// objective than its epochs were kept by, it is refused, naming the history and the way on
+// (--init); resumed as it ran, it goes on.
+TEST(CnnTrainingTest, ResumingWithAnotherValidationObjectiveIsRefused) {
+  auto [info, train, validation, options] = SimulatedFabrics(/*epochs=*/1, /*rerender_pixels=*/4);
+  options.checkpoint_dir = TempDir("objective");
+  const std::string history_file = (options.checkpoint_dir / "last" / "history.json").string();
+  // {the re-rendering weight the run had, the one it is resumed with}
+  for (const auto& [had, resumed_with] : {std::pair{0.0, 1.0}, {1.0, 0.0}, {1.0, 3.0}}) {
+    fs::remove_all(options.checkpoint_dir);
+    options.resume = false, options.epochs = 1, options.rerender_weight = had;
+    Result<Cnn> cnn = Cnn::Create(info, 3);
+    ASSERT_TRUE(cnn.ok());
+    ASSERT_TRUE(TrainCnn(*cnn, train, validation, options).ok());
+    options.resume = true, options.epochs = 2, options.rerender_weight = resumed_with;
+    const Result<std::vector<CnnEpoch>> refused = TrainCnn(*cnn, train, validation, options);
+    ASSERT_FALSE(refused.ok()) << had << " -> " << resumed_with;
+    EXPECT_EQ(refused.status().code(), StatusCode::kFailedPrecondition);
+    const std::string message = refused.status().ToString();
+    EXPECT_NE(message.find(history_file), std::string::npos) << message;
+    EXPECT_NE(message.find("--init"), std::string::npos) << message;
+    options.rerender_weight = had;
+    const Result<std::vector<CnnEpoch>> resumed = TrainCnn(*cnn, train, validation, options);
+    ASSERT_TRUE(resumed.ok()) << resumed.status().ToString();
+    EXPECT_EQ(resumed->size(), 2u);
+  }
+  fs::remove_all(options.checkpoint_dir);
+}
+
 TEST(CnnTrainingTest, ResumingWithoutACheckpointIsAnErrorNamingTheDirectory) {
   CnnTrainingOptions options = FastOptions();
   options.checkpoint_dir = TempDir("none");

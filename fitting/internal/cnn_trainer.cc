@@ -7,6 +7,7 @@
 #include <numeric>
 #include <optional>
 #include <random>
+#include <sstream>
 
 #include "core/file_io.h"
 #include "core/parallel.h"
@@ -219,9 +220,35 @@ Result<fs::path> CheckpointToResume(const fs::path& dir) {
   return NotFoundError(dir.string(), "no checkpoint to resume from (no last/history.json)");
 }
 
+std::string ObjectiveText(double rerender_weight) {
+  if (rerender_weight == 0) return "the validation label loss alone";
+  std::ostringstream text;
+  text << "the validation label loss + " << rerender_weight << " x re-rendering loss";
+  return text.str();
+}
+
+// The run keeps the epoch with the lowest objective over the resumed epochs and its own, so
+// every epoch must have been scored by this run's objective. A checkpoint written without the
+// re-rendering loss, or before loom kept epochs by it, states its label loss alone: resumed with
+// the loss on, its epochs would look ~10x better than the new ones and stay kept.
+Status CheckResumedObjective(const std::vector<CnnEpoch>& history, double rerender_weight, const fs::path& file) {
+  for (const CnnEpoch& e : history) {
+    const double scored_weight =
+        e.validation_rerender_loss > 0 ? (e.validation_objective - e.validation_loss) / e.validation_rerender_loss : 0;
+    if (std::abs(scored_weight - rerender_weight) <= 1e-6 * std::max(1.0, rerender_weight)) continue;
+    return FailedPreconditionError(file.string(),
+                                   "epoch " + std::to_string(e.epoch) + " was kept by " + ObjectiveText(scored_weight) +
+                                       ", this run keeps by " + ObjectiveText(rerender_weight) +
+                                       ": the two do not compare. Resume with the options the run had, or start a new run from "
+                                       "its model (--init " +
+                                       (file.parent_path() / "model").string() + ")");
+  }
+  return {};
+}
+
 // Replaces `cnn` and `optimizer` by the checkpoint's; returns the epochs it has done.
-Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::AdamOptions& adam, const torch::Device& device,
-                                     Cnn& cnn, std::unique_ptr<torch::optim::Adam>& optimizer) {
+Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, double rerender_weight, const torch::optim::AdamOptions& adam,
+                                     const torch::Device& device, Cnn& cnn, std::unique_ptr<torch::optim::Adam>& optimizer) {
   Result<fs::path> checkpoint = CheckpointToResume(dir);
   if (!checkpoint.ok()) return checkpoint.status();
   Result<Cnn> loaded = internal::LoadCnn(*checkpoint / "model");
@@ -240,7 +267,9 @@ Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, const torch::optim::Ad
     return DataLossError(optimizer_path.string(), std::string("unreadable checkpoint: ") + e.what());
   }
   LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(history_path));
-  return ParseCnnHistory(text, history_path.string());
+  LOOM_ASSIGN_OR_RETURN(std::vector<CnnEpoch> history, ParseCnnHistory(text, history_path.string()));
+  LOOM_RETURN_IF_ERROR(CheckResumedObjective(history, rerender_weight, history_path));
+  return history;
 }
 
 }  // namespace
@@ -401,7 +430,7 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
   std::unique_ptr<torch::optim::Adam> optimizer;
   std::vector<CnnEpoch> history;
   if (options.resume) {
-    Result<std::vector<CnnEpoch>> resumed = Resume(options.checkpoint_dir, adam, device, cnn, optimizer);
+    Result<std::vector<CnnEpoch>> resumed = Resume(options.checkpoint_dir, options.rerender_weight, adam, device, cnn, optimizer);
     if (!resumed.ok()) return resumed.status();
     history = std::move(*resumed);
   } else {
