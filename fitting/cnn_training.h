@@ -133,7 +133,7 @@ struct CnnEpoch {
   // loss alone when the re-rendering loss is off). With that loss on, the label loss alone had
   // stopped tracking the re-rendering (configs/models/tac7/README.md). A checkpoint written
   // before this field existed reads it as its label loss, and resuming it with the re-rendering
-  // loss on is refused (its epochs were kept by another measure).
+  // loss on is refused (its epochs were scored by another measure).
   double validation_objective = 0;
   std::array<double, 14> validation_rmse{};  // per label channel
   double seconds = 0;                        // training and validation

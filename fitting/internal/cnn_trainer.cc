@@ -236,12 +236,12 @@ Status CheckResumedObjective(const std::vector<CnnEpoch>& history, double rerend
     const double scored_weight =
         e.validation_rerender_loss > 0 ? (e.validation_objective - e.validation_loss) / e.validation_rerender_loss : 0;
     if (std::abs(scored_weight - rerender_weight) <= 1e-6 * std::max(1.0, rerender_weight)) continue;
-    return FailedPreconditionError(file.string(),
-                                   "epoch " + std::to_string(e.epoch) + " was kept by " + ObjectiveText(scored_weight) +
-                                       ", this run keeps by " + ObjectiveText(rerender_weight) +
-                                       ": the two do not compare. Resume with the options the run had, or start a new run from "
-                                       "its model (--init " +
-                                       (file.parent_path() / "model").string() + ")");
+    return FailedPreconditionError(
+        file.string(), "epoch " + std::to_string(e.epoch) + " was scored by " + ObjectiveText(scored_weight) + ", this run by " +
+                           ObjectiveText(rerender_weight) +
+                           ": the two do not compare. Resume with the options the run had, or start a new run from "
+                           "its model (--init " +
+                           (file.parent_path() / "model").string() + ")");
   }
   return {};
 }
