@@ -380,7 +380,7 @@ TEST(CnnTrainingTest, AResumedRunEndsWhereAnUninterruptedOneDoes) {
 }
 
 // The run keeps the lowest objective over the resumed epochs and its own: resumed with another
-// objective than its epochs were kept by, it is refused, naming the history and the way on
+// objective than its epochs were scored by, it is refused, naming the history and the way on
 // (--init); resumed as it ran, it goes on.
 TEST(CnnTrainingTest, ResumingWithAnotherValidationObjectiveIsRefused) {
   auto [info, train, validation, options] = SimulatedFabrics(/*epochs=*/1, /*rerender_pixels=*/4);

@@ -251,6 +251,11 @@ Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, double rerender_weight
                                      const torch::Device& device, Cnn& cnn, std::unique_ptr<torch::optim::Adam>& optimizer) {
   Result<fs::path> checkpoint = CheckpointToResume(dir);
   if (!checkpoint.ok()) return checkpoint.status();
+  // The history first: a run that cannot go on is refused before the model and optimizer load.
+  const fs::path optimizer_path = *checkpoint / "optimizer.pt", history_path = *checkpoint / "history.json";
+  LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(history_path));
+  LOOM_ASSIGN_OR_RETURN(std::vector<CnnEpoch> history, ParseCnnHistory(text, history_path.string()));
+  LOOM_RETURN_IF_ERROR(CheckResumedObjective(history, rerender_weight, history_path));
   Result<Cnn> loaded = internal::LoadCnn(*checkpoint / "model");
   if (!loaded.ok()) return loaded.status();
   if (loaded->info().architecture.input_channels != cnn.info().architecture.input_channels ||
@@ -260,15 +265,11 @@ Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, double rerender_weight
   cnn = std::move(*loaded);
   cnn.net().net->to(device);
   optimizer = std::make_unique<torch::optim::Adam>(cnn.net().net->parameters(), adam);
-  const fs::path optimizer_path = *checkpoint / "optimizer.pt", history_path = *checkpoint / "history.json";
   try {
     torch::load(*optimizer, optimizer_path.string(), device);
   } catch (const std::exception& e) {
     return DataLossError(optimizer_path.string(), std::string("unreadable checkpoint: ") + e.what());
   }
-  LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(history_path));
-  LOOM_ASSIGN_OR_RETURN(std::vector<CnnEpoch> history, ParseCnnHistory(text, history_path.string()));
-  LOOM_RETURN_IF_ERROR(CheckResumedObjective(history, rerender_weight, history_path));
   return history;
 }
 
