@@ -149,6 +149,29 @@ TEST(CliTest, ModelShowsAModelAndCopiesItWithOtherWeights) {
   std::filesystem::remove_all(dir);
 }
 
+// loom model --average writes the uniform average of models of one network, and refuses another
+// rig's model, naming it, or an average with nowhere to go.
+TEST(CliTest, ModelAveragesTheWeightsOfModelsOfOneNetwork) {
+  const std::string shipped = loom::testing::SourceDir() + "/configs/models/tac7-mini";
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("cli_average_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(RunLoom("model " + shipped + " --out " + (dir / "32").string() + " --weights float32").exit_code, 0);
+  const LoomRun mean = RunLoom("model " + shipped + " --average " + (dir / "32").string() + " --out " + (dir / "mean").string() +
+                               " --weights float16");
+  ASSERT_EQ(mean.exit_code, 0) << mean.output;
+  EXPECT_EQ(std::filesystem::file_size(dir / "mean" / "weights.pt"), std::filesystem::file_size(shipped + "/weights.pt"));
+  EXPECT_TRUE(Contains(RunLoom("model " + (dir / "mean").string()).output, "the uniform average of the weights of 2 models"));
+  const std::string other_rig = loom::testing::SourceDir() + "/configs/models/tac7";
+  const LoomRun mixed = RunLoom("model " + shipped + " --average " + other_rig + " --out " + (dir / "mixed").string());
+  EXPECT_EQ(mixed.exit_code, 1) << mixed.output;
+  EXPECT_TRUE(Contains(mixed.output, other_rig) && Contains(mixed.output, "rig 'tac7'")) << mixed.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "mixed"));
+  const LoomRun nowhere = RunLoom("model " + shipped + " --average " + (dir / "32").string());
+  EXPECT_EQ(nowhere.exit_code, 1) << nowhere.output;
+  EXPECT_TRUE(Contains(nowhere.output, "--out")) << nowhere.output;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(CliTest, ShippedRigFilesLoad) {
   // Loading creates every device through its backend without connecting to any.
   const LoomRun run = RunLoom("rig list --rig " + loom::testing::SourceDir() + "/configs/rig/peer.yaml");

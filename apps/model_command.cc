@@ -1,14 +1,18 @@
 // loom model: what a trained CNN takes and how it was made, a copy of it with its weights
-// stored otherwise (float16 halves weights.pt, for a model that lives in git), or its score on a
-// training dataset's held-out materials (to choose between checkpoints without training on).
+// stored otherwise (float16 halves weights.pt, for a model that lives in git), the average of
+// its weights and other models', or its score on a training dataset's held-out materials (to
+// choose between checkpoints without training on).
 //
 //   loom model configs/models/tac7-mini
 //   loom model MODEL --out DIR --weights float16
+//   loom model MODEL --average OTHER [--average ...] --out DIR
 //   loom model MODEL --score DATA --validation 12 --test 12 [--json FILE]
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -46,25 +50,65 @@ void Describe(const fs::path& dir, const fitting::CnnModelInfo& info) {
             << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";
 }
 
-// The model in `to` with its weights stored as `storage`, and the files beside it (refine.json,
-// README.md, ...) copied; folders (checkpoints/, data/) stay behind.
-Status Convert(const fs::path& from, const fs::path& to, fitting::WeightStorage storage) {
+// Refuses an output folder that is one of the models it is made from: they stay as they are.
+Status CheckNotAnInput(const fs::path& to, const std::vector<fs::path>& inputs) {
   std::error_code error;
-  if (fs::exists(to) && fs::equivalent(from, to, error)) {
-    return InvalidArgumentError(to.string(), "is the model itself: convert into another folder, the original stays");
+  for (const fs::path& input : inputs) {
+    if (fs::exists(to) && fs::equivalent(input, to, error)) {
+      const std::string which = inputs.size() == 1 ? "the model itself" : input.string() + ", a model it averages";
+      return InvalidArgumentError(to.string(), "is " + which + ": write into another folder, the original stays");
+    }
   }
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(from));
-  cnn.mutable_info().weights = storage;
+  return Status::Ok();
+}
+
+// `cnn` saved in `to` (its info's weight storage), with the files beside the model `from`
+// (refine.json, README.md, ...); folders (checkpoints/, data/) stay behind.
+Status WriteModel(const fitting::Cnn& cnn, const fs::path& from, const fs::path& to) {
   LOOM_RETURN_IF_ERROR(cnn.Save(to));
+  std::error_code error;
   for (const fs::directory_entry& entry : fs::directory_iterator(from)) {
     const std::string name = entry.path().filename().string();
     if (!entry.is_regular_file() || name == "model.json" || name == "weights.pt") continue;
     fs::copy_file(entry.path(), to / name, fs::copy_options::overwrite_existing, error);
     if (error) return IoError((to / name).string(), "cannot copy " + entry.path().string() + ": " + error.message());
   }
-  std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(storage) << ", " << std::setprecision(4)
-            << fs::file_size(to / "weights.pt") / 1e6 << " MB\n";
+  std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(cnn.info().weights) << ", "
+            << std::setprecision(4) << fs::file_size(to / "weights.pt") / 1e6 << " MB\n";
   return Status::Ok();
+}
+
+// The model in `to` with its weights stored as `storage`.
+Status Convert(const fs::path& from, const fs::path& to, fitting::WeightStorage storage) {
+  LOOM_RETURN_IF_ERROR(CheckNotAnInput(to, {from}));
+  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(from));
+  cnn.mutable_info().weights = storage;
+  return WriteModel(cnn, from, to);
+}
+
+// The uniform average of `model`'s and `others`' weights in `to`, stored as `storage`, with the
+// files beside `model`; its training text names every model averaged and keeps the first's.
+Status Average(const fs::path& model, const std::vector<std::string>& others, const fs::path& to,
+               fitting::WeightStorage storage) {
+  std::vector<fs::path> inputs = {model};
+  inputs.insert(inputs.end(), others.begin(), others.end());
+  LOOM_RETURN_IF_ERROR(CheckNotAnInput(to, inputs));
+  std::vector<fitting::Cnn> models;
+  std::string names;
+  for (const fs::path& input : inputs) {
+    LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(input));
+    if (!models.empty()) {
+      const Status same = fitting::CheckSameNetwork(models.front().info(), cnn.info());
+      if (!same.ok()) return Status(same.code(), input.string(), same.message());
+    }
+    models.push_back(std::move(cnn));
+    names += (names.empty() ? "" : ", ") + input.string();
+  }
+  LOOM_ASSIGN_OR_RETURN(fitting::Cnn mean, fitting::Cnn::Average(models));
+  mean.mutable_info().weights = storage;
+  mean.mutable_info().training = "the uniform average of the weights of " + std::to_string(models.size()) + " models (" + names +
+                                 "); the first's training: " + models.front().info().training;
+  return WriteModel(mean, model, to);
 }
 
 struct ScoreArguments {
@@ -104,15 +148,18 @@ Status Score(const fs::path& model, const ScoreArguments& args) {
   return WriteFileAtomically(args.json, report.dump(2) + "\n");
 }
 
-Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights, const ScoreArguments& score) {
+Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights,
+                       const std::vector<std::string>& average, const ScoreArguments& score) {
   if (!score.data.empty()) return Score(model, score);
   if (out.empty()) {
     if (!weights.empty()) return InvalidArgumentError("--weights", "converts into --out DIR: give one");
+    if (!average.empty()) return InvalidArgumentError("--average", "writes the average into --out DIR: give one");
     LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
     Describe(model, cnn.info());
     return Status::Ok();
   }
   const std::optional<fitting::WeightStorage> storage = fitting::WeightStorageFromName(weights.empty() ? "float32" : weights);
+  if (!average.empty()) return Average(model, average, out, *storage);
   return Convert(model, out, *storage);
 }
 
@@ -121,7 +168,8 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
 int RunModel(int argc, char** argv) {
   CLI::App app(
       "Show a trained CNN: its rig and input, width, weights and training; copy it with its weights "
-      "stored otherwise; or score it on a training dataset's held-out materials",
+      "stored otherwise, or average its weights with other models'; or score it on a training dataset's held-out "
+      "materials",
       "loom model");
   AddCommonOptions(app);
   std::string model, out, weights;
@@ -135,6 +183,11 @@ int RunModel(int argc, char** argv) {
                  "How the copy stores its weights: float32, or float16 (half the file; the network computes in float32 "
                  "either way, from weights rounded to 11 significant bits)")
       ->check(CLI::IsMember({"float32", "float16"}));
+  std::vector<std::string> average;
+  app.add_option("--average", average,
+                 "With --out: write the uniform average of this model's weights and these models' (one network on one "
+                 "input, e.g. checkpoints of one run, or fine-tunes of one model) instead of a copy")
+      ->check(CLI::ExistingDirectory);
   ScoreArguments score;
   CLI::Option* score_option =
       app.add_option("--score", score.data,
@@ -143,7 +196,8 @@ int RunModel(int argc, char** argv) {
                      "reports them")
           ->check(CLI::ExistingDirectory)
           ->excludes("--out")
-          ->excludes("--weights");
+          ->excludes("--weights")
+          ->excludes("--average");
   app.add_option("--validation", score.validation,
                  "With --score: the validation materials, as loom train --validation split them")
       ->check(CLI::Range(1, 100000))
@@ -156,7 +210,7 @@ int RunModel(int argc, char** argv) {
       ->needs(score_option);
   app.add_option("--json", score.json, "With --score: also write the scores to this JSON file")->needs(score_option);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  return ExitCode(RunModelCommand(model, out, weights, score));
+  return ExitCode(RunModelCommand(model, out, weights, average, score));
 }
 
 }  // namespace loom::apps

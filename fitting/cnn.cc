@@ -51,6 +51,27 @@ Status CnnArchitecture::Check() const {
   return ProblemsStatus("CnnArchitecture", problems);
 }
 
+Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b) {
+  const CnnArchitecture &x = a.architecture, &y = b.architecture;
+  std::vector<std::string> problems;
+  if (x.input_channels != y.input_channels || x.width_divisor != y.width_divisor || x.dropout != y.dropout ||
+      x.centre_skip != y.centre_skip) {
+    problems.push_back("another architecture (input channels, width divisor, dropout or centre skip)");
+  }
+  if (a.rig != b.rig) problems.push_back("rig '" + b.rig + "' against '" + a.rig + "'");
+  const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
+  if (a.observation_groups != b.observation_groups || layout(a) != layout(b)) problems.push_back("another input layout");
+  // Each network learnt on inputs log(1 + L / scale): another scale is another input.
+  if (a.radiance_scale != b.radiance_scale) {
+    problems.push_back("radiance scale " + std::to_string(b.radiance_scale) + " against " + std::to_string(a.radiance_scale));
+  }
+  if (problems.empty()) return Status::Ok();
+  std::string message = "not the same network as the first model:";
+  for (const std::string& problem : problems) message += " " + problem + ";";
+  message.back() = '.';
+  return InvalidArgumentError("model", message);
+}
+
 CnnLabels CnnLabelsFromMaps(const Image& maps) {
   const int width = maps.width(), height = maps.height();
   CnnLabels out{{kLabelSize, height, width, std::vector<float>(static_cast<size_t>(kLabelSize) * width * height)},
@@ -110,6 +131,18 @@ Result<Cnn> Cnn::WithCentreSkip() const {
   CnnArchitecture with_skip = info_.architecture;
   with_skip.centre_skip = true;
   return engine->Grown(*this, with_skip, 0);
+}
+
+Result<Cnn> Cnn::Average(const std::vector<Cnn>& models) {
+  if (models.empty()) return InvalidArgumentError("models", "none to average");
+  for (size_t i = 1; i < models.size(); ++i) {
+    const Status same = CheckSameNetwork(models.front().info(), models[i].info());
+    if (!same.ok()) {
+      return Status(same.code(), "model " + std::to_string(i + 1) + " of " + std::to_string(models.size()), same.message());
+    }
+  }
+  LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
+  return engine->Averaged(models);
 }
 
 Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int max_tile, int threads) const {

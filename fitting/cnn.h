@@ -93,6 +93,10 @@ struct CnnModelInfo {
 // model was trained on. Defined in cnn_input.cc.
 Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnModelInfo& info);
 
+// OK when `a` and `b` describe one network on one input (architecture, rig, input layout and
+// radiance scale), so that their weights can be averaged; else an error saying what differs.
+Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b);
+
 // The 14 label channels of SVBRDF maps (fitting/model/svbrdf_maps.h layout) and, per pixel,
 // whether it holds a material (a zero normal marks a pixel off the sample).
 struct CnnLabels {
@@ -124,6 +128,10 @@ class Cnn {
   // This model with CnnArchitecture::centre_skip added, its weights zero: the same function,
   // for fine-tuning with the skip from a model trained without it.
   Result<Cnn> WithCentreSkip() const;
+  // The uniform average of `models`' weights: models of one network and input (CheckSameNetwork),
+  // e.g. the last epochs of one run or fine-tunes of one start, whose average often predicts
+  // better than each (Izmailov et al. 2018, Wortsman et al. 2022). The first's info describes it.
+  static Result<Cnn> Average(const std::vector<Cnn>& models);
 
   const CnnModelInfo& info() const { return info_; }
   CnnModelInfo& mutable_info() { return info_; }

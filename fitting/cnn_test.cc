@@ -235,6 +235,39 @@ double LargestDifference(const std::vector<float>& a, const std::vector<float>& 
   return worst;
 }
 
+// Averaging weights: of one model, the model itself; of two, a third function, whatever their
+// order; of four, the average of their pairs' averages, as only the uniform mean is. Models of
+// other networks are refused, naming which.
+TEST(CnnTest, AveragingWeighsEveryModelAlike) {
+  std::vector<Cnn> models;
+  for (uint64_t seed : {1, 2, 3, 4}) models.push_back(*Cnn::Create(SmallModel(8), seed));
+  const CnnTensor input = RandomInput(8, 9, 7, 5);
+  const auto predict = [&](const Result<Cnn>& cnn) {
+    EXPECT_TRUE(cnn.ok()) << cnn.status().ToString();
+    return cnn.ok() ? cnn->PredictDense(input, 128, 1)->values : std::vector<float>();
+  };
+  const std::vector<float> a = predict(models[0]), b = predict(models[1]);
+  EXPECT_LT(LargestDifference(predict(Cnn::Average({models[0], models[0]})), a), 1e-6);
+  const std::vector<float> ab = predict(Cnn::Average({models[0], models[1]}));
+  EXPECT_GT(LargestDifference(ab, a), 1e-3);
+  EXPECT_GT(LargestDifference(ab, b), 1e-3);
+  EXPECT_LT(LargestDifference(predict(Cnn::Average({models[1], models[0]})), ab), 1e-6);
+  const Result<Cnn> cd = Cnn::Average({models[2], models[3]});
+  const std::vector<float> pairs = predict(Cnn::Average({*Cnn::Average({models[0], models[1]}), *cd}));
+  EXPECT_LT(LargestDifference(predict(Cnn::Average(models)), pairs), 1e-5);
+
+  CnnModelInfo wider = SmallModel(8);
+  wider.architecture.width_divisor = 8;
+  CnnModelInfo rescaled = SmallModel(8);
+  rescaled.radiance_scale *= 2;
+  for (const CnnModelInfo& other : {wider, rescaled}) {
+    const Result<Cnn> mixed = Cnn::Average({models[0], models[1], *Cnn::Create(other, 5)});
+    ASSERT_FALSE(mixed.ok());
+    EXPECT_EQ(mixed.status().subject(), "model 3 of 3") << mixed.status().ToString();
+  }
+  EXPECT_FALSE(Cnn::Average({}).ok());
+}
+
 // The centre skip: dense and sliding agree with it; added to a trained model it starts at zero
 // (the same function), it is saved and loaded, and widening keeps what it computes.
 TEST(CnnTest, TheCentreSkipReadsEachPixelsOwnFeatures) {

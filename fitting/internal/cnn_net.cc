@@ -326,6 +326,19 @@ Result<Cnn> internal::GrowCnn(const Cnn& narrow, const CnnArchitecture& to, uint
   return wide;
 }
 
+Result<Cnn> internal::AverageCnns(const std::vector<Cnn>& models) {
+  LOOM_ASSIGN_OR_RETURN(Cnn mean, CreateCnn(models.front().info(), 0));
+  torch::NoGradGuard no_grad;
+  const std::vector<torch::Tensor> sum = mean.net().net->parameters();
+  for (const torch::Tensor& weight : sum) weight.zero_();
+  const double share = 1.0 / static_cast<double>(models.size());
+  for (const Cnn& model : models) {
+    const std::vector<torch::Tensor> weights = model.net().net->parameters();
+    for (size_t i = 0; i < sum.size(); ++i) sum[i].add_(weights[i], share);
+  }
+  return mean;
+}
+
 namespace {
 
 // The network to write to weights.pt: `cnn`'s own in float32, else a copy in its info's storage

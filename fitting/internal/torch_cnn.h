@@ -19,6 +19,8 @@ Status SaveCnn(const Cnn& cnn, const std::filesystem::path& directory);
 // `from` as architecture `to`, computing the same function: wider (Net2WiderNet, Cnn::Widened)
 // and with the centre skip added as zeros; an error for any other change.
 Result<Cnn> GrowCnn(const Cnn& from, const CnnArchitecture& to, uint64_t seed);
+// The uniform average of the models' weights (Cnn::Average; one network, checked by the caller).
+Result<Cnn> AverageCnns(const std::vector<Cnn>& models);
 Result<CnnTensor> PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads);
 Result<CnnTensor> PredictSlidingLabels(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch, int threads);
 

@@ -13,6 +13,7 @@ class TorchCnnEngine final : public CnnEngine {
   Result<Cnn> Load(const std::filesystem::path& directory) const override { return LoadCnn(directory); }
   Status Save(const Cnn& cnn, const std::filesystem::path& directory) const override { return SaveCnn(cnn, directory); }
   Result<Cnn> Grown(const Cnn& cnn, const CnnArchitecture& to, uint64_t seed) const override { return GrowCnn(cnn, to, seed); }
+  Result<Cnn> Averaged(const std::vector<Cnn>& models) const override { return AverageCnns(models); }
   Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads) const override {
     return PredictDenseLabels(cnn, input, max_tile, threads);
   }
@@ -37,7 +38,7 @@ class TorchCnnEngine final : public CnnEngine {
 }  // namespace loom::fitting::internal
 
 // The entry point internal::kCnnEngineEntry names.
-extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v2() {
+extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v3() {
   static const loom::fitting::internal::TorchCnnEngine engine;
   return &engine;
 }
