@@ -51,16 +51,23 @@ Status CnnArchitecture::Check() const {
   return ProblemsStatus("CnnArchitecture", problems);
 }
 
+bool SameInputLayout(const CnnModelInfo& a, const CnnModelInfo& b) {
+  const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
+  return a.rig == b.rig && a.architecture.input_channels == b.architecture.input_channels &&
+         a.observation_groups == b.observation_groups && layout(a) == layout(b);
+}
+
 Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b) {
   const CnnArchitecture &x = a.architecture, &y = b.architecture;
   std::vector<std::string> problems;
-  if (x.input_channels != y.input_channels || x.width_divisor != y.width_divisor || x.dropout != y.dropout ||
-      x.centre_skip != y.centre_skip) {
-    problems.push_back("another architecture (input channels, width divisor, dropout or centre skip)");
+  if (x.width_divisor != y.width_divisor || x.dropout != y.dropout || x.centre_skip != y.centre_skip) {
+    problems.push_back("another architecture (width divisor, dropout or centre skip)");
   }
-  if (a.rig != b.rig) problems.push_back("rig '" + b.rig + "' against '" + a.rig + "'");
-  const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
-  if (a.observation_groups != b.observation_groups || layout(a) != layout(b)) problems.push_back("another input layout");
+  if (a.rig != b.rig) {
+    problems.push_back("rig '" + b.rig + "' against '" + a.rig + "'");
+  } else if (!SameInputLayout(a, b)) {
+    problems.push_back("another input layout (input channels, observation groups or paper layout)");
+  }
   // Each network learnt on inputs log(1 + L / scale): another scale is another input.
   if (a.radiance_scale != b.radiance_scale) {
     problems.push_back("radiance scale " + std::to_string(b.radiance_scale) + " against " + std::to_string(a.radiance_scale));

@@ -93,6 +93,10 @@ struct CnnModelInfo {
 // model was trained on. Defined in cnn_input.cc.
 Result<CnnTensor> CnnInputFromStack(const ObservationStack& stack, const CnnModelInfo& info);
 
+// Whether models `a` and `b` read the same stacks the same way: rig, input channels, observation
+// groups and paper layout (a fine-tune's start and its dataset must agree on these).
+bool SameInputLayout(const CnnModelInfo& a, const CnnModelInfo& b);
+
 // OK when `a` and `b` describe one network on one input (architecture, rig, input layout and
 // radiance scale), so that their weights can be averaged; else an error saying what differs.
 Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b);

@@ -119,9 +119,7 @@ Result<Cnn> StartingCnn(const CnnModelInfo& info, const std::string& init, uint6
   LOOM_ASSIGN_OR_RETURN(Cnn cnn, Cnn::Load(init));
   // Training's checkpoints keep full precision, whatever storage the start came in.
   cnn.mutable_info().weights = WeightStorage::kFloat32;
-  const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
-  if (cnn.info().architecture.input_channels != info.architecture.input_channels || cnn.info().rig != info.rig ||
-      cnn.info().observation_groups != info.observation_groups || layout(cnn.info()) != layout(info)) {
+  if (!SameInputLayout(cnn.info(), info)) {
     return InvalidArgumentError(init, "a model for other stacks (rig '" + cnn.info().rig + "', " +
                                           std::to_string(cnn.info().architecture.input_channels) +
                                           " input channels) than the dataset's ('" + info.rig + "', " +
