@@ -49,12 +49,18 @@ struct GivenOnTheCommandLine {
   bool smoothing_weight = false;
   bool retries = false;
   bool function_tolerance = false;
+  bool f0 = false;
 };
 
 Status CheckRefineSetting(const fs::path& path, const std::string& key, const nlohmann::json& value) {
   if (key == "retries") {
     return value.is_boolean() ? Status::Ok()
                               : InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
+  }
+  if (key == "f0") {
+    const Result<std::optional<double>> f0 =
+        fitting::ParseFixedF0(value.is_string() ? value.get<std::string>() : value.dump(), path.string() + ": " + key);
+    return f0.ok() ? Status::Ok() : f0.status();
   }
   const double number = value.is_number() ? value.get<double>() : NAN;
   if (key == "function_tolerance") {
@@ -65,7 +71,7 @@ Status CheckRefineSetting(const fs::path& path, const std::string& key, const nl
   if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
     return InvalidArgumentError(
         path.string() + ": " + key,
-        "unknown key (expected smoothing_weight, smoothing_specular_albedo, retries, function_tolerance or picked_on)");
+        "unknown key (expected smoothing_weight, smoothing_specular_albedo, retries, function_tolerance, f0 or picked_on)");
   }
   if (!(number >= 0 && number <= 1e6) || (key == "smoothing_specular_albedo" && number == 0)) {
     return InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 1e6] (a scale > 0), not " + value.dump());
@@ -89,6 +95,10 @@ Status ApplyRefineSettings(const fs::path& model, bool refiner, GivenOnTheComman
   if (refiner && !given.retries) options.retry_poor_fits = json.value("retries", options.retry_poor_fits);
   if (!given.function_tolerance) {
     options.refine_function_tolerance = json.value("function_tolerance", options.refine_function_tolerance);
+  }
+  if (refiner && !given.f0 && json.contains("f0")) {
+    const nlohmann::json& f0 = json["f0"];
+    LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(f0.is_string() ? f0.get<std::string>() : f0.dump(), "f0"));
   }
   return Status::Ok();
 }
@@ -115,8 +125,8 @@ Status Fit(FitArguments args) {
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
   const bool refiner = *method == fitting::FitMethod::kRefine || *method == fitting::FitMethod::kCnnRefine;
-  LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, refiner, args.given, options));
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
+  LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, refiner, args.given, options));
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
   options.progress = [&](const fitting::StackFitProgress& p) {
@@ -198,9 +208,11 @@ int RunFit(int argc, char** argv) {
   app.add_option("--clusters", args.options.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
-  app.add_option("--f0", args.f0,
-                 "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the "
-                 "observations fix), or 'material': one F0 fitted per material");
+  CLI::Option* f0 = app.add_option(
+      "--f0", args.f0,
+      "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the observations fix; for the refine "
+      "methods the model directory's refine.json may say otherwise: 'material' for tac7), or 'material': one F0 for "
+      "the material, fitted jointly with a sparse grid of its pixels (fit.json: material_f0, f0_fits)");
   app.add_option("--retry-above", args.options.retry_above_noise_rms,
                  "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
                  "stack's noise level (the best-fitted tenth's RMS; default 2.5)")
@@ -226,7 +238,8 @@ int RunFit(int argc, char** argv) {
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   args.given = {.smoothing_weight = smoothing_weight->count() > 0,
                 .retries = retries->count() + no_retries->count() > 0,
-                .function_tolerance = function_tolerance->count() > 0};
+                .function_tolerance = function_tolerance->count() > 0,
+                .f0 = f0->count() > 0};
   return ExitCode(Fit(args));
 }
 

@@ -221,7 +221,7 @@ TEST_F(FitCommandTest, AMissingModelIsAnErrorNamingIt) {
 // The refiner's settings picked for a rig live in its model directory (refine.json): loom fit
 // takes them unless an option overrides them, and refuses a file it cannot read as settings,
 // naming the file and the key.
-TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTheToleranceAndABadOneIsRefused) {
+TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesTheToleranceAndF0AndABadOneIsRefused) {
   const auto fit_json = [&](const std::string& options, const std::string& out, const std::string& method = "refine") {
     const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --method " + method +
                                 " --clusters 2 --quiet --out " + (dir_ / out).string() + " " + options);
@@ -252,6 +252,14 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTh
   EXPECT_EQ(overridden["retries"], false);
   EXPECT_EQ(overridden["function_tolerance"], 0.0005);
   EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
+  EXPECT_EQ(shipped["f0"], 1.0);
+  std::ofstream(model / "refine.json", std::ios::trunc) << R"({"f0": "material"})";
+  const nlohmann::json material = fit_json("--model " + model.string(), "own-f0");
+  EXPECT_EQ(material["f0"], "material");
+  EXPECT_TRUE(material["material_f0"].is_number()) << material.dump(2);
+  EXPECT_EQ(material["f0_fits"].size(), 3u) << material.dump(2);
+  EXPECT_EQ(fit_json("--model " + model.string() + " --f0 1", "f0-given")["f0"], 1.0);
+  EXPECT_EQ(fit_json("--model " + model.string(), "f0-ceres", "ceres")["f0"], 1.0);
 
   // A refine.json that loom fit must refuse: exit 1, no maps written.
   const auto refused = [&](const std::string& settings, const std::string& out) {
@@ -268,6 +276,8 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesAndTh
   EXPECT_NE(negative.find("smoothing_weight"), std::string::npos) << negative;
   const std::string not_bool = refused(R"({"retries": "no"})", "nb");
   EXPECT_NE(not_bool.find((model / "refine.json").string() + ": retries"), std::string::npos) << not_bool;
+  const std::string bad_f0 = refused(R"({"f0": 2})", "f0");
+  EXPECT_NE(bad_f0.find((model / "refine.json").string() + ": f0"), std::string::npos) << bad_f0;
   const std::string too_loose = refused(R"({"function_tolerance": 0.9})", "loose");
   EXPECT_NE(too_loose.find((model / "refine.json").string() + ": function_tolerance"), std::string::npos) << too_loose;
 }

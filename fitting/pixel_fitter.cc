@@ -6,7 +6,9 @@
 
 #include "fitting/internal/pixel_cost.h"
 
+#include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace loom::fitting {
 namespace {
@@ -46,15 +48,15 @@ struct Start {
   bool ok = false;
 };
 
-Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
-              const PixelFitOptions& options) {
-  Blocks blocks(initial);
+// Adds one pixel's robust cost over `blocks` to `problem`, with the parameters' bounds; its F0
+// is `f0` (the pixel's own block, or one that pixels share), bounded to [0, 1] unless constant.
+void AddPixel(ceres::Problem& problem, const std::vector<PixelObservation>& usable, double inverse_scale, Blocks& blocks,
+              double* f0, const PixelFitOptions& options) {
   ceres::CostFunction* cost =
       internal::MakeRobustPixelCost(options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
                                                                   : internal::MakeAnalyticPixelCost(usable, inverse_scale),
                                     options.huber_scale);
-  ceres::Problem problem;
-  problem.AddResidualBlock(cost, nullptr, blocks.n_s, blocks.a_d, blocks.a_s, blocks.sigma, blocks.alpha, blocks.f0);
+  problem.AddResidualBlock(cost, nullptr, blocks.n_s, blocks.a_d, blocks.a_s, blocks.sigma, blocks.alpha, f0);
   problem.SetManifold(blocks.n_s, new ceres::SphereManifold<3>());
   for (int i = 0; i < 3; ++i) {
     problem.SetParameterLowerBound(blocks.a_d, i, 0);
@@ -66,13 +68,20 @@ Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale,
     problem.SetParameterLowerBound(blocks.sigma, i, kMinSigma);
     problem.SetParameterUpperBound(blocks.sigma, i, kMaxSigma);
   }
-  if (options.fixed_f0) {
-    blocks.f0[0] = *options.fixed_f0;
-    problem.SetParameterBlockConstant(blocks.f0);
-  } else {
-    problem.SetParameterLowerBound(blocks.f0, 0, 0);
-    problem.SetParameterUpperBound(blocks.f0, 0, 1);
+  if (!problem.IsParameterBlockConstant(f0)) {
+    problem.SetParameterLowerBound(f0, 0, 0);
+    problem.SetParameterUpperBound(f0, 0, 1);
   }
+}
+
+Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
+              const PixelFitOptions& options) {
+  Blocks blocks(initial);
+  ceres::Problem problem;
+  if (options.fixed_f0) blocks.f0[0] = *options.fixed_f0;
+  problem.AddParameterBlock(blocks.f0, 1);
+  if (options.fixed_f0) problem.SetParameterBlockConstant(blocks.f0);
+  AddPixel(problem, usable, inverse_scale, blocks, blocks.f0, options);
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   solver.max_num_iterations = options.max_iterations;
@@ -88,6 +97,29 @@ Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale,
   start.result.iterations = static_cast<int>(summary.iterations.size());
   start.result.converged = summary.termination_type == ceres::CONVERGENCE;
   return start;
+}
+
+// A pixel's observations that carry a radiance and a light, and the inverse of their mean
+// radiance (residuals are relative to it); fewer than 13 is an error.
+struct UsableObservations {
+  std::vector<PixelObservation> observations;
+  double inverse_scale = 1;
+};
+Result<UsableObservations> Usable(const std::vector<PixelObservation>& observations) {
+  UsableObservations usable;
+  double sum = 0;
+  for (const PixelObservation& o : observations) {
+    if (std::isnan(o.radiance) || o.lights.empty()) continue;
+    usable.observations.push_back(o);
+    sum += std::abs(o.radiance);
+  }
+  const size_t count = usable.observations.size();
+  if (count < kNumWardParams) {
+    return FailedPreconditionError(
+        "pixel fit", std::to_string(count) + " usable observations, need at least " + std::to_string(kNumWardParams));
+  }
+  if (sum > 0) usable.inverse_scale = count / sum;
+  return usable;
 }
 
 std::vector<WardParams<double>> Starts(const WardParams<double>& initial, bool multi_start) {
@@ -133,19 +165,8 @@ WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& obs
 Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observations, const WardParams<double>& initial,
                                 const PixelFitOptions& options) {
   LOOM_RETURN_IF_ERROR(options.Check());
-  std::vector<PixelObservation> usable;
-  double sum = 0;
-  for (const PixelObservation& o : observations) {
-    if (std::isnan(o.radiance) || o.lights.empty()) continue;
-    usable.push_back(o);
-    sum += std::abs(o.radiance);
-  }
-  if (usable.size() < kNumWardParams) {
-    return FailedPreconditionError(
-        "pixel fit", std::to_string(usable.size()) + " usable observations, need at least " + std::to_string(kNumWardParams));
-  }
-  const double mean = sum / usable.size();
-  const double inverse_scale = mean > 0 ? 1 / mean : 1;
+  LOOM_ASSIGN_OR_RETURN(const UsableObservations usable_observations, Usable(observations));
+  const auto& [usable, inverse_scale] = usable_observations;
   Start best;
   for (const WardParams<double>& start : Starts(initial, options.multi_start)) {
     Start fitted = FitFrom(usable, inverse_scale, start, options);
@@ -155,6 +176,52 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
   }
   if (!best.ok) return InternalError("pixel fit", "Ceres found no usable solution from any start");
   return best.result;
+}
+
+Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObservation>>& pixels,
+                                       const std::vector<WardParams<double>>& starts, double f0_start,
+                                       const PixelFitOptions& options, int threads) {
+  LOOM_RETURN_IF_ERROR(options.Check());
+  if (starts.size() != pixels.size()) {
+    return InvalidArgumentError("shared-F0 fit",
+                                std::to_string(starts.size()) + " starts for " + std::to_string(pixels.size()) + " pixels");
+  }
+  SharedF0Fit fit;
+  fit.f0 = std::clamp(f0_start, 0.0, 1.0);
+  fit.pixels.resize(pixels.size());
+  std::vector<std::optional<UsableObservations>> usable(pixels.size());
+  std::vector<std::unique_ptr<Blocks>> blocks(pixels.size());
+  ceres::Problem problem;
+  problem.AddParameterBlock(&fit.f0, 1);
+  for (size_t k = 0; k < pixels.size(); ++k) {
+    Result<UsableObservations> u = Usable(pixels[k]);
+    if (!u.ok()) continue;  // too few observations: left out, as FitStack keeps such a pixel's start
+    usable[k] = std::move(*u);
+    blocks[k] = std::make_unique<Blocks>(starts[k]);
+    AddPixel(problem, usable[k]->observations, usable[k]->inverse_scale, *blocks[k], &fit.f0, options);
+  }
+  if (problem.NumResidualBlocks() == 0)
+    return FailedPreconditionError("shared-F0 fit", "no pixel has enough usable observations");
+  ceres::Solver::Options solver;
+  // The normal equations are block diagonal (each pixel's own parameters) but for F0's row and
+  // column: sparse. (The Schur solvers would eliminate the pixels' blocks, but a pixel's five
+  // blocks share its residual, so they are no independent set.)
+  solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = threads;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return InternalError("shared-F0 fit", summary.message);
+  fit.cost = summary.final_cost;
+  fit.iterations = static_cast<int>(summary.iterations.size());
+  for (size_t k = 0; k < pixels.size(); ++k) {
+    if (!blocks[k]) continue;
+    blocks[k]->f0[0] = fit.f0;
+    fit.pixels[k] = PixelFitResult{blocks[k]->Params(), 0, static_cast<int>(usable[k]->observations.size()), fit.iterations,
+                                   summary.termination_type == ceres::CONVERGENCE};
+  }
+  return fit;
 }
 
 }  // namespace loom::fitting

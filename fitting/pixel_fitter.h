@@ -84,6 +84,22 @@ struct PixelFitResult {
 Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observations, const WardParams<double>& initial,
                                 const PixelFitOptions& options = {});
 
+// Several pixels fitted at once with one F0 that all of them share (Pantora's one F0 per
+// material), each from its start and F0 from f0_start: one Ceres problem (sparse normal
+// equations). A pixel with fewer than 13 usable
+// observations is left out (its entry empty); none with enough is an error. The result's
+// per-pixel costs are 0: `cost` is the whole problem's. `threads` evaluate the pixels' costs;
+// options.fixed_f0 is not used.
+struct SharedF0Fit {
+  double f0 = 1;
+  double cost = 0;  // ½ Σ ρ(r²) over every pixel
+  int iterations = 0;
+  std::vector<std::optional<PixelFitResult>> pixels;
+};
+Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObservation>>& pixels,
+                                       const std::vector<WardParams<double>>& starts, double f0_start,
+                                       const PixelFitOptions& options, int threads = 1);
+
 // A neutral start from the observations alone: n_s = z, a_d from the mean radiance as if
 // Lambertian, a small grey a_s, σ = 0.2, α = 0, F0 = 1.
 WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& observations);

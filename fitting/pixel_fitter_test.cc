@@ -205,6 +205,43 @@ TEST(PixelFitterTest, WithF0FreeTheObservableSpecularProductIsRecovered) {
   ExpectSameLobe(fit->params, truth, 0.1, 5);
 }
 
+// Pixels of one material share its F0: fitted together they fix it, where each alone leaves
+// it loose (the test above asserts only a_s·F0). A pixel with too few observations is left out.
+TEST(PixelFitterTest, PixelsSharingF0FixIt) {
+  std::vector<std::vector<PixelObservation>> pixels;
+  std::vector<WardParams<double>> truths, starts;
+  for (int k = 0; k < 6; ++k) {
+    WardParams<double> truth = Truth();
+    truth.f0 = 0.3;
+    truth.n_s = Eigen::Vector3d(0.1 * (k - 3), 0.05 * k, 1).normalized();
+    truth.sigma_x = 0.08 + 0.03 * k;
+    truth.alpha = 0.4 * k;
+    pixels.push_back(Observe(truth, 0, 10 + k));
+    truths.push_back(truth);
+    WardParams<double> start = truth;  // at F0 1, a_s·F0 kept, the lobe a little off
+    start.a_s *= truth.f0;
+    start.f0 = 1;
+    start.sigma_x *= 1.2;
+    start.n_s = (start.n_s + Eigen::Vector3d(0.03, 0, 0)).normalized();
+    starts.push_back(start);
+  }
+  for (PixelObservation& o : pixels[5]) o.radiance = std::nan("");
+  const Result<SharedF0Fit> fit = FitPixelsSharingF0(pixels, starts, 1.0, {});
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_NEAR(fit->f0, 0.3, 0.01);
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_TRUE(fit->pixels[k]) << k;
+    EXPECT_EQ(fit->pixels[k]->params.f0, fit->f0);
+    EXPECT_LT(AngleDeg(fit->pixels[k]->params.n_s, truths[k].n_s), 0.5) << k;
+    EXPECT_NEAR(fit->pixels[k]->params.a_s.x(), truths[k].a_s.x(), 0.02) << k;
+  }
+  EXPECT_FALSE(fit->pixels[5]);
+
+  const Result<SharedF0Fit> none = FitPixelsSharingF0({pixels[5]}, {starts[5]}, 1.0, {});
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().ToString().find("shared-F0 fit"), std::string::npos) << none.status().ToString();
+}
+
 TEST(PixelFitterTest, ShadowedObservationsAreOutliersTheFitSurvives) {
   const WardParams<double> truth = Truth();
   std::vector<PixelObservation> observations = Observe(truth, 0.01, 8);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <numeric>
 #include <ostream>
 
@@ -52,17 +53,6 @@ cv::Mat AppearanceFeatures(const ObservationStack& stack) {
     }
   }
   return features;
-}
-
-double Median(std::vector<std::pair<double, int>> weighted) {
-  std::sort(weighted.begin(), weighted.end());
-  const int total = std::accumulate(weighted.begin(), weighted.end(), 0, [](int s, const auto& w) { return s + w.second; });
-  int running = 0;
-  for (const auto& [value, weight] : weighted) {
-    running += weight;
-    if (2 * running >= total) return value;
-  }
-  return weighted.empty() ? 0 : weighted.back().first;
 }
 
 // RMS of the model's residuals relative to the pixel's mean radiance.
@@ -550,6 +540,17 @@ double RetryThreshold(const std::vector<PixelOutcome>& outcomes, const StackFitO
   return noise ? std::max(options.retry_above_rms, options.retry_above_noise_rms * *noise) : options.retry_above_rms;
 }
 
+// Row-major indices of about `count` pixels on an even grid over a width × height image (all of
+// them when it has fewer).
+std::vector<int> SparseGrid(int width, int height, int count) {
+  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(width) * height / count)));
+  std::vector<int> grid;
+  for (int y = stride / 2; y < height; y += stride) {
+    for (int x = stride / 2; x < width; x += stride) grid.push_back(y * width + x);
+  }
+  return grid;
+}
+
 // The stack's noise level as the retries measure it (NoiseRms), from a sparse grid of
 // pixels refined from their starts without the prior: a biased fit would overstate it (on a
 // noise-free tac7 stack the prior's pull alone left a third of the pixels above 0.1). None
@@ -557,12 +558,8 @@ double RetryThreshold(const std::vector<PixelOutcome>& outcomes, const StackFitO
 Result<std::optional<double>> ProbeNoiseRms(const StackPixels& pixels, const ObservationStack& stack,
                                             const std::function<WardParams<double>(int)>& start_of, RefineOptions refine) {
   constexpr int kProbePixels = 1024;
-  const int width = pixels.width(), height = pixels.height();
-  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(width) * height / kProbePixels)));
-  std::vector<int> probe;
-  for (int y = stride / 2; y < height; y += stride) {
-    for (int x = stride / 2; x < width; x += stride) probe.push_back(y * width + x);
-  }
+  const int width = pixels.width();
+  const std::vector<int> probe = SparseGrid(width, pixels.height(), kProbePixels);
   refine.prior.weight = 0;
   refine.uncertainty = false;
   const RefineProblem problem{.pixels = static_cast<int>(probe.size()),
@@ -579,6 +576,84 @@ Result<std::optional<double>> ProbeNoiseRms(const StackPixels& pixels, const Obs
     if (r.fitted) rms.push_back(r.rms);
   }
   return NoiseRms(std::move(rms));
+}
+
+// Pixels that SearchF0 fits with one shared F0: on a 630² material about 1/3,000 of them.
+constexpr int kF0ProbePixels = 128;
+// F0s that SearchF0's joint fit starts from; the lowest cost wins. The fit moves F0 smoothly,
+// but across a material's pixels the cost of F0 can have more than one dip.
+constexpr std::array<double, 3> kF0Starts = {1.0, 0.3, 0.08};
+// The share of them, the best fitted at F0 1, that the joint fit takes.
+constexpr double kF0BestFittedShare = 0.5;
+
+// `p` at another F0, a_s·F0 kept (within the albedo's bound).
+WardParams<double> AtF0(WardParams<double> p, double f0) {
+  p.a_s = (p.a_s * (p.f0 / f0)).cwiseMin(kMaxAlbedo);
+  p.f0 = f0;
+  return p;
+}
+
+// The material's F0 (fixed_f0 unset), as Pantora has one: a sparse grid of pixels fitted at F0
+// 1 from their starts with the method's own solver, then fitted again together with one F0 that
+// they share (FitPixelsSharingF0), from each of kF0Starts. Fitting F0 per pixel or per k-means
+// cluster and taking the median scattered it (tac7's noise-free fabric 1985, F0 0.26: the
+// clusters' median made the fit 10× worse than F0 held at 1), and so did a search over F0 that
+// refitted the pixels independently at each value tried: each value's fits fell into other
+// basins.
+struct MaterialF0 {
+  double f0 = 1;
+  double cost = 0;
+  std::vector<std::array<double, 3>> fits;  // per start: F0 started from, F0 reached, cost
+};
+Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& stack,
+                            const std::function<WardParams<double>(int, double)>& start_at, const StackFitOptions& options) {
+  const int width = pixels.width();
+  const std::vector<int> probe = SparseGrid(width, pixels.height(), kF0ProbePixels);
+  const int count = static_cast<int>(probe.size());
+  std::vector<std::vector<PixelObservation>> observations(count);
+  ParallelFor(count, options.threads, [&](int k) { observations[k] = pixels.Observations(probe[k] % width, probe[k] / width); });
+  PixelFitOptions at_one = options.pixel_fit;
+  at_one.fixed_f0 = 1.0;
+  std::vector<WardParams<double>> fitted(count);
+  std::vector<double> costs(count, std::numeric_limits<double>::max());  // unfitted: last
+  if (options.solver == PixelSolver::kBatchRefiner) {
+    RefineOptions refine = RefinerOptions(at_one, options);
+    refine.uncertainty = false;
+    const RefineProblem problem{.pixels = count,
+                                .lights_per_observation = EmittersPerObservation(stack),
+                                .observations = [&](int k, std::vector<PixelObservation>& into) { into = observations[k]; },
+                                .start = [&](int k) { return start_at(probe[k], 1.0); },
+                                .prior_mean = {}};
+    LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine));
+    for (int k = 0; k < count; ++k) {
+      fitted[k] = refined[k].params;
+      if (refined[k].fitted) costs[k] = refined[k].cost;
+    }
+  } else {
+    ParallelFor(count, options.threads, [&](int k) {
+      const PixelOutcome outcome = FitFromStart(observations[k], start_at(probe[k], 1.0), at_one);
+      fitted[k] = outcome.params;
+      if (outcome.fitted) costs[k] = outcome.cost;
+    });
+  }
+  // The best-fitted share: a pixel left in a wrong basin costs far more than the rest and tells
+  // nothing of F0.
+  std::vector<int> order(count);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return costs[a] < costs[b]; });
+  order.resize(static_cast<size_t>(std::ceil(kF0BestFittedShare * count)));
+  std::vector<std::vector<PixelObservation>> kept;
+  for (int k : order) kept.push_back(std::move(observations[k]));
+  MaterialF0 material;
+  for (const double f0_start : kF0Starts) {
+    std::vector<WardParams<double>> starts;
+    for (int k : order) starts.push_back(AtF0(fitted[k], f0_start));
+    LOOM_ASSIGN_OR_RETURN(const SharedF0Fit joint,
+                          FitPixelsSharingF0(kept, starts, f0_start, options.pixel_fit, ThreadCount(options.threads)));
+    if (material.fits.empty() || joint.cost < material.cost) material.f0 = joint.f0, material.cost = joint.cost;
+    material.fits.push_back({f0_start, joint.f0, joint.cost});
+  }
+  return material;
 }
 
 // The cluster's start: its most typical pixels' observations pooled into one fit.
@@ -601,7 +676,7 @@ Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters
   return FitFromStarts(pooled, GridInitialParams(pooled, options.fixed_f0.value_or(1.0), options.grid_starts), fit);
 }
 
-// Steps 1–3: every cluster's fit, and the material's F0.
+// Steps 1–3: every cluster's fit (the material's F0 is searched after, SearchF0).
 template <typename Report>
 Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, const StackFitOptions& options, const Report& report,
                    StackFitSummary& summary) {
@@ -611,15 +686,12 @@ Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, con
       [&](int done) { report("clusters", done, clusters.count); });
   summary.cluster_sizes.assign(clusters.count, 0);
   for (int label : clusters.labels) ++summary.cluster_sizes[label];
-  std::vector<std::pair<double, int>> f0s;
   for (int c = 0; c < clusters.count; ++c) {
     if (!cluster_fits[c].ok()) {
       return FailedPreconditionError("cluster " + std::to_string(c) + " of the stack", cluster_fits[c].status().ToString());
     }
     summary.cluster_params.push_back(cluster_fits[c]->params);
-    f0s.push_back({cluster_fits[c]->params.f0, summary.cluster_sizes[c]});
   }
-  summary.f0 = options.fixed_f0.value_or(Median(f0s));
   return {};
 }
 
@@ -709,13 +781,15 @@ nlohmann::json StackFitSummary::ToJson() const {
           {"prior_weight_applied", prior_weight},
           {"smoothing_weight_applied", smoothing_weight},
           {"clusters", cluster_sizes},
-          {"f0", f0},
+          {"material_f0", f0},  // not "f0": fit.json has the options' (a number or "material") beside it
+          {"f0_fits", f0_fits},
           {"mean_iterations", mean_iterations},
           {"mean_observations", mean_observations},
           {"cluster_seconds", cluster_seconds},
           {"pixel_seconds", pixel_seconds},
           {"stage_seconds",
-           {{"noise_probe", stage_seconds.noise_probe},
+           {{"f0_search", stage_seconds.f0_search},
+            {"noise_probe", stage_seconds.noise_probe},
             {"first_fits", stage_seconds.first_fits},
             {"propagation", stage_seconds.propagation},
             {"retries", stage_seconds.retries},
@@ -735,6 +809,7 @@ void StackFitSummary::Report(std::ostream& out) const {
       << ms_per_pixel_per_thread() << " ms per pixel per thread, " << threads << " threads; first fits " << std::setprecision(1)
       << stage_seconds.first_fits << " s, retries " << stage_seconds.propagation + stage_seconds.retries << " s";
   if (smoothing_weight > 0) out << ", smoothing " << stage_seconds.smoothing << " s";
+  if (!f0_fits.empty()) out << ", F0 fitted on a sparse grid " << stage_seconds.f0_search << " s";
   out << ")\n";
 }
 
@@ -818,30 +893,32 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
                                                       std::to_string(height));
     }
     clusters.labels.assign(pixel_count, -1);
-    std::vector<std::pair<double, int>> f0s;
-    for (int i = 0; i < pixel_count; ++i) f0s.push_back({GetParams(initial, i % width, i / width).f0, 1});
-    summary.f0 = options.fixed_f0.value_or(Median(f0s));
   } else {
     clusters = ClusterPixels(stack, options.clusters, options.seed);
     LOOM_RETURN_IF_ERROR(FitClusters(pixels, clusters, options, report, summary));
   }
   summary.cluster_seconds = SecondsSince(cluster_start);
 
-  PixelFitOptions pixel_options = options.pixel_fit;
-  pixel_options.fixed_f0 = summary.f0;
-  const auto start_of = [&](int i) {
+  const auto start_at = [&](int i, double f0) {
     WardParams<double> start = options.initial_maps ? GetParams(*options.initial_maps, i % width, i / width)
                                                     : summary.cluster_params[clusters.labels[i]];
-    if (summary.f0 > 0) {
-      start.a_s *= start.f0 / summary.f0;  // keeps a_s·F0, the observable product
-      start.f0 = summary.f0;
-    }
-    return start;
+    return f0 > 0 ? AtF0(start, f0) : start;  // keeps a_s·F0, the observable product
   };
+  const bool refiner = options.solver == PixelSolver::kBatchRefiner;
   const Clock::time_point pixel_start = Clock::now();
+  if (options.fixed_f0) {
+    summary.f0 = *options.fixed_f0;
+  } else {
+    LOOM_ASSIGN_OR_RETURN(const MaterialF0 material, SearchF0(pixels, stack, start_at, options));
+    summary.f0 = material.f0;
+    summary.f0_fits = material.fits;
+  }
+  summary.stage_seconds.f0_search = SecondsSince(pixel_start);
+  PixelFitOptions pixel_options = options.pixel_fit;
+  pixel_options.fixed_f0 = summary.f0;
+  const auto start_of = [&](int i) { return start_at(i, summary.f0); };
   const auto pixel_progress = [&](int done) { report("pixels", done, pixel_count); };
   std::vector<PixelOutcome> outcomes(pixel_count);
-  const bool refiner = options.solver == PixelSolver::kBatchRefiner;
   RefineOptions refine = RefinerOptions(pixel_options, options);
   if (options.initial_maps) refine.prior = options.prior;
   StackFitSummary::StageSeconds& stage = summary.stage_seconds;

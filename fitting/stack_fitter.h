@@ -87,7 +87,8 @@ struct StackFitOptions {
   // F0 of every pixel. Away from grazing angles only a_s·F0 is observable, and on tac7-mini's
   // geometry the cluster fits scatter F0 over [0, 1] (measured: 0.01 and 1 for one fabric whose
   // truth is 0.74), so by default it is held at 1 and a_s carries the product. nullopt: one F0
-  // per material, the size-weighted median of the cluster fits (F0 free there), as Pantora does.
+  // per material, as Pantora has: fitted jointly with a sparse grid of pixels (stack_fitter.cc,
+  // SearchF0).
   std::optional<double> fixed_f0 = 1.0;
   StackPixelOptions pixels;
   PixelSolver solver = PixelSolver::kCeres;
@@ -151,13 +152,16 @@ struct StackFitSummary {
   double smoothing_weight = 0;     // the smoothing prior's, as applied (0: no smoothing pass)
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
-  double f0 = 0;                 // the material's
+  double f0 = 0;  // the material's
+  // With fixed_f0 unset: the sparse grid's joint fits, each (F0 started from, F0 reached, cost).
+  std::vector<std::array<double, 3>> f0_fits;
   double mean_iterations = 0;    // per pixel fit
   double mean_observations = 0;  // usable per pixel
   double cluster_seconds = 0;
   double pixel_seconds = 0;
   // pixel_seconds by stage (the refiner's; Ceres reports first fits and retries only).
   struct StageSeconds {
+    double f0_search = 0;    // with fixed_f0 unset: the sparse grid's fits
     double noise_probe = 0;  // the sparse fit that weighs the prior
     double first_fits = 0;
     double propagation = 0;
