@@ -605,24 +605,24 @@ struct MaterialF0 {
   double cost = 0;
   std::vector<std::array<double, 3>> fits;  // per start: F0 started from, F0 reached, cost
 };
-Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& stack,
-                            const std::function<WardParams<double>(int, double)>& start_at, const StackFitOptions& options) {
-  const int width = pixels.width();
-  const std::vector<int> probe = SparseGrid(width, pixels.height(), kF0ProbePixels);
-  const int count = static_cast<int>(probe.size());
-  std::vector<std::vector<PixelObservation>> observations(count);
-  ParallelFor(count, options.threads, [&](int k) { observations[k] = pixels.Observations(probe[k] % width, probe[k] / width); });
+
+// Each pixel fitted at F0 1 from start(k) with the method's own solver: its fit and its cost
+// (the highest double where it could not be fitted).
+Result<std::pair<std::vector<WardParams<double>>, std::vector<double>>> FitAtF0One(
+    const std::vector<std::vector<PixelObservation>>& observations, const ObservationStack& stack,
+    const std::function<WardParams<double>(int)>& start, const StackFitOptions& options) {
+  const int count = static_cast<int>(observations.size());
   PixelFitOptions at_one = options.pixel_fit;
   at_one.fixed_f0 = 1.0;
   std::vector<WardParams<double>> fitted(count);
-  std::vector<double> costs(count, std::numeric_limits<double>::max());  // unfitted: last
+  std::vector<double> costs(count, std::numeric_limits<double>::max());
   if (options.solver == PixelSolver::kBatchRefiner) {
     RefineOptions refine = RefinerOptions(at_one, options);
     refine.uncertainty = false;
     const RefineProblem problem{.pixels = count,
                                 .lights_per_observation = EmittersPerObservation(stack),
                                 .observations = [&](int k, std::vector<PixelObservation>& into) { into = observations[k]; },
-                                .start = [&](int k) { return start_at(probe[k], 1.0); },
+                                .start = start,
                                 .prior_mean = {}};
     LOOM_ASSIGN_OR_RETURN(const std::vector<RefinedPixel> refined, RefinePixels(problem, refine));
     for (int k = 0; k < count; ++k) {
@@ -631,11 +631,24 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
     }
   } else {
     ParallelFor(count, options.threads, [&](int k) {
-      const PixelOutcome outcome = FitFromStart(observations[k], start_at(probe[k], 1.0), at_one);
+      const PixelOutcome outcome = FitFromStart(observations[k], start(k), at_one);
       fitted[k] = outcome.params;
       if (outcome.fitted) costs[k] = outcome.cost;
     });
   }
+  return std::pair{std::move(fitted), std::move(costs)};
+}
+
+Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& stack,
+                            const std::function<WardParams<double>(int, double)>& start_at, const StackFitOptions& options) {
+  const int width = pixels.width();
+  const std::vector<int> probe = SparseGrid(width, pixels.height(), kF0ProbePixels);
+  const int count = static_cast<int>(probe.size());
+  std::vector<std::vector<PixelObservation>> observations(count);
+  ParallelFor(count, options.threads, [&](int k) { observations[k] = pixels.Observations(probe[k] % width, probe[k] / width); });
+  LOOM_ASSIGN_OR_RETURN(const auto first, FitAtF0One(
+                                              observations, stack, [&](int k) { return start_at(probe[k], 1.0); }, options));
+  const auto& [fitted, costs] = first;
   // The best-fitted share: a pixel left in a wrong basin costs far more than the rest and tells
   // nothing of F0.
   std::vector<int> order(count);
