@@ -118,7 +118,8 @@ Result<UsableObservations> Usable(const std::vector<PixelObservation>& observati
     return FailedPreconditionError(
         "pixel fit", std::to_string(count) + " usable observations, need at least " + std::to_string(kNumWardParams));
   }
-  if (sum > 0) usable.inverse_scale = count / sum;
+  const double mean = sum / count;
+  if (mean > 0) usable.inverse_scale = 1 / mean;
   return usable;
 }
 
@@ -200,8 +201,9 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
     blocks[k] = std::make_unique<Blocks>(starts[k]);
     AddPixel(problem, usable[k]->observations, usable[k]->inverse_scale, *blocks[k], &fit.f0, options);
   }
-  if (problem.NumResidualBlocks() == 0)
+  if (problem.NumResidualBlocks() == 0) {
     return FailedPreconditionError("shared-F0 fit", "no pixel has enough usable observations");
+  }
   ceres::Solver::Options solver;
   // The normal equations are block diagonal (each pixel's own parameters) but for F0's row and
   // column: sparse. (The Schur solvers would eliminate the pixels' blocks, but a pixel's five

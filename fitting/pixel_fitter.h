@@ -86,10 +86,9 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
 
 // Several pixels fitted at once with one F0 that all of them share (Pantora's one F0 per
 // material), each from its start and F0 from f0_start: one Ceres problem (sparse normal
-// equations). A pixel with fewer than 13 usable
-// observations is left out (its entry empty); none with enough is an error. The result's
-// per-pixel costs are 0: `cost` is the whole problem's. `threads` evaluate the pixels' costs;
-// options.fixed_f0 is not used.
+// equations). A pixel with fewer than 13 usable observations is left out (its entry empty);
+// none with enough is an error. The result's per-pixel costs are 0: `cost` is the whole
+// problem's. `threads` evaluate the pixels' costs; options.fixed_f0 is not used.
 struct SharedF0Fit {
   double f0 = 1;
   double cost = 0;  // ½ Σ ρ(r²) over every pixel
