@@ -274,6 +274,31 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
   if (refiner) state.counters["cost_vs_ceres"] = CostVsCeres(c.lists, c.starts, last, f0);
 }
 
+// One F0 for the stack case's 64 pixels fitted jointly with them (FitPixelsSharingF0, one
+// thread), each started near its truth but at F0 1 (a_s·F0 kept), against BM_StackFit's Ceres
+// fits of the same pixels one by one at the true F0: what fitting a material's F0 costs.
+void BM_SharedF0(benchmark::State& state, const std::string& rig, int strip_positions) {
+  const StackCase c = MakeStackCase(rig, strip_positions);
+  const double truth_f0 = c.truths.front().f0;
+  std::vector<WardParams<double>> starts = c.starts;
+  for (WardParams<double>& p : starts) p.a_s *= p.f0, p.f0 = 1;
+  int64_t fits = 0, iterations = 0;
+  double f0 = 0;
+  for (auto _ : state) {
+    const auto fit = loom::fitting::FitPixelsSharingF0(c.lists, starts, 1.0, {.max_iterations = 30, .multi_start = false});
+    LOOM_CHECK(fit.ok()) << fit.status().ToString();
+    iterations += fit->iterations;
+    f0 = fit->f0;
+    fits += static_cast<int64_t>(c.lists.size());
+  }
+  state.SetItemsProcessed(fits);
+  state.counters["ms_per_pixel"] =
+      benchmark::Counter(static_cast<double>(fits) * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["iterations"] = static_cast<double>(iterations) * static_cast<double>(c.lists.size()) / fits;
+  state.counters["observations"] = c.observations;
+  state.counters["f0_error"] = std::abs(f0 - truth_f0);
+}
+
 // Real time: the refiner runs on a worker thread of its own (RefinePixels), Ceres on this one.
 BENCHMARK_CAPTURE(BM_Refine, point900, 900, 0)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Refine, linear, 300, 100)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -291,14 +316,15 @@ BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine, "tac7", 70, Solver::kRefiner, 0)
 BENCHMARK_CAPTURE(BM_StackFit, tac7_low_refine_coarse8, "tac7", 70, Solver::kRefiner, 8)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+BENCHMARK_CAPTURE(BM_SharedF0, tac7_low, "tac7", 70)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 
 int main(int argc, char** argv) {
   return loom::bench::RunBenchmarks(
       argc, argv, "fit",
-      "Per-pixel fit of the GD10 Ward model on one core: Ceres with analytic vs autodiff Jacobians, and the batched refiner vs "
-      "Ceres from the same starts",
+      "Per-pixel fit of the GD10 Ward model on one core: Ceres with analytic vs autodiff Jacobians, the batched refiner vs "
+      "Ceres from the same starts, and one F0 fitted jointly with a stack's pixels vs their fits at the true F0",
       {{"point900_analytic_vs_autodiff", "BM_Fit/point900_analytic/real_time", "BM_Fit/point900_autodiff"},
        {"linear_analytic_vs_autodiff", "BM_Fit/linear_analytic/real_time", "BM_Fit/linear_autodiff"},
        {"point900_refiner_vs_ceres", "BM_Refine/point900/real_time", "BM_Fit/point900_analytic/real_time"},
@@ -308,6 +334,6 @@ int main(int argc, char** argv) {
        {"tac7_low_refiner_vs_ceres", "BM_StackFit/tac7_low_refine/real_time", "BM_StackFit/tac7_low_ceres/real_time"},
        {"tac7_mini_low_coarse8_vs_one_pass", "BM_StackFit/tac7_mini_low_refine_coarse8/real_time",
         "BM_StackFit/tac7_mini_low_refine/real_time"},
-       {"tac7_low_coarse8_vs_one_pass", "BM_StackFit/tac7_low_refine_coarse8/real_time",
-        "BM_StackFit/tac7_low_refine/real_time"}});
+       {"tac7_low_coarse8_vs_one_pass", "BM_StackFit/tac7_low_refine_coarse8/real_time", "BM_StackFit/tac7_low_refine/real_time"},
+       {"tac7_low_shared_f0_vs_ceres_at_the_true_f0", "BM_SharedF0/tac7_low/real_time", "BM_StackFit/tac7_low_ceres/real_time"}});
 }
