@@ -52,14 +52,18 @@ struct GivenOnTheCommandLine {
   bool f0 = false;
 };
 
+// refine.json's f0 as --f0 takes it: a number, or "material".
+Result<std::optional<double>> ParseRefineF0(const nlohmann::json& value, const std::string& what) {
+  return fitting::ParseFixedF0(value.is_string() ? value.get<std::string>() : value.dump(), what);
+}
+
 Status CheckRefineSetting(const fs::path& path, const std::string& key, const nlohmann::json& value) {
   if (key == "retries") {
     return value.is_boolean() ? Status::Ok()
                               : InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
   }
   if (key == "f0") {
-    const Result<std::optional<double>> f0 =
-        fitting::ParseFixedF0(value.is_string() ? value.get<std::string>() : value.dump(), path.string() + ": " + key);
+    const Result<std::optional<double>> f0 = ParseRefineF0(value, path.string() + ": " + key);
     return f0.ok() ? Status::Ok() : f0.status();
   }
   const double number = value.is_number() ? value.get<double>() : NAN;
@@ -97,8 +101,7 @@ Status ApplyRefineSettings(const fs::path& model, bool refiner, GivenOnTheComman
     options.refine_function_tolerance = json.value("function_tolerance", options.refine_function_tolerance);
   }
   if (refiner && !given.f0 && json.contains("f0")) {
-    const nlohmann::json& f0 = json["f0"];
-    LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(f0.is_string() ? f0.get<std::string>() : f0.dump(), "f0"));
+    LOOM_ASSIGN_OR_RETURN(options.fixed_f0, ParseRefineF0(json["f0"], path.string() + ": f0"));
   }
   return Status::Ok();
 }
