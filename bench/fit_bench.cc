@@ -275,17 +275,25 @@ void BM_StackFit(benchmark::State& state, const std::string& rig, int strip_posi
 }
 
 // One F0 for the stack case's 64 pixels fitted jointly with them (FitPixelsSharingF0, one
-// thread), each started near its truth but at F0 1 (a_s·F0 kept), against BM_StackFit's Ceres
-// fits of the same pixels one by one at the true F0: what fitting a material's F0 costs.
+// thread), each started from its own fit at F0 1 as the stack fitter starts them (SearchF0),
+// against BM_StackFit's Ceres fits of the same pixels one by one at the true F0: what fitting
+// a material's F0 costs.
 void BM_SharedF0(benchmark::State& state, const std::string& rig, int strip_positions) {
   const StackCase c = MakeStackCase(rig, strip_positions);
   const double truth_f0 = c.truths.front().f0;
-  std::vector<WardParams<double>> starts = c.starts;
-  for (WardParams<double>& p : starts) p.a_s *= p.f0, p.f0 = 1;
+  std::vector<WardParams<double>> starts;
+  for (size_t i = 0; i < c.lists.size(); ++i) {
+    WardParams<double> start = c.starts[i];
+    start.a_s *= start.f0, start.f0 = 1;
+    const auto at_one = loom::fitting::FitPixel(c.lists[i], start, {.max_iterations = 30, .multi_start = false, .fixed_f0 = 1.0});
+    LOOM_CHECK(at_one.ok()) << at_one.status().ToString();
+    starts.push_back(at_one->params);
+  }
   int64_t fits = 0, iterations = 0;
   double f0 = 0;
   for (auto _ : state) {
-    const auto fit = loom::fitting::FitPixelsSharingF0(c.lists, starts, 1.0, {.max_iterations = 30, .multi_start = false});
+    const auto fit =
+        loom::fitting::FitPixelsSharingF0(c.lists, starts, 1.0, {.max_iterations = 30, .multi_start = false, .fixed_f0 = {}});
     LOOM_CHECK(fit.ok()) << fit.status().ToString();
     iterations += fit->iterations;
     f0 = fit->f0;

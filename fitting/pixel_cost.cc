@@ -238,10 +238,51 @@ class RobustPixelCost : public ceres::CostFunction {
   double a_;
 };
 
+// a_s = b / F0 into `inner`; by the chain rule ∂r/∂b = ∂r/∂a_s / F0 and, b held,
+// ∂r/∂F0 = ∂r/∂F0|a_s − Σ ∂r/∂a_s · a_s / F0.
+class SpecularAtNormalIncidenceCost : public ceres::CostFunction {
+ public:
+  explicit SpecularAtNormalIncidenceCost(ceres::CostFunction* inner) : inner_(inner) {
+    *mutable_parameter_block_sizes() = inner->parameter_block_sizes();
+    set_num_residuals(inner->num_residuals());
+  }
+
+  bool Evaluate(double const* const* blocks, double* residuals, double** jacobians) const override {
+    const double f0 = blocks[5][0];
+    const double a_s[3] = {blocks[2][0] / f0, blocks[2][1] / f0, blocks[2][2] / f0};
+    const double* inner_blocks[6] = {blocks[0], blocks[1], a_s, blocks[3], blocks[4], blocks[5]};
+    if (!jacobians) return inner_->Evaluate(inner_blocks, residuals, nullptr);
+    const int rows = num_residuals();
+    // F0's column needs ∂r/∂a_s even where the caller asks no Jacobian of b.
+    std::vector<double> own_a_s_jacobian;
+    double* inner_jacobians[6] = {jacobians[0], jacobians[1], jacobians[2], jacobians[3], jacobians[4], jacobians[5]};
+    if (!inner_jacobians[2] && jacobians[5]) {
+      own_a_s_jacobian.resize(static_cast<size_t>(rows) * 3);
+      inner_jacobians[2] = own_a_s_jacobian.data();
+    }
+    if (!inner_->Evaluate(inner_blocks, residuals, inner_jacobians)) return false;
+    for (int k = 0; k < rows; ++k) {
+      double* by_a_s = inner_jacobians[2] + 3 * k;
+      if (jacobians[5]) jacobians[5][k] -= (by_a_s[0] * a_s[0] + by_a_s[1] * a_s[1] + by_a_s[2] * a_s[2]) / f0;
+      if (jacobians[2]) {
+        for (int c = 0; c < 3; ++c) by_a_s[c] /= f0;
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::unique_ptr<ceres::CostFunction> inner_;
+};
+
 }  // namespace
 
 ceres::CostFunction* MakeRobustPixelCost(ceres::CostFunction* inner, double huber_scale) {
   return new RobustPixelCost(inner, huber_scale);
+}
+
+ceres::CostFunction* MakeSpecularAtNormalIncidenceCost(ceres::CostFunction* inner) {
+  return new SpecularAtNormalIncidenceCost(inner);
 }
 
 ceres::CostFunction* MakeAnalyticPixelCost(const std::vector<PixelObservation>& observations, double inverse_scale) {

@@ -48,14 +48,18 @@ struct Start {
   bool ok = false;
 };
 
+// How a pixel's a_s block is read: a_s itself, or b = a_s·F0 (MakeSpecularAtNormalIncidenceCost).
+enum class SpecularBlock { kAlbedo, kAtNormalIncidence };
+
 // Adds one pixel's robust cost over `blocks` to `problem`, with the parameters' bounds; its F0
-// is `f0` (the pixel's own block, or one that pixels share), bounded to [0, 1] unless constant.
+// is `f0` (the pixel's own block, or one that pixels share), bounded to [0, 1] unless constant
+// (to [kMinSharedF0, 1] with b in a_s's block, which divides by it).
 void AddPixel(ceres::Problem& problem, const std::vector<PixelObservation>& usable, double inverse_scale, Blocks& blocks,
-              double* f0, const PixelFitOptions& options) {
-  ceres::CostFunction* cost =
-      internal::MakeRobustPixelCost(options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
-                                                                  : internal::MakeAnalyticPixelCost(usable, inverse_scale),
-                                    options.huber_scale);
+              double* f0, const PixelFitOptions& options, SpecularBlock specular = SpecularBlock::kAlbedo) {
+  ceres::CostFunction* cost = options.automatic_derivatives ? internal::MakeAutodiffPixelCost(usable, inverse_scale)
+                                                            : internal::MakeAnalyticPixelCost(usable, inverse_scale);
+  if (specular == SpecularBlock::kAtNormalIncidence) cost = internal::MakeSpecularAtNormalIncidenceCost(cost);
+  cost = internal::MakeRobustPixelCost(cost, options.huber_scale);
   problem.AddResidualBlock(cost, nullptr, blocks.n_s, blocks.a_d, blocks.a_s, blocks.sigma, blocks.alpha, f0);
   problem.SetManifold(blocks.n_s, new ceres::SphereManifold<3>());
   for (int i = 0; i < 3; ++i) {
@@ -69,7 +73,7 @@ void AddPixel(ceres::Problem& problem, const std::vector<PixelObservation>& usab
     problem.SetParameterUpperBound(blocks.sigma, i, kMaxSigma);
   }
   if (!problem.IsParameterBlockConstant(f0)) {
-    problem.SetParameterLowerBound(f0, 0, 0);
+    problem.SetParameterLowerBound(f0, 0, specular == SpecularBlock::kAtNormalIncidence ? kMinSharedF0 : 0);
     problem.SetParameterUpperBound(f0, 0, 1);
   }
 }
@@ -188,7 +192,7 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
                                 std::to_string(starts.size()) + " starts for " + std::to_string(pixels.size()) + " pixels");
   }
   SharedF0Fit fit;
-  fit.f0 = std::clamp(f0_start, 0.0, 1.0);
+  fit.f0 = std::clamp(f0_start, kMinSharedF0, 1.0);
   fit.pixels.resize(pixels.size());
   std::vector<std::optional<UsableObservations>> usable(pixels.size());
   std::vector<std::unique_ptr<Blocks>> blocks(pixels.size());
@@ -198,8 +202,11 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
     Result<UsableObservations> u = Usable(pixels[k]);
     if (!u.ok()) continue;  // too few observations: left out, as FitStack keeps such a pixel's start
     usable[k] = std::move(*u);
-    blocks[k] = std::make_unique<Blocks>(starts[k]);
-    AddPixel(problem, usable[k]->observations, usable[k]->inverse_scale, *blocks[k], &fit.f0, options);
+    WardParams<double> start = starts[k];
+    start.a_s *= start.f0;  // b = a_s·F0, what the start's observations fixed
+    blocks[k] = std::make_unique<Blocks>(start);
+    AddPixel(problem, usable[k]->observations, usable[k]->inverse_scale, *blocks[k], &fit.f0, options,
+             SpecularBlock::kAtNormalIncidence);
   }
   if (problem.NumResidualBlocks() == 0) {
     return FailedPreconditionError("shared-F0 fit", "no pixel has enough usable observations");
@@ -219,8 +226,10 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
   fit.iterations = static_cast<int>(summary.iterations.size());
   for (size_t k = 0; k < pixels.size(); ++k) {
     if (!blocks[k]) continue;
-    blocks[k]->f0[0] = fit.f0;
-    fit.pixels[k] = PixelFitResult{blocks[k]->Params(), 0, static_cast<int>(usable[k]->observations.size()), fit.iterations,
+    WardParams<double> params = blocks[k]->Params();
+    params.a_s /= fit.f0;
+    params.f0 = fit.f0;
+    fit.pixels[k] = PixelFitResult{params, 0, static_cast<int>(usable[k]->observations.size()), fit.iterations,
                                    summary.termination_type == ceres::CONVERGENCE};
   }
   return fit;

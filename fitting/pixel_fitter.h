@@ -28,6 +28,9 @@
 namespace loom::fitting {
 
 inline constexpr double kMaxAlbedo = 1.0;
+// The least F0 a shared fit reaches: water's 0.02, the lowest of real dielectrics (the simulator
+// draws F0 from [0.02, 1]).
+inline constexpr double kMinSharedF0 = 0.02;
 
 struct LightSample {
   Eigen::Vector3d l_local;  // unit, towards the light
@@ -85,10 +88,12 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
                                 const PixelFitOptions& options = {});
 
 // Several pixels fitted at once with one F0 that all of them share (Pantora's one F0 per
-// material), each from its start and F0 from f0_start: one Ceres problem (sparse normal
+// material), each from its start (its a_s·F0 kept) and F0 from f0_start: one Ceres problem (sparse normal
 // equations). A pixel with fewer than 13 usable observations is left out (its entry empty);
 // none with enough is an error. The result's per-pixel costs are 0: `cost` is the whole
-// problem's. `threads` evaluate the pixels' costs; options.fixed_f0 is not used.
+// problem's. `threads` evaluate the pixels' costs; options.fixed_f0 is not used. Each pixel's
+// specular is fitted as b = a_s·F0 (internal/pixel_cost.h) with b ≤ kMaxAlbedo, so a result's
+// a_s may exceed kMaxAlbedo where F0 < 1; F0 ∈ [kMinSharedF0, 1].
 struct SharedF0Fit {
   double f0 = 1;
   double cost = 0;  // ½ Σ ρ(r²) over every pixel

@@ -120,28 +120,54 @@ std::vector<std::vector<double>> ProbeBlocks(double perturb) {
           {p.f0 + perturb}};
 }
 
-TEST(PixelFitterTest, TheAnalyticDerivativesPassCeresGradientChecker) {
-  const std::vector<PixelObservation> observations = Observe(Truth(), 0, 1);
-  std::unique_ptr<ceres::CostFunction> cost(internal::MakeAnalyticPixelCost(observations, 0.1));
+// Each Jacobian of `cost` at `values` against numeric differences.
+void ExpectDerivativesPassGradientChecker(const ceres::CostFunction& cost, const std::vector<std::vector<double>>& values,
+                                          const std::string& where) {
   ceres::SphereManifold<3> sphere;
   const std::vector<const ceres::Manifold*> manifolds = {&sphere, nullptr, nullptr, nullptr, nullptr, nullptr};
   ceres::NumericDiffOptions numeric;
   numeric.ridders_relative_initial_step_size = 1e-4;  // the default 1e-2 steps across the narrow highlights
-  ceres::GradientChecker checker(cost.get(), &manifolds, numeric);
+  ceres::GradientChecker checker(&cost, &manifolds, numeric);
+  std::vector<const double*> blocks;
+  for (const std::vector<double>& block : values) blocks.push_back(block.data());
+  ceres::GradientChecker::ProbeResults results;
+  checker.Probe(blocks.data(), 1e-6, &results);
+  // Probe's own verdict is per entry and relative: entries of 1e-16 (deep in the lobe's tail)
+  // fail it on numeric noise alone. Judge each Jacobian against its largest entry instead.
+  for (size_t b = 0; b < results.local_jacobians.size(); ++b) {
+    const Eigen::MatrixXd& user = results.local_jacobians[b];
+    const Eigen::MatrixXd& numeric_jacobian = results.local_numeric_jacobians[b];
+    const double scale = numeric_jacobian.cwiseAbs().maxCoeff();
+    EXPECT_LT((user - numeric_jacobian).cwiseAbs().maxCoeff(), 1e-6 * scale) << "block " << b << ", " << where;
+  }
+}
+
+TEST(PixelFitterTest, TheAnalyticDerivativesPassCeresGradientChecker) {
+  const std::vector<PixelObservation> observations = Observe(Truth(), 0, 1);
+  std::unique_ptr<ceres::CostFunction> cost(internal::MakeAnalyticPixelCost(observations, 0.1));
   for (double perturb : {0.0, 0.05}) {
-    const std::vector<std::vector<double>> values = ProbeBlocks(perturb);
+    ExpectDerivativesPassGradientChecker(*cost, ProbeBlocks(perturb), "perturbation " + std::to_string(perturb));
+  }
+}
+
+// The joint F0 fit's cost over b = a_s·F0: its chain rule checked the same way, and its
+// residuals those of the plain cost at a_s = b / F0.
+TEST(PixelFitterTest, TheSpecularAtNormalIncidenceDerivativesPassCeresGradientChecker) {
+  const std::vector<PixelObservation> observations = Observe(Truth(), 0, 1);
+  std::unique_ptr<ceres::CostFunction> plain(internal::MakeAnalyticPixelCost(observations, 0.1));
+  std::unique_ptr<ceres::CostFunction> cost(
+      internal::MakeSpecularAtNormalIncidenceCost(internal::MakeAnalyticPixelCost(observations, 0.1)));
+  for (double perturb : {0.0, 0.05}) {
+    std::vector<std::vector<double>> values = ProbeBlocks(perturb);
+    ExpectDerivativesPassGradientChecker(*cost, values, "perturbation " + std::to_string(perturb));
+    std::vector<double> plain_residuals(observations.size()), residuals(observations.size());
     std::vector<const double*> blocks;
     for (const std::vector<double>& block : values) blocks.push_back(block.data());
-    ceres::GradientChecker::ProbeResults results;
-    checker.Probe(blocks.data(), 1e-6, &results);
-    // Probe's own verdict is per entry and relative: entries of 1e-16 (deep in the lobe's tail)
-    // fail it on numeric noise alone. Judge each Jacobian against its largest entry instead.
-    for (size_t b = 0; b < results.local_jacobians.size(); ++b) {
-      const Eigen::MatrixXd& user = results.local_jacobians[b];
-      const Eigen::MatrixXd& numeric_jacobian = results.local_numeric_jacobians[b];
-      const double scale = numeric_jacobian.cwiseAbs().maxCoeff();
-      EXPECT_LT((user - numeric_jacobian).cwiseAbs().maxCoeff(), 1e-6 * scale) << "block " << b << ", perturbation " << perturb;
-    }
+    ASSERT_TRUE(plain->Evaluate(blocks.data(), plain_residuals.data(), nullptr));
+    for (double& b : values[2]) b *= values[5][0];
+    blocks[2] = values[2].data();
+    ASSERT_TRUE(cost->Evaluate(blocks.data(), residuals.data(), nullptr));
+    for (size_t k = 0; k < residuals.size(); ++k) EXPECT_NEAR(residuals[k], plain_residuals[k], 1e-12) << k;
   }
 }
 

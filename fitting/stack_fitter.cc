@@ -603,7 +603,7 @@ WardParams<double> AtF0(WardParams<double> p, double f0) {
 struct MaterialF0 {
   double f0 = 1;
   double cost = 0;
-  std::vector<std::array<double, 3>> fits;  // per start: F0 started from, F0 reached, cost
+  std::vector<std::array<double, 4>> fits;  // per start: F0 started from, F0 reached, cost, iterations
 };
 
 // Each pixel fitted at F0 1 from start(k) with the method's own solver: its fit and its cost
@@ -660,11 +660,11 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
   MaterialF0 material;
   for (const double f0_start : kF0Starts) {
     std::vector<WardParams<double>> starts;
-    for (int k : order) starts.push_back(AtF0(fitted[k], f0_start));
+    for (int k : order) starts.push_back(fitted[k]);
     LOOM_ASSIGN_OR_RETURN(const SharedF0Fit joint,
                           FitPixelsSharingF0(kept, starts, f0_start, options.pixel_fit, ThreadCount(options.threads)));
     if (material.fits.empty() || joint.cost < material.cost) material.f0 = joint.f0, material.cost = joint.cost;
-    material.fits.push_back({f0_start, joint.f0, joint.cost});
+    material.fits.push_back({f0_start, joint.f0, joint.cost, static_cast<double>(joint.iterations)});
   }
   return material;
 }

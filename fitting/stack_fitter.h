@@ -153,8 +153,9 @@ struct StackFitSummary {
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
   double f0 = 0;  // the material's
-  // With fixed_f0 unset: the sparse grid's joint fits, each (F0 started from, F0 reached, cost).
-  std::vector<std::array<double, 3>> f0_fits;
+  // With fixed_f0 unset: the sparse grid's joint fits, each (F0 started from, F0 reached, cost,
+  // iterations).
+  std::vector<std::array<double, 4>> f0_fits;
   double mean_iterations = 0;    // per pixel fit
   double mean_observations = 0;  // usable per pixel
   double cluster_seconds = 0;

@@ -25,6 +25,13 @@ ceres::CostFunction* MakeAnalyticPixelCost(const std::vector<PixelObservation>& 
 // pixel whose total exceeds a² is fitted by plain least squares).
 ceres::CostFunction* MakeRobustPixelCost(ceres::CostFunction* inner, double huber_scale);
 
+// `inner` (owned) over b = a_s·F0 in a_s's block, the specular reflectance at normal incidence:
+// (n_s, a_d, b, σ, α, F0), F0 > 0. Where pixels share one F0 (FitPixelsSharingF0), a step in F0
+// with a_s held moves every pixel's whole highlight; with b held it moves only what grazing light
+// sees (the Schlick term), which is what F0 is fitted from (docs/benchmarks.md, "One F0 per
+// material": the joint fits end at the same or lower costs, in 0.5–1.1× the time).
+ceres::CostFunction* MakeSpecularAtNormalIncidenceCost(ceres::CostFunction* inner);
+
 constexpr int kStride = 4;  // Jet derivatives per pass; 4 keeps the Jets in registers
 
 struct AutodiffPixelResidual {
