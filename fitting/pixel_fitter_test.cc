@@ -262,6 +262,10 @@ TEST(PixelFitterTest, PixelsSharingF0FixIt) {
     EXPECT_NEAR(fit->pixels[k]->params.a_s.x(), truths[k].a_s.x(), 0.02) << k;
   }
   EXPECT_FALSE(fit->pixels[5]);
+  // From far below, as the stack fitter's start 0.08 (each start's a_s·F0 is what is kept).
+  const Result<SharedF0Fit> from_below = FitPixelsSharingF0(pixels, starts, 0.08, {});
+  ASSERT_TRUE(from_below.ok()) << from_below.status().ToString();
+  EXPECT_NEAR(from_below->f0, 0.3, 0.01);
 
   const Result<SharedF0Fit> none = FitPixelsSharingF0({pixels[5]}, {starts[5]}, 1.0, {});
   ASSERT_FALSE(none.ok());
