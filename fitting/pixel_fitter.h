@@ -88,8 +88,8 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
                                 const PixelFitOptions& options = {});
 
 // Several pixels fitted at once with one F0 that all of them share (Pantora's one F0 per
-// material), each from its start (its a_s·F0 kept) and F0 from f0_start: one Ceres problem (sparse normal
-// equations). A pixel with fewer than 13 usable observations is left out (its entry empty);
+// material), each from its start (its a_s·F0 kept) and F0 from f0_start: one Ceres problem
+// (sparse normal equations). A pixel with fewer than 13 usable observations is left out (its entry empty);
 // none with enough is an error. The result's per-pixel costs are 0: `cost` is the whole
 // problem's. `threads` evaluate the pixels' costs; options.fixed_f0 is not used. Each pixel's
 // specular is fitted as b = a_s·F0 (internal/pixel_cost.h) with b ≤ kMaxAlbedo, so a result's
