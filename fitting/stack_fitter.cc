@@ -656,11 +656,10 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
   std::sort(order.begin(), order.end(), [&](int a, int b) { return costs[a] < costs[b]; });
   order.resize(static_cast<size_t>(std::ceil(kF0BestFittedShare * count)));
   std::vector<std::vector<PixelObservation>> kept;
-  for (int k : order) kept.push_back(std::move(observations[k]));
+  std::vector<WardParams<double>> starts;  // at F0 1: each joint fit keeps their a_s·F0
+  for (int k : order) kept.push_back(std::move(observations[k])), starts.push_back(fitted[k]);
   MaterialF0 material;
   for (const double f0_start : kF0Starts) {
-    std::vector<WardParams<double>> starts;
-    for (int k : order) starts.push_back(fitted[k]);
     LOOM_ASSIGN_OR_RETURN(const SharedF0Fit joint,
                           FitPixelsSharingF0(kept, starts, f0_start, options.pixel_fit, ThreadCount(options.threads)));
     if (material.fits.empty() || joint.cost < material.cost) material.f0 = joint.f0, material.cost = joint.cost;
