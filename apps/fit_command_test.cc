@@ -316,6 +316,9 @@ TEST_F(FitCommandTest, TrainWritesAModelThatFitTakes) {
   EXPECT_NEAR(scored["validation"]["loss"].get<double>(), kept["validation_loss"].get<double>(), 1e-5);
   EXPECT_NEAR(scored["test"]["loss"].get<double>(), training["test"]["loss"].get<double>(), 1e-5);
   EXPECT_EQ(scored["test"]["pixels"], 16 * 16);
+  EXPECT_NEAR(scored["test"]["angle_rmse_where_anisotropic"][0].get<double>(),
+              training["test"]["angle_rmse_where_anisotropic"][0].get<double>(), 1e-5);
+  EXPECT_GT(scored["test"]["anisotropic_pixels"].get<int>(), 0);
   const auto other_rig = RunCommand(loom::testing::LoomBinary() + " model " + loom::testing::SourceDir() +
                                     "/configs/models/tac7 --score " + (model / "data").string() + " --validation 1 --test 1");
   EXPECT_EQ(other_rig.exit_code, 1) << other_rig.output;

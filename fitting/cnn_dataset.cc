@@ -203,13 +203,18 @@ Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset
 nlohmann::json CnnScoreJson(const CnnScore& score) {
   nlohmann::json json = {{"loss", score.loss}, {"rmse", score.rmse}, {"pixels", score.pixels}};
   if (score.rerender_loss > 0) json["rerender_loss"] = score.rerender_loss;  // scored with the stacks
+  json["angle_rmse_where_anisotropic"] = score.angle_rmse_where_anisotropic;
+  json["anisotropic_pixels"] = score.anisotropic_pixels;
   return json;
 }
 
 void ReportRmsePerChannel(std::ostream& out, const CnnScore& score) {
   out << std::fixed << std::setprecision(3);
   for (int c = 0; c < kLabelSize; ++c) out << (c == 0 ? "" : "  ") << kLabelChannelNames[c] << " " << score.rmse[c];
-  out << std::defaultfloat;
+  out << "\n   where the true lobe is anisotropic (" << std::setprecision(1)
+      << 100.0 * static_cast<double>(score.anisotropic_pixels) / static_cast<double>(std::max<int64_t>(score.pixels, 1))
+      << " % of the pixels): cos2alpha " << std::setprecision(3) << score.angle_rmse_where_anisotropic[0] << "  sin2alpha "
+      << score.angle_rmse_where_anisotropic[1] << std::defaultfloat;
 }
 
 nlohmann::json CnnDatasetTraining::ToJson() const {

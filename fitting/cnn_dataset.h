@@ -78,9 +78,11 @@ struct CnnHeldOutScore {
 };
 Result<CnnHeldOutScore> ScoreOnHeldOut(const Cnn& cnn, const CnnDataset& dataset, int threads);
 
-// `score` as JSON: loss, rmse (per label channel), pixels and, when scored with the stacks, rerender_loss.
+// `score` as JSON: loss, rmse (per label channel), pixels, the angle's RMSE where anisotropic (and
+// those pixels) and, when scored with the stacks, rerender_loss.
 nlohmann::json CnnScoreJson(const CnnScore& score);
-// The RMSE per label channel on one line: "a_d.R 0.012  a_d.G ...".
+// The RMSE per label channel on one line: "a_d.R 0.012  a_d.G ...", and on the next the angle's
+// where the true lobe is anisotropic.
 void ReportRmsePerChannel(std::ostream& out, const CnnScore& score);
 
 // What TrainOnDataset did: every epoch, the one kept and its score on the test materials.

@@ -85,6 +85,23 @@ TEST(CnnTrainingTest, TheValidationLossFallsOnALearnableTask) {
   EXPECT_GT(history->back().samples_per_second, 0);
 }
 
+// The angle's RMSE is also stated over the pixels whose true lobe is anisotropic (≥ 1.5:1).
+TEST(CnnTrainingTest, TheScoreStatesTheAnglesErrorWhereTheTrueLobeIsAnisotropic) {
+  const CnnExample example = Example(3);
+  int64_t anisotropic = 0;
+  for (size_t i = 0; i < example.labels.valid.size(); ++i) {
+    const double a = DecodeSigma(example.labels.labels.values[9 * example.labels.valid.size() + i]);
+    const double b = DecodeSigma(example.labels.labels.values[10 * example.labels.valid.size() + i]);
+    anisotropic += example.labels.valid[i] && std::max(a, b) >= 1.5 * std::min(a, b);
+  }
+  ASSERT_GT(anisotropic, 0);
+  const Result<CnnScore> score = ScoreCnn(SmallCnn(), {example}, 1);
+  ASSERT_TRUE(score.ok()) << score.status().ToString();
+  EXPECT_EQ(score->anisotropic_pixels, anisotropic);
+  EXPECT_LT(score->anisotropic_pixels, score->pixels);
+  for (int c = 0; c < 2; ++c) EXPECT_GT(score->angle_rmse_where_anisotropic[c], 0) << c;
+}
+
 TEST(CnnTrainingTest, AStreamedDatasetTrainsWithOneMaterialInMemoryAtATime) {
   const std::vector<CnnExample> examples = {Example(1), Example(2), Example(4)}, validation = {Example(3)};
   int loads = 0;

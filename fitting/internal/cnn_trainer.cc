@@ -11,6 +11,7 @@
 
 #include "core/file_io.h"
 #include "core/parallel.h"
+#include "fitting/evaluation.h"
 #include "fitting/internal/cnn_net.h"
 #include "fitting/internal/label_loss.h"
 #include "fitting/internal/patch_windows.h"
@@ -295,6 +296,7 @@ struct RerenderProbe {
 // Pixels a probe renders: enough that epochs a few per cent apart in the loss are told apart, few
 // enough that a tac7 material's observations stay in tens of MB.
 constexpr int kProbePixels = 512;
+constexpr int kAngleChannel = 11;                    // cos 2α, sin 2α: 11, 12
 constexpr uint64_t kProbeSeed = 0x9e3779b97f4a7c15;  // not the run's seed: probes compare across runs too
 
 // The examples' probes, each drawn from its index, so that a set scored again (loom model
@@ -335,6 +337,7 @@ Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& exam
   CnnScore score;
   double loss_sum = 0, rerender_sum = 0;
   std::array<double, 14> squares{};
+  std::array<double, 2> angle_squares{};
   const torch::Tensor paper_weights = internal::LabelChannelWeights();
   for (size_t i = 0; i < examples.size(); ++i) {
     const CnnExample& e = examples[i];
@@ -347,10 +350,17 @@ Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& exam
     const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
     for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
     score.pixels += static_cast<int64_t>(valid.sum().item<double>());
+    const torch::Tensor anisotropic = internal::AnisotropicPixels(t, valid, AnisotropicAlphaError::kMinSigmaRatio);
+    const torch::Tensor angle_squares_here = ((p - t).narrow(1, kAngleChannel, 2).square() * anisotropic).sum({0, 2, 3});
+    for (int c = 0; c < 2; ++c) angle_squares[c] += angle_squares_here[c].item<double>();
+    score.anisotropic_pixels += static_cast<int64_t>(anisotropic.sum().item<double>());
   }
   if (score.pixels == 0) return InvalidArgumentError("CNN score", "no valid pixels in the examples");
   score.loss = loss_sum / (static_cast<double>(score.pixels) * kLabelSize);
   for (int c = 0; c < kLabelSize; ++c) score.rmse[c] = std::sqrt(squares[c] / score.pixels);
+  for (int c = 0; c < 2 && score.anisotropic_pixels > 0; ++c) {
+    score.angle_rmse_where_anisotropic[c] = std::sqrt(angle_squares[c] / static_cast<double>(score.anisotropic_pixels));
+  }
   score.rerender_loss = probes.empty() ? 0 : rerender_sum / static_cast<double>(examples.size());
   return score;
 }

@@ -39,6 +39,12 @@ at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor
   return channel_weights.to(labels.device()) * (1 + is_normal * (normal_weight - 1));
 }
 
+at::Tensor AnisotropicPixels(const at::Tensor& labels, const at::Tensor& valid, double min_ratio) {
+  const at::Tensor sigma = DecodeSigma(labels.narrow(1, kSigmaChannel, 2));
+  const at::Tensor wider = std::get<0>(sigma.max(1, /*keepdim=*/true)), narrower = std::get<0>(sigma.min(1, /*keepdim=*/true));
+  return valid * (wider >= min_ratio * narrower).to(valid.scalar_type());
+}
+
 at::Tensor HuberSum(const at::Tensor& predicted, const at::Tensor& target, const at::Tensor& valid, const at::Tensor& weights) {
   const at::Tensor loss = at::huber_loss(predicted, target, at::Reduction::None, /*delta=*/1.0);
   return (loss * weights.to(predicted.device()) * valid).sum();

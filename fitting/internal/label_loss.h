@@ -29,6 +29,11 @@ at::Tensor LobeNarrowness(const at::Tensor& labels, double reference);
 // returns `channel_weights` as they are.
 at::Tensor NormalLobeWeights(const at::Tensor& channel_weights, const at::Tensor& labels, double reference);
 
+// Where each pixel's true lobe is anisotropic: valid (`valid`: N × 1 × H × W of 0/1) and its wider
+// lobe width at least `min_ratio` times its narrower one (decoded from `labels`' σx', σy'). Of a
+// round lobe α is arbitrary (the simulator writes 0 there), so no fit can find it in the data.
+at::Tensor AnisotropicPixels(const at::Tensor& labels, const at::Tensor& valid, double min_ratio);
+
 // The weighted Huber (δ = 1) of `predicted` against `target` (N × 14 × H × W), summed over the
 // valid pixels (`valid`: N × 1 × H × W of 0/1). `weights` broadcast against the labels.
 at::Tensor HuberSum(const at::Tensor& predicted, const at::Tensor& target, const at::Tensor& valid, const at::Tensor& weights);

@@ -25,6 +25,25 @@ TEST(LabelLossTest, ChannelWeightsAreThePapersWithTheAngleScaled) {
   }
 }
 
+TEST(LabelLossTest, OnlyValidPixelsWithALobeWiderOneWayThanTheOtherHaveAnAngle) {
+  // σ_min 0.3 (round), 0.25 (1.2:1), 0.2 (1.5:1, the threshold), 0.1 (3:1, but off the material).
+  at::Tensor labels = at::full({1, kLabelSize, 1, 4}, 0.5, at::kFloat);
+  const std::array<double, 4> sigma_min = {0.3, 0.25, 0.2, 0.1};
+  for (int x = 0; x < 4; ++x) {
+    labels[0][9][0][x] = static_cast<float>(EncodeSigma(sigma_min[x]));  // the narrower either way round
+    labels[0][10][0][x] = static_cast<float>(EncodeSigma(0.3));
+  }
+  at::Tensor valid = at::ones({1, 1, 1, 4}, at::kFloat);
+  valid[0][0][0][3] = 0;
+  const at::Tensor anisotropic = AnisotropicPixels(labels, valid, 1.5).flatten();
+  const float expected[4] = {0, 0, 1, 0};
+  for (int x = 0; x < 4; ++x) EXPECT_EQ(anisotropic[x].item<float>(), expected[x]) << "pixel " << x;
+  // The same lobes with σx and σy swapped.
+  const at::Tensor swapped =
+      AnisotropicPixels(labels.index_select(1, at::tensor({0, 1, 2, 3, 4, 5, 6, 7, 8, 10, 9, 11, 12, 13})), valid, 1.5).flatten();
+  for (int x = 0; x < 4; ++x) EXPECT_EQ(swapped[x].item<float>(), expected[x]) << "pixel " << x;
+}
+
 TEST(LabelLossTest, NarrowLobesWeighTheirNormalsByTheSquaredWidthRatioUpToTheCap) {
   const at::Tensor channels = LabelChannelWeights();
   const at::Tensor labels = LabelsWithLobes({0.02, 0.2, 0.0005});
