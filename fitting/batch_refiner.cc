@@ -130,6 +130,10 @@ struct Lane {
   bool at_start = true;  // the pending evaluation is of the start
   bool converged = false;
   bool parked = false;  // the pending evaluation is the uncertainty's, at the solution
+  // The last step's normal equations invert, so its observations' leverages exist. Where they do
+  // not, the pixel's 1σ is undetermined (NaN): its uncertainty's matrices would be summed or not
+  // as its batch-mates need theirs, so a value would depend on which pixels shared its batch.
+  bool leverages = false;
   double cost = 0, data_cost = 0, squares = 0, cost_resolution = 0;
   Vector12 jtr = Vector12::Zero();
   Matrix12 jtj = Matrix12::Zero();    // data + prior
@@ -328,6 +332,13 @@ ParamSigma SigmaOf(const Lane& lane, const RefineOptions& options) {
   return s;
 }
 
+ParamSigma UndeterminedSigma() {
+  ParamSigma s;
+  s.normal_deg = s.sigma_x = s.sigma_y = s.alpha_deg = NAN;
+  s.a_d = s.a_s = Eigen::Vector3d::Constant(NAN);
+  return s;
+}
+
 Params ClampedStart(const WardParams<double>& start, const RefineOptions& options) {
   Params x = Pack(start);
   const Eigen::Vector3d n = Eigen::Vector3d(x[0], x[1], x[2]).normalized();
@@ -487,19 +498,20 @@ class Batch {
     }
     if (park_in_place_) {
       lane.parked = true;
-      SetUncertaintyInputs(lane, p, inputs_);
+      lane.leverages = SetUncertaintyInputs(lane, p, inputs_);
       return;
     }
     const int q = parked_count_++;
     data_.CopyLane(p, parked_data_, q);
     parked_[q] = lane;
-    SetUncertaintyInputs(lane, q, parked_inputs_);
+    parked_[q].leverages = SetUncertaintyInputs(lane, q, parked_inputs_);
     Refill(p);
     if (parked_count_ == kLanes) EvaluateParked();
   }
 
-  // Index `at` of `inputs` to evaluate `lane` at its solution with its observations' leverages.
-  void SetUncertaintyInputs(const Lane& lane, int at, internal::LaneInputs& inputs) const {
+  // Index `at` of `inputs` to evaluate `lane` at its solution with its observations' leverages;
+  // false where those do not exist (the last step's normal equations are singular).
+  bool SetUncertaintyInputs(const Lane& lane, int at, internal::LaneInputs& inputs) const {
     for (int i = 0; i < kAmbientParams; ++i) inputs.params[i][at] = lane.x[i];
     for (int c = 0; c < 3; ++c) {
       inputs.tangent[0][c][at] = lane.basis.u[c];
@@ -514,6 +526,7 @@ class Batch {
         inputs.bread_inverse[internal::NormalIndex(i, j)][at] = usable ? inverse(i, j) : 0;
       }
     }
+    return usable;
   }
 
   // The batch of parked pixels' uncertainty evaluation (lanes beyond parked_count_ hold stale,
@@ -530,7 +543,7 @@ class Batch {
     const Evaluation e = ReadLane(equations, at, prior_, lane.x, lane.basis, lane.prior_mean);
     lane.bread = e.bread;
     lane.meat = e.meat;
-    results_[lane.pixel] = Finished(lane, SigmaOf(lane, options_));
+    results_[lane.pixel] = Finished(lane, lane.leverages ? SigmaOf(lane, options_) : UndeterminedSigma());
     ++done_;
   }
 
