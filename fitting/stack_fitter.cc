@@ -658,12 +658,25 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
   std::vector<std::vector<PixelObservation>> kept;
   std::vector<WardParams<double>> starts;  // at F0 1: each joint fit keeps their a_s·F0
   for (int k : order) kept.push_back(std::move(observations[k])), starts.push_back(fitted[k]);
+  // The starts side by side, each on one thread: Ceres sums a multi-threaded problem's cost and
+  // gradient per thread, over residual blocks handed out as threads come free, so F0 (and every
+  // map fitted at it) could differ in its last bits between runs and thread counts.
+  std::vector<SharedF0Fit> joints(kF0Starts.size());
+  std::vector<Status> failures(kF0Starts.size(), Status::Ok());
+  ParallelFor(static_cast<int>(kF0Starts.size()), options.threads, [&](int s) {
+    Result<SharedF0Fit> joint = FitPixelsSharingF0(kept, starts, kF0Starts[s], options.pixel_fit, 1);
+    if (!joint.ok()) {
+      failures[s] = joint.status();
+      return;
+    }
+    joints[s] = std::move(*joint);
+  });
   MaterialF0 material;
-  for (const double f0_start : kF0Starts) {
-    LOOM_ASSIGN_OR_RETURN(const SharedF0Fit joint,
-                          FitPixelsSharingF0(kept, starts, f0_start, options.pixel_fit, ThreadCount(options.threads)));
+  for (size_t s = 0; s < kF0Starts.size(); ++s) {
+    LOOM_RETURN_IF_ERROR(failures[s]);
+    const SharedF0Fit& joint = joints[s];
     if (material.fits.empty() || joint.cost < material.cost) material.f0 = joint.f0, material.cost = joint.cost;
-    material.fits.push_back({f0_start, joint.f0, joint.cost, static_cast<double>(joint.iterations)});
+    material.fits.push_back({kF0Starts[s], joint.f0, joint.cost, static_cast<double>(joint.iterations)});
   }
   return material;
 }
