@@ -185,7 +185,7 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
 
 Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObservation>>& pixels,
                                        const std::vector<WardParams<double>>& starts, double f0_start,
-                                       const PixelFitOptions& options, int threads) {
+                                       const PixelFitOptions& options) {
   LOOM_RETURN_IF_ERROR(options.Check());
   if (starts.size() != pixels.size()) {
     return InvalidArgumentError("shared-F0 fit",
@@ -217,7 +217,6 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
   // blocks share its residual, so they are no independent set.)
   solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   solver.max_num_iterations = options.max_iterations;
-  solver.num_threads = threads;
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);

@@ -91,7 +91,8 @@ Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observation
 // material), each from its start (its a_s·F0 kept) and F0 from f0_start: one Ceres problem
 // (sparse normal equations). A pixel with fewer than 13 usable observations is left out (its entry empty);
 // none with enough is an error. The result's per-pixel costs are 0: `cost` is the whole
-// problem's. `threads` evaluate the pixels' costs; options.fixed_f0 is not used. Each pixel's
+// problem's, solved on one thread (Ceres' multi-threaded sums depend on scheduling, so F0 would
+// differ in its last bits between runs); options.fixed_f0 is not used. Each pixel's
 // specular is fitted as b = a_s·F0 (internal/pixel_cost.h) with b ≤ kMaxAlbedo, so a result's
 // a_s may exceed kMaxAlbedo where F0 < 1; F0 ∈ [kMinSharedF0, 1].
 struct SharedF0Fit {
@@ -102,7 +103,7 @@ struct SharedF0Fit {
 };
 Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObservation>>& pixels,
                                        const std::vector<WardParams<double>>& starts, double f0_start,
-                                       const PixelFitOptions& options, int threads = 1);
+                                       const PixelFitOptions& options);
 
 // A neutral start from the observations alone: n_s = z, a_d from the mean radiance as if
 // Lambertian, a small grey a_s, σ = 0.2, α = 0, F0 = 1.

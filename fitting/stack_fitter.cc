@@ -658,13 +658,12 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
   std::vector<std::vector<PixelObservation>> kept;
   std::vector<WardParams<double>> starts;  // at F0 1: each joint fit keeps their a_s·F0
   for (int k : order) kept.push_back(std::move(observations[k])), starts.push_back(fitted[k]);
-  // The starts side by side, each on one thread: Ceres sums a multi-threaded problem's cost and
-  // gradient per thread, over residual blocks handed out as threads come free, so F0 (and every
-  // map fitted at it) could differ in its last bits between runs and thread counts.
+  // The starts side by side: each joint fit runs on one thread (FitPixelsSharingF0), so that F0
+  // and every map fitted at it are the same on any thread count.
   std::vector<SharedF0Fit> joints(kF0Starts.size());
   std::vector<Status> failures(kF0Starts.size(), Status::Ok());
   ParallelFor(static_cast<int>(kF0Starts.size()), options.threads, [&](int s) {
-    Result<SharedF0Fit> joint = FitPixelsSharingF0(kept, starts, kF0Starts[s], options.pixel_fit, 1);
+    Result<SharedF0Fit> joint = FitPixelsSharingF0(kept, starts, kF0Starts[s], options.pixel_fit);
     if (!joint.ok()) {
       failures[s] = joint.status();
       return;
