@@ -215,8 +215,8 @@ int RunFit(int argc, char** argv) {
       app.add_option("--f0", args.f0,
                      "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the observations fix; for the refine "
                      "methods the model directory's refine.json may say otherwise: 'material' for tac7 and tac7-mini), or "
-                     "'material': one F0 for "
-                     "the material, fitted jointly with a sparse grid of its pixels (fit.json: material_f0, f0_fits)");
+                     "'material': one F0 for the material, fitted jointly with a sparse grid of its pixels (fit.json: "
+                     "material_f0, f0_fits)");
   app.add_option("--retry-above", args.options.retry_above_noise_rms,
                  "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
                  "stack's noise level (the best-fitted tenth's RMS; default 2.5)")

@@ -100,6 +100,16 @@ TEST(CnnTrainingTest, TheScoreStatesTheAnglesErrorWhereTheTrueLobeIsAnisotropic)
   EXPECT_EQ(score->anisotropic_pixels, anisotropic);
   EXPECT_LT(score->anisotropic_pixels, score->pixels);
   for (int c = 0; c < 2; ++c) EXPECT_GT(score->angle_rmse_where_anisotropic[c], 0) << c;
+
+  // Every valid lobe 3:1: the angle's RMSE where anisotropic is its RMSE over every pixel.
+  CnnExample elongated = example;
+  const size_t plane = elongated.labels.valid.size();
+  std::fill_n(elongated.labels.labels.values.begin() + 9 * plane, plane, static_cast<float>(EncodeSigma(0.1)));
+  std::fill_n(elongated.labels.labels.values.begin() + 10 * plane, plane, static_cast<float>(EncodeSigma(0.3)));
+  const Result<CnnScore> all = ScoreCnn(SmallCnn(), {elongated}, 1);
+  ASSERT_TRUE(all.ok()) << all.status().ToString();
+  EXPECT_EQ(all->anisotropic_pixels, all->pixels);
+  for (int c = 0; c < 2; ++c) EXPECT_NEAR(all->angle_rmse_where_anisotropic[c], all->rmse[11 + c], 1e-6) << c;
 }
 
 TEST(CnnTrainingTest, AStreamedDatasetTrainsWithOneMaterialInMemoryAtATime) {

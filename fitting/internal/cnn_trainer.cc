@@ -347,11 +347,12 @@ Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& exam
     const torch::Tensor p = AsTensor(*predicted), t = AsTensor(e.labels.labels), valid = ValidTensor(e.labels);
     if (!probes.empty()) rerender_sum += ProbeRerenderLoss(probes[i], p, huber_delta);
     loss_sum += internal::HuberSum(p, t, valid, paper_weights).item<double>();
-    const torch::Tensor channel_squares = ((p - t).square() * valid).sum({0, 2, 3});
+    const torch::Tensor squared_error = (p - t).square();
+    const torch::Tensor channel_squares = (squared_error * valid).sum({0, 2, 3});
     for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
     score.pixels += static_cast<int64_t>(valid.sum().item<double>());
     const torch::Tensor anisotropic = internal::AnisotropicPixels(t, valid, AnisotropicAlphaError::kMinSigmaRatio);
-    const torch::Tensor angle_squares_here = ((p - t).narrow(1, kAngleChannel, 2).square() * anisotropic).sum({0, 2, 3});
+    const torch::Tensor angle_squares_here = (squared_error.narrow(1, kAngleChannel, 2) * anisotropic).sum({0, 2, 3});
     for (int c = 0; c < 2; ++c) angle_squares[c] += angle_squares_here[c].item<double>();
     score.anisotropic_pixels += static_cast<int64_t>(anisotropic.sum().item<double>());
   }
