@@ -16,6 +16,7 @@
 #include "fitting/export.h"
 #include "fitting/method_fit.h"
 #include "fitting/stack_fitter.h"
+#include "fitting/svbrdf_file.h"
 
 namespace loom::apps {
 namespace {
@@ -110,6 +111,7 @@ struct FitArguments {
   std::string stack;
   std::string out;
   std::string method = "ceres";
+  std::string start;  // maps that start every pixel instead of the clusters' fits ("": none)
   std::string model;  // empty: configs/models/<the stack's rig>
   std::string f0 = "1";
   bool retries = false, no_retries = false;
@@ -117,6 +119,24 @@ struct FitArguments {
   fitting::StackFitOptions options = DefaultOptions();
   bool quiet = false;
 };
+
+// --start's maps, checked against the stack they are to start: its grid and, where the file
+// states one, its pixel size (maps of another crop or resolution would start every pixel from
+// another pixel's lobe).
+Result<Image> ReadStartMaps(const std::string& path, const ObservationStack& stack) {
+  LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile start, fitting::ReadSvbrdf(path));
+  const Image& maps = start.maps;
+  if (maps.width() != stack.image.width() || maps.height() != stack.image.height()) {
+    return InvalidArgumentError("--start " + path, std::to_string(maps.width()) + "x" + std::to_string(maps.height()) +
+                                                       " px does not match the stack's " + std::to_string(stack.image.width()) +
+                                                       "x" + std::to_string(stack.image.height()));
+  }
+  if (start.pixel_mm > 0 && stack.pixel_mm > 0 && std::abs(start.pixel_mm - stack.pixel_mm) > 1e-6 * stack.pixel_mm) {
+    return InvalidArgumentError("--start " + path, "pixels of " + std::to_string(start.pixel_mm) +
+                                                       " mm do not match the stack's " + std::to_string(stack.pixel_mm) + " mm");
+  }
+  return std::move(start.maps);
+}
 
 Status Fit(FitArguments args) {
   const std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
@@ -130,6 +150,16 @@ Status Fit(FitArguments args) {
   const bool refiner = *method == fitting::FitMethod::kRefine || *method == fitting::FitMethod::kCnnRefine;
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
   LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, refiner, args.given, options));
+  std::optional<Image> start;
+  if (!args.start.empty()) {
+    if (fitting::StartsFromCnn(*method)) {
+      return InvalidArgumentError("--start " + args.start,
+                                  "starts the ceres and refine methods; --method " + args.method + " starts from the CNN's maps");
+    }
+    LOOM_ASSIGN_OR_RETURN(start, ReadStartMaps(args.start, stack));
+    options.initial_maps = &*start;
+    options.prior.weight = 0;  // the prior's 1σ are the CNN's measured errors, not these maps'
+  }
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
   options.progress = [&](const fitting::StackFitProgress& p) {
@@ -142,6 +172,7 @@ Status Fit(FitArguments args) {
   nlohmann::json summary = fit.ToJson();
   summary.update({{"method", args.method},
                   {"model", fit.cnn.empty() ? "" : args.model},
+                  {"start", args.start},
                   {"stack", args.stack},
                   {"loom_version", std::string(VersionWithCommit())}});
   LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(out.partial(), fit.maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
@@ -165,6 +196,10 @@ int RunFit(int argc, char** argv) {
                  "refiner), cnn (the network alone), cnn+ceres (the CNN's maps start every pixel's Ceres fit) or "
                  "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
                  "uncertainty maps)");
+  app.add_option("--start", args.start,
+                 "ceres and refine: maps that start every pixel's fit instead of the clusters' fits, on the stack's "
+                 "grid: an earlier fit's svbrdf.exr (to refit a stored capture after recalibrating, or to finish a "
+                 "fit with another method), an AxF file, or a simulator's truth (the fit nearest the true maps)");
   app.add_option("--prior-weight", args.options.prior.weight,
                  "cnn+refine: weight of the prior toward the CNN's maps (default 0.1; 0: none; 1: the CNN's "
                  "measured errors as its 1 sigma)")

@@ -28,8 +28,9 @@ struct MethodFit {
 };
 
 // `model_dir` holds the CNN (a loom train model directory) for the cnn methods; a directory
-// without model.json is an error naming it. `options.solver` and `options.initial_maps` are
-// set from the method.
+// without model.json is an error naming it. `options.solver` is set from the method, and for
+// the cnn methods `options.initial_maps` (the CNN's maps); the other methods keep the caller's
+// (a user's start maps, or none: the clusters' fits).
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
                                 StackFitOptions options);
 

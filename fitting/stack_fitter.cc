@@ -804,8 +804,8 @@ nlohmann::json StackFitSummary::ToJson() const {
           {"noise_rms", noise_rms},
           {"prior_weight_applied", prior_weight},
           {"smoothing_weight_applied", smoothing_weight},
-          {"clusters", cluster_sizes},
-          {"material_f0", f0},  // not "f0": fit.json has the options' (a number or "material") beside it
+          {"cluster_sizes", cluster_sizes},  // not "clusters": fit.json has the options' count beside it
+          {"material_f0", f0},               // not "f0": fit.json has the options' (a number or "material") beside it
           {"f0_fits", f0_fits},
           {"mean_iterations", mean_iterations},
           {"mean_observations", mean_observations},

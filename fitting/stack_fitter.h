@@ -120,8 +120,8 @@ struct StackFitOptions {
   // less time) at the same maps (docs/benchmarks.md).
   double refine_function_tolerance = 1e-4;
   // Starts of the per-pixel fits, when given: SVBRDF maps on the stack's grid (the CNN's, for
-  // cnn+ceres). No clusters are formed; with fixed_f0 unset the material's F0 is the maps'
-  // median. Not owned; must outlive FitStack.
+  // cnn+ceres, or a user's: loom fit --start). No clusters are formed; with fixed_f0 unset the
+  // material's F0 is fitted from the maps' lobes (SearchF0). Not owned; must outlive FitStack.
   const Image* initial_maps = nullptr;
   int threads = 0;                                        // 0: one per core
   uint64_t seed = 1;                                      // k-means initialisation
