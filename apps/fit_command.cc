@@ -4,6 +4,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -132,8 +133,9 @@ Result<Image> ReadStartMaps(const std::string& path, const ObservationStack& sta
                                                        "x" + std::to_string(stack.image.height()));
   }
   if (start.pixel_mm > 0 && stack.pixel_mm > 0 && std::abs(start.pixel_mm - stack.pixel_mm) > 1e-6 * stack.pixel_mm) {
-    return InvalidArgumentError("--start " + path, "pixels of " + std::to_string(start.pixel_mm) +
-                                                       " mm do not match the stack's " + std::to_string(stack.pixel_mm) + " mm");
+    std::ostringstream message;
+    message << "pixels of " << start.pixel_mm << " mm do not match the stack's " << stack.pixel_mm << " mm";
+    return InvalidArgumentError("--start " + path, message.str());
   }
   return std::move(start.maps);
 }

@@ -463,13 +463,21 @@ TEST_F(FitCommandTest, StartMapsOfAnotherGridOrForACnnMethodAreRefused) {
   EXPECT_EQ(other_grid.exit_code, 1) << other_grid.output;
   EXPECT_NE(other_grid.output.find("start8/svbrdf.exr: 8x8 px does not match the stack's 12x12"), std::string::npos)
       << other_grid.output;
+  const auto coarse = RunCommand(loom::testing::LoomBinary() + " sim material --size 12 --pixel-mm 0.4 --out " +
+                                 (dir_ / "start12coarse").string());
+  ASSERT_EQ(coarse.exit_code, 0) << coarse.output;
+  const auto other_pixels = RunCommand(fit + (dir_ / "start12coarse/svbrdf.exr").string() + " --out " + (dir_ / "s4").string());
+  EXPECT_EQ(other_pixels.exit_code, 1) << other_pixels.output;
+  EXPECT_NE(other_pixels.output.find("start12coarse/svbrdf.exr: pixels of 0.4 mm do not match the stack's 0.2 mm"),
+            std::string::npos)
+      << other_pixels.output;
   const auto cnn = RunCommand(fit + (dir_ / "truth.exr").string() + " --method cnn+refine --out " + (dir_ / "s2").string());
   EXPECT_EQ(cnn.exit_code, 1) << cnn.output;
   EXPECT_NE(cnn.output.find("--method cnn+refine starts from the CNN's maps"), std::string::npos) << cnn.output;
   const auto missing = RunCommand(fit + (dir_ / "no-such-start.exr").string() + " --out " + (dir_ / "s3").string());
   EXPECT_EQ(missing.exit_code, 1) << missing.output;
   EXPECT_NE(missing.output.find("no-such-start.exr"), std::string::npos) << missing.output;
-  for (const char* out : {"s1", "s2", "s3"}) EXPECT_FALSE(fs::exists(dir_ / out / "svbrdf.exr")) << out;
+  for (const char* out : {"s1", "s2", "s3", "s4"}) EXPECT_FALSE(fs::exists(dir_ / out / "svbrdf.exr")) << out;
 }
 
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {
