@@ -1,0 +1,137 @@
+#!/bin/bash
+# One fine-tuning round of a shipped CNN on a lent GPU machine, in one command
+# (docs/gpu-training.md, "A round on a lent machine"):
+#
+#   bash scripts/gpu-round.sh fetch   # here, once: the trainer build's Debian packages into
+#                                     # .gpu-deps/ (ignored, about 3 MB), which the device call carries
+#   bash scripts/gpu-round.sh run     # there, as the device call's command (carry: .gpu-deps)
+#
+# `run` unpacks the packages, builds the trainer-only loom against PyTorch's CUDA LibTorch,
+# trains 3 short epochs first (the check that a run outlives its second epoch's checkpoint, which
+# no GPU has confirmed since the fix), renders FABRICS fresh fabrics on every core, and fine-tunes
+# the rig's shipped model on them with the chain's recipe (configs/models/tac7-mini/README.md),
+# for as many steps as the short run's rate fits into TRAIN_S seconds. $OUT gets the logs and the
+# model (float16 weights: what comes back from the machine is at most 16 MiB a file).
+#
+# Settings (environment): RIG (tac7-mini or tac7), FABRICS (1200; tac7 600), FIRST_SEED (60000: no run has trained
+# on seeds from there), TRAIN_S (240), EPOCHS (4), TILES (16 a step), SEED (30), LR_START (3e-5),
+# LR_END (5e-6), WIDTH (a width divisor below the model's widens it; default: the model's),
+# DEVICE (cuda; cpu for a dry run), LOOM (a built loom: no build), OUT (required for run).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+readonly deps_dir=.gpu-deps
+readonly deps=(libopenexr-dev libopenexr-3-1-30 libimath-dev libimath-3-1-29 libyaml-cpp-dev libyaml-cpp0.7
+  libcli11-dev nlohmann-json3-dev libeigen3-dev)
+
+fetch() {
+  mkdir -p "$deps_dir"
+  (cd "$deps_dir" && apt-get download "${deps[@]}")
+  ls -l "$deps_dir"
+}
+
+build() {
+  local prefix=/tmp/gpu-deps
+  for deb in "$deps_dir"/*.deb; do dpkg -x "$deb" "$prefix"; done
+  export CMAKE_PREFIX_PATH="$prefix/usr" LD_LIBRARY_PATH="$prefix/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+  scripts/build-trainer.sh
+}
+
+# The rig's chain recipe (configs/models/<rig>/README.md: its rounds since session 57 on
+# tac7-mini, 60 on tac7): what the network reads, and the seeded fabrics (some trained on, the
+# validation and test ones) beside which the fresh ones are linked in as add-*.
+recipe() {
+  case $rig in
+    tac7-mini)
+      input=(--preset low)
+      seeded=(--materials 36 --first-seed 4764 --validation 16 --test 16)
+      fresh_share=0.25 default_fabrics=1200
+      ;;
+    tac7)
+      # shellcheck disable=SC2054 # the commas are loom train's list of presets
+      input=(--preset low,medium --input-layout paper)
+      seeded=(--materials 28 --first-seed 13812 --validation 12 --test 12)
+      fresh_share=0.5 default_fabrics=600
+      ;;
+    *)
+      echo "error: RIG $rig: no chain recipe (tac7-mini or tac7)" >&2
+      exit 2
+      ;;
+  esac
+}
+
+train() {
+  local out=$1 epochs=$2 steps=$3
+  shift 3
+  "$loom" train --rig "configs/rig/$rig.yaml" "${input[@]}" "${seeded[@]}" --out "$out" --data "$data" \
+    --init "$model" --out-of-model-share 0.5 --scan-like-share 0.5 --scan-emulation "$model/scan-emulation.yaml" \
+    --size 32 --epochs "$epochs" --steps-per-epoch "$steps" --tiles-per-step "$tiles" --lr-start "$lr_start" \
+    --lr-end "$lr_end" --weight-decay 0 --rerender-weight 10 --rerender-lobe-reference 0.1 --device "$device" \
+    --threads 0 --seed "$seed" --quiet "$@"
+}
+
+# FABRICS fresh fabrics through loom train's dataset step, with one throwaway step, as the chain's
+# rounds rendered theirs.
+render_fresh() {
+  local fresh=$1
+  "$loom" train --rig "configs/rig/$rig.yaml" "${input[@]}" --out /tmp/gpu-round-throwaway --data "$fresh" \
+    --init "$model" --materials "$fabrics" --first-seed "$first_seed" --out-of-model-share "$fresh_share" \
+    --scan-like-share "$fresh_share" --scan-emulation "$model/scan-emulation.yaml" --validation 1 --test 1 \
+    --size 32 --epochs 1 --steps-per-epoch 1 --tiles-per-step 1 --device "$device" --threads 0 --quiet
+}
+
+link_fresh() {
+  local fresh=$1 data=$2
+  mkdir -p "$data"
+  for f in "$fresh"/*.exr; do ln -sf "$(realpath "$f")" "$data/add-$(basename "$f")"; done
+}
+
+# Samples a second in the short run's last epoch.
+rate_of() {
+  python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["epochs"][-1]["samples_per_second"])' "$1/training.json"
+}
+
+run() {
+  : "${OUT:?set OUT to the folder that comes back}"
+  rig=${RIG:-tac7-mini}
+  recipe
+  model=configs/models/$rig fabrics=${FABRICS:-$default_fabrics} first_seed=${FIRST_SEED:-60000}
+  tiles=${TILES:-16} seed=${SEED:-30} device=${DEVICE:-cuda} lr_start=${LR_START:-3e-5} lr_end=${LR_END:-5e-6}
+  local epochs=${EPOCHS:-4} train_s=${TRAIN_S:-240} work=/tmp/gpu-round
+  data=$work/data
+  local widen=()
+  [ -n "${WIDTH:-}" ] && widen=(--width-divisor "$WIDTH")
+  rm -rf "$work" /tmp/gpu-round-throwaway
+  mkdir -p "$OUT" "$data"
+  if [ -n "${LOOM:-}" ]; then loom=$LOOM; else build > "$OUT/build.log" 2>&1; loom=build-trainer/apps/loom; fi
+  "$loom" version | tee "$OUT/version.txt"
+
+  local start=$SECONDS
+  train "$work/short" 3 5 "${widen[@]}" > "$OUT/short.log" 2>&1
+  local rate
+  rate=$(rate_of "$work/short")
+  echo "3 epochs of 5 steps (the seeded fabrics rendered first): $((SECONDS - start)) s, the last at $rate samples/s" |
+    tee -a "$OUT/round.log"
+
+  start=$SECONDS
+  render_fresh "$work/fresh" > "$OUT/render.log" 2>&1
+  link_fresh "$work/fresh" "$data"
+  echo "rendered $fabrics fabrics from seed $first_seed: $((SECONDS - start)) s" | tee -a "$OUT/round.log"
+
+  local steps
+  steps=$(python3 -c "import sys; r, t, e, k = map(float, sys.argv[1:]); print(max(1, int(r * t / (k * 1024) / e)))" \
+    "$rate" "$train_s" "$epochs" "$tiles")
+  start=$SECONDS
+  train "$work/model" "$epochs" "$steps" --weights float16 "${widen[@]}" > "$OUT/train.log" 2>&1
+  echo "$epochs epochs of $steps steps ($tiles tiles of 32² each): $((SECONDS - start)) s" | tee -a "$OUT/round.log"
+  cp "$work/model/model.json" "$work/model/weights.pt" "$work/model/training.json" "$OUT/"
+}
+
+case "${1:-}" in
+  fetch) fetch ;;
+  run) run ;;
+  *)
+    echo "usage: $0 fetch|run (see the comment at its top)" >&2
+    exit 2
+    ;;
+esac
