@@ -112,18 +112,23 @@ TEST_F(FitCommandTest, ACorruptStackIsAnErrorNamingTheFile) {
   EXPECT_FALSE(fs::exists(dir_ / "bad" / "svbrdf.exr"));
 }
 
+// `loom eval` of the fit in `fit_dir` against the stack and truth in `dir`: its summary.json.
+nlohmann::json EvaluateAgainstTheTruth(const fs::path& dir, const fs::path& fit_dir) {
+  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (fit_dir / "svbrdf.exr").string() + " --stack " +
+                               (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() +
+                               " --renderer-views 0 --out " + (fit_dir / "report").string());
+  EXPECT_EQ(eval.exit_code, 0) << eval.output;
+  std::ifstream summary(fit_dir / "report/summary.json");
+  return nlohmann::json::parse(summary);
+}
+
 // Fits with `method` (the shipped tac7-mini model for the CNN) and evaluates against the truth.
 nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method, const std::string& options = "") {
   const fs::path out = dir / method;
   const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir / "stack.exr").string() + " --method " + method +
                               " --out " + out.string() + " --quiet " + options);
   EXPECT_EQ(fit.exit_code, 0) << fit.output;
-  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (out / "svbrdf.exr").string() + " --stack " +
-                               (dir / "stack.exr").string() + " --reference " + (dir / "truth.exr").string() + " --out " +
-                               (out / "report").string());
-  EXPECT_EQ(eval.exit_code, 0) << eval.output;
-  std::ifstream summary(out / "report/summary.json");
-  return nlohmann::json::parse(summary);
+  return EvaluateAgainstTheTruth(dir, out);
 }
 
 TEST_F(FitCommandTest, TheShippedCnnAloneRecoversTheFabricRoughly) {
@@ -177,12 +182,7 @@ TEST_F(FitCommandTest, CnnPlusRefineWithTheStripAsNodesRecoversTheFabric) {
   const nlohmann::json summary = nlohmann::json::parse(fit_json);
   EXPECT_EQ(summary["strip_nodes"], 16) << summary.dump(2);
   EXPECT_GE(summary["pixels_nodes_replaced"].get<int>(), 0) << summary.dump(2);
-  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (out / "svbrdf.exr").string() + " --stack " +
-                               (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() +
-                               " --renderer-views 0 --out " + (out / "report").string());
-  ASSERT_EQ(eval.exit_code, 0) << eval.output;
-  std::ifstream report(out / "report/summary.json");
-  const nlohmann::json json = nlohmann::json::parse(report);
+  const nlohmann::json json = EvaluateAgainstTheTruth(dir_, out);
   EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
   EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
   EXPECT_LT(json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>(), 0.02) << json.dump(2);
@@ -439,12 +439,7 @@ TEST_F(FitCommandTest, StartedFromTheTruthTheFitStaysThere) {
   const nlohmann::json summary = nlohmann::json::parse(fit_json);
   EXPECT_EQ(summary["start"], (dir_ / "truth.exr").string());
   EXPECT_TRUE(summary["cluster_sizes"].empty()) << summary.dump(2);  // no cluster was formed
-  const auto eval = RunCommand(loom::testing::LoomBinary() + " eval " + (out / "svbrdf.exr").string() + " --stack " +
-                               (dir_ / "stack.exr").string() + " --reference " + (dir_ / "truth.exr").string() +
-                               " --renderer-views 0 --out " + (out / "report").string());
-  ASSERT_EQ(eval.exit_code, 0) << eval.output;
-  std::ifstream report(out / "report/summary.json");
-  const nlohmann::json json = nlohmann::json::parse(report);
+  const nlohmann::json json = EvaluateAgainstTheTruth(dir_, out);
   // Measured (2026-11-30): normal p90 2e-6°, the angle's p90 5e-5° where anisotropic, a_d NRMSE
   // 0.001, F0 the truth's to 5e-7. From 2 clusters' fits Ceres ends at a normal p90 of 1.7° and
   // an angle p90 of 50° (lobes left in local minima), the refiner at 11° and 69°.
