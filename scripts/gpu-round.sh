@@ -103,7 +103,18 @@ run() {
   [ -n "${WIDTH:-}" ] && widen=(--width-divisor "$WIDTH")
   rm -rf "$work" /tmp/gpu-round-throwaway
   mkdir -p "$OUT" "$data"
-  if [ -n "${LOOM:-}" ]; then loom=$LOOM; else build > "$OUT/build.log" 2>&1; loom=build-trainer/apps/loom; fi
+  # Each stage logs to its own file in $OUT; a failing one shows its end where the call's output does.
+  trap 'echo "error: a stage failed; the end of its logs:" >&2; tail -n 15 "$OUT"/*.log >&2 2> /dev/null' ERR
+  if [ -n "${LOOM:-}" ]; then
+    loom=$LOOM
+  else
+    if ! compgen -G "$deps_dir/*.deb" > /dev/null; then
+      echo "error: no $deps_dir/*.deb: run '$0 fetch' where apt reaches Debian, and carry $deps_dir" >&2
+      exit 2
+    fi
+    build > "$OUT/build.log" 2>&1
+    loom=build-trainer/apps/loom
+  fi
   "$loom" version | tee "$OUT/version.txt"
 
   local start=$SECONDS
@@ -119,6 +130,7 @@ run() {
   echo "rendered $fabrics fabrics from seed $first_seed: $((SECONDS - start)) s" | tee -a "$OUT/round.log"
 
   local steps
+  # A tile is 32² samples (loom train's default --tile).
   steps=$(python3 -c "import sys; r, t, e, k = map(float, sys.argv[1:]); print(max(1, int(r * t / (k * 1024) / e)))" \
     "$rate" "$train_s" "$epochs" "$tiles")
   start=$SECONDS
