@@ -48,6 +48,7 @@ int RunEval(int argc, char** argv);
 int RunExport(int argc, char** argv);
 int RunFit(int argc, char** argv);
 int RunHelp(int argc, char** argv);
+int RunImport(int argc, char** argv);
 int RunModel(int argc, char** argv);
 int RunPlan(int argc, char** argv);
 int RunReconstruct(int argc, char** argv);

@@ -14,6 +14,8 @@ const std::vector<Command>& Commands() {
       {"rig", "Operate a rig's devices: list, status, snap, move, leds", RunRig},
       {"scan", "Run a measurement plan into a crash-safe scan directory, or resume one", RunScan},
       {"reconstruct", "Reconstruct a scan: heightmap and calibrated HDR observation stack in the top view", RunReconstruct},
+      {"import", "Import photographs from another rig (photometric stereo, a light dome, flash) as an observation stack",
+       RunImport},
       {"fit", "Fit SVBRDF maps to an observation stack (Ceres, the CNN, or the CNN refined by Ceres)", RunFit},
       {"train", "Train the SVBRDF CNN for a rig and preset on simulated materials", RunTrain},
       {"model", "Show a trained CNN (rig, input, width, weights, training), or copy it with float16 weights", RunModel},

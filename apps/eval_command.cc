@@ -4,11 +4,13 @@
 #include <iostream>
 
 #include "apps/command.h"
+#include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
 #include "fitting/evaluation.h"
 #include "fitting/export.h"
 #include "fitting/report.h"
+#include "photos/capture_import.h"
 
 namespace loom::apps {
 namespace {
@@ -18,10 +20,21 @@ namespace fs = std::filesystem;
 struct EvalArgs {
   std::string maps_path, stack_path, reference_path, out, title;
   int renderer_views = 6;
+  std::string reference_normals;
+  int normals_downsample = 1;
 };
 
+// The fit's shading normals against a reference normal map, printed and kept as normals.json.
+Status CompareNormals(const EvalArgs& args, const Image& maps, const ObservationStack& stack, const fs::path& report) {
+  LOOM_ASSIGN_OR_RETURN(const Image normals, photos::ReadNormalMap(args.reference_normals, args.normals_downsample));
+  Result<fitting::NormalComparison> comparison = fitting::CompareNormals(maps, stack, normals);
+  if (!comparison.ok()) return comparison.status().WithContext("--reference-normals " + args.reference_normals);
+  comparison->Report(std::cout);
+  return WriteFileAtomically(report / "normals.json", comparison->ToJson().dump(2) + "\n");
+}
+
 Status Evaluate(const EvalArgs& args) {
-  const auto& [maps_path, stack_path, reference_path, out, title, renderer_views] = args;
+  const auto& [maps_path, stack_path, reference_path, out, title, renderer_views, reference_normals, normals_downsample] = args;
   LOOM_ASSIGN_OR_RETURN(OutputDirectory report, OutputDirectory::Create(out, "--out"));
   LOOM_ASSIGN_OR_RETURN(const fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(stack_path));
@@ -32,6 +45,7 @@ Status Evaluate(const EvalArgs& args) {
   }
   LOOM_ASSIGN_OR_RETURN(const fitting::Evaluation evaluation, fitting::Evaluate(maps.maps, reference, stack));
   evaluation.Report(std::cout);
+  if (!reference_normals.empty()) LOOM_RETURN_IF_ERROR(CompareNormals(args, maps.maps, stack, report.partial()));
   const fitting::ReportInputs inputs{
       title.empty() ? maps_path : title, &maps.maps, reference ? &*reference : nullptr, &stack, evaluation, "", renderer_views};
   LOOM_RETURN_IF_ERROR(fitting::WriteReport(report.partial(), inputs));
@@ -52,6 +66,12 @@ int RunEval(int argc, char** argv) {
   app.add_option("--reference", args.reference_path, "Reference maps on the same grid (ground truth or another fit)");
   app.add_option("--out", args.out, "Report directory: index.html, summary.json, PNGs")->required();
   app.add_option("--title", args.title, "Title of the report");
+  app.add_option("--reference-normals", args.reference_normals,
+                 "A true normal map (EXR X, Y, Z, or PNG storing (n+1)/2; x right, y up the image, z towards the camera, "
+                 "as photometric-stereo benchmarks give them): the angle error, and by true tilt (normals.json)");
+  app.add_option("--normals-downsample", args.normals_downsample,
+                 "The --downsample the stack was imported with, to bring the normal map to its grid")
+      ->check(CLI::Range(1, 64));
   app.add_option("--renderer-views", args.renderer_views,
                  "Point-lit views of the fit, rendered by loom, for checking its glTF (OUT/material) in three.js with "
                  "web/render-check.mjs (0: write neither)")

@@ -17,7 +17,10 @@ Status Export(const std::string& maps_path, double pixel_mm_option, const std::s
   if (gltf.empty() && axf.empty()) {
     return InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE");
   }
-  LOOM_ASSIGN_OR_RETURN(const fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
+  LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
+  if (const int skipped = fitting::BlackenSkippedPixels(maps.maps); skipped > 0) {
+    std::cout << skipped << " px the fit skipped (masked or unseen) are written black\n";
+  }
   const double pixel_mm = pixel_mm_option > 0 ? pixel_mm_option : maps.pixel_mm;
   if (!(pixel_mm > 0)) {
     return InvalidArgumentError(maps_path, "has no loom.pixel_mm attribute: give the maps' pixel size with --pixel-mm");

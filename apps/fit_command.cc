@@ -140,9 +140,31 @@ Result<Image> ReadStartMaps(const std::string& path, const ObservationStack& sta
   return std::move(start.maps);
 }
 
+// A diffuse albedo at the model's bound (kMaxAlbedo) on many pixels says the images' radiometric
+// scale is off (an imported capture's unknown exposure), and the fit bends its other parameters
+// to make up for it: say so, with the remedy. (a_s at the bound is another matter: a narrow
+// lobe whose peak falls between the observations.)
+void WarnAtTheAlbedoBound(const Image& maps) {
+  int at_bound = 0, fitted = 0;
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      if (fitting::IsSkippedPixel(maps, x, y)) continue;
+      const fitting::WardParams<double> p = fitting::GetParams(maps, x, y);
+      ++fitted;
+      at_bound += (p.a_d.array() >= 0.999 * fitting::kMaxAlbedo).any();
+    }
+  }
+  if (fitted > 0 && at_bound > fitted / 100) {
+    std::cout << "warning: " << at_bound << " of " << fitted << " px reached the albedo bound (" << fitting::kMaxAlbedo
+              << " in a_d): the stack's radiance scale is likely too high (loom import --scale, or its automatic scale)\n";
+  }
+}
+
 Status Fit(FitArguments args) {
   const std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
-  if (!method) return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres or cnn+refine");
+  if (!method) {
+    return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres, cnn+refine or lambert");
+  }
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << stack.observations.size() << " observations (" << stack.source << ")\n";
@@ -171,6 +193,11 @@ Status Fit(FitArguments args) {
   bars.clear();
   if (!fit.cnn.empty()) std::cout << "CNN " << fit.cnn << ": " << FormatDuration(fit.cnn_seconds) << "\n";
   if (fit.summary) fit.summary->Report(std::cout);
+  if (!fit.lambert.is_null()) {
+    std::cout << "photometric stereo: fitted " << fit.lambert["pixels_fitted"] << " of " << fit.lambert["pixels"] << " px ("
+              << fit.lambert["pixels_skipped"] << " skipped: masked, unseen or too few lit observations)\n";
+  }
+  WarnAtTheAlbedoBound(fit.maps);
   nlohmann::json summary = fit.ToJson();
   summary.update({{"method", args.method},
                   {"model", fit.cnn.empty() ? "" : args.model},
@@ -197,7 +224,8 @@ int RunFit(int argc, char** argv) {
                  "ceres (clusters, then every pixel with Ceres), refine (clusters, then every pixel with the batched "
                  "refiner), cnn (the network alone), cnn+ceres (the CNN's maps start every pixel's Ceres fit) or "
                  "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
-                 "uncertainty maps)");
+                 "uncertainty maps) or lambert (robust photometric stereo: a normal and an albedo per pixel, the "
+                 "baseline)");
   app.add_option("--start", args.start,
                  "ceres and refine: maps that start every pixel's fit instead of the clusters' fits, on the stack's "
                  "grid: an earlier fit's svbrdf.exr (to refit a stored capture after recalibrating, or to finish a "

@@ -1,6 +1,8 @@
-// loom sim material | render | stats | match-scan: the simulator's materials (SVBRDF maps with
-// preview PNGs), a simulated camera's frame or the fast-path stack, the fabrics' parameter
-// statistics, and how a scan's reconstruction differs from the fast path (sim/scan_emulation.h).
+// loom sim material | render | capture | stats | match-scan: the simulator's materials (SVBRDF
+// maps with preview PNGs), a simulated camera's frame or the fast-path stack, a curved object
+// photographed as a photometric-stereo rig does (photos/ writes its layout), the fabrics'
+// parameter statistics, and how a scan's reconstruction differs from the fast path
+// (sim/scan_emulation.h).
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -12,9 +14,11 @@
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
 #include "fitting/export.h"
+#include "photos/capture_export.h"
 #include "scan/plan.h"
 #include "scan/rig_state.h"
 #include "sim/fabric_stats.h"
+#include "sim/object_capture.h"
 #include "sim/plan_observations.h"
 #include "sim/sample.h"
 #include "sim/scan_emulation.h"
@@ -96,6 +100,45 @@ Status Render(const RenderArguments& args) {
   return Status::Ok();
 }
 
+struct CaptureArguments {
+  sim::ObjectCaptureOptions options;
+  std::string shape = "sphere", truth, normals, out;
+};
+
+// A curved object in the ps layout, with its truth beside (not inside) the folder: loom import
+// reads every image of a folder in some layouts.
+Status Capture(CaptureArguments args) {
+  if (args.shape != "sphere" && args.shape != "cylinder") {
+    return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
+  }
+  args.options.shape = args.shape == "sphere" ? sim::ObjectShape::kSphere : sim::ObjectShape::kCylinder;
+  LOOM_RETURN_IF_ERROR(args.options.Check());
+  sim::ObjectCapture capture = sim::RenderObjectCapture(args.options);
+  // Radiance 1 is stored as the top value unless a highlight is brighter: then the brightest is
+  // stored just below it (nothing clips), and the truth's albedos are in the stored images' units
+  // (what `loom import --scale 1` reads back).
+  double brightest = 0;
+  for (const Image& image : capture.images) {
+    for (int c = 0; c < 3; ++c) {
+      for (float v : image.channel(c)) brightest = std::max(brightest, static_cast<double>(v));
+    }
+  }
+  const double white = std::max(1.0, 1.01 * brightest);
+  for (int y = 0; y < capture.truth.height(); ++y) {
+    for (int x = 0; x < capture.truth.width(); ++x) {
+      for (int c = 3; c < 9; ++c) capture.truth.at(c, y, x) = static_cast<float>(capture.truth.at(c, y, x) / white);  // a_d, a_s
+    }
+  }
+  photos::PhotometricStereoCapture ps{std::move(capture.images), capture.light_directions, capture.mask, white};
+  LOOM_RETURN_IF_ERROR(photos::WritePhotometricStereo(args.out, ps));
+  if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.truth, capture.truth, {{"loom.kind", std::string("svbrdf maps")}}));
+  if (!args.normals.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.normals, capture.normals, {}));
+  std::cout << "wrote " << args.out << ": a " << args.shape << " under " << ps.images.size() << " directional lights, "
+            << args.options.size_px << "x" << args.options.size_px << " px (ps layout; radiance ×" << 1 / white
+            << " as stored; the truth's albedos in the stored units)\n";
+  return Status::Ok();
+}
+
 // How a reconstruction degrades a fast-path stack of the same material: blur, gains, noise.
 Status MatchScan(const std::string& fast_path, const std::string& reconstructed_path, const std::string& emulation_path,
                  const std::string& json_path) {
@@ -149,6 +192,23 @@ int RunSim(int argc, char** argv) {
                      "from loom sim match-scan, e.g. configs/models/tac7-mini/scan-emulation.yaml)");
   render->add_option("--seed", r.seed, "With --scan-emulation: the seed of its gains and noise");
   render->add_option("--out", r.out, "Output EXR")->required();
+  CaptureArguments capture;
+  CLI::App* capture_app = app.add_subcommand(
+      "capture", "A curved object photographed under directional lights (the ps layout of loom import), with its truth");
+  capture_app->add_option("--shape", capture.shape, "sphere or cylinder")->capture_default_str();
+  capture_app->add_option("--size", capture.options.size_px, "Image size in pixels (square)")->check(CLI::Range(4, 4096));
+  capture_app->add_option("--lights", capture.options.lights, "Directional lights, spread over a cap")
+      ->check(CLI::Range(3, 1000));
+  capture_app->add_option("--max-light-deg", capture.options.max_light_deg, "The cap's half-angle")->check(CLI::Range(1.0, 89.0));
+  capture_app->add_option("--sigma", capture.options.material.sigma_x, "The material's lobe width (isotropic)")
+      ->check(CLI::Range(0.01, 1.0));
+  capture_app->add_option("--specular", capture.options.material.a_s[0], "The material's specular albedo (grey)")
+      ->check(CLI::Range(0.0, 1.0));
+  capture_app->add_option("--noise", capture.options.noise, "Relative sensor noise")->check(CLI::Range(0.0, 0.5));
+  capture_app->add_option("--seed", capture.options.seed, "Seed of the noise");
+  capture_app->add_option("--truth", capture.truth, "Also write the true maps on the image's grid (OpenEXR)");
+  capture_app->add_option("--normals", capture.normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
+  capture_app->add_option("--out", capture.out, "Folder for the capture")->required();
   int seeds = 200, stats_size_px = 256;
   std::string json_path;
   CLI::App* stats = app.add_subcommand("stats", "Histograms of the procedural fabrics' parameters over many seeds");
@@ -170,6 +230,11 @@ int RunSim(int argc, char** argv) {
   if (*match_scan) done = MatchScan(fast_path, reconstructed_path, emulation_path, json_path);
   if (*stats) done = Stats(seeds, stats_size_px, json_path);
   if (*render) done = Render(r);
+  if (*capture_app) {
+    capture.options.material.sigma_y = capture.options.material.sigma_x;
+    capture.options.material.a_s = Eigen::Vector3d::Constant(capture.options.material.a_s[0]);
+    done = Capture(capture);
+  }
   if (*material) done = Material(sample, out);
   return ExitCode(done);
 }

@@ -39,7 +39,7 @@ const Json& Key(const Json& entry, const std::string& key) {
 
 StackObservation ObservationFromJson(const Json& entry) {
   static const std::set<std::string> kKeys = {"group",       "camera",      "camera_mm", "turntable_deg",
-                                              "rgb_weights", "description", "emitters"};
+                                              "rgb_weights", "description", "emitters",  "view_direction"};
   for (const auto& [key, value] : entry.items()) {
     if (!kKeys.contains(key)) throw std::invalid_argument("unknown key '" + key + "'");
   }
@@ -50,10 +50,28 @@ StackObservation ObservationFromJson(const Json& entry) {
   o.turntable_deg = Key(entry, "turntable_deg").get<double>();
   o.rgb_weights = VectorFromJson(Key(entry, "rgb_weights"), "rgb_weights");
   o.description = Key(entry, "description").get<std::string>();
+  if (entry.contains("view_direction")) {
+    o.view_direction = VectorFromJson(entry.at("view_direction"), "view_direction");
+    if (std::abs(o.view_direction->norm() - 1) > 1e-6) throw std::invalid_argument("view_direction is not a unit vector");
+  }
   for (const Json& e : Key(entry, "emitters")) {
     // [x, y, z, axis x, axis y, axis z, intensity, falloff exponent]: compact, because a linear
-    // light observation has one emitter per strip segment.
-    if (!e.is_array() || e.size() != 8) throw std::invalid_argument("an emitter must be [x, y, z, ax, ay, az, I, n]");
+    // light observation has one emitter per strip segment. At infinity: [lx, ly, lz, E], the unit
+    // direction towards the light and its irradiance.
+    if (e.is_array() && e.size() == 4) {
+      const Eigen::Vector3d towards(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
+      if (std::abs(towards.norm() - 1) > 1e-6)
+        throw std::invalid_argument("a directional emitter's direction is not a unit vector");
+      const double irradiance = e[3].get<double>();
+      if (!(std::isfinite(irradiance) && irradiance >= 0)) {
+        throw std::invalid_argument("a directional emitter's irradiance must be finite and ≥ 0");
+      }
+      o.emitters.push_back(PointEmitter::AtInfinity(towards, irradiance));
+      continue;
+    }
+    if (!e.is_array() || e.size() != 8) {
+      throw std::invalid_argument("an emitter must be [x, y, z, ax, ay, az, I, n] or, at infinity, [lx, ly, lz, E]");
+    }
     PointEmitter emitter;
     emitter.position_mm = {e[0].get<double>(), e[1].get<double>(), e[2].get<double>()};
     emitter.axis = Eigen::Vector3d(e[3].get<double>(), e[4].get<double>(), e[5].get<double>());
@@ -119,6 +137,19 @@ double PointEmitter::IntensityTowards(const Eigen::Vector3d& p_in_sample) const 
   return IntensityAlong((p_in_sample - position_mm).normalized());
 }
 
+PointEmitter PointEmitter::AtInfinity(const Eigen::Vector3d& towards_light, double irradiance) {
+  PointEmitter e;
+  e.axis = -towards_light;
+  e.intensity = irradiance;
+  e.at_infinity = true;
+  return e;
+}
+
+double PointEmitter::IrradianceAt(const Eigen::Vector3d& p_in_sample) const {
+  if (at_infinity) return intensity;
+  return IntensityTowards(p_in_sample) / (position_mm - p_in_sample).squaredNorm();
+}
+
 Eigen::Vector3d ObservationStack::Position(int x, int y) const {
   return {image.at(0, y, x), image.at(1, y, x), image.at(2, y, x)};
 }
@@ -145,21 +176,44 @@ ObservationStack MakeObservationStack(int width, int height, double pixel_mm, st
   return stack;
 }
 
+ObservationStack SelectObservations(const ObservationStack& stack, const std::vector<int>& keep) {
+  std::vector<StackObservation> table;
+  for (int k : keep) table.push_back(stack.observations.at(k));
+  ObservationStack selected = MakeObservationStack(stack.image.width(), stack.image.height(), stack.pixel_mm, std::move(table));
+  selected.rig = stack.rig;
+  selected.source = stack.source;
+  for (int c = 0; c < kStackGeometryChannels; ++c) {
+    std::copy(stack.image.channel(c).begin(), stack.image.channel(c).end(), selected.image.channel(c).begin());
+  }
+  for (size_t i = 0; i < keep.size(); ++i) {
+    const auto from = stack.image.channel(ObservationStack::ObservationChannel(keep[i]));
+    std::copy(from.begin(), from.end(),
+              selected.image.channel(ObservationStack::ObservationChannel(static_cast<int>(i))).begin());
+  }
+  return selected;
+}
+
 std::string ObservationTableToJson(const std::vector<StackObservation>& observations) {
   Json table = Json::array();
   for (const StackObservation& o : observations) {
     Json emitters = Json::array();
     for (const PointEmitter& e : o.emitters) {
+      if (e.at_infinity) {
+        emitters.push_back({-e.axis.x(), -e.axis.y(), -e.axis.z(), e.intensity});
+        continue;
+      }
       emitters.push_back({e.position_mm.x(), e.position_mm.y(), e.position_mm.z(), e.axis.x(), e.axis.y(), e.axis.z(),
                           e.intensity, e.falloff_exponent});
     }
-    table.push_back({{"group", ObservationGroupName(o.group)},
-                     {"camera", o.camera},
-                     {"camera_mm", VectorJson(o.camera_mm)},
-                     {"turntable_deg", o.turntable_deg},
-                     {"rgb_weights", VectorJson(o.rgb_weights)},
-                     {"description", o.description},
-                     {"emitters", emitters}});
+    Json entry = {{"group", ObservationGroupName(o.group)},
+                  {"camera", o.camera},
+                  {"camera_mm", VectorJson(o.camera_mm)},
+                  {"turntable_deg", o.turntable_deg},
+                  {"rgb_weights", VectorJson(o.rgb_weights)},
+                  {"description", o.description},
+                  {"emitters", emitters}};
+    if (o.view_direction) entry["view_direction"] = VectorJson(*o.view_direction);
+    table.push_back(std::move(entry));
   }
   return table.dump();
 }

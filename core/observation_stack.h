@@ -21,6 +21,11 @@
 // light as point emitters, each a position and axis in the sample frame, a radiant intensity
 // along the axis and a cosine-power falloff: I(p) = intensity · max(0, axis · (p − e)/|p − e|)^n.
 // One LED is one emitter; the linear light is one emitter per strip segment.
+//
+// Captures from other rigs (loom import) bring two more kinds, as first-class parts of the table:
+// an emitter at infinity (a directional light, as light domes and photometric-stereo rigs are
+// calibrated: one direction and the irradiance it brings a surface facing it), and an
+// orthographic camera (one view direction for every pixel instead of a centre).
 
 #include <filesystem>
 #include <optional>
@@ -45,6 +50,24 @@ struct PointEmitter {
   Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();       // unit, where it emits most
   double intensity = 0;                                   // radiant intensity along the axis
   double falloff_exponent = 1;
+  // At infinity: a directional light whose light travels along `axis` everywhere, `intensity`
+  // the irradiance it brings a surface facing it; position_mm and falloff_exponent are unused.
+  bool at_infinity = false;
+
+  // A directional light arriving from `towards_light` (unit, from the sample to the light).
+  static PointEmitter AtInfinity(const Eigen::Vector3d& towards_light, double irradiance);
+  // Unit, from `p_in_sample` towards the light.
+  Eigen::Vector3d DirectionFrom(const Eigen::Vector3d& p_in_sample) const {
+    return at_infinity ? Eigen::Vector3d(-axis) : Eigen::Vector3d((position_mm - p_in_sample).normalized());
+  }
+  // The irradiance it brings a surface at `p_in_sample` facing it: I(p)/d², or a directional
+  // light's own.
+  double IrradianceAt(const Eigen::Vector3d& p_in_sample) const;
+  // A point on the way to the light beyond every surface of a sample `reach_mm` across: where a
+  // shadow test marches towards.
+  Eigen::Vector3d ShadowTarget(const Eigen::Vector3d& p_in_sample, double reach_mm) const {
+    return at_infinity ? Eigen::Vector3d(p_in_sample - reach_mm * axis) : position_mm;
+  }
 
   double IntensityTowards(const Eigen::Vector3d& p_in_sample) const;
   // The same for a point in the unit direction `from_emitter` (the point minus position_mm,
@@ -64,6 +87,14 @@ struct StackObservation {
   Eigen::Vector3d rgb_weights = Eigen::Vector3d::Constant(1.0 / 3);
   std::vector<PointEmitter> emitters;
   std::string description;  // for people: "led 3 at 1000 mA, wheel0 slot 2 (590 nm)"
+  // Set: an orthographic camera looking along −view_direction (unit, from the sample towards the
+  // camera) at every pixel; camera_mm is unused.
+  std::optional<Eigen::Vector3d> view_direction;
+
+  // Unit, from `p_in_sample` towards the camera.
+  Eigen::Vector3d ViewFrom(const Eigen::Vector3d& p_in_sample) const {
+    return view_direction ? *view_direction : Eigen::Vector3d((camera_mm - p_in_sample).normalized());
+  }
 };
 
 inline constexpr int kStackGeometryChannels = 6;  // pos.XYZ, normal.XYZ come first
@@ -87,6 +118,10 @@ std::vector<std::string> StackChannelNames(size_t observations);
 // An empty stack of the right shape: channels named, observations described, the geometric
 // normals up (0, 0, 1), everything else 0.
 ObservationStack MakeObservationStack(int width, int height, double pixel_mm, std::vector<StackObservation> observations);
+
+// The stack with only the observations `keep` (indices, in that order): their channels and table
+// entries, the geometry as it is. For leaving views out of a fit and scoring it on them.
+ObservationStack SelectObservations(const ObservationStack& stack, const std::vector<int>& keep);
 
 // Uncompressed float EXR (radiance noise does not compress), atomically.
 Status WriteObservationStack(const std::filesystem::path& path, const ObservationStack& stack);

@@ -76,6 +76,45 @@ TEST(PointEmitterTest, FallsOffAsACosinePowerAndIsDarkBehind) {
   EXPECT_EQ(e.IntensityTowards({0, 0, 200}), 0);
 }
 
+TEST_F(ObservationStackTest, RoundTripsDirectionalLightsAndOrthographicCameras) {
+  StackObservation photo{ObservationGroup::kColour, "photo", {0, 0, 0}, 0, {1, 0, 0}, {}, "image 7, red"};
+  const Eigen::Vector3d towards = Eigen::Vector3d(0.3, -0.2, 0.9).normalized();
+  photo.emitters.push_back(PointEmitter::AtInfinity(towards, 0.75));
+  photo.view_direction = Eigen::Vector3d::UnitZ();
+  ObservationStack written = MakeObservationStack(2, 2, 0.5, {photo});
+  ASSERT_TRUE(WriteObservationStack(dir_ / "photo.exr", written).ok());
+  Result<ObservationStack> read = ReadObservationStack(dir_ / "photo.exr");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  const StackObservation& o = read->observations.at(0);
+  ASSERT_TRUE(o.view_direction.has_value());
+  EXPECT_EQ(*o.view_direction, Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(o.ViewFrom({100, -50, 3}), Eigen::Vector3d::UnitZ());  // the same everywhere
+  ASSERT_EQ(o.emitters.size(), 1u);
+  const PointEmitter& light = o.emitters[0];
+  EXPECT_TRUE(light.at_infinity);
+  EXPECT_TRUE(light.DirectionFrom({5, 5, 0}).isApprox(towards, 1e-15));
+  EXPECT_TRUE(light.DirectionFrom({-90, 40, 2}).isApprox(towards, 1e-15));
+  EXPECT_EQ(light.IrradianceAt({5, 5, 0}), 0.75);  // no distance to fall off with
+  EXPECT_TRUE((light.ShadowTarget({1, 2, 0}, 100) - Eigen::Vector3d(1, 2, 0)).normalized().isApprox(towards, 1e-12));
+  // A point camera's view still depends on the pixel; its table entry has no view_direction.
+  EXPECT_EQ(ObservationTableToJson(SmallStack().observations).find("view_direction"), std::string::npos);
+}
+
+TEST_F(ObservationStackTest, ADirectionalEmitterThatIsNoUnitVectorOrHasNegativeIrradianceNamesTheEntry) {
+  StackObservation photo{ObservationGroup::kColour, "photo", {0, 0, 0}, 0, {1, 0, 0}, {}, "image 0"};
+  photo.emitters.push_back(PointEmitter::AtInfinity(Eigen::Vector3d::UnitZ(), 1));
+  const std::string table = ObservationTableToJson({photo});
+  std::string long_direction = table;
+  long_direction.replace(long_direction.find("[0.0,0.0,1.0,1.0]"), 17, "[0.0,0.0,2.0,1.0]");
+  const auto parsed = ParseObservationTable(long_direction, "photo.exr");
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_NE(parsed.status().ToString().find("entry 0"), std::string::npos) << parsed.status().ToString();
+  EXPECT_NE(parsed.status().ToString().find("not a unit vector"), std::string::npos) << parsed.status().ToString();
+  std::string negative = table;
+  negative.replace(negative.find("[0.0,0.0,1.0,1.0]"), 17, "[0.0,0.0,1.0,-1.0]");
+  EXPECT_FALSE(ParseObservationTable(negative, "photo.exr").ok());
+}
+
 TEST_F(ObservationStackTest, AMismatchedTableNamesTheFile) {
   ObservationStack stack = SmallStack();
   // Two observation channels but a table of one: written around WriteObservationStack's CHECK.

@@ -33,15 +33,21 @@ double Percentile(std::vector<double> values, double q) {
   return values[static_cast<size_t>(q * (values.size() - 1))];
 }
 
+// A pixel the fit skipped (masked, unseen: fitting writes NaN maps there) is left out of every
+// score, for the fit and the reference alike.
+bool Fitted(const Image& maps, int x, int y) { return !IsSkippedPixel(maps, x, y); }
+
 void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& evaluation) {
   std::array<double, kLabelGroups.size()> squares{};
   double product_squares = 0;
   double anisotropic_alpha_squares = 0;
   std::vector<double> anisotropic_alpha_deg;
   std::vector<double> normal_deg;
-  const int pixels = maps.width() * maps.height();
+  int pixels = 0;
   for (int y = 0; y < maps.height(); ++y) {
     for (int x = 0; x < maps.width(); ++x) {
+      if (!Fitted(maps, x, y) || !Fitted(reference, x, y)) continue;
+      ++pixels;
       const WardParams<double> fit = WithSigmaXLarger(GetParams(maps, x, y));
       const WardParams<double> truth = WithSigmaXLarger(GetParams(reference, x, y));
       const Label a = EncodeLabel(fit);
@@ -62,6 +68,7 @@ void AddParameterErrors(const Image& maps, const Image& reference, Evaluation& e
       normal_deg.push_back(RadToDeg(std::acos(std::clamp(fit.n_s.normalized().dot(truth.n_s.normalized()), -1.0, 1.0))));
     }
   }
+  pixels = std::max(pixels, 1);
   for (size_t g = 0; g < kLabelGroups.size(); ++g) {
     evaluation.parameters.push_back({kLabelGroups[g].name, std::sqrt(squares[g] / pixels) / kLabelGroups[g].range});
   }
@@ -87,15 +94,21 @@ double MeanSquaredLaplacian(const Image& maps, const LabelGroup& group) {
   }
   const auto at = [&](int x, int y, int c) { return labels[static_cast<size_t>(y) * w + x][c]; };
   double sum = 0;
+  int64_t counted = 0;
   for (int y = 1; y + 1 < h; ++y) {
     for (int x = 1; x + 1 < w; ++x) {
+      if (!Fitted(maps, x, y) || !Fitted(maps, x - 1, y) || !Fitted(maps, x + 1, y) || !Fitted(maps, x, y - 1) ||
+          !Fitted(maps, x, y + 1)) {
+        continue;
+      }
+      ++counted;
       for (int c = group.first; c < group.first + group.count; ++c) {
         const double laplacian = at(x - 1, y, c) + at(x + 1, y, c) + at(x, y - 1, c) + at(x, y + 1, c) - 4 * at(x, y, c);
         sum += laplacian * laplacian / group.count;
       }
     }
   }
-  return sum / ((w - 2.0) * (h - 2.0));
+  return counted ? sum / static_cast<double>(counted) : 0;
 }
 
 void AddMapNoise(const Image& maps, const std::optional<Image>& reference, Evaluation& evaluation) {
@@ -124,6 +137,7 @@ std::vector<std::vector<RenderError>> RenderErrors(const std::vector<const Image
   std::vector<GroupSums> rows(static_cast<size_t>(height) * maps.size());  // [row][maps]
   ParallelFor(height, 0, [&](int y) {
     for (int x = 0; x < width; ++x) {
+      if (!std::all_of(maps.begin(), maps.end(), [&](const Image* m) { return Fitted(*m, x, y); })) continue;
       const std::vector<PixelObservation> observations = pixels.Observations(x, y);
       for (size_t m = 0; m < maps.size(); ++m) {
         const WardLobe<double> lobe(GetParams(*maps[m], x, y));
@@ -177,6 +191,60 @@ Status CheckGrid(const Image& maps, const ObservationStack& stack, const std::st
 }
 
 }  // namespace
+
+Result<NormalComparison> CompareNormals(const Image& maps, const ObservationStack& stack, const Image& reference) {
+  LOOM_RETURN_IF_ERROR(CheckGrid(maps, stack, "the fitted maps"));
+  if (reference.width() != stack.image.width() || reference.height() != stack.image.height() || reference.num_channels() < 3) {
+    return InvalidArgumentError("the reference normals",
+                                std::to_string(reference.width()) + "x" + std::to_string(reference.height()) +
+                                    " px does not match the stack's " + std::to_string(stack.image.width()) + "x" +
+                                    std::to_string(stack.image.height()));
+  }
+  const StackPixels pixels(stack);
+  constexpr int kBands = 9;
+  std::vector<double> angles;
+  std::array<std::pair<int, double>, kBands> bands{};  // pixels, sum of angles
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      const Eigen::Vector3d truth(reference.at(0, y, x), reference.at(1, y, x), reference.at(2, y, x));
+      if (!Fitted(maps, x, y) || !truth.allFinite() || truth.norm() < 0.5) continue;
+      const Eigen::Vector3d fit = pixels.LocalFromSample(x, y).transpose() * GetParams(maps, x, y).n_s.normalized();
+      const double angle = RadToDeg(std::acos(std::clamp(fit.dot(truth.normalized()), -1.0, 1.0)));
+      const double tilt = RadToDeg(std::acos(std::clamp(truth.normalized().z(), -1.0, 1.0)));
+      angles.push_back(angle);
+      auto& band = bands[std::clamp(static_cast<int>(tilt / 10), 0, kBands - 1)];
+      ++band.first, band.second += angle;
+    }
+  }
+  NormalComparison comparison;
+  comparison.pixels = static_cast<int>(angles.size());
+  if (angles.empty()) return comparison;
+  double sum = 0;
+  for (double a : angles) sum += a;
+  comparison.mean_deg = sum / static_cast<double>(angles.size());
+  comparison.median_deg = Percentile(angles, 0.5);
+  comparison.p90_deg = Percentile(angles, 0.9);
+  for (int b = 0; b < kBands; ++b) {
+    if (bands[b].first == 0) continue;
+    comparison.bands.push_back({10.0 * b, 10.0 * (b + 1), bands[b].first, bands[b].second / bands[b].first});
+  }
+  return comparison;
+}
+
+nlohmann::json NormalComparison::ToJson() const {
+  nlohmann::json by_tilt = nlohmann::json::array();
+  for (const Band& b : bands) {
+    by_tilt.push_back({{"from_deg", b.from_deg}, {"to_deg", b.to_deg}, {"pixels", b.pixels}, {"mean_deg", b.mean_deg}});
+  }
+  return {{"pixels", pixels}, {"mean_deg", mean_deg}, {"median_deg", median_deg}, {"p90_deg", p90_deg}, {"by_tilt", by_tilt}};
+}
+
+void NormalComparison::Report(std::ostream& out) const {
+  out << std::fixed << std::setprecision(2) << "normals against the reference (" << pixels << " px): mean " << mean_deg
+      << "°, median " << median_deg << "°, p90 " << p90_deg << "°\n  by true tilt:";
+  for (const Band& b : bands) out << " " << b.from_deg << "–" << b.to_deg << "° " << b.mean_deg << " (" << b.pixels << ")";
+  out << "\n";
+}
 
 double Evaluation::FitL1() const { return AllGroup(fit_vs_measured); }
 double Evaluation::ReferenceL1() const { return AllGroup(reference_vs_measured); }

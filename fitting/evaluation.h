@@ -21,6 +21,8 @@
 #include "core/image.h"
 #include "core/observation_stack.h"
 
+#include <nlohmann/json.hpp>
+
 namespace loom::fitting {
 
 struct ParameterError {
@@ -68,6 +70,26 @@ struct Evaluation {
 };
 
 Result<Evaluation> Evaluate(const Image& maps, const std::optional<Image>& reference, const ObservationStack& stack);
+
+// Shading normals against a reference normal map (a photometric-stereo benchmark's ground truth,
+// or a simulated object's): the angle between them over the pixels both have, and the same by
+// the reference's tilt (its angle off the stack's z axis) in bands of 10°.
+struct NormalComparison {
+  struct Band {
+    double from_deg = 0, to_deg = 0;
+    int pixels = 0;
+    double mean_deg = 0;
+  };
+  int pixels = 0;  // compared: fitted, and a reference normal there
+  double mean_deg = 0, median_deg = 0, p90_deg = 0;
+  std::vector<Band> bands;  // 0–10°, …, 80–90° of true tilt; empty bands left out
+  nlohmann::json ToJson() const;
+  void Report(std::ostream& out) const;
+};
+// `reference`: channels X, Y, Z on the stack's grid, in the stack's sample frame (y down the
+// image; a zero or NaN vector: no reference there). The fit's n_s, in each pixel's local
+// geometric frame, is turned into the sample frame first. Grids must match.
+Result<NormalComparison> CompareNormals(const Image& maps, const ObservationStack& stack, const Image& reference);
 
 // The mean of observation `observation`'s measured values over the pixels that see it (0 when
 // none does).

@@ -61,22 +61,39 @@ const std::vector<std::string>& SvbrdfPreviewNames() {
 
 namespace {
 
-// A parameter that is not a number would reach a renderer as garbage: such maps are refused.
+// A parameter that is not a number would reach a renderer as garbage: such maps are refused,
+// but for a pixel NaN in every parameter, which the fit skipped (masked or unseen).
 Status CheckFiniteParameters(const Image& maps, const std::filesystem::path& path) {
-  for (int c = 0; c < kNumWardParams; ++c) {
-    const std::span<const float> values = maps.channel(c);
-    const auto bad = std::find_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); });
-    if (bad != values.end()) {
-      const int pixel = static_cast<int>(bad - values.begin());
-      return InvalidArgumentError(path.string(), std::string("not written: ") + kSvbrdfChannels[c] + " at pixel (" +
-                                                     std::to_string(pixel % maps.width()) + ", " +
-                                                     std::to_string(pixel / maps.width()) + ") is not a finite number");
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      if (IsSkippedPixel(maps, x, y)) continue;
+      for (int c = 0; c < kNumWardParams; ++c) {
+        if (std::isfinite(maps.at(c, y, x))) continue;
+        return InvalidArgumentError(path.string(), std::string("not written: ") + kSvbrdfChannels[c] + " at pixel (" +
+                                                       std::to_string(x) + ", " + std::to_string(y) + ") is not a finite number");
+      }
     }
   }
   return Status::Ok();
 }
 
 }  // namespace
+
+int BlackenSkippedPixels(Image& maps) {
+  WardParams<double> black;
+  black.n_s = Eigen::Vector3d::UnitZ();
+  black.a_d = black.a_s = Eigen::Vector3d::Zero();
+  black.sigma_x = black.sigma_y = 1;
+  black.alpha = 0;
+  black.f0 = 1;
+  int count = 0;
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      if (IsSkippedPixel(maps, x, y)) SetParams(maps, x, y, black), ++count;
+    }
+  }
+  return count;
+}
 
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance) {
   LOOM_RETURN_IF_ERROR(CheckFiniteParameters(maps, dir / "svbrdf.exr"));
@@ -104,6 +121,11 @@ Status WriteSvbrdfPreviews(const Image& maps, const std::filesystem::path& dir, 
   }
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
+      if (IsSkippedPixel(maps, x, y)) {  // black in every preview
+        for (cv::Mat* m : {&diffuse, &specular, &normal, &sigma, &alpha}) m->at<cv::Vec3b>(y, x) = {0, 0, 0};
+        height.at<uint8_t>(y, x) = 0;
+        continue;
+      }
       const WardParams<double> p = GetParams(maps, x, y);
       diffuse.at<cv::Vec3b>(y, x) = Bgr(p.a_d.x(), p.a_d.y(), p.a_d.z());
       specular.at<cv::Vec3b>(y, x) = Bgr(p.a_s.x(), p.a_s.y(), p.a_s.z());

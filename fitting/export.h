@@ -27,6 +27,11 @@ struct SvbrdfProvenance {
 // attributes) and its previews (WriteSvbrdfPreviews); DIR is created.
 Status WriteSvbrdf(const std::filesystem::path& dir, const Image& maps, const SvbrdfProvenance& provenance);
 
+// The pixels a fit skipped (IsSkippedPixel) made black and matte (a_d = a_s = 0, the normal up,
+// σ 1, α 0, F0 1), for formats that cannot hold NaN: a renderer shows the mask as black. Returns
+// how many.
+int BlackenSkippedPixels(Image& maps);
+
 // The previews' file names, in the order WriteSvbrdfPreviews writes them (without ".png").
 const std::vector<std::string>& SvbrdfPreviewNames();
 

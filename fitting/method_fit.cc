@@ -3,12 +3,21 @@
 #include <chrono>
 
 #include "fitting/cnn.h"
+#include "fitting/lambert_fit.h"
 
 namespace loom::fitting {
 
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
                                 StackFitOptions options) {
   MethodFit fit;
+  if (method == FitMethod::kLambert) {
+    LambertFitOptions lambert;
+    lambert.threads = options.threads;
+    LOOM_ASSIGN_OR_RETURN(LambertFit lambert_fit, FitLambert(stack, lambert));
+    fit.maps = std::move(lambert_fit.maps);
+    fit.lambert = lambert_fit.ToJson();
+    return fit;
+  }
   if (StartsFromCnn(method)) {
     if (!std::filesystem::exists(model_dir / "model.json")) {
       return NotFoundError(model_dir.string(), "no CNN model here (model.json) for rig '" + stack.rig +
@@ -33,6 +42,7 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
 
 nlohmann::json MethodFit::ToJson() const {
   nlohmann::json json = summary ? summary->ToJson() : nlohmann::json{{"pixels", maps.pixel_count()}};
+  if (!lambert.is_null()) json.update(lambert);
   if (summary) json.update(settings);
   std::vector<std::string> uncertainty;
   for (const std::string& name : maps.channel_names()) {

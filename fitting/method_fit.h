@@ -1,7 +1,8 @@
 #pragma once
 // What `loom fit --method` does, in one call: for the cnn methods the CNN's maps of the stack
 // (cnn.h), then, unless the method is the CNN alone, the whole-stack fit the method names
-// (stack_fitter.h) started from those maps or from the clusters' fits.
+// (stack_fitter.h) started from those maps or from the clusters' fits; for lambert, robust
+// photometric stereo (lambert_fit.h).
 
 #include <filesystem>
 #include <optional>
@@ -17,7 +18,8 @@ namespace loom::fitting {
 
 struct MethodFit {
   Image maps;                              // svbrdf_maps.h's layout, plus the fit's channels
-  std::optional<StackFitSummary> summary;  // none for the CNN alone
+  std::optional<StackFitSummary> summary;  // none for the CNN alone and for lambert
+  nlohmann::json lambert;                  // lambert's summary (LambertFit::ToJson), null for the others
   nlohmann::json settings;                 // the options the fit ran with (StackFitOptions::ToJson)
   std::string cnn;                         // the model used, described in a line ("" without one)
   double cnn_seconds = 0;

@@ -64,7 +64,9 @@ Status WriteFloats(const fs::path& path, const Image& rgb) {
 std::vector<RendererView> ChooseRendererViews(const ObservationStack& stack, int count) {
   std::vector<std::pair<double, int>> by_brightness;
   for (size_t k = 0; k < stack.observations.size(); ++k) {
-    if (stack.observations[k].emitters.size() != 1) continue;
+    // One point light seen from a camera centre: the views a renderer's scene can reproduce.
+    const StackObservation& o = stack.observations[k];
+    if (o.emitters.size() != 1 || o.emitters.front().at_infinity || o.view_direction) continue;
     by_brightness.push_back({MeanObservedRadiance(stack, static_cast<int>(k)), static_cast<int>(k)});
   }
   std::sort(by_brightness.rbegin(), by_brightness.rend());

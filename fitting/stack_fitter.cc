@@ -15,6 +15,8 @@
 #include "core/duration.h"
 #include "core/parallel.h"
 #include "fitting/internal/neighbour_lobes.h"
+#include "fitting/internal/normal_frame.h"
+#include "fitting/lambert_fit.h"
 #include "fitting/model/svbrdf_maps.h"
 
 namespace loom::fitting {
@@ -22,15 +24,17 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// log(1 + L / typical): compresses highlights so that k-means groups by appearance, not by
-// the few brightest observations.
-cv::Mat AppearanceFeatures(const ObservationStack& stack) {
-  const int pixels = static_cast<int>(stack.image.pixel_count());
+// log(1 + L / typical) of the pixels `rows` (indices into the stack): compresses highlights so
+// that k-means groups by appearance, not by the few brightest observations.
+cv::Mat AppearanceFeatures(const ObservationStack& stack, const std::vector<int>& rows) {
   const int n = static_cast<int>(stack.observations.size());
+  const auto value = [&](int k, int i) {
+    return stack.image.channel(ObservationStack::ObservationChannel(k))[static_cast<size_t>(i)];
+  };
   std::vector<float> finite;
   for (int k = 0; k < n; ++k) {
-    for (float v : stack.image.channel(ObservationStack::ObservationChannel(k))) {
-      if (std::isfinite(v) && v > 0) finite.push_back(v);
+    for (int i : rows) {
+      if (const float v = value(k, i); std::isfinite(v) && v > 0) finite.push_back(v);
     }
   }
   float typical = 1;
@@ -38,21 +42,89 @@ cv::Mat AppearanceFeatures(const ObservationStack& stack) {
     std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
     typical = finite[finite.size() / 2];
   }
-  cv::Mat features(pixels, n, CV_32F);
+  cv::Mat features(static_cast<int>(rows.size()), n, CV_32F);
   for (int k = 0; k < n; ++k) {
-    const auto values = stack.image.channel(ObservationStack::ObservationChannel(k));
     double sum = 0;
     int seen = 0;
-    for (float v : values) {
-      if (std::isfinite(v)) sum += std::log1p(std::max(0.0f, v) / typical), ++seen;
+    for (int i : rows) {
+      if (const float v = value(k, i); std::isfinite(v)) sum += std::log1p(std::max(0.0f, v) / typical), ++seen;
     }
     const float unseen = seen ? static_cast<float>(sum / seen) : 0.0f;
-    for (int i = 0; i < pixels; ++i) {
-      const float v = values[i];
-      features.at<float>(i, k) = std::isfinite(v) ? std::log1p(std::max(0.0f, v) / typical) : unseen;
+    for (size_t r = 0; r < rows.size(); ++r) {
+      const float v = value(k, rows[r]);
+      features.at<float>(static_cast<int>(r), k) = std::isfinite(v) ? std::log1p(std::max(0.0f, v) / typical) : unseen;
     }
   }
   return features;
+}
+
+// The pixels that a fit can use: those with at least as many seen observations as GD10 has
+// parameters. The others (masked, as an imported photograph's background is, or unseen by the
+// cameras) are skipped: NaN maps, counted, never an error.
+std::vector<int> FittablePixels(const ObservationStack& stack) {
+  const int pixels = static_cast<int>(stack.image.pixel_count());
+  std::vector<int> seen(pixels, 0);
+  for (size_t k = 0; k < stack.observations.size(); ++k) {
+    const auto values = stack.image.channel(ObservationStack::ObservationChannel(static_cast<int>(k)));
+    for (int i = 0; i < pixels; ++i) seen[i] += !std::isnan(values[i]);
+  }
+  std::vector<int> fittable;
+  for (int i = 0; i < pixels; ++i) {
+    if (seen[i] >= kNumWardParams) fittable.push_back(i);
+  }
+  return fittable;
+}
+
+// Where a pixel without a cluster (one FittablePixels leaves out) starts: it is never fitted, but
+// the refiner's batches take a finite start for every pixel.
+WardParams<double> NeutralStart() {
+  WardParams<double> p;
+  p.n_s = Eigen::Vector3d::UnitZ();
+  p.a_d = Eigen::Vector3d::Constant(0.5);
+  p.a_s = Eigen::Vector3d::Constant(0.01);
+  p.sigma_x = p.sigma_y = 0.2;
+  p.alpha = 0;
+  p.f0 = 1;
+  return p;
+}
+
+// A pixel that was not fitted, in every parameter.
+WardParams<double> NanParams() {
+  WardParams<double> p;
+  p.n_s = p.a_d = p.a_s = Eigen::Vector3d::Constant(NAN);
+  p.sigma_x = p.sigma_y = p.alpha = p.f0 = NAN;
+  return p;
+}
+
+// Per pixel, its photometric-stereo normal and albedo (lambert_fit.h), where the fit starts from
+// them: the turn of its observations onto that normal. Empty: every pixel as the stack has it.
+class NormalStarts {
+ public:
+  NormalStarts() = default;
+  explicit NormalStarts(std::vector<std::optional<LambertPixel>> pixels) : pixels_(std::move(pixels)) {}
+  std::optional<Eigen::Matrix3d> Turn(int i) const {
+    if (pixels_.empty() || !pixels_[i]) return std::nullopt;
+    return internal::TurnOntoZ(pixels_[i]->normal);
+  }
+  const std::optional<LambertPixel>& Pixel(int i) const { return pixels_[i]; }
+  bool empty() const { return pixels_.empty(); }
+
+ private:
+  std::vector<std::optional<LambertPixel>> pixels_;
+};
+
+// Grid-searched starts (GridInitialParams, or the refiner's GridStarts through `search`) around
+// the pixel's photometric-stereo normal where it has one: the search's normals lie within 20° of
+// the normal it is given, and a curved surface tilts much further than that.
+std::vector<WardParams<double>> GridStartsAround(
+    const std::optional<Eigen::Matrix3d>& turn, const std::vector<PixelObservation>& observations,
+    const std::function<std::vector<WardParams<double>>(const std::vector<PixelObservation>&)>& search) {
+  if (!turn) return search(observations);
+  std::vector<PixelObservation> turned = observations;
+  internal::TurnObservations(*turn, turned);
+  std::vector<WardParams<double>> starts = search(turned);
+  for (WardParams<double>& start : starts) start = internal::TurnedBack(*turn, start);
+  return starts;
 }
 
 // RMS of the model's residuals relative to the pixel's mean radiance.
@@ -107,9 +179,12 @@ PixelOutcome FitFromStart(const std::vector<PixelObservation>& observations, con
 // A pixel fitted again from grid-searched starts (its highlight is not where its start put it);
 // the better of the two fits is kept.
 PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, const PixelOutcome& first,
-                           const PixelFitOptions& fit, const StackFitOptions& options) {
-  Result<PixelFitResult> again =
-      FitFromStarts(observations, GridInitialParams(observations, fit.fixed_f0.value_or(1.0), options.retry_grid_starts), fit);
+                           const PixelFitOptions& fit, const StackFitOptions& options,
+                           const std::optional<Eigen::Matrix3d>& turn) {
+  const std::vector<WardParams<double>> starts = GridStartsAround(turn, observations, [&](const auto& o) {
+    return GridInitialParams(o, fit.fixed_f0.value_or(1.0), options.retry_grid_starts);
+  });
+  Result<PixelFitResult> again = FitFromStarts(observations, starts, fit);
   if (!again.ok() || again->cost >= first.cost) return first;
   return {again->params,
           again->cost,
@@ -275,7 +350,8 @@ std::vector<int> FittedNeighbours(const std::vector<PixelOutcome>& outcomes, int
 // Returns how many were finished.
 Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                              const RefineOptions& refine, const StackFitOptions& options, double threshold,
-                             const std::function<WardParams<double>(int)>& start_of, std::vector<PixelOutcome>& outcomes) {
+                             const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals,
+                             std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width(), height = pixels.height();
   const int grid_starts = options.retry_grid_starts;
   const int per_pixel = grid_starts + 1;                                               // the grid's starts, then the first fit
@@ -291,8 +367,9 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
       candidates.push_back(outcomes[n].params);
     }
     if (const int more = grid_starts - static_cast<int>(candidates.size()); more > 0) {
-      for (const WardParams<double>& p :
-           GridStarts(observations[r], refine.fixed_f0.value_or(1.0), more, kGridLights, kGridNormals)) {
+      for (const WardParams<double>& p : GridStartsAround(normals.Turn(i), observations[r], [&](const auto& o) {
+             return GridStarts(o, refine.fixed_f0.value_or(1.0), more, kGridLights, kGridNormals);
+           })) {
         candidates.push_back(p);
       }
     }
@@ -421,8 +498,8 @@ Result<std::vector<int>> PropagateFromNeighbours(const StackPixels& pixels, cons
 // the fit when repeated), about 150 KB a pixel on tac7-mini. Returns how many were finished.
 Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                           const RefineOptions& refine, const StackFitOptions& options, double threshold,
-                          const std::function<WardParams<double>(int)>& start_of, const std::function<void(int)>& progress,
-                          std::vector<PixelOutcome>& outcomes) {
+                          const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals,
+                          const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   constexpr size_t kChunk = 512;
   int finished = 0;
   for (size_t first = 0; first < retry.size(); first += kChunk) {
@@ -430,7 +507,7 @@ Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& sta
     const std::vector<int> chunk(retry.begin() + static_cast<std::ptrdiff_t>(first),
                                  retry.begin() + static_cast<std::ptrdiff_t>(end));
     LOOM_ASSIGN_OR_RETURN(const int chunk_finished,
-                          RefineRetryChunk(pixels, stack, chunk, refine, options, threshold, start_of, outcomes));
+                          RefineRetryChunk(pixels, stack, chunk, refine, options, threshold, start_of, normals, outcomes));
     finished += chunk_finished;
     progress(static_cast<int>(end));
   }
@@ -495,7 +572,7 @@ Status SmoothingPass(const StackPixels& pixels, const ObservationStack& stack, R
                      const Image* guide, const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width();
   std::vector<WardParams<double>> fits(outcomes.size());
-  for (size_t i = 0; i < outcomes.size(); ++i) fits[i] = outcomes[i].params;
+  for (size_t i = 0; i < outcomes.size(); ++i) fits[i] = outcomes[i].fitted ? outcomes[i].params : NanParams();
   const std::vector<WardParams<double>> lobes = internal::NeighbourLobes(fits, width, pixels.height(), guide);
   std::vector<WardParams<double>> targets(outcomes.size());
   for (size_t i = 0; i < outcomes.size(); ++i) targets[i] = SmoothingTarget(lobes[i], outcomes[i].params);
@@ -680,9 +757,11 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
   return material;
 }
 
-// The cluster's start: its most typical pixels' observations pooled into one fit.
+// The cluster's start: its most typical pixels' observations pooled into one fit, each pixel's
+// turned onto its photometric-stereo normal where it has one (the fit's n_s is then relative
+// to each pixel's normal).
 Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters& clusters, int cluster,
-                                  const StackFitOptions& options) {
+                                  const StackFitOptions& options, const NormalStarts& normals) {
   std::vector<std::pair<float, int>> members;
   for (size_t i = 0; i < clusters.labels.size(); ++i) {
     if (clusters.labels[i] == cluster) members.push_back({clusters.distances[i], static_cast<int>(i)});
@@ -693,6 +772,7 @@ Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters
   for (size_t m = 0; m < take; ++m) {
     const int i = members[m].second;
     std::vector<PixelObservation> own = pixels.Observations(i % pixels.width(), i / pixels.width());
+    if (const std::optional<Eigen::Matrix3d> turn = normals.Turn(i)) internal::TurnObservations(*turn, own);
     pooled.insert(pooled.end(), std::make_move_iterator(own.begin()), std::make_move_iterator(own.end()));
   }
   PixelFitOptions fit = options.cluster_fit;
@@ -702,14 +782,16 @@ Result<PixelFitResult> FitCluster(const StackPixels& pixels, const PixelClusters
 
 // Steps 1–3: every cluster's fit (the material's F0 is searched after, SearchF0).
 template <typename Report>
-Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, const StackFitOptions& options, const Report& report,
-                   StackFitSummary& summary) {
+Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, const StackFitOptions& options,
+                   const NormalStarts& normals, const Report& report, StackFitSummary& summary) {
   std::vector<Result<PixelFitResult>> cluster_fits(clusters.count, InternalError("cluster", "not fitted"));
   ParallelFor(
-      clusters.count, options.threads, [&](int c) { cluster_fits[c] = FitCluster(pixels, clusters, c, options); },
+      clusters.count, options.threads, [&](int c) { cluster_fits[c] = FitCluster(pixels, clusters, c, options, normals); },
       [&](int done) { report("clusters", done, clusters.count); });
   summary.cluster_sizes.assign(clusters.count, 0);
-  for (int label : clusters.labels) ++summary.cluster_sizes[label];
+  for (int label : clusters.labels) {
+    if (label >= 0) ++summary.cluster_sizes[label];
+  }
   for (int c = 0; c < clusters.count; ++c) {
     if (!cluster_fits[c].ok()) {
       return FailedPreconditionError("cluster " + std::to_string(c) + " of the stack", cluster_fits[c].status().ToString());
@@ -719,6 +801,8 @@ Status FitClusters(const StackPixels& pixels, const PixelClusters& clusters, con
   return {};
 }
 
+// Maps of the outcomes; a pixel that was not fitted (skipped, or left with too few usable
+// observations) is NaN in every parameter: no map claims a value that no data support.
 Image MapsOf(const std::vector<PixelOutcome>& outcomes, const PixelClusters& clusters, const ObservationStack& stack) {
   const int width = stack.image.width();
   Image maps = MakeSvbrdfImage(width, stack.image.height(), /*with_height=*/true);
@@ -734,10 +818,10 @@ Image MapsOf(const std::vector<PixelOutcome>& outcomes, const PixelClusters& clu
   }
   for (size_t i = 0; i < outcomes.size(); ++i) {
     const int x = static_cast<int>(i) % width, y = static_cast<int>(i) / width;
-    SetParams(maps, x, y, outcomes[i].params);
+    SetParams(maps, x, y, outcomes[i].fitted ? outcomes[i].params : NanParams());
     maps.at(cluster_channel, y, x) = static_cast<float>(clusters.labels[i]);
     maps.at(used_channel, y, x) = static_cast<float>(outcomes[i].observations);
-    maps.at(rms_channel, y, x) = static_cast<float>(outcomes[i].rms);
+    maps.at(rms_channel, y, x) = outcomes[i].fitted ? static_cast<float>(outcomes[i].rms) : NAN;
     if (!with_uncertainty) continue;
     const std::optional<ParamSigma>& s = outcomes[i].sigma;
     const double values[kUncertaintyChannels.size()] = {
@@ -757,7 +841,7 @@ void Summarise(const std::vector<PixelOutcome>& outcomes, StackFitSummary& summa
     iterations += o.iterations;
     observations += o.observations;
   }
-  summary.pixels_kept_at_cluster = summary.pixels - summary.pixels_fitted;
+  summary.pixels_skipped = summary.pixels - summary.pixels_fitted;
   summary.mean_iterations = summary.pixels_fitted ? static_cast<double>(iterations) / summary.pixels_fitted : 0;
   summary.mean_observations = summary.pixels ? static_cast<double>(observations) / summary.pixels : 0;
 }
@@ -768,6 +852,7 @@ nlohmann::json StackFitOptions::ToJson() const {
   const bool refiner = solver == PixelSolver::kBatchRefiner;
   return {{"solver", refiner ? "batch refiner (" + RefinerInstructionSet() + ")" : "ceres"},
           {"clusters", clusters},
+          {"photometric_stereo_starts", photometric_stereo_starts},
           {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
           {"retries", retry_poor_fits},
           {"retry_above", retry_above_noise_rms},
@@ -795,7 +880,7 @@ Result<std::optional<double>> ParseFixedF0(const std::string& text, const std::s
 nlohmann::json StackFitSummary::ToJson() const {
   return {{"pixels", pixels},
           {"pixels_fitted", pixels_fitted},
-          {"pixels_kept_at_cluster", pixels_kept_at_cluster},
+          {"pixels_skipped", pixels_skipped},
           {"pixels_retried", pixels_retried},
           {"pixels_nodes_replaced", pixels_nodes_replaced},
           {"pixels_propagated", pixels_propagated},
@@ -824,9 +909,9 @@ nlohmann::json StackFitSummary::ToJson() const {
 
 void StackFitSummary::Report(std::ostream& out) const {
   const std::string start = cluster_sizes.empty() ? "the initial maps" : std::to_string(cluster_sizes.size()) + " clusters";
-  out << std::fixed << std::setprecision(2) << "fitted " << pixels_fitted << " of " << pixels << " px (" << pixels_kept_at_cluster
-      << " kept at their start, " << pixels_retried << " retried, relative RMS above " << retry_threshold_rms << ": "
-      << pixels_propagated << " brought below it from a neighbour's fit, " << pixels_retry_finished
+  out << std::fixed << std::setprecision(2) << "fitted " << pixels_fitted << " of " << pixels << " px (" << pixels_skipped
+      << " skipped: masked, unseen or too few usable observations; " << pixels_retried << " retried, relative RMS above "
+      << retry_threshold_rms << ": " << pixels_propagated << " brought below it from a neighbour's fit, " << pixels_retry_finished
       << " refitted from a grid start) from " << start << "; F0 " << f0 << "; " << mean_observations << " observations and "
       << mean_iterations << " iterations per pixel\n"
       << "time: clusters " << FormatDuration(cluster_seconds) << ", pixels " << FormatDuration(pixel_seconds) << " ("
@@ -874,19 +959,22 @@ Status StackFitOptions::Check() const {
 }
 
 PixelClusters ClusterPixels(const ObservationStack& stack, int clusters, uint64_t seed) {
-  const cv::Mat features = AppearanceFeatures(stack);
+  const std::vector<int> fittable = FittablePixels(stack);
+  const cv::Mat features = AppearanceFeatures(stack, fittable);
   PixelClusters result;
   result.count = std::min(clusters, features.rows);
-  result.labels.assign(features.rows, 0);
-  result.distances.assign(features.rows, 0);
+  result.labels.assign(stack.image.pixel_count(), -1);
+  result.distances.assign(stack.image.pixel_count(), 0);
+  for (int i : fittable) result.labels[i] = 0;
   if (result.count <= 1) return result;
   cv::Mat labels, centres;
   cv::theRNG().state = seed;  // k-means++ seeding draws from OpenCV's thread-local generator
   cv::kmeans(features, result.count, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4), 3,
              cv::KMEANS_PP_CENTERS, centres);
-  for (int i = 0; i < features.rows; ++i) {
-    result.labels[i] = labels.at<int>(i);
-    result.distances[i] = static_cast<float>(cv::norm(features.row(i), centres.row(result.labels[i])));
+  for (int r = 0; r < features.rows; ++r) {
+    const int i = fittable[r];
+    result.labels[i] = labels.at<int>(r);
+    result.distances[i] = static_cast<float>(cv::norm(features.row(r), centres.row(result.labels[i])));
   }
   return result;
 }
@@ -909,6 +997,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
 
   const Clock::time_point cluster_start = Clock::now();
   PixelClusters clusters;
+  NormalStarts normals;
   if (options.initial_maps) {
     const Image& initial = *options.initial_maps;
     if (initial.width() != width || initial.height() != height || !HasSvbrdfLayout(initial)) {
@@ -918,14 +1007,28 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     }
     clusters.labels.assign(pixel_count, -1);
   } else {
+    if (options.photometric_stereo_starts) normals = NormalStarts(LambertPixels(stack, {.threads = options.threads}));
     clusters = ClusterPixels(stack, options.clusters, options.seed);
-    LOOM_RETURN_IF_ERROR(FitClusters(pixels, clusters, options, report, summary));
+    if (clusters.count == 0) {
+      return FailedPreconditionError("stack", "no pixel has " + std::to_string(kNumWardParams) +
+                                                  " or more seen observations: nothing to fit (is every pixel masked?)");
+    }
+    LOOM_RETURN_IF_ERROR(FitClusters(pixels, clusters, options, normals, report, summary));
   }
   summary.cluster_seconds = SecondsSince(cluster_start);
 
   const auto start_at = [&](int i, double f0) {
-    WardParams<double> start = options.initial_maps ? GetParams(*options.initial_maps, i % width, i / width)
-                                                    : summary.cluster_params[clusters.labels[i]];
+    WardParams<double> start = options.initial_maps      ? GetParams(*options.initial_maps, i % width, i / width)
+                               : clusters.labels[i] >= 0 ? summary.cluster_params[clusters.labels[i]]
+                                                         : NeutralStart();
+    if (!start.n_s.allFinite()) start = NeutralStart();  // start maps with a masked pixel
+    if (!options.initial_maps && clusters.labels[i] >= 0) {
+      if (const std::optional<Eigen::Matrix3d> turn = normals.Turn(i)) {
+        // The cluster's lobe on the pixel's own normal, with the pixel's own albedo.
+        start = internal::TurnedBack(*turn, start);
+        start.a_d = normals.Pixel(i)->albedo.cwiseMin(kMaxAlbedo);
+      }
+    }
     return f0 > 0 ? AtF0(start, f0) : start;  // keeps a_s·F0, the observable product
   };
   const bool refiner = options.solver == PixelSolver::kBatchRefiner;
@@ -988,9 +1091,9 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   end_stage(stage.propagation);
   const auto retry_progress = [&](int done) { report("retries", done, static_cast<int>(retry.size())); };
   if (refiner) {
-    LOOM_ASSIGN_OR_RETURN(
-        summary.pixels_retry_finished,
-        RefineRetries(pixels, stack, retry, refine, options, summary.retry_threshold_rms, start_of, retry_progress, outcomes));
+    LOOM_ASSIGN_OR_RETURN(summary.pixels_retry_finished,
+                          RefineRetries(pixels, stack, retry, refine, options, summary.retry_threshold_rms, start_of, normals,
+                                        retry_progress, outcomes));
     end_stage(stage.retries);
     if (smoothing.weight > 0) {
       LOOM_RETURN_IF_ERROR(SmoothingPass(
@@ -1004,7 +1107,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
         [&](int r) {
           const int i = retry[r];
           const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
-          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options);
+          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options, normals.Turn(i));
         },
         retry_progress);
     summary.pixels_retry_finished = static_cast<int>(retry.size());
@@ -1028,6 +1131,8 @@ std::string_view FitMethodName(FitMethod method) {
       return "cnn+ceres";
     case FitMethod::kCnnRefine:
       return "cnn+refine";
+    case FitMethod::kLambert:
+      return "lambert";
   }
   return "?";
 }

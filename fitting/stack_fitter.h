@@ -1,15 +1,19 @@
 #pragma once
 // The Ceres fit of a whole observation stack, in the paper's reference pipeline's order:
+//  0. each pixel's normal and albedo by robust photometric stereo (lambert_fit.h);
 //  1. cluster the pixels by appearance (k-means on their log radiances, OpenCV);
 //  2. fit each cluster on the pooled observations of its most typical pixels — many more
-//     angular samples than one pixel has — from the best grid-searched starts;
+//     angular samples than one pixel has — each turned onto its own normal, from the best
+//     grid-searched starts;
 //  3. one F0 for the material: held fixed (default 1), or the clusters' size-weighted median,
 //     as Pantora fits it — away from grazing angles only a_s·F0 is observable per pixel;
-//  4. fit every pixel from its cluster's parameters (a_s rescaled to keep a_s·F0), threaded;
+//  4. fit every pixel from its cluster's lobe on its own normal, with its own albedo (a_s
+//     rescaled to keep a_s·F0), threaded;
 //  5. a pixel left with a poor fit (its highlight is not where its start put it) is fitted
 //     again — on the refiner first from well-fitted neighbours' fits (propagation), then from
 //     grid-searched starts — and keeps the better.
-// A pixel with too few usable observations keeps its cluster's parameters and is counted.
+// A pixel with fewer usable observations than the model's 13 parameters (masked, as an imported
+// photograph's background is, unseen, or shadowed) is skipped: NaN in every map, counted.
 // With initial maps (e.g. the CNN's), steps 1–3 are skipped: every pixel starts from its map.
 // Steps 4 and 5 run on Ceres, one solve per pixel (the reference), or on the batched refiner
 // (batch_refiner.h: the same cost, many pixels per vectorised evaluation), which also states
@@ -50,17 +54,25 @@ enum class PixelSolver {
 };
 
 // The methods of `loom fit`: what starts each pixel (the clusters' fits, or the CNN's maps) and
-// what fits it; kCnn keeps the CNN's maps as they are.
-enum class FitMethod { kCeres, kRefine, kCnn, kCnnCeres, kCnnRefine };
-inline constexpr FitMethod kFitMethods[] = {FitMethod::kCeres, FitMethod::kRefine, FitMethod::kCnn, FitMethod::kCnnCeres,
-                                            FitMethod::kCnnRefine};
-std::string_view FitMethodName(FitMethod method);  // "ceres", "refine", "cnn", "cnn+ceres", "cnn+refine"
+// what fits it; kCnn keeps the CNN's maps as they are; kLambert is robust photometric stereo
+// (lambert_fit.h), no GD10 lobe at all: the baseline.
+enum class FitMethod { kCeres, kRefine, kCnn, kCnnCeres, kCnnRefine, kLambert };
+inline constexpr FitMethod kFitMethods[] = {FitMethod::kCeres,    FitMethod::kRefine,    FitMethod::kCnn,
+                                            FitMethod::kCnnCeres, FitMethod::kCnnRefine, FitMethod::kLambert};
+// "ceres", "refine", "cnn", "cnn+ceres", "cnn+refine", "lambert"
+std::string_view FitMethodName(FitMethod method);
 std::optional<FitMethod> ParseFitMethod(std::string_view name);
 bool StartsFromCnn(FitMethod method);
-PixelSolver SolverOf(FitMethod method);  // for the methods that fit pixels
+PixelSolver SolverOf(FitMethod method);  // for the methods that fit GD10 pixels
 
 struct StackFitOptions {
-  int clusters = 8;                 // k-means clusters (1: one start for the whole material)
+  int clusters = 8;  // k-means clusters (1: one start for the whole material)
+  // Without initial maps: each pixel starts from its cluster's lobe turned onto its own normal
+  // by robust photometric stereo (lambert_fit.h), with its own albedo; the clusters pool their
+  // pixels' observations turned onto those normals, and retries search around them. On a curved
+  // surface the pixels of one cluster have different normals: pooled as they are, they made one
+  // broad lobe from which every pixel's fit stayed in a wrong basin.
+  bool photometric_stereo_starts = true;
   int pixels_per_cluster_fit = 12;  // most typical pixels pooled into a cluster's fit
   PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false, .fixed_f0 = std::nullopt};
   PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false, .fixed_f0 = std::nullopt};
@@ -137,12 +149,12 @@ Result<std::optional<double>> ParseFixedF0(const std::string& text, const std::s
 struct StackFitSummary {
   int pixels = 0;
   int pixels_fitted = 0;
-  int pixels_kept_at_cluster = 0;  // too few usable observations
-  int pixels_retried = 0;          // redone from grid starts
-  int pixels_propagated = 0;       // of those, brought below the threshold from a neighbour's fit
-  int pixels_retry_finished = 0;   // of those, fitted from a grid start with every light sample
-                                   // (the refiner explores with fewer and finishes only the
-                                   // pixels where a grid start wins; Ceres finishes all)
+  int pixels_skipped = 0;         // not fitted (masked, unseen, too few usable observations): NaN maps
+  int pixels_retried = 0;         // redone from grid starts
+  int pixels_propagated = 0;      // of those, brought below the threshold from a neighbour's fit
+  int pixels_retry_finished = 0;  // of those, fitted from a grid start with every light sample
+                                  // (the refiner explores with fewer and finishes only the
+                                  // pixels where a grid start wins; Ceres finishes all)
   // First fits refined again because their lobe left the strip span their nodes were placed for
   // (StackPixelOptions::strip_quadrature).
   int pixels_nodes_replaced = 0;
@@ -194,7 +206,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
 
 // The appearance clusters: k-means on each pixel's log radiances (an unseen value takes that
 // observation's mean over the stack). Row-major per pixel: its cluster and its distance to the
-// cluster's centre (small = typical).
+// cluster's centre (small = typical); −1 for a pixel with fewer than 13 seen observations, which
+// no cluster takes (`count` 0 when none has them).
 struct PixelClusters {
   int count = 0;
   std::vector<int> labels;

@@ -1,5 +1,6 @@
 #include "fitting/stack_pixels.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/check.h"
@@ -12,7 +13,10 @@ StackPixels::StackPixels(const ObservationStack& stack, const StackPixelOptions&
   const auto heights = stack.image.channel(2);  // pos.Z
   heightmap_ =
       Heightmap(std::vector<float>(heights.begin(), heights.end()), stack.image.width(), stack.image.height(), stack.pixel_mm);
+  shadow_reach_mm_ = 4 * (stack.image.width() + stack.image.height()) * stack.pixel_mm + 4 * heightmap_.max_height_mm();
   for (const StackObservation& o : stack.observations) {
+    directional_.push_back(
+        std::any_of(o.emitters.begin(), o.emitters.end(), [](const PointEmitter& e) { return e.at_infinity; }));
     strips_.push_back(o.group == ObservationGroup::kLinearLight ? StripOfEmitters(o.emitters) : std::nullopt);
     emitter_arrays_.emplace_back(o.emitters);
   }
@@ -46,7 +50,7 @@ std::vector<uint64_t> StackPixels::HiddenEmitters(int x, int y, const PixelFrame
     const std::vector<PointEmitter>& emitters = stack_.observations[k].emitters;
     for (size_t i = 0; i < emitters.size(); ++i) {
       const size_t bit = first_emitter_bit_[k] + i;
-      if (heightmap_.Shadowed(frame.position, emitters[i].position_mm, frame.horizon))
+      if (heightmap_.Shadowed(frame.position, emitters[i].ShadowTarget(frame.position, shadow_reach_mm_), frame.horizon))
         hidden[bit / 64] |= uint64_t{1} << (bit % 64);
     }
   }
@@ -105,7 +109,7 @@ std::vector<std::pair<double, double>> StackPixels::LobeSpans(int x, int y, cons
     l_local.clear();
     for (const PointEmitter& e : o.emitters)
       l_local.push_back(frame.local_from_sample * (e.position_mm - frame.position).normalized());
-    const Eigen::Vector3d v_local = frame.local_from_sample * (o.camera_mm - frame.position).normalized();
+    const Eigen::Vector3d v_local = frame.local_from_sample * o.ViewFrom(frame.position);
     spans[k] = LobeSpan(l_local, v_local, params, fraction);
   }
   return spans;
@@ -118,12 +122,12 @@ bool StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, PixelObs
   const StackObservation& o = stack_.observations[k];
   const Eigen::Vector3d& p = frame.position;
   observation.radiance = radiance;
-  observation.v_local = frame.local_from_sample * (o.camera_mm - p).normalized();
+  observation.v_local = frame.local_from_sample * o.ViewFrom(p);
   observation.rgb_weights = o.rgb_weights;
   observation.source = k;
   const bool integrate = lobe && strips_[k];  // lobe: only from Observations(x, y, lobe), with the option set
   const auto shadowed = [&](const PointEmitter& emitter) {
-    return options_.cast_shadows && heightmap_.Shadowed(p, emitter.position_mm, frame.horizon);
+    return options_.cast_shadows && heightmap_.Shadowed(p, emitter.ShadowTarget(p, shadow_reach_mm_), frame.horizon);
   };
   // Emitter i of the stack's: from the kept bits where there are some.
   const uint64_t* hidden =
@@ -155,6 +159,17 @@ bool StackPixels::Observe(int k, int x, int y, const PixelFrame& frame, PixelObs
     nodes = StripNodes(*strips_[k], {first / count, (last + 1) / count},
                        LobeSpan(l_local, observation.v_local, *lobe, quadrature.lobe_fraction), quadrature);
     nodes_lit = lit == last - first + 1;
+  }
+  if (directional_[k]) {
+    // Lights at infinity (an imported capture's): one or a few, each its direction and irradiance.
+    observation.lights.clear();
+    for (int i = 0; i < static_cast<int>(o.emitters.size()); ++i) {
+      const PointEmitter& e = o.emitters[i];
+      const double irradiance = e.IrradianceAt(p);
+      if (!(irradiance > 0) || hides(i)) continue;
+      observation.lights.push_back({frame.local_from_sample * e.DirectionFrom(p), irradiance});
+    }
+    return !observation.lights.empty();
   }
   if (!integrate) {
     // The stack's emitters: their directions and irradiances all at once (light_samples.h).

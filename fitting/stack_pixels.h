@@ -86,6 +86,8 @@ class StackPixels {
   const ObservationStack& stack_;
   StackPixelOptions options_;
   Heightmap heightmap_;
+  double shadow_reach_mm_ = 0;                           // how far a shadow test marches towards a light at infinity
+  std::vector<char> directional_;                        // per stack observation: it has a light at infinity
   std::vector<std::optional<StripSegment>> strips_;      // per stack observation: its linear light's strip
   std::vector<internal::EmitterArrays> emitter_arrays_;  // per stack observation: its emitters
   // With options_.keep_frames: each pixel's frame and hidden emitters, filled under its flag on

@@ -33,6 +33,7 @@ std::optional<StripSegment> StripOfEmitters(std::span<const PointEmitter> emitte
   const size_t n = emitters.size();
   if (n < 2) return std::nullopt;
   const PointEmitter& first = emitters.front();
+  if (std::any_of(emitters.begin(), emitters.end(), [](const PointEmitter& e) { return e.at_infinity; })) return std::nullopt;
   const Eigen::Vector3d step = (emitters.back().position_mm - first.position_mm) / static_cast<double>(n - 1);
   const double spacing = step.norm();
   if (!(spacing > 0)) return std::nullopt;

@@ -50,7 +50,7 @@ std::vector<WardParams<double>> NeighbourLobes(const std::vector<WardParams<doub
       for (int ny = std::max(0, y - kSmoothingRadius); ny <= std::min(height - 1, y + kSmoothingRadius); ++ny) {
         for (int nx = std::max(0, x - kSmoothingRadius); nx <= std::min(width - 1, x + kSmoothingRadius); ++nx) {
           const size_t n = static_cast<size_t>(ny) * width + nx;
-          if (n == pixel) continue;
+          if (n == pixel || !std::isfinite(fits[n].sigma_x)) continue;  // not fitted: no lobe to offer
           const WardParams<double> p = WithSigmaXLarger(fits[n]);
           const double weight = guide ? GuideWeight(guide_alpha[n], guide_alpha[pixel]) : 1.0;
           const double v[6] = {p.a_s.x(), p.a_s.y(), p.a_s.z(), p.sigma_x, p.sigma_y, p.f0};
@@ -59,6 +59,10 @@ std::vector<WardParams<double>> NeighbourLobes(const std::vector<WardParams<doub
         }
       }
       WardParams<double>& lobe = lobes[pixel];
+      if (values[3].empty()) {  // no fitted neighbour: the pixel's own lobe
+        lobe = fits[pixel];
+        continue;
+      }
       lobe.a_s = Eigen::Vector3d(Median(values[0]), Median(values[1]), Median(values[2]));
       lobe.sigma_x = Median(values[3]);
       lobe.sigma_y = Median(values[4]);

@@ -1,5 +1,6 @@
 #include "fitting/model/svbrdf_maps.h"
 
+#include <cmath>
 #include <variant>
 #include <vector>
 
@@ -17,6 +18,13 @@ bool HasSvbrdfLayout(const Image& maps) {
   if (maps.num_channels() < kNumWardParams) return false;
   for (int c = 0; c < kNumWardParams; ++c) {
     if (maps.channel_name(c) != kSvbrdfChannels[c]) return false;
+  }
+  return true;
+}
+
+bool IsSkippedPixel(const Image& maps, int x, int y) {
+  for (int c = 0; c < kNumWardParams; ++c) {
+    if (!std::isnan(maps.at(c, y, x))) return false;
   }
   return true;
 }

@@ -13,6 +13,8 @@
 // | F0                 | Schlick reflectance at normal incidence         | [0, 1]     |
 // | height             | surface height above the sample plane (optional)| mm         |
 //
+// A pixel NaN in every parameter is one a fit skipped (IsSkippedPixel): it has no material.
+//
 // The local geometric frame of a pixel: z = geometric normal (of the heightmap as structured
 // light resolves it), x = the sample frame's x axis made orthogonal to z.
 
@@ -40,6 +42,10 @@ void SetParams(Image& maps, int x, int y, const WardParams<double>& params);
 
 // True if the first 13 channels are kSvbrdfChannels in order.
 bool HasSvbrdfLayout(const Image& maps);
+
+// A pixel that a fit skipped (masked, unseen, too few usable observations) is NaN in all 13
+// parameters; every reader of maps leaves it out (evaluation, export, previews).
+bool IsSkippedPixel(const Image& maps, int x, int y);
 
 // Maps in this layout as an OpenEXR file holds them (svbrdf.exr, a simulator's truth), with their
 // pixel size when the file states it (loom.pixel_mm; 0 when it does not). A file in another

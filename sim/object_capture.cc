@@ -1,0 +1,99 @@
+#include "sim/object_capture.h"
+
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <random>
+
+#include "fitting/model/svbrdf_maps.h"
+
+namespace loom::sim {
+namespace {
+
+// Directions on a golden-angle spiral over the cap within `max_deg` of +z, evenly spread.
+std::vector<Eigen::Vector3d> SpiralDirections(int count, double max_deg) {
+  const double min_z = std::cos(max_deg * std::numbers::pi / 180);
+  const double golden = std::numbers::pi * (3 - std::sqrt(5.0));
+  std::vector<Eigen::Vector3d> directions;
+  for (int k = 0; k < count; ++k) {
+    const double z = 1 - (1 - min_z) * (k + 0.5) / count;
+    const double r = std::sqrt(std::max(0.0, 1 - z * z));
+    directions.emplace_back(r * std::cos(golden * k), r * std::sin(golden * k), z);
+  }
+  return directions;
+}
+
+// The object's normal at image position (u, v) ∈ [−1, 1]² (y up), if it covers it.
+std::optional<Eigen::Vector3d> NormalAt(ObjectShape shape, double u, double v) {
+  if (shape == ObjectShape::kSphere) {
+    const double r2 = u * u + v * v;
+    if (r2 >= 1) return std::nullopt;
+    return Eigen::Vector3d(u, v, std::sqrt(1 - r2));
+  }
+  if (std::abs(u) >= 1 || std::abs(v) >= 0.9) return std::nullopt;  // a cylinder along y
+  return Eigen::Vector3d(u, 0, std::sqrt(1 - u * u));
+}
+
+}  // namespace
+
+Status ObjectCaptureOptions::Check() const {
+  std::vector<std::string> problems;
+  if (size_px < 4 || size_px > 4096) problems.push_back("size_px must be in [4, 4096]");
+  if (lights < 3 || lights > 1000) problems.push_back("lights must be in [3, 1000]");
+  if (!(max_light_deg > 0 && max_light_deg < 90)) problems.push_back("max_light_deg must be in (0, 90)");
+  if (!(noise >= 0 && noise < 1)) problems.push_back("noise must be in [0, 1)");
+  for (const std::string& p : fitting::CheckWardParams(material)) problems.push_back("material: " + p);
+  return ProblemsStatus("ObjectCaptureOptions", problems);
+}
+
+ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options) {
+  const int n = options.size_px;
+  ObjectCapture capture;
+  capture.light_directions = SpiralDirections(options.lights, options.max_light_deg);
+  capture.mask = Image(n, n, {"mask"});
+  capture.normals = Image(n, n, {"X", "Y", "Z"});
+  capture.truth = fitting::MakeSvbrdfImage(n, n, /*with_height=*/false);
+  std::vector<std::optional<fitting::WardParams<double>>> materials(static_cast<size_t>(n) * n);
+  const double radius_px = 0.45 * n;
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const double u = (i + 0.5 - n / 2.0) / radius_px, v = -(j + 0.5 - n / 2.0) / radius_px;
+      const std::optional<Eigen::Vector3d> normal = NormalAt(options.shape, u, v);
+      fitting::WardParams<double> p = options.material;
+      if (!normal) {
+        p.n_s = p.a_d = p.a_s = Eigen::Vector3d::Constant(NAN);
+        p.sigma_x = p.sigma_y = p.alpha = p.f0 = NAN;
+        fitting::SetParams(capture.truth, i, j, p);
+        continue;
+      }
+      capture.mask.at(0, j, i) = 1;
+      for (int c = 0; c < 3; ++c) capture.normals.at(c, j, i) = static_cast<float>((*normal)[c]);
+      p.n_s = Eigen::Vector3d(normal->x(), -normal->y(), normal->z());  // the stack frame: y down
+      p.a_d *= 0.8 + 0.2 * std::sin(6 * u + 3 * v);
+      fitting::SetParams(capture.truth, i, j, p);
+      materials[static_cast<size_t>(j) * n + i] = p;
+    }
+  }
+  std::mt19937_64 random(options.seed);
+  std::normal_distribution<double> gauss(0, 1);
+  for (const Eigen::Vector3d& light : capture.light_directions) {
+    Image image(n, n, {"R", "G", "B"});
+    const Eigen::Vector3d l(light.x(), -light.y(), light.z());  // the stack frame
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        const auto& p = materials[static_cast<size_t>(j) * n + i];
+        if (!p) continue;
+        const fitting::WardLobe<double> lobe(*p);
+        const fitting::WardTerms<double> terms = lobe.Terms(l, Eigen::Vector3d::UnitZ());
+        for (int c = 0; c < 3; ++c) {
+          const double radiance = (p->a_d[c] * terms.diffuse + p->a_s[c] * terms.specular) * terms.cos_l;
+          image.at(c, j, i) = static_cast<float>(radiance * (1 + options.noise * gauss(random)));
+        }
+      }
+    }
+    capture.images.push_back(std::move(image));
+  }
+  return capture;
+}
+
+}  // namespace loom::sim
