@@ -163,7 +163,8 @@ void WarnAtTheAlbedoBound(const Image& maps) {
 Status Fit(FitArguments args) {
   const std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
   if (!method) {
-    return InvalidArgumentError("--method " + args.method, "expected ceres, refine, cnn, cnn+ceres, cnn+refine or lambert");
+    return InvalidArgumentError("--method " + args.method,
+                                "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo");
   }
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
@@ -224,8 +225,8 @@ int RunFit(int argc, char** argv) {
                  "ceres (clusters, then every pixel with Ceres), refine (clusters, then every pixel with the batched "
                  "refiner), cnn (the network alone), cnn+ceres (the CNN's maps start every pixel's Ceres fit) or "
                  "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
-                 "uncertainty maps) or lambert (robust photometric stereo: a normal and an albedo per pixel, the "
-                 "baseline)");
+                 "uncertainty maps), lambert (robust photometric stereo: a normal and an albedo per pixel, the "
+                 "baseline) or lambert-albedo (an albedo per pixel on the geometric normal)");
   app.add_option("--start", args.start,
                  "ceres and refine: maps that start every pixel's fit instead of the clusters' fits, on the stack's "
                  "grid: an earlier fit's svbrdf.exr (to refit a stored capture after recalibrating, or to finish a "

@@ -46,8 +46,9 @@ double Predict(const Shading& s, const Eigen::Vector3d& normal, const Eigen::Vec
 }
 
 // One alternation on the kept observations: g = |a| n at the chromaticity of `albedo`, then the
-// albedo at that normal. False where they do not determine a normal.
-bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>& kept, Eigen::Vector3d& normal,
+// albedo at that normal (held as it is without `fit_normal`). False where they do not determine
+// a normal.
+bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>& kept, bool fit_normal, Eigen::Vector3d& normal,
                    Eigen::Vector3d& albedo) {
   const Eigen::Vector3d chroma = albedo.sum() > 0 ? Eigen::Vector3d(albedo / albedo.sum() * 3) : Eigen::Vector3d::Ones();
   Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
@@ -62,7 +63,7 @@ bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>&
   if (solver.info() != Eigen::Success || !(solver.rcond() > 1e-10)) return false;
   const Eigen::Vector3d g = solver.solve(atb);
   if (!(g.norm() > 0) || !g.allFinite()) return false;
-  normal = g.normalized();
+  if (fit_normal) normal = g.normalized();
   if (normal.z() < 0) return false;  // a surface seen from behind: the data are not photometric stereo's
   // The albedo at that normal: L_o = (w_o · a) s_o, s_o = (n · E_o)/π, by least squares; what the
   // weights leave free (a grey camera sees no colour) keeps the chromaticity it had, the
@@ -86,9 +87,9 @@ bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>&
 }
 
 // The fit on the kept observations: two alternations, the second at the first's chromaticity.
-bool FitKept(const std::vector<Shading>& shading, const std::vector<char>& kept, Eigen::Vector3d& normal,
+bool FitKept(const std::vector<Shading>& shading, const std::vector<char>& kept, bool fit_normal, Eigen::Vector3d& normal,
              Eigen::Vector3d& albedo) {
-  return AlternateOnce(shading, kept, normal, albedo) && AlternateOnce(shading, kept, normal, albedo);
+  return AlternateOnce(shading, kept, fit_normal, normal, albedo) && AlternateOnce(shading, kept, fit_normal, normal, albedo);
 }
 
 }  // namespace
@@ -117,7 +118,7 @@ std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>&
   std::vector<char> kept(n);
   for (size_t o = 0; o < n; ++o) kept[o] = ratios[o] >= low && ratios[o] <= high;
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ(), albedo = Eigen::Vector3d::Zero();
-  if (!FitKept(shading, kept, normal, albedo)) return std::nullopt;
+  if (!FitKept(shading, kept, options.fit_normal, normal, albedo)) return std::nullopt;
   // Rule 2: lit side, residuals within the robust spread.
   std::vector<double> residuals(n);
   for (int round = 0; round < options.rounds; ++round) {
@@ -137,7 +138,7 @@ std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>&
     }
     if (count < options.min_observations) break;
     Eigen::Vector3d next_normal = normal, next_albedo = albedo;
-    if (!FitKept(shading, next, next_normal, next_albedo)) break;
+    if (!FitKept(shading, next, options.fit_normal, next_normal, next_albedo)) break;
     const bool same = next == kept;
     kept = std::move(next), normal = next_normal, albedo = next_albedo;
     if (same) break;

@@ -41,8 +41,11 @@ struct LambertFitOptions {
   double reject_sigmas = 2.5;  // residuals beyond this many robust standard deviations are left out
   int rounds = 3;              // refits after the first
   int min_observations = 3;    // kept observations a pixel needs (3: a normal and an albedo's size)
-  int threads = 0;             // 0: one per core
-  Status Check() const;        // every problem, naming the field
+  // False: the normal is held at the geometric one and only the albedo is fitted (the plainest
+  // baseline: a Lambertian surface with one albedo per pixel).
+  bool fit_normal = true;
+  int threads = 0;       // 0: one per core
+  Status Check() const;  // every problem, naming the field
 };
 
 struct LambertPixel {

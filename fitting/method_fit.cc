@@ -10,9 +10,10 @@ namespace loom::fitting {
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
                                 StackFitOptions options) {
   MethodFit fit;
-  if (method == FitMethod::kLambert) {
+  if (method == FitMethod::kLambert || method == FitMethod::kLambertAlbedo) {
     LambertFitOptions lambert;
     lambert.threads = options.threads;
+    lambert.fit_normal = method == FitMethod::kLambert;
     LOOM_ASSIGN_OR_RETURN(LambertFit lambert_fit, FitLambert(stack, lambert));
     fit.maps = std::move(lambert_fit.maps);
     fit.lambert = lambert_fit.ToJson();

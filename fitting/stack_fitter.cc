@@ -1133,6 +1133,8 @@ std::string_view FitMethodName(FitMethod method) {
       return "cnn+refine";
     case FitMethod::kLambert:
       return "lambert";
+    case FitMethod::kLambertAlbedo:
+      return "lambert-albedo";
   }
   return "?";
 }

@@ -55,11 +55,13 @@ enum class PixelSolver {
 
 // The methods of `loom fit`: what starts each pixel (the clusters' fits, or the CNN's maps) and
 // what fits it; kCnn keeps the CNN's maps as they are; kLambert is robust photometric stereo
-// (lambert_fit.h), no GD10 lobe at all: the baseline.
-enum class FitMethod { kCeres, kRefine, kCnn, kCnnCeres, kCnnRefine, kLambert };
-inline constexpr FitMethod kFitMethods[] = {FitMethod::kCeres,    FitMethod::kRefine,    FitMethod::kCnn,
-                                            FitMethod::kCnnCeres, FitMethod::kCnnRefine, FitMethod::kLambert};
-// "ceres", "refine", "cnn", "cnn+ceres", "cnn+refine", "lambert"
+// (lambert_fit.h), no GD10 lobe at all: the baseline; kLambertAlbedo the plainest one, an albedo
+// per pixel on the geometric normal.
+enum class FitMethod { kCeres, kRefine, kCnn, kCnnCeres, kCnnRefine, kLambert, kLambertAlbedo };
+inline constexpr FitMethod kFitMethods[] = {FitMethod::kCeres,        FitMethod::kRefine,    FitMethod::kCnn,
+                                            FitMethod::kCnnCeres,     FitMethod::kCnnRefine, FitMethod::kLambert,
+                                            FitMethod::kLambertAlbedo};
+// "ceres", "refine", "cnn", "cnn+ceres", "cnn+refine", "lambert", "lambert-albedo"
 std::string_view FitMethodName(FitMethod method);
 std::optional<FitMethod> ParseFitMethod(std::string_view name);
 bool StartsFromCnn(FitMethod method);

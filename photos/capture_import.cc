@@ -398,6 +398,71 @@ Result<Capture> ReadFlash(const fs::path& dir, const ImportOptions& options) {
   return capture;
 }
 
+// ---- the flash's offset ----
+
+// Where image `photo`'s highlight lies on the sample (stack frame, mm): the median position of its
+// clipped pixels where it has enough of them, else of its brightest thousandth.
+std::optional<Eigen::Vector2d> HighlightPosition(const Photo& photo, double width_mm) {
+  constexpr int kEnoughClipped = 16;
+  const cv::Mat& v = photo.values;
+  const int channels = v.channels();
+  std::vector<double> luminance(v.total());
+  for (size_t p = 0; p < v.total(); ++p) {
+    double sum = 0;
+    for (int c = 0; c < channels; ++c) {
+      const float value = v.ptr<float>()[p * channels + c];
+      sum += std::isnan(value) ? 1.0 : value;  // clipped: at the top
+    }
+    luminance[p] = sum / channels;
+  }
+  std::vector<double> sorted = luminance;
+  const auto top = sorted.begin() + static_cast<std::ptrdiff_t>(0.999 * static_cast<double>(sorted.size() - 1));
+  std::nth_element(sorted.begin(), top, sorted.end());
+  const double clipped = static_cast<double>(std::count(luminance.begin(), luminance.end(), 1.0));
+  const double threshold = clipped >= kEnoughClipped ? 1.0 : *top;
+  std::vector<double> xs, ys;
+  const double pixel_mm = width_mm / v.cols;
+  for (size_t p = 0; p < luminance.size(); ++p) {
+    if (luminance[p] < threshold) continue;
+    xs.push_back((static_cast<double>(p % v.cols) + 0.5 - v.cols / 2.0) * pixel_mm);
+    ys.push_back((static_cast<double>(p / v.cols) + 0.5 - v.rows / 2.0) * pixel_mm);
+  }
+  if (xs.empty()) return std::nullopt;
+  const auto median = [](std::vector<double> values) {
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+    return values[values.size() / 2];
+  };
+  return Eigen::Vector2d(median(xs), median(ys));
+}
+
+// The flash's offset from where the files put it (stack frame, mm; z 0): the mirror point of a
+// flat sample for camera c and light l is (c·l_z + l·c_z)/(c_z + l_z), so a highlight found h
+// away from it says the light is off by h·(c_z + l_z)/c_z; the median over the images whose
+// mirror point lies on the sample, the held-out image's left out. Nothing when none does.
+std::optional<Eigen::Vector3d> EstimateFlashOffset(const std::vector<Shot>& shots, const std::vector<Result<Photo>>& photos,
+                                                   double width_mm, std::optional<int> held_out,
+                                                   std::vector<Eigen::Vector2d>& found) {
+  std::vector<double> dx, dy;
+  for (size_t k = 0; k < shots.size(); ++k) {
+    if (held_out && static_cast<int>(k) == *held_out) continue;  // a view the fit must not have seen
+    const Eigen::Vector3d& c = shots[k].camera_mm;
+    const Eigen::Vector3d& l = shots[k].light_mm;
+    const Eigen::Vector2d mirror = ((c * l.z() + l * c.z()) / (c.z() + l.z())).head<2>();
+    if (mirror.cwiseAbs().maxCoeff() > 0.45 * width_mm) continue;  // its highlight would be near or off the edge
+    const std::optional<Eigen::Vector2d> highlight = HighlightPosition(*photos[k], width_mm);
+    if (!highlight) continue;
+    found.push_back(*highlight - mirror);
+    const Eigen::Vector2d off = (*highlight - mirror) * (c.z() + l.z()) / c.z();
+    dx.push_back(off.x()), dy.push_back(off.y());
+  }
+  if (dx.empty()) return std::nullopt;
+  const auto median = [](std::vector<double> values) {
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+    return values[values.size() / 2];
+  };
+  return Eigen::Vector3d(median(dx), median(dy), 0);
+}
+
 // ---- the stack ----
 
 // Block means of the seen values (NaN where a block has none): stack pixel (i, j) of the image
@@ -615,6 +680,19 @@ Result<ImportResult> ImportCapture(const fs::path& dir, const ImportOptions& opt
   std::vector<Result<Photo>> photos(count, InternalError("import", "not read"));
   ParallelFor(count, options.threads, [&](int k) { photos[k] = ReadPhoto(capture.shots[k].image); });
   for (int k = 0; k < count; ++k) LOOM_RETURN_IF_ERROR(photos[k].status());
+  const bool flash_at_lens = std::all_of(capture.shots.begin(), capture.shots.end(),
+                                         [](const Shot& s) { return (s.light_mm - s.camera_mm).norm() < 1e-6; });
+  if (result.layout == Layout::kFlash && !options.flash_offset_cm && flash_at_lens && capture.width_mm) {
+    std::vector<Eigen::Vector2d> found;
+    if (const std::optional<Eigen::Vector3d> offset =
+            EstimateFlashOffset(capture.shots, photos, *capture.width_mm, options.hold_out, found)) {
+      for (Shot& shot : capture.shots) shot.light_mm += *offset;
+      result.flash_offset_cm = YUpToYDown(*offset / 10);
+      result.flash_offset_images = static_cast<int>(found.size());
+    }
+  } else if (options.flash_offset_cm) {
+    result.flash_offset_cm = *options.flash_offset_cm;
+  }
   const cv::Mat& first = photos[0]->values;
   for (int k = 1; k < count; ++k) {
     const Photo& photo = *photos[k];
@@ -723,6 +801,10 @@ nlohmann::json ImportResult::ToJson() const {
           {"clipped_values", clipped_values},
           {"scale", scale},
           {"scale_automatic", scale_automatic},
+          {"flash_offset_cm", flash_offset_cm
+                                  ? nlohmann::json::array({flash_offset_cm->x(), flash_offset_cm->y(), flash_offset_cm->z()})
+                                  : nlohmann::json()},
+          {"flash_offset_estimated_from", flash_offset_images},
           {"seconds", seconds}};
 }
 
@@ -732,6 +814,13 @@ void ImportResult::Report(std::ostream& out) const {
       << stack.pixel_mm << " mm; " << masked_pixels << " px masked or unseen, " << clipped_values << " clipped values left out\n"
       << "radiance scale " << scale << (scale_automatic ? " (automatic: albedos within the model's bound)" : " (given)") << "; "
       << FormatDuration(seconds) << "\n";
+  if (flash_offset_cm) {
+    out << "flash offset from the lens " << flash_offset_cm->x() << ", " << flash_offset_cm->y() << ", " << flash_offset_cm->z()
+        << " cm (x, y up, z)"
+        << (flash_offset_images > 0 ? " estimated from the highlights of " + std::to_string(flash_offset_images) + " images"
+                                    : std::string(" as given"))
+        << "\n";
+  }
 }
 
 }  // namespace loom::photos

@@ -64,8 +64,10 @@ struct ImportOptions {
   // ps and lp: the size of an image pixel in mm (their files do not state one; only shadows
   // and the maps' physical size depend on it).
   double pixel_mm = 0.1;
-  // flash: where the flash sits relative to the camera (cm, sample frame), added to every
-  // light position; unset: as light_pos says.
+  // flash: where the flash sits relative to the position light_pos gives (cm, sample frame, y up
+  // the image), added to every light position. Unset, where every light is at its camera (the
+  // files say nothing of the offset): estimated from the highlights (EstimateFlashOffset in
+  // capture_import.cc) and reported; give 0,0,0 to keep the files' positions.
   std::optional<Eigen::Vector3d> flash_offset_cm;
   // Set: image k (0-based, in the layout's order) is left out of the stack and kept apart
   // (ImportResult::held_out), for scoring a fit on a view it never saw.
@@ -84,6 +86,8 @@ struct ImportResult {
   int64_t clipped_values = 0;
   double scale = 1;
   bool scale_automatic = false;
+  std::optional<Eigen::Vector3d> flash_offset_cm;  // flash: the offset applied (cm, y up)
+  int flash_offset_images = 0;                     // of which images' highlights it was estimated (0: given)
   double seconds = 0;
   nlohmann::json ToJson() const;
   void Report(std::ostream& out) const;  // two lines for the operator
