@@ -116,6 +116,7 @@ struct FitArguments {
   std::string model;  // empty: configs/models/<the stack's rig>
   std::string f0 = "1";
   bool retries = false, no_retries = false;
+  double min_sigma = 0;  // 0: from the stack's sampling
   GivenOnTheCommandLine given;
   fitting::StackFitOptions options = DefaultOptions();
   bool quiet = false;
@@ -172,6 +173,7 @@ Status Fit(FitArguments args) {
   if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
+  if (args.min_sigma > 0) options.min_sigma = args.min_sigma;
   const bool refiner = *method == fitting::FitMethod::kRefine || *method == fitting::FitMethod::kCnnRefine;
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
   LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, refiner, args.given, options));
@@ -197,6 +199,13 @@ Status Fit(FitArguments args) {
   if (!fit.lambert.is_null()) {
     std::cout << "photometric stereo: fitted " << fit.lambert["pixels_fitted"] << " of " << fit.lambert["pixels"] << " px ("
               << fit.lambert["pixels_skipped"] << " skipped: masked, unseen or too few lit observations)\n";
+  }
+  if (!fit.view_selection.is_null()) {
+    const nlohmann::json& v = fit.view_selection;
+    std::cout << "few views (" << v["views"] << "): each pixel kept the model that predicted views left out of its fit "
+              << "better: GD10 " << v["pixels_gd10"] << " px, Lambertian " << v["pixels_lambert"]
+              << " px (left-out views' relative L1: GD10 " << v["left_out_view_l1"]["gd10"] << ", Lambertian "
+              << v["left_out_view_l1"]["lambert"] << ", chosen " << v["left_out_view_l1"]["chosen"] << ")\n";
   }
   WarnAtTheAlbedoBound(fit.maps);
   nlohmann::json summary = fit.ToJson();
@@ -235,6 +244,18 @@ int RunFit(int argc, char** argv) {
                  "cnn+refine: weight of the prior toward the CNN's maps (default 0.1; 0: none; 1: the CNN's "
                  "measured errors as its 1 sigma)")
       ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--min-sigma", args.min_sigma,
+                 "The narrowest lobe a fit may reach (default: half the angle between the stack's neighbouring "
+                 "half-vectors, at least 0.001 and at most 0.2)")
+      ->check(CLI::Range(0.001, 0.999));
+  app.add_flag("!--no-photometric-stereo-starts", args.options.photometric_stereo_starts,
+               "Start every pixel from its cluster's lobe on the stack's geometric normal instead of on the pixel's "
+               "normal by photometric stereo");
+  app.add_option("--cluster-prior-weight", args.options.cluster_prior.weight,
+                 "refine: weight of the prior toward each pixel's start (its cluster's lobe on its own normal), scaled "
+                 "with the stack's noise as --prior-weight is (0: none)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--prior-noise", args.options.prior_reference_noise_rms,
                  "cnn+refine: the stack noise level (relative RMS of its best-fitted tenth) at which --prior-weight "
                  "holds; the weight scales with the square of the stack's own, so that exact data outweigh the CNN "

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include "apps/command.h"
 #include "apps/rig_loader.h"
@@ -102,12 +103,50 @@ Status Render(const RenderArguments& args) {
 
 struct CaptureArguments {
   sim::ObjectCaptureOptions options;
-  std::string shape = "sphere", truth, normals, out;
+  sim::FlashCaptureOptions flash;
+  sim::SampleSpec sample{.kind = "fabric", .seed = 1, .size_px = 64, .pixel_mm = 1.0};
+  std::string layout = "ps", shape = "sphere", truth, normals, out, flash_offset;
 };
+
+// The truth's albedos in the units of images stored with `white` as the top value.
+void InStoredUnits(Image& truth, double white) {
+  for (int y = 0; y < truth.height(); ++y) {
+    for (int x = 0; x < truth.width(); ++x) {
+      for (int c = 3; c < 9; ++c) truth.at(c, y, x) = static_cast<float>(truth.at(c, y, x) / white);  // a_d, a_s
+    }
+  }
+}
+
+// A flat procedural material in the flash layout: the brightest half percent of values clip, as a
+// phone's highlights do.
+Status FlashCapture(CaptureArguments args) {
+  LOOM_RETURN_IF_ERROR(args.flash.Check());
+  LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(args.sample));
+  const sim::FlashCapture capture = sim::RenderFlashCapture(material.maps, material.pixel_mm, args.flash);
+  std::vector<float> values;
+  for (const Image& image : capture.images) {
+    for (int c = 0; c < 3; ++c) values.insert(values.end(), image.channel(c).begin(), image.channel(c).end());
+  }
+  const auto top = values.begin() + static_cast<std::ptrdiff_t>(0.995 * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), top, values.end());
+  const double white = *top;
+  photos::FlashCapture flash{
+      capture.images, capture.cameras_cm, capture.cameras_cm, capture.width_cm, Eigen::Vector3d::Constant(args.flash.power),
+      white};
+  LOOM_RETURN_IF_ERROR(photos::WriteFlash(args.out, flash));
+  InStoredUnits(material.maps, white);
+  if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(sim::WriteMaterial(material, args.truth));
+  std::cout << "wrote " << args.out << ": " << material.name << " under a flash " << args.flash.flash_offset_cm.transpose()
+            << " cm beside the lens in " << capture.images.size() << " images (flash layout; the files put the flash at "
+            << "the lens; the truth's albedos in the stored units)\n";
+  return Status::Ok();
+}
 
 // A curved object in the ps layout, with its truth beside (not inside) the folder: loom import
 // reads every image of a folder in some layouts.
 Status Capture(CaptureArguments args) {
+  if (args.layout == "flash") return FlashCapture(std::move(args));
+  if (args.layout != "ps") return InvalidArgumentError("--layout " + args.layout, "expected ps or flash");
   if (args.shape != "sphere" && args.shape != "cylinder") {
     return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
   }
@@ -124,11 +163,7 @@ Status Capture(CaptureArguments args) {
     }
   }
   const double white = std::max(1.0, 1.01 * brightest);
-  for (int y = 0; y < capture.truth.height(); ++y) {
-    for (int x = 0; x < capture.truth.width(); ++x) {
-      for (int c = 3; c < 9; ++c) capture.truth.at(c, y, x) = static_cast<float>(capture.truth.at(c, y, x) / white);  // a_d, a_s
-    }
-  }
+  InStoredUnits(capture.truth, white);
   photos::PhotometricStereoCapture ps{std::move(capture.images), capture.light_directions, capture.mask, white};
   LOOM_RETURN_IF_ERROR(photos::WritePhotometricStereo(args.out, ps));
   if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.truth, capture.truth, {{"loom.kind", std::string("svbrdf maps")}}));
@@ -194,9 +229,19 @@ int RunSim(int argc, char** argv) {
   render->add_option("--out", r.out, "Output EXR")->required();
   CaptureArguments capture;
   CLI::App* capture_app = app.add_subcommand(
-      "capture", "A curved object photographed under directional lights (the ps layout of loom import), with its truth");
-  capture_app->add_option("--shape", capture.shape, "sphere or cylinder")->capture_default_str();
+      "capture",
+      "Photographs as other rigs take them, with their truth: a curved object under directional lights (--layout ps, "
+      "a photometric-stereo benchmark's) or a flat material under a phone's flash (--layout flash)");
+  capture_app->add_option("--layout", capture.layout, "ps or flash")->capture_default_str();
+  capture_app->add_option("--shape", capture.shape, "ps: sphere or cylinder")->capture_default_str();
+  capture_app->add_option("--object", capture.sample.kind, "flash: the material (fabric, fabric-out-of-model)")
+      ->capture_default_str();
+  capture_app->add_option("--object-seed", capture.sample.seed, "flash: the material's seed");
+  capture_app->add_option("--images", capture.flash.images, "flash: photographs")->check(CLI::Range(2, 100));
+  capture_app->add_option("--flash-offset", capture.flash_offset,
+                          "flash: X,Y,Z cm of the flash from the lens (y up the image; default 0.8,0,0)");
   capture_app->add_option("--size", capture.options.size_px, "Image size in pixels (square)")->check(CLI::Range(4, 4096));
+  capture_app->add_option("--pixel-mm", capture.sample.pixel_mm, "flash: the material's pixel size")->check(CLI::PositiveNumber);
   capture_app->add_option("--lights", capture.options.lights, "Directional lights, spread over a cap")
       ->check(CLI::Range(3, 1000));
   capture_app->add_option("--max-light-deg", capture.options.max_light_deg, "The cap's half-angle")->check(CLI::Range(1.0, 89.0));
@@ -233,7 +278,19 @@ int RunSim(int argc, char** argv) {
   if (*capture_app) {
     capture.options.material.sigma_y = capture.options.material.sigma_x;
     capture.options.material.a_s = Eigen::Vector3d::Constant(capture.options.material.a_s[0]);
-    done = Capture(capture);
+    capture.sample.size_px = capture.options.size_px;
+    capture.flash.noise = capture.options.noise;
+    capture.flash.seed = capture.options.seed;
+    done = Status::Ok();
+    if (!capture.flash_offset.empty()) {
+      std::istringstream in(capture.flash_offset);
+      char a = 0, b = 0;
+      Eigen::Vector3d& o = capture.flash.flash_offset_cm;
+      if (!(in >> o.x() >> a >> o.y() >> b >> o.z()) || a != ',' || b != ',') {
+        done = InvalidArgumentError("--flash-offset " + capture.flash_offset, "expected X,Y,Z in cm");
+      }
+    }
+    if (done.ok()) done = Capture(capture);
   }
   if (*material) done = Material(sample, out);
   return ExitCode(done);

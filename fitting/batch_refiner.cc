@@ -53,10 +53,10 @@ constexpr int kAlpha = 10;
 struct Bounds {
   double lower, upper;
 };
-// Bounds of tangent parameter i (none for the normal and α).
-std::optional<Bounds> BoundsOf(int i) {
+// Bounds of tangent parameter i (none for the normal and α); σ from `min_sigma`.
+std::optional<Bounds> BoundsOf(int i, double min_sigma) {
   if (i >= 2 && i <= 7) return Bounds{0, kMaxAlbedo};
-  if (i == 8 || i == 9) return Bounds{kMinSigma, kMaxSigma};
+  if (i == 8 || i == 9) return Bounds{min_sigma, kMaxSigma};
   if (i == kF0) return Bounds{0, 1};
   return std::nullopt;
 }
@@ -181,14 +181,14 @@ Evaluation ReadLane(const internal::LaneEquations& eq, int p, const Prior& prior
 
 bool Frozen(const Lane& lane, int i, const RefineOptions& options) {
   if (i == kF0 && options.fixed_f0) return true;
-  const std::optional<Bounds> bounds = BoundsOf(i);
+  const std::optional<Bounds> bounds = BoundsOf(i, options.min_sigma);
   if (!bounds) return false;
   const double value = lane.x[Ambient(i)];
   return (value <= bounds->lower && lane.jtr[i] > 0) || (value >= bounds->upper && lane.jtr[i] < 0);
 }
 
 // x ⊞ δ, projected onto the bounds; returns the step actually taken, per tangent parameter.
-Vector12 Move(const Params& x, const TangentBasis& basis, const Vector12& delta, Params& moved) {
+Vector12 Move(const Params& x, const TangentBasis& basis, const Vector12& delta, double min_sigma, Params& moved) {
   moved = x;
   const Eigen::Vector3d n = Eigen::Vector3d(x[0], x[1], x[2]).normalized() + delta[0] * basis.u + delta[1] * basis.v;
   const Eigen::Vector3d unit = n.normalized();
@@ -196,7 +196,7 @@ Vector12 Move(const Params& x, const TangentBasis& basis, const Vector12& delta,
   Vector12 taken = delta;
   for (int i = 2; i < kTangentParams; ++i) {
     double value = x[Ambient(i)] + delta[i];
-    if (const std::optional<Bounds> bounds = BoundsOf(i)) value = std::clamp(value, bounds->lower, bounds->upper);
+    if (const std::optional<Bounds> bounds = BoundsOf(i, min_sigma)) value = std::clamp(value, bounds->lower, bounds->upper);
     moved[Ambient(i)] = value;
     taken[i] = value - x[Ambient(i)];
   }
@@ -209,7 +209,7 @@ double ProjectedGradientNorm(const Lane& lane, const RefineOptions& options) {
   for (int i = 0; i < kTangentParams; ++i) {
     if (i == kF0 && options.fixed_f0) continue;
     double change = lane.jtr[i];
-    if (const std::optional<Bounds> bounds = BoundsOf(i)) {
+    if (const std::optional<Bounds> bounds = BoundsOf(i, options.min_sigma)) {
       const double value = lane.x[Ambient(i)];
       change = value - std::clamp(value - lane.jtr[i], bounds->lower, bounds->upper);
     }
@@ -242,7 +242,7 @@ StepOutcome ComputeStep(Lane& lane, const RefineOptions& options) {
     if (scaled.norm() > lane.max_step) scaled *= lane.max_step / scaled.norm();
     const Vector12 delta = scale.cwiseProduct(scaled);
     if (delta.allFinite()) {
-      const Vector12 taken = Move(lane.x, lane.basis, delta, lane.trial);
+      const Vector12 taken = Move(lane.x, lane.basis, delta, options.min_sigma, lane.trial);
       double x_norm = 0;
       for (double v : lane.x) x_norm += v * v;
       if (taken.norm() <= options.parameter_tolerance * (std::sqrt(x_norm) + options.parameter_tolerance)) {
@@ -345,7 +345,9 @@ Params ClampedStart(const WardParams<double>& start, const RefineOptions& option
   x[0] = n.x(), x[1] = n.y(), x[2] = n.z();
   if (options.fixed_f0) x[12] = *options.fixed_f0;
   for (int i = 2; i < kTangentParams; ++i) {
-    if (const std::optional<Bounds> b = BoundsOf(i)) x[Ambient(i)] = std::clamp(x[Ambient(i)], b->lower, b->upper);
+    if (const std::optional<Bounds> b = BoundsOf(i, options.min_sigma)) {
+      x[Ambient(i)] = std::clamp(x[Ambient(i)], b->lower, b->upper);
+    }
   }
   return x;
 }

@@ -65,6 +65,7 @@ struct RefineOptions {
   double gradient_tolerance = 1e-10;  // max-norm of the projected gradient; Ceres' default
   double parameter_tolerance = 1e-8;  // |step| / (|x| + tol); Ceres' default
   RefinePrior prior;
+  double min_sigma = kMinSigma;  // the narrowest lobe (PixelFitOptions::min_sigma)
   // Light samples an observation is evaluated with, at most (0: all): a linear light's emitters
   // beyond this are merged along the strip (MergeLightSamples). The cost of a fit is about
   // proportional to the samples; docs/benchmarks.md has what each count costs in accuracy.

@@ -1,11 +1,55 @@
 #include "fitting/method_fit.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "fitting/cnn.h"
 #include "fitting/lambert_fit.h"
+#include "fitting/model/svbrdf_maps.h"
+#include "fitting/view_selection.h"
 
 namespace loom::fitting {
+
+namespace {
+
+// Maps of the stack's grid with every pixel skipped.
+Image NoMaps(const ObservationStack& stack) {
+  Image maps = MakeSvbrdfImage(stack.image.width(), stack.image.height(), /*with_height=*/false);
+  for (int c = 0; c < kNumWardParams; ++c) {
+    for (float& v : maps.channel(c)) v = NAN;
+  }
+  return maps;
+}
+
+// The GD10 fit or the Lambertian one per pixel, by views left out (view_selection.h); the
+// summary is the GD10 fit's of every view.
+Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, StackFitOptions options, MethodFit fit) {
+  std::optional<StackFitSummary> summary;
+  const auto progress = options.progress;
+  options.progress = nullptr;  // the inner fits' bars would repeat for every view
+  const StackMapsFit gd10 = [&](const ObservationStack& s) -> Result<Image> {
+    Result<StackFit> f = FitStack(s, options);
+    // A view left out can leave every pixel too few observations for GD10 (a handful of views):
+    // nothing is fitted there, and the selection counts that against GD10.
+    if (!f.ok() && f.status().code() == StatusCode::kFailedPrecondition && &s != &stack) return NoMaps(s);
+    if (!f.ok()) return f.status();
+    if (&s == &stack) summary = f->summary;
+    return std::move(f->maps);
+  };
+  const StackMapsFit lambert = [&](const ObservationStack& s) -> Result<Image> {
+    LOOM_ASSIGN_OR_RETURN(LambertFit f, FitLambert(s, {.threads = options.threads}));
+    return std::move(f.maps);
+  };
+  if (progress) progress({"views left out", 0, 1});
+  LOOM_ASSIGN_OR_RETURN(ViewSelection selection, SelectByLeftOutViews(stack, gd10, lambert));
+  if (progress) progress({"views left out", 1, 1});
+  fit.maps = std::move(selection.maps);
+  fit.summary = std::move(summary);
+  fit.view_selection = selection.ToJson();
+  return fit;
+}
+
+}  // namespace
 
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
                                 StackFitOptions options) {
@@ -35,6 +79,8 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
   }
   options.solver = SolverOf(method);
   fit.settings = options.ToJson();
+  const bool few_views = static_cast<int>(StackViews(stack).size()) <= options.left_out_view_selection_max_views;
+  if (!options.initial_maps && few_views) return FitChoosingByLeftOutViews(stack, options, std::move(fit));
   LOOM_ASSIGN_OR_RETURN(StackFit stack_fit, FitStack(stack, options));
   fit.maps = std::move(stack_fit.maps);
   fit.summary = std::move(stack_fit.summary);
@@ -44,6 +90,7 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
 nlohmann::json MethodFit::ToJson() const {
   nlohmann::json json = summary ? summary->ToJson() : nlohmann::json{{"pixels", maps.pixel_count()}};
   if (!lambert.is_null()) json.update(lambert);
+  if (!view_selection.is_null()) json["left_out_view_selection"] = view_selection;
   if (summary) json.update(settings);
   std::vector<std::string> uncertainty;
   for (const std::string& name : maps.channel_names()) {

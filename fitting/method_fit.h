@@ -2,7 +2,9 @@
 // What `loom fit --method` does, in one call: for the cnn methods the CNN's maps of the stack
 // (cnn.h), then, unless the method is the CNN alone, the whole-stack fit the method names
 // (stack_fitter.h) started from those maps or from the clusters' fits; for lambert, robust
-// photometric stereo (lambert_fit.h).
+// photometric stereo (lambert_fit.h). ceres and refine on a stack of few views keep per pixel the
+// GD10 fit or the Lambertian one, whichever predicts left-out views better (view_selection.h,
+// StackFitOptions::left_out_view_selection_max_views).
 
 #include <filesystem>
 #include <optional>
@@ -20,6 +22,7 @@ struct MethodFit {
   Image maps;                              // svbrdf_maps.h's layout, plus the fit's channels
   std::optional<StackFitSummary> summary;  // none for the CNN alone and for lambert
   nlohmann::json lambert;                  // lambert's summary (LambertFit::ToJson), null for the others
+  nlohmann::json view_selection;           // where pixels chose by left-out views (ViewSelection::ToJson), else null
   nlohmann::json settings;                 // the options the fit ran with (StackFitOptions::ToJson)
   std::string cnn;                         // the model used, described in a line ("" without one)
   double cnn_seconds = 0;

@@ -69,7 +69,7 @@ void AddPixel(ceres::Problem& problem, const std::vector<PixelObservation>& usab
     problem.SetParameterUpperBound(blocks.a_s, i, kMaxAlbedo);
   }
   for (int i = 0; i < 2; ++i) {
-    problem.SetParameterLowerBound(blocks.sigma, i, kMinSigma);
+    problem.SetParameterLowerBound(blocks.sigma, i, options.min_sigma);
     problem.SetParameterUpperBound(blocks.sigma, i, kMaxSigma);
   }
   if (!problem.IsParameterBlockConstant(f0)) {
@@ -81,6 +81,7 @@ void AddPixel(ceres::Problem& problem, const std::vector<PixelObservation>& usab
 Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale, const WardParams<double>& initial,
               const PixelFitOptions& options) {
   Blocks blocks(initial);
+  for (double& sigma : blocks.sigma) sigma = std::clamp(sigma, options.min_sigma, kMaxSigma);
   ceres::Problem problem;
   if (options.fixed_f0) blocks.f0[0] = *options.fixed_f0;
   problem.AddParameterBlock(blocks.f0, 1);
@@ -145,6 +146,7 @@ Status PixelFitOptions::Check() const {
   if (max_iterations < 1) problems.push_back("max_iterations must be ≥ 1");
   if (!(huber_scale > 0)) problems.push_back("huber_scale must be > 0");
   if (fixed_f0 && !(*fixed_f0 >= 0 && *fixed_f0 <= 1)) problems.push_back("fixed_f0 must be in [0, 1]");
+  if (!(min_sigma >= kMinSigma && min_sigma < kMaxSigma)) problems.push_back("min_sigma must be in [kMinSigma, kMaxSigma)");
   return ProblemsStatus("PixelFitOptions", problems);
 }
 
@@ -205,6 +207,7 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
     WardParams<double> start = starts[k];
     start.a_s *= start.f0;  // b = a_s·F0, what the start's observations fixed
     blocks[k] = std::make_unique<Blocks>(start);
+    for (double& sigma : blocks[k]->sigma) sigma = std::clamp(sigma, options.min_sigma, kMaxSigma);
     AddPixel(problem, usable[k]->observations, usable[k]->inverse_scale, *blocks[k], &fit.f0, options,
              SpecularBlock::kAtNormalIncidence);
   }

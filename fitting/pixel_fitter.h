@@ -70,6 +70,10 @@ struct PixelFitOptions {
   // ceres::Jet derivatives instead of the hand-derived ones: same fit, slower; the baseline
   // bench/fit_bench.cc measures the analytic Jacobians against.
   bool automatic_derivatives = false;
+  // The narrowest lobe a fit may reach, in [kMinSigma, kMaxSigma): stack_fitter.h raises it where
+  // the observations sample the half-vectors too coarsely to resolve a narrower one. A start
+  // below it starts at it.
+  double min_sigma = kMinSigma;
   // Check(): every problem, each naming the field.
   Status Check() const;
 };

@@ -96,6 +96,52 @@ WardParams<double> NanParams() {
   return p;
 }
 
+// The narrowest lobe a stack resolves, per radian of its half-vectors' spacing: a lobe has to
+// span about two observations' half-vectors to be told from a narrower one of the same peak.
+// Where it spans fewer, the fit is free to put all of a highlight into one view and predict
+// any other view's value badly (a phone's few flash photographs: the held-out views of a
+// simulated fabric came out several times worse than a Lambertian surface's).
+constexpr double kMinSigmaPerSpacing = 0.5;
+// The floor never rises above this: a stack that sparse says little of any lobe.
+constexpr double kMaxResolvedSigma = 0.2;
+// Below this spacing the floor stays kMinSigma: a scanner's stack (tac7's and tac7-mini's space
+// their half-vectors 0.6–0.7° apart) resolves every lobe its fits are scored on, and their maps
+// stay as they were.
+constexpr double kSparseSpacingDeg = 2;
+
+// How finely the stack samples the half-vectors: over a sparse grid of pixels, the median over a
+// pixel's observations of the angle (rad) from each half-vector to the nearest other one, and the
+// median of that over the pixels. A strip's light samples count as one half-vector, its
+// brightest's: the strip's other samples lie along it, so they resolve a lobe across the strip
+// no finer than one.
+std::vector<int> SparseGrid(int width, int height, int count);
+double HalfVectorSpacing(const StackPixels& pixels) {
+  const std::vector<int> grid = SparseGrid(pixels.width(), pixels.height(), 64);
+  std::vector<double> spacings;
+  for (int i : grid) {
+    std::vector<Eigen::Vector3d> halves;
+    for (const PixelObservation& o : pixels.Observations(i % pixels.width(), i / pixels.width())) {
+      const auto brightest = std::max_element(o.lights.begin(), o.lights.end(), [](const LightSample& a, const LightSample& b) {
+        return a.irradiance < b.irradiance;
+      });
+      if (brightest != o.lights.end()) halves.push_back((brightest->l_local + o.v_local).normalized());
+    }
+    if (halves.size() < 2) continue;
+    std::vector<double> nearest(halves.size(), kPi);
+    for (size_t a = 0; a < halves.size(); ++a) {
+      for (size_t b = 0; b < halves.size(); ++b) {
+        const double angle = std::acos(std::clamp(halves[a].dot(halves[b]), -1.0, 1.0));
+        if (a != b && angle > 1e-9) nearest[a] = std::min(nearest[a], angle);
+      }
+    }
+    std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(nearest.size() / 2), nearest.end());
+    spacings.push_back(nearest[nearest.size() / 2]);
+  }
+  if (spacings.empty()) return 0;
+  std::nth_element(spacings.begin(), spacings.begin() + static_cast<std::ptrdiff_t>(spacings.size() / 2), spacings.end());
+  return spacings[spacings.size() / 2];
+}
+
 // Per pixel, its photometric-stereo normal and albedo (lambert_fit.h), where the fit starts from
 // them: the turn of its observations onto that normal. Empty: every pixel as the stack has it.
 class NormalStarts {
@@ -206,6 +252,7 @@ RefineOptions RefinerOptions(const PixelFitOptions& fit, const StackFitOptions& 
   refine.max_iterations = fit.max_iterations;
   refine.huber_scale = fit.huber_scale;
   refine.fixed_f0 = fit.fixed_f0;
+  refine.min_sigma = fit.min_sigma;
   refine.threads = options.threads;
   refine.max_lights_per_observation = options.max_lights_per_observation;
   refine.coarse_lights_per_observation = options.coarse_lights_per_observation;
@@ -853,11 +900,13 @@ nlohmann::json StackFitOptions::ToJson() const {
   return {{"solver", refiner ? "batch refiner (" + RefinerInstructionSet() + ")" : "ceres"},
           {"clusters", clusters},
           {"photometric_stereo_starts", photometric_stereo_starts},
+          {"left_out_view_selection_max_views", left_out_view_selection_max_views},
           {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
           {"retries", retry_poor_fits},
           {"retry_above", retry_above_noise_rms},
           {"neighbour_rounds", refiner ? retry_neighbour_rounds : 0},
           {"prior_weight", refiner ? prior.weight : 0},
+          {"cluster_prior_weight", refiner ? cluster_prior.weight : 0},
           {"prior_reference_noise_rms", refiner ? prior_reference_noise_rms : 0},
           {"smoothing_weight", refiner ? smoothing.weight : 0},
           {"smoothing_specular_albedo", smoothing.specular_albedo},  // the pass's a_s scale
@@ -887,6 +936,8 @@ nlohmann::json StackFitSummary::ToJson() const {
           {"pixels_retry_finished", pixels_retry_finished},
           {"retry_threshold_rms", retry_threshold_rms},
           {"noise_rms", noise_rms},
+          {"half_vector_spacing_deg", half_vector_spacing_deg},
+          {"min_sigma", min_sigma},
           {"prior_weight_applied", prior_weight},
           {"smoothing_weight_applied", smoothing_weight},
           {"cluster_sizes", cluster_sizes},  // not "clusters": fit.json has the options' count beside it
@@ -939,18 +990,22 @@ Status StackFitOptions::Check() const {
   }
   if (retry_explore_lights < 0) problems.push_back("retry_explore_lights must be ≥ 0");
   if (!(prior_reference_noise_rms >= 0)) problems.push_back("prior_reference_noise_rms must be ≥ 0");
+  if (min_sigma && !(*min_sigma >= kMinSigma && *min_sigma < kMaxSigma)) {
+    problems.push_back("min_sigma must be in [kMinSigma, kMaxSigma)");
+  }
   if (retry_neighbour_rounds < 0) problems.push_back("retry_neighbour_rounds must be ≥ 0");
   if (!(retry_neighbour_min_yield >= 0 && retry_neighbour_min_yield <= 1)) {
     problems.push_back("retry_neighbour_min_yield must be in [0, 1]");
   }
   if (retry_neighbour_starts < 0) problems.push_back("retry_neighbour_starts must be ≥ 0");
+  if (left_out_view_selection_max_views < 0) problems.push_back("left_out_view_selection_max_views must be ≥ 0");
   if (!(retry_min_gain >= 0 && retry_min_gain < 1)) problems.push_back("retry_min_gain must be in [0, 1)");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());
   if (pixels.strip_quadrature) {
     if (Status s = pixels.strip_quadrature->Check(); !s.ok()) problems.push_back("pixels.strip_quadrature: " + s.message());
   }
-  for (const auto& [name, p] : {std::pair{"prior", prior}, {"smoothing", smoothing}}) {
+  for (const auto& [name, p] : {std::pair{"prior", prior}, {"cluster_prior", cluster_prior}, {"smoothing", smoothing}}) {
     RefineOptions refine;
     refine.prior = p;
     if (Status s = refine.Check(); !s.ok()) problems.push_back(std::string(name) + ": " + s.message());
@@ -979,16 +1034,23 @@ PixelClusters ClusterPixels(const ObservationStack& stack, int clusters, uint64_
   return result;
 }
 
-Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& options) {
-  LOOM_RETURN_IF_ERROR(options.Check());
+Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& given) {
+  LOOM_RETURN_IF_ERROR(given.Check());
   const int width = stack.image.width();
   const int height = stack.image.height();
   const int pixel_count = width * height;
-  StackPixelOptions frames = options.pixels;
-  frames.keep_frames = options.solver == PixelSolver::kBatchRefiner && options.smoothing.weight > 0;  // two passes
+  StackPixelOptions frames = given.pixels;
+  frames.keep_frames = given.solver == PixelSolver::kBatchRefiner && given.smoothing.weight > 0;  // two passes
   const StackPixels pixels(stack, frames);
   StackFit fit;
   StackFitSummary& summary = fit.summary;
+  // The narrowest lobe the stack's sampling resolves (StackFitOptions::min_sigma), for every fit.
+  StackFitOptions options = given;
+  const double spacing = HalfVectorSpacing(pixels);
+  summary.half_vector_spacing_deg = RadToDeg(spacing);
+  const double resolved = RadToDeg(spacing) < kSparseSpacingDeg ? kMinSigma : kMinSigmaPerSpacing * spacing;
+  summary.min_sigma = given.min_sigma.value_or(std::clamp(resolved, kMinSigma, kMaxResolvedSigma));
+  options.cluster_fit.min_sigma = options.pixel_fit.min_sigma = summary.min_sigma;
   summary.pixels = pixel_count;
   summary.threads = ThreadCount(options.threads);
   const auto report = [&](const char* stage, int done, int total) {
@@ -1047,7 +1109,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   const auto pixel_progress = [&](int done) { report("pixels", done, pixel_count); };
   std::vector<PixelOutcome> outcomes(pixel_count);
   RefineOptions refine = RefinerOptions(pixel_options, options);
-  if (options.initial_maps) refine.prior = options.prior;
+  refine.prior = options.initial_maps ? options.prior : options.cluster_prior;
   StackFitSummary::StageSeconds& stage = summary.stage_seconds;
   Clock::time_point stage_start = Clock::now();
   const auto end_stage = [&stage_start](double& seconds) {

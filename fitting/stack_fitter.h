@@ -106,8 +106,27 @@ struct StackFitOptions {
   std::optional<double> fixed_f0 = 1.0;
   StackPixelOptions pixels;
   PixelSolver solver = PixelSolver::kCeres;
+  // The narrowest lobe any fit may reach. Unset: from how finely the stack samples the
+  // half-vectors (the median angle from one observation's to the nearest other's, over a sparse
+  // grid of pixels), half of it, at most 0.2, where that spacing exceeds 2° (kMinSigma below):
+  // a lobe narrower than the sampling is not resolved, and a free fit there puts a highlight into
+  // one view and predicts the others badly. tac7 and tac7-mini space their half-vectors
+  // 0.6–0.7° apart, a phone's few flash photographs 5–7°.
+  std::optional<double> min_sigma;
+  // For `loom fit --method ceres | refine` without start maps (FitWithMethod, method_fit.h): a
+  // stack of at most this many views (view_selection.h: a photograph's colour channels are one)
+  // has each pixel keep the GD10 fit or the Lambertian one, whichever predicts views left out of
+  // it better. 0: never. Costs (views + 1) fits of each.
+  int left_out_view_selection_max_views = 16;
   // With the refiner and initial maps: the prior toward them (in step 5 too, from grid starts).
   RefinePrior prior;
+  // With the refiner and no initial maps: the prior toward each pixel's start, its cluster's lobe
+  // on its own photometric-stereo normal. A cluster's lobe rests on many pixels' observations;
+  // one pixel's few views (a phone's flash, a handful of photographs) leave its lobe loose, and a
+  // free fit there fits noise and predicts other views badly. Its weight follows the stack's
+  // noise as the CNN prior's does (prior_reference_noise_rms), so exact data are not held.
+  RefinePrior cluster_prior{
+      .weight = 0, .normal_deg = 30, .diffuse_albedo = 0.3, .specular_albedo = 0.05, .sigma = 0.05, .alpha_deg = 30};
   // > 0: prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
   // tenth of a sparse grid of pixels fitted without the prior) is this, and scales with the
   // square of the stack's own: the data term is a sum of squared relative residuals, not of
@@ -160,10 +179,12 @@ struct StackFitSummary {
   // First fits refined again because their lobe left the strip span their nodes were placed for
   // (StackPixelOptions::strip_quadrature).
   int pixels_nodes_replaced = 0;
-  double retry_threshold_rms = 0;  // relative RMS above which they were
-  double noise_rms = 0;            // the stack's, where the prior's weight follows it
-  double prior_weight = 0;         // the prior's weight as applied
-  double smoothing_weight = 0;     // the smoothing prior's, as applied (0: no smoothing pass)
+  double retry_threshold_rms = 0;      // relative RMS above which they were
+  double noise_rms = 0;                // the stack's, where the prior's weight follows it
+  double half_vector_spacing_deg = 0;  // how finely the stack samples the half-vectors (HalfVectorSpacing)
+  double min_sigma = 0;                // the narrowest lobe the fits could reach
+  double prior_weight = 0;             // the prior's weight as applied
+  double smoothing_weight = 0;         // the smoothing prior's, as applied (0: no smoothing pass)
   std::vector<WardParams<double>> cluster_params;
   std::vector<int> cluster_sizes;
   double f0 = 0;  // the material's

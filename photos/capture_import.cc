@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <iostream>
 #include <numbers>
 #include <sstream>
 
@@ -438,7 +439,9 @@ std::optional<Eigen::Vector2d> HighlightPosition(const Photo& photo, double widt
 // The flash's offset from where the files put it (stack frame, mm; z 0): the mirror point of a
 // flat sample for camera c and light l is (c·l_z + l·c_z)/(c_z + l_z), so a highlight found h
 // away from it says the light is off by h·(c_z + l_z)/c_z; the median over the images whose
-// mirror point lies on the sample, the held-out image's left out. Nothing when none does.
+// mirror point lies in the central kCentralShare of the sample, the held-out image's left out.
+// Nothing when none does.
+constexpr double kCentralShare = 0.9;
 std::optional<Eigen::Vector3d> EstimateFlashOffset(const std::vector<Shot>& shots, const std::vector<Result<Photo>>& photos,
                                                    double width_mm, std::optional<int> held_out,
                                                    std::vector<Eigen::Vector2d>& found) {
@@ -448,7 +451,8 @@ std::optional<Eigen::Vector3d> EstimateFlashOffset(const std::vector<Shot>& shot
     const Eigen::Vector3d& c = shots[k].camera_mm;
     const Eigen::Vector3d& l = shots[k].light_mm;
     const Eigen::Vector2d mirror = ((c * l.z() + l * c.z()) / (c.z() + l.z())).head<2>();
-    if (mirror.cwiseAbs().maxCoeff() > 0.45 * width_mm) continue;  // its highlight would be near or off the edge
+    // A highlight near the edge is cut by it on one side, which pulls its median toward the centre.
+    if (mirror.cwiseAbs().maxCoeff() > kCentralShare / 2 * width_mm) continue;
     const std::optional<Eigen::Vector2d> highlight = HighlightPosition(*photos[k], width_mm);
     if (!highlight) continue;
     found.push_back(*highlight - mirror);

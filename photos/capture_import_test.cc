@@ -180,6 +180,33 @@ TEST_F(CaptureImportTest, AFlashCaptureBecomesPointLightsInMillimetresWithTheGam
   EXPECT_FALSE(green.emitters[0].at_infinity);
 }
 
+TEST_F(CaptureImportTest, ALightDomesLpFileGivesDirectionalLightsAndSrgbImages) {
+  const fs::path lp = dir_ / "dome";
+  fs::create_directories(lp);
+  for (int k = 0; k < 3; ++k) {
+    cv::imwrite((lp / ("img" + std::to_string(k) + ".jpg")).string(), cv::Mat(6, 5, CV_8UC3, cv::Scalar(100, 150, 200)));
+  }
+  WriteText(lp / "dome.lp", "3\nimg0.jpg 0 0 1\nimg1.jpg 0.6 0 0.8\nimg2.jpg 0 0.6 0.8\n");
+  ImportOptions options;
+  options.scale = 1.0;
+  const Result<ImportResult> imported = ImportCapture(lp, options);
+  ASSERT_TRUE(imported.ok()) << imported.status().ToString();
+  EXPECT_EQ(imported->layout, Layout::kLightPositions);
+  EXPECT_EQ(imported->encoding.Name(), "srgb");
+  const ObservationStack& stack = imported->stack;
+  ASSERT_EQ(stack.observations.size(), 9u);
+  EXPECT_EQ(stack.image.width(), 5);
+  EXPECT_TRUE(stack.observations[6].emitters[0].DirectionFrom({0, 0, 0}).isApprox(Eigen::Vector3d(0, -0.6, 0.8), 1e-9));
+  // Red 200 in sRGB is 0.578 linear (JPEG may move it by a step or two).
+  EXPECT_NEAR(stack.image.at(ObservationStack::ObservationChannel(0), 2, 2), 0.578, 0.02);
+  // A count that does not match the lines, named by file.
+  WriteText(lp / "dome.lp", "4\nimg0.jpg 0 0 1\nimg1.jpg 0.6 0 0.8\nimg2.jpg 0 0.6 0.8\n");
+  const Result<ImportResult> wrong = ImportCapture(lp, options);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.status().ToString().find("dome.lp"), std::string::npos) << wrong.status().ToString();
+  EXPECT_NE(wrong.status().ToString().find("says 4 images but lists 3"), std::string::npos) << wrong.status().ToString();
+}
+
 TEST_F(CaptureImportTest, ANormalMapReadsInTheStackFrame) {
   cv::Mat png(2, 2, CV_8UC3, cv::Scalar(0, 0, 0));
   // (n + 1)/2 of n = (0, 0.6, 0.8) (y up), stored as B, G, R; pixel (1, 1) none.

@@ -96,4 +96,50 @@ ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options) {
   return capture;
 }
 
+Status FlashCaptureOptions::Check() const {
+  std::vector<std::string> problems;
+  if (images < 2 || images > 100) problems.push_back("images must be in [2, 100]");
+  if (!(height_cm > 0)) problems.push_back("height_cm must be > 0");
+  if (!(ring_cm >= 0)) problems.push_back("ring_cm must be ≥ 0");
+  if (!flash_offset_cm.allFinite()) problems.push_back("flash_offset_cm must be finite");
+  if (!(power > 0)) problems.push_back("power must be > 0");
+  if (!(noise >= 0 && noise < 1)) problems.push_back("noise must be in [0, 1)");
+  return ProblemsStatus("FlashCaptureOptions", problems);
+}
+
+FlashCapture RenderFlashCapture(const Image& maps, double pixel_mm, const FlashCaptureOptions& options) {
+  const int width = maps.width(), height = maps.height();
+  FlashCapture capture;
+  capture.width_cm = width * pixel_mm / 10;
+  std::mt19937_64 random(options.seed);
+  std::normal_distribution<double> gauss(0, 1);
+  for (int k = 0; k < options.images; ++k) {
+    const double angle = 2 * std::numbers::pi * (k - 1) / std::max(1, options.images - 1);
+    const Eigen::Vector3d camera_cm =
+        k == 0 ? Eigen::Vector3d(0, 0, options.height_cm)
+               : Eigen::Vector3d(options.ring_cm * std::cos(angle), options.ring_cm * std::sin(angle), options.height_cm);
+    capture.cameras_cm.push_back(camera_cm);
+    // The stack frame: mm, y down the image.
+    const auto in_stack = [](const Eigen::Vector3d& cm) { return Eigen::Vector3d(10 * cm.x(), -10 * cm.y(), 10 * cm.z()); };
+    const Eigen::Vector3d camera = in_stack(camera_cm), light = in_stack(camera_cm + options.flash_offset_cm);
+    Image image(width, height, {"R", "G", "B"});
+    for (int j = 0; j < height; ++j) {
+      for (int i = 0; i < width; ++i) {
+        const Eigen::Vector3d p((i + 0.5 - width / 2.0) * pixel_mm, (j + 0.5 - height / 2.0) * pixel_mm, 0);
+        const Eigen::Vector3d to_light = light - p;
+        const double irradiance = 100 * options.power / to_light.squaredNorm();  // per mm², as loom import has it
+        const fitting::WardParams<double> params = fitting::GetParams(maps, i, j);
+        const fitting::WardLobe<double> lobe(params);
+        const fitting::WardTerms<double> terms = lobe.Terms(to_light.normalized(), (camera - p).normalized());
+        for (int c = 0; c < 3; ++c) {
+          const double radiance = irradiance * (params.a_d[c] * terms.diffuse + params.a_s[c] * terms.specular) * terms.cos_l;
+          image.at(c, j, i) = static_cast<float>(radiance * (1 + options.noise * gauss(random)));
+        }
+      }
+    }
+    capture.images.push_back(std::move(image));
+  }
+  return capture;
+}
+
 }  // namespace loom::sim

@@ -42,4 +42,29 @@ struct ObjectCapture {
 // Irradiance 1 from every light; radiance = (a_d/π + a_s F D)(n·l) as the fitters model it.
 ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options);
 
+// A planar material photographed with a phone's flash, the layout of flash captures (MaterialGAN's):
+// cameras on a ring above the sample's centre, each image rectified to the sample (the maps'
+// grid), the flash `flash_offset_cm` beside the lens while the files, as real ones do, put the
+// light at the camera.
+struct FlashCaptureOptions {
+  int images = 9;                                                // one at the centre, the rest on the ring
+  double height_cm = 17;                                         // the cameras' height
+  double ring_cm = 2.5;                                          // the ring's radius
+  Eigen::Vector3d flash_offset_cm = Eigen::Vector3d(0.8, 0, 0);  // x right, y up the image, z up
+  double power = 1500;                                           // the flash's, per cm² at 1 cm, each channel
+  double noise = 0;                                              // relative Gaussian noise on every value
+  uint64_t seed = 1;
+  Status Check() const;  // every problem, naming the field
+};
+
+struct FlashCapture {
+  std::vector<Image> images;                // linear radiance (per unit of the importer's model), channels R, G, B
+  std::vector<Eigen::Vector3d> cameras_cm;  // as the files say (y up): the lights are put there too
+  double width_cm = 0;
+};
+
+// `maps` (svbrdf_maps.h, on the sample: pixel (i, j) at ((i + 0.5 − W/2)·pixel_mm,
+// (j + 0.5 − H/2)·pixel_mm), y down the image) seen under the flash.
+FlashCapture RenderFlashCapture(const Image& maps, double pixel_mm, const FlashCaptureOptions& options);
+
 }  // namespace loom::sim
