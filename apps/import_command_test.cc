@@ -93,6 +93,14 @@ TEST_F(ImportCommandTest, ANoisyCylinderIsFittedAsWellAsPhotometricStereoFitsIt)
   EXPECT_LE(refine["mean_deg"].get<double>(), lambert["mean_deg"].get<double>()) << refine.dump() << lambert.dump();
 }
 
+TEST_F(ImportCommandTest, AnOutOfModelSphereIsFittedWithinADegree) {
+  // A GGX coat and mesostructure GD10 cannot represent: the fit bends, but stays near the truth
+  // (measured on 96 × 96 px, 96 lights, 2 % noise: mean 0.39° against photometric stereo's 0.76°).
+  CaptureAndImport("sphere", "--out-of-model --noise 0.02");
+  const nlohmann::json ceres = FitAndScoreNormals("ceres");
+  EXPECT_LT(ceres["mean_deg"].get<double>(), 1.0) << ceres.dump();
+}
+
 TEST_F(ImportCommandTest, AHeldOutViewScoresTheFitAndTheMaskedMapsExport) {
   const auto capture = RunCommand(Loom("sim capture --size 24 --lights 16 --out " + Path("capture")));
   ASSERT_EQ(capture.exit_code, 0) << capture.output;

@@ -250,6 +250,10 @@ int RunSim(int argc, char** argv) {
   capture_app->add_option("--specular", capture.options.material.a_s[0], "The material's specular albedo (grey)")
       ->check(CLI::Range(0.0, 1.0));
   capture_app->add_option("--noise", capture.options.noise, "Relative sensor noise")->check(CLI::Range(0.0, 0.5));
+  bool out_of_model = false;
+  capture_app->add_flag("--out-of-model", out_of_model,
+                        "ps: the material shows what GD10 cannot (sim/reflectance.h): a grey GGX coat of albedo 0.1 and "
+                        "roughness 0.1, and 4° of mesostructure");
   capture_app->add_option("--seed", capture.options.seed, "Seed of the noise");
   capture_app->add_option("--truth", capture.truth, "Also write the true maps on the image's grid (OpenEXR)");
   capture_app->add_option("--normals", capture.normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
@@ -278,6 +282,7 @@ int RunSim(int argc, char** argv) {
   if (*capture_app) {
     capture.options.material.sigma_y = capture.options.material.sigma_x;
     capture.options.material.a_s = Eigen::Vector3d::Constant(capture.options.material.a_s[0]);
+    if (out_of_model) capture.options.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
     capture.sample.size_px = capture.options.size_px;
     capture.flash.noise = capture.options.noise;
     capture.flash.seed = capture.options.seed;

@@ -83,10 +83,9 @@ ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options) {
       for (int i = 0; i < n; ++i) {
         const auto& p = materials[static_cast<size_t>(j) * n + i];
         if (!p) continue;
-        const fitting::WardLobe<double> lobe(*p);
-        const fitting::WardTerms<double> terms = lobe.Terms(l, Eigen::Vector3d::UnitZ());
+        const Reflectance reflectance(*p, options.beyond);
         for (int c = 0; c < 3; ++c) {
-          const double radiance = (p->a_d[c] * terms.diffuse + p->a_s[c] * terms.specular) * terms.cos_l;
+          const double radiance = reflectance.EvaluateCos(l, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Unit(c));
           image.at(c, j, i) = static_cast<float>(radiance * (1 + options.noise * gauss(random)));
         }
       }

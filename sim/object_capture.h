@@ -13,6 +13,7 @@
 #include "core/image.h"
 #include "core/status.h"
 #include "fitting/model/ward_gd10.h"
+#include "sim/reflectance.h"
 
 namespace loom::sim {
 
@@ -28,6 +29,9 @@ struct ObjectCaptureOptions {
   fitting::WardParams<double> material = {{0, 0, 1}, {0.55, 0.35, 0.2}, {0.25, 0.25, 0.25}, 0.15, 0.15, 0, 1};
   double noise = 0;  // relative Gaussian noise on every value (sensor), 0: none
   uint64_t seed = 1;
+  // What the material shows beyond GD10 (reflectance.h: a coat lobe, fibre masking,
+  // mesostructure); none: GD10 exactly.
+  BeyondGd10 beyond;
   Status Check() const;  // every problem, naming the field
 };
 
@@ -39,7 +43,8 @@ struct ObjectCapture {
   Image truth;                                    // SVBRDF maps on the image's grid (stack frame: y down); NaN off it
 };
 
-// Irradiance 1 from every light; radiance = (a_d/π + a_s F D)(n·l) as the fitters model it.
+// Irradiance 1 from every light; radiance = (a_d/π + a_s F D)(n·l) as the fitters model it, and
+// what options.beyond adds to it.
 ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options);
 
 // A planar material photographed with a phone's flash, the layout of flash captures (MaterialGAN's):
