@@ -14,9 +14,6 @@ namespace {
 
 Status Export(const std::string& maps_path, double pixel_mm_option, const std::string& gltf, fitting::GltfAnisotropy anisotropy,
               const std::string& axf) {
-  if (gltf.empty() && axf.empty()) {
-    return InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE");
-  }
   LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
   if (const int skipped = fitting::BlackenSkippedPixels(maps.maps); skipped > 0) {
     std::cout << skipped << " px the fit skipped (masked or unseen) are written black\n";
@@ -64,6 +61,10 @@ int RunExport(int argc, char** argv) {
   app.add_option("--pixel-mm", pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (out.empty() && axf.empty()) {  // a usage error, as CLI11's own are
+    ExitCode(InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE"));
+    return kExitUsage;
+  }
   return ExitCode(Export(maps, pixel_mm, out, anisotropy, axf));
 }
 

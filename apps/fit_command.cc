@@ -327,6 +327,11 @@ int RunFit(int argc, char** argv) {
   retries->excludes(no_retries);
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
+  if (!fitting::ParseFitMethod(args.method)) {  // a usage error, as CLI11's own are
+    ExitCode(InvalidArgumentError("--method " + args.method,
+                                  "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo"));
+    return kExitUsage;
+  }
   args.given = {.smoothing_weight = smoothing_weight->count() > 0,
                 .retries = retries->count() + no_retries->count() > 0,
                 .function_tolerance = function_tolerance->count() > 0,

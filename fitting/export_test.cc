@@ -6,8 +6,10 @@
 
 #include <limits>
 
+#include "core/exr_io.h"
 #include "fitting/axf_export.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "fitting/svbrdf_file.h"
 
 namespace loom::fitting {
 namespace {
@@ -17,6 +19,9 @@ namespace fs = std::filesystem;
 TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndNanMapsAndOtherFilesAreRefused) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("export_test_" + std::to_string(::getpid()));
   Image maps = MakeSvbrdfImage(6, 4, false);
+  for (int y = 0; y < 4; ++y) {
+    for (int x = 0; x < 6; ++x) SetParams(maps, x, y, WardParams<double>{});
+  }
   WardParams<double> params;
   params.a_d = {0.2, 0.3, 0.4};
   params.sigma_x = 0.25;
@@ -36,6 +41,33 @@ TEST(ExportTest, SvbrdfMapsReadBackWithTheirPixelSizeAndNanMapsAndOtherFilesAreR
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.ToString().find("sigma_x at pixel (4, 2) is not a finite number"), std::string::npos) << refused.ToString();
   EXPECT_FALSE(std::filesystem::exists(dir / "broken" / "svbrdf.exr"));
+
+  // Values no material has are refused where maps are read, naming channel and pixel; a pixel NaN
+  // in every parameter (one a fit skipped) is not one of them.
+  Image skipped = maps;
+  for (int c = 0; c < kNumWardParams; ++c) skipped.at(c, 1, 1) = std::numeric_limits<float>::quiet_NaN();
+  ASSERT_TRUE(WriteExr(dir / "skipped.exr", skipped).ok());
+  EXPECT_TRUE(ReadSvbrdf(dir / "skipped.exr").ok());
+  const auto refused_on_read = [&](int channel, float value) {
+    Image bad = maps;
+    bad.at(channel, 2, 4) = value;
+    EXPECT_TRUE(WriteExr(dir / "bad.exr", bad).ok());
+    const Result<SvbrdfFile> read_bad = ReadSvbrdf(dir / "bad.exr");
+    return read_bad.ok() ? std::string("read") : read_bad.status().ToString();
+  };
+  EXPECT_NE(refused_on_read(12, std::numeric_limits<float>::quiet_NaN()).find("F0 at pixel (4, 2) is nan"), std::string::npos);
+  EXPECT_NE(refused_on_read(12, 2).find("F0 at pixel (4, 2) = 2"), std::string::npos);
+  EXPECT_NE(refused_on_read(9, 0).find("sigma at pixel (4, 2) is not > 0"), std::string::npos);
+  EXPECT_NE(refused_on_read(9, -1).find("bad.exr"), std::string::npos);
+  EXPECT_NE(refused_on_read(4, -0.5f).find("an albedo at pixel (4, 2) is negative"), std::string::npos);
+  EXPECT_NE(refused_on_read(11, std::numeric_limits<float>::infinity()).find("alpha at pixel (4, 2)"), std::string::npos);
+  Image no_normal = maps;
+  for (int c = 0; c < 3; ++c) no_normal.at(c, 2, 4) = 0;
+  ASSERT_TRUE(WriteExr(dir / "no-normal.exr", no_normal).ok());
+  const Result<SvbrdfFile> read_no_normal = ReadSvbrdf(dir / "no-normal.exr");
+  ASSERT_FALSE(read_no_normal.ok());
+  EXPECT_NE(read_no_normal.status().ToString().find("n_s at pixel (4, 2) has length 0"), std::string::npos)
+      << read_no_normal.status().ToString();
 
   ASSERT_TRUE(WriteExr(dir / "grey.exr", Image(2, 2, {"Y"})).ok());
   const Result<SvbrdfFile> grey = ReadSvbrdf(dir / "grey.exr");

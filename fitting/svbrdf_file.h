@@ -10,7 +10,9 @@ namespace loom::fitting {
 // Maps in svbrdf_maps.h's layout read back (svbrdf.exr or a simulator's truth: ReadSvbrdfExr;
 // for a FILE.axf, an AxF file's SVBRDF: axf_export.h), with their pixel size when the file
 // states it (loom.pixel_mm, AxF's WidthMM; 0 when it does not). A file in another layout is an
-// error naming it.
+// error naming it, and so are values no material has (a parameter not a number but where the
+// pixel is NaN in all of them, skipped by a fit; a normal of no direction; a negative albedo; σ
+// not positive; F0 outside [0, 1]), each naming its channel and pixel.
 Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path);
 
 }  // namespace loom::fitting
