@@ -152,7 +152,26 @@ std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>&
   }
   if (pixel.observations_used < options.min_observations) return std::nullopt;
   pixel.rms = sum > 0 ? std::sqrt(squares / pixel.observations_used) / (sum / pixel.observations_used) : 0;
+  const WardLobe<double> lobe(AsWardParams(pixel));
+  double all_squares = 0, all_sum = 0;
+  for (const PixelObservation& o : observations) {
+    const double r = PredictRadiance(lobe, o) - o.radiance;
+    all_squares += r * r, all_sum += std::abs(o.radiance);
+  }
+  const double count = static_cast<double>(observations.size());
+  pixel.rms_all = all_sum > 0 ? std::sqrt(all_squares / count) / (all_sum / count) : 0;
   return pixel;
+}
+
+WardParams<double> AsWardParams(const LambertPixel& pixel) {
+  WardParams<double> p;
+  p.n_s = pixel.normal;
+  p.a_d = pixel.albedo.cwiseMin(kMaxAlbedo);
+  p.a_s = Eigen::Vector3d::Zero();
+  p.sigma_x = p.sigma_y = 0.2;
+  p.alpha = 0;
+  p.f0 = 1;
+  return p;
 }
 
 std::vector<std::optional<LambertPixel>> LambertPixels(const ObservationStack& stack, const LambertFitOptions& options) {

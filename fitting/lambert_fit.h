@@ -53,7 +53,14 @@ struct LambertPixel {
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();   // RGB, not bounded
   int observations_used = 0;
   double rms = 0;  // of the kept observations' residuals, relative to their mean radiance
+  // The same surface as GD10 maps it (a_s 0) on every observation, as stack_fitter.cc's retries
+  // measure a fit: a GD10 fit worse than this is in a wrong basin, since GD10 holds it.
+  double rms_all = 0;
 };
+
+// A Lambertian pixel as GD10 parameters: its normal and albedo (clamped to kMaxAlbedo), a_s 0,
+// σ 0.2 (the lobe absent: any width), F0 1.
+WardParams<double> AsWardParams(const LambertPixel& pixel);
 
 // One pixel's fit; nothing where fewer than options.min_observations are kept.
 std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>& observations, const LambertFitOptions& options);

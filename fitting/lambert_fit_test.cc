@@ -36,6 +36,7 @@ TEST(LambertFitTest, RecoversTheNormalAndAlbedoOfALambertianPixel) {
   EXPECT_LT(RadToDeg(std::acos(std::min(1.0, fit->normal.dot(n)))), 0.01);
   EXPECT_LT((fit->albedo - a).norm(), 1e-6);
   EXPECT_LT(fit->rms, 1e-6);
+  EXPECT_LT(fit->rms_all, 1e-6);  // nothing left out: the same
 }
 
 TEST(LambertFitTest, LeavesOutHighlightsAndCastShadowsByItsRule) {
@@ -54,6 +55,9 @@ TEST(LambertFitTest, LeavesOutHighlightsAndCastShadowsByItsRule) {
   EXPECT_LT(RadToDeg(std::acos(std::min(1.0, fit->normal.dot(n)))), 0.01);
   EXPECT_LT((fit->albedo - a).norm(), 1e-6);
   EXPECT_EQ(fit->observations_used, 3 * (40 - 7));
+  // On every observation, as a GD10 fit is measured, the highlights and shadows count.
+  EXPECT_LT(fit->rms, 1e-6);
+  EXPECT_GT(fit->rms_all, 0.5);
   // Least squares on every observation is pulled off by them (what the rule is for).
   LambertFitOptions plain;
   plain.trim_dark = 0, plain.trim_bright = 1, plain.rounds = 0;

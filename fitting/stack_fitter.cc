@@ -209,6 +209,14 @@ struct PixelOutcome {
   std::optional<ParamSigma> sigma;  // the refiner's
 };
 
+// A fit worse than the pixel's Lambertian surface on the same observations (GD10 with a_s 0 is
+// that surface, so the fit is in a wrong basin): a broad lobe that swallowed the diffuse term
+// can fit below the retry threshold and still be that.
+bool WorseThanLambertian(const PixelOutcome& outcome, const NormalStarts& normals, int i) {
+  if (normals.empty() || !normals.Pixel(i)) return false;
+  return outcome.rms > normals.Pixel(i)->rms_all;
+}
+
 PixelOutcome FitFromStart(const std::vector<PixelObservation>& observations, const WardParams<double>& start,
                           const PixelFitOptions& fit) {
   PixelOutcome outcome{start, 0, 0, 0, static_cast<int>(observations.size()), false, std::nullopt};
@@ -222,14 +230,20 @@ PixelOutcome FitFromStart(const std::vector<PixelObservation>& observations, con
   return outcome;
 }
 
-// A pixel fitted again from grid-searched starts (its highlight is not where its start put it);
-// the better of the two fits is kept.
+// A pixel fitted again from grid-searched starts (its highlight is not where its start put it)
+// and, where it has one, from its Lambertian surface; the better of the fits is kept.
 PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, const PixelOutcome& first,
-                           const PixelFitOptions& fit, const StackFitOptions& options,
-                           const std::optional<Eigen::Matrix3d>& turn) {
-  const std::vector<WardParams<double>> starts = GridStartsAround(turn, observations, [&](const auto& o) {
+                           const PixelFitOptions& fit, const StackFitOptions& options, const std::optional<Eigen::Matrix3d>& turn,
+                           const std::optional<LambertPixel>& lambertian) {
+  std::vector<WardParams<double>> starts = GridStartsAround(turn, observations, [&](const auto& o) {
     return GridInitialParams(o, fit.fixed_f0.value_or(1.0), options.retry_grid_starts);
   });
+  if (lambertian) {  // the Lambertian surface with a faint lobe to grow from (at a_s 0 σ has no gradient)
+    WardParams<double> start = AsWardParams(*lambertian);
+    start.a_s = Eigen::Vector3d::Constant(0.01);
+    start.f0 = fit.fixed_f0.value_or(1.0);
+    starts.push_back(start);
+  }
   Result<PixelFitResult> again = FitFromStarts(observations, starts, fit);
   if (!again.ok() || again->cost >= first.cost) return first;
   return {again->params,
@@ -1142,7 +1156,9 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   summary.retry_threshold_rms = RetryThreshold(outcomes, options);
   std::vector<int> retry;
   for (int i = 0; options.retry_poor_fits && i < pixel_count; ++i) {
-    if (outcomes[i].fitted && outcomes[i].rms > summary.retry_threshold_rms) retry.push_back(i);
+    if (outcomes[i].fitted && (outcomes[i].rms > summary.retry_threshold_rms || WorseThanLambertian(outcomes[i], normals, i))) {
+      retry.push_back(i);
+    }
   }
   summary.pixels_retried = static_cast<int>(retry.size());
   if (refiner) {
@@ -1169,7 +1185,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
         [&](int r) {
           const int i = retry[r];
           const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
-          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options, normals.Turn(i));
+          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options, normals.Turn(i),
+                                      normals.empty() ? std::nullopt : normals.Pixel(i));
         },
         retry_progress);
     summary.pixels_retry_finished = static_cast<int>(retry.size());
