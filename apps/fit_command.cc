@@ -248,14 +248,15 @@ int RunFit(int argc, char** argv) {
                  "The narrowest lobe a fit may reach (default: half the angle between the stack's neighbouring "
                  "half-vectors, at least 0.001 and at most 0.2)")
       ->check(CLI::Range(0.001, 0.999));
+  app.add_option("--left-out-views-max", args.options.left_out_view_selection_max_views,
+                 "ceres and refine: on a stack of at most this many views (a photograph's colour channels are one), each "
+                 "appearance cluster keeps the GD10 fit or the Lambertian one, whichever predicts views left out of its "
+                 "fit better, at (views + 1) fits of each (0: never)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
   app.add_flag("!--no-photometric-stereo-starts", args.options.photometric_stereo_starts,
                "Start every pixel from its cluster's lobe on the stack's geometric normal instead of on the pixel's "
                "normal by photometric stereo");
-  app.add_option("--cluster-prior-weight", args.options.cluster_prior.weight,
-                 "refine: weight of the prior toward each pixel's start (its cluster's lobe on its own normal), scaled "
-                 "with the stack's noise as --prior-weight is (0: none)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
   app.add_option("--prior-noise", args.options.prior_reference_noise_rms,
                  "cnn+refine: the stack noise level (relative RMS of its best-fitted tenth) at which --prior-weight "
                  "holds; the weight scales with the square of the stack's own, so that exact data outweigh the CNN "

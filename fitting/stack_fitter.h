@@ -120,13 +120,6 @@ struct StackFitOptions {
   int left_out_view_selection_max_views = 16;
   // With the refiner and initial maps: the prior toward them (in step 5 too, from grid starts).
   RefinePrior prior;
-  // With the refiner and no initial maps: the prior toward each pixel's start, its cluster's lobe
-  // on its own photometric-stereo normal. A cluster's lobe rests on many pixels' observations;
-  // one pixel's few views (a phone's flash, a handful of photographs) leave its lobe loose, and a
-  // free fit there fits noise and predicts other views badly. Its weight follows the stack's
-  // noise as the CNN prior's does (prior_reference_noise_rms), so exact data are not held.
-  RefinePrior cluster_prior{
-      .weight = 0, .normal_deg = 30, .diffuse_albedo = 0.3, .specular_albedo = 0.05, .sigma = 0.05, .alpha_deg = 30};
   // > 0: prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
   // tenth of a sparse grid of pixels fitted without the prior) is this, and scales with the
   // square of the stack's own: the data term is a sum of squared relative residuals, not of
