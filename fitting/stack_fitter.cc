@@ -127,14 +127,12 @@ double HalfVectorSpacing(const StackPixels& pixels) {
       if (brightest != o.lights.end()) halves.push_back((brightest->l_local + o.v_local).normalized());
     }
     if (halves.size() < 2) continue;
-    std::vector<double> nearest(halves.size());
+    std::vector<double> nearest(halves.size(), kPi);
     for (size_t a = 0; a < halves.size(); ++a) {
-      double closest = -1;  // the largest cosine to another half-vector (one not the same)
       for (size_t b = 0; b < halves.size(); ++b) {
-        const double cosine = halves[a].dot(halves[b]);
-        if (b != a && cosine < 1 - 1e-15) closest = std::max(closest, cosine);
+        const double angle = std::acos(std::clamp(halves[a].dot(halves[b]), -1.0, 1.0));
+        if (a != b && angle > 1e-9) nearest[a] = std::min(nearest[a], angle);
       }
-      nearest[a] = std::acos(std::clamp(closest, -1.0, 1.0));
     }
     std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(nearest.size() / 2), nearest.end());
     spacings.push_back(nearest[nearest.size() / 2]);
