@@ -57,6 +57,16 @@ class ImportCommandTest : public ::testing::Test {
     return Json("eval-" + method + "/normals.json");
   }
 
+  // Fits train.exr with `method` and returns the relative L1 of the view held out of it (held.exr).
+  double HeldOutL1(const std::string& method) {
+    const auto fit = RunCommand(Loom("fit " + Path("train.exr") + " --method " + method + " --out " + Path(method) + " --quiet"));
+    EXPECT_EQ(fit.exit_code, 0) << fit.output;
+    const auto eval = RunCommand(Loom("eval " + Path(method + "/svbrdf.exr") + " --stack " + Path("held.exr") +
+                                      " --renderer-views 0 --out " + Path(method + "-held")));
+    EXPECT_EQ(eval.exit_code, 0) << eval.output;
+    return Json(method + "-held/summary.json")["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>();
+  }
+
   fs::path dir_;
 };
 
@@ -107,15 +117,8 @@ TEST_F(ImportCommandTest, AHeldOutViewScoresTheFitAndTheMaskedMapsExport) {
   const auto imported = RunCommand(
       Loom("import " + Path("capture") + " --hold-out 5 --held-out " + Path("held.exr") + " --out " + Path("train.exr")));
   ASSERT_EQ(imported.exit_code, 0) << imported.output;
-  for (const char* method : {"ceres", "lambert"}) {
-    const auto fit = RunCommand(Loom("fit " + Path("train.exr") + " --method " + method + " --out " + Path(method) + " --quiet"));
-    ASSERT_EQ(fit.exit_code, 0) << fit.output;
-    const auto eval = RunCommand(Loom("eval " + Path(std::string(method) + "/svbrdf.exr") + " --stack " + Path("held.exr") +
-                                      " --renderer-views 0 --out " + Path(std::string(method) + "-held")));
-    ASSERT_EQ(eval.exit_code, 0) << eval.output;
-  }
-  const double ceres = Json("ceres-held/summary.json")["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>();
-  const double lambert = Json("lambert-held/summary.json")["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>();
+  const double ceres = HeldOutL1("ceres");
+  const double lambert = HeldOutL1("lambert");
   // Noise-free GD10 with a highlight: the lobe predicts the view it never saw; Lambert cannot.
   EXPECT_LT(ceres, 0.05);
   EXPECT_LT(ceres, 0.5 * lambert) << ceres << " " << lambert;
@@ -136,16 +139,7 @@ TEST_F(ImportCommandTest, AFlashCaptureOfFewViewsIsFittedNoWorseThanALambertianS
   ASSERT_EQ(imported.exit_code, 0) << imported.output;
   EXPECT_NE(imported.output.find("imported 6 images (flash, gamma:2.2)"), std::string::npos) << imported.output;
   EXPECT_NE(imported.output.find("estimated from the highlights of"), std::string::npos) << imported.output;
-  double l1[2] = {};
-  int k = 0;
-  for (const char* method : {"ceres", "lambert"}) {
-    const auto fit = RunCommand(Loom("fit " + Path("train.exr") + " --method " + method + " --out " + Path(method) + " --quiet"));
-    ASSERT_EQ(fit.exit_code, 0) << fit.output;
-    const auto eval = RunCommand(Loom("eval " + Path(std::string(method) + "/svbrdf.exr") + " --stack " + Path("held.exr") +
-                                      " --renderer-views 0 --out " + Path(std::string(method) + "-held")));
-    ASSERT_EQ(eval.exit_code, 0) << eval.output;
-    l1[k++] = Json(std::string(method) + "-held/summary.json")["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>();
-  }
+  const double l1[2] = {HeldOutL1("ceres"), HeldOutL1("lambert")};
   // Five views left to fit: the pixels chose their model by the views left out of their fits.
   const nlohmann::json selection = Json("ceres/fit.json")["left_out_view_selection"];
   EXPECT_EQ(selection["views"].get<int>(), 5) << selection.dump();
