@@ -6,29 +6,27 @@
 #   scripts/sanitizers.sh thread    # TSan over ParallelFor, the sequencer and camera streams, in build-thread/
 # A second argument, SECONDS, bounds the build: if it has not finished by then no test runs and
 # the script exits 3 (what is built so far stays for the next run).
-# The address lane runs every test of the modules that never load LibTorch (299 tests: fitting's CNN
-# tests load it, apps' run the loom binary, which loads it for the CNN's commands); the `ci` lane
-# the suites of core (configs, images, EXR, geometry, ParallelFor), scan (the capture store, its
-# journal and plans) and the BRDF model: 121 tests. README command (2), and so CI, runs the `ci`
-# lane always and the whole `address` lane when its build finishes by the run's 16th minute, i.e.
-# from a warm compiler cache. Here, 2 cores, from an empty compiler cache (2026-11-28): the `ci`
-# lane's build 159 s, its tests 22 s; the whole lane's 299 tests 6.7 min. With the simulator, the
-# sim devices, the sequencer and the projector in the `ci` lane too (sessions 39-48), its build took
-# 318 s and a fresh machine's run of command (2) 30-31 min, over CI's 30.
+# The address lane runs every test of the modules that never load LibTorch (those labelled
+# without_torch in CMakeLists.txt; fitting's CNN tests load it, apps' run the loom binary, which
+# loads it for the CNN's commands); the `ci` lane the suites of core (configs, images, EXR,
+# geometry, ParallelFor), scan (the capture store, its journal and plans) and the BRDF model.
+# README command (2), and so CI, runs the `ci` lane always and the whole `address` lane when its
+# build finishes by the run's 16th minute, i.e. from a warm compiler cache (each lane prints its
+# build and test times).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:-address}
 build_seconds=${2:-0}
-# The ASan + UBSan lanes build with clang at -O1 (what ASan's own documentation advises): here their
-# objects took 0.45-0.65x the time g++ -O2 took under the same sanitizers (2026-11-28: the capture
-# store 58 -> 35 s, the observation stack 23 -> 13 s, the sim backends' test 22 -> 10 s). The TSan
-# lane stays g++ -O2, as its GLib suppressions were found with it.
+# The ASan + UBSan lanes build with clang at -O1 (what ASan's own documentation advises): their
+# objects take about half the time g++ -O2 takes under the same sanitizers. The TSan lane stays
+# g++ -O2, as its GLib suppressions were found with it.
 compiler=(-DCMAKE_CXX_COMPILER=clang++) opt=-O1
 case "$kind" in
   address) flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
            suites=(core_test scan_test scan_full_disk_test sim_test fitting_model_test hal_modbus_test hal_aravis_test
                    hal_aravis_netns_test hal_usb_test hal_projector_test hal_sim_test acquisition_test
-                   acquisition_sim_test acquisition_peer_test calibration_test calibration_sim_test reconstruction_test)
+                   acquisition_sim_test acquisition_peer_test calibration_test calibration_sim_test reconstruction_test
+                   photos_test)
            peers=(loom-modbus-sim) ;;
   ci)      flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
            suites=(core_test scan_test fitting_model_test) peers=() ;;
