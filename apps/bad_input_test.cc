@@ -1,13 +1,15 @@
 // loom's bad-input corpus (testdata/bad-input/cases.yaml): every case is a `loom` command line on
 // hostile input that must end with its documented exit code and a message naming the culprit —
-// never a crash, a hang or a silent success.
+// never a crash, a hang or a silent success — and leave its folder as it was.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <ostream>
 #include <random>
 #include <sstream>
@@ -79,6 +81,24 @@ fs::path TinyScan() {
   return scan;
 }
 
+// Runs `loom ARGUMENTS` for a case's setup; a failure fails the case.
+void RunLoom(const std::string& arguments) {
+  const auto run = loom::testing::RunCommand(loom::testing::LoomBinary() + " " + arguments);
+  EXPECT_EQ(run.exit_code, 0) << arguments << ":\n" << run.output;
+}
+
+// The model the model cases damage: a copy of tac7-mini's with `edit` substitutions in its
+// model.json and weights.pt cut to `weights_bytes` when given.
+void PrepareModel(const YAML::Node& model, const fs::path& dir) {
+  const fs::path from = fs::path(loom::testing::SourceDir()) / "configs/models/tac7-mini";
+  fs::create_directories(dir / "model");
+  for (const char* file : {"model.json", "weights.pt", "refine.json"}) fs::copy_file(from / file, dir / "model" / file);
+  std::string info = Slurp(dir / "model" / "model.json");
+  for (const YAML::Node& edit : model["edit"]) info = ReplacedFirst(info, edit[0].as<std::string>(), edit[1].as<std::string>());
+  std::ofstream(dir / "model" / "model.json", std::ios::trunc) << info;
+  if (const YAML::Node bytes = model["weights_bytes"]) fs::resize_file(dir / "model" / "weights.pt", bytes.as<uintmax_t>());
+}
+
 // Writes what the case's command reads into `dir`.
 void Prepare(const YAML::Node& c, const fs::path& dir) {
   if (const YAML::Node rig = c["rig"]) {
@@ -105,6 +125,33 @@ void Prepare(const YAML::Node& c, const fs::path& dir) {
     }
     for (const YAML::Node& file : scan["remove"]) EXPECT_TRUE(fs::remove(dir / "scan" / file.as<std::string>()));
   }
+  if (c["material"]) RunLoom("sim material --size 16 --out " + (dir / "material").string());
+  if (c["stack"]) {
+    RunLoom("sim render --rig " + loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml --stack --size 6 --out " +
+            (dir / "stack.exr").string());
+  }
+  if (const YAML::Node model = c["model"]) PrepareModel(model, dir);
+  for (const YAML::Node& link : c["links"]) fs::create_symlink(link[1].as<std::string>(), dir / link[0].as<std::string>());
+  if (const YAML::Node fifo = c["fifo"]) EXPECT_EQ(::mkfifo((dir / fifo.as<std::string>()).c_str(), 0644), 0);
+}
+
+// Everything under `dir` as lstat sees it (links not followed): kind, and for files size and
+// modification time, per path. A refused command must leave it as it was — but for a scan's
+// writer.lock, which opening a scan to resume it takes (and which holds no data).
+std::map<std::string, std::string> Snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> entries;
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.path().filename() == "writer.lock") continue;
+    struct stat info {};
+    ::lstat(entry.path().c_str(), &info);
+    std::string state = std::to_string(info.st_mode);
+    if (S_ISREG(info.st_mode)) {
+      state += " " + std::to_string(info.st_size) + " " + std::to_string(info.st_mtim.tv_sec) + "." +
+               std::to_string(info.st_mtim.tv_nsec);
+    }
+    entries[entry.path().lexically_relative(dir).string()] = state;
+  }
+  return entries;
 }
 
 class BadInputTest : public ::testing::TestWithParam<BadInputCase> {};
@@ -116,12 +163,15 @@ TEST_P(BadInputTest, IsRefusedWithItsExitCodeNamingTheCulprit) {
   fs::create_directories(dir);
   Prepare(c, dir);
   if (HasFailure()) return;
+  const std::map<std::string, std::string> before = Snapshot(dir);
   // `timeout`: a case that hangs fails (exit 124) instead of stalling the suite.
   const auto run = loom::testing::RunCommand("timeout 60 " + loom::testing::LoomBinary() + " " +
                                              Substituted(c["command"].as<std::string>(), dir));
   EXPECT_EQ(run.exit_code, c["exit"].as<int>()) << run.output;
   const std::string names = Substituted(c["names"].as<std::string>(), dir);
   EXPECT_NE(run.output.find(names), std::string::npos) << "expected '" << names << "' in:\n" << run.output;
+  EXPECT_EQ(Snapshot(dir), before) << "a refused command wrote, replaced or removed something in " << dir;
+  EXPECT_EQ(run.output.find("frame #"), std::string::npos) << "a library's backtrace reached the user:\n" << run.output;
   fs::remove_all(dir);
 }
 

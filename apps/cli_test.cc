@@ -139,7 +139,8 @@ TEST(CliTest, ModelShowsAModelAndCopiesItWithOtherWeights) {
   ASSERT_EQ(narrow.exit_code, 0) << narrow.output;
   const auto size = [](const std::filesystem::path& model) { return std::filesystem::file_size(model / "weights.pt"); };
   EXPECT_GT(size(dir / "32"), 1.98 * size(shipped));
-  EXPECT_EQ(size(dir / "16"), size(shipped));
+  // The same float16 weights: the same size up to the zip's record names (a few hundred bytes).
+  EXPECT_NEAR(static_cast<double>(size(dir / "16")), static_cast<double>(size(shipped)), 4096);
   EXPECT_TRUE(std::filesystem::exists(dir / "16" / "refine.json"));
   EXPECT_TRUE(Contains(RunLoom("model " + (dir / "32").string()).output, "weights float32"));
   const LoomRun in_place = RunLoom("model " + (dir / "16").string() + " --out " + (dir / "16").string() + " --weights float32");
@@ -159,7 +160,8 @@ TEST(CliTest, ModelAveragesTheWeightsOfModelsOfOneNetwork) {
   const LoomRun mean = RunLoom("model " + shipped + " --average " + (dir / "32").string() + " --out " + (dir / "mean").string() +
                                " --weights float16");
   ASSERT_EQ(mean.exit_code, 0) << mean.output;
-  EXPECT_EQ(std::filesystem::file_size(dir / "mean" / "weights.pt"), std::filesystem::file_size(shipped + "/weights.pt"));
+  EXPECT_NEAR(static_cast<double>(std::filesystem::file_size(dir / "mean" / "weights.pt")),
+              static_cast<double>(std::filesystem::file_size(shipped + "/weights.pt")), 4096);
   EXPECT_TRUE(Contains(RunLoom("model " + (dir / "mean").string()).output, "the uniform average of the weights of 2 models"));
   const std::string other_rig = loom::testing::SourceDir() + "/configs/models/tac7";
   const LoomRun mixed = RunLoom("model " + shipped + " --average " + other_rig + " --out " + (dir / "mixed").string());

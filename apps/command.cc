@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "core/log.h"
+#include "core/output_directory.h"
 
 namespace loom::apps {
 
@@ -35,7 +36,7 @@ std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
 
 int ExitCode(const Status& status) {
   if (status.ok()) return kExitOk;
-  std::cerr << "error: " << status.ToString() << "\n";
+  std::cerr << "error: " << OutputDirectory::InUsersTerms(status.ToString()) << "\n";
   return kExitFailure;
 }
 

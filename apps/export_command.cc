@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "apps/command.h"
+#include "core/file_io.h"
 #include "fitting/axf_export.h"
 #include "fitting/export.h"
 #include "fitting/gltf_export.h"
@@ -22,6 +23,11 @@ Status Export(const std::string& maps_path, double pixel_mm_option, const std::s
   if (!(pixel_mm > 0)) {
     return InvalidArgumentError(maps_path, "has no loom.pixel_mm attribute: give the maps' pixel size with --pixel-mm");
   }
+  // Both outputs are checked before either is written: one refused leaves nothing half-exported.
+  if (!gltf.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFolderExists(gltf, "--gltf"));
+  if (!gltf.empty()) LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(gltf, "--gltf"));
+  if (!axf.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFolderExists(axf, "--axf"));
+  if (!axf.empty()) LOOM_RETURN_IF_ERROR(CheckReplaceableFile(axf));
   if (!gltf.empty()) {
     LOOM_ASSIGN_OR_RETURN(const fitting::GltfAnisotropyChoice choice, fitting::WriteGltf(maps.maps, pixel_mm, gltf, anisotropy));
     std::cout << "wrote " << gltf << "/material.gltf: a " << maps.maps.width() * pixel_mm << " × "

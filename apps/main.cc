@@ -2,6 +2,8 @@
 // own options (with --help), and every failure ends here with a message and an exit code.
 #include <cstring>
 #include <iostream>
+#include <new>
+#include <string>
 
 #include "apps/command.h"
 #include "core/check.h"
@@ -50,6 +52,12 @@ int main(int argc, char** argv) {
   loom::apps::StartLibraries(argv[0]);
   try {
     return Dispatch(argc, argv);
+  } catch (const std::bad_alloc&) {
+    // Sizes are checked before they are allocated (core/memory.h); one that was not ends here,
+    // named, rather than as a bare std::bad_alloc.
+    std::cerr << "error: out of memory: `loom" << (argc > 1 ? std::string(" ") + argv[1] : std::string())
+              << "` asked for more memory than this machine could give (a size or count too large for it?); "
+                 "nothing was written\n";
   } catch (const loom::CheckError& e) {
     std::cerr << "internal error (a bug in loom, please report it): " << e.what() << "\n";
   } catch (const std::exception& e) {

@@ -18,6 +18,7 @@
 
 #include "apps/command.h"
 #include "core/file_io.h"
+#include "core/output_directory.h"
 #include "fitting/cnn.h"
 #include "fitting/cnn_dataset.h"
 
@@ -64,17 +65,21 @@ Status CheckNotAnInput(const fs::path& to, const std::vector<fs::path>& inputs) 
 
 // `cnn` saved in `to` (its info's weight storage), with the files beside the model `from`
 // (refine.json, README.md, ...); folders (checkpoints/, data/) stay behind.
+// The folder is written whole or not at all (OutputDirectory).
 Status WriteModel(const fitting::Cnn& cnn, const fs::path& from, const fs::path& to) {
-  LOOM_RETURN_IF_ERROR(cnn.Save(to));
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(to, "--out"));
+  LOOM_RETURN_IF_ERROR(cnn.Save(out.partial()));
   std::error_code error;
   for (const fs::directory_entry& entry : fs::directory_iterator(from)) {
     const std::string name = entry.path().filename().string();
     if (!entry.is_regular_file() || name == "model.json" || name == "weights.pt") continue;
-    fs::copy_file(entry.path(), to / name, fs::copy_options::overwrite_existing, error);
+    fs::copy_file(entry.path(), out.partial() / name, error);
     if (error) return IoError((to / name).string(), "cannot copy " + entry.path().string() + ": " + error.message());
   }
+  const double megabytes = static_cast<double>(fs::file_size(out.partial() / "weights.pt")) / 1e6;
+  LOOM_RETURN_IF_ERROR(out.Commit());
   std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(cnn.info().weights) << ", "
-            << std::setprecision(4) << fs::file_size(to / "weights.pt") / 1e6 << " MB\n";
+            << std::setprecision(4) << megabytes << " MB\n";
   return Status::Ok();
 }
 

@@ -134,7 +134,7 @@ int RunRig(int argc, char** argv) {
   snap->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/")->required();
   snap->add_option("--camera", camera, "Camera name in the rig")->required();
   snap->add_option("--out", out, "Output file, .exr or .png")->required();
-  snap->add_option("--exposure-us", exposure_us, "Exposure (default: the rig's setting)");
+  snap->add_option("--exposure-us", exposure_us, "Exposure (default, or 0: the rig's setting)")->check(CLI::Range(0.0, 1e8));
   std::string snap_leds;
   snap->add_option("--leds", snap_leds, "Light these LEDs for the frame: LED:MILLIAMPS[,...]");
   std::string device;

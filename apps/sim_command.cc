@@ -12,6 +12,7 @@
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
 #include "core/file_io.h"
+#include "core/memory.h"
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
 #include "fitting/export.h"
@@ -68,6 +69,10 @@ Status RenderStack(const sim::Scene& scene, const RenderArguments& args) {
     LOOM_ASSIGN_OR_RETURN(emulation, sim::LoadScanEmulation(args.scan_emulation));
   }
   const sim::StackOptions options{.width_px = args.size_px, .height_px = args.size_px};
+  const uint64_t side = args.size_px > 0 ? static_cast<uint64_t>(args.size_px) : 4096;  // the sample's side is at most that
+  LOOM_RETURN_IF_ERROR(CheckFitsInMemory(
+      side * side * (kStackGeometryChannels + observations.size()) * sizeof(float),
+      "--size " + std::to_string(args.size_px) + " with " + std::to_string(observations.size()) + " observations"));
   ObservationStack stack = sim::RenderStack(scene, observations, options);
   if (emulation) {
     const Status emulated = sim::EmulateScan(*emulation, args.seed, stack);
@@ -93,7 +98,14 @@ Status Render(const RenderArguments& args) {
   sim::SceneState state;
   state.turntable_deg = args.angle_deg;
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, scan::ParseLedDrives(args.leds, "--leds"));
-  for (const scan::LedDrive& drive : drives) state.leds.push_back({drive.led, drive.current_ma});
+  for (const scan::LedDrive& drive : drives) {
+    if (drive.led < 0 || drive.led >= static_cast<int>(scene->rig().leds.size())) {
+      return InvalidArgumentError("--leds " + args.leds, "rig '" + scene->rig().name + "' has LEDs 0 to " +
+                                                             std::to_string(scene->rig().leds.size() - 1) + ", not " +
+                                                             std::to_string(drive.led));
+    }
+    state.leds.push_back({drive.led, drive.current_ma});
+  }
   LOOM_ASSIGN_OR_RETURN(const Image image,
                         sim::RenderCameraFrame(*scene, args.camera, state, {args.exposure_us, 0}, loaded.sim->world->seed));
   LOOM_RETURN_IF_ERROR(WriteExr(args.out, image, {{"loom.camera", args.camera}, {"loom.exposure_us", args.exposure_us}}));

@@ -23,6 +23,9 @@
 #include "apps/config_paths.h"
 #include "apps/progress.h"
 #include "core/file_io.h"
+#include "core/memory.h"
+#include "core/observation_stack.h"
+#include "core/parallel.h"
 #include "core/rig_file.h"
 #include "core/version.h"
 #include "fitting/cnn_dataset.h"
@@ -74,6 +77,32 @@ std::vector<std::string> PresetNames(const std::string& presets) {
 
 // Renders the fabrics of --materials missing from `dir` (sim/training_set.h), with each preset
 // in turn.
+// The dataset's stacks on disk, and those rendered at once and held for training in memory,
+// checked before hours of rendering find the limit.
+Status CheckDatasetFits(const TrainArguments& args, const std::vector<sim::TrainingPlan>& plans, const fs::path& dir) {
+  const uint64_t side = static_cast<uint64_t>(args.dataset.size_px);
+  uint64_t stack_bytes = 0;
+  for (const sim::TrainingPlan& plan : plans)
+    stack_bytes += side * side * (kStackGeometryChannels + plan.observations.size()) * 4;
+  const uint64_t materials = static_cast<uint64_t>(args.dataset.materials);
+  const uint64_t at_once = std::min<uint64_t>(materials, ThreadCount(args.dataset.threads));
+  const uint64_t resident =
+      args.training.resident_materials > 0 ? static_cast<uint64_t>(args.training.resident_materials) : materials;
+  const std::string what = "--size " + std::to_string(args.dataset.size_px) + " × --materials " + std::to_string(materials);
+  LOOM_RETURN_IF_ERROR(CheckFitsInMemory(std::max(at_once, std::min(resident, materials)) * stack_bytes,
+                                         what + " (" + ReadableBytes(stack_bytes) + " per material's stack)"));
+  std::error_code error;
+  if (fs::exists(dir, error)) return Status::Ok();  // a dataset rendered before: its stacks are kept
+  fs::path existing = fs::absolute(dir, error);
+  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
+  const fs::space_info space = fs::space(existing, error);
+  if (!error && space.available < materials * stack_bytes) {
+    return OutOfRangeError(what, "the dataset needs about " + ReadableBytes(materials * stack_bytes) + " on disk and " +
+                                     existing.string() + " has " + ReadableBytes(space.available) + " free");
+  }
+  return Status::Ok();
+}
+
 Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
   LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(args.rig)));
   if (!file.Has("geometry")) {
@@ -88,6 +117,7 @@ Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
     LOOM_ASSIGN_OR_RETURN(std::vector<sim::Observation> observations, sim::PresetObservations(rig_scene->rig(), preset));
     plans.push_back({name, std::move(observations)});
   }
+  LOOM_RETURN_IF_ERROR(CheckDatasetFits(args, plans, dir));
   ProgressBar bar("dataset", args.quiet);
   return sim::RenderTrainingSet(*rig_scene, plans, args.dataset, dir, [&](int done, int total, const std::string& name) {
     bar.Update(done, total, "materials", name);
@@ -125,6 +155,13 @@ Status CheckDatasetArguments(TrainArguments& args) {
   if (!args.scan_emulation.empty() && !(args.dataset.scan_like_share > 0)) {
     return InvalidArgumentError("--scan-emulation " + args.scan_emulation, "is used only with --scan-like-share > 0");
   }
+  if (!args.init.empty()) {  // before the dataset's minutes of rendering
+    LOOM_ASSIGN_OR_RETURN(const fitting::Cnn init, fitting::Cnn::Load(args.init));
+    const fitting::CnnArchitecture& from = init.info().architecture;  // a centre skip it has, it keeps
+    const Status growable =
+        fitting::CheckGrowable(from, {0, WidthDivisor(args), args.dropout, args.centre_skip || from.centre_skip});
+    if (!growable.ok()) return InvalidArgumentError(args.init, growable.subject() + ": " + growable.message());
+  }
   if (args.dataset.scan_like_share > 0) {
     if (args.scan_emulation.empty()) return InvalidArgumentError("--scan-like-share", "needs --scan-emulation FILE");
     LOOM_ASSIGN_OR_RETURN(args.dataset.scan_emulation, sim::LoadScanEmulation(args.scan_emulation));
@@ -140,9 +177,10 @@ Status Train(TrainArguments args) {
   args.training.device =
       args.device == "cuda" ? fitting::CnnTrainingOptions::Device::kCuda : fitting::CnnTrainingOptions::Device::kCpu;
   LOOM_RETURN_IF_ERROR(fitting::CheckTrainingDevice(args.training.device).WithContext("--device " + args.device));
+  args.training.checkpoint_dir = out / "checkpoints";
+  LOOM_RETURN_IF_ERROR(args.training.Check());  // before the dataset's minutes of rendering
   LOOM_RETURN_IF_ERROR(RenderDataset(args, data));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(data, args.validation, args.test));
-  args.training.checkpoint_dir = out / "checkpoints";
   ProgressBar bar("training", args.quiet);
   args.training.progress = [&](const fitting::CnnTrainingProgress& p) {
     std::ostringstream detail;

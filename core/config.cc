@@ -318,6 +318,28 @@ Result<ConfigDocument> ConfigDocument::LoadFile(const std::filesystem::path& pat
   return LoadString(text.str(), path.string(), supported_schema_version);
 }
 
+namespace {
+
+// YAML forbids a key twice in one mapping, but yaml-cpp keeps both and reads the first: a rig file
+// edited by appending a corrected value would silently keep the old one.
+Status CheckNoDuplicateKeys(const YAML::Node& node, const std::string& source_name) {
+  if (node.IsSequence()) {
+    for (const YAML::Node& item : node) LOOM_RETURN_IF_ERROR(CheckNoDuplicateKeys(item, source_name));
+  }
+  if (!node.IsMap()) return Status::Ok();
+  std::set<std::string> keys;
+  for (const auto& pair : node) {
+    if (pair.first.IsScalar() && !keys.insert(pair.first.Scalar()).second) {
+      return InvalidArgumentError(source_name, "line " + std::to_string(pair.first.Mark().line + 1) + ": key '" +
+                                                   pair.first.Scalar() + "' appears twice in one mapping");
+    }
+    LOOM_RETURN_IF_ERROR(CheckNoDuplicateKeys(pair.second, source_name));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Result<ConfigDocument> ConfigDocument::LoadString(std::string_view text, std::string source_name, int supported_schema_version) {
   YAML::Node root;
   try {
@@ -331,6 +353,7 @@ Result<ConfigDocument> ConfigDocument::LoadString(std::string_view text, std::st
                                 "top, got " +
                                     DescribeKind(root));
   }
+  LOOM_RETURN_IF_ERROR(CheckNoDuplicateKeys(root, source_name));
   ConfigDocument doc;
   doc.state_ = std::make_shared<ConfigState>();
   doc.state_->source = source_name;

@@ -28,6 +28,7 @@
 #include <ImfVecAttribute.h>
 #include <openexr.h>
 
+#include "core/file_io.h"
 #include "core/log.h"
 
 namespace loom {
@@ -219,6 +220,7 @@ void FsyncDirectory(const fs::path& directory) {
 // Writes `path` through a temporary file: write, verify, fsync, rename, fsync the directory.
 template <typename WriteFn>
 Status WriteAtomically(const fs::path& path, WriteFn write) {
+  LOOM_RETURN_IF_ERROR(CheckReplaceableFile(path));
   EnsureThreadPool();
   const fs::path temporary = TemporaryPathFor(path);
   std::error_code ec;

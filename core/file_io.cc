@@ -1,12 +1,15 @@
 #include "core/file_io.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+
+#include "core/memory.h"
 
 namespace loom {
 namespace {
@@ -34,9 +37,41 @@ Status SyncAndClose(int fd, const fs::path& path) {
   return Status::Ok();
 }
 
+const char* KindOfNonRegularFile(mode_t mode) {
+  if (S_ISLNK(mode)) return "a symbolic link";
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
 }  // namespace
 
+Status CheckReplaceableFile(const fs::path& path) {
+  struct stat info {};
+  if (::lstat(path.c_str(), &info) != 0) return Status::Ok();  // new, or its folder's error comes when it is created
+  if (S_ISREG(info.st_mode)) return Status::Ok();
+  return FailedPreconditionError(path.string(), std::string("is ") + KindOfNonRegularFile(info.st_mode) +
+                                                    ": an output file replaces only a regular file (pick another path)");
+}
+
+Status CheckDirectoryOutputPath(const fs::path& path, const std::string& what) {
+  struct stat info {};
+  if (::lstat(path.c_str(), &info) != 0 || S_ISDIR(info.st_mode) || S_ISREG(info.st_mode)) return Status::Ok();
+  return FailedPreconditionError(what + " " + path.string(), std::string("is ") + KindOfNonRegularFile(info.st_mode) +
+                                                                 ": an output never replaces one (pick another path)");
+}
+
+Status CheckOutputFolderExists(const fs::path& path, const std::string& what) {
+  const fs::path folder = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  std::error_code error;
+  if (fs::is_directory(folder, error)) return Status::Ok();
+  return NotFoundError(what + " " + path.string(), "its folder " + folder.string() + " does not exist: nothing written");
+}
+
 Status WriteFileAtomically(const fs::path& path, std::string_view text) {
+  LOOM_RETURN_IF_ERROR(CheckReplaceableFile(path));
   const fs::path temporary = path.parent_path() / ("." + path.filename().string() + ".tmp-" + std::to_string(::getpid()));
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return IoError(path.string(), std::string("cannot create: ") + std::strerror(errno));
@@ -77,10 +112,15 @@ Status CreateDirectories(const fs::path& directory) {
   return Status::Ok();
 }
 
-Result<std::string> ReadFile(const fs::path& path) {
+Result<std::string> ReadFile(const fs::path& path, uintmax_t max_bytes) {
+  std::error_code ec;
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) return InvalidArgumentError(path.string(), "not a regular file");
+  if (const uintmax_t bytes = fs::file_size(path, ec); !ec && bytes > max_bytes) {
+    return InvalidArgumentError(
+        path.string(), ReadableBytes(bytes) + ": larger than the " + ReadableBytes(max_bytes) + " loom reads for such a file");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    std::error_code ec;
     if (!fs::exists(path, ec)) return NotFoundError(path.string(), "no such file");
     return IoError(path.string(), "cannot open for reading");
   }

@@ -54,6 +54,11 @@ StackObservation ObservationFromJson(const Json& entry) {
     o.view_direction = VectorFromJson(entry.at("view_direction"), "view_direction");
     if (std::abs(o.view_direction->norm() - 1) > 1e-6) throw std::invalid_argument("view_direction is not a unit vector");
   }
+  if (Key(entry, "emitters").size() > kMaxEmittersPerObservation) {
+    throw std::invalid_argument("an observation has " + std::to_string(Key(entry, "emitters").size()) +
+                                " emitters, more than the " + std::to_string(kMaxEmittersPerObservation) +
+                                " loom fits (every pixel's prediction sums over them)");
+  }
   for (const Json& e : Key(entry, "emitters")) {
     // [x, y, z, axis x, axis y, axis z, intensity, falloff exponent]: compact, because a linear
     // light observation has one emitter per strip segment. At infinity: [lx, ly, lz, E], the unit

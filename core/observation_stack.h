@@ -100,6 +100,9 @@ struct StackObservation {
 inline constexpr int kStackGeometryChannels = 6;  // pos.XYZ, normal.XYZ come first
 // The pixel sizes a stack may have, in mm: a micrometre to a metre.
 inline constexpr double kMinStackPixelMm = 1e-3, kMaxStackPixelMm = 1e3;
+// A linear light is one emitter per strip segment (rig files allow up to 1024);
+// far more would make a fit take hours with nothing to show for it.
+inline constexpr size_t kMaxEmittersPerObservation = 4096;
 
 struct ObservationStack {
   Image image;  // StackChannelNames(observations.size())

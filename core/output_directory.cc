@@ -8,13 +8,30 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include "core/file_io.h"
 
 namespace loom {
 
 namespace fs = std::filesystem;
 
 namespace {
+
+// Every partial directory staged, with its final path: errors are printed after the
+// OutputDirectory that made them is gone.
+struct StagedPaths {
+  std::mutex mutex;
+  std::vector<std::pair<std::string, std::string>> partial_and_final;
+};
+
+StagedPaths& Staged() {
+  static StagedPaths* staged = new StagedPaths;  // never destroyed: errors are printed late
+  return *staged;
+}
 
 fs::path WithoutTrailingSlash(const fs::path& directory) {
   return directory.has_filename() ? directory : directory.parent_path();
@@ -25,24 +42,26 @@ fs::path WithoutTrailingSlash(const fs::path& directory) {
 Result<OutputDirectory> OutputDirectory::Create(const fs::path& directory, const std::string& what) {
   std::error_code error;
   const fs::path final_path = WithoutTrailingSlash(directory);
+  LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(final_path, what));
   if (fs::exists(final_path, error) && !(fs::is_directory(final_path, error) && fs::is_empty(final_path, error))) {
     return AlreadyExistsError(what + " " + final_path.string(),
                               "exists and is not an empty directory: outputs never replace what is there (remove it, "
                               "or pick another)");
   }
-  return Stage(final_path, /*replaces=*/false);
+  return Stage(final_path, what, /*replaces=*/false);
 }
 
 Result<OutputDirectory> OutputDirectory::Replacing(const fs::path& directory, const std::string& what) {
   std::error_code error;
   const fs::path final_path = WithoutTrailingSlash(directory);
+  LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(final_path, what));
   if (fs::exists(final_path, error) && !fs::is_directory(final_path, error)) {
     return AlreadyExistsError(what + " " + final_path.string(), "exists and is not a directory: it is not replaced");
   }
-  return Stage(final_path, /*replaces=*/true);
+  return Stage(final_path, what, /*replaces=*/true);
 }
 
-Result<OutputDirectory> OutputDirectory::Stage(const fs::path& final_path, bool replaces) {
+Result<OutputDirectory> OutputDirectory::Stage(const fs::path& final_path, const std::string& what, bool replaces) {
   std::error_code error;
   const fs::path parent = final_path.parent_path().empty() ? fs::path(".") : final_path.parent_path();
   const std::string prefix = "." + final_path.filename().string() + ".partial-";
@@ -57,8 +76,25 @@ Result<OutputDirectory> OutputDirectory::Stage(const fs::path& final_path, bool 
   }
   const fs::path partial = parent / (prefix + std::to_string(::getpid()));
   fs::create_directories(partial, error);
-  if (error) return IoError(partial.string(), "cannot create the output directory: " + error.message());
+  if (error) {
+    return IoError(what + " " + final_path.string(),
+                   "cannot create the output (a hidden folder beside it first): " + error.message());
+  }
+  {
+    std::lock_guard lock(Staged().mutex);
+    Staged().partial_and_final.emplace_back(partial.string(), final_path.string());
+  }
   return OutputDirectory(final_path, partial, replaces);
+}
+
+std::string OutputDirectory::InUsersTerms(std::string text) {
+  std::lock_guard lock(Staged().mutex);
+  for (const auto& [partial, final_path] : Staged().partial_and_final) {
+    for (size_t at = text.find(partial); at != std::string::npos; at = text.find(partial, at + final_path.size())) {
+      text.replace(at, partial.size(), final_path);
+    }
+  }
+  return text;
 }
 
 OutputDirectory::OutputDirectory(OutputDirectory&& other) noexcept

@@ -5,9 +5,11 @@
 // removes (unless the process that wrote it is still running). NAME must not exist or be empty: an output never replaces earlier
 // results (or anything else a user keeps there). The exception is an output made to be
 // replaced, such as a recalibration's radiometry/: Replacing() swaps it for the old one in one
-// step, so a reader finds the old output or the new one whole, never a mix.
+// step, so a reader finds the old output or the new one whole, never a mix. A symbolic link,
+// device, FIFO or socket at NAME is refused, never replaced; errors name NAME as the user gave it.
 
 #include <filesystem>
+#include <string>
 
 #include "core/status.h"
 
@@ -31,10 +33,14 @@ class OutputDirectory {
   // Renames the partial directory to the final name.
   Status Commit();
 
+  // `text` (an error) with every partial directory this process staged named by its final path:
+  // the user gave that path, and the hidden one is gone by the time the error is read.
+  static std::string InUsersTerms(std::string text);
+
  private:
   OutputDirectory(std::filesystem::path final_path, std::filesystem::path partial, bool replaces)
       : final_(std::move(final_path)), partial_(std::move(partial)), replaces_(replaces) {}
-  static Result<OutputDirectory> Stage(const std::filesystem::path& final_path, bool replaces);
+  static Result<OutputDirectory> Stage(const std::filesystem::path& final_path, const std::string& what, bool replaces);
   std::filesystem::path final_;
   std::filesystem::path partial_;
   bool replaces_ = false;

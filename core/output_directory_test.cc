@@ -40,6 +40,18 @@ TEST_F(OutputDirectoryTest, AppearsWholeOnCommitAndNotAtAllOtherwise) {
   EXPECT_EQ(std::distance(fs::directory_iterator(root_), fs::directory_iterator()), 1);  // only fit/
 }
 
+TEST_F(OutputDirectoryTest, AnErrorInsideThePartialDirectoryNamesTheFinalPath) {
+  std::string error;
+  {
+    Result<OutputDirectory> out = OutputDirectory::Create(root_ / "model", "--out");
+    ASSERT_TRUE(out.ok());
+    error = (out->partial() / "weights.pt").string() + ": cannot write: No space left on device";
+  }  // failed: the partial directory is gone before the error is printed
+  EXPECT_EQ(OutputDirectory::InUsersTerms(error),
+            (root_ / "model" / "weights.pt").string() + ": cannot write: No space left on device");
+  EXPECT_EQ(OutputDirectory::InUsersTerms("elsewhere: no such file"), "elsewhere: no such file");
+}
+
 TEST_F(OutputDirectoryTest, NeverReplacesWhatIsThereAndTidiesAKilledRunsPartialDirectory) {
   fs::create_directories(root_ / "fit");
   std::ofstream(root_ / "fit" / "notes.txt") << "the user's";

@@ -1,6 +1,8 @@
 #include "core/rig_model.h"
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 
 namespace loom {
 namespace {
@@ -8,6 +10,8 @@ namespace {
 // More LEDs than any dome holds: a bound so that a typo (count: 2000000000) is an error, not an
 // allocation without end.
 constexpr int kMaxLedsPerRing = 4096;
+// The largest sensor or projector side a rig may declare (today's largest sensors are ~14 k px).
+constexpr int kMaxSensorSide = 65536;
 
 // cam_from_rig for a camera at `position` looking at `target`, with `up` appearing up in the
 // image (OpenCV axes: x right, y down, z forward).
@@ -22,6 +26,16 @@ Rigid3d LookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target, c
   return MakeRigid(r, -r * position);
 }
 
+// A rig's quantities are physical: each is refused outside the range a real device can have
+// (or that the models assume), naming its key, rather than surfacing later as NaN or a hang.
+void CheckIn(const ConfigNode& node, std::string_view key, double value, double low, double high, bool low_open = false) {
+  const bool above = low_open ? value > low : value >= low;
+  if (above && value <= high) return;
+  std::ostringstream range;
+  range << "must be in " << (low_open ? "(" : "[") << low << ", " << high << "]";
+  node.AddError(key, range.str());
+}
+
 void ReadSensor(const ConfigNode& node, SensorModel* sensor) {
   node.Optional("adc_bits", &sensor->adc_bits);
   node.Optional("dark_offset_dn", &sensor->dark_offset_dn);
@@ -30,7 +44,12 @@ void ReadSensor(const ConfigNode& node, SensorModel* sensor) {
   node.Optional("sensitivity", &sensor->sensitivity);
   node.Optional("vignetting", &sensor->vignetting);
   if (sensor->adc_bits < 8 || sensor->adc_bits > 16) node.AddError("adc_bits", "must be 8..16");
-  if (sensor->full_well_e <= 0) node.AddError("full_well_e", "must be > 0");
+  CheckIn(node, "full_well_e", sensor->full_well_e, 0, 1e8, true);
+  if (sensor->adc_bits >= 8 && sensor->adc_bits <= 16)
+    CheckIn(node, "dark_offset_dn", sensor->dark_offset_dn, 0, (1 << sensor->adc_bits) - 2);
+  CheckIn(node, "read_noise_e", sensor->read_noise_e, 0, 1e4);
+  CheckIn(node, "sensitivity", sensor->sensitivity, 0, 1e15, true);
+  CheckIn(node, "vignetting", sensor->vignetting, 0, 0.99);
 }
 
 // Reads a pinhole pose and intrinsics shared by cameras and the projector.
@@ -44,11 +63,17 @@ void ReadPinhole(const ConfigNode& node, int* width, int* height, Eigen::Matrix3
   node.Required("position_mm", &position);
   node.Optional("look_at_mm", &look_at);
   node.Optional("up", &up);
-  if (resolution.size() == 2) {
+  if (resolution.size() == 2 && resolution[0] >= 1 && resolution[1] >= 1 && resolution[0] <= kMaxSensorSide &&
+      resolution[1] <= kMaxSensorSide) {
     *width = resolution[0];
     *height = resolution[1];
   } else {
-    node.AddError("resolution", "expected [width, height]");
+    node.AddError("resolution", "expected [width, height], each in [1, " + std::to_string(kMaxSensorSide) + "]");
+  }
+  CheckIn(node, "focal_px", std::min(focal.x(), focal.y()), 0, 1e7, true);
+  CheckIn(node, "focal_px", std::max(focal.x(), focal.y()), 0, 1e7, true);
+  if ((look_at - position).cross(up).norm() < 1e-9 * std::max(1.0, (look_at - position).norm())) {
+    node.AddError("up", "must not be parallel to the viewing direction (nor zero)");
   }
   if (!node.Has("principal_px")) principal = {(*width - 1) / 2.0, (*height - 1) / 2.0};
   *k << focal.x(), 0, principal.x(), 0, focal.y(), principal.y(), 0, 0, 1;
@@ -175,9 +200,11 @@ const FilterWheelModel* RigModel::WheelOfLed(int led) const {
 RigModel ReadRigModel(const ConfigNode& geometry) {
   RigModel rig;
   geometry.Optional("sample_holder_diameter_mm", &rig.sample_holder_diameter_mm);
+  CheckIn(geometry, "sample_holder_diameter_mm", rig.sample_holder_diameter_mm, 0, 1e4, true);
   if (std::optional<ConfigNode> turntable = geometry.OptionalChild("turntable")) {
     turntable->Optional("axis_point_mm", &rig.turntable.axis_point_mm);
     turntable->Optional("axis_direction", &rig.turntable.axis_direction);
+    if (rig.turntable.axis_direction.norm() < 1e-9) turntable->AddError("axis_direction", "must not be zero");
     rig.turntable.axis_direction.normalize();
   }
   for (const ConfigNode& node : geometry.Sequence("cameras")) {
@@ -192,6 +219,8 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
       node.AddError("distortion", "expected [k1, k2, p1, p2, k3]");
     }
     if (std::optional<ConfigNode> sensor = node.OptionalChild("sensor")) ReadSensor(*sensor, &camera.sensor);
+    if (camera.name.empty()) node.AddError("name", "must not be empty");
+    if (rig.FindCamera(camera.name) != nullptr) node.AddError("name", "'" + camera.name + "' names two cameras");
     rig.cameras.push_back(camera);
   }
   // LEDs by ring (elevation, count, azimuth offset on a dome), then any listed one by one
@@ -210,6 +239,9 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
       count = 0;
     }
     if (!(radius_mm > 0)) node.AddError("radius_mm", "must be > 0");
+    CheckIn(node, "elevation_deg", elevation_deg, -90, 90);
+    CheckIn(node, "intensity", intensity, 0, 1e15);
+    CheckIn(node, "falloff_exponent", falloff, 0, 1000);
     for (int i = 0; i < count; ++i) {
       LedModel led;
       const double azimuth = DegToRad(azimuth_offset_deg + 360.0 * i / count);
@@ -228,6 +260,10 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     // By default an LED points at the rig origin (the sample centre).
     led.axis = -led.position_mm.normalized();
     node.Optional("axis", &led.axis);
+    if (led.position_mm.norm() < 1e-9) node.AddError("position_mm", "must not be the sample's centre");
+    if (led.axis.norm() < 1e-9) node.AddError("axis", "must not be zero");
+    CheckIn(node, "intensity", led.intensity, 0, 1e15);
+    CheckIn(node, "falloff_exponent", led.falloff_exponent, 0, 1000);
     led.axis.normalize();
     rig.leds.push_back(led);
   }
@@ -244,18 +280,24 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
     node->Optional("falloff_exponent", &light.falloff_exponent);
     node->Optional("segments", &light.segments);
     node->Optional("profile", &light.profile);
+    if (light.sweep_axis.norm() < 1e-9) node->AddError("sweep_axis", "must not be zero");
     light.sweep_axis.normalize();
+    CheckIn(*node, "arm_radius_mm", light.arm_radius_mm, 0, 1e5, true);
+    CheckIn(*node, "strip_length_mm", light.strip_length_mm, 0, 1e5, true);
+    CheckIn(*node, "intensity_per_mm", light.intensity_per_mm, 0, 1e15);
+    CheckIn(*node, "falloff_exponent", light.falloff_exponent, 0, 1000);
     if (const std::string problem = LinearLightModel::ProfileProblem(light.profile); !problem.empty()) {
       node->AddError("profile", problem);
     }
     if (light.travel_mm <= 0) node->AddError("travel_mm", "must be > 0");
-    if (light.segments < 1) node->AddError("segments", "must be ≥ 1");
+    if (light.segments < 1 || light.segments > 1024) node->AddError("segments", "must be in [1, 1024]");
     rig.linear_light = light;
   }
   if (std::optional<ConfigNode> node = geometry.OptionalChild("projector")) {
     ProjectorModel projector;
     ReadPinhole(*node, &projector.width, &projector.height, &projector.K, &projector.proj_from_rig);
     node->Optional("max_intensity", &projector.max_intensity);
+    CheckIn(*node, "max_intensity", projector.max_intensity, 0, 1e15, true);
     rig.projector = projector;
   }
   if (std::optional<ConfigNode> node = geometry.OptionalChild("calibration_target")) {
@@ -308,6 +350,9 @@ RigModel ReadRigModel(const ConfigNode& geometry) {
       filter_node.Required("center_nm", &filter.center_nm);
       filter_node.Optional("fwhm_nm", &filter.fwhm_nm);
       filter_node.Optional("peak_transmission", &filter.peak_transmission);
+      CheckIn(filter_node, "center_nm", filter.center_nm, 200, 2000);
+      CheckIn(filter_node, "fwhm_nm", filter.fwhm_nm, 0, 2000, true);
+      CheckIn(filter_node, "peak_transmission", filter.peak_transmission, 0, 1, true);
       wheel.filters.push_back(filter);
     }
     rig.filter_wheels.push_back(wheel);

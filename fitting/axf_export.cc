@@ -1,5 +1,6 @@
 #include "fitting/axf_export.h"
 
+#include <fcntl.h>
 #include <hdf5.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -18,6 +19,7 @@
 
 #include <Eigen/Core>
 
+#include "core/file_io.h"
 #include "core/log.h"
 #include "core/version.h"
 #include "fitting/internal/geometric_frame.h"
@@ -206,7 +208,11 @@ Status WriteFile(const Image& maps, double pixel_mm, const std::string& material
   LOOM_RETURN_IF_ERROR(WriteScalarAttribute(group.get(), "loom.pixel_mm", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, pixel_mm, shown_as));
   const Handle resources(H5Gcreate2(group.get(), kResources, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
   if (!resources.ok()) return IoError(shown_as.string(), "cannot create its " + std::string(kResources));
-  return WriteResources(resources.get(), maps, {maps.width(), maps.height(), pixel_mm}, shown_as);
+  LOOM_RETURN_IF_ERROR(WriteResources(resources.get(), maps, {maps.width(), maps.height(), pixel_mm}, shown_as));
+  // HDF5 writes much of the file only when it is flushed; a failure there (a full disk) is the
+  // file's failure too.
+  if (H5Fflush(file.get(), H5F_SCOPE_GLOBAL) < 0) return IoError(shown_as.string(), "cannot write the file (is its disk full?)");
+  return Status::Ok();
 }
 
 // One texture's Data as read: [H][W][C], [H][W] (C = 1), or a single value or colour that holds
@@ -397,28 +403,6 @@ Image MapsOf(const SvbrdfTextures& t, const Grid& grid) {
   return maps;
 }
 
-}  // namespace
-
-Status WriteAxf(const Image& maps, double pixel_mm, const fs::path& file, const std::string& material) {
-  if (!HasSvbrdfLayout(maps)) return InvalidArgumentError(file.string(), "the maps are not in the SVBRDF layout");
-  if (material.empty() || material.find('/') != std::string::npos) {
-    return InvalidArgumentError(file.string(), "a material name must be a non-empty HDF5 name without '/'");
-  }
-  SilenceHdf5();
-  const fs::path partial = file.string() + ".partial";
-  const Status written = WriteFile(maps, pixel_mm, material, partial, file);  // closed before the rename
-  if (!written.ok()) {
-    fs::remove(partial);
-    return written;
-  }
-  std::error_code error;
-  fs::rename(partial, file, error);
-  if (error) return IoError(file.string(), "cannot move the written file into place: " + error.message());
-  return Status::Ok();
-}
-
-namespace {
-
 Result<AxfMaps> ReadAxfInProcess(const fs::path& path) {
   const Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.ok()) return InvalidArgumentError(path.string(), "not an HDF5 file (or a damaged one)");
@@ -444,47 +428,38 @@ rlim_t DataSegmentBytes() {
   return 0;
 }
 
-// Debian 12's HDF5 (1.10.8) can be driven by a damaged file into allocating without bound while
-// it parses the file's groups (fitting/fuzz/known/: 24 GB from 25 kB). So the file is first read
-// in a child process whose heap may grow by what the file can hold decompressed (kMaxCompression
-// per stored byte) and 512 MiB of HDF5's own; the parent reads it only when the child could,
-// and otherwise returns the child's error (a damaged file either way; where HDF5 met the limit
-// decides which). Not under the sanitizers, whose shadow memory no such limit allows.
-Status ReadsWithinMemory(const fs::path& path) {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  (void)path;
-  return Status::Ok();
-#else
-  std::error_code error;
-  const uintmax_t file_bytes = fs::file_size(path, error);
-  const rlim_t budget = (rlim_t{512} << 20) + (error ? 0 : static_cast<rlim_t>(file_bytes) * kMaxCompression);
-  // Without a child (no pipe or fork left), the file is read unguarded, as before the guard.
+// Runs `work` in a child process and returns its status; `crashed` when the child died instead
+// (of a signal, or of std::bad_alloc within `memory_limit` bytes more than its data segment, when
+// not 0). HDF5 can crash or allocate without bound on what it is given, and neither may take loom
+// down. Without a pipe or a fork left, `work` runs in this process.
+Status InChildProcess(const std::function<Status()>& work, rlim_t memory_limit, const Status& crashed) {
   int pipe_fds[2];
   if (::pipe(pipe_fds) != 0) {
-    LOOM_LOG(Warning) << path.string() << ": no pipe for a guarded read (" << std::strerror(errno) << "): read unguarded";
-    return Status::Ok();
+    LOOM_LOG(Warning) << crashed.subject() << ": no pipe for a guarded child (" << std::strerror(errno) << "): unguarded";
+    return work();
   }
   const pid_t child = ::fork();
   if (child < 0) {
-    LOOM_LOG(Warning) << path.string() << ": cannot fork for a guarded read (" << std::strerror(errno) << "): read unguarded";
+    LOOM_LOG(Warning) << crashed.subject() << ": cannot fork a guarded child (" << std::strerror(errno) << "): unguarded";
     ::close(pipe_fds[0]);
     ::close(pipe_fds[1]);
-    return Status::Ok();
+    return work();
   }
   if (child == 0) {
     // The child leaves only through _exit: never through the parent's code above this call.
     ::close(pipe_fds[0]);
-    const rlimit limit{budget + DataSegmentBytes(), RLIM_INFINITY};
-    ::setrlimit(RLIMIT_DATA, &limit);
+    if (memory_limit > 0) {
+      const rlimit limit{memory_limit + DataSegmentBytes(), RLIM_INFINITY};
+      ::setrlimit(RLIMIT_DATA, &limit);
+    }
     try {
-      const Result<AxfMaps> read = ReadAxfInProcess(path);
-      if (read.ok()) ::_exit(0);
-      const std::string reply = std::to_string(static_cast<int>(read.status().code())) + '\n' + read.status().subject() + '\n' +
-                                read.status().message();
+      const Status done = work();
+      if (done.ok()) ::_exit(0);
+      const std::string reply = std::to_string(static_cast<int>(done.code())) + '\n' + done.subject() + '\n' + done.message();
       [[maybe_unused]] const ssize_t written = ::write(pipe_fds[1], reply.data(), reply.size());
       ::_exit(1);
     } catch (...) {
-      ::_exit(2);  // out of memory (std::bad_alloc) within the budget
+      ::_exit(2);  // out of memory (std::bad_alloc) within the limit
     }
   }
   ::close(pipe_fds[1]);
@@ -500,12 +475,91 @@ Status ReadsWithinMemory(const fs::path& path) {
     return Status(static_cast<StatusCode>(std::stoi(reply.substr(0, first))), reply.substr(first + 1, second - first - 1),
                   reply.substr(second + 1));
   }
-  return DataLossError(
-      path.string(), "HDF5 could not parse it within " + std::to_string(budget >> 20) + " MiB (or crashed): the file is damaged");
+  return crashed;
+}
+
+// Debian 12's HDF5 (1.10.8) can be driven by a damaged file into allocating without bound while
+// it parses the file's groups (fitting/fuzz/known/: 24 GB from 25 kB). So the file is first read
+// in a child process whose heap may grow by what the file can hold decompressed (kMaxCompression
+// per stored byte) and 512 MiB of HDF5's own; the parent reads it only when the child could,
+// and otherwise returns the child's error (a damaged file either way; where HDF5 met the limit
+// decides which). Not under the sanitizers, whose shadow memory no such limit allows.
+Status ReadsWithinMemory(const fs::path& path) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  (void)path;
+  return Status::Ok();
+#else
+  std::error_code error;
+  const uintmax_t file_bytes = fs::file_size(path, error);
+  const rlim_t budget = (rlim_t{512} << 20) + (error ? 0 : static_cast<rlim_t>(file_bytes) * kMaxCompression);
+  return InChildProcess([&] { return ReadAxfInProcess(path).status(); }, budget,
+                        DataLossError(path.string(), "HDF5 could not parse it within " + std::to_string(budget >> 20) +
+                                                         " MiB (or crashed): the file is damaged"));
 #endif
 }
 
+// What a file of these maps takes on disk, HDF5's own structure included, for a clear error
+// before HDF5 meets a full disk.
+uintmax_t ExpectedFileBytes(const Image& maps) {
+  return static_cast<uintmax_t>(maps.width()) * maps.height() * maps.num_channels() * sizeof(float) + (uintmax_t{64} << 10);
+}
+
+Status FitsOnItsDisk(const Image& maps, const fs::path& file) {
+  std::error_code error;
+  const fs::space_info space = fs::space(file.parent_path().empty() ? fs::path(".") : file.parent_path(), error);
+  const uintmax_t needed = ExpectedFileBytes(maps);
+  if (error || space.available >= needed) return Status::Ok();  // a folder that does not exist fails when written
+  return IoError(file.string(), "needs about " + std::to_string(needed >> 10) + " KiB and its disk has " +
+                                    std::to_string(space.available >> 10) + " KiB free: nothing written");
+}
+
+Status SyncToDisk(const fs::path& path, const fs::path& shown_as) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || ::fsync(fd) != 0) {
+    const std::string reason = std::strerror(errno);
+    if (fd >= 0) ::close(fd);
+    return IoError(shown_as.string(), "cannot sync the written file to disk: " + reason);
+  }
+  ::close(fd);
+  return Status::Ok();
+}
+
 }  // namespace
+
+// The file is written under a hidden name in a child process (HDF5 can crash on a disk that fills
+// as it writes), synced, read back, and only then renamed to `file`: a failure anywhere leaves
+// whatever was at `file` as it was.
+Status WriteAxf(const Image& maps, double pixel_mm, const fs::path& file, const std::string& material) {
+  if (!HasSvbrdfLayout(maps)) return InvalidArgumentError(file.string(), "the maps are not in the SVBRDF layout");
+  if (material.empty() || material.find('/') != std::string::npos) {
+    return InvalidArgumentError(file.string(), "a material name must be a non-empty HDF5 name without '/'");
+  }
+  LOOM_RETURN_IF_ERROR(CheckReplaceableFile(file));
+  LOOM_RETURN_IF_ERROR(FitsOnItsDisk(maps, file));
+  SilenceHdf5();
+  const fs::path partial = file.parent_path() / ("." + file.filename().string() + ".partial-" + std::to_string(::getpid()));
+  Status written = InChildProcess(
+      [&] {
+        LOOM_RETURN_IF_ERROR(WriteFile(maps, pixel_mm, material, partial, file));
+        return SyncToDisk(partial, file);
+      },
+      0, IoError(file.string(), "HDF5 crashed while writing it (is its disk full?): nothing written"));
+  if (written.ok()) {
+    const Result<AxfMaps> read_back = ReadAxfInProcess(partial);
+    if (!read_back.ok()) written = IoError(file.string(), "the written file does not read back: " + read_back.status().message());
+  }
+  std::error_code error;
+  if (!written.ok()) {
+    fs::remove(partial, error);
+    return written;
+  }
+  fs::rename(partial, file, error);
+  if (error) {
+    fs::remove(partial, error);
+    return IoError(file.string(), "cannot move the written file into place: " + error.message());
+  }
+  return Status::Ok();
+}
 
 Result<AxfMaps> ReadAxf(const fs::path& path) {
   SilenceHdf5();

@@ -45,7 +45,9 @@ int64_t CnnArchitecture::WeightCount() const {
 
 Status CnnArchitecture::Check() const {
   std::vector<std::string> problems;
-  if (input_channels < 1) problems.push_back("input_channels must be ≥ 1");
+  // The first layer's weights grow with the channels: a bound keeps a damaged model.json from
+  // asking for terabytes (the paper's rig has a few hundred observations per stack).
+  if (input_channels < 1 || input_channels > 65536) problems.push_back("input_channels must be in [1, 65536]");
   if (width_divisor < 1 || 256 % width_divisor != 0) problems.push_back("width_divisor must divide 256");
   if (!(dropout >= 0 && dropout < 1)) problems.push_back("dropout must be in [0, 1)");
   return ProblemsStatus("CnnArchitecture", problems);
@@ -55,6 +57,20 @@ bool SameInputLayout(const CnnModelInfo& a, const CnnModelInfo& b) {
   const auto layout = [](const CnnModelInfo& i) { return i.paper_layout ? i.paper_layout->ToJson() : nlohmann::json(); };
   return a.rig == b.rig && a.architecture.input_channels == b.architecture.input_channels &&
          a.observation_groups == b.observation_groups && layout(a) == layout(b);
+}
+
+Status CheckGrowable(const CnnArchitecture& from, CnnArchitecture to) {
+  if (to.width_divisor == 0) to.width_divisor = from.width_divisor;
+  const int width_divisor = to.width_divisor, narrow_divisor = from.width_divisor;
+  if (width_divisor < 1 || width_divisor > narrow_divisor || narrow_divisor % width_divisor != 0) {
+    return InvalidArgumentError("width divisor " + std::to_string(width_divisor),
+                                "a model of width divisor " + std::to_string(narrow_divisor) +
+                                    " widens only to a divisor of it (the same width or wider)");
+  }
+  if (from.centre_skip && !to.centre_skip) {
+    return InvalidArgumentError("centre skip", "a model with one keeps it: without it, it would compute another function");
+  }
+  return Status::Ok();
 }
 
 Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b) {

@@ -101,6 +101,11 @@ bool SameInputLayout(const CnnModelInfo& a, const CnnModelInfo& b);
 // radiance scale), so that their weights can be averaged; else an error saying what differs.
 Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b);
 
+// Whether a model of architecture `from` can be grown into `to` (training's --init): only wider
+// (a width divisor that divides `from`'s) and a centre skip added; the input and dropout stay.
+// `to.width_divisor` 0 keeps `from`'s width.
+Status CheckGrowable(const CnnArchitecture& from, CnnArchitecture to);
+
 // The 14 label channels of SVBRDF maps (fitting/model/svbrdf_maps.h layout) and, per pixel,
 // whether it holds a material (a zero normal marks a pixel off the sample).
 struct CnnLabels {

@@ -94,7 +94,9 @@ Status CnnTrainingOptions::Check() const {
   if (tile < 1) problems.push_back("tile must be ≥ 1");
   if (tiles_per_step < 1) problems.push_back("tiles_per_step must be ≥ 1");
   if (steps_per_epoch < 0) problems.push_back("steps_per_epoch must be ≥ 0");
-  if (!(learning_rate_start > 0) || !(learning_rate_end > 0)) problems.push_back("learning rates must be > 0");
+  if (!(learning_rate_start > 0 && learning_rate_start <= 10) || !(learning_rate_end > 0 && learning_rate_end <= 10)) {
+    problems.push_back("learning rates must be in (0, 10]");
+  }
   if (!(weight_decay >= 0)) problems.push_back("weight_decay must be ≥ 0");
   if (!(radiance_noise >= 0)) problems.push_back("radiance_noise must be ≥ 0");
   if (!(rerender_weight >= 0)) problems.push_back("rerender_weight must be ≥ 0");

@@ -4,11 +4,13 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <numbers>
 #include <sstream>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -90,13 +92,52 @@ struct Photo {
 };
 
 // A PNG's bit depth from its header (0 when `path` is no PNG).
-int PngBitDepth(const fs::path& path) {
+// What an image file's header declares, read before OpenCV decodes it: OpenCV refuses (and
+// prints its own assertion) past 2^30 px, and decoding what fits could still exhaust memory.
+struct DeclaredImage {
+  int bits = 0;  // PNG only; 0 when unknown
+  uint64_t width = 0, height = 0;
+};
+
+uint64_t BigEndian(const unsigned char* bytes, int count) {
+  uint64_t value = 0;
+  for (int i = 0; i < count; ++i) value = value << 8 | bytes[i];
+  return value;
+}
+
+// PNG: the IHDR chunk; JPEG: the first start-of-frame marker. Nothing declared for other files.
+DeclaredImage ReadDeclaredImage(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
-  unsigned char header[26] = {};
-  if (!in.read(reinterpret_cast<char*>(header), sizeof header)) return 0;
-  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (!std::equal(kSignature, kSignature + 8, header)) return 0;
-  return header[24];
+  std::vector<unsigned char> head(1 << 16);
+  in.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  static constexpr unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (head.size() >= 26 && std::equal(kPng, kPng + 8, head.begin())) {
+    return {head[24], BigEndian(&head[16], 4), BigEndian(&head[20], 4)};
+  }
+  if (head.size() < 4 || head[0] != 0xFF || head[1] != 0xD8) return {};
+  for (size_t at = 2; at + 9 < head.size() && head[at] == 0xFF;) {
+    const unsigned char marker = head[at + 1];
+    const bool start_of_frame = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (start_of_frame) return {0, BigEndian(&head[at + 7], 2), BigEndian(&head[at + 5], 2)};
+    at += 2 + BigEndian(&head[at + 2], 2);
+  }
+  return {};
+}
+
+// The most pixels one photograph may have: 2^28 (268 MP, 3 GB as float RGB).
+constexpr uint64_t kMaxPhotoPixels = uint64_t{1} << 28;
+
+Status CheckDeclaredImage(const fs::path& path, const DeclaredImage& declared) {
+  if (declared.bits != 0 && declared.bits != 8 && declared.bits != 16) {
+    return InvalidArgumentError(path.string(), "a " + std::to_string(declared.bits) + "-bit PNG: expected 8- or 16-bit images");
+  }
+  if (declared.width * declared.height > kMaxPhotoPixels) {
+    return InvalidArgumentError(path.string(), "declares " + std::to_string(declared.width) + " × " +
+                                                   std::to_string(declared.height) + " px, more than the " +
+                                                   std::to_string(kMaxPhotoPixels >> 20) + " M px loom imports");
+  }
+  return Status::Ok();
 }
 
 std::string Lower(std::string s) {
@@ -144,9 +185,7 @@ Result<Photo> ReadPhoto(const fs::path& path, bool mark_clipped = true) {
   if (!fs::exists(path)) return NotFoundError(path.string(), "missing");
   const std::string extension = Lower(path.extension().string());
   if (extension == ".exr") return ReadExrPhoto(path);
-  if (const int depth = PngBitDepth(path); depth != 0 && depth != 8 && depth != 16) {
-    return InvalidArgumentError(path.string(), "a " + std::to_string(depth) + "-bit PNG: expected 8- or 16-bit images");
-  }
+  LOOM_RETURN_IF_ERROR(CheckDeclaredImage(path, ReadDeclaredImage(path)));
   const cv::Mat stored = cv::imread(path.string(), cv::IMREAD_UNCHANGED | cv::IMREAD_ANYDEPTH);
   if (stored.empty()) return InvalidArgumentError(path.string(), "not an image OpenCV reads (PNG, JPEG or EXR expected)");
   if (stored.depth() != CV_8U && stored.depth() != CV_16U) {
@@ -507,6 +546,9 @@ StackObservation ObservationOf(const Shot& shot, int channel, int channels, cons
 }
 
 Result<cv::Mat> ReadMask(const fs::path& path, int width, int height) {
+  DeclaredImage declared = ReadDeclaredImage(path);
+  declared.bits = 0;  // a mask of any depth is read as grey
+  LOOM_RETURN_IF_ERROR(CheckDeclaredImage(path, declared));
   const cv::Mat mask = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
   if (mask.empty()) return InvalidArgumentError(path.string(), "not an image OpenCV reads");
   if (mask.cols != width || mask.rows != height) {

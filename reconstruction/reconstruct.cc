@@ -18,6 +18,7 @@
 #include "core/heightfield.h"
 #include "core/heightmap.h"
 #include "core/log.h"
+#include "core/memory.h"
 #include "core/parallel.h"
 #include "core/rig_observation.h"
 
@@ -80,6 +81,13 @@ Result<std::vector<float>> Heights(const ScanRadiance& scan, const CameraModel& 
                         calibration::TriangulateHeights(columns, camera, *rig.projector, rig.turntable, angles.front(), grid));
   *filled = heights.filled;
   return std::move(heights.heights_mm);
+}
+
+// The stack (its geometry and one float per observation per pixel) and the heightmap's working
+// arrays (heights, their doubles, normals and decoded columns).
+uint64_t ReconstructionBytes(const ReconstructOptions& options, size_t observations) {
+  const uint64_t pixels = static_cast<uint64_t>(options.width_px) * static_cast<uint64_t>(options.height_px);
+  return pixels * ((kStackGeometryChannels + observations) * sizeof(float) + 48);
 }
 
 }  // namespace
@@ -159,6 +167,11 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, rig));
   const CameraModel* camera = options.heightmap_camera.empty() ? TopCamera(rig) : rig.FindCamera(options.heightmap_camera);
   if (camera == nullptr) return NotFoundError("camera '" + options.heightmap_camera + "'", "not in rig '" + rig.name + "'");
+  const std::vector<ViewRef> views = FittingViews(scan.plan());
+  LOOM_RETURN_IF_ERROR(
+      CheckFitsInMemory(ReconstructionBytes(options, views.size()), "a stack of " + std::to_string(options.width_px) + " × " +
+                                                                        std::to_string(options.height_px) + " px with " +
+                                                                        std::to_string(views.size()) + " observations"));
   Reconstruction result;
   result.sampling = StackSampling(rig, options.pixel_mm);
   result.heightmap_camera = camera->name;
@@ -183,7 +196,6 @@ Result<Reconstruction> Reconstruct(const scan::CaptureStore& store, const RigMod
                       << " %)"
                       << (result.light_drift_corrected ? ": the observations they lit are corrected" : ", not corrected");
   }
-  const std::vector<ViewRef> views = FittingViews(scan.plan());
   std::vector<StackObservation> table(views.size());
   result.stack = MakeObservationStack(w, h, options.pixel_mm, std::vector<StackObservation>(views.size()));
   result.stack.rig = rig.name;

@@ -170,6 +170,19 @@ FrameRecord FromJson(const Json& j) {
   return r;
 }
 
+// FNV-1a over the bytes, as the frames' checksums are: plan.yaml's, kept in scan.yaml so that a
+// plan edited after the capture is found (its steps describe what the frames were taken under).
+std::string TextChecksum(std::string_view text) {
+  uint64_t hash = 0xcbf29ce484222325ull;
+  for (const char c : text) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 0x100000001b3ull;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(hash));
+  return hex;
+}
+
 std::string ScanYaml(const ScanInfo& info) {
   YAML::Emitter out;
   out << YAML::BeginMap;
@@ -182,6 +195,7 @@ std::string ScanYaml(const ScanInfo& info) {
   out << YAML::Key << "preset" << YAML::Value << info.plan.preset;
   out << YAML::Key << "steps" << YAML::Value << info.plan.steps.size();
   out << YAML::Key << "file" << YAML::Value << kPlanFile;
+  out << YAML::Key << "checksum" << YAML::Value << TextChecksum(PlanToYaml(info.plan));
   out << YAML::EndMap;
   out << YAML::Key << "rig" << YAML::Value << YAML::Literal << info.rig_yaml;
   out << YAML::EndMap;
@@ -192,7 +206,7 @@ Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
   const fs::path path = directory / "scan.yaml";
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kScanSchemaVersion));
   ScanInfo info;
-  std::string version, purpose, preset, plan_file;
+  std::string version, purpose, preset, plan_file, plan_checksum;
   int steps = 0;
   doc.root().Required("loom_version", &version);
   doc.root().Required("object", &info.object);
@@ -203,11 +217,17 @@ Result<ScanInfo> ReadScanYaml(const fs::path& directory) {
   plan.Required("preset", &preset);
   plan.Required("steps", &steps);
   plan.Required("file", &plan_file);
+  plan.Optional("checksum", &plan_checksum);  // scans made before it was kept have none
   LOOM_RETURN_IF_ERROR(doc.Finish());
   if (!(info.crop_mm >= 0) || !std::isfinite(info.crop_mm)) return InvalidArgumentError(path.string(), "crop_mm must be ≥ 0");
   const fs::path plan_path = directory / plan_file;
   LOOM_ASSIGN_OR_RETURN(const std::string plan_text, ReadFile(plan_path));
-  LOOM_ASSIGN_OR_RETURN(info.plan, ParsePlanYaml(plan_text, plan_path.string()));
+  LOOM_ASSIGN_OR_RETURN(info.plan, ParsePlanYaml(plan_text, plan_path.string()));  // a broken plan: its own error
+  if (!plan_checksum.empty() && TextChecksum(plan_text) != plan_checksum) {
+    return DataLossError(plan_path.string(), "was changed after the scan was made (checksum " + TextChecksum(plan_text) + ", " +
+                                                 path.string() + " says " + plan_checksum +
+                                                 "): its steps say what the frames were captured under; restore it");
+  }
   if (static_cast<int>(info.plan.steps.size()) != steps || PlanPurposeName(info.plan.purpose) != purpose ||
       info.plan.preset != preset) {
     return DataLossError(plan_path.string(), "does not match " + path.string() + " (" + std::to_string(steps) + " steps of a " +
@@ -233,6 +253,7 @@ std::string FrameChecksum(const std::vector<uint16_t>& pixels) {
 
 Result<CaptureStore> CaptureStore::Create(const fs::path& directory, const ScanInfo& info) {
   std::error_code ec;
+  LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(directory, "scan folder"));
   if (fs::exists(directory, ec) && !fs::is_directory(directory, ec)) {
     return AlreadyExistsError(directory.string(), "exists and is not a directory: a scan never replaces a file");
   }

@@ -298,6 +298,40 @@ std::optional<StepKind> ParseStepKind(std::string_view name) {
   return std::nullopt;
 }
 
+namespace {
+
+// A preset's counts multiply into the plan's steps and images: each is bounded where it is read,
+// so that a typo is an error naming its key, not a plan of billions of images.
+void CheckPresetRanges(const ConfigNode& root, const Preset& preset) {
+  constexpr int kMaxLinearLightPositions = 100000, kMaxAngles = 360, kMaxExposures = 32, kMaxGrayBits = 16, kMaxPhaseSteps = 64;
+  if (preset.linear_light_positions < 0 || preset.linear_light_positions > kMaxLinearLightPositions) {
+    root.AddError("linear_light_positions", "must be in [0, " + std::to_string(kMaxLinearLightPositions) + "]");
+  }
+  if (preset.turntable_deg.empty()) root.AddError("turntable_deg", "needs at least one angle");
+  for (const auto& [key, angles] :
+       {std::pair{"turntable_deg", &preset.turntable_deg}, {"colour_views_deg", &preset.colour_views_deg}}) {
+    if (angles->size() > kMaxAngles) root.AddError(key, "at most " + std::to_string(kMaxAngles) + " angles");
+    if (!std::ranges::all_of(*angles, [](double a) { return a >= -360 && a <= 360; }))
+      root.AddError(key, "angles must be in [-360, 360]");
+  }
+  if (!(preset.led_current_ma > 0 && preset.led_current_ma <= 10000)) root.AddError("led_current_ma", "must be in (0, 10000] mA");
+  if (!(preset.exposure.probe_us > 0 && preset.exposure.probe_us <= 1e8)) {
+    root.AddError("probe_exposure_us", "must be in (0, 1e8] µs (100 s)");
+  }
+  if (preset.exposure.max_exposures < 1 || preset.exposure.max_exposures > kMaxExposures) {
+    root.AddError("max_exposures", "must be in [1, " + std::to_string(kMaxExposures) + "]");
+  }
+  if (preset.gray_bits < 0 || preset.gray_bits > kMaxGrayBits) {
+    root.AddError("structured_light.gray_bits",
+                  "must be in [0, " + std::to_string(kMaxGrayBits) + "] (0: enough for the projector)");
+  }
+  if (preset.phase_steps < 0 || preset.phase_steps > kMaxPhaseSteps) {
+    root.AddError("structured_light.phase_steps", "must be in [0, " + std::to_string(kMaxPhaseSteps) + "]");
+  }
+}
+
+}  // namespace
+
 Result<Preset> LoadPreset(const std::filesystem::path& path) {
   LOOM_ASSIGN_OR_RETURN(const ConfigDocument doc, ConfigDocument::LoadFile(path, kPresetSchemaVersion));
   const ConfigNode root = doc.root();
@@ -313,10 +347,7 @@ Result<Preset> LoadPreset(const std::filesystem::path& path) {
     structured->Optional("gray_bits", &preset.gray_bits);
     structured->Optional("phase_steps", &preset.phase_steps);
   }
-  if (preset.linear_light_positions < 0) root.AddError("linear_light_positions", "must be ≥ 0");
-  if (preset.turntable_deg.empty()) root.AddError("turntable_deg", "needs at least one angle");
-  if (preset.exposure.probe_us <= 0) root.AddError("probe_exposure_us", "must be > 0");
-  if (preset.exposure.max_exposures < 1) root.AddError("max_exposures", "must be ≥ 1");
+  CheckPresetRanges(root, preset);
   LOOM_RETURN_IF_ERROR(doc.Finish());
   return preset;
 }

@@ -10,17 +10,26 @@
 #include <limits>
 #include <mutex>
 #include <random>
+#include <sstream>
 
 #include <c10/core/CPUAllocator.h>
 #include <nlohmann/json.hpp>
 
 #include "core/file_io.h"
+#include "core/log.h"
 #include "core/parallel.h"
 #include "fitting/internal/patch_windows.h"
 #include "fitting/internal/torch_cnn.h"
 #include "fitting/model/label.h"
 
 namespace loom::fitting {
+
+std::string internal::TorchErrorMessage(const std::exception& error) {
+  const auto* torch_error = dynamic_cast<const c10::Error*>(&error);
+  if (torch_error == nullptr) return error.what();
+  LOOM_LOG(Debug) << "LibTorch: " << torch_error->what();
+  return torch_error->what_without_backtrace();
+}
 namespace internal {
 
 CnnNetImpl::CnnNetImpl(const CnnArchitecture& architecture) {
@@ -228,7 +237,7 @@ Result<Cnn> internal::LoadCnn(const std::filesystem::path& directory) {
     torch::load(cnn->net().net, weights.string());
   } catch (const std::exception& e) {
     return InvalidArgumentError(weights.string(), std::string("not weights of this architecture stored as ") +
-                                                      WeightStorageName(info.weights) + ": " + e.what());
+                                                      WeightStorageName(info.weights) + ": " + TorchErrorMessage(e));
   }
   const std::vector<torch::Tensor> loaded = cnn->net().net->parameters();
   for (size_t i = 0; i < loaded.size(); ++i) {
@@ -282,15 +291,8 @@ torch::Tensor WidenWeight(const torch::Tensor& weight, const Widening* out, cons
 
 Result<Cnn> internal::GrowCnn(const Cnn& narrow, const CnnArchitecture& to, uint64_t seed) {
   const CnnArchitecture& from = narrow.info().architecture;
+  LOOM_RETURN_IF_ERROR(CheckGrowable(from, to));
   const int width_divisor = to.width_divisor, narrow_divisor = from.width_divisor;
-  if (width_divisor < 1 || width_divisor > narrow_divisor || narrow_divisor % width_divisor != 0) {
-    return InvalidArgumentError("width divisor " + std::to_string(width_divisor),
-                                "a model of width divisor " + std::to_string(narrow_divisor) +
-                                    " widens only to a divisor of it (the same width or wider)");
-  }
-  if (from.centre_skip && !to.centre_skip) {
-    return InvalidArgumentError("centre skip", "a model with one keeps it: without it, it would compute another function");
-  }
   if (to.input_channels != from.input_channels || to.dropout != from.dropout) {
     return InvalidArgumentError("architecture", "only the width and the centre skip grow: the input and dropout stay");
   }
@@ -358,17 +360,15 @@ internal::CnnNet StoredNet(const Cnn& cnn) {
 
 Status internal::SaveCnn(const Cnn& cnn, const std::filesystem::path& directory) {
   LOOM_RETURN_IF_ERROR(CreateDirectories(directory));
-  // Weights first, to a temporary name: model.json names a complete model or none.
-  const std::filesystem::path weights = directory / kWeightsFile;
-  const std::filesystem::path partial = directory / (std::string(kWeightsFile) + ".partial");
+  // Weights first: model.json names a complete model or none. LibTorch serialises to memory, as
+  // its file writer throws from a destructor (and so aborts) when the disk fills.
+  std::ostringstream weights;
   try {
-    torch::save(StoredNet(cnn), partial.string());
+    torch::save(StoredNet(cnn), weights);
   } catch (const std::exception& e) {
-    return IoError(partial.string(), e.what());
+    return InternalError((directory / kWeightsFile).string(), "cannot serialise the weights: " + TorchErrorMessage(e));
   }
-  std::error_code error;
-  std::filesystem::rename(partial, weights, error);
-  if (error) return IoError(weights.string(), "cannot rename into place: " + error.message());
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(directory / kWeightsFile, weights.view()));
   return WriteFileAtomically(directory / kInfoFile, InfoToJson(cnn.info()).dump(2) + "\n");
 }
 

@@ -7,6 +7,10 @@
 
 namespace loom::fitting::internal {
 
+// A LibTorch exception's message without the C++ backtrace c10::Error appends to what(): that
+// goes to the debug log, the message to the user.
+std::string TorchErrorMessage(const std::exception& error);
+
 inline constexpr double kLeakySlope = 0.01;
 
 class CnnNetImpl : public torch::nn::Module {

@@ -200,11 +200,13 @@ Status SaveCheckpoint(const Cnn& cnn, torch::optim::Adam& optimizer, const std::
   std::error_code error;
   fs::remove_all(next, error);
   LOOM_RETURN_IF_ERROR(internal::SaveCnn(cnn, next / "model"));
+  std::ostringstream optimizer_state;  // in memory: LibTorch's file writer aborts on a full disk
   try {
-    torch::save(optimizer, (next / "optimizer.pt").string());
+    torch::save(optimizer, optimizer_state);
   } catch (const std::exception& e) {
-    return IoError((next / "optimizer.pt").string(), e.what());
+    return InternalError((next / "optimizer.pt").string(), internal::TorchErrorMessage(e));
   }
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(next / "optimizer.pt", optimizer_state.view()));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(next / "history.json", CnnHistoryJson(history) + "\n"));
   fs::remove_all(last, error);
   fs::rename(next, last, error);
@@ -269,7 +271,7 @@ Result<std::vector<CnnEpoch>> Resume(const fs::path& dir, double rerender_weight
   try {
     torch::load(*optimizer, optimizer_path.string(), device);
   } catch (const std::exception& e) {
-    return DataLossError(optimizer_path.string(), std::string("unreadable checkpoint: ") + e.what());
+    return DataLossError(optimizer_path.string(), "unreadable checkpoint: " + internal::TorchErrorMessage(e));
   }
   return history;
 }
@@ -511,6 +513,12 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
     }
     record.train_loss = loss_sum / steps;
     record.train_rerender_loss = rerender_sum / steps;
+    if (!std::isfinite(record.train_loss) || !std::isfinite(record.train_rerender_loss)) {
+      // Diverged: every later epoch would be NaN too, and a NaN model must never be written.
+      return FailedPreconditionError("training, epoch " + std::to_string(epoch + 1),
+                                     "the loss is not a finite number (a learning rate too high?): stopped; the "
+                                     "checkpoints and the model of earlier epochs are kept as they were");
+    }
     record.samples_per_second = samples / std::chrono::duration<double>(Clock::now() - start).count();
     // Validation and the checkpoint from a copy of the weights on the CPU: the network being
     // trained stays where it is (moving it to the CPU and back between epochs crashed CUDA
