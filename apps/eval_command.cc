@@ -38,9 +38,12 @@ Status Evaluate(const EvalArgs& args) {
   LOOM_ASSIGN_OR_RETURN(OutputDirectory report, OutputDirectory::Create(out, "--out"));
   LOOM_ASSIGN_OR_RETURN(const fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(stack_path));
+  const int width = stack.image.width(), height = stack.image.height();
+  LOOM_RETURN_IF_ERROR(fitting::CheckOnStackGrid(maps, width, height, stack.pixel_mm, maps_path));
   std::optional<Image> reference;
   if (!reference_path.empty()) {
     LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile read, fitting::ReadSvbrdf(reference_path));
+    LOOM_RETURN_IF_ERROR(fitting::CheckOnStackGrid(read, width, height, stack.pixel_mm, "--reference " + reference_path));
     reference = std::move(read.maps);
   }
   LOOM_ASSIGN_OR_RETURN(const fitting::Evaluation evaluation, fitting::Evaluate(maps.maps, reference, stack));

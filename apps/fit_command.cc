@@ -127,17 +127,8 @@ struct FitArguments {
 // another pixel's lobe).
 Result<Image> ReadStartMaps(const std::string& path, const ObservationStack& stack) {
   LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile start, fitting::ReadSvbrdf(path));
-  const Image& maps = start.maps;
-  if (maps.width() != stack.image.width() || maps.height() != stack.image.height()) {
-    return InvalidArgumentError("--start " + path, std::to_string(maps.width()) + "x" + std::to_string(maps.height()) +
-                                                       " px does not match the stack's " + std::to_string(stack.image.width()) +
-                                                       "x" + std::to_string(stack.image.height()));
-  }
-  if (start.pixel_mm > 0 && stack.pixel_mm > 0 && std::abs(start.pixel_mm - stack.pixel_mm) > 1e-6 * stack.pixel_mm) {
-    std::ostringstream message;
-    message << "pixels of " << start.pixel_mm << " mm do not match the stack's " << stack.pixel_mm << " mm";
-    return InvalidArgumentError("--start " + path, message.str());
-  }
+  LOOM_RETURN_IF_ERROR(
+      fitting::CheckOnStackGrid(start, stack.image.width(), stack.image.height(), stack.pixel_mm, "--start " + path));
   return std::move(start.maps);
 }
 

@@ -158,8 +158,8 @@ Status CheckDatasetArguments(TrainArguments& args) {
   if (!args.init.empty()) {  // before the dataset's minutes of rendering
     LOOM_ASSIGN_OR_RETURN(const fitting::Cnn init, fitting::Cnn::Load(args.init));
     const fitting::CnnArchitecture& from = init.info().architecture;  // a centre skip it has, it keeps
-    const Status growable =
-        fitting::CheckGrowable(from, {0, WidthDivisor(args), args.dropout, args.centre_skip || from.centre_skip});
+    const int divisor = WidthDivisor(args) == 0 ? from.width_divisor : WidthDivisor(args);
+    const Status growable = fitting::CheckGrowable(from, {0, divisor, args.dropout, args.centre_skip || from.centre_skip});
     if (!growable.ok()) return InvalidArgumentError(args.init, growable.subject() + ": " + growable.message());
   }
   if (args.dataset.scan_like_share > 0) {

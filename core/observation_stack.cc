@@ -54,6 +54,9 @@ StackObservation ObservationFromJson(const Json& entry) {
     o.view_direction = VectorFromJson(entry.at("view_direction"), "view_direction");
     if (std::abs(o.view_direction->norm() - 1) > 1e-6) throw std::invalid_argument("view_direction is not a unit vector");
   }
+  if (!o.view_direction && !(o.camera_mm.z() > 0)) {
+    throw std::invalid_argument("camera_mm must lie above the sample plane (z > 0): a camera at or below it sees no pixel");
+  }
   if (Key(entry, "emitters").size() > kMaxEmittersPerObservation) {
     throw std::invalid_argument("an observation has " + std::to_string(Key(entry, "emitters").size()) +
                                 " emitters, more than the " + std::to_string(kMaxEmittersPerObservation) +

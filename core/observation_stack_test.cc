@@ -101,7 +101,7 @@ TEST_F(ObservationStackTest, RoundTripsDirectionalLightsAndOrthographicCameras) 
 }
 
 TEST_F(ObservationStackTest, ADirectionalEmitterThatIsNoUnitVectorOrHasNegativeIrradianceNamesTheEntry) {
-  StackObservation photo{ObservationGroup::kColour, "photo", {0, 0, 0}, 0, {1, 0, 0}, {}, "image 0"};
+  StackObservation photo{ObservationGroup::kColour, "photo", {0, 0, 500}, 0, {1, 0, 0}, {}, "image 0"};
   photo.emitters.push_back(PointEmitter::AtInfinity(Eigen::Vector3d::UnitZ(), 1));
   const std::string table = ObservationTableToJson({photo});
   std::string long_direction = table;
@@ -113,6 +113,18 @@ TEST_F(ObservationStackTest, ADirectionalEmitterThatIsNoUnitVectorOrHasNegativeI
   std::string negative = table;
   negative.replace(negative.find("[0.0,0.0,1.0,1.0]"), 17, "[0.0,0.0,1.0,-1.0]");
   EXPECT_FALSE(ParseObservationTable(negative, "photo.exr").ok());
+}
+
+TEST_F(ObservationStackTest, AnObservationOfMoreEmittersThanAFitCanSumIsRefusedNamingTheEntry) {
+  StackObservation photo{ObservationGroup::kColour, "photo", {0, 0, 500}, 0, {1, 0, 0}, {}, "image 0"};
+  photo.emitters.assign(kMaxEmittersPerObservation, PointEmitter::AtInfinity(Eigen::Vector3d::UnitZ(), 1));
+  EXPECT_TRUE(ParseObservationTable(ObservationTableToJson({photo}), "photo.exr").ok());
+  photo.emitters.push_back(photo.emitters.front());
+  const auto parsed = ParseObservationTable(ObservationTableToJson({photo}), "photo.exr");
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_NE(parsed.status().ToString().find("entry 0"), std::string::npos) << parsed.status().ToString();
+  EXPECT_NE(parsed.status().ToString().find(std::to_string(kMaxEmittersPerObservation + 1) + " emitters"), std::string::npos)
+      << parsed.status().ToString();
 }
 
 TEST_F(ObservationStackTest, AMismatchedTableNamesTheFile) {

@@ -59,8 +59,7 @@ bool SameInputLayout(const CnnModelInfo& a, const CnnModelInfo& b) {
          a.observation_groups == b.observation_groups && layout(a) == layout(b);
 }
 
-Status CheckGrowable(const CnnArchitecture& from, CnnArchitecture to) {
-  if (to.width_divisor == 0) to.width_divisor = from.width_divisor;
+Status CheckGrowable(const CnnArchitecture& from, const CnnArchitecture& to) {
   const int width_divisor = to.width_divisor, narrow_divisor = from.width_divisor;
   if (width_divisor < 1 || width_divisor > narrow_divisor || narrow_divisor % width_divisor != 0) {
     return InvalidArgumentError("width divisor " + std::to_string(width_divisor),

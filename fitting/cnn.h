@@ -103,8 +103,7 @@ Status CheckSameNetwork(const CnnModelInfo& a, const CnnModelInfo& b);
 
 // Whether a model of architecture `from` can be grown into `to` (training's --init): only wider
 // (a width divisor that divides `from`'s) and a centre skip added; the input and dropout stay.
-// `to.width_divisor` 0 keeps `from`'s width.
-Status CheckGrowable(const CnnArchitecture& from, CnnArchitecture to);
+Status CheckGrowable(const CnnArchitecture& from, const CnnArchitecture& to);
 
 // The 14 label channels of SVBRDF maps (fitting/model/svbrdf_maps.h layout) and, per pixel,
 // whether it holds a material (a zero normal marks a pixel off the sample).

@@ -1,6 +1,7 @@
 #include "fitting/svbrdf_file.h"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "fitting/axf_export.h"
@@ -46,6 +47,20 @@ Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path) {
   }
   LOOM_RETURN_IF_ERROR(CheckSvbrdfValues(file.maps, path.string()));
   return file;
+}
+
+Status CheckOnStackGrid(const SvbrdfFile& maps, int width, int height, double stack_pixel_mm, const std::string& what) {
+  if (maps.maps.width() != width || maps.maps.height() != height) {
+    return InvalidArgumentError(what, std::to_string(maps.maps.width()) + "x" + std::to_string(maps.maps.height()) +
+                                          " px does not match the stack's " + std::to_string(width) + "x" +
+                                          std::to_string(height));
+  }
+  if (maps.pixel_mm > 0 && stack_pixel_mm > 0 && std::abs(maps.pixel_mm - stack_pixel_mm) > 1e-6 * stack_pixel_mm) {
+    std::ostringstream message;
+    message << "pixels of " << maps.pixel_mm << " mm do not match the stack's " << stack_pixel_mm << " mm";
+    return InvalidArgumentError(what, message.str());
+  }
+  return Status::Ok();
 }
 
 }  // namespace loom::fitting

@@ -2,6 +2,7 @@
 // Fitted or reference SVBRDF maps read from a file, whichever form it has.
 
 #include <filesystem>
+#include <string>
 
 #include "fitting/model/svbrdf_maps.h"
 
@@ -14,5 +15,10 @@ namespace loom::fitting {
 // pixel is NaN in all of them, skipped by a fit; a normal of no direction; a negative albedo; σ
 // not positive; F0 outside [0, 1]), each naming its channel and pixel.
 Result<SvbrdfFile> ReadSvbrdf(const std::filesystem::path& path);
+
+// OK when `maps` lie on a stack's grid: the same pixels and, where the file states one, the same
+// pixel size (maps of another crop or resolution would put each pixel's lobe on another pixel).
+// Errors name `what` ("--start FILE").
+Status CheckOnStackGrid(const SvbrdfFile& maps, int width, int height, double stack_pixel_mm, const std::string& what);
 
 }  // namespace loom::fitting

@@ -10,6 +10,7 @@
 
 #include "core/config.h"
 #include "core/testing/shipped_rig.h"
+#include "scan/patterns.h"
 
 namespace loom::scan {
 namespace {
@@ -67,6 +68,17 @@ TEST(PlanTest, StructuredLightPatternsCoverTheProjectorWidth) {
   EXPECT_EQ(patterns[2], "gray_x_00");
   EXPECT_EQ(patterns[3], "gray_x_00_inv");
   EXPECT_EQ(patterns.back(), "phase_x_3");
+}
+
+TEST(PlanTest, APatternNameThatIsNotOneOfThePlansIsRefusedNamingIt) {
+  EXPECT_TRUE(MakePattern("gray_x_03_inv", 64, 4, 4).ok());
+  EXPECT_TRUE(MakePattern("phase_x_3", 64, 4, 4).ok());
+  for (const char* name :
+       {"gray_x_zz", "gray_x_", "gray_x_0x", "gray_x_99", "phase_x_", "phase_x_4", "phase_x_-1", "phase_x_1e9"}) {
+    const Result<Pattern> pattern = MakePattern(name, 64, 4, 4);
+    ASSERT_FALSE(pattern.ok()) << name;
+    EXPECT_EQ(pattern.status().subject(), "pattern '" + std::string(name) + "'");
+  }
 }
 
 TEST(PlanTest, APlanReportsItsCountsAndDurationAndEachStepInALine) {
