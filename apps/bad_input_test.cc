@@ -97,6 +97,7 @@ void PrepareModel(const YAML::Node& model, const fs::path& dir) {
   for (const YAML::Node& edit : model["edit"]) info = ReplacedFirst(info, edit[0].as<std::string>(), edit[1].as<std::string>());
   std::ofstream(dir / "model" / "model.json", std::ios::trunc) << info;
   if (const YAML::Node bytes = model["weights_bytes"]) fs::resize_file(dir / "model" / "weights.pt", bytes.as<uintmax_t>());
+  for (const YAML::Node& file : model["remove"]) fs::remove(dir / "model" / file.as<std::string>());
 }
 
 // Writes what the case's command reads into `dir`.
@@ -109,7 +110,10 @@ void Prepare(const YAML::Node& c, const fs::path& dir) {
     }
     std::ofstream(dir / "rig.yaml") << text;
   }
-  if (const YAML::Node file = c["file"]) std::ofstream(dir / file["name"].as<std::string>()) << file["text"].as<std::string>();
+  if (const YAML::Node file = c["file"]) {
+    fs::create_directories((dir / file["name"].as<std::string>()).parent_path());
+    std::ofstream(dir / file["name"].as<std::string>()) << file["text"].as<std::string>();
+  }
   if (const YAML::Node bytes = c["bytes"]) {
     std::mt19937 random(7);
     std::ofstream out(dir / bytes["name"].as<std::string>(), std::ios::binary);
