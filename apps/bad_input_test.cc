@@ -136,7 +136,9 @@ void Prepare(const YAML::Node& c, const fs::path& dir) {
   }
   if (const YAML::Node model = c["model"]) PrepareModel(model, dir);
   for (const YAML::Node& link : c["links"]) fs::create_symlink(link[1].as<std::string>(), dir / link[0].as<std::string>());
-  if (const YAML::Node fifo = c["fifo"]) EXPECT_EQ(::mkfifo((dir / fifo.as<std::string>()).c_str(), 0644), 0);
+  if (const YAML::Node fifo = c["fifo"]) {
+    EXPECT_EQ(::mkfifo((dir / fifo.as<std::string>()).c_str(), 0644), 0);
+  }
 }
 
 // Everything under `dir` as lstat sees it (links not followed): kind, and for files size and
