@@ -103,12 +103,21 @@ TEST_F(ImportCommandTest, ANoisyCylinderIsFittedAsWellAsPhotometricStereoFitsIt)
   EXPECT_LE(refine["mean_deg"].get<double>(), lambert["mean_deg"].get<double>()) << refine.dump() << lambert.dump();
 }
 
-TEST_F(ImportCommandTest, AnOutOfModelSphereIsFittedWithinADegree) {
-  // A GGX coat and mesostructure GD10 cannot represent: the fit bends, but stays near the truth
-  // (measured on 96 × 96 px, 96 lights, 2 % noise: mean 0.39° against photometric stereo's 0.76°).
+TEST_F(ImportCommandTest, AnOutOfModelSphereIsFittedNoWorseThanPhotometricStereoInAnyTiltBand) {
+  // A GGX coat and mesostructure GD10 cannot represent. Where no light's half-vector reaches a
+  // pixel's normal, a free fit tilts the normal to put Ward's lobe where the coat's highlight
+  // lies; those pixels keep photometric stereo's normal (measured on 32 × 32 px, 24 lights:
+  // mean 0.40° against photometric stereo's 1.03°, each band beyond 30° of tilt equal to its).
   CaptureAndImport("sphere", "--out-of-model --noise 0.02");
+  const nlohmann::json lambert = FitAndScoreNormals("lambert");
   const nlohmann::json ceres = FitAndScoreNormals("ceres");
-  EXPECT_LT(ceres["mean_deg"].get<double>(), 1.0) << ceres.dump();
+  EXPECT_LT(ceres["mean_deg"].get<double>(), 0.6) << ceres.dump();
+  EXPECT_GT(Json("fit-ceres/fit.json")["pixels_normal_held"].get<int>(), 0);
+  ASSERT_EQ(ceres["by_tilt"].size(), lambert["by_tilt"].size());
+  for (size_t b = 0; b < ceres["by_tilt"].size(); ++b) {
+    EXPECT_LE(ceres["by_tilt"][b]["mean_deg"].get<double>(), lambert["by_tilt"][b]["mean_deg"].get<double>() + 0.02)
+        << "band " << b << ": " << ceres.dump() << lambert.dump();
+  }
 }
 
 TEST_F(ImportCommandTest, AHeldOutViewScoresTheFitAndTheMaskedMapsExport) {

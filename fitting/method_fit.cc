@@ -26,7 +26,8 @@ Image NoMaps(const ObservationStack& stack) {
 Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, StackFitOptions options, MethodFit fit) {
   std::optional<StackFitSummary> summary;
   const auto progress = options.progress;
-  options.progress = nullptr;  // the inner fits' bars would repeat for every view
+  options.progress = nullptr;                    // the inner fits' bars would repeat for every view
+  options.hold_normals_of_unseen_peaks = false;  // on a phone's flash photographs it worsened left-out views
   const StackMapsFit gd10 = [&](const ObservationStack& s) -> Result<Image> {
     Result<StackFit> f = FitStack(s, options);
     // A view left out can leave every pixel too few observations for GD10 (a handful of views):

@@ -87,6 +87,7 @@ Start FitFrom(const std::vector<PixelObservation>& usable, double inverse_scale,
   problem.AddParameterBlock(blocks.f0, 1);
   if (options.fixed_f0) problem.SetParameterBlockConstant(blocks.f0);
   AddPixel(problem, usable, inverse_scale, blocks, blocks.f0, options);
+  if (options.hold_normal) problem.SetParameterBlockConstant(blocks.n_s);
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   solver.max_num_iterations = options.max_iterations;

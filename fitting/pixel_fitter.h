@@ -67,6 +67,9 @@ struct PixelFitOptions {
   // F0 held at this value instead of fitted. Away from grazing angles the observations fix
   // only a_s · F(l·h) ≈ a_s · F0, so Pantora fits one F0 per material; so can we.
   std::optional<double> fixed_f0;
+  // The start's shading normal held, the rest fitted: where the observations do not see the
+  // lobe's peak, the normal is the diffuse term's to say (stack_fitter.cc).
+  bool hold_normal = false;
   // ceres::Jet derivatives instead of the hand-derived ones: same fit, slower; the baseline
   // bench/fit_bench.cc measures the analytic Jacobians against.
   bool automatic_derivatives = false;

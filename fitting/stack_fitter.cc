@@ -16,6 +16,7 @@
 #include "core/parallel.h"
 #include "fitting/internal/neighbour_lobes.h"
 #include "fitting/internal/normal_frame.h"
+#include "fitting/internal/peak_coverage.h"
 #include "fitting/lambert_fit.h"
 #include "fitting/model/svbrdf_maps.h"
 
@@ -255,6 +256,36 @@ PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, co
           first.observations,
           true,
           std::nullopt};
+}
+
+// Every fitted pixel whose lobe peaks where no observation sees it, refitted on its
+// photometric-stereo normal, held (StackFitOptions::hold_normals_of_unseen_peaks). Returns how many
+// keep the held fit.
+int HoldNormalsOfUnseenPeaks(const StackPixels& pixels, const NormalStarts& normals, PixelFitOptions fit,
+                             const StackFitOptions& options, std::vector<PixelOutcome>& outcomes) {
+  if (normals.empty() || !options.hold_normals_of_unseen_peaks) return 0;
+  fit.hold_normal = true;
+  std::atomic<int> held = 0;
+  ParallelFor(static_cast<int>(outcomes.size()), options.threads, [&](int i) {
+    const std::optional<LambertPixel>& lambertian = normals.Pixel(i);
+    if (!outcomes[i].fitted || !lambertian) return;
+    const std::vector<PixelObservation> observations = pixels.Observations(i % pixels.width(), i / pixels.width());
+    if (internal::PeakCoverage(lambertian->normal, observations) >= 0 &&
+        internal::PeakCoverage(outcomes[i].params.n_s, observations) >= 0) {
+      return;
+    }
+    WardParams<double> start = outcomes[i].params;
+    start.n_s = lambertian->normal;
+    PixelOutcome refit = FitFromStart(observations, start, fit);
+    if (!refit.fitted || refit.rms > outcomes[i].rms * options.held_normal_max_rms_ratio) return;
+    refit.iterations += outcomes[i].iterations;
+    // The refiner's uncertainty stays the free fit's: the data fix the held normal no better
+    // than they fixed the free one, and the other parameters about as well.
+    refit.sigma = outcomes[i].sigma;
+    outcomes[i] = refit;
+    ++held;
+  });
+  return held;
 }
 
 std::vector<int> EmittersPerObservation(const ObservationStack& stack) {
@@ -916,6 +947,8 @@ nlohmann::json StackFitOptions::ToJson() const {
   return {{"solver", refiner ? "batch refiner (" + RefinerInstructionSet() + ")" : "ceres"},
           {"clusters", clusters},
           {"photometric_stereo_starts", photometric_stereo_starts},
+          {"hold_normals_of_unseen_peaks", hold_normals_of_unseen_peaks},
+          {"held_normal_max_rms_ratio", held_normal_max_rms_ratio},
           {"left_out_view_selection_max_views", left_out_view_selection_max_views},
           {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
           {"retries", retry_poor_fits},
@@ -949,6 +982,7 @@ nlohmann::json StackFitSummary::ToJson() const {
           {"pixels_nodes_replaced", pixels_nodes_replaced},
           {"pixels_propagated", pixels_propagated},
           {"pixels_retry_finished", pixels_retry_finished},
+          {"pixels_normal_held", pixels_normal_held},
           {"retry_threshold_rms", retry_threshold_rms},
           {"noise_rms", noise_rms},
           {"half_vector_spacing_deg", half_vector_spacing_deg},
@@ -978,8 +1012,8 @@ void StackFitSummary::Report(std::ostream& out) const {
   out << std::fixed << std::setprecision(2) << "fitted " << pixels_fitted << " of " << pixels << " px (" << pixels_skipped
       << " skipped: masked, unseen or too few usable observations; " << pixels_retried << " retried, relative RMS above "
       << retry_threshold_rms << ": " << pixels_propagated << " brought below it from a neighbour's fit, " << pixels_retry_finished
-      << " refitted from a grid start) from " << start << "; F0 " << f0 << "; " << mean_observations << " observations and "
-      << mean_iterations << " iterations per pixel\n"
+      << " refitted from a grid start; " << pixels_normal_held << " on a held photometric-stereo normal) from " << start
+      << "; F0 " << f0 << "; " << mean_observations << " observations and " << mean_iterations << " iterations per pixel\n"
       << "time: clusters " << FormatDuration(cluster_seconds) << ", pixels " << FormatDuration(pixel_seconds) << " ("
       << ms_per_pixel_per_thread() << " ms per pixel per thread, " << threads << " threads; first fits " << std::setprecision(1)
       << stage_seconds.first_fits << " s, retries " << stage_seconds.propagation + stage_seconds.retries << " s";
@@ -997,6 +1031,7 @@ Status StackFitOptions::Check() const {
   if (retry_grid_starts < 1) problems.push_back("retry_grid_starts must be ≥ 1");
   if (!(retry_above_rms > 0)) problems.push_back("retry_above_rms must be > 0");
   if (!(retry_above_noise_rms >= 1)) problems.push_back("retry_above_noise_rms must be ≥ 1");
+  if (!(held_normal_max_rms_ratio >= 1)) problems.push_back("held_normal_max_rms_ratio must be ≥ 1");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
   if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
   if (coarse_lights_per_observation < 0) problems.push_back("coarse_lights_per_observation must be ≥ 0");
@@ -1197,6 +1232,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     summary.pixels_retry_finished = static_cast<int>(retry.size());
     end_stage(stage.retries);
   }
+  summary.pixels_normal_held = HoldNormalsOfUnseenPeaks(pixels, normals, pixel_options, options, outcomes);
   summary.pixel_seconds = SecondsSince(pixel_start);
   fit.maps = MapsOf(outcomes, clusters, stack);
   Summarise(outcomes, summary);

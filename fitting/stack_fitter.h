@@ -75,6 +75,16 @@ struct StackFitOptions {
   // surface the pixels of one cluster have different normals: pooled as they are, they made one
   // broad lobe from which every pixel's fit stayed in a wrong basin.
   bool photometric_stereo_starts = true;
+  // With photometric-stereo starts: a pixel whose lobe peaks where no observation's half-vector
+  // reaches (internal/peak_coverage.h), at its fitted normal or at its photometric-stereo one, is
+  // refitted with the normal held at the photometric-stereo one. The lobe's flank fixes the normal
+  // no better than the diffuse term does, and out of GD10's model worse: a highlight of another
+  // shape tilts the fitted normal to put Ward's lobe where it lies. The held fit is kept unless its
+  // relative RMS exceeds the free fit's by more than held_normal_max_rms_ratio: a broad lobe biases
+  // photometric stereo itself, and there holding its normal multiplies the residual. A stack of few
+  // views chooses by left-out views instead (method_fit.h), so it holds nothing.
+  bool hold_normals_of_unseen_peaks = true;
+  double held_normal_max_rms_ratio = 2;
   int pixels_per_cluster_fit = 12;  // most typical pixels pooled into a cluster's fit
   PixelFitOptions cluster_fit = {.max_iterations = 100, .multi_start = false, .fixed_f0 = std::nullopt};
   PixelFitOptions pixel_fit = {.max_iterations = 30, .multi_start = false, .fixed_f0 = std::nullopt};
@@ -172,6 +182,9 @@ struct StackFitSummary {
   // First fits refined again because their lobe left the strip span their nodes were placed for
   // (StackPixelOptions::strip_quadrature).
   int pixels_nodes_replaced = 0;
+  // Fits refitted on the pixel's photometric-stereo normal, held, because no observation sees
+  // where their lobe peaks (internal/peak_coverage.h).
+  int pixels_normal_held = 0;
   double retry_threshold_rms = 0;      // relative RMS above which they were
   double noise_rms = 0;                // the stack's, where the prior's weight follows it
   double half_vector_spacing_deg = 0;  // how finely the stack samples the half-vectors (HalfVectorSpacing)
