@@ -111,9 +111,9 @@ Status ApplyRefineSettings(const fs::path& model, bool refiner, GivenOnTheComman
 struct FitArguments {
   std::string stack;
   std::string out;
-  std::string method = "ceres";
-  std::string start;  // maps that start every pixel instead of the clusters' fits ("": none)
-  std::string model;  // empty: configs/models/<the stack's rig>
+  std::string method;  // empty: fitting::RecommendedMethod
+  std::string start;   // maps that start every pixel instead of the clusters' fits ("": none)
+  std::string model;   // empty: configs/models/<the stack's rig>
   std::string f0 = "1";
   bool retries = false, no_retries = false;
   double min_sigma = 0;  // 0: from the stack's sampling
@@ -153,15 +153,20 @@ void WarnAtTheAlbedoBound(const Image& maps) {
 }
 
 Status Fit(FitArguments args) {
-  const std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
-  if (!method) {
-    return InvalidArgumentError("--method " + args.method,
-                                "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo");
-  }
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
             << stack.observations.size() << " observations (" << stack.source << ")\n";
   if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
+  const bool recommended = args.method.empty();
+  if (recommended) {
+    args.method = fitting::FitMethodName(fitting::RecommendedMethod(stack, args.model, !args.start.empty()));
+    std::cerr << "method " << args.method << " (the recommended one for this stack; --method chooses another)\n";
+  }
+  std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
+  if (!method) {
+    return InvalidArgumentError("--method " + args.method,
+                                "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo");
+  }
   fitting::StackFitOptions& options = args.options;
   options.retry_poor_fits = !args.no_retries;
   if (args.min_sigma > 0) options.min_sigma = args.min_sigma;
@@ -183,7 +188,16 @@ Status Fit(FitArguments args) {
   options.progress = [&](const fitting::StackFitProgress& p) {
     bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
   };
-  LOOM_ASSIGN_OR_RETURN(const fitting::MethodFit fit, fitting::FitWithMethod(stack, *method, args.model, options));
+  Result<fitting::MethodFit> fitted = fitting::FitWithMethod(stack, *method, args.model, options);
+  if (recommended && *method == fitting::FitMethod::kCnnRefine && !fitted.ok() &&
+      fitted.status().code() == StatusCode::kFailedPrecondition) {
+    // The rig's model takes another preset's stacks: the recommendation falls back, saying why.
+    std::cerr << "the model does not take this stack (" << fitted.status().ToString() << "): method refine\n";
+    method = fitting::FitMethod::kRefine;
+    args.method = fitting::FitMethodName(*method);
+    fitted = fitting::FitWithMethod(stack, *method, args.model, options);
+  }
+  LOOM_ASSIGN_OR_RETURN(const fitting::MethodFit fit, std::move(fitted));
   bars.clear();
   if (!fit.cnn.empty()) std::cout << "CNN " << fit.cnn << ": " << FormatDuration(fit.cnn_seconds) << "\n";
   if (fit.summary) fit.summary->Report(std::cout);
@@ -222,7 +236,9 @@ int RunFit(int argc, char** argv) {
       ->required();
   app.add_option("--out", args.out, "Output directory: svbrdf.exr, PNG previews, fit.json")->required();
   app.add_option("--method", args.method,
-                 "ceres (clusters, then every pixel with Ceres), refine (clusters, then every pixel with the batched "
+                 "default: cnn+refine where the stack's rig has a model (configs/models/<rig>, or --model), ceres for "
+                 "photographs from loom import, refine otherwise. ceres (clusters, then every pixel with Ceres), refine "
+                 "(clusters, then every pixel with the batched "
                  "refiner), cnn (the network alone), cnn+ceres (the CNN's maps start every pixel's Ceres fit) or "
                  "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
                  "uncertainty maps), lambert (robust photometric stereo: a normal and an albedo per pixel, the "
@@ -319,7 +335,7 @@ int RunFit(int argc, char** argv) {
   retries->excludes(no_retries);
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  if (!fitting::ParseFitMethod(args.method)) {  // a usage error, as CLI11's own are
+  if (!args.method.empty() && !fitting::ParseFitMethod(args.method)) {  // a usage error, as CLI11's own are
     ExitCode(InvalidArgumentError("--method " + args.method,
                                   "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo"));
     return kExitUsage;

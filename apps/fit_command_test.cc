@@ -43,8 +43,8 @@ class FitCommandTest : public ::testing::Test {
 fs::path FitCommandTest::dir_;
 
 TEST_F(FitCommandTest, FitsAndEvaluatesAgainstTheTruth) {
-  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --clusters 2 --out " +
-                              (dir_ / "fit").string() + " --quiet");
+  const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() +
+                              " --method ceres --clusters 2 --out " + (dir_ / "fit").string() + " --quiet");
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   for (const char* file : {"svbrdf.exr", "fit.json", "diffuse.png", "normal.png", "sigma.png"}) {
     EXPECT_TRUE(fs::exists(dir_ / "fit" / file)) << file;
@@ -56,7 +56,7 @@ TEST_F(FitCommandTest, FitsAndEvaluatesAgainstTheTruth) {
   EXPECT_NE(eval.output.find("report/index.html"), std::string::npos) << eval.output;
   std::ifstream summary(dir_ / "report/summary.json");
   const nlohmann::json json = nlohmann::json::parse(summary);
-  // Measured (2026-11-22, noise-free fast path): normal median 0.007° (p90 3.1°), a_d NRMSE
+  // Measured (noise-free fast path): normal median 0.007° (p90 3.1°), a_d NRMSE
   // 0.012, re-render L1 0.0072; bounds ~2-3× those (the median normal's far more: it is tiny).
   // The truth itself re-renders at L1 0.002, not 0: in a crop the heightmap stops at the edge,
   // so shadows cast from outside it are not known to the fitter's shadow test.
@@ -86,7 +86,7 @@ TEST_F(FitCommandTest, AStackRenderedAsAScanIsAsFarFromTheTruthAsAScan) {
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   std::ifstream summary(dir_ / "truth-on-scan-like/summary.json");
   const nlohmann::json json = nlohmann::json::parse(summary);
-  // The truth re-renders the fast path to 0.002 (above). Measured (2026-11-26): 0.30 on the
+  // The truth re-renders the fast path to 0.002 (above). Measured: 0.30 on the
   // scan-like stack, the noise and gains of a reconstruction (the main job's: 0.2).
   const double l1 = json["rerender_l1"]["fit"]["all"]["relative_l1"].get<double>();
   std::cout << "the truth's re-render L1 on the scan-like stack: " << l1 << "\n";
@@ -133,9 +133,9 @@ nlohmann::json FitAndEvaluate(const fs::path& dir, const std::string& method, co
 
 TEST_F(FitCommandTest, TheShippedCnnAloneRecoversTheFabricRoughly) {
   const nlohmann::json json = FitAndEvaluate(dir_, "cnn");
-  // Measured (2026-11-23) with the shipped model: normal median 4.7° (p90 11.6°), a_d NRMSE
+  // Measured with the shipped model: normal median 4.7° (p90 11.6°), a_d NRMSE
   // 0.055, re-render L1 0.235 (the model before it, without the re-rendering loss: 6.4°, 0.045,
-  // 0.38; configs/models/tac7-mini/README.md). Its maps are a start for Ceres (next test), not
+  // 0.38; configs/models/tac7-mini/HISTORY.md). Its maps are a start for Ceres (next test), not
   // a result. Bounds ~1.3–2× those: they catch a broken chain or model, no more.
   EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 8.0) << json.dump(2);
   EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.08) << json.dump(2);
@@ -144,7 +144,7 @@ TEST_F(FitCommandTest, TheShippedCnnAloneRecoversTheFabricRoughly) {
 
 TEST_F(FitCommandTest, CnnPlusCeresRecoversTheFabric) {
   const nlohmann::json json = FitAndEvaluate(dir_, "cnn+ceres");
-  // Measured (2026-11-22): normal median 0.00° (p90 3.4°), a_d NRMSE 0.0103, re-render L1
+  // Measured: normal median 0.00° (p90 3.4°), a_d NRMSE 0.0103, re-render L1
   // 0.0072. Bounds as for the Ceres fit above.
   EXPECT_LT(json["normal_error_deg"]["median"].get<double>(), 0.5) << json.dump(2);
   EXPECT_LT(json["parameter_nrmse"]["a_d"].get<double>(), 0.03) << json.dump(2);
@@ -252,7 +252,7 @@ TEST_F(FitCommandTest, TheModelsRefineSettingsSetTheSmoothingPassTheRetriesTheTo
   EXPECT_EQ(overridden["retries"], false);
   EXPECT_EQ(overridden["function_tolerance"], 0.0005);
   EXPECT_EQ(fit_json("--model " + (dir_ / "no-settings").string(), "none")["smoothing_weight"], 0.0);
-  EXPECT_EQ(shipped["f0"], "material");  // since session 63 (tac7-mini's refine.json)
+  EXPECT_EQ(shipped["f0"], "material");  // tac7-mini's refine.json
   EXPECT_TRUE(shipped["material_f0"].is_number()) << shipped.dump(2);
   std::ofstream(model / "refine.json", std::ios::trunc) << R"({"f0": "material"})";
   const nlohmann::json material = fit_json("--model " + model.string(), "own-f0");
@@ -420,7 +420,7 @@ TEST_F(FitCommandTest, TheShippedTac7ModelTakesEveryPresetsStacks) {
     const double a_d = summary["parameter_nrmse"]["a_d"].get<double>();
     const double normal = summary["normal_error_deg"]["median"].get<double>();
     std::cout << preset << " against low: a_d NRMSE " << a_d << ", normals " << normal << " deg apart (median)\n";
-    // Measured (2026-11-25): a_d 0.00015 / 0.00020, normals 0.04° / 0.05° apart (medium / high);
+    // Measured: a_d 0.00015 / 0.00020, normals 0.04° / 0.05° apart (medium / high);
     // the inputs agree to O(bin²) on smooth sweeps (PaperInputTest), so do the maps.
     EXPECT_LT(a_d, 0.01) << preset;
     EXPECT_LT(normal, 0.5) << preset;
@@ -440,7 +440,7 @@ TEST_F(FitCommandTest, StartedFromTheTruthTheFitStaysThere) {
   EXPECT_EQ(summary["start"], (dir_ / "truth.exr").string());
   EXPECT_TRUE(summary["cluster_sizes"].empty()) << summary.dump(2);  // no cluster was formed
   const nlohmann::json json = EvaluateAgainstTheTruth(dir_, out);
-  // Measured (2026-11-30): normal p90 2e-6°, the angle's p90 5e-5° where anisotropic, a_d NRMSE
+  // Measured: normal p90 2e-6°, the angle's p90 5e-5° where anisotropic, a_d NRMSE
   // 0.001, F0 the truth's to 5e-7. From 2 clusters' fits Ceres ends at a normal p90 of 1.7° and
   // an angle p90 of 50° (lobes left in local minima), the refiner at 11° and 69°.
   EXPECT_LT(json["normal_error_deg"]["p90"].get<double>(), 0.01) << json.dump(2);
@@ -473,6 +473,24 @@ TEST_F(FitCommandTest, StartMapsOfAnotherGridOrForACnnMethodAreRefused) {
   EXPECT_EQ(missing.exit_code, 1) << missing.output;
   EXPECT_NE(missing.output.find("no-such-start.exr"), std::string::npos) << missing.output;
   for (const char* out : {"s1", "s2", "s3", "s4"}) EXPECT_FALSE(fs::exists(dir_ / out / "svbrdf.exr")) << out;
+}
+
+// Without --method, loom fit takes the recommended one: cnn+refine for a stack of a rig with a
+// model, refine where it has none (another model directory without model.json) or where start
+// maps are given; fit.json names the method taken.
+TEST_F(FitCommandTest, TheDefaultMethodIsTheRecommendedOne) {
+  const auto method_of = [&](const std::string& options, const std::string& out) {
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --quiet " + options +
+                                " --out " + (dir_ / out).string());
+    EXPECT_EQ(fit.exit_code, 0) << fit.output;
+    EXPECT_NE(fit.output.find("the recommended one for this stack"), std::string::npos) << fit.output;
+    std::ifstream in(dir_ / out / "fit.json");
+    return nlohmann::json::parse(in)["method"].get<std::string>();
+  };
+  EXPECT_EQ(method_of("", "default"), "cnn+refine");
+  fs::create_directories(dir_ / "no-model");
+  EXPECT_EQ(method_of("--model " + (dir_ / "no-model").string(), "default-no-model"), "refine");
+  EXPECT_EQ(method_of("--start " + (dir_ / "default/svbrdf.exr").string(), "default-start"), "refine");
 }
 
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {

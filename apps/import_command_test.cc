@@ -80,6 +80,10 @@ TEST_F(ImportCommandTest, ASphereIsFittedAroundItsMaskToItsTrueNormals) {
   EXPECT_GT(masked, 200);
   EXPECT_EQ(fit["pixels_skipped"].get<int>(), masked);
   EXPECT_EQ(ceres["pixels"].get<int>(), fit["pixels_fitted"].get<int>());
+  // Photographs from another rig are fitted by ceres unless --method says otherwise.
+  const auto by_default = RunCommand(Loom("fit " + Path("stack.exr") + " --quiet --out " + Path("fit-default")));
+  ASSERT_EQ(by_default.exit_code, 0) << by_default.output;
+  EXPECT_EQ(Json("fit-default/fit.json")["method"], "ceres");
   // Noise-free GD10: the target is a median ≤ 0.3° and a p90 ≤ 1°; measured 0.00° and
   // 0.00° (mean 0.02°). Photometric stereo, which ignores the highlight: mean 0.4°.
   EXPECT_LE(ceres["median_deg"].get<double>(), 0.3) << ceres.dump();

@@ -30,6 +30,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -103,6 +104,9 @@ inline constexpr double kMinStackPixelMm = 1e-3, kMaxStackPixelMm = 1e3;
 // A linear light is one emitter per strip segment (rig files allow up to 1024);
 // far more would make a fit take hours with nothing to show for it.
 inline constexpr size_t kMaxEmittersPerObservation = 4096;
+
+// A stack made from another rig's photographs (loom import) names its rig so: "import:ps".
+inline constexpr std::string_view kImportedRigPrefix = "import:";
 
 struct ObservationStack {
   Image image;  // StackChannelNames(observations.size())

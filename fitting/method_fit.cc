@@ -52,6 +52,12 @@ Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, Stack
 
 }  // namespace
 
+FitMethod RecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir, bool start_maps) {
+  if (stack.rig.starts_with(kImportedRigPrefix)) return FitMethod::kCeres;
+  if (!start_maps && std::filesystem::exists(model_dir / "model.json")) return FitMethod::kCnnRefine;
+  return FitMethod::kRefine;
+}
+
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
                                 StackFitOptions options) {
   MethodFit fit;

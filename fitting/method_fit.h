@@ -32,6 +32,13 @@ struct MethodFit {
   nlohmann::json ToJson() const;
 };
 
+// The method `loom fit` uses when none is asked for: cnn+refine where `model_dir` holds a model
+// (model.json) and no start maps are given (the main job's method: the nearest to the truth and
+// the fastest); ceres for photographs from another rig (`loom import`'s stacks: on a real flash
+// capture its left-out views were 0.745× a Lambertian albedo's L1, refine's 0.776×); otherwise
+// refine, which fits what ceres fits in a fraction of the time.
+FitMethod RecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir, bool start_maps);
+
 // `model_dir` holds the CNN (a loom train model directory) for the cnn methods; a directory
 // without model.json is an error naming it. `options.solver` is set from the method, and for
 // the cnn methods `options.initial_maps` (the CNN's maps); the other methods keep the caller's

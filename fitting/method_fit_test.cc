@@ -60,6 +60,14 @@ TEST(MethodFitTest, TheCnnAloneGivesItsMapsAndCnnRefineStartsFromThem) {
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.status().subject(), nowhere.string());
   EXPECT_TRUE(FitWithMethod(stack, FitMethod::kCeres, nowhere, options).ok());  // needs no model
+
+  // The method loom fit takes by default.
+  EXPECT_EQ(RecommendedMethod(stack, model, false), FitMethod::kCnnRefine);
+  EXPECT_EQ(RecommendedMethod(stack, model, true), FitMethod::kRefine);  // start maps: no CNN
+  EXPECT_EQ(RecommendedMethod(stack, nowhere, false), FitMethod::kRefine);
+  ObservationStack photographs = stack;
+  photographs.rig = std::string(kImportedRigPrefix) + "ps";
+  EXPECT_EQ(RecommendedMethod(photographs, model, false), FitMethod::kCeres);
   fs::remove_all(model);
 }
 

@@ -773,7 +773,7 @@ Result<ImportResult> ImportCapture(const fs::path& dir, const ImportOptions& opt
   const double pixel_mm = (capture.width_mm ? *capture.width_mm / first.cols : options.pixel_mm) * n;
   ObservationStack& stack = result.stack;
   stack = MakeObservationStack(width, height, pixel_mm, std::move(table));
-  stack.rig = "import:" + std::string(LayoutName(result.layout));
+  stack.rig = std::string(kImportedRigPrefix) + std::string(LayoutName(result.layout));
   stack.source = "loom import " + dir.string();
   for (int j = 0; j < height; ++j) {
     for (int i = 0; i < width; ++i) {
