@@ -114,7 +114,7 @@ void ExpectTheProjectorAsBuilt(const fs::path& dir) {
   }
   std::cout << "projector columns in the sample volume: the rig YAML off by up to " << worst_nominal << " px, calibrated "
             << worst_found << " px\n";
-  // Measured (2026-11-22): the rig YAML off by up to 4.8 px, calibrated 0.079 px (210 corners
+  // Measured: the rig YAML off by up to 4.8 px, calibrated 0.079 px (210 corners
   // decoded, RMS 0.016 columns; the boards at -0.007 and 30.019 mm, RMS 0.011 and 0.015).
   EXPECT_LT(worst_found, 0.5);
   EXPECT_GT(worst_nominal, 2);
@@ -134,7 +134,7 @@ void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
   const auto applied = loom::calibration::ApplyLightPositionCalibration(dir / "calib", &found);
   ASSERT_TRUE(applied.ok()) << applied.status().ToString();
   ASSERT_TRUE(*applied) << "no light_positions.yaml";
-  // Measured (2026-11-22): within 3.4 mm (0.3°) of the truth — LED 4 found 19.6 mm aside —
+  // Measured: within 3.4 mm (0.3°) of the truth — LED 4 found 19.6 mm aside —
   // against 1.3 mm with perfect cameras (calibration/light_positions_test.cc): the camera poses'
   // own error (1.3-1.7 mm, 0.05-0.13°) moves the highlights' rays.
   for (size_t l = 0; l < nominal.leds.size(); ++l) {
@@ -142,7 +142,7 @@ void ExpectTheLedsWhereTheyWereBuilt(const fs::path& dir) {
         nominal.leds[l].position_mm + (l == 4 ? Eigen::Vector3d(-17.3, 10, 0) : Eigen::Vector3d::Zero());
     EXPECT_LT((found.leds[l].position_mm - truth).norm(), 5.0) << "led " << l;
   }
-  // The linear light's arm, built 1.5° turned. Measured (2026-11-22): -68.41° to 71.28° against
+  // The linear light's arm, built 1.5° turned. Measured: -68.41° to 71.28° against
   // -68.5° to 71.5° (0.04° with exact cameras: the camera poses' error moves the rays).
   EXPECT_NEAR(found.linear_light->start_deg, nominal.linear_light->start_deg + 1.5, 0.3);
   EXPECT_NEAR(found.linear_light->end_deg, nominal.linear_light->end_deg + 1.5, 0.3);
@@ -201,7 +201,7 @@ void ExpectRadiometryFindsTheRigAsBuilt(const fs::path& dir) {
   // What reflectance rests on: each LED's irradiance at the sample, calibrated (positions and
   // intensities) against the rig as built. An LED placed a few tenths of a degree off has its
   // intensity calibrated to match at the tile, so the product is what is checked.
-  // Measured (2026-11-22): within 0.024 %; cam1 0.9202, vignetting 0.1001 and 0.1804, linearity
+  // Measured: within 0.024 %; cam1 0.9202, vignetting 0.1001 and 0.1804, linearity
   // 0.05 % and 0.18 %, chart albedos to 0.0009 RMS.
   loom::RigModel calibrated = nominal, built = nominal;
   ASSERT_TRUE(loom::calibration::ApplyLightPositionCalibration(dir / "calib", &calibrated).ok());
@@ -324,7 +324,7 @@ TEST(CalibrateCommandTest, FindsTheAsBuiltCamerasFromACalibrationScan) {
     }
     std::cout << camera.name << " against the as-built truth: " << rotation_deg << " deg, " << centre_mm << " mm, worst "
               << worst_px << " px in the sample volume\n";
-    // Measured (2026-11-22): cam0 0.036° 1.2 mm 0.15 px, cam1 0.045° 1.6 mm 0.25 px (its YAML
+    // Measured: cam0 0.036° 1.2 mm 0.15 px, cam1 0.045° 1.6 mm 0.25 px (its YAML
     // is 0.43° and 3.8 mm off). Distance rests on the board's apparent size; see geometry.h.
     EXPECT_LT(rotation_deg, 0.5) << camera.name;
     EXPECT_LT(centre_mm, 5) << camera.name;

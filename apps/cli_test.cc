@@ -111,8 +111,8 @@ TEST(CliTest, VersionNamesLoomAndItsLibraries) {
   EXPECT_EQ(RunLoom("version --short").output, std::string(loom::Version()) + "\n");
 }
 
-// The commit is looked up when loom is built, not when the build was configured: an incremental
-// build named the configure run's commit until 2026-11-27.
+// The commit is looked up when loom is built, not when the build was configured: otherwise an
+// incremental build names the configure run's commit.
 TEST(CliTest, VersionNamesTheCommitItWasBuiltFrom) {
   const LoomRun head = loom::testing::RunCommand("git -C " + loom::testing::SourceDir() + " rev-parse --short HEAD");
   if (head.exit_code != 0) GTEST_SKIP() << "not built from a git checkout";

@@ -31,7 +31,7 @@ TEST(DemoCommandTest, RecoversTheFabricFromScanToFit) {
   std::ifstream file(dir / "summary.json");
   const nlohmann::json summary = nlohmann::json::parse(file);
   const nlohmann::json& fit = summary["methods"]["cnn+refine"];
-  // Measured (2026-11-22, 2 cores, the CNN shipped in session 9): camera calibration 0.30 px;
+  // Measured (2 cores, an early shipped CNN): camera calibration 0.30 px;
   // normal error median 4.1° (4.7° with the CNN before it), a_d NRMSE 0.066 (0.080), a_s·F0
   // 0.287, re-render relative L1 0.120 (0.126) over all observations. The bounds leave room for
   // the scan's noise seeds and threading, not for a broken stage: a reconstruction on a

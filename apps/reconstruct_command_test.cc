@@ -101,7 +101,7 @@ void TheHeightmapMatchesTheFabrics(const fs::path& dir) {
   const double rms = std::sqrt(sum2 / (w * h));
   ::testing::Test::RecordProperty("height_rms_mm", std::to_string(rms));
   std::cout << "height RMS error " << rms << " mm (the fabric's RMS height " << std::sqrt(truth_sum2 / (w * h)) << " mm)\n";
-  // Measured (2026-11-22): 0.019 mm against a fabric of 0.19 mm RMS relief (0.028 mm with
+  // Measured: 0.019 mm against a fabric of 0.19 mm RMS relief (0.028 mm with
   // tac7-mini's own cameras); the bound is the goal for tac7 (≤ 0.05 mm).
   EXPECT_LT(rms, 0.05);
 }
@@ -141,13 +141,13 @@ void TheStackMatchesTheFastPathOutsideShadows(const fs::path& dir) {
   }
   const double median = Median(relative);
   std::cout << "median relative error against the fast path " << 100 * median << " % over " << relative.size() << " samples\n";
-  // Measured (2026-11-22): 1.51 % median; per observation the median ratio is 0.98-1.00, so no
+  // Measured: 1.51 % median; per observation the median ratio is 0.98-1.00, so no
   // radiometric bias. The rest is sampling: the fast path samples points, a camera pixel
   // integrates the fabric's 0.2 mm texture and highlights over its footprint and the
   // resampling spreads that further. The same scan with cameras 2 times finer than the stack
   // gives 2.0 %, with tac7-mini's own (as coarse as the stack) 6.3 % (ratios 0.89-1.12).
   // Since cam1 (1.77 camera pixels per stack pixel) is interpolated bicubically rather than
-  // bilinearly: 1.89 % (2026-11-26; bicubic weights average fewer camera pixels).
+  // bilinearly: 1.89 % (bicubic weights average fewer camera pixels).
   // Bound: the goal, 2 %.
   EXPECT_LT(median, 0.02);
 }
@@ -227,7 +227,7 @@ void AWindowedScanReconstructsTheCentreAsTheFullScanDoes(const fs::path& dir) {
   std::cout << "windowed against full scan: heights within " << height_error << " mm, values median "
             << relative[relative.size() / 2] << ", p99 " << relative[relative.size() * 99 / 100] << ", " << unseen
             << " values unseen\n";
-  // Measured (2026-11-25): every value and height the full scan's, bit for bit. A bracket may
+  // Measured: every value and height the full scan's, bit for bit. A bracket may
   // differ where the full frame's dark corners ask for a longer exposure than the window does (a
   // hand-set 128 px window did so for one step: another noise draw, p99 1.3 %): hence p99's bound.
   EXPECT_EQ(unseen, 0);

@@ -2,7 +2,7 @@
 // the linear light, the projector), end to end on a crop small enough for CI: loom demo scans a
 // 3.2 mm crop (each camera reads only the window that sees it), reconstructs with the rig YAML's
 // nominal geometry (--no-calibration: tac7's calibration scan takes hours here), fits with the
-// refiner and scores it against the simulator's truth. Measured 2026-11-25 on 2 cores: scan 53 s,
+// refiner and scores it against the simulator's truth. Measured on 2 cores: scan 53 s,
 // reconstruct 3 s, fit 12 s.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -48,7 +48,7 @@ TEST(Tac7CropTest, TheDemoScansReconstructsFitsAndScoresACropOfThePapersRig) {
   std::cout << "tac7 crop: a_d " << nrmse["a_d"] << ", sigma " << nrmse["sigma"] << ", alpha " << nrmse["alpha"]
             << ", normal median " << fit["normal_error_deg"]["median"] << " deg, re-render L1 " << l1 << " (the truth's "
             << truth_l1 << ")\n";
-  // Measured (2026-11-25): a_d 0.025, σ 0.075, α 0.027, normal median 1.1°, L1 0.122 against the
+  // Measured: a_d 0.025, σ 0.075, α 0.027, normal median 1.1°, L1 0.122 against the
   // truth's own 0.156 (the reconstructed stack's blur and noise); the bounds leave about 2×.
   EXPECT_LT(nrmse["a_d"].get<double>(), 0.05);
   EXPECT_LT(nrmse["sigma"].get<double>(), 0.15);

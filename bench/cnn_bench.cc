@@ -10,8 +10,8 @@
 // training counts forward + backward as 3 × forward), achieved GFLOP/s, and the process's peak
 // resident memory after the benchmark (getrusage; it only grows, so benchmarks run small first).
 // Rates are per second of wall time (UseRealTime): the work runs on loom's and torch's threads,
-// whose CPU time the main thread's does not count (before 2026-11-28 the rates were per second
-// of the main thread's CPU time, which overstated them: 281 GFLOP/s on 2 cores).
+// whose CPU time the main thread's does not count (per second of the main thread's CPU time, the
+// rates are overstated: 281 GFLOP/s on 2 cores).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 

@@ -99,7 +99,7 @@ TEST_F(LightPositionsTest, FindsTheLedThatIsNotWhereTheYamlSays) {
     EXPECT_LT(led.residual_deg, 0.1) << led.led;
     EXPECT_EQ(led.views, 2);
   }
-  // Measured (2026-11-22): at most 1.3 mm (0.11°) from the truth; 0.6 mm at supersampling 3.
+  // Measured: at most 1.3 mm (0.11°) from the truth; 0.6 mm at supersampling 3.
   EXPECT_LT(worst_mm, 2.0);
   EXPECT_NEAR(found->leds[kMovedLed].change_mm, 20, 5);
   for (const LightPosition& led : found->leds) {
@@ -155,7 +155,7 @@ TEST_F(LightPositionsTest, FindsTheLinearLightsArmTurned) {
             << " deg (truth " << built.end_deg << "), residual " << sweep.residual_deg << " deg over " << sweep.views
             << " views\n";
   EXPECT_EQ(sweep.views, 10);
-  // Measured (2026-11-22): start -68.506° (truth -68.5), end 71.534° (71.5), residual 0.10°; a
+  // Measured: start -68.506° (truth -68.5), end 71.534° (71.5), residual 0.10°; a
   // centroid per view instead of every pixel of the streak was 0.4-0.7° off.
   EXPECT_NEAR(sweep.start_deg, built.start_deg, 0.2);
   EXPECT_NEAR(sweep.end_deg, built.end_deg, 0.2);

@@ -113,7 +113,7 @@ TEST(ProjectorTest, FindsTheFocalLengthAndCentreFromABoardAtTwoHeights) {
   ASSERT_TRUE(found.ok()) << found.status().ToString();
   ASSERT_EQ(found->boards.size(), 2u);
   PrintBoards(*found);
-  // Measured (2026-11-22): 4.002 % (1σ 0.009 %), 6.11 px (1σ 0.17 px); heights 0.200 and 30.400 mm.
+  // Measured: 4.002 % (1σ 0.009 %), 6.11 px (1σ 0.17 px); heights 0.200 and 30.400 mm.
   EXPECT_TRUE(found->intrinsics_fitted);
   EXPECT_NEAR(found->focal_change_percent, 4, 0.05);
   EXPECT_NEAR(found->cx_change_px, 6, 0.5);
@@ -205,7 +205,7 @@ TEST(ProjectorTest, FindsTheProjectorsColumnsAsBuilt) {
     }
   }
   std::cout << "columns in the sample volume: prior off by up to " << worst_prior << " px, calibrated " << worst_found << " px\n";
-  // Measured (2026-11-22): the prior off by up to 2.0 px, the calibration 0.063 px.
+  // Measured: the prior off by up to 2.0 px, the calibration 0.063 px.
   EXPECT_GT(worst_prior, 1.5);
   EXPECT_LT(worst_found, 0.1);
 }

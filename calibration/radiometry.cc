@@ -21,7 +21,7 @@ using scan::StepKind;
 
 // Every sensor pixel's ray in its camera's frame (CameraModel::Unproject), for each camera of the
 // rig, worked out once on every core: unprojected again for each view and pixel, they had been a
-// seventh of calibrating tac7's radiometry (perf, 2026-11-27).
+// seventh of calibrating tac7's radiometry (perf).
 class SensorRays {
  public:
   explicit SensorRays(const RigModel& rig) : rig_(rig), rays_(rig.cameras.size()) {
@@ -48,7 +48,7 @@ class SensorRays {
 
 // Where a camera's pixels look on the turntable's plane (z = 0 in the sample frame at a view's
 // angle), for those that look down at it. The camera's pose is worked out once: per pixel it had
-// been a tenth of calibrating tac7's radiometry (perf, 2026-11-27).
+// been a tenth of calibrating tac7's radiometry (perf).
 class TurntablePoints {
  public:
   TurntablePoints(const SensorRays& rays, int camera, double turntable_deg)

@@ -43,7 +43,7 @@ class Heightmap {
   // an elevation above which no light of that sector's azimuths is shadowed from the point. A
   // relief rarely rises as steeply in every direction as in its steepest, and a fit tests
   // thousands of lights from one pixel: one bound for all azimuths left half of a fabric's
-  // light samples to the march (2026-11-26), most of them unshadowed.
+  // light samples to the march, most of them unshadowed.
   struct Horizon {
     // Sectors of equal width in the "diamond angle" (a pseudo-angle monotone in the azimuth,
     // with no trigonometry to evaluate): 8 per quadrant.

@@ -31,7 +31,7 @@ constexpr double kMinRadius = 1e-32;
 constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kMinDiagonal = 1e-6;
 constexpr double kMaxDiagonal = 1e32;
-// Two departures from Ceres' trust-region rule, each measured (docs/benchmarks.md, session 30).
+// Two departures from Ceres' trust-region rule, each measured (docs/benchmarks.md).
 // After a rejected step the next is at most the length where the parabola through the cost at
 // both ends and the slope at the start has its minimum, within [kRetreatMin, kRetreatMax] of the
 // rejected one: halving the radius from far above where the damping acts gave nearly the same

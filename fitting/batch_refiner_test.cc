@@ -381,8 +381,8 @@ TEST(BatchRefinerTest, TheStatedUncertaintyCoversTheTrueErrorAsOftenAsOneSigmaSh
   std::cout << "1 sigma covers: normal " << normal.fraction() << ", a_d " << a_d.fraction() << ", a_s " << a_s.fraction()
             << ", sigma_x " << sigma_x.fraction() << ", sigma_y " << sigma_y.fraction() << " (of " << normal.total
             << " pixels)\n";
-  // Measured 2026-11-23 (HC2 sandwich, 14 × 14 px): normal 62 %, a_d 71 %, a_s 80.2 %, σx 61 %,
-  // σy 68 %; 2026-11-25 (float sums, 24 × 24 px: the 14² stack's a_s moved 80 → 82 % with
+  // Measured (HC2 sandwich, 14 × 14 px): normal 62 %, a_d 71 %, a_s 80.2 %, σx 61 %,
+  // σy 68 %; with float sums (24 × 24 px: the 14² stack's a_s moved 80 → 82 % with
   // rounding alone, within its sampling error): 64 %, 73 %, 81 %, 59 %, 68 %. On
   // three other stacks (2–5 % noise) a_s covers 80–82 % (a little conservative) and at 5 % noise
   // the normal and σx fall to 42–45 %, with half the pixels' σ unstated: Huber's loss rejects

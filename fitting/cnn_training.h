@@ -66,7 +66,7 @@ struct CnnTrainingOptions {
   // Training tiles' observations are multiplied by 1 + radiance_noise · N(0, 1), drawn anew
   // each step, so that the network sees inputs as noisy as reconstructed stacks and not only
   // the simulator's exact ones. 0: none. (For tac7-mini, 0.07 made no better model:
-  // configs/models/tac7-mini/README.md.)
+  // configs/models/tac7-mini/HISTORY.md.)
   double radiance_noise = 0;
   // The re-rendering loss (internal/rerender_loss.h), added to the label loss with this weight
   // (0: off; every training example then needs its stack). Per tile, `rerender_pixels` random
@@ -131,7 +131,7 @@ struct CnnEpoch {
   // What the run keeps the epoch with the lowest of: validation_loss + rerender_weight ·
   // validation_rerender_loss, the training's objective on the validation materials (the label
   // loss alone when the re-rendering loss is off). With that loss on, the label loss alone had
-  // stopped tracking the re-rendering (configs/models/tac7/README.md). A checkpoint written
+  // stopped tracking the re-rendering (configs/models/tac7/HISTORY.md). A checkpoint written
   // before this field existed reads it as its label loss, and resuming it with the re-rendering
   // loss on is refused (its epochs were scored by another measure).
   double validation_objective = 0;
@@ -174,7 +174,7 @@ struct CnnScore {
   // The (cos 2α, sin 2α) RMSE (rmse[11], rmse[12]) over the pixels whose true lobe is anisotropic
   // (the wider width ≥ AnisotropicAlphaError::kMinSigmaRatio × the narrower, as `loom eval` counts
   // them), and how many. A round lobe has no angle to find: the simulator writes α = 0 there, so
-  // over every pixel even an exact fit keeps an error there (configs/models/tac7/README.md).
+  // over every pixel even an exact fit keeps an error there (configs/models/tac7/HISTORY.md).
   std::array<double, 2> angle_rmse_where_anisotropic{};
   int64_t anisotropic_pixels = 0;
 };

@@ -59,7 +59,7 @@ TEST(StackFitterTest, RecoversAFabricFromItsFastPathStack) {
             << "normal deg median " << Percentile(normal_deg, 0.5) << " p90 " << Percentile(normal_deg, 0.9) << "; a_d median "
             << Percentile(a_d, 0.5) << " p90 " << Percentile(a_d, 0.9) << "; a_s*F0 median " << Percentile(a_s_f0, 0.5) << " p90 "
             << Percentile(a_s_f0, 0.9) << "; rms median " << Percentile(rms, 0.5) << " p90 " << Percentile(rms, 0.9) << "\n";
-  // Measured at 1 % noise (2026-11-22): normal median 0.085° p90 0.29°, a_d median 0.0014 p90
+  // Measured at 1 % noise: normal median 0.085° p90 0.29°, a_d median 0.0014 p90
   // 0.0051, a_s·F0 median 0.0065, relative RMS median 0.019. Bounds ~3× those. The a_s·F0 tail
   // (p90 0.17) is where a sharp highlight falls between the observations; F0 itself is not
   // observable here (the fit puts it at its bound; the truth is 0.74), so it is not asserted.
@@ -287,7 +287,7 @@ TEST(StackFitterTest, TheRefinersSmoothingPassLowersTheMapNoiseAndKeepsTheDiffus
             << free.nrmse.at("sigma") << " / " << smoothed.nrmse.at("sigma") << "\n";
   EXPECT_LT(smoothed.noise.at("sigma"), 0.8 * free.noise.at("sigma"));
   EXPECT_LT(smoothed.noise.at("a_s"), 0.8 * free.noise.at("a_s"));
-  // With the neighbours' median normal and a_d as the target (the pass before 2026-11-26), a_d
+  // With the neighbours' median normal and a_d as the target (as the pass once had it), a_d
   // came out 1.6× as far off and σ's map noise 13× the free fit's.
   EXPECT_LT(smoothed.nrmse.at("a_d"), 1.25 * free.nrmse.at("a_d"));
 }
@@ -295,7 +295,7 @@ TEST(StackFitterTest, TheRefinersSmoothingPassLowersTheMapNoiseAndKeepsTheDiffus
 // With CNN maps, the smoothing pass takes each pixel's anisotropy angle from the neighbours those
 // maps put on its yarn (internal/neighbour_lobes.h), so it leaves α at least as near the truth as
 // the free fit. Measured (24 × 24 px, 10 % noise): free 0.082, smoothed 0.071; with the pass
-// given no guide (the mean of both yarns' angles, before 2026-11-27) 0.093.
+// given no guide (the mean of both yarns' angles) 0.093.
 TEST(StackFitterTest, WithInitialMapsTheSmoothingPassKeepsTheAnisotropyAngle) {
   const sim::Material fabric = sim::GenerateFabric(5, {.width_px = 24, .height_px = 24, .pixel_mm = 0.2});
   const sim::Scene scene(testing::TacMiniGeometry(), fabric);

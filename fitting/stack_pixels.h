@@ -54,7 +54,7 @@ class StackPixels {
   // Observations(x, y) and Observations(x, y, *lobe) written into `into`, replacing what it held
   // and reusing its observations' memory: a fit builds thousands of light samples per pixel,
   // each observation's in a vector of its own, and allocating them anew was a tenth of a
-  // point-lit refinement (2026-11-27).
+  // point-lit refinement.
   void ObservationsInto(int x, int y, const WardParams<double>* lobe, std::vector<PixelObservation>& into) const;
   // Per stack observation, the span of the strip (strip_quadrature.h's LobeSpan at `fraction` of
   // the peak) where the lobe of `params` lies at pixel (x, y); {0, 1} for observations that are

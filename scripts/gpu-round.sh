@@ -9,7 +9,7 @@
 # `run` unpacks the packages, builds the trainer-only loom against PyTorch's CUDA LibTorch,
 # trains 3 short epochs first (the check that a run outlives its second epoch's checkpoint, which
 # no GPU has confirmed since the fix), renders FABRICS fresh fabrics on every core, and fine-tunes
-# the rig's shipped model on them with the chain's recipe (configs/models/tac7-mini/README.md),
+# the rig's shipped model on them with the chain's recipe (configs/models/<rig>/README.md),
 # for as many steps as the short run's rate fits into TRAIN_S seconds. $OUT gets the logs and the
 # model (float16 weights: what comes back from the machine is at most 16 MiB a file).
 #
@@ -37,9 +37,8 @@ build() {
   scripts/build-trainer.sh
 }
 
-# The rig's chain recipe (configs/models/<rig>/README.md: its rounds since session 57 on
-# tac7-mini, 60 on tac7): what the network reads, and the seeded fabrics (some trained on, the
-# validation and test ones) beside which the fresh ones are linked in as add-*.
+# The rig's chain recipe (configs/models/<rig>/README.md and HISTORY.md): what the network
+# reads, and the seeded fabrics (some trained on, the validation and test ones) beside which the fresh ones are linked in as add-*.
 recipe() {
   case $rig in
     tac7-mini)

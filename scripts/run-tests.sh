@@ -7,7 +7,7 @@ start=$(date +%s)
 # The build folders take about 2 GB (build/ 0.7, build-asan/ 1.0, build-fuzz/ 0.2; 6.5 GB
 # before debug info became line tables only), the compiler cache up to 5 GB more, and the
 # compiler writes its temporaries to TMPDIR: say so now rather than as a compiler's "No space
-# left on device" minutes into the build (a CI run failed so, 2026-11-27).
+# left on device" minutes into the build (a CI run failed so).
 need_free_gib() {  # FOLDER GIB
   local free_kib
   free_kib=$(df -Pk "$1" | awk 'NR == 2 {print $4}')

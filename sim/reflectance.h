@@ -75,7 +75,7 @@ class Reflectance {
   // Reflectance per shaded point: without mesostructure nothing is allocated). None for a
   // Lambertian pixel (no specular albedo, nothing beyond GD10): the calibration objects and the
   // holder, most of a calibration scan's points, whose lobe frame and exp() were a third of
-  // rendering it (perf, 2026-11-27) and multiplied a zero albedo.
+  // rendering it (perf) and multiplied a zero albedo.
   std::optional<fitting::WardLobe<double>> lobe_;
   std::vector<fitting::WardLobe<double>> facets_;
 };

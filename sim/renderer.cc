@@ -336,7 +336,7 @@ std::vector<uint16_t> CaptureRawAt(const Image& radiance, const SensorModel& sen
   std::vector<uint16_t> raw(static_cast<size_t>(w) * h);
   // Every pixel's noise comes from its own hash, so rows run on every core and give the same
   // frame: a quarter of a calibration scan's time had been one core drawing noise for each
-  // exposure of a bracket (perf, 2026-11-27). Small frames are not worth the threads.
+  // exposure of a bracket (perf). Small frames are not worth the threads.
   const int threads = static_cast<size_t>(w) * h >= 65536 ? ThreadCount(0) : 1;
   ForEachRow(h, threads, [&](int y) {
     for (int x = 0; x < w; ++x) {

@@ -50,7 +50,7 @@ struct CnnNetHolder {
 // and glibc's malloc keeping freed memory for reuse instead of returning it to the system.
 // torch frees and re-allocates its activations (~100 MB each at the paper's widths) at every
 // layer, and on 4 KiB pages their first-touch page faults cost this machine about as much as
-// the convolutions: a 630² paper-size dense inference (bench/cnn_bench.cc, 2026-11-28) took
+// the convolutions: a 630² paper-size dense inference (bench/cnn_bench.cc) took
 // 52.5 s with 33 s of system time; with huge pages (glibc's malloc.hugetlb tunable, the same
 // advice for all of malloc) 27.6 s. Keeping freed memory alone gained nothing measurable in wall
 // time (docs/benchmarks.md, "The paper's CNN"). The price: the process keeps its peak heap.

@@ -20,7 +20,7 @@ at::Tensor LabelChannelWeights(double alpha_weight = 1);
 // to [1, kMaxNormalLobeWeight], σ_min the narrower of the pixel's lobe widths (decoded from
 // `labels`' σx', σy'; N × 14 × H × W): N × 1 × H × W. A normal's error moves the highlight by
 // that angle, which costs the re-rendering as much as it is wide against the lobe: on the
-// glossiest fabrics the CNN's normals err by a lobe width (configs/models/tac7-mini/README.md).
+// glossiest fabrics the CNN's normals err by a lobe width (configs/models/tac7-mini/HISTORY.md).
 inline constexpr double kMaxNormalLobeWeight = 100;  // so that the narrowest pixels cannot drown the batch
 at::Tensor LobeNarrowness(const at::Tensor& labels, double reference);
 

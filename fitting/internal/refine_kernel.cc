@@ -227,7 +227,7 @@ template <int kSpan>
 // every sample, so that a pixel's result does not depend on which pixels share its batch (the
 // thread count, the order of work). A shortcut taken when no lane's lobe reaches a sample did:
 // it rounded differently, and in float that changed where fits stopped; on this machine it saved
-// nothing measurable (2026-11-25).
+// nothing measurable.
 [[gnu::always_inline]] inline void SumLights(const LaneData& d, const LaneLobe& lobe, const Lobe<kSlotPair>& lobe_twice,
                                              const ObservationLanes<kLanes>& ob, int first, int end, ObservationSums& s) {
   Clear(s);
@@ -260,7 +260,7 @@ template <int kSpan>
 
 // Vectors of kWidth doubles: 8 is one zmm; 4 is one ymm. A vector wider than the target's
 // registers is split by GCC, and on AVX2 an 8-wide one was split through general registers with
-// its accumulators spilled: the Gram below took 57 % of the kernel there (perf, 2026-11-25).
+// its accumulators spilled: the Gram below took 57 % of the kernel there (perf).
 // (A member typedef: GCC drops vector_size from an alias template, leaving a plain double.)
 template <int kWidth>
 struct Wide {

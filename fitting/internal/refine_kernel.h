@@ -25,7 +25,7 @@ inline constexpr int kNormalEntries = kTangentParams * (kTangentParams + 1) / 2;
 // The sums over observations (JᵀWJ and the like) run a chunk of this many observations at a time,
 // while its gradients are in the L1 cache (32 × 12 × 8 doubles: 24 KiB). Summed once over all of
 // a 900-observation pixel's stored gradients (0.7 MiB), they streamed from L3 and took half the
-// kernel on point-lit stacks (perf, 2026-11-25).
+// kernel on point-lit stacks (perf).
 inline constexpr int kChunkObservations = 32;
 // A bound on the relative rounding error of a modelled radiance summed in float (~1e-7 for one
 // unit in the last place), used as a bound on the cost's: kRadianceResolution ·
