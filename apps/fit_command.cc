@@ -16,6 +16,7 @@
 #include "core/version.h"
 #include "fitting/export.h"
 #include "fitting/method_fit.h"
+#include "fitting/refine_settings.h"
 #include "fitting/stack_fitter.h"
 #include "fitting/svbrdf_file.h"
 
@@ -37,77 +38,6 @@ fitting::StackFitOptions DefaultOptions() {
   return options;
 }
 
-// The refiner's settings picked for a model's rig on its training fabrics, in the model
-// directory beside the CNN: the smoothing pass's weight and a_s scale, whether poor fits are
-// retried, and the function tolerance that ends a pixel's fit (docs/benchmarks.md). They differ
-// by rig: tac7-mini's speckled maps gain from the pass, which restarts every pixel from its
-// neighbours' median lobe and so leaves the retries nothing to gain there (nor the first fit's
-// last small steps), while on tac7's richer stacks the same prior over-smooths σ and α. A model
-// without the file leaves the built-in defaults (retries, no smoothing pass, 1e-4);
-// --smoothing-weight, --retries / --no-retries and --function-tolerance override the file.
-constexpr const char* kRefineSettingsFile = "refine.json";
-
-struct GivenOnTheCommandLine {
-  bool smoothing_weight = false;
-  bool retries = false;
-  bool function_tolerance = false;
-  bool f0 = false;
-};
-
-// refine.json's f0 as --f0 takes it: a number, or "material".
-Result<std::optional<double>> ParseRefineF0(const nlohmann::json& value, const std::string& what) {
-  return fitting::ParseFixedF0(value.is_string() ? value.get<std::string>() : value.dump(), what);
-}
-
-Status CheckRefineSetting(const fs::path& path, const std::string& key, const nlohmann::json& value) {
-  if (key == "retries") {
-    return value.is_boolean() ? Status::Ok()
-                              : InvalidArgumentError(path.string() + ": " + key, "expected true or false, not " + value.dump());
-  }
-  if (key == "f0") {
-    const Result<std::optional<double>> f0 = ParseRefineF0(value, path.string() + ": " + key);
-    return f0.ok() ? Status::Ok() : f0.status();
-  }
-  const double number = value.is_number() ? value.get<double>() : NAN;
-  if (key == "function_tolerance") {
-    return number >= 0 && number <= 0.5
-               ? Status::Ok()
-               : InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 0.5], not " + value.dump());
-  }
-  if (key != "smoothing_weight" && key != "smoothing_specular_albedo") {
-    return InvalidArgumentError(
-        path.string() + ": " + key,
-        "unknown key (expected smoothing_weight, smoothing_specular_albedo, retries, function_tolerance, f0 or picked_on)");
-  }
-  if (!(number >= 0 && number <= 1e6) || (key == "smoothing_specular_albedo" && number == 0)) {
-    return InvalidArgumentError(path.string() + ": " + key, "expected a number in [0, 1e6] (a scale > 0), not " + value.dump());
-  }
-  return Status::Ok();
-}
-
-// `refiner`: the method fits with the batched refiner, whose settings these are.
-Status ApplyRefineSettings(const fs::path& model, bool refiner, GivenOnTheCommandLine given, fitting::StackFitOptions& options) {
-  const fs::path path = model / kRefineSettingsFile;
-  if (!fs::exists(path)) return Status::Ok();
-  LOOM_ASSIGN_OR_RETURN(const std::string text, ReadFile(path));
-  const nlohmann::json json = nlohmann::json::parse(text, nullptr, false);
-  if (json.is_discarded() || !json.is_object()) return InvalidArgumentError(path.string(), "not a JSON object");
-  for (const auto& [key, value] : json.items()) {
-    if (key == "picked_on") continue;  // how the values were picked, for the reader
-    LOOM_RETURN_IF_ERROR(CheckRefineSetting(path, key, value));
-  }
-  if (!given.smoothing_weight) options.smoothing.weight = json.value("smoothing_weight", options.smoothing.weight);
-  options.smoothing.specular_albedo = json.value("smoothing_specular_albedo", options.smoothing.specular_albedo);
-  if (refiner && !given.retries) options.retry_poor_fits = json.value("retries", options.retry_poor_fits);
-  if (!given.function_tolerance) {
-    options.refine_function_tolerance = json.value("function_tolerance", options.refine_function_tolerance);
-  }
-  if (refiner && !given.f0 && json.contains("f0")) {
-    LOOM_ASSIGN_OR_RETURN(options.fixed_f0, ParseRefineF0(json["f0"], path.string() + ": f0"));
-  }
-  return Status::Ok();
-}
-
 struct FitArguments {
   std::string stack;
   std::string out;
@@ -117,7 +47,7 @@ struct FitArguments {
   std::string f0 = "1";
   bool retries = false, no_retries = false;
   double min_sigma = 0;  // 0: from the stack's sampling
-  GivenOnTheCommandLine given;
+  fitting::RefineSettingsGiven given;
   fitting::StackFitOptions options = DefaultOptions();
   bool quiet = false;
 };
@@ -172,7 +102,7 @@ Status Fit(FitArguments args) {
   if (args.min_sigma > 0) options.min_sigma = args.min_sigma;
   const bool refiner = *method == fitting::FitMethod::kRefine || *method == fitting::FitMethod::kCnnRefine;
   LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
-  LOOM_RETURN_IF_ERROR(ApplyRefineSettings(args.model, refiner, args.given, options));
+  LOOM_RETURN_IF_ERROR(fitting::ApplyRefineSettings(args.model, refiner, args.given, options));
   std::optional<Image> start;
   if (!args.start.empty()) {
     if (fitting::StartsFromCnn(*method)) {

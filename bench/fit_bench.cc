@@ -5,8 +5,8 @@
 //  - linear: 300 point-lit + 100 linear-light observations of 32 emitters each, as tac7-mini's
 //    strip is sampled in a stack's observation table.
 // Each pixel has its own random anisotropic truth, 1 % noise, and starts where a CNN would put
-// it: normal 3° off, albedos ±15 %, σ ±25 %, α ±10° (shared/docs/build-notes.md measured
-// 13 ms/px for the autodiff fit from such a start). F0 held at the truth, as loom fit does.
+// it: normal 3° off, albedos ±15 %, σ ±25 %, α ±10° (an autodiff fit from such a
+// start took 13 ms/px). F0 held at the truth, as loom fit does.
 // Counters: ms_per_pixel, iterations per pixel, recovered (normal within 2°, a_d within 0.03).
 //
 // The batched refiner (fitting/batch_refiner.h) on the same pixels from the same starts, one

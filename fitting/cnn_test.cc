@@ -121,7 +121,7 @@ TEST(CnnTest, TheDenseOutputOfAPixelDependsOnlyOnIts15x15Neighbourhood) {
 }
 
 TEST(CnnTest, ThePaperArchitecturesWorkPerPixel) {
-  // shared/docs/build-notes.md: 475 MFLOP per pixel as patches, 13.3 dense (36× less).
+  // The paper's widths: 475 MFLOP per pixel as patches, 13.3 dense (36× less).
   const CnnArchitecture paper;
   EXPECT_NEAR(paper.SlidingFlopsPerPixel() / 1e6, 475, 1);
   EXPECT_NEAR(paper.DenseFlopsPerPixel() / 1e6, 13.3, 0.1);

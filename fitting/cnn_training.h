@@ -172,7 +172,7 @@ struct CnnScore {
   // validation_rerender_loss measures on the same set. 0 otherwise.
   double rerender_loss = 0;
   // The (cos 2α, sin 2α) RMSE (rmse[11], rmse[12]) over the pixels whose true lobe is anisotropic
-  // (the wider width ≥ AnisotropicAlphaError::kMinSigmaRatio × the narrower, as `loom eval` counts
+  // (the wider width ≥ kAnisotropicSigmaRatio × the narrower, as `loom eval` counts
   // them), and how many. A round lobe has no angle to find: the simulator writes α = 0 there, so
   // over every pixel even an exact fit keeps an error there (configs/models/tac7/HISTORY.md).
   std::array<double, 2> angle_rmse_where_anisotropic{};

@@ -20,6 +20,7 @@
 
 #include "core/image.h"
 #include "core/observation_stack.h"
+#include "fitting/model/ward_gd10.h"
 
 #include <nlohmann/json.hpp>
 
@@ -46,7 +47,7 @@ struct RenderError {
 // is anisotropic (σx ≥ kMinSigmaRatio σy). Of a lobe nearly round α is arbitrary, and those
 // pixels would otherwise weigh in the α NRMSE as much as any other.
 struct AnisotropicAlphaError {
-  static constexpr double kMinSigmaRatio = 1.5;
+  static constexpr double kMinSigmaRatio = kAnisotropicSigmaRatio;
   double nrmse = 0;        // as ParameterError's "alpha", over those pixels
   double pixel_share = 0;  // of all pixels
   // The lobe's angle off the truth's in degrees (0–90: α is defined modulo 180°), over those

@@ -15,14 +15,14 @@
 // [kMinSigma, kMaxSigma], α (free; wrapped to (−π/2, π/2] after), F0 ∈ [0, 1]. Residuals are
 // radiances relative to the pixel's mean observed radiance, each under a Huber loss, so a shadowed or
 // mis-registered observation cannot drag the fit (internal/pixel_cost.h: MakeRobustPixelCost). Observations with NaN radiance are
-// skipped. Derivatives: hand-derived (fitting/pixel_cost.cc), one residual block per pixel (the formulation measured fastest in
-// shared/docs/build-notes.md); checked by ceres::GradientChecker and against ceres::Jet in tests. Reentrant: fit different pixels
-// on different threads.
+// skipped. Derivatives: hand-derived (fitting/pixel_cost.cc), one residual block per pixel (the formulation measured fastest);
+// checked by ceres::GradientChecker and against ceres::Jet in tests. Reentrant: fit different pixels on different threads.
 
 #include <optional>
 #include <vector>
 
 #include "core/status.h"
+#include "fitting/model/observation.h"
 #include "fitting/model/ward_gd10.h"
 
 namespace loom::fitting {
@@ -31,34 +31,6 @@ inline constexpr double kMaxAlbedo = 1.0;
 // The least F0 a shared fit reaches: water's 0.02, the lowest of real dielectrics (the simulator
 // draws F0 from [0.02, 1]).
 inline constexpr double kMinSharedF0 = 0.02;
-
-struct LightSample {
-  Eigen::Vector3d l_local;  // unit, towards the light
-  double irradiance = 0;    // I / d² at the pixel, radiance units
-};
-
-struct PixelObservation {
-  double radiance = 0;                                 // NaN: masked (unseen, shadowed)
-  Eigen::Vector3d v_local = Eigen::Vector3d::UnitZ();  // unit, towards the camera
-  Eigen::Vector3d rgb_weights = Eigen::Vector3d::Constant(1.0 / 3);
-  std::vector<LightSample> lights;
-  int source = -1;  // the stack observation it came from (−1: not from a stack)
-};
-
-// The model's prediction for one observation.
-template <typename T>
-T PredictRadiance(const WardLobe<T>& lobe, const PixelObservation& observation) {
-  const Vec3<T> v = observation.v_local.cast<T>();
-  const Vec3<T> w = observation.rgb_weights.cast<T>();
-  const T diffuse_albedo = w.dot(lobe.params().a_d);
-  const T specular_albedo = w.dot(lobe.params().a_s);
-  T radiance = T(0);
-  for (const LightSample& light : observation.lights) {
-    const WardTerms<T> terms = lobe.Terms(light.l_local.cast<T>(), v);
-    radiance += T(light.irradiance) * (diffuse_albedo * terms.diffuse + specular_albedo * terms.specular) * terms.cos_l;
-  }
-  return radiance;
-}
 
 struct PixelFitOptions {
   int max_iterations = 50;   // per start

@@ -18,7 +18,7 @@
 #include "core/heightmap.h"
 #include "core/observation_stack.h"
 #include "fitting/internal/light_samples.h"
-#include "fitting/pixel_fitter.h"
+#include "fitting/model/observation.h"
 #include "fitting/strip_quadrature.h"
 
 namespace loom::fitting {

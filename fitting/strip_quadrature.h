@@ -26,8 +26,8 @@
 
 #include "core/observation_stack.h"
 #include "core/status.h"
+#include "fitting/model/observation.h"
 #include "fitting/model/ward_gd10.h"
-#include "fitting/pixel_fitter.h"  // LightSample
 
 namespace loom::fitting {
 

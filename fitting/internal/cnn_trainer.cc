@@ -11,7 +11,6 @@
 
 #include "core/file_io.h"
 #include "core/parallel.h"
-#include "fitting/evaluation.h"
 #include "fitting/internal/cnn_net.h"
 #include "fitting/internal/label_loss.h"
 #include "fitting/internal/patch_windows.h"
@@ -353,7 +352,7 @@ Result<CnnScore> ScoreLabels(const Cnn& cnn, const std::vector<CnnExample>& exam
     const torch::Tensor channel_squares = (squared_error * valid).sum({0, 2, 3});
     for (int c = 0; c < kLabelSize; ++c) squares[c] += channel_squares[c].item<double>();
     score.pixels += static_cast<int64_t>(valid.sum().item<double>());
-    const torch::Tensor anisotropic = internal::AnisotropicPixels(t, valid, AnisotropicAlphaError::kMinSigmaRatio);
+    const torch::Tensor anisotropic = internal::AnisotropicPixels(t, valid, kAnisotropicSigmaRatio);
     const torch::Tensor angle_squares_here = (squared_error.narrow(1, kAngleChannel, 2) * anisotropic).sum({0, 2, 3});
     for (int c = 0; c < 2; ++c) angle_squares[c] += angle_squares_here[c].item<double>();
     score.anisotropic_pixels += static_cast<int64_t>(anisotropic.sum().item<double>());

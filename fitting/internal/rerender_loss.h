@@ -15,7 +15,7 @@
 
 #include <ATen/ATen.h>
 
-#include "fitting/pixel_fitter.h"
+#include "fitting/model/observation.h"
 
 namespace loom::fitting::internal {
 

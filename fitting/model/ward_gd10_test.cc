@@ -1,4 +1,4 @@
-// The GD10 Ward model against shared/reference (copied to testdata/), plus the properties every
+// The GD10 Ward model against its reference values (testdata/), plus the properties every
 // loom BRDF must have: non-negativity, reciprocity, energy ≤ 1, derivatives, symmetries.
 #include "fitting/model/ward_gd10.h"
 #include "core/testing/build_tree.h"
