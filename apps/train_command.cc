@@ -23,16 +23,9 @@
 #include "apps/config_paths.h"
 #include "apps/progress.h"
 #include "core/file_io.h"
-#include "core/memory.h"
-#include "core/observation_stack.h"
-#include "core/parallel.h"
-#include "core/rig_file.h"
 #include "core/version.h"
 #include "fitting/cnn_dataset.h"
 #include "fitting/cnn_training.h"
-#include "scan/plan.h"
-#include "sim/plan_observations.h"
-#include "sim/rig_scene.h"
 #include "sim/training_set.h"
 
 namespace loom::apps {
@@ -77,51 +70,12 @@ std::vector<std::string> PresetNames(const std::string& presets) {
 
 // Renders the fabrics of --materials missing from `dir` (sim/training_set.h), with each preset
 // in turn.
-// The dataset's stacks on disk, and those rendered at once and held for training in memory,
-// checked before hours of rendering find the limit.
-Status CheckDatasetFits(const TrainArguments& args, const std::vector<sim::TrainingPlan>& plans, const fs::path& dir) {
-  const uint64_t side = static_cast<uint64_t>(args.dataset.size_px);
-  uint64_t stack_bytes = 0;
-  for (const sim::TrainingPlan& plan : plans)
-    stack_bytes += side * side * (kStackGeometryChannels + plan.observations.size()) * 4;
-  const uint64_t materials = static_cast<uint64_t>(args.dataset.materials);
-  const uint64_t at_once = std::min<uint64_t>(materials, ThreadCount(args.dataset.threads));
-  const uint64_t resident =
-      args.training.resident_materials > 0 ? static_cast<uint64_t>(args.training.resident_materials) : materials;
-  const std::string what = "--size " + std::to_string(args.dataset.size_px) + " × --materials " + std::to_string(materials);
-  LOOM_RETURN_IF_ERROR(CheckFitsInMemory(std::max(at_once, std::min(resident, materials)) * stack_bytes,
-                                         what + " (" + ReadableBytes(stack_bytes) + " per material's stack)"));
-  std::error_code error;
-  if (fs::exists(dir, error)) return Status::Ok();  // a dataset rendered before: its stacks are kept
-  fs::path existing = fs::absolute(dir, error);
-  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
-  const fs::space_info space = fs::space(existing, error);
-  if (!error && space.available < materials * stack_bytes) {
-    return OutOfRangeError(what, "the dataset needs about " + ReadableBytes(materials * stack_bytes) + " on disk and " +
-                                     existing.string() + " has " + ReadableBytes(space.available) + " free");
-  }
-  return Status::Ok();
-}
-
 Status RenderDataset(const TrainArguments& args, const fs::path& dir) {
-  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(args.rig)));
-  if (!file.Has("geometry")) {
-    return InvalidArgumentError(args.rig, "not a simulated rig (no 'geometry:'): training renders with the simulator");
-  }
-  LOOM_ASSIGN_OR_RETURN(const RigModel model, file.Model());
-  LOOM_ASSIGN_OR_RETURN(const sim::RigScene rig, sim::MakeRigScene(file, model, ""));
-  const std::shared_ptr<const sim::Scene> rig_scene = rig.scene;
-  std::vector<sim::TrainingPlan> plans;
-  for (const std::string& name : PresetNames(args.preset)) {
-    LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(name)));
-    LOOM_ASSIGN_OR_RETURN(std::vector<sim::Observation> observations, sim::PresetObservations(rig_scene->rig(), preset));
-    plans.push_back({name, std::move(observations)});
-  }
-  LOOM_RETURN_IF_ERROR(CheckDatasetFits(args, plans, dir));
+  sim::TrainingDatasetRequest request{ResolveRigPath(args.rig), {}, args.dataset, args.training.resident_materials};
+  for (const std::string& name : PresetNames(args.preset)) request.presets.push_back({name, ResolvePresetPath(name)});
   ProgressBar bar("dataset", args.quiet);
-  return sim::RenderTrainingSet(*rig_scene, plans, args.dataset, dir, [&](int done, int total, const std::string& name) {
-    bar.Update(done, total, "materials", name);
-  });
+  return sim::RenderTrainingDataset(
+      request, dir, [&](int done, int total, const std::string& name) { bar.Update(done, total, "materials", name); });
 }
 
 // What the dataset's stacks are and where the model came from, kept in model.json.

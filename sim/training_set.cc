@@ -1,12 +1,18 @@
 #include "sim/training_set.h"
 
 #include "core/file_io.h"
+#include "core/memory.h"
 #include "core/parallel.h"
+#include "core/rig_file.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <mutex>
 
+#include "scan/plan.h"
+#include "sim/plan_observations.h"
+#include "sim/rig_scene.h"
 #include "sim/sample.h"
 
 namespace loom::sim {
@@ -95,6 +101,53 @@ Status RenderTrainingSet(const Scene& rig, const std::vector<TrainingPlan>& plan
   });
   for (const Status& status : rendered) LOOM_RETURN_IF_ERROR(status);
   return Status::Ok();
+}
+
+namespace {
+
+// The dataset's stacks on disk, and those rendered at once and held for training in memory,
+// checked before hours of rendering find the limit.
+Status CheckDatasetFits(const TrainingDatasetRequest& request, const std::vector<TrainingPlan>& plans, const fs::path& dir) {
+  const TrainingSetSpec& spec = request.spec;
+  const uint64_t side = static_cast<uint64_t>(spec.size_px);
+  uint64_t stack_bytes = 0;
+  for (const TrainingPlan& plan : plans) stack_bytes += side * side * (kStackGeometryChannels + plan.observations.size()) * 4;
+  const uint64_t materials = static_cast<uint64_t>(spec.materials);
+  const uint64_t at_once = std::min<uint64_t>(materials, ThreadCount(spec.threads));
+  const uint64_t resident = request.resident_materials > 0 ? static_cast<uint64_t>(request.resident_materials) : materials;
+  const std::string what = "--size " + std::to_string(spec.size_px) + " × --materials " + std::to_string(materials);
+  LOOM_RETURN_IF_ERROR(CheckFitsInMemory(std::max(at_once, std::min(resident, materials)) * stack_bytes,
+                                         what + " (" + ReadableBytes(stack_bytes) + " per material's stack)"));
+  std::error_code error;
+  if (fs::exists(dir, error)) return Status::Ok();  // a dataset rendered before: its stacks are kept
+  fs::path existing = fs::absolute(dir, error);
+  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
+  const fs::space_info space = fs::space(existing, error);
+  if (!error && space.available < materials * stack_bytes) {
+    return OutOfRangeError(what, "the dataset needs about " + ReadableBytes(materials * stack_bytes) + " on disk and " +
+                                     existing.string() + " has " + ReadableBytes(space.available) + " free");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status RenderTrainingDataset(const TrainingDatasetRequest& request, const fs::path& dir, const TrainingSetProgress& progress) {
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(request.rig));
+  if (!file.Has("geometry")) {
+    return InvalidArgumentError(request.rig.string(),
+                                "not a simulated rig (no 'geometry:'): training renders with the simulator");
+  }
+  LOOM_ASSIGN_OR_RETURN(const RigModel model, file.Model());
+  LOOM_ASSIGN_OR_RETURN(const RigScene rig, MakeRigScene(file, model, ""));
+  std::vector<TrainingPlan> plans;
+  for (const TrainingPreset& preset : request.presets) {
+    LOOM_ASSIGN_OR_RETURN(const scan::Preset loaded, scan::LoadPreset(preset.file));
+    LOOM_ASSIGN_OR_RETURN(std::vector<Observation> observations, PresetObservations(rig.scene->rig(), loaded));
+    plans.push_back({preset.name, std::move(observations)});
+  }
+  LOOM_RETURN_IF_ERROR(CheckDatasetFits(request, plans, dir));
+  return RenderTrainingSet(*rig.scene, plans, request.spec, dir, progress);
 }
 
 }  // namespace loom::sim

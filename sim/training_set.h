@@ -51,4 +51,22 @@ Status RenderTrainingSet(const Scene& rig, const std::vector<Observation>& obser
 Status RenderTrainingSet(const Scene& rig, const std::vector<TrainingPlan>& plans, const TrainingSetSpec& spec,
                          const std::filesystem::path& dir, const TrainingSetProgress& progress = {});
 
+// A training set as `loom train` asks for it: a rig file and gloss presets (paths), each material
+// rendered with the presets in turn. Refused before anything renders: a rig without `geometry:`
+// (the simulator renders from it), and a set whose stacks rendered at once, or
+// `resident_materials` of them held for training (0: all), do not fit in memory, or that does
+// not fit on the disk of `dir` (unless `dir` holds a set already: its stacks are kept).
+struct TrainingPreset {
+  std::string name;  // the plan's, in the files' names when there are several
+  std::filesystem::path file;
+};
+struct TrainingDatasetRequest {
+  std::filesystem::path rig;
+  std::vector<TrainingPreset> presets;
+  TrainingSetSpec spec;
+  int resident_materials = 0;
+};
+Status RenderTrainingDataset(const TrainingDatasetRequest& request, const std::filesystem::path& dir,
+                             const TrainingSetProgress& progress = {});
+
 }  // namespace loom::sim

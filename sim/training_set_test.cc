@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <algorithm>
 
+#include "core/testing/build_tree.h"
 #include "core/testing/shipped_rig.h"
 #include "sim/material.h"
 #include "sim/test_materials.h"
@@ -104,6 +105,34 @@ TEST(TrainingSetTest, ABadSpecNamesEveryFieldAndRendersNothing) {
     EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();
   }
   EXPECT_FALSE(fs::exists(dir));
+}
+
+// loom train's dataset from a rig file and preset files: the fabrics rendered with the presets in
+// turn; a rig without `geometry:` and a set beyond memory refused before anything renders.
+TEST(TrainingSetTest, ADatasetFromARigFileAndItsPresetsRendersOrIsRefusedFirst) {
+  const std::string configs = loom::testing::SourceDir() + "/configs/";
+  TrainingDatasetRequest request{configs + "rig/tac7-mini.yaml",
+                                 {{"low", configs + "plans/low.yaml"}, {"medium", configs + "plans/medium.yaml"}},
+                                 {.materials = 2, .size_px = 8, .first_seed = 7}};
+  const fs::path dir = FreshDir("training_dataset");
+  ASSERT_TRUE(RenderTrainingDataset(request, dir).ok());
+  for (const char* name : {"fabric-7-low", "fabric-8-medium"}) {
+    EXPECT_TRUE(fs::exists(dir / (std::string(name) + ".stack.exr"))) << name;
+    EXPECT_TRUE(fs::exists(dir / (std::string(name) + ".truth.exr"))) << name;
+  }
+
+  const fs::path untouched = FreshDir("training_dataset_refused");
+  TrainingDatasetRequest devices = request;
+  devices.rig = configs + "rig/peer.yaml";  // real devices, no geometry to render
+  const Status no_geometry = RenderTrainingDataset(devices, untouched);
+  EXPECT_NE(no_geometry.ToString().find("peer.yaml: not a simulated rig"), std::string::npos) << no_geometry.ToString();
+  TrainingDatasetRequest huge = request;
+  huge.spec.size_px = 4096;
+  huge.spec.materials = 64;
+  const Status beyond_memory = RenderTrainingDataset(huge, untouched);
+  EXPECT_NE(beyond_memory.ToString().find("--size 4096 × --materials 64"), std::string::npos) << beyond_memory.ToString();
+  EXPECT_FALSE(fs::exists(untouched));
+  fs::remove_all(dir);
 }
 
 }  // namespace
