@@ -121,8 +121,9 @@ Status Fit(FitArguments args) {
   Result<fitting::MethodFit> fitted = fitting::FitWithMethod(stack, *method, args.model, options);
   if (recommended && *method == fitting::FitMethod::kCnnRefine && !fitted.ok() &&
       fitted.status().code() == StatusCode::kFailedPrecondition) {
-    // The rig's model takes another preset's stacks: the recommendation falls back, saying why.
-    std::cerr << "the model does not take this stack (" << fitted.status().ToString() << "): method refine\n";
+    // Most often the rig's model takes another preset's stacks: the recommendation falls back,
+    // saying why (a failure of the refiner's own is then refine's too, and reported as such).
+    std::cerr << "cnn+refine cannot fit this stack (" << fitted.status().ToString() << "): method refine\n";
     method = fitting::FitMethod::kRefine;
     args.method = fitting::FitMethodName(*method);
     fitted = fitting::FitWithMethod(stack, *method, args.model, options);

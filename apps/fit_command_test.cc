@@ -476,12 +476,15 @@ TEST_F(FitCommandTest, StartMapsOfAnotherGridOrForACnnMethodAreRefused) {
 }
 
 // Without --method, loom fit takes the recommended one: cnn+refine for a stack of a rig with a
-// model, refine where it has none (another model directory without model.json) or where start
-// maps are given; fit.json names the method taken.
+// model, refine where it has none (another model directory without model.json), where start
+// maps are given, or where the model takes another preset's stacks (saying so); fit.json names
+// the method taken.
 TEST_F(FitCommandTest, TheDefaultMethodIsTheRecommendedOne) {
-  const auto method_of = [&](const std::string& options, const std::string& out) {
-    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / "stack.exr").string() + " --quiet " + options +
+  std::string output;
+  const auto method_of = [&](const std::string& options, const std::string& out, const std::string& stack = "stack.exr") {
+    const auto fit = RunCommand(loom::testing::LoomBinary() + " fit " + (dir_ / stack).string() + " --quiet " + options +
                                 " --out " + (dir_ / out).string());
+    output = fit.output;
     EXPECT_EQ(fit.exit_code, 0) << fit.output;
     EXPECT_NE(fit.output.find("the recommended one for this stack"), std::string::npos) << fit.output;
     std::ifstream in(dir_ / out / "fit.json");
@@ -491,6 +494,13 @@ TEST_F(FitCommandTest, TheDefaultMethodIsTheRecommendedOne) {
   fs::create_directories(dir_ / "no-model");
   EXPECT_EQ(method_of("--model " + (dir_ / "no-model").string(), "default-no-model"), "refine");
   EXPECT_EQ(method_of("--start " + (dir_ / "default/svbrdf.exr").string(), "default-start"), "refine");
+  const auto medium =
+      RunCommand(loom::testing::LoomBinary() + " sim render --rig " + loom::testing::SourceDir() +
+                 "/configs/rig/tac7-mini.yaml --preset medium --stack --size 8 --out " + (dir_ / "medium.exr").string());
+  ASSERT_EQ(medium.exit_code, 0) << medium.output;
+  EXPECT_EQ(method_of("--f0 1", "default-medium", "medium.exr"), "refine");  // F0 held: the test is the choice
+  EXPECT_NE(output.find("cnn+refine cannot fit this stack"), std::string::npos) << output;
+  EXPECT_NE(output.find("not the layout the model was trained on"), std::string::npos) << output;
 }
 
 TEST_F(FitCommandTest, MapsOfAnotherGridAreRejected) {

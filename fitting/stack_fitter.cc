@@ -1002,7 +1002,8 @@ nlohmann::json StackFitSummary::ToJson() const {
             {"first_fits", stage_seconds.first_fits},
             {"propagation", stage_seconds.propagation},
             {"retries", stage_seconds.retries},
-            {"smoothing", stage_seconds.smoothing}}},
+            {"smoothing", stage_seconds.smoothing},
+            {"held_normals", stage_seconds.held_normals}}},
           {"threads", threads},
           {"ms_per_pixel_per_thread", ms_per_pixel_per_thread()}};
 }
@@ -1018,6 +1019,7 @@ void StackFitSummary::Report(std::ostream& out) const {
       << ms_per_pixel_per_thread() << " ms per pixel per thread, " << threads << " threads; first fits " << std::setprecision(1)
       << stage_seconds.first_fits << " s, retries " << stage_seconds.propagation + stage_seconds.retries << " s";
   if (smoothing_weight > 0) out << ", smoothing " << stage_seconds.smoothing << " s";
+  if (stage_seconds.held_normals > 0) out << ", unseen peaks " << stage_seconds.held_normals << " s";
   if (!f0_fits.empty()) out << ", F0 fitted on a sparse grid " << stage_seconds.f0_search << " s";
   out << ")\n";
 }
@@ -1233,6 +1235,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     end_stage(stage.retries);
   }
   summary.pixels_normal_held = HoldNormalsOfUnseenPeaks(pixels, normals, pixel_options, options, outcomes);
+  end_stage(stage.held_normals);
   summary.pixel_seconds = SecondsSince(pixel_start);
   fit.maps = MapsOf(outcomes, clusters, stack);
   Summarise(outcomes, summary);

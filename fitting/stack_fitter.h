@@ -209,6 +209,7 @@ struct StackFitSummary {
     double propagation = 0;
     double retries = 0;  // grid search, exploration, refits
     double smoothing = 0;
+    double held_normals = 0;  // which peaks no view sees, and those pixels refitted
   } stage_seconds;
   int threads = 0;
   double ms_per_pixel_per_thread() const { return pixels ? 1e3 * pixel_seconds * threads / pixels : 0; }
