@@ -26,7 +26,7 @@ TEST(CliTest, HelpListsEveryCommand) {
 }
 
 // LibTorch is loaded by the commands that use the CNN, not by every start (fitting/internal/
-// cnn_engine.h: ~0.9 s of CPU and ~150 MB each): the dynamic loader's log names what it loads.
+// fitting/cnn/internal/cnn_engine.h: ~0.9 s of CPU and ~150 MB each): the dynamic loader's log names what it loads.
 TEST(CliTest, OnlyTheCommandsThatUseTheCnnLoadLibTorch) {
   const LoomRun version = loom::testing::RunCommand("LD_DEBUG=files " + loom::testing::LoomBinary() + " version");
   EXPECT_EQ(version.exit_code, 0) << version.output;

@@ -19,8 +19,8 @@
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
 #include "core/version.h"
-#include "fitting/report.h"
-#include "fitting/stack_fitter.h"
+#include "fitting/report/report.h"
+#include "fitting/solve/stack_fitter.h"
 #include "reconstruction/reconstruct.h"
 
 namespace loom::apps {

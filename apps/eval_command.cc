@@ -7,9 +7,9 @@
 #include "core/file_io.h"
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
-#include "fitting/evaluation.h"
-#include "fitting/export.h"
-#include "fitting/report.h"
+#include "fitting/report/evaluation.h"
+#include "fitting/report/export.h"
+#include "fitting/report/report.h"
 #include "photos/capture_import.h"
 
 namespace loom::apps {

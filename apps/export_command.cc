@@ -1,14 +1,14 @@
 // loom export: fitted SVBRDF maps (svbrdf.exr from loom fit) in the formats renderers and
 // material tools load: glTF 2.0 with KHR_materials_anisotropy and KHR_materials_specular
-// (fitting/gltf_export.h states the approximation) and X-Rite's AxF container's SVBRDF
-// (fitting/axf_export.h: the same model, no approximation).
+// (fitting/report/gltf_export.h states the approximation) and X-Rite's AxF container's SVBRDF
+// (fitting/io/axf_export.h: the same model, no approximation).
 #include <iostream>
 
 #include "apps/command.h"
 #include "core/file_io.h"
-#include "fitting/axf_export.h"
-#include "fitting/export.h"
-#include "fitting/gltf_export.h"
+#include "fitting/io/axf_export.h"
+#include "fitting/report/export.h"
+#include "fitting/report/gltf_export.h"
 
 namespace loom::apps {
 namespace {
@@ -56,14 +56,14 @@ int RunExport(int argc, char** argv) {
   app.add_option("--gltf", out, "Directory to write: material.gltf, material.bin and its PNG textures");
   app.add_option("--gltf-anisotropy", anisotropy,
                  "auto: KHR_materials_anisotropy unless the shading normals tilt more than the lobes are wide "
-                 "(renderers then misplace the highlights; fitting/gltf_export.h); on; off: isotropic")
+                 "(renderers then misplace the highlights; fitting/report/gltf_export.h); on; off: isotropic")
       ->transform(
           CLI::CheckedTransformer(std::map<std::string, fitting::GltfAnisotropy>{{"auto", fitting::GltfAnisotropy::kAuto},
                                                                                  {"on", fitting::GltfAnisotropy::kOn},
                                                                                  {"off", fitting::GltfAnisotropy::kOff}}));
   app.add_option("--axf", axf,
                  "AxF file to write: /com.xrite.Materials/loom with DiffuseModel (Color, Normal), SpecularModel "
-                 "(Color, Lobes, AnisotropicRotation, Fresnel) and DisplacementFilter/Height (fitting/axf_export.h)");
+                 "(Color, Lobes, AnisotropicRotation, Fresnel) and DisplacementFilter/Height (fitting/io/axf_export.h)");
   app.add_option("--pixel-mm", pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;

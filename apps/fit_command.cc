@@ -14,11 +14,11 @@
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
 #include "core/version.h"
-#include "fitting/export.h"
+#include "fitting/io/svbrdf_file.h"
 #include "fitting/method_fit.h"
-#include "fitting/refine_settings.h"
-#include "fitting/stack_fitter.h"
-#include "fitting/svbrdf_file.h"
+#include "fitting/report/export.h"
+#include "fitting/solve/refine_settings.h"
+#include "fitting/solve/stack_fitter.h"
 
 namespace loom::apps {
 namespace {
@@ -223,7 +223,7 @@ int RunFit(int argc, char** argv) {
          "refine methods: the first fit integrates each linear light's strip by Gauss-Legendre quadrature with this "
          "many nodes, a fifth of them either side of the span of the pixel's specular lobe, instead of the stack's "
          "emitters (0: the emitters; 16 or 20: within 0.1 % of the continuous strip at the 99th percentile; "
-         "fitting/strip_quadrature.h, docs/benchmarks.md)")
+         "fitting/model/strip_quadrature.h, docs/benchmarks.md)")
       ->check(CLI::Range(0, 127) & !CLI::Range(1, 4));
   CLI::Option* function_tolerance =
       app.add_option("--function-tolerance", args.options.refine_function_tolerance,

@@ -170,7 +170,7 @@ TEST_F(FitCommandTest, CnnPlusRefineRecoversTheFabricAsCnnPlusCeresDoes) {
   EXPECT_TRUE(fs::exists(dir_ / "cnn+refine" / "report" / "unc.sigma_x.png"));
 }
 
-// The strips integrated by nodes around each pixel's lobe (fitting/strip_quadrature.h): the fit
+// The strips integrated by nodes around each pixel's lobe (fitting/model/strip_quadrature.h): the fit
 // says so in fit.json and recovers the fabric as the emitters' does; too few nodes to split the
 // strip are a usage error naming the option.
 TEST_F(FitCommandTest, CnnPlusRefineWithTheStripAsNodesRecoversTheFabric) {

@@ -19,8 +19,8 @@
 #include "apps/command.h"
 #include "core/file_io.h"
 #include "core/output_directory.h"
-#include "fitting/cnn.h"
-#include "fitting/cnn_dataset.h"
+#include "fitting/cnn/cnn.h"
+#include "fitting/cnn/cnn_dataset.h"
 
 namespace loom::apps {
 namespace {

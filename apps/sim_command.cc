@@ -15,7 +15,7 @@
 #include "core/memory.h"
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
-#include "fitting/export.h"
+#include "fitting/report/export.h"
 #include "photos/capture_export.h"
 #include "scan/plan.h"
 #include "scan/rig_state.h"

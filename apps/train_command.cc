@@ -3,8 +3,8 @@
 //   loom train --rig configs/rig/tac7-mini.yaml --preset low --out MODEL [--data DIR] ...
 //
 // 1. The dataset in DIR: the procedural fabrics of --materials rendered with the simulator's fast
-//    path where missing (sim/training_set.h), split by material (fitting/cnn_dataset.h).
-// 2. Training (fitting/cnn_training.h) with checkpoints in MODEL/checkpoints; --resume goes on
+//    path where missing (sim/training_set.h), split by material (fitting/cnn/cnn_dataset.h).
+// 2. Training (fitting/cnn/cnn_training.h) with checkpoints in MODEL/checkpoints; --resume goes on
 //    from the last one; --init starts from another model's weights (fine-tuning) instead of
 //    random ones; --rerender-weight adds the re-rendering loss.
 // 3. MODEL/model.json + weights.pt (loom fit --model MODEL) and MODEL/training.json: every
@@ -24,8 +24,8 @@
 #include "apps/progress.h"
 #include "core/file_io.h"
 #include "core/version.h"
-#include "fitting/cnn_dataset.h"
-#include "fitting/cnn_training.h"
+#include "fitting/cnn/cnn_dataset.h"
+#include "fitting/cnn/cnn_training.h"
 #include "sim/training_set.h"
 
 namespace loom::apps {
@@ -43,7 +43,7 @@ struct TrainArguments {
   int test = 3;
   std::string init;                    // a model to start from
   std::string scan_emulation;          // a sim match-scan file, for dataset.scan_like_share
-  std::string input_layout = "stack";  // or "paper" (fitting/cnn_input.h)
+  std::string input_layout = "stack";  // or "paper" (fitting/cnn/cnn_input.h)
   std::string device = "cpu";          // or "cuda"
   int width_divisor = 0;               // 0: 8 for a new model, --init's own
   double dropout = 0.02;
@@ -187,7 +187,7 @@ int RunTrain(int argc, char** argv) {
                  "take turns by material and need --input-layout paper");
   app.add_option("--input-layout", args.input_layout,
                  "stack: the dataset's observations as they are (one preset); paper: the paper's layout, the same input "
-                 "for every preset, linear-light sweeps resampled to the coarsest one's positions (fitting/cnn_input.h)")
+                 "for every preset, linear-light sweeps resampled to the coarsest one's positions (fitting/cnn/cnn_input.h)")
       ->check(CLI::IsMember({"stack", "paper"}));
   app.add_option("--out", args.out, "Model directory: model.json, weights.pt, training.json, checkpoints/")->required();
   app.add_option("--data", args.data, "Dataset directory (default OUT/data): NAME.stack.exr + NAME.truth.exr pairs");
@@ -235,9 +235,10 @@ int RunTrain(int argc, char** argv) {
                  "Start from this model (fine-tuning): its weights, architecture (widened by a smaller --width-divisor) and "
                  "input normalisation")
       ->check(CLI::ExistingDirectory);
-  app.add_option("--rerender-weight", t.rerender_weight,
-                 "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn_training.h); the kept epoch is then "
-                 "the one with the lowest sum of both on the validation fabrics")
+  app.add_option(
+         "--rerender-weight", t.rerender_weight,
+         "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn/cnn_training.h); the kept epoch is then "
+         "the one with the lowest sum of both on the validation fabrics")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--alpha-weight", t.alpha_weight,
                  "Weight of the anisotropy angle's (cos 2α, sin 2α) channels in the label loss (the paper's: 1; the "
@@ -245,13 +246,13 @@ int RunTrain(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--normal-lobe-reference", t.normal_lobe_reference,
                  "Lobe width (rad) below which the shading normal's label error weighs more, by (width / σ_min)² up to "
-                 "100 (0: the paper's weight; fitting/cnn_training.h)")
+                 "100 (0: the paper's weight; fitting/cnn/cnn_training.h)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
       ->check(CLI::Range(1, 100000));
   app.add_option("--rerender-lobe-reference", t.rerender_lobe_reference,
                  "Lobe width (rad) below which the re-rendering loss draws a pixel more often, by (width / σ_min)² up "
-                 "to 100 (0: uniformly; fitting/cnn_training.h)")
+                 "to 100 (0: uniformly; fitting/cnn/cnn_training.h)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--resident-materials", t.resident_materials,
                  "Training materials in memory at once (0: all); fewer stream the dataset from --data, "

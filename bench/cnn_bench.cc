@@ -1,4 +1,4 @@
-// The paper's CNN (fitting/cnn.h) on this CPU, random weights, fp32:
+// The paper's CNN (fitting/cnn/cnn.h) on this CPU, random weights, fp32:
 //  - inference of a paper-size material (630 × 630 px × 934 channels; --benchmark_filter=/126
 //    for a quicker 126 × 126) dense and fully convolutional, in equal tiles of at most 256² + halo (3 × 3 of 210² at 630);
 //  - the sliding window, one 15 × 15 patch per pixel as the paper infers, on 512 pixels of the
@@ -19,8 +19,8 @@
 #include <thread>
 
 #include "bench/bench_report.h"
-#include "fitting/cnn.h"
-#include "fitting/cnn_training.h"
+#include "fitting/cnn/cnn.h"
+#include "fitting/cnn/cnn_training.h"
 #include "fitting/model/label.h"
 
 namespace {

@@ -1,4 +1,4 @@
-// The per-pixel Ceres fit (fitting/pixel_fitter.h): milliseconds per pixel on one core, with the
+// The per-pixel Ceres fit (fitting/solve/pixel_fitter.h): milliseconds per pixel on one core, with the
 // hand-derived Jacobians the fitter uses vs ceres::Jet autodiff (the naive way), on
 //  - point900: 900 point-lit observations per pixel (the paper's 348 + 3·100 + 280 order of
 //    magnitude), spread over the hemisphere;
@@ -9,7 +9,7 @@
 // start took 13 ms/px). F0 held at the truth, as loom fit does.
 // Counters: ms_per_pixel, iterations per pixel, recovered (normal within 2°, a_d within 0.03).
 //
-// The batched refiner (fitting/batch_refiner.h) on the same pixels from the same starts, one
+// The batched refiner (fitting/solve/batch_refiner.h) on the same pixels from the same starts, one
 // thread, with cost_vs_ceres = the median over pixels of its final cost / Ceres' (1 = the
 // same optimum); and both on fast-path stacks of a procedural fabric (8 × 8 px, 1 % noise, starts
 // as above from the truth) with tac7-mini's low-preset observations (88 point-lit, 140 linear-light of 32
@@ -22,10 +22,10 @@
 #include "bench/bench_report.h"
 #include "core/rig_file.h"
 #include "core/testing/build_tree.h"
-#include "fitting/batch_refiner.h"
+#include "fitting/model/stack_pixels.h"
 #include "fitting/model/svbrdf_maps.h"
-#include "fitting/pixel_fitter.h"
-#include "fitting/stack_pixels.h"
+#include "fitting/solve/batch_refiner.h"
+#include "fitting/solve/pixel_fitter.h"
 #include "fitting/testing/near_start.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"

@@ -11,7 +11,7 @@
 // (fitting::MergeLightSamples, what the refiner does with max_lights_per_observation = N);
 // merged per observation by the lobe's width (StripSamplesFor), the diffuse term kept over all 32;
 // the continuous strip by composite Gauss–Legendre; and by Gauss–Legendre split at the lobe
-// (fitting/strip_quadrature.h, `loom fit --strip-nodes`).
+// (fitting/model/strip_quadrature.h, `loom fit --strip-nodes`).
 // Per N and form: the relative radiance error |L_N − L_ref| / L_ref of every observation whose L_ref is at
 // least 1 % of its pixel's mean (p50, p99, max), and the error relative to the pixel's mean
 // radiance, the unit the fit's residuals are in (p99, max); diffuse and specular alike.
@@ -27,10 +27,10 @@
 #include "core/rig_file.h"
 #include "core/rig_observation.h"
 #include "core/testing/build_tree.h"
-#include "fitting/batch_refiner.h"
+#include "fitting/model/strip_quadrature.h"
 #include "fitting/model/svbrdf_maps.h"
-#include "fitting/pixel_fitter.h"
-#include "fitting/strip_quadrature.h"
+#include "fitting/solve/batch_refiner.h"
+#include "fitting/solve/pixel_fitter.h"
 #include "sim/fabric.h"
 
 namespace {
@@ -233,7 +233,7 @@ int main(int argc, char** argv) {
     std::cout << rows.back().dump() << std::endl;
   }
   // Gauss–Legendre on the continuous strip: composite (equal panels), and split at the lobe as the
-  // refiner's `loom fit --strip-nodes` places its nodes (fitting/strip_quadrature.h: the lobe's
+  // refiner's `loom fit --strip-nodes` places its nodes (fitting/model/strip_quadrature.h: the lobe's
   // span scanned at the 32 emitters, the parts beside it). Nodes per observation against the
   // same reference.
   struct GaussForm {

@@ -3,9 +3,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "fitting/cnn.h"
-#include "fitting/lambert_fit.h"
+#include "fitting/cnn/cnn.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "fitting/solve/lambert_fit.h"
 #include "fitting/view_selection.h"
 
 namespace loom::fitting {

@@ -1,8 +1,8 @@
 #pragma once
 // What `loom fit --method` does, in one call: for the cnn methods the CNN's maps of the stack
-// (cnn.h), then, unless the method is the CNN alone, the whole-stack fit the method names
-// (stack_fitter.h) started from those maps or from the clusters' fits; for lambert, robust
-// photometric stereo (lambert_fit.h). ceres and refine on a stack of few views keep per pixel the
+// (fitting/cnn/cnn.h), then, unless the method is the CNN alone, the whole-stack fit the method names
+// (fitting/solve/stack_fitter.h) started from those maps or from the clusters' fits; for lambert, robust
+// photometric stereo (fitting/solve/lambert_fit.h). ceres and refine on a stack of few views keep per pixel the
 // GD10 fit or the Lambertian one, whichever predicts left-out views better (view_selection.h,
 // StackFitOptions::left_out_view_selection_max_views).
 
@@ -14,12 +14,12 @@
 
 #include "core/image.h"
 #include "core/observation_stack.h"
-#include "fitting/stack_fitter.h"
+#include "fitting/solve/stack_fitter.h"
 
 namespace loom::fitting {
 
 struct MethodFit {
-  Image maps;                              // svbrdf_maps.h's layout, plus the fit's channels
+  Image maps;                              // fitting/model/svbrdf_maps.h's layout, plus the fit's channels
   std::optional<StackFitSummary> summary;  // none for the CNN alone and for lambert
   nlohmann::json lambert;                  // lambert's summary (LambertFit::ToJson), null for the others
   nlohmann::json view_selection;           // where pixels chose by left-out views (ViewSelection::ToJson), else null

@@ -7,7 +7,7 @@
 
 #include <algorithm>
 
-#include "fitting/cnn.h"
+#include "fitting/cnn/cnn.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"

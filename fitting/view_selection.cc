@@ -6,8 +6,8 @@
 #include <map>
 
 #include "core/duration.h"
-#include "fitting/evaluation.h"
 #include "fitting/model/svbrdf_maps.h"
+#include "fitting/report/evaluation.h"
 
 namespace loom::fitting {
 namespace {

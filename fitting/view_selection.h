@@ -29,7 +29,7 @@ std::vector<std::vector<int>> StackViews(const ObservationStack& stack);
 inline constexpr const char* kLambertianChannel = "fit.lambertian";
 
 struct ViewSelection {
-  Image maps;  // per pixel the GD10 fit or the Lambertian one (svbrdf_maps.h), + kLambertianChannel
+  Image maps;  // per pixel the GD10 fit or the Lambertian one (fitting/model/svbrdf_maps.h), + kLambertianChannel
   int views = 0;
   int pixels_gd10 = 0;     // kept the GD10 fit
   int pixels_lambert = 0;  // kept the Lambertian one

@@ -1,6 +1,6 @@
 // Renders a loom eval report's glTF (REPORT/material, written with --renderer-views) in three.js
 // in headless Chromium under each of REPORT/renderer/views.json's lights and views, and compares
-// it pixel by pixel with loom's own rendering of the same fitted maps (fitting/renderer_views.h).
+// it pixel by pixel with loom's own rendering of the same fitted maps (fitting/report/renderer_views.h).
 // Writes REPORT/renderer/threejs-VIEW.png and .f32 (as loom's), comparison.json and index.html (both renderings side
 // by side, with their relative difference Σ|three.js − loom| / Σ|loom|).
 //
@@ -40,7 +40,7 @@ function page(views, check) {
 <p>three.js r${check.three} (${check.renderer}) renders <a href="../material/material.gltf">material.gltf</a> under an
 isotropic point light and an orthographic camera from each view; loom renders the fitted maps themselves (GD10-Ward)
 under the same light and view. Same exposure in each pair. The difference is the glTF export's approximation
-(GGX for Ward, glTF's Fresnel and its diffuse darkening, 8-bit textures; see loom's fitting/gltf_export.h) and
+(GGX for Ward, glTF's Fresnel and its diffuse darkening, 8-bit textures; see loom's fitting/report/gltf_export.h) and
 three.js' shading. Relative difference: Σ|three.js − loom| / Σ|loom| over every pixel and colour.</p>
 <table><tr><th>view</th><th>loom</th><th>three.js</th><th>relative difference</th><th>mean loom</th><th>mean three.js</th></tr>
 ${rows}

@@ -1,5 +1,5 @@
-// libFuzzer target: any bytes as fitted maps (fitting/export.h, ReadSvbrdf): an OpenEXR svbrdf
-// file, or an AxF file (HDF5, fitting/axf_export.h) when the bytes start with HDF5's signature.
+// libFuzzer target: any bytes as fitted maps (fitting/report/export.h, ReadSvbrdf): an OpenEXR svbrdf
+// file, or an AxF file (HDF5, fitting/io/axf_export.h) when the bytes start with HDF5's signature.
 // It must refuse or accept; never crash, hang or allocate without bound. Built with
 // LOOM_BUILD_FUZZERS=ON under clang (scripts/fuzz.sh); seeded from maps-corpus/ (8 × 8 px maps
 // of a procedural fabric, as svbrdf.exr and as material.axf).
@@ -12,7 +12,7 @@
 #include <fstream>
 #include <string>
 
-#include "fitting/export.h"
+#include "fitting/report/export.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::string stem =

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <random>
 
-#include "fitting/pixel_fitter.h"
+#include "fitting/solve/pixel_fitter.h"
 
 namespace loom::fitting::testing {
 

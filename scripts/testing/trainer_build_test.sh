@@ -16,10 +16,10 @@ done
 # interpose (apps/CMakeLists.txt).
 stdcxx=${link%%-lstdc++*} torch=${link%%libtorch*}
 (( ${#stdcxx} < ${#torch} )) || { echo "FAIL: loom links LibTorch before libstdc++: $link"; exit 1; }
-# The CNN's LibTorch side, which loom loads when it trains (fitting/internal/cnn_engine.h).
-grep -q '^build fitting/libloom_cnn_torch.so:' "$build_dir/build.ninja" ||
-  { echo "FAIL: the trainer-only build has no CNN module (fitting/libloom_cnn_torch.so)"; exit 1; }
-for unwanted in ceres opencv aravis modbus libusb libloom_fitting.a loom_hal loom_acquisition; do
+# The CNN's LibTorch side, which loom loads when it trains (fitting/cnn/internal/cnn_engine.h).
+grep -q '^build fitting/cnn/torch/libloom_cnn_torch.so:' "$build_dir/build.ninja" ||
+  { echo "FAIL: the trainer-only build has no CNN module (fitting/cnn/torch/libloom_cnn_torch.so)"; exit 1; }
+for unwanted in ceres opencv aravis modbus libusb libloom_fitting.a libloom_fitting_solve.a libloom_fitting_report.a loom_hal loom_acquisition; do
   [[ $link != *"$unwanted"* ]] || { echo "FAIL: the trainer-only loom links $unwanted: $link"; exit 1; }
 done
 echo "ok: the trainer-only loom links libstdc++ first, the CNN, and none of Ceres, OpenCV or the devices; the CNN module builds"

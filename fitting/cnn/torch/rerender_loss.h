@@ -1,0 +1,55 @@
+#pragma once
+// The CNN's re-rendering loss (issue #22; the paper names it as future work): the GD10 model in
+// torch ops, so that a network's predicted labels are rendered under a pixel's own observations
+// (lights, view, colour weights) and compared with what was observed, with gradients back to
+// the labels. Included by fitting/cnn/torch/cnn_trainer.cc and its test only (ATen, not all of torch).
+//
+// The model is fitting/solve/pixel_fitter.h's PredictRadiance of DecodeLabel(label) (fitting/model/label.h):
+// the same clamps (σ ≥ kSigmaFloor, F0 ∈ [0, 1], n_s renormalised with n_z > 0) but for the
+// albedos' (a negative albedo renders negatively, so that its gradient pushes it back), the lobe
+// dropped beyond exponent 60 as the fitters drop it. Computed in float.
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include <ATen/ATen.h>
+
+#include "fitting/model/observation.h"
+
+namespace loom::fitting::internal {
+
+// Observations of P pixels flattened: S light samples, O observations.
+struct RerenderBatch {
+  at::Tensor l;                   // S × 3, towards the light, local frame
+  at::Tensor irradiance;          // S
+  at::Tensor sample_observation;  // S, int64: the observation each sample lights
+  at::Tensor v, weights;          // O × 3: towards the camera, colour weights
+  at::Tensor radiance;            // O: observed
+  at::Tensor observation_pixel;   // O, int64
+  at::Tensor inverse_scale;       // P: 1 / the pixel's mean observed radiance (1 if 0)
+  int64_t pixels = 0;
+
+  // The same batch on `device` (where the labels it renders are: a GPU's training renders there).
+  RerenderBatch To(const at::Device& device) const;
+};
+
+// `count` flat indices into a tile's pixels, drawn with replacement with probability ∝ `weights`
+// (the tile's H × W, ≥ 0, 0 where a pixel is not valid): the pixels the re-rendering loss
+// renders. None when every weight is 0.
+std::vector<int64_t> DrawPixels(const at::Tensor& weights, int count, std::mt19937_64& rng);
+
+// Each pixel's usable observations (finite radiance, a light, camera and light above the
+// geometric horizon), a strip's emitters merged into at most `max_lights` samples (0: all;
+// MergeLightSamples).
+RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights);
+
+// The radiance of every observation of the batch under its pixel's label (P × 14, any float
+// type): O values, float.
+at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& batch);
+
+// Mean over the observations of Huber(δ = huber_delta) of (rendered − observed) · inverse_scale,
+// the residual the fitters minimise.
+at::Tensor RerenderLoss(const at::Tensor& labels, const RerenderBatch& batch, double huber_delta);
+
+}  // namespace loom::fitting::internal
