@@ -18,6 +18,7 @@
 // Steps 4 and 5 run on Ceres, one solve per pixel (the reference), or on the batched refiner
 // (batch_refiner.h: the same cost, many pixels per vectorised evaluation), which also states
 // each pixel's 1σ uncertainty in the unc.* channels and may add a prior toward the start maps.
+// Each stage is a file of its own, FitStack runs them (internal/stack_stages.h).
 //
 // Output maps: fitting/model/svbrdf_maps.h's 13 channels and `height` (the stack's pos.Z), then
 // fit.cluster (index; −1 when started from initial maps), fit.observations (used), fit.rms (RMS residual relative to the pixel's
