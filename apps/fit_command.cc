@@ -33,7 +33,7 @@ fitting::StackFitOptions DefaultOptions() {
   fitting::StackFitOptions options;
   // Picked on a training fabric's reconstructed stack (fabric:1003; docs/benchmarks.md): every
   // parameter's NRMSE below the CNN's, re-render L1 within 1 % of CNN + Ceres.
-  options.prior.weight = 0.1;
+  options.refiner.prior.weight = 0.1;
   options.prior_reference_noise_rms = kPriorReferenceNoiseRms;
   return options;
 }
@@ -111,7 +111,7 @@ Status Fit(FitArguments args) {
     }
     LOOM_ASSIGN_OR_RETURN(start, ReadStartMaps(args.start, stack));
     options.initial_maps = &*start;
-    options.prior.weight = 0;  // the prior's 1σ are the CNN's measured errors, not these maps'
+    options.refiner.prior.weight = 0;  // the prior's 1σ are the CNN's measured errors, not these maps'
   }
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
@@ -178,7 +178,7 @@ int RunFit(int argc, char** argv) {
                  "ceres and refine: maps that start every pixel's fit instead of the clusters' fits, on the stack's "
                  "grid: an earlier fit's svbrdf.exr (to refit a stored capture after recalibrating, or to finish a "
                  "fit with another method), an AxF file, or a simulator's truth (the fit nearest the true maps)");
-  app.add_option("--prior-weight", args.options.prior.weight,
+  app.add_option("--prior-weight", args.options.refiner.prior.weight,
                  "cnn+refine: weight of the prior toward the CNN's maps (default 0.1; 0: none; 1: the CNN's "
                  "measured errors as its 1 sigma)")
       ->check(CLI::Range(0.0, 1e6));
@@ -207,11 +207,11 @@ int RunFit(int argc, char** argv) {
                      "pixel's yarn), scaled with the stack's noise as --prior-weight is (default: the model "
                      "directory's refine.json, 3 for tac7-mini; without one 0: no second pass)")
           ->check(CLI::Range(0.0, 1e6));
-  app.add_option("--strip-samples", args.options.max_lights_per_observation,
+  app.add_option("--strip-samples", args.options.refiner.max_lights_per_observation,
                  "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
                  "strip (0: all of them)")
       ->check(CLI::Range(0, 4096));
-  app.add_option("--coarse-samples", args.options.coarse_lights_per_observation,
+  app.add_option("--coarse-samples", args.options.refiner.coarse_lights_per_observation,
                  "refine methods: coarse to fine, each pixel first converged with its strips merged into this many "
                  "light samples, then finished with all of them (0: one pass)")
       ->check(CLI::Range(0, 4096));
@@ -226,7 +226,7 @@ int RunFit(int argc, char** argv) {
          "fitting/model/strip_quadrature.h, docs/benchmarks.md)")
       ->check(CLI::Range(0, 127) & !CLI::Range(1, 4));
   CLI::Option* function_tolerance =
-      app.add_option("--function-tolerance", args.options.refine_function_tolerance,
+      app.add_option("--function-tolerance", args.options.refiner.function_tolerance,
                      "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
                      "fraction (default: the model directory's refine.json, 1e-3 for tac7-mini; without one 1e-4; "
                      "Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")

@@ -580,7 +580,7 @@ Status RefineOptions::Check() const {
   if (max_iterations < 1) problems.push_back("max_iterations must be ≥ 1");
   if (!(huber_scale > 0)) problems.push_back("huber_scale must be > 0");
   if (fixed_f0 && !(*fixed_f0 >= 0 && *fixed_f0 <= 1)) problems.push_back("fixed_f0 must be in [0, 1]");
-  if (!(function_tolerance >= 0)) problems.push_back("function_tolerance must be ≥ 0");
+  if (!(function_tolerance >= 0 && function_tolerance < 1)) problems.push_back("function_tolerance must be in [0, 1)");
   if (!(gradient_tolerance >= 0)) problems.push_back("gradient_tolerance must be ≥ 0");
   if (!(parameter_tolerance >= 0)) problems.push_back("parameter_tolerance must be ≥ 0");
   if (!(prior.weight >= 0)) problems.push_back("prior.weight must be ≥ 0");

@@ -60,7 +60,7 @@ Status ApplyRefineSettings(const fs::path& model, bool refiner, RefineSettingsGi
   options.smoothing.specular_albedo = json.value("smoothing_specular_albedo", options.smoothing.specular_albedo);
   if (refiner && !given.retries) options.retry_poor_fits = json.value("retries", options.retry_poor_fits);
   if (!given.function_tolerance) {
-    options.refine_function_tolerance = json.value("function_tolerance", options.refine_function_tolerance);
+    options.refiner.function_tolerance = json.value("function_tolerance", options.refiner.function_tolerance);
   }
   if (refiner && !given.f0 && json.contains("f0")) {
     LOOM_ASSIGN_OR_RETURN(options.fixed_f0, ParseRefineF0(json["f0"], path.string() + ": f0"));

@@ -35,7 +35,7 @@ TEST_F(RefineSettingsTest, TheFilesValuesApplyAndTheCommandLinesWin) {
   EXPECT_EQ(options.smoothing.weight, 3);
   EXPECT_EQ(options.smoothing.specular_albedo, 0.03);
   EXPECT_FALSE(options.retry_poor_fits);
-  EXPECT_EQ(options.refine_function_tolerance, 0.001);
+  EXPECT_EQ(options.refiner.function_tolerance, 0.001);
   EXPECT_FALSE(options.fixed_f0.has_value());  // one F0 per material
 
   StackFitOptions given;

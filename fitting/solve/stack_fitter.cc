@@ -43,8 +43,8 @@ constexpr double kSparseSpacingDeg = 2;
 }  // namespace
 
 nlohmann::json StackFitOptions::ToJson() const {
-  const bool refiner = solver == PixelSolver::kBatchRefiner;
-  return {{"solver", refiner ? "batch refiner (" + RefinerInstructionSet() + ")" : "ceres"},
+  const bool refines = solver == PixelSolver::kBatchRefiner;
+  return {{"solver", refines ? "batch refiner (" + RefinerInstructionSet() + ")" : "ceres"},
           {"clusters", clusters},
           {"photometric_stereo_starts", photometric_stereo_starts},
           {"hold_normals_of_unseen_peaks", hold_normals_of_unseen_peaks},
@@ -53,15 +53,15 @@ nlohmann::json StackFitOptions::ToJson() const {
           {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
           {"retries", retry_poor_fits},
           {"retry_above", retry_above_noise_rms},
-          {"neighbour_rounds", refiner ? retry_neighbour_rounds : 0},
-          {"prior_weight", refiner ? prior.weight : 0},
-          {"prior_reference_noise_rms", refiner ? prior_reference_noise_rms : 0},
-          {"smoothing_weight", refiner ? smoothing.weight : 0},
+          {"neighbour_rounds", refines ? retry_neighbour_rounds : 0},
+          {"prior_weight", refines ? refiner.prior.weight : 0},
+          {"prior_reference_noise_rms", refines ? prior_reference_noise_rms : 0},
+          {"smoothing_weight", refines ? smoothing.weight : 0},
           {"smoothing_specular_albedo", smoothing.specular_albedo},  // the pass's a_s scale
-          {"strip_samples", max_lights_per_observation},
-          {"strip_nodes", refiner && pixels.strip_quadrature ? pixels.strip_quadrature->Nodes() : 0},
-          {"coarse_samples", coarse_lights_per_observation},
-          {"function_tolerance", refine_function_tolerance}};
+          {"strip_samples", refiner.max_lights_per_observation},
+          {"strip_nodes", refines && pixels.strip_quadrature ? pixels.strip_quadrature->Nodes() : 0},
+          {"coarse_samples", refiner.coarse_lights_per_observation},
+          {"function_tolerance", refiner.function_tolerance}};
 }
 
 Result<std::optional<double>> ParseFixedF0(const std::string& text, const std::string& what) {
@@ -135,11 +135,10 @@ Status StackFitOptions::Check() const {
   if (!(retry_above_noise_rms >= 1)) problems.push_back("retry_above_noise_rms must be ≥ 1");
   if (!(held_normal_max_rms_ratio >= 1)) problems.push_back("held_normal_max_rms_ratio must be ≥ 1");
   if (threads < 0) problems.push_back("threads must be ≥ 0");
-  if (max_lights_per_observation < 0) problems.push_back("max_lights_per_observation must be ≥ 0");
-  if (coarse_lights_per_observation < 0) problems.push_back("coarse_lights_per_observation must be ≥ 0");
-  if (!(refine_function_tolerance >= 0 && refine_function_tolerance < 1)) {
-    problems.push_back("refine_function_tolerance must be in [0, 1)");
-  }
+  if (refiner.fixed_f0) problems.push_back("refiner.fixed_f0 must be unset (fixed_f0 holds F0)");
+  if (refiner.min_sigma != kMinSigma) problems.push_back("refiner.min_sigma must be left as it is (min_sigma sets it)");
+  if (refiner.threads != 0) problems.push_back("refiner.threads must be 0 (threads sets it)");
+  if (Status s = refiner.Check(); !s.ok()) problems.push_back("refiner: " + s.message());
   if (retry_explore_lights < 0) problems.push_back("retry_explore_lights must be ≥ 0");
   if (!(prior_reference_noise_rms >= 0)) problems.push_back("prior_reference_noise_rms must be ≥ 0");
   if (min_sigma && !(*min_sigma >= kMinSigma && *min_sigma < kMaxSigma)) {
@@ -157,11 +156,9 @@ Status StackFitOptions::Check() const {
   if (pixels.strip_quadrature) {
     if (Status s = pixels.strip_quadrature->Check(); !s.ok()) problems.push_back("pixels.strip_quadrature: " + s.message());
   }
-  for (const auto& [name, p] : {std::pair{"prior", prior}, {"smoothing", smoothing}}) {
-    RefineOptions refine;
-    refine.prior = p;
-    if (Status s = refine.Check(); !s.ok()) problems.push_back(std::string(name) + ": " + s.message());
-  }
+  RefineOptions smoothed;  // the smoothing pass's prior, checked as the refiner checks its own
+  smoothed.prior = smoothing;
+  if (Status s = smoothed.Check(); !s.ok()) problems.push_back("smoothing: " + s.message());
   return ProblemsStatus("StackFitOptions", problems);
 }
 
@@ -244,7 +241,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   const auto pixel_progress = [&](int done) { report("pixels", done, pixel_count); };
   std::vector<PixelOutcome> outcomes(pixel_count);
   RefineOptions refine = RefinerOptions(pixel_options, options);
-  if (options.initial_maps) refine.prior = options.prior;
+  if (options.initial_maps) refine.prior = options.refiner.prior;
   StackFitSummary::StageSeconds& stage = summary.stage_seconds;
   Clock::time_point stage_start = Clock::now();
   const auto end_stage = [&stage_start](double& seconds) {

@@ -129,13 +129,11 @@ struct StackFitOptions {
   // has each pixel keep the GD10 fit or the Lambertian one, whichever predicts views left out of
   // it better. 0: never. Costs (views + 1) fits of each.
   int left_out_view_selection_max_views = 16;
-  // With the refiner and initial maps: the prior toward them (in step 5 too, from grid starts).
-  RefinePrior prior;
-  // > 0: prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
+  // > 0: refiner.prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
   // tenth of a sparse grid of pixels fitted without the prior) is this, and scales with the
   // square of the stack's own: the data term is a sum of squared relative residuals, not of
   // residuals in units of their noise, so a fixed weight would weigh a noise-free stack's exact
-  // data as little as a noisy one's and bias its fit toward the CNN. 0: prior.weight as it is.
+  // data as little as a noisy one's and bias its fit toward the CNN. 0: the weight as it is.
   double prior_reference_noise_rms = 0;
   // With the refiner: a second pass with a prior toward each pixel's 5 × 5 neighbourhood's
   // median lobe (a_s, σ, α; the pixel's own normal and a_d, which its data pin down), started
@@ -145,17 +143,19 @@ struct StackFitOptions {
   // lobe) the neighbours decide, which removes the speckle a free per-pixel fit leaves. With
   // prior_reference_noise_rms > 0 the weight follows the stack's noise as the CNN prior's does.
   RefinePrior smoothing;
-  // With the refiner: light samples per observation at most (RefineOptions::
-  // max_lights_per_observation; 0: the stack's emitters, all of them).
-  int max_lights_per_observation = 0;
-  // With the refiner: coarse to fine (RefineOptions::coarse_lights_per_observation; 0: off).
-  int coarse_lights_per_observation = 0;
-  // With the refiner: the relative cost change of an accepted step that ends a pixel's fit
-  // (RefineOptions::function_tolerance, whose default is Ceres' 1e-6). A step that lowers the
-  // cost by 1e-4 of itself lowers χ² by about 1e-4 × observations: 0.02–0.08 on tac7 stacks,
-  // far below a 1σ change of any parameter. On the main job it ends the fits 22 % sooner (12 %
-  // less time) at the same maps (docs/benchmarks.md).
-  double refine_function_tolerance = 1e-4;
+  // With the refiner (solver kBatchRefiner): how it fits each pixel (batch_refiner.h), and with
+  // initial maps the prior toward them (in step 5 too, from grid starts). Its fixed_f0, min_sigma
+  // and threads are this fit's own (fixed_f0 or the material's F0, min_sigma, threads): Check()
+  // refuses them set here. Its function_tolerance, the relative cost change of an accepted step
+  // that ends a pixel's fit, is 1e-4 rather than Ceres' 1e-6: a step that lowers the cost by 1e-4
+  // of itself lowers χ² by about 1e-4 × observations (0.02–0.08 on tac7 stacks), far below a 1σ
+  // change of any parameter, and the main job's fits end 22 % sooner at the same maps
+  // (docs/benchmarks.md).
+  RefineOptions refiner = [] {
+    RefineOptions refiner;
+    refiner.function_tolerance = 1e-4;
+    return refiner;
+  }();
   // Starts of the per-pixel fits, when given: SVBRDF maps on the stack's grid (the CNN's, for
   // cnn+ceres, or a user's: loom fit --start). No clusters are formed; with fixed_f0 unset the
   // material's F0 is fitted from the maps' lobes (SearchF0). Not owned; must outlive FitStack.

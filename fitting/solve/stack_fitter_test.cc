@@ -91,7 +91,7 @@ TEST(StackFitterTest, F0IsANumberInTheUnitIntervalOrMaterialAndTheOptionsSayWhat
   }
   StackFitOptions options;
   options.solver = PixelSolver::kBatchRefiner;
-  options.prior.weight = 0.1;
+  options.refiner.prior.weight = 0.1;
   options.fixed_f0.reset();
   const nlohmann::json json = options.ToJson();
   EXPECT_EQ(json["f0"], "material");
@@ -111,10 +111,13 @@ TEST(StackFitterTest, BadOptionsNameEveryField) {
   options.retry_neighbour_min_yield = std::nan("");
   options.retry_neighbour_starts = -1;
   options.prior_reference_noise_rms = -0.1;
+  options.refiner.threads = 2;  // the fit's own threads say
+  options.refiner.max_lights_per_observation = -1;
   const Status status = options.Check();
   ASSERT_FALSE(status.ok());
-  for (const char* field : {"clusters", "pixels_per_cluster_fit", "threads", "retry_neighbour_rounds",
-                            "retry_neighbour_min_yield", "retry_neighbour_starts", "prior_reference_noise_rms"}) {
+  for (const char* field :
+       {"clusters", "pixels_per_cluster_fit", "threads", "retry_neighbour_rounds", "retry_neighbour_min_yield",
+        "retry_neighbour_starts", "prior_reference_noise_rms", "refiner.threads", "refiner: max_lights_per_observation"}) {
     EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();
   }
 }
@@ -230,9 +233,9 @@ TEST(StackFitterTest, ALooserFunctionToleranceEndsTheRefinersFitsSooner) {
   options.initial_maps = &initial;
   options.solver = PixelSolver::kBatchRefiner;
   options.retry_poor_fits = false;
-  options.refine_function_tolerance = 1e-6;
+  options.refiner.function_tolerance = 1e-6;
   const Result<StackFit> tight = FitStack(stack, options);
-  options.refine_function_tolerance = 1e-2;
+  options.refiner.function_tolerance = 1e-2;
   const Result<StackFit> loose = FitStack(stack, options);
   ASSERT_TRUE(tight.ok() && loose.ok());
   std::cout << "iterations per pixel at 1e-6: " << tight->summary.mean_iterations
@@ -440,7 +443,7 @@ TEST(StackFitterTest, RetriesOnlyPixelsWellAboveTheStacksNoise) {
 // The prior toward the CNN weighs as much against noisy data as the weight says at the reference
 // noise level, and fades on exact data: there a fixed weight would pull the fit off the truth.
 TEST_F(NoiseWeighedPriorTest, ThePriorsWeightFollowsTheStacksNoise) {
-  options.prior.weight = 1;
+  options.refiner.prior.weight = 1;
   const auto median_a_d_error = [&](const StackFit& fit) {
     std::vector<double> errors;
     for (int i = 0; i < 100; ++i) {

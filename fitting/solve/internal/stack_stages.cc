@@ -123,15 +123,11 @@ std::vector<int> EmittersPerObservation(const ObservationStack& stack) {
 }
 
 RefineOptions RefinerOptions(const PixelFitOptions& fit, const StackFitOptions& options) {
-  RefineOptions refine;
-  refine.max_iterations = fit.max_iterations;
-  refine.huber_scale = fit.huber_scale;
+  RefineOptions refine = options.refiner;
   refine.fixed_f0 = fit.fixed_f0;
   refine.min_sigma = fit.min_sigma;
   refine.threads = options.threads;
-  refine.max_lights_per_observation = options.max_lights_per_observation;
-  refine.coarse_lights_per_observation = options.coarse_lights_per_observation;
-  refine.function_tolerance = options.refine_function_tolerance;
+  refine.prior = {};  // toward initial maps only, where FitStack sets it
   return refine;
 }
 
