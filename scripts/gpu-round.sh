@@ -7,8 +7,8 @@
 #   bash scripts/gpu-round.sh run     # there, as the device call's command (carry: .gpu-deps)
 #
 # `run` unpacks the packages, builds the trainer-only loom against PyTorch's CUDA LibTorch,
-# trains 3 short epochs first (the check that a run outlives its second epoch's checkpoint, which
-# no GPU has confirmed since the fix), renders FABRICS fresh fabrics on every core, and fine-tunes
+# trains 3 short epochs first (the check that a run outlives its second epoch's checkpoint: the
+# crash docs/gpu-training.md describes must stay fixed), renders FABRICS fresh fabrics on every core, and fine-tunes
 # the rig's shipped model on them with the chain's recipe (configs/models/<rig>/README.md),
 # for as many steps as the short run's rate fits into TRAIN_S seconds. $OUT gets the logs and the
 # model (float16 weights: what comes back from the machine is at most 16 MiB a file).

@@ -19,6 +19,7 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "fitting/cnn/torch/patch_windows.h"
+#include "fitting/cnn/torch/torch_api.h"
 #include "fitting/cnn/torch/torch_cnn.h"
 #include "fitting/model/label.h"
 
@@ -86,9 +87,12 @@ void FreeTensorMemory(void* data) { std::free(data); }
 
 // torch's CPU allocator, but blocks of a huge page or more aligned to huge pages and advised to
 // the kernel as such (transparent huge pages, which Debian's kernel gives on madvise).
-class HugePageTensorAllocator final : public c10::Allocator {
+class HugePageTensorAllocator final : public TensorAllocator {
  public:
-  c10::DataPtr allocate(size_t bytes) const override {
+  c10::DeleterFnPtr raw_deleter() const override { return &FreeTensorMemory; }
+
+ protected:
+  c10::DataPtr Allocate(size_t bytes) const override {
     const c10::Device cpu(c10::DeviceType::CPU);
     if (bytes == 0) return {nullptr, nullptr, &FreeTensorMemory, cpu};
     const bool huge = bytes >= kHugePage;
@@ -99,7 +103,6 @@ class HugePageTensorAllocator final : public c10::Allocator {
     if (huge) madvise(data, size, MADV_HUGEPAGE);  // only advice: without it the memory still works
     return {data, data, &FreeTensorMemory, cpu};
   }
-  c10::DeleterFnPtr raw_deleter() const override { return &FreeTensorMemory; }
 };
 
 }  // namespace
@@ -292,7 +295,6 @@ torch::Tensor WidenWeight(const torch::Tensor& weight, const Widening* out, cons
 Result<Cnn> internal::GrowCnn(const Cnn& narrow, const CnnArchitecture& to, uint64_t seed) {
   const CnnArchitecture& from = narrow.info().architecture;
   LOOM_RETURN_IF_ERROR(CheckGrowable(from, to));
-  const int width_divisor = to.width_divisor, narrow_divisor = from.width_divisor;
   if (to.input_channels != from.input_channels || to.dropout != from.dropout) {
     return InvalidArgumentError("architecture", "only the width and the centre skip grow: the input and dropout stay");
   }
