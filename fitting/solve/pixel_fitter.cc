@@ -115,7 +115,7 @@ Result<UsableObservations> Usable(const std::vector<PixelObservation>& observati
   UsableObservations usable;
   double sum = 0;
   for (const PixelObservation& o : observations) {
-    if (std::isnan(o.radiance) || o.lights.empty()) continue;
+    if (!std::isfinite(o.radiance) || o.lights.empty()) continue;
     usable.observations.push_back(o);
     sum += std::abs(o.radiance);
   }
@@ -141,6 +141,11 @@ std::vector<WardParams<double>> Starts(const WardParams<double>& initial, bool m
 }
 
 }  // namespace
+
+bool AllFinite(const WardParams<double>& p) {
+  return p.n_s.allFinite() && p.a_d.allFinite() && p.a_s.allFinite() && std::isfinite(p.sigma_x) && std::isfinite(p.sigma_y) &&
+         std::isfinite(p.alpha) && std::isfinite(p.f0);
+}
 
 Status PixelFitOptions::Check() const {
   std::vector<std::string> problems;
@@ -173,6 +178,7 @@ WardParams<double> GenericInitialParams(const std::vector<PixelObservation>& obs
 Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observations, const WardParams<double>& initial,
                                 const PixelFitOptions& options) {
   LOOM_RETURN_IF_ERROR(options.Check());
+  if (!AllFinite(initial)) return InvalidArgumentError("pixel fit", "the start has a non-finite parameter (NaN or Inf)");
   LOOM_ASSIGN_OR_RETURN(const UsableObservations usable_observations, Usable(observations));
   const auto& [usable, inverse_scale] = usable_observations;
   Start best;
@@ -203,7 +209,9 @@ Result<SharedF0Fit> FitPixelsSharingF0(const std::vector<std::vector<PixelObserv
   problem.AddParameterBlock(&fit.f0, 1);
   for (size_t k = 0; k < pixels.size(); ++k) {
     Result<UsableObservations> u = Usable(pixels[k]);
-    if (!u.ok()) continue;  // too few observations: left out, as FitStack keeps such a pixel's start
+    // Too few observations, or a start Ceres cannot move from: left out, as FitStack keeps such a
+    // pixel's start.
+    if (!u.ok() || !AllFinite(starts[k])) continue;
     usable[k] = std::move(*u);
     WardParams<double> start = starts[k];
     start.a_s *= start.f0;  // b = a_s·F0, what the start's observations fixed

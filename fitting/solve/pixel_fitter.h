@@ -62,8 +62,13 @@ struct PixelFitResult {
   bool converged = false;
 };
 
+// Every parameter finite: what a fit may start from. Ceres aborts the process (a CHECK) on a
+// start it cannot move from, so the fitters refuse or skip any other start before Ceres sees it.
+bool AllFinite(const WardParams<double>& params);
+
 // Fits from `initial` (and, with multi_start, from α + 45°, 90°, 135°; α + 90° is the start
-// with σx and σy swapped): the start with the lowest cost wins. Fewer than 13 usable observations is an error.
+// with σx and σy swapped): the start with the lowest cost wins. Fewer than 13 usable observations,
+// or a start with a non-finite parameter, is an error.
 Result<PixelFitResult> FitPixel(const std::vector<PixelObservation>& observations, const WardParams<double>& initial,
                                 const PixelFitOptions& options = {});
 

@@ -305,6 +305,12 @@ TEST(PixelFitterTest, MaskedObservationsAreSkippedAndTooFewAreAnError) {
   ASSERT_FALSE(few.ok());
   EXPECT_NE(few.status().message().find("12 usable observations, need at least 13"), std::string::npos)
       << few.status().ToString();
+  // A start with a NaN (a damaged start map's pixel) is an error, never Ceres' abort.
+  WardParams<double> nan_start = GenericInitialParams(observations);
+  nan_start.a_d.x() = std::nan("");
+  const Result<PixelFitResult> from_nan = FitPixel(Observe(Truth(), 0, 9), nan_start);
+  ASSERT_FALSE(from_nan.ok());
+  EXPECT_NE(from_nan.status().message().find("non-finite"), std::string::npos) << from_nan.status().ToString();
   PixelFitOptions bad;
   bad.max_iterations = 0;
   bad.huber_scale = -1;

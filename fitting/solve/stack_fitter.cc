@@ -215,7 +215,8 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
     WardParams<double> start = options.initial_maps      ? GetParams(*options.initial_maps, i % width, i / width)
                                : clusters.labels[i] >= 0 ? summary.cluster_params[clusters.labels[i]]
                                                          : NeutralStart();
-    if (!start.n_s.allFinite()) start = NeutralStart();  // start maps with a masked pixel
+    // Start maps with a masked pixel (NaN), or any parameter a solver cannot start from.
+    if (!AllFinite(start)) start = NeutralStart();
     if (!options.initial_maps && clusters.labels[i] >= 0) {
       if (const std::optional<Eigen::Matrix3d> turn = normals.Turn(i)) {
         // The cluster's lobe on the pixel's own normal, with the pixel's own albedo.
