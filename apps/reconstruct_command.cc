@@ -4,17 +4,11 @@
 #include <iostream>
 #include <map>
 
-#include <nlohmann/json.hpp>
-
 #include "apps/command.h"
 #include "apps/progress.h"
-#include "calibration/calibration_directory.h"
 #include "core/file_io.h"
 #include "core/output_directory.h"
-#include "core/rig_file.h"
-#include "core/version.h"
-#include "reconstruction/reconstruct.h"
-#include "scan/plan.h"
+#include "reconstruction/scan_reconstruction.h"
 
 namespace loom::apps {
 namespace {
@@ -29,48 +23,23 @@ struct ReconstructArguments {
   bool quiet = false;
 };
 
-std::string SummaryJson(const reconstruction::Reconstruction& r, const ReconstructArguments& args,
-                        const calibration::AppliedCalibration& applied, double seconds) {
-  nlohmann::json json = r.ToJson();
-  json.update({{"scan", args.scan},
-               {"calibration", args.calib.empty() ? "nominal (the scan's rig YAML)" : args.calib},
-               {"seconds", seconds},
-               {"loom_version", std::string(VersionWithCommit())}});
-  json.update(applied.ToJson());
-  return json.dump(2) + "\n";
-}
-
 Status Reconstruct(const ReconstructArguments& args) {
   const auto start = std::chrono::steady_clock::now();
-  LOOM_ASSIGN_OR_RETURN(const scan::CaptureStore store, scan::CaptureStore::Open(args.scan));
-  LOOM_ASSIGN_OR_RETURN(const RigFile rig_file,
-                        RigFile::Parse(store.info().rig_yaml, (fs::path(args.scan) / "scan.yaml").string() + " (rig)"));
-  LOOM_ASSIGN_OR_RETURN(RigModel rig, rig_file.Model());
-  reconstruction::ReconstructOptions options = args.options;
-  options.light_drift_warn_percent = scan::ReadLightDriftSettings(rig_file).warn_percent;
-  LOOM_RETURN_IF_ERROR(rig_file.Finish());
-  calibration::AppliedCalibration applied;
-  if (!args.calib.empty()) {
-    LOOM_ASSIGN_OR_RETURN(applied, calibration::CalibrationDirectory(args.calib).Apply(&rig));
-    if (!applied.radiometry) {
-      std::cerr << "note: " << args.calib
-                << " holds no radiometric calibration: the rig YAML's light intensities and sensor model\n";
-    }
-  } else {
-    std::cerr << "note: no --calib: reconstructing with the rig YAML's nominal geometry and sensor model\n";
-  }
+  LOOM_ASSIGN_OR_RETURN(const reconstruction::ScanToReconstruct opened,
+                        reconstruction::OpenScanToReconstruct(args.scan, args.calib, args.options));
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
   const auto progress = [&](const reconstruction::ReconstructProgress& p) {
     const auto bar = bars.try_emplace(p.stage, "reconstruct: " + p.stage, args.quiet).first;
     bar->second.Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
   };
-  LOOM_ASSIGN_OR_RETURN(const reconstruction::Reconstruction result, reconstruction::Reconstruct(store, rig, options, progress));
+  LOOM_ASSIGN_OR_RETURN(const reconstruction::ScanReconstruction scanned, reconstruction::ReconstructScan(opened, progress));
   bars.clear();
-  if (const std::string note = result.CoarseSamplingNote(); !note.empty()) std::cerr << "note: " << note << "\n";
+  for (const std::string& note : scanned.notes) std::cerr << "note: " << note << "\n";
+  const reconstruction::Reconstruction& result = scanned.reconstruction;
   LOOM_RETURN_IF_ERROR(WriteObservationStack(out.partial() / "stack.exr", result.stack));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "reconstruction.json", SummaryJson(result, args, applied, seconds)));
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "reconstruction.json", scanned.ToJson(seconds).dump(2) + "\n"));
   LOOM_RETURN_IF_ERROR(out.Commit());
   const fs::path stack_path = fs::path(args.out) / "stack.exr";
   std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height()
