@@ -62,26 +62,6 @@ Result<Image> ReadStartMaps(const std::string& path, const ObservationStack& sta
   return std::move(start.maps);
 }
 
-// A diffuse albedo at the model's bound (kMaxAlbedo) on many pixels says the images' radiometric
-// scale is off (an imported capture's unknown exposure), and the fit bends its other parameters
-// to make up for it: say so, with the remedy. (a_s at the bound is another matter: a narrow
-// lobe whose peak falls between the observations.)
-void WarnAtTheAlbedoBound(const Image& maps) {
-  int at_bound = 0, fitted = 0;
-  for (int y = 0; y < maps.height(); ++y) {
-    for (int x = 0; x < maps.width(); ++x) {
-      if (fitting::IsSkippedPixel(maps, x, y)) continue;
-      const fitting::WardParams<double> p = fitting::GetParams(maps, x, y);
-      ++fitted;
-      at_bound += (p.a_d.array() >= 0.999 * fitting::kMaxAlbedo).any();
-    }
-  }
-  if (fitted > 0 && at_bound > fitted / 100) {
-    std::cout << "warning: " << at_bound << " of " << fitted << " px reached the albedo bound (" << fitting::kMaxAlbedo
-              << " in a_d): the stack's radiance scale is likely too high (loom import --scale, or its automatic scale)\n";
-  }
-}
-
 Status Fit(FitArguments args) {
   LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
   std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
@@ -118,17 +98,15 @@ Status Fit(FitArguments args) {
   options.progress = [&](const fitting::StackFitProgress& p) {
     bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
   };
-  Result<fitting::MethodFit> fitted = fitting::FitWithMethod(stack, *method, args.model, options);
-  if (recommended && *method == fitting::FitMethod::kCnnRefine && !fitted.ok() &&
-      fitted.status().code() == StatusCode::kFailedPrecondition) {
-    // Most often the rig's model takes another preset's stacks: the recommendation falls back,
-    // saying why (a failure of the refiner's own is then refine's too, and reported as such).
-    std::cerr << "cnn+refine cannot fit this stack (" << fitted.status().ToString() << "): method refine\n";
-    method = fitting::FitMethod::kRefine;
-    args.method = fitting::FitMethodName(*method);
-    fitted = fitting::FitWithMethod(stack, *method, args.model, options);
+  fitting::MethodFit fit;
+  if (recommended) {
+    LOOM_ASSIGN_OR_RETURN(fitting::RecommendedFit chosen, fitting::FitWithRecommendedMethod(stack, args.model, options));
+    if (!chosen.fallback.empty()) std::cerr << chosen.fallback << "\n";
+    args.method = fitting::FitMethodName(chosen.method);
+    fit = std::move(chosen.fit);
+  } else {
+    LOOM_ASSIGN_OR_RETURN(fit, fitting::FitWithMethod(stack, *method, args.model, options));
   }
-  LOOM_ASSIGN_OR_RETURN(const fitting::MethodFit fit, std::move(fitted));
   bars.clear();
   if (!fit.cnn.empty()) std::cout << "CNN " << fit.cnn << ": " << FormatDuration(fit.cnn_seconds) << "\n";
   if (fit.summary) fit.summary->Report(std::cout);
@@ -143,7 +121,8 @@ Status Fit(FitArguments args) {
               << " px (left-out views' relative L1: GD10 " << v["left_out_view_l1"]["gd10"] << ", Lambertian "
               << v["left_out_view_l1"]["lambert"] << ", chosen " << v["left_out_view_l1"]["chosen"] << ")\n";
   }
-  WarnAtTheAlbedoBound(fit.maps);
+  if (const std::optional<std::string> warning = fitting::AlbedoBoundWarning(fit.maps))
+    std::cout << "warning: " << *warning << "\n";
   nlohmann::json summary = fit.ToJson();
   summary.update({{"method", args.method},
                   {"model", fit.cnn.empty() ? "" : args.model},

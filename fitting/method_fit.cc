@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "fitting/cnn/cnn.h"
 #include "fitting/model/svbrdf_maps.h"
@@ -105,6 +106,37 @@ nlohmann::json MethodFit::ToJson() const {
   }
   json.update({{"cnn_seconds", cnn_seconds}, {"uncertainty_channels", uncertainty}});
   return json;
+}
+
+Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir,
+                                                const StackFitOptions& options) {
+  RecommendedFit recommended;
+  recommended.method = RecommendedMethod(stack, model_dir, options.initial_maps != nullptr);
+  Result<MethodFit> fitted = FitWithMethod(stack, recommended.method, model_dir, options);
+  if (recommended.method == FitMethod::kCnnRefine && !fitted.ok() && fitted.status().code() == StatusCode::kFailedPrecondition) {
+    recommended.fallback = "cnn+refine cannot fit this stack (" + fitted.status().ToString() + "): method refine";
+    recommended.method = FitMethod::kRefine;
+    LOOM_ASSIGN_OR_RETURN(recommended.fit, FitWithMethod(stack, recommended.method, model_dir, options));
+    return recommended;
+  }
+  LOOM_ASSIGN_OR_RETURN(recommended.fit, std::move(fitted));
+  return recommended;
+}
+
+std::optional<std::string> AlbedoBoundWarning(const Image& maps) {
+  int at_bound = 0, fitted = 0;
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      if (IsSkippedPixel(maps, x, y)) continue;
+      ++fitted;
+      at_bound += (GetParams(maps, x, y).a_d.array() >= 0.999 * kMaxAlbedo).any();
+    }
+  }
+  if (fitted == 0 || at_bound <= fitted / 100) return std::nullopt;
+  std::ostringstream warning;
+  warning << at_bound << " of " << fitted << " px reached the albedo bound (" << kMaxAlbedo
+          << " in a_d): the stack's radiance scale is likely too high (loom import --scale, or its automatic scale)";
+  return warning.str();
 }
 
 }  // namespace loom::fitting

@@ -8,6 +8,7 @@
 #include <algorithm>
 
 #include "fitting/cnn/cnn.h"
+#include "fitting/model/svbrdf_maps.h"
 #include "fitting/testing/tac7_mini.h"
 #include "sim/fabric.h"
 #include "sim/stack.h"
@@ -68,7 +69,36 @@ TEST(MethodFitTest, TheCnnAloneGivesItsMapsAndCnnRefineStartsFromThem) {
   ObservationStack photographs = stack;
   photographs.rig = std::string(kImportedRigPrefix) + "ps";
   EXPECT_EQ(RecommendedMethod(photographs, model, false), FitMethod::kCeres);
+
+  // The recommended fit: cnn+refine with the model; refine, saying why, where the model cannot
+  // take the stack (here: a stack of another plan's observations).
+  const Result<RecommendedFit> recommended = FitWithRecommendedMethod(stack, model, options);
+  ASSERT_TRUE(recommended.ok()) << recommended.status().ToString();
+  EXPECT_EQ(recommended->method, FitMethod::kCnnRefine);
+  EXPECT_TRUE(recommended->fallback.empty());
+  const ObservationStack other_plan = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 5), {});
+  const Result<RecommendedFit> fallen_back = FitWithRecommendedMethod(other_plan, model, options);
+  ASSERT_TRUE(fallen_back.ok()) << fallen_back.status().ToString();
+  EXPECT_EQ(fallen_back->method, FitMethod::kRefine);
+  EXPECT_NE(fallen_back->fallback.find("cnn+refine cannot fit this stack"), std::string::npos) << fallen_back->fallback;
+  EXPECT_TRUE(fallen_back->fit.cnn.empty());
   fs::remove_all(model);
+}
+
+TEST(MethodFitTest, ManyPixelsAtTheAlbedoBoundAreWarnedOf) {
+  Image maps = MakeSvbrdfImage(10, 10, /*with_height=*/false);
+  WardParams<double> p;
+  p.a_d = Eigen::Vector3d::Constant(0.4);
+  for (int y = 0; y < 10; ++y) {
+    for (int x = 0; x < 10; ++x) SetParams(maps, x, y, p);
+  }
+  EXPECT_FALSE(AlbedoBoundWarning(maps).has_value());
+  p.a_d.x() = kMaxAlbedo;  // 2 of 100 px: above 1 %
+  SetParams(maps, 3, 4, p);
+  SetParams(maps, 5, 6, p);
+  const std::optional<std::string> warning = AlbedoBoundWarning(maps);
+  ASSERT_TRUE(warning.has_value());
+  EXPECT_NE(warning->find("2 of 100 px"), std::string::npos) << *warning;
 }
 
 }  // namespace
