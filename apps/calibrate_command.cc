@@ -13,12 +13,14 @@
 #include "calibration/scan_calibration.h"
 #include "core/file_io.h"
 #include "core/output_directory.h"
+#include "core/output_file.h"
 
 namespace loom::apps {
 namespace {
 
 Status CalibrateFromPhotos(const std::string& images, const std::string& board_text, const std::string& name,
-                           const std::string& out) {
+                           const std::string& out, bool force) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFile(out, "--out", force));
   LOOM_ASSIGN_OR_RETURN(const calibration::BoardSpec board, calibration::ParseBoardSpec(board_text));
   std::cerr << "looking for " << board.ToString() << " in " << images << "\n";
   LOOM_ASSIGN_OR_RETURN(const calibration::CameraCalibration result, calibration::CalibrateFromPhotos(images, board, name));
@@ -55,11 +57,12 @@ Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib
 }
 
 // Returns whether to recalibrate.
-Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path) {
+Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path, bool force) {
+  if (!json_path.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(json_path, "--json", force));
   LOOM_ASSIGN_OR_RETURN(const calibration::CalibrationCheck check, calibration::CheckCalibration(scan_dir, calib));
   check.Report(std::cout);
   if (!json_path.empty()) {
-    LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, check.ToJson().dump(2) + "\n"));
+    LOOM_RETURN_IF_ERROR(WriteJsonReport(json_path, check.ToJson()));
     std::cout << "written: " << json_path << "\n";
   }
   return check.recalibrate;
@@ -78,6 +81,8 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--board", board, "chessboard:COLSxROWS:SQUARE_MM, inner corners (default chessboard:9x6:25)");
   intrinsics->add_option("--name", name, "The camera's name in the rig (default: camera)");
   intrinsics->add_option("--out", out, "Calibration YAML to write")->required();
+  bool force = false;
+  AddForceOption(*intrinsics, force);
   std::string scan;
   CLI::App* geometry = app.add_subcommand(
       "geometry",
@@ -110,13 +115,14 @@ int RunCalibrate(int argc, char** argv) {
   check->add_option("scan", scan, "Fresh calibration scan directory (loom scan --calibration)")->required();
   check->add_option("--calib", calib, "The stored calibration directory (loom calibrate geometry --out)")->required();
   check->add_option("--json", json, "Also write the measurements to this JSON file");
+  AddForceOption(*check, force);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   Status done;
-  if (*intrinsics) done = CalibrateFromPhotos(images, board, name, out);
+  if (*intrinsics) done = CalibrateFromPhotos(images, board, name, out, force);
   if (*geometry) done = CalibrateGeometry(scan, out);
   if (*radiometry) done = CalibrateRadiometry(scan, calib, reference_camera);
   if (*check) {
-    const Result<bool> recalibrate = CheckCalibration(scan, calib, json);
+    const Result<bool> recalibrate = CheckCalibration(scan, calib, json, force);
     if (recalibrate.ok()) return *recalibrate ? kExitRecalibrate : kExitOk;
     done = recalibrate.status();
   }

@@ -58,7 +58,8 @@ TEST(CliTest, ARigIsFoundByItsNameAndAMissingOneIsNamed) {
   EXPECT_NE(plan.output.find("with preset 'low'"), std::string::npos) << plan.output;
   const LoomRun list = RunLoom("rig list --rig tac7-mini");
   EXPECT_EQ(list.exit_code, 0) << list.output;
-  const LoomRun missing = RunLoom("sim render --rig no-such-rig --stack --size 8 --out /dev/null");
+  const LoomRun missing =
+      RunLoom("sim render --rig no-such-rig --stack --size 8 --out " + ::testing::TempDir() + "/cli_never_written.exr");
   EXPECT_EQ(missing.exit_code, 1) << missing.output;
   EXPECT_NE(missing.output.find("no-such-rig"), std::string::npos) << missing.output;
 }
@@ -87,7 +88,7 @@ TEST(CliTest, EveryCommandHasHelp) {
 }
 
 TEST(CliTest, CalibrateIntrinsicsFromPhotosWritesACalibrationFile) {
-  const std::string out = ::testing::TempDir() + "/cli_intrinsics.yaml";
+  const std::string out = ::testing::TempDir() + "/cli_intrinsics_" + std::to_string(::getpid()) + ".yaml";
   const LoomRun run = RunLoom("calibrate intrinsics --images '" + loom::testing::SourceDir() +
                               "/calibration/testdata/opencv-left/left0*.jpg' --board chessboard:9x6:25 --name cam3 --out " + out);
   EXPECT_EQ(run.exit_code, 0) << run.output;
@@ -99,6 +100,10 @@ TEST(CliTest, CalibrateIntrinsicsFromPhotosWritesACalibrationFile) {
   const LoomRun typo = RunLoom("calibrate intrinsics --images x --board chessbord:9x6:25 --out " + out);
   EXPECT_EQ(typo.exit_code, 1);
   EXPECT_TRUE(Contains(typo.output, "board 'chessbord:9x6:25'")) << typo.output;
+  const LoomRun again = RunLoom("calibrate intrinsics --images '" + loom::testing::SourceDir() +
+                                "/calibration/testdata/opencv-left/left0*.jpg' --name cam3 --out " + out);
+  EXPECT_EQ(again.exit_code, 0) << "a re-run replaces the file loom wrote: " << again.output;
+  std::filesystem::remove(out);
 }
 
 TEST(CliTest, VersionNamesLoomAndItsLibraries) {

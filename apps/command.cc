@@ -3,8 +3,11 @@
 #include <cmath>
 #include <iostream>
 
+#include "core/file_io.h"
 #include "core/log.h"
 #include "core/output_directory.h"
+#include "core/output_file.h"
+#include "core/version.h"
 
 namespace loom::apps {
 
@@ -18,6 +21,22 @@ void AddCommonOptions(CLI::App& app) {
          },
          "Log threshold: debug, info, warning, error, off (default info)")
       ->type_name("LEVEL");
+}
+
+void AddForceOption(CLI::App& app, bool& force) {
+  app.add_flag("--force", force, "Replace a regular file at an output path even if loom did not write it");
+}
+
+Status CheckOutputFiles(const std::vector<std::pair<std::string, std::string>>& outputs, bool force) {
+  for (const auto& [option, path] : outputs) {
+    if (!path.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(path, option, force));
+  }
+  return Status::Ok();
+}
+
+Status WriteJsonReport(const std::string& path, nlohmann::json document) {
+  document["loom_version"] = std::string(VersionWithCommit());
+  return WriteFileAtomically(path, document.dump(2) + "\n");
 }
 
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "core/duration.h"
 #include "core/status.h"
@@ -33,6 +34,18 @@ void StartLibraries(const char* program);
 
 // Options every command accepts: --log-level. Call before parsing.
 void AddCommonOptions(CLI::App& app);
+
+// --force: an output file may replace a regular file that loom did not write (core/output_file.h's
+// rule; a link, device or FIFO is refused even so).
+void AddForceOption(CLI::App& app, bool& force);
+
+// Each named output file (option, path; empty paths skipped) checked by core/output_file.h's rule
+// before a command's work, so that a refused one leaves nothing written.
+Status CheckOutputFiles(const std::vector<std::pair<std::string, std::string>>& outputs, bool force);
+
+// Writes a command's JSON report to a path the user named, with "loom_version": its marker under
+// core/output_file.h's rule, which the caller checked before the work.
+Status WriteJsonReport(const std::string& path, nlohmann::json document);
 
 // Parses argv into `app`. Returns nothing on success; otherwise the exit code to return:
 // kExitOk after --help, kExitUsage after a usage error (message on stderr).

@@ -6,6 +6,7 @@
 
 #include "apps/command.h"
 #include "core/file_io.h"
+#include "core/output_file.h"
 #include "fitting/io/axf_export.h"
 #include "fitting/report/export.h"
 #include "fitting/report/gltf_export.h"
@@ -14,7 +15,7 @@ namespace loom::apps {
 namespace {
 
 Status Export(const std::string& maps_path, double pixel_mm_option, const std::string& gltf, fitting::GltfAnisotropy anisotropy,
-              const std::string& axf) {
+              const std::string& axf, bool force) {
   LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile maps, fitting::ReadSvbrdf(maps_path));
   if (const int skipped = fitting::BlackenSkippedPixels(maps.maps); skipped > 0) {
     std::cout << skipped << " px the fit skipped (masked or unseen) are written black\n";
@@ -27,7 +28,7 @@ Status Export(const std::string& maps_path, double pixel_mm_option, const std::s
   if (!gltf.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFolderExists(gltf, "--gltf"));
   if (!gltf.empty()) LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(gltf, "--gltf"));
   if (!axf.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFolderExists(axf, "--axf"));
-  if (!axf.empty()) LOOM_RETURN_IF_ERROR(CheckReplaceableFile(axf));
+  if (!axf.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(axf, "--axf", force, fitting::IsLoomAxf));
   if (!gltf.empty()) {
     LOOM_ASSIGN_OR_RETURN(const fitting::GltfAnisotropyChoice choice, fitting::WriteGltf(maps.maps, pixel_mm, gltf, anisotropy));
     std::cout << "wrote " << gltf << "/material.gltf: a " << maps.maps.width() * pixel_mm << " × "
@@ -66,12 +67,14 @@ int RunExport(int argc, char** argv) {
                  "(Color, Lobes, AnisotropicRotation, Fresnel) and DisplacementFilter/Height (fitting/io/axf_export.h)");
   app.add_option("--pixel-mm", pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
+  bool force = false;
+  AddForceOption(app, force);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (out.empty() && axf.empty()) {  // a usage error, as CLI11's own are
     ExitCode(InvalidArgumentError("loom export", "nothing to write: give --gltf DIR and/or --axf FILE"));
     return kExitUsage;
   }
-  return ExitCode(Export(maps, pixel_mm, out, anisotropy, axf));
+  return ExitCode(Export(maps, pixel_mm, out, anisotropy, axf, force));
 }
 
 }  // namespace loom::apps

@@ -17,6 +17,7 @@ struct ImportArguments {
   int hold_out = -1;
   photos::ImportOptions options;
   double scale = 0;  // 0: automatic
+  bool force = false;
 };
 
 Result<Eigen::Vector3d> ParseOffset(const std::string& text) {
@@ -45,6 +46,7 @@ Status Import(ImportArguments args) {
     return InvalidArgumentError("--hold-out", "give both --hold-out K and --held-out FILE, or neither");
   }
   if (args.hold_out >= 0) args.options.hold_out = args.hold_out;
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--out", args.out}, {"--held-out", args.held_out}, {"--json", args.json}}, args.force));
   LOOM_ASSIGN_OR_RETURN(const photos::ImportResult imported, photos::ImportCapture(args.dir, args.options));
   imported.Report(std::cout);
   LOOM_RETURN_IF_ERROR(WriteObservationStack(args.out, imported.stack));
@@ -52,7 +54,7 @@ Status Import(ImportArguments args) {
     LOOM_RETURN_IF_ERROR(WriteObservationStack(args.held_out, *imported.held_out));
     std::cout << "wrote " << args.held_out << ": image " << args.hold_out << " alone, left out of " << args.out << "\n";
   }
-  if (!args.json.empty()) LOOM_RETURN_IF_ERROR(WriteFileAtomically(args.json, imported.ToJson().dump(2) + "\n"));
+  if (!args.json.empty()) LOOM_RETURN_IF_ERROR(WriteJsonReport(args.json, imported.ToJson()));
   std::cout << "wrote " << args.out << "\n";
   return Status::Ok();
 }
@@ -86,6 +88,7 @@ int RunImport(int argc, char** argv) {
                  "--out, then loom eval the fit with --stack HELD to score it on a view it never saw")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--held-out", args.held_out, "With --hold-out: the stack of the held-out image");
+  AddForceOption(app, args.force);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   return ExitCode(Import(std::move(args)));
 }

@@ -180,4 +180,28 @@ TEST_F(ImportCommandTest, AFolderWithoutALayoutOrWithABadHoldOutIsRefusedNamingI
   EXPECT_FALSE(fs::exists(dir_ / "s.exr"));
 }
 
+// core/output_file.h's rule at a command: a re-run replaces what loom wrote, a file it did not
+// write is kept unless --force, and a JSON report carries the marker that lets a re-run replace it.
+TEST_F(ImportCommandTest, AReRunReplacesItsOwnOutputsAndAnotherFileOnlyWhenForced) {
+  const auto capture = RunCommand(Loom("sim capture --size 8 --lights 4 --out " + Path("capture")));
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  const std::string import = "import " + Path("capture") + " --out " + Path("s.exr") + " --json " + Path("import.json");
+  ASSERT_EQ(RunCommand(Loom(import)).exit_code, 0);
+  EXPECT_TRUE(Json("import.json").contains("loom_version"));
+  const auto again = RunCommand(Loom(import));
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+
+  std::ofstream(dir_ / "notes.json") << "{\"mine\": true}\n";
+  const std::string onto_notes = "import " + Path("capture") + " --out " + Path("t.exr") + " --json " + Path("notes.json");
+  const auto refused = RunCommand(Loom(onto_notes));
+  EXPECT_EQ(refused.exit_code, 1) << refused.output;
+  EXPECT_NE(refused.output.find("--json " + Path("notes.json") + ": exists and is not a file loom wrote"), std::string::npos)
+      << refused.output;
+  EXPECT_FALSE(fs::exists(dir_ / "t.exr")) << "a refused output leaves the others unwritten";
+  EXPECT_TRUE(Json("notes.json").contains("mine"));
+  const auto forced = RunCommand(Loom(onto_notes + " --force"));
+  EXPECT_EQ(forced.exit_code, 0) << forced.output;
+  EXPECT_TRUE(Json("notes.json").contains("loom_version"));
+}
+
 }  // namespace

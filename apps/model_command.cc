@@ -19,6 +19,7 @@
 #include "apps/command.h"
 #include "core/file_io.h"
 #include "core/output_directory.h"
+#include "core/output_file.h"
 #include "fitting/cnn/cnn.h"
 #include "fitting/cnn/cnn_dataset.h"
 
@@ -122,6 +123,7 @@ struct ScoreArguments {
   int test = 3;
   int threads = 0;
   std::string json;
+  bool force = false;
 };
 
 void ReportScore(const std::string& set, int materials, const fitting::CnnScore& score) {
@@ -134,6 +136,7 @@ void ReportScore(const std::string& set, int materials, const fitting::CnnScore&
 // The model's label loss, RMSE and re-rendering loss on DATA's validation and test materials,
 // split as loom train splits them (the last --test by name, the --validation before them).
 Status Score(const fs::path& model, const ScoreArguments& args) {
+  if (!args.json.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(args.json, "--json", args.force));
   LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(args.data, args.validation, args.test));
   LOOM_ASSIGN_OR_RETURN(const fitting::CnnHeldOutScore score, fitting::ScoreOnHeldOut(cnn, dataset, args.threads));
@@ -142,7 +145,7 @@ Status Score(const fs::path& model, const ScoreArguments& args) {
   ReportScore("validation", dataset.validation_count(), score.validation);
   ReportScore("test", dataset.test_count(), score.test);
   if (args.json.empty()) return Status::Ok();
-  const nlohmann::json report = {
+  nlohmann::json report = {
       {"model", model.string()},
       {"dataset", args.data},
       {"materials",
@@ -150,7 +153,7 @@ Status Score(const fs::path& model, const ScoreArguments& args) {
       {"label_channels", fitting::kLabelChannelNames},
       {"validation", fitting::CnnScoreJson(score.validation)},
       {"test", fitting::CnnScoreJson(score.test)}};
-  return WriteFileAtomically(args.json, report.dump(2) + "\n");
+  return WriteJsonReport(args.json, std::move(report));
 }
 
 Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights,
@@ -213,6 +216,7 @@ int RunModel(int argc, char** argv) {
   app.add_option("--threads", score.threads, "With --score: threads that read the stacks and run the network (0: one per core)")
       ->check(CLI::Range(0, 1024))
       ->needs(score_option);
+  AddForceOption(app, score.force);
   app.add_option("--json", score.json, "With --score: also write the scores to this JSON file")->needs(score_option);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   return ExitCode(RunModelCommand(model, out, weights, average, score));

@@ -12,6 +12,7 @@
 #include "apps/rig_loader.h"
 #include "core/file_io.h"
 #include "core/interrupt.h"
+#include "core/output_file.h"
 #include "hal/aravis/aravis_backend.h"
 #include "hal/device_status.h"
 #include "hal/rig.h"
@@ -71,13 +72,16 @@ Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
     // Encoded in memory and written through a temporary file: the PNG appears only whole.
     std::vector<uchar> png;
     if (!cv::imencode(".png", image, png)) return IoError(path, "cannot encode PNG");
-    return WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+    return WriteFileAtomically(path,
+                               MarkPngAsLoomOutput(std::string_view(reinterpret_cast<const char*>(png.data()), png.size())));
   }
   if (!path.ends_with(".exr")) return InvalidArgumentError("--out " + path, "must end in .exr or .png");
   return scan::WriteFrameExr(frame, path);
 }
 
-Status Snap(Rig& rig, const std::string& camera, double exposure_us, const std::string& leds, const std::string& out) {
+Status Snap(Rig& rig, const std::string& camera, double exposure_us, const std::string& leds, const std::string& out,
+            bool force) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFile(out, "--out", force));
   std::vector<scan::LedDrive> drives;
   if (!leds.empty()) {
     LOOM_ASSIGN_OR_RETURN(drives, scan::ParseLedDrives(leds, "--leds"));
@@ -134,6 +138,8 @@ int RunRig(int argc, char** argv) {
   snap->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/")->required();
   snap->add_option("--camera", camera, "Camera name in the rig")->required();
   snap->add_option("--out", out, "Output file, .exr or .png")->required();
+  bool force = false;
+  AddForceOption(*snap, force);
   snap->add_option("--exposure-us", exposure_us, "Exposure (default, or 0: the rig's setting)")->check(CLI::Range(0.0, 1e8));
   std::string snap_leds;
   snap->add_option("--leds", snap_leds, "Light these LEDs for the frame: LED:MILLIAMPS[,...]");
@@ -163,7 +169,7 @@ int RunRig(int argc, char** argv) {
   Rig& rig = *loaded->rig;
   if (*status) return StatusOfAll(rig);
   Status done;
-  if (*snap) done = Snap(rig, camera, exposure_us, snap_leds, out);
+  if (*snap) done = Snap(rig, camera, exposure_us, snap_leds, out, force);
   if (*move) done = Move(rig, device, to);
   if (*leds) done = Leds(rig, on, hold_s);
   return ExitCode(done);

@@ -43,11 +43,12 @@ Status Material(const sim::SampleSpec& spec, const fs::path& out) {
 }
 
 // Histograms of the generated fabrics' parameters over many seeds (sim/fabric_stats.h).
-Status Stats(int seeds, int size_px, const std::string& json_path) {
+Status Stats(int seeds, int size_px, const std::string& json_path, bool force) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--json", json_path}}, force));
   const sim::FabricStatistics stats = sim::MeasureFabrics(seeds, size_px);
   stats.Report(std::cout);
   if (json_path.empty()) return Status::Ok();
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, stats.ToJson().dump(2) + "\n"));
+  LOOM_RETURN_IF_ERROR(WriteJsonReport(json_path, stats.ToJson()));
   std::cout << "wrote " << json_path << "\n";
   return Status::Ok();
 }
@@ -55,7 +56,7 @@ Status Stats(int seeds, int size_px, const std::string& json_path) {
 struct RenderArguments {
   std::string rig, object, camera = "cam0", leds = "0:1000", preset = "low", truth, scan_emulation, out;
   double angle_deg = 0, exposure_us = 10000;
-  bool stack = false;
+  bool stack = false, force = false;
   int size_px = 0;
   uint64_t seed = 1;
 };
@@ -91,6 +92,7 @@ Status RenderStack(const sim::Scene& scene, const RenderArguments& args) {
 
 // One raw frame (and its radiance) of a simulated rig's camera, or the fast-path stack.
 Status Render(const RenderArguments& args) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--out", args.out}, {"--truth", args.truth}}, args.force));
   LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig, args.object));
   if (!loaded.sim) return InvalidArgumentError(args.rig, "not a simulated rig (it has no 'geometry:' section)");
   const std::shared_ptr<const sim::Scene> scene = loaded.sim->world->scene();
@@ -118,6 +120,7 @@ struct CaptureArguments {
   sim::FlashCaptureOptions flash;
   sim::SampleSpec sample{.kind = "fabric", .seed = 1, .size_px = 64, .pixel_mm = 1.0};
   std::string layout = "ps", shape = "sphere", truth, normals, out, flash_offset;
+  bool force = false;
 };
 
 // The truth's albedos in the units of images stored with `white` as the top value.
@@ -157,6 +160,7 @@ Status FlashCapture(CaptureArguments args) {
 // A curved object in the ps layout, with its truth beside (not inside) the folder: loom import
 // reads every image of a folder in some layouts.
 Status Capture(CaptureArguments args) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--truth", args.truth}, {"--normals", args.normals}}, args.force));
   if (args.layout == "flash") return FlashCapture(std::move(args));
   if (args.layout != "ps") return InvalidArgumentError("--layout " + args.layout, "expected ps or flash");
   if (args.shape != "sphere" && args.shape != "cylinder") {
@@ -188,7 +192,8 @@ Status Capture(CaptureArguments args) {
 
 // How a reconstruction degrades a fast-path stack of the same material: blur, gains, noise.
 Status MatchScan(const std::string& fast_path, const std::string& reconstructed_path, const std::string& emulation_path,
-                 const std::string& json_path) {
+                 const std::string& json_path, bool force) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--out", emulation_path}, {"--json", json_path}}, force));
   LOOM_ASSIGN_OR_RETURN(const ObservationStack fast, ReadObservationStack(fast_path));
   LOOM_ASSIGN_OR_RETURN(const ObservationStack reconstructed, ReadObservationStack(reconstructed_path));
   LOOM_ASSIGN_OR_RETURN(const sim::ScanEmulationMatch match, sim::MatchScanEmulation(fast, reconstructed));
@@ -197,7 +202,7 @@ Status MatchScan(const std::string& fast_path, const std::string& reconstructed_
     LOOM_RETURN_IF_ERROR(WriteFileAtomically(emulation_path, match.emulation.ToYaml()));
     std::cout << "wrote " << emulation_path << ": the emulation, for loom train --scan-emulation\n";
   }
-  if (!json_path.empty()) LOOM_RETURN_IF_ERROR(WriteFileAtomically(json_path, match.ToJson().dump(2) + "\n"));
+  if (!json_path.empty()) LOOM_RETURN_IF_ERROR(WriteJsonReport(json_path, match.ToJson()));
   return Status::Ok();
 }
 
@@ -239,6 +244,7 @@ int RunSim(int argc, char** argv) {
                      "from loom sim match-scan, e.g. configs/models/tac7-mini/scan-emulation.yaml)");
   render->add_option("--seed", r.seed, "With --scan-emulation: the seed of its gains and noise");
   render->add_option("--out", r.out, "Output EXR")->required();
+  AddForceOption(*render, r.force);
   CaptureArguments capture;
   CLI::App* capture_app = app.add_subcommand(
       "capture",
@@ -270,12 +276,15 @@ int RunSim(int argc, char** argv) {
   capture_app->add_option("--truth", capture.truth, "Also write the true maps on the image's grid (OpenEXR)");
   capture_app->add_option("--normals", capture.normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
   capture_app->add_option("--out", capture.out, "Folder for the capture")->required();
+  AddForceOption(*capture_app, capture.force);
   int seeds = 200, stats_size_px = 256;
   std::string json_path;
   CLI::App* stats = app.add_subcommand("stats", "Histograms of the procedural fabrics' parameters over many seeds");
   stats->add_option("--seeds", seeds, "Seeds 0..N-1")->check(CLI::Range(1, 100000));
   stats->add_option("--size", stats_size_px, "Map size per fabric")->check(CLI::Range(8, 4096));
   stats->add_option("--json", json_path, "Also write the histograms as JSON");
+  bool force = false;
+  AddForceOption(*stats, force);
   std::string fast_path, reconstructed_path;
   CLI::App* match_scan = app.add_subcommand("match-scan",
                                             "Measure how a reconstructed stack differs from the fast path of the same "
@@ -286,10 +295,11 @@ int RunSim(int argc, char** argv) {
   std::string emulation_path;
   match_scan->add_option("--out", emulation_path, "Write the fitted emulation (YAML) for loom train --scan-emulation");
   match_scan->add_option("--json", json_path, "Also write the measurement as JSON");
+  AddForceOption(*match_scan, force);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   Status done;
-  if (*match_scan) done = MatchScan(fast_path, reconstructed_path, emulation_path, json_path);
-  if (*stats) done = Stats(seeds, stats_size_px, json_path);
+  if (*match_scan) done = MatchScan(fast_path, reconstructed_path, emulation_path, json_path, force);
+  if (*stats) done = Stats(seeds, stats_size_px, json_path, force);
   if (*render) done = Render(r);
   if (*capture_app) {
     capture.options.material.sigma_y = capture.options.material.sigma_x;

@@ -7,6 +7,7 @@
 #include "calibration/internal/provenance.h"
 #include "core/config.h"
 #include "core/file_io.h"
+#include "core/output_file.h"
 
 namespace loom::calibration {
 namespace {
@@ -53,7 +54,7 @@ Status WriteCameraCalibration(const std::filesystem::path& path, const CameraCal
   out << YAML::Key << "board" << YAML::Value << calibration.board;
   internal::EmitVersionAndTime(out);
   out << YAML::EndMap << YAML::EndMap;
-  return WriteFileAtomically(path, std::string(out.c_str()) + "\n");
+  return WriteFileAtomically(path, std::string(kLoomTextMarker) + "\n" + out.c_str() + "\n");
 }
 
 Result<CameraCalibration> ReadCameraCalibration(const std::filesystem::path& path) {

@@ -26,6 +26,7 @@ foreach(torch_target torch_cpu torch)
 endforeach()
 list(REMOVE_ITEM TORCH_LIBRARIES torch)  # torch_library brings it, as needed, with its usage requirements
 find_package(Threads REQUIRED)
+find_package(ZLIB REQUIRED)  # PNG text chunks (core/output_file.cc)
 
 if(LOOM_BUILD_TESTS)
   pkg_check_modules(UMOCKDEV REQUIRED IMPORTED_TARGET umockdev-1.0)

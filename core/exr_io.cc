@@ -368,6 +368,18 @@ Result<ExrImage> ReadExr(const fs::path& path, const ExrReadOptions& options) {
   }
 }
 
+bool IsLoomExr(const fs::path& path) {
+  if (!CheckReadableExr(path).ok()) return false;
+  try {
+    const Imf::InputFile file(path.c_str());
+    for (auto attribute = file.header().begin(); attribute != file.header().end(); ++attribute) {
+      if (std::string_view(attribute.name()).starts_with("loom")) return true;
+    }
+  } catch (const std::exception&) {
+  }
+  return false;
+}
+
 Status WriteExrUint16(const fs::path& path, int width, int height, std::span<const uint16_t> pixels, const std::string& channel,
                       const ExrAttributes& attributes) {
   if (width <= 0 || height <= 0 || pixels.size() != static_cast<size_t>(width) * height) {

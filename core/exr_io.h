@@ -72,6 +72,11 @@ Result<ExrImage> ReadExr(const std::filesystem::path& path, const ExrReadOptions
 // Reads the header only (fast: no pixel data).
 Result<ExrHeader> ReadExrHeader(const std::filesystem::path& path);
 
+// Whether `path` is an EXR that loom wrote: its header has an attribute whose name begins with
+// "loom" (every WriteExr records the channel order as loomChannelOrder). False for anything else,
+// unreadable files included.
+bool IsLoomExr(const std::filesystem::path& path);
+
 // One 16-bit integer channel stored losslessly (EXR UINT, ZIP): raw camera frames.
 // Same atomicity and errors as WriteExr/ReadExr. Reading a value above 65535 is DataLoss.
 Status WriteExrUint16(const std::filesystem::path& path, int width, int height, std::span<const uint16_t> pixels,

@@ -11,6 +11,8 @@
 #include "core/exr_io.h"
 #include "core/memory.h"
 #include "core/output_directory.h"
+#include "core/output_file.h"
+#include "core/version.h"
 
 namespace loom {
 namespace {
@@ -89,6 +91,45 @@ TEST_F(OutputRuleTest, AnOutputFolderIsNeverALinkOrSpecialFileAndItsErrorsNameTh
   const Status missing = CheckOutputFolderExists(root_ / "no-such-folder" / "m.axf", "--axf");
   EXPECT_NE(missing.ToString().find("--axf " + (root_ / "no-such-folder" / "m.axf").string()), std::string::npos);
   EXPECT_TRUE(CheckOutputFolderExists(root_ / "m.axf", "--axf").ok());
+}
+
+// A minimal PNG's bytes (signature, a 1 × 1 grey IHDR, IEND): enough for the marker's chunk walk.
+std::string TinyPng() {
+  std::string png("\x89PNG\r\n\x1a\n", 8);
+  png += std::string("\0\0\0\x0dIHDR\0\0\0\x01\0\0\0\x01\x08\0\0\0\0", 25);
+  png += std::string("\0\0\0\0", 4);  // the header's CRC, which the walk does not check
+  png += std::string("\0\0\0\0IEND\xae\x42\x60\x82", 12);
+  return png;
+}
+
+TEST_F(OutputRuleTest, AUsersOutputFileReplacesOnlyWhatLoomWroteUnlessForced) {
+  const fs::path exr = root_ / "stack.exr";
+  ASSERT_TRUE(WriteExr(exr, Image(2, 2, {"Y"})).ok());
+  ASSERT_TRUE(WriteFileAtomically(root_ / "report.json", "{\"loom_version\": \"0\", \"x\": 1}\n").ok());
+  ASSERT_TRUE(WriteFileAtomically(root_ / "theirs.json", "{\"x\": 1}\n").ok());
+  ASSERT_TRUE(WriteFileAtomically(root_ / "emulation.yaml", std::string(kLoomTextMarker) + " 0\nschema_version: 1\n").ok());
+  ASSERT_TRUE(WriteFileAtomically(root_ / "theirs.yaml", "schema_version: 1\n").ok());
+  ASSERT_TRUE(WriteFileAtomically(root_ / "frame.png", MarkPngAsLoomOutput(TinyPng())).ok());
+  ASSERT_TRUE(WriteFileAtomically(root_ / "theirs.png", TinyPng()).ok());
+  for (const char* ours : {"stack.exr", "report.json", "emulation.yaml", "frame.png"}) {
+    EXPECT_TRUE(HasLoomMarker(root_ / ours)) << ours;
+    EXPECT_TRUE(CheckOutputFile(root_ / ours, "--out", false).ok()) << ours;
+  }
+  EXPECT_TRUE(CheckOutputFile(root_ / "new.exr", "--out", false).ok());
+  for (const char* theirs : {"regular", "theirs.json", "theirs.yaml", "theirs.png"}) {
+    const fs::path path = root_ / theirs;
+    EXPECT_FALSE(HasLoomMarker(path)) << theirs;
+    const Status refused = CheckOutputFile(path, "--json", false);
+    ASSERT_FALSE(refused.ok()) << theirs;
+    EXPECT_EQ(refused.subject(), "--json " + path.string());
+    EXPECT_NE(refused.message().find("--force"), std::string::npos) << refused.ToString();
+    EXPECT_TRUE(CheckOutputFile(path, "--json", true).ok()) << theirs;
+  }
+  EXPECT_EQ(MarkPngAsLoomOutput(TinyPng()).size(), TinyPng().size() + 12 + 9 + 5 + VersionWithCommit().size());
+  EXPECT_FALSE(CheckOutputFile(root_ / "to-regular", "--out", true).ok()) << "--force never replaces a link";
+  EXPECT_FALSE(CheckOutputFile(root_ / "fifo", "--out", true).ok());
+  EXPECT_FALSE(CheckOutputFile(root_ / "folder", "--out", true).ok());
+  EXPECT_FALSE(HasLoomMarker(root_ / "fifo")) << "a FIFO is never read";
 }
 
 TEST(MemoryTest, ASizeBeyondTheMachineIsRefusedNamingWhatAskedAndHowMuch) {

@@ -9,6 +9,7 @@
 
 #include "core/check.h"
 #include "core/config.h"
+#include "core/output_file.h"
 #include "core/parallel.h"
 #include "sim/internal/noise.h"
 
@@ -313,6 +314,7 @@ nlohmann::json ScanEmulation::ToJson() const {
 std::string ScanEmulation::ToYaml() const {
   std::ostringstream out;
   out << std::setprecision(4);
+  out << kLoomTextMarker << "\n";
   out << "schema_version: " << kScanEmulationSchemaVersion << "\n";
   out << "# What a scan's reconstruction adds to the fast path (loom sim match-scan); loom train --scan-emulation\n";
   out << "footprints:\n";

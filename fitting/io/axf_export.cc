@@ -416,7 +416,9 @@ Result<AxfMaps> ReadAxfInProcess(const fs::path& path) {
   LOOM_ASSIGN_OR_RETURN(const SvbrdfTextures textures, ReadTextures(reader));
   LOOM_ASSIGN_OR_RETURN(Grid grid, SharedGrid(reader, textures));
   grid.pixel_mm = PixelMm(reader, "DiffuseModel/Color", grid.width);
-  return AxfMaps{MapsOf(textures, grid), grid.pixel_mm, material};
+  const std::string group_path = "/" + std::string(kMaterials) + "/" + material;
+  const bool written_by_loom = H5Aexists_by_name(file.get(), group_path.c_str(), "loom.version", H5P_DEFAULT) > 0;
+  return AxfMaps{MapsOf(textures, grid), grid.pixel_mm, material, written_by_loom};
 }
 
 // This process's data segment (VmData: what RLIMIT_DATA counts), 0 when /proc does not say.
@@ -566,6 +568,11 @@ Result<AxfMaps> ReadAxf(const fs::path& path) {
   if (!fs::exists(path)) return NotFoundError(path.string(), "no such file");
   LOOM_RETURN_IF_ERROR(ReadsWithinMemory(path));
   return ReadAxfInProcess(path);
+}
+
+bool IsLoomAxf(const fs::path& file) {
+  const Result<AxfMaps> read = ReadAxf(file);
+  return read.ok() && read->written_by_loom;
 }
 
 }  // namespace loom::fitting

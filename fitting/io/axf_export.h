@@ -46,11 +46,15 @@ struct AxfMaps {
   Image maps;  // fitting/model/svbrdf_maps.h's layout (n_s back in the local geometric frame), with height if the file has it
   double pixel_mm = 0;  // from WidthMM, 0 when the file does not say
   std::string material;
+  bool written_by_loom = false;  // the material's group has loom's "loom.version" attribute
 };
 // Reads the first material's SVBRDF of an AxF file, loom's or another writer's: isotropic lobes
 // (one channel), a uniform Fresnel (a single value), no rotation (0), no Fresnel (F0 = 1: off),
 // no normal ((0, 0, 1)) or a normal under SpecularModel are taken as such. Every problem names
 // the file and the dataset.
 Result<AxfMaps> ReadAxf(const std::filesystem::path& file);
+
+// Whether `file` is an AxF file loom wrote: the output rule's marker (core/output_file.h).
+bool IsLoomAxf(const std::filesystem::path& file);
 
 }  // namespace loom::fitting

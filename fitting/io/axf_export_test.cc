@@ -167,6 +167,7 @@ TEST_F(AxfExportTest, ReadsBackTheMaps) {
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_DOUBLE_EQ(read->pixel_mm, 1.0);
   EXPECT_EQ(read->material, "loom");
+  EXPECT_TRUE(IsLoomAxf(path)) << "the output rule's marker";
   for (int y = 0; y < 2; ++y) {
     for (int x = 0; x < 3; ++x) {
       const WardParams<double> a = GetParams(maps, x, y), b = GetParams(read->maps, x, y);
@@ -195,6 +196,7 @@ TEST_F(AxfExportTest, ReadsTheSvbrdfOfAFileLaidOutAsOtherWritersDo) {
   const Result<AxfMaps> read = ReadAxf(path);
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_EQ(read->material, "wool-sample_01");
+  EXPECT_FALSE(IsLoomAxf(path)) << "another writer's file is not loom's to replace";
   EXPECT_EQ(read->pixel_mm, 0);  // unknown
   const WardParams<double> p = GetParams(read->maps, 1, 0);
   EXPECT_NEAR(p.a_d.x(), 0.2, 1e-6);
