@@ -1,7 +1,6 @@
 // The full build's command table (a trainer-only build has trainer_commands.cc instead).
-#include <glog/logging.h>
-
 #include "apps/command.h"
+#include "fitting/solve/ceres_failures.h"
 
 namespace loom::apps {
 
@@ -27,13 +26,6 @@ const std::vector<Command>& Commands() {
   return commands;
 }
 
-void StartLibraries(const char* program) {
-  // Ceres logs through glog: a rejected Levenberg-Marquardt step (a singular normal matrix,
-  // after which LM raises its damping, as designed) is a warning, thousands of them over a
-  // material's pixels. loom reports what went wrong in its own summaries instead.
-  google::InitGoogleLogging(program);
-  FLAGS_minloglevel = google::GLOG_ERROR;
-  FLAGS_logtostderr = true;
-}
+void StartLibraries(const char* program) { fitting::StartCeresLogging(program); }
 
 }  // namespace loom::apps
