@@ -19,42 +19,25 @@
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/report/export.h"
 #include "fitting/report/internal/png.h"
+#include "fitting/report/internal/texture_frame.h"
 
 namespace loom::fitting {
 namespace {
 
+using internal::GgxAlphaOfWardSigma;
+using internal::MaxSpecularF0;
 using internal::SampleFromLocal;
+using internal::ToTangentSpace;
 using internal::Unit8;
+using internal::UnitVectorRgb;
 
 // glTF's dielectric F0 (ior 1.5), which KHR_materials_specular's colour scales.
 constexpr double kDielectricF0 = 0.04;
-
-// The GGX α that stands for a Ward σ (gltf_export.h).
-double GltfAlpha(double sigma) { return std::clamp(std::sqrt(2.0) * sigma, 1e-4, 1.0); }
-
-// Tangent space on the quad: T = the sample's +x (+u), B = the sample's −y (up the image, as
-// glTF's normal textures have it: rows run along +y), N = +z. Hence TANGENT.w = −1.
-Eigen::Vector3d ToTangentSpace(const Eigen::Vector3d& in_sample) { return {in_sample.x(), -in_sample.y(), in_sample.z()}; }
-
-cv::Vec3b UnitVectorRgb(const Eigen::Vector3d& v) {  // OpenCV's BGR order
-  return {Unit8((v.z() + 1) / 2), Unit8((v.y() + 1) / 2), Unit8((v.x() + 1) / 2)};
-}
 
 struct Textures {
   cv::Mat base_color, specular_color, metallic_roughness, normal, anisotropy;
   double specular_color_factor = 1;  // over kDielectricF0
 };
-
-double MaxSpecularF0(const Image& maps) {
-  double max_f0 = 0;
-  for (int y = 0; y < maps.height(); ++y) {
-    for (int x = 0; x < maps.width(); ++x) {
-      const WardParams<double> p = GetParams(maps, x, y);
-      max_f0 = std::max(max_f0, p.a_s.maxCoeff() * p.f0);
-    }
-  }
-  return max_f0;
-}
 
 // Where the shading normal's tilt from the quad's normal is wider than the lobe's narrower
 // roughness, KHR_materials_anisotropy's in-plane tangent frame misplaces the highlight.
@@ -71,7 +54,7 @@ void FillPixel(const Image& maps, int x, int y, double pixel_mm, double specular
   const Eigen::Vector3d f0 = p.a_s * p.f0 / specular_scale;
   t->specular_color.at<cv::Vec3b>(y, x) = {ToSrgb8(f0.z()), ToSrgb8(f0.y()), ToSrgb8(f0.x())};
   const GltfRoughness roughness = GltfRoughnessOf(p.sigma_x, p.sigma_y);
-  const double isotropic_roughness = std::sqrt(std::sqrt(GltfAlpha(p.sigma_x) * GltfAlpha(p.sigma_y)));
+  const double isotropic_roughness = std::sqrt(std::sqrt(GgxAlphaOfWardSigma(p.sigma_x) * GgxAlphaOfWardSigma(p.sigma_y)));
   t->metallic_roughness.at<cv::Vec3b>(y, x) = {0, Unit8(anisotropic ? roughness.roughness : isotropic_roughness),
                                                0};  // B metallic, G roughness
   const Eigen::Matrix3d sample_from_local = SampleFromLocal(maps, x, y, pixel_mm);
@@ -208,8 +191,8 @@ nlohmann::json GltfDocument(double half_width_m, double half_height_m, double sp
 }  // namespace
 
 GltfRoughness GltfRoughnessOf(double sigma_x, double sigma_y) {
-  const double alpha_t = GltfAlpha(std::max(sigma_x, sigma_y));
-  const double alpha_b = GltfAlpha(std::min(sigma_x, sigma_y));
+  const double alpha_t = GgxAlphaOfWardSigma(std::max(sigma_x, sigma_y));
+  const double alpha_b = GgxAlphaOfWardSigma(std::min(sigma_x, sigma_y));
   const double strength = alpha_b < 1 ? std::sqrt((alpha_t - alpha_b) / (1 - alpha_b)) : 0;
   return {std::sqrt(alpha_b), strength, sigma_y > sigma_x};
 }
