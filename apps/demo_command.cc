@@ -200,6 +200,7 @@ void PrintSummary(const nlohmann::ordered_json& summary) {
 Status Demo(const DemoArguments& args) {
   const std::string rig = ResolveRigPath(args.rig).string();
   if (!fs::exists(rig)) return NotFoundError("--rig " + args.rig, "no such file, nor configs/rig/" + args.rig + ".yaml");
+  LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(args.out, "--out"));
   if (fs::exists(args.out) && !fs::is_empty(args.out)) {
     return AlreadyExistsError(args.out, "is not empty: the demo writes a fresh directory (remove it, or pick another --out)");
   }

@@ -126,6 +126,8 @@ Status CheckDatasetArguments(TrainArguments& args) {
 Status Train(TrainArguments args) {
   const fs::path out(args.out);
   const fs::path data = args.data.empty() ? out / "data" : fs::path(args.data);
+  LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(out, "--out"));
+  if (!args.data.empty()) LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(data, "--data"));
   LOOM_RETURN_IF_ERROR(CheckDatasetArguments(args));
   args.dataset.threads = args.training.threads;
   args.training.device =
