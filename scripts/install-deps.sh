@@ -17,8 +17,8 @@ packages=(
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev xvfb
-  # the browser side (web/): three.js renders in headless Chromium
-  chromium
+  # the browser side (web/): three.js renders in headless Chromium; blender/: Cycles renders
+  chromium blender
   # scripts/slurm-fit-array.sh's test runs a single-node Slurm
   slurm-wlm munge
 )

@@ -30,11 +30,14 @@ struct Textures {
   cv::Mat base_color, specular_color, roughness, anisotropy, rotation, normal;
 };
 
-// The wider axis' angle from the tangent (T, the image's columns) as a fraction of a turn in [0, 0.5).
+// The wider axis' angle from the tangent (T, along the image's columns) as a fraction of a turn
+// in [0, 0.5), turning right-handedly about the quad's normal, as Standard Surface's rotate3d
+// turns the tangent: from T towards N × T, which is the sample's +y, down the image (the
+// opposite of the UV bitangent, which runs up it).
 double RotationOfWiderAxis(const Image& maps, int x, int y, double pixel_mm, const WardParams<double>& p) {
   const AnisotropyFrame<double> frame = MakeAnisotropyFrame(p.n_s, p.alpha);
   const Eigen::Vector3d wider = p.sigma_y > p.sigma_x ? frame.b : frame.t;
-  const Eigen::Vector3d axis = internal::ToTangentSpace(internal::SampleFromLocal(maps, x, y, pixel_mm) * wider);
+  const Eigen::Vector3d axis = internal::SampleFromLocal(maps, x, y, pixel_mm) * wider;
   const double turns = std::atan2(axis.y(), axis.x()) / (2 * M_PI);
   return turns - std::floor(turns * 2) / 2;  // modulo half a turn
 }

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# A fabric's maps exported as MaterialX, its textures built into a Cycles material by headless
+# Blender and rendered under six of the stack's point-lit views, against loom's own rendering of
+# the same maps (render_check.py): within the bound (0.19 measured on this fabric;
+# docs/benchmarks.md). The maps are the simulator's truth, so that what differs is the export and
+# the renderer, not a fit. A material with its base and specular colours swapped must fail the
+# same bound, so the check can fail.
+# Usage: cycles_check_test.sh LOOM RIG WORK_DIR
+set -euo pipefail
+loom=$1 work=$3
+here=$(cd "$(dirname "$0")/.." && pwd)
+bash "$here/../web/tests/make-report.sh" "$loom" "$2" "$work" 2 6
+cd "$work"
+"$loom" export truth.exr --mtlx mtlx >/dev/null
+check() {
+  unshare -n blender -b --factory-startup --python-exit-code 1 --python "$here/render_check.py" -- report "$1" \
+    --max-mean-difference 0.25 2>&1 | grep -E "relative difference|Error"
+}
+check mtlx
+test -s report/renderer/cycles-comparison.json
+
+cp -r mtlx swapped
+cp mtlx/specular_color.png swapped/base_color.png && cp mtlx/base_color.png swapped/specular_color.png
+if check swapped; then
+  echo "a material with its colours swapped passed the check" >&2
+  exit 1
+fi
+echo "the swapped material failed the bound, as it must"
