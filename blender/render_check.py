@@ -17,8 +17,10 @@
 # texel's radiance is read at its centre's projection into the render.
 #
 #   blender -b --factory-startup --python-exit-code 1 --python blender/render_check.py -- \
-#       REPORT MTLX_DIR [--max-mean-difference D] [--samples N]
-# Writes REPORT/renderer/cycles-VIEW.f32 (as loom's) and cycles-comparison.json.
+#       REPORT [MTLX_DIR] [--max-mean-difference D] [--samples N]
+# MTLX_DIR defaults to REPORT/mtlx, which `loom eval` writes. Writes REPORT/renderer/cycles-VIEW.f32
+# (as loom's), cycles-VIEW.png (at the view's white, as loom's PNG) and cycles-comparison.json;
+# `node web/renderers-page.mjs REPORT` then shows every renderer beside loom.
 import json
 import math
 import os
@@ -43,8 +45,10 @@ def parse_arguments(argv):
         else:
             options["paths"].append(argv[i])
         i += 1
+    if len(options["paths"]) == 1:
+        options["paths"].append(os.path.join(options["paths"][0], "mtlx"))
     if len(options["paths"]) != 2:
-        raise SystemExit("usage: render_check.py -- REPORT MTLX_DIR [--max-mean-difference D] [--samples N]")
+        raise SystemExit("usage: render_check.py -- REPORT [MTLX_DIR] [--max-mean-difference D] [--samples N]")
     return options
 
 
@@ -233,6 +237,28 @@ def loom_material(mtlx_dir):
     return material
 
 
+def srgb(linear):
+    v = min(max(linear, 0.0), 1.0)
+    return 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1 / 2.4) - 0.055
+
+
+def write_png(path, rgb, width, height, white):
+    """`rgb` row by row from the maps' first row, as loom writes its PNG (white = the view's white)."""
+    image = bpy.data.images.new("png", width, height, alpha=False)
+    pixels = [0.0] * (4 * width * height)
+    for y in range(height):
+        for x in range(width):
+            source, target = 3 * (y * width + x), 4 * ((height - 1 - y) * width + x)  # Blender's rows from the bottom
+            for k in range(3):
+                pixels[target + k] = srgb(rgb[source + k] / white)
+            pixels[target + 3] = 1.0
+    image.pixels[:] = pixels
+    image.filepath_raw = path
+    image.file_format = "PNG"
+    image.save()
+    bpy.data.images.remove(image)
+
+
 def read_f32(path):
     with open(path, "rb") as f:
         data = f.read()
@@ -264,6 +290,7 @@ def main():
         loom = read_f32(os.path.join(renderer_dir, view["loom"]))
         with open(os.path.join(renderer_dir, "cycles-%s.f32" % view["name"]), "wb") as f:
             f.write(struct.pack("<%df" % len(cycles), *cycles))
+        write_png(os.path.join(renderer_dir, "cycles-%s.png" % view["name"]), cycles, width, height, view["white"])
         difference = sum(abs(a - b) for a, b in zip(cycles, loom)) / sum(abs(b) for b in loom)
         results.append({"name": view["name"], "relative_difference": difference,
                         "mean_loom": sum(loom) / len(loom), "mean_cycles": sum(cycles) / len(cycles)})

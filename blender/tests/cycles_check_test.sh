@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # A fabric's maps exported as MaterialX, its textures built into a Cycles material by headless
 # Blender and rendered under six of the stack's point-lit views, against loom's own rendering of
-# the same maps (render_check.py): within the bound (0.19 measured on this fabric;
+# the same maps (render_check.py; loom eval's own MaterialX export and the one `loom export
+# --mtlx` writes): within the bound (0.19 measured on this fabric;
 # docs/benchmarks.md). The maps are the simulator's truth, so that what differs is the export and
 # the renderer, not a fit. A material with its base and specular colours swapped must fail the
 # same bound, so the check can fail.
@@ -17,7 +18,10 @@ check() {
     --max-mean-difference 0.25 2>&1 | grep -E "relative difference|Error"
 }
 check mtlx
+check report/mtlx
 test -s report/renderer/cycles-comparison.json
+node "$here/../web/renderers-page.mjs" report
+grep -q "Blender 3" report/renderer/index.html && grep -q "cycles-obs" report/renderer/index.html
 
 cp -r mtlx swapped
 cp mtlx/specular_color.png swapped/base_color.png && cp mtlx/base_color.png swapped/specular_color.png

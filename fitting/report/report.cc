@@ -13,6 +13,7 @@
 #include "core/version.h"
 #include "fitting/report/export.h"
 #include "fitting/report/gltf_export.h"
+#include "fitting/report/mtlx_export.h"
 #include "fitting/report/renderer_views.h"
 
 namespace loom::fitting {
@@ -160,11 +161,13 @@ Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostr
   return Status::Ok();
 }
 
-// The glTF and the views web/render-check.mjs renders; its page, renderer/index.html, shows
-// three.js beside loom once that script has run.
+// The glTF and MaterialX exports and the views web/render-check.mjs (three.js) and
+// blender/render_check.py (Cycles) render; web/renderers-page.mjs's renderer/index.html shows
+// them beside loom once they have run.
 Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
   if (in.renderer_views <= 0) return Status::Ok();
   LOOM_RETURN_IF_ERROR(WriteGltf(*in.maps, in.stack->pixel_mm, dir / "material").status());
+  LOOM_RETURN_IF_ERROR(WriteMaterialX(*in.maps, in.stack->pixel_mm, dir / "mtlx"));
   const std::vector<RendererView> views = ChooseRendererViews(*in.stack, in.renderer_views);
   if (views.empty()) {
     html << "<h2>In a real renderer</h2>\n<p>The fit as glTF 2.0: <a href=\"material/material.gltf\">material/material.gltf</a>. "
@@ -177,8 +180,10 @@ Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::os
        << views.size()
        << " point-lit views of it, rendered by loom's own model, are in renderer/views.json; "
           "<code>node web/render-check.mjs REPORT</code> renders the glTF under the same lights in three.js (headless "
-          "Chromium) and writes <a href=\"renderer/index.html\">renderer/index.html</a>: both renderings side by side "
-          "with their relative difference. <code>node web/viewer.mjs REPORT</code> adds "
+          "Chromium), <code>blender -b --python blender/render_check.py -- REPORT</code> a material built from "
+          "<a href=\"mtlx/material.mtlx\">the MaterialX export</a>'s textures in Blender's Cycles; "
+          "<a href=\"renderer/index.html\">renderer/index.html</a> shows them beside loom's rendering with their "
+          "relative differences. <code>node web/viewer.mjs REPORT</code> adds "
           "<a href=\"viewer/index.html\">viewer/index.html</a>: the material in three.js under a light that follows "
           "the pointer.</p>\n";
   return Status::Ok();
