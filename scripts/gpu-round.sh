@@ -85,6 +85,34 @@ link_fresh() {
   for f in "$fresh"/*.exr; do ln -sf "$(realpath "$f")" "$data/add-$(basename "$f")"; done
 }
 
+# Runs a stage's command with the GPU's utilisation sampled each second (nvidia-smi dmon: the
+# streaming multiprocessors' and memory's busy %) into $OUT/STAGE.dmon, and appends its mean and
+# peak to $OUT/round.log; without nvidia-smi (a dry run on a CPU) the command runs alone.
+with_utilisation() {
+  local stage=$1
+  shift
+  if ! command -v nvidia-smi > /dev/null; then
+    "$@"
+    return
+  fi
+  nvidia-smi dmon -s u -d 1 > "$OUT/$stage.dmon" 2>&1 &
+  local sampler=$!
+  local status=0
+  "$@" || status=$?
+  kill "$sampler" 2> /dev/null || true
+  wait "$sampler" 2> /dev/null || true
+  python3 - "$OUT/$stage.dmon" "$stage" <<'PY' | tee -a "$OUT/round.log"
+import sys
+rows = [line.split() for line in open(sys.argv[1]) if line.strip() and not line.startswith("#")]
+sm = [float(r[1]) for r in rows if len(r) > 2 and r[1].replace(".", "").isdigit()]
+if sm:
+    print(f"{sys.argv[2]}: GPU multiprocessors busy {sum(sm) / len(sm):.0f} % on average, {max(sm):.0f} % at most ({len(sm)} s sampled)")
+else:
+    print(f"{sys.argv[2]}: nvidia-smi dmon gave no samples")
+PY
+  return $status
+}
+
 # Samples a second in the short run's last epoch.
 rate_of() {
   python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["epochs"][-1]["samples_per_second"])' "$1/training.json"
@@ -117,14 +145,14 @@ run() {
   "$loom" version | tee "$OUT/version.txt"
 
   local start=$SECONDS
-  train "$work/short" 3 5 "${widen[@]}" > "$OUT/short.log" 2>&1
+  with_utilisation short train "$work/short" 3 5 "${widen[@]}" > "$OUT/short.log" 2>&1
   local rate
   rate=$(rate_of "$work/short")
   echo "3 epochs of 5 steps (the seeded fabrics rendered first): $((SECONDS - start)) s, the last at $rate samples/s" |
     tee -a "$OUT/round.log"
 
   start=$SECONDS
-  render_fresh "$work/fresh" > "$OUT/render.log" 2>&1
+  with_utilisation render render_fresh "$work/fresh" > "$OUT/render.log" 2>&1
   link_fresh "$work/fresh" "$data"
   echo "rendered $fabrics fabrics from seed $first_seed: $((SECONDS - start)) s" | tee -a "$OUT/round.log"
 
@@ -133,8 +161,9 @@ run() {
   steps=$(python3 -c "import sys; r, t, e, k = map(float, sys.argv[1:]); print(max(1, int(r * t / (k * 1024) / e)))" \
     "$rate" "$train_s" "$epochs" "$tiles")
   start=$SECONDS
-  train "$work/model" "$epochs" "$steps" --weights float16 "${widen[@]}" > "$OUT/train.log" 2>&1
-  echo "$epochs epochs of $steps steps ($tiles tiles of 32² each): $((SECONDS - start)) s" | tee -a "$OUT/round.log"
+  with_utilisation train train "$work/model" "$epochs" "$steps" --weights float16 "${widen[@]}" > "$OUT/train.log" 2>&1
+  echo "$epochs epochs of $steps steps ($tiles tiles of 32² each): $((SECONDS - start)) s, the last at $(rate_of "$work/model") samples/s" |
+    tee -a "$OUT/round.log"
   cp "$work/model/model.json" "$work/model/weights.pt" "$work/model/training.json" "$OUT/"
 }
 
