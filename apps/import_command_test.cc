@@ -1,6 +1,7 @@
-// loom sim capture → loom import → loom fit → loom eval on simulated curved objects in the layout
-// of photometric-stereo benchmarks: the chain runs on captures from other rigs, masks are skipped
-// and counted, the normals are recovered against the truth, and a held-out view scores a fit.
+// loom sim capture → loom import → loom fit → loom eval on simulated curved objects in the layouts
+// of photometric-stereo benchmarks and light domes: the chain runs on captures from other rigs,
+// masks are skipped and counted, the normals are recovered against the truth, and a held-out view
+// scores a fit.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -117,6 +118,28 @@ TEST_F(ImportCommandTest, AnOutOfModelSphereIsFittedNoWorseThanPhotometricStereo
   const nlohmann::json ceres = FitAndScoreNormals("ceres");
   EXPECT_LT(ceres["mean_deg"].get<double>(), 0.6) << ceres.dump();
   EXPECT_GT(Json("fit-ceres/fit.json")["pixels_normal_held"].get<int>(), 0);
+  ASSERT_EQ(ceres["by_tilt"].size(), lambert["by_tilt"].size());
+  for (size_t b = 0; b < ceres["by_tilt"].size(); ++b) {
+    EXPECT_LE(ceres["by_tilt"][b]["mean_deg"].get<double>(), lambert["by_tilt"][b]["mean_deg"].get<double>() + 0.02)
+        << "band " << b << ": " << ceres.dump() << lambert.dump();
+  }
+}
+
+TEST_F(ImportCommandTest, ALightDomesSrgbJpegsAreImportedAndFittedNoWorseThanPhotometricStereoInAnyTiltBand) {
+  // The lp layout: a .lp file and 8-bit sRGB JPEGs, whose quantisation and compression cost
+  // accuracy (measured on 32 × 32 px, 24 lights: ceres mean 0.93° against photometric stereo's
+  // 1.18°; noise-free 16-bit PNGs give 0.02°).
+  const auto capture = RunCommand(Loom("sim capture --layout lp --size 32 --lights 24 --truth " + Path("truth.exr") +
+                                       " --normals " + Path("normals.exr") + " --out " + Path("capture")));
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  ASSERT_TRUE(fs::exists(dir_ / "capture" / "capture.lp"));
+  const auto imported = RunCommand(Loom("import " + Path("capture") + " --scale 1 --out " + Path("stack.exr")));
+  ASSERT_EQ(imported.exit_code, 0) << imported.output;
+  EXPECT_NE(imported.output.find("imported 24 images (lp, srgb)"), std::string::npos) << imported.output;
+  const nlohmann::json lambert = FitAndScoreNormals("lambert");
+  const nlohmann::json ceres = FitAndScoreNormals("ceres");
+  EXPECT_LT(ceres["mean_deg"].get<double>(), 1.5) << ceres.dump();
+  EXPECT_LT(ceres["mean_deg"].get<double>(), lambert["mean_deg"].get<double>()) << ceres.dump() << lambert.dump();
   ASSERT_EQ(ceres["by_tilt"].size(), lambert["by_tilt"].size());
   for (size_t b = 0; b < ceres["by_tilt"].size(); ++b) {
     EXPECT_LE(ceres["by_tilt"][b]["mean_deg"].get<double>(), lambert["by_tilt"][b]["mean_deg"].get<double>() + 0.02)

@@ -157,12 +157,13 @@ Status FlashCapture(CaptureArguments args) {
   return Status::Ok();
 }
 
-// A curved object in the ps layout, with its truth beside (not inside) the folder: loom import
+// A curved object in the ps or lp layout, with its truth beside (not inside) the folder: loom import
 // reads every image of a folder in some layouts.
 Status Capture(CaptureArguments args) {
   LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--truth", args.truth}, {"--normals", args.normals}}, args.force));
   if (args.layout == "flash") return FlashCapture(std::move(args));
-  if (args.layout != "ps") return InvalidArgumentError("--layout " + args.layout, "expected ps or flash");
+  if (args.layout != "ps" && args.layout != "lp")
+    return InvalidArgumentError("--layout " + args.layout, "expected ps, lp or flash");
   if (args.shape != "sphere" && args.shape != "cylinder") {
     return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
   }
@@ -181,11 +182,12 @@ Status Capture(CaptureArguments args) {
   const double white = std::max(1.0, 1.01 * brightest);
   InStoredUnits(capture.truth, white);
   photos::PhotometricStereoCapture ps{std::move(capture.images), capture.light_directions, capture.mask, white};
-  LOOM_RETURN_IF_ERROR(photos::WritePhotometricStereo(args.out, ps));
+  LOOM_RETURN_IF_ERROR(args.layout == "lp" ? photos::WriteLightPositions(args.out, ps)
+                                           : photos::WritePhotometricStereo(args.out, ps));
   if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.truth, capture.truth, {{"loom.kind", std::string("svbrdf maps")}}));
   if (!args.normals.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.normals, capture.normals, {}));
   std::cout << "wrote " << args.out << ": a " << args.shape << " under " << ps.images.size() << " directional lights, "
-            << args.options.size_px << "x" << args.options.size_px << " px (ps layout; radiance ×" << 1 / white
+            << args.options.size_px << "x" << args.options.size_px << " px (" << args.layout << " layout; radiance ×" << 1 / white
             << " as stored; the truth's albedos in the stored units)\n";
   return Status::Ok();
 }
@@ -249,9 +251,9 @@ int RunSim(int argc, char** argv) {
   CLI::App* capture_app = app.add_subcommand(
       "capture",
       "Photographs as other rigs take them, with their truth: a curved object under directional lights (--layout ps, "
-      "a photometric-stereo benchmark's) or a flat material under a phone's flash (--layout flash)");
-  capture_app->add_option("--layout", capture.layout, "ps or flash")->capture_default_str();
-  capture_app->add_option("--shape", capture.shape, "ps: sphere or cylinder")->capture_default_str();
+      "a photometric-stereo benchmark's, or lp, a light dome's) or a flat material under a phone's flash (--layout flash)");
+  capture_app->add_option("--layout", capture.layout, "ps, lp (a light dome's: sRGB JPEGs) or flash")->capture_default_str();
+  capture_app->add_option("--shape", capture.shape, "ps and lp: sphere or cylinder")->capture_default_str();
   capture_app->add_option("--object", capture.sample.kind, "flash: the material (fabric, fabric-out-of-model)")
       ->capture_default_str();
   capture_app->add_option("--object-seed", capture.sample.seed, "flash: the material's seed");

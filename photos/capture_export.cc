@@ -38,14 +38,27 @@ cv::Mat Encoded(const Image& image, int type, double top, const Encode& encode) 
 
 Status WriteImage(const fs::path& path, const cv::Mat& image) {
   std::vector<uint8_t> bytes;
-  if (!cv::imencode(".png", image, bytes)) return InternalError(path.string(), "PNG encoding failed");
+  const std::string extension = path.extension().string();
+  if (!cv::imencode(extension, image, bytes, {cv::IMWRITE_JPEG_QUALITY, 95})) {
+    return InternalError(path.string(), extension + " encoding failed");
+  }
   return WriteFileAtomically(path, std::string(bytes.begin(), bytes.end()));
 }
 
-std::string Numbered(int k, int digits) {
+std::string Numbered(int k, int digits, const std::string& extension = ".png") {
   std::ostringstream name;
-  name << std::setw(digits) << std::setfill('0') << k << ".png";
+  name << std::setw(digits) << std::setfill('0') << k << extension;
   return name.str();
+}
+
+double SrgbEncoded(double linear) { return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055; }
+
+Status WriteMask(const fs::path& path, const Image& mask_image) {
+  cv::Mat mask(mask_image.height(), mask_image.width(), CV_8UC1);
+  for (int y = 0; y < mask.rows; ++y) {
+    for (int x = 0; x < mask.cols; ++x) mask.at<uint8_t>(y, x) = mask_image.at(0, y, x) != 0 ? 255 : 0;
+  }
+  return WriteImage(path, mask);
 }
 
 }  // namespace
@@ -66,13 +79,24 @@ Status WritePhotometricStereo(const fs::path& dir, const PhotometricStereoCaptur
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "filenames.txt", names.str()));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "light_directions.txt", directions.str()));
   LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "light_intensities.txt", intensities.str()));
-  if (capture.mask) {
-    cv::Mat mask(capture.mask->height(), capture.mask->width(), CV_8UC1);
-    for (int y = 0; y < mask.rows; ++y) {
-      for (int x = 0; x < mask.cols; ++x) mask.at<uint8_t>(y, x) = capture.mask->at(0, y, x) != 0 ? 255 : 0;
-    }
-    LOOM_RETURN_IF_ERROR(WriteImage(dir / "mask.png", mask));
+  if (capture.mask) LOOM_RETURN_IF_ERROR(WriteMask(dir / "mask.png", *capture.mask));
+  return Status::Ok();
+}
+
+Status WriteLightPositions(const fs::path& dir, const PhotometricStereoCapture& capture) {
+  LOOM_RETURN_IF_ERROR(CreateDirectories(dir));
+  std::ostringstream lp;
+  lp << capture.images.size() << "\n" << std::setprecision(9);
+  for (size_t k = 0; k < capture.images.size(); ++k) {
+    const std::string name = Numbered(static_cast<int>(k) + 1, 3, ".jpg");
+    LOOM_RETURN_IF_ERROR(WriteImage(dir / name, Encoded(capture.images[k], CV_8UC3, 255, [&](double v) {
+                                      return SrgbEncoded(std::min(1.0, v / capture.white));
+                                    })));
+    const Eigen::Vector3d& d = capture.light_directions[k];
+    lp << name << " " << d.x() << " " << d.y() << " " << d.z() << "\n";
   }
+  LOOM_RETURN_IF_ERROR(WriteFileAtomically(dir / "capture.lp", lp.str()));
+  if (capture.mask) LOOM_RETURN_IF_ERROR(WriteMask(dir / "mask.png", *capture.mask));
   return Status::Ok();
 }
 

@@ -24,6 +24,10 @@ struct PhotometricStereoCapture {
   double white = 1;                               // the radiance stored as the top value
 };
 Status WritePhotometricStereo(const std::filesystem::path& dir, const PhotometricStereoCapture& capture);
+// The same capture in the `lp` layout of light domes for reflectance transformation imaging:
+// NNN.jpg as 8-bit sRGB JPEG (quality 95), capture.lp (the count, then "NNN.jpg x y z" a line)
+// and, when given, mask.png.
+Status WriteLightPositions(const std::filesystem::path& dir, const PhotometricStereoCapture& capture);
 
 // The `flash` layout: NN.png as 8-bit PNG with gamma 2.2 (value^(1/2.2), clipped at 1),
 // camera_pos.txt, light_pos.txt ("x,y,z" cm, y up the image), image_size.txt (cm) and
