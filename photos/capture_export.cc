@@ -89,9 +89,8 @@ Status WriteLightPositions(const fs::path& dir, const PhotometricStereoCapture& 
   lp << capture.images.size() << "\n" << std::setprecision(9);
   for (size_t k = 0; k < capture.images.size(); ++k) {
     const std::string name = Numbered(static_cast<int>(k) + 1, 3, ".jpg");
-    LOOM_RETURN_IF_ERROR(WriteImage(dir / name, Encoded(capture.images[k], CV_8UC3, 255, [&](double v) {
-                                      return SrgbEncoded(std::min(1.0, v / capture.white));
-                                    })));
+    LOOM_RETURN_IF_ERROR(WriteImage(
+        dir / name, Encoded(capture.images[k], CV_8UC3, 255, [&](double v) { return SrgbEncoded(v / capture.white); })));
     const Eigen::Vector3d& d = capture.light_directions[k];
     lp << name << " " << d.x() << " " << d.y() << " " << d.z() << "\n";
   }
