@@ -7,7 +7,8 @@
 # (a_d) added to an Anisotropic GGX BSDF whose colour is a_s · F0 (specular_color.png times the
 # F0 that the document's specular_IOR carries), its roughness, anisotropy and rotation turned
 # from Standard Surface's parameters into Cycles' (α_x = r² / (1 + k), α_y = r² (1 + k) for
-# anisotropy k < 0 along the tangent: k = √(1 − a) − 1), and the tangent-space normal map. That
+# anisotropy k < 0 along the tangent: k = √(1 − a) − 1; the rotation's sense reversed, since
+# the document's follows MaterialX's rotate3d), and the tangent-space normal map. That
 # is loom's model but for the lobe (GGX for Ward, fitting/report/mtlx_export.h) and F0 taken as
 # Schlick's at normal incidence.
 #
@@ -225,7 +226,9 @@ def loom_material(mtlx_dir):
     links.new(roughness.outputs["Color"], glossy.inputs["Roughness"])
     k = math_node("SUBTRACT", math_node("SQRT", math_node("SUBTRACT", 1.0, anisotropy.outputs["Color"])), 1.0)
     links.new(k, glossy.inputs["Anisotropy"])
-    links.new(rotation.outputs["Color"], glossy.inputs["Rotation"])
+    # The document's rotation turns clockwise about the normal, as MaterialX's rotate3d does;
+    # Cycles' turns the other way: 1 − r is −r in turns.
+    links.new(math_node("SUBTRACT", 1.0, rotation.outputs["Color"]), glossy.inputs["Rotation"])
     links.new(normal.outputs["Normal"], glossy.inputs["Normal"])
     links.new(tangent.outputs["Tangent"], glossy.inputs["Tangent"])
 

@@ -8,6 +8,7 @@
 // direction is the same at every pixel, as in loom's rendering.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { compare, pngOf, rgbOf } from './view-comparison.js';
 
 function theMesh(root) {
   let mesh = null;
@@ -34,46 +35,6 @@ function placeByTextureCoordinates(material, span) {
       shader.vertexShader.replace(end, `${end}\n\tgl_Position = vec4( 2.0 * uv / loomUvSpan - 1.0, 0.0, 1.0 );`);
   };
   material.needsUpdate = true;
-}
-
-function srgb8(linear) {
-  const v = Math.min(Math.max(linear, 0), 1);
-  return Math.round(255 * (v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055));
-}
-
-// RGBA floats (row 0 = the maps' first row) as a PNG at white = `white`, as loom writes its own.
-function pngOf(rgba, width, height, white) {
-  const canvas = document.createElement('canvas');
-  canvas.width = width;
-  canvas.height = height;
-  const context = canvas.getContext('2d');
-  const image = context.createImageData(width, height);
-  for (let i = 0; i < width * height; ++i) {
-    for (let c = 0; c < 3; ++c) image.data[4 * i + c] = srgb8(rgba[4 * i + c] / white);
-    image.data[4 * i + 3] = 255;
-  }
-  context.putImageData(image, 0, 0);
-  return canvas.toDataURL('image/png');
-}
-
-// RGBA → RGB floats, as loom writes its own rendering.
-function rgbOf(rgba) {
-  const rgb = new Float32Array((rgba.length / 4) * 3);
-  for (let i = 0; i < rgba.length / 4; ++i) rgb.set(rgba.subarray(4 * i, 4 * i + 3), 3 * i);
-  return Array.from(rgb);
-}
-
-function compare(rgba, loom) {
-  let difference = 0, sum = 0, threejs = 0;
-  for (let i = 0; i < loom.length / 3; ++i) {
-    for (let c = 0; c < 3; ++c) {
-      difference += Math.abs(rgba[4 * i + c] - loom[3 * i + c]);
-      sum += Math.abs(loom[3 * i + c]);
-      threejs += rgba[4 * i + c];
-    }
-  }
-  const values = loom.length;
-  return { relative_difference: difference / sum, mean_loom: sum / values, mean_threejs: threejs / values };
 }
 
 export async function renderViews(report) {
@@ -108,7 +69,7 @@ export async function renderViews(report) {
     const loom = new Float32Array(await (await fetch(`${report}/renderer/${view.loom}`)).arrayBuffer());
     if (loom.length !== width * height * 3) throw new Error(`${view.loom}: ${loom.length} floats, not ${width * height * 3}`);
     results.push({
-      name: view.name, ...compare(rgba, loom), png: pngOf(rgba, width, height, view.white), rgb: rgbOf(rgba),
+      name: view.name, ...compare(rgba, loom, 'threejs'), png: pngOf(rgba, width, height, view.white), rgb: rgbOf(rgba),
     });
   }
   renderer.setRenderTarget(null);

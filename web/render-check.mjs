@@ -6,11 +6,9 @@
 //
 // Usage: node render-check.mjs REPORT [--max-mean-difference D]
 // Exits 1 when the views' mean relative difference exceeds D, or on any page error.
-import { readFile, writeFile } from 'node:fs/promises';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { openBrowser, origin } from './browser.mjs';
-import { writeRenderersPage } from './renderers-page.mjs';
+import { exitAgainstBound, readViews, renderInPage, saveRenderings } from './render-views.mjs';
 
 const web = path.dirname(fileURLToPath(import.meta.url));
 
@@ -28,38 +26,9 @@ function parseArguments(argv) {
 }
 
 const options = parseArguments(process.argv.slice(2));
-const rendererDir = path.join(options.report, 'renderer');
-const views = JSON.parse(await readFile(path.join(rendererDir, 'views.json'), 'utf8'));
-if (views.views.length === 0) {
-  console.error(`${rendererDir}/views.json: no views to render`);
-  process.exit(1);
-}
-const { browser, page: tab, errors } = await openBrowser({
-  '/three/': path.join(web, 'node_modules', 'three'), '/web/': web, '/report/': options.report,
-});
-let check;
-try {
-  await tab.goto(`${origin}/web/render-check.html`);
-  await tab.waitForFunction(() => window.renderCheckReady === true, null, { timeout: 60000 });
-  check = await tab.evaluate(() => window.renderViews('/report'));
-} finally {
-  await browser.close();
-}
-for (const [i, result] of check.results.entries()) {
-  const name = views.views[i].name;
-  await writeFile(path.join(rendererDir, `threejs-${name}.png`), Buffer.from(result.png.split(',')[1], 'base64'));
-  await writeFile(path.join(rendererDir, `threejs-${name}.f32`), Buffer.from(new Float32Array(result.rgb).buffer));
-  delete result.png;
-  delete result.rgb;
-}
-check.mean_relative_difference = check.results.reduce((s, r) => s + r.relative_difference, 0) / check.results.length;
-await writeFile(path.join(rendererDir, 'comparison.json'), JSON.stringify(check, null, 2) + '\n');
-await writeRenderersPage(options.report);
-for (const r of check.results) console.log(`${r.name}: relative difference ${r.relative_difference.toFixed(4)}`);
-console.log(`mean relative difference ${check.mean_relative_difference.toFixed(4)} (three.js r${check.three}, ${check.renderer})`);
-const mean = check.mean_relative_difference;
-if (errors.length > 0) console.error(`page errors:\n${errors.join('\n')}`);
-if (!(mean <= options.maxMeanDifference)) {
-  console.error(`mean relative difference ${mean.toFixed(4)} > --max-mean-difference ${options.maxMeanDifference}`);
-}
-process.exit(errors.length === 0 && mean <= options.maxMeanDifference ? 0 : 1);
+const views = await readViews(options.report);
+const { check, errors } = await renderInPage(
+  { '/three/': path.join(web, 'node_modules', 'three'), '/web/': web, '/report/': options.report },
+  '/web/render-check.html', '/report');
+await saveRenderings(options.report, 'threejs', 'comparison.json', views, check);
+exitAgainstBound(check, errors, options.maxMeanDifference, `three.js r${check.three}, ${check.renderer}`);

@@ -1,7 +1,8 @@
 // REPORT/renderer/index.html: loom's own rendering of a report's views beside every other
-// renderer's that has run — three.js rendering the glTF (render-check.mjs: comparison.json) and
-// Blender's Cycles rendering a material built from the MaterialX textures
-// (blender/render_check.py: cycles-comparison.json) — with each one's relative difference
+// renderer's that has run — three.js rendering the glTF (render-check.mjs: comparison.json), the
+// shader MaterialX generates for the MaterialX document (render-mtlx.mjs:
+// materialx-comparison.json) and Blender's Cycles rendering a material built from the MaterialX
+// textures (blender/render_check.py: cycles-comparison.json) — with each one's relative difference
 // Σ|other − loom| / Σ|loom| and where its model departs from GD10-Ward.
 //
 // Usage: node renderers-page.mjs REPORT (render-check.mjs calls writeRenderersPage itself).
@@ -17,6 +18,14 @@ const renderers = [
       'Schlick Fresnel rising to 1 at grazing angles where loom\'s rises to a_s, the diffuse darkened by (1 − F) where ' +
       'loom adds the two lobes, anisotropy dropped where normals tilt wider than the lobes (loom\'s ' +
       'fitting/report/gltf_export.h), 8-bit textures.',
+  },
+  {
+    name: 'MaterialX', comparison: 'materialx-comparison.json', image: (view) => `materialx-${view}.png`,
+    version: (c) => `MaterialX ${c.materialx}'s own ESSL shader for <a href="../${c.document}">the document</a> (${c.renderer})`,
+    departs: 'Standard Surface: a dielectric GGX lobe (α = √2 σ per axis) of colour a_s · F0 / F0_max over a Lambertian ' +
+      'base that it darkens where it reflects (loom adds the two lobes), its Fresnel rising to 1 at grazing angles where ' +
+      'loom\'s rises to a_s, GGX\'s multiple-scattering compensation, 8-bit textures (loom\'s ' +
+      'fitting/report/mtlx_export.h).',
   },
   {
     name: 'Cycles', comparison: 'cycles-comparison.json', image: (view) => `cycles-${view}.png`,
@@ -64,7 +73,7 @@ Relative difference: Σ|renderer − loom| / Σ|loom| over every pixel and colou
 <ul>
 ${means}
 </ul>
-${missing.length ? `<p>Not run yet: ${missing.join(', ')} (web/render-check.mjs; blender/render_check.py).</p>` : ''}
+${missing.length ? `<p>Not run yet: ${missing.join(', ')} (web/render-check.mjs; web/render-mtlx.mjs; blender/render_check.py).</p>` : ''}
 <table><tr><th>view</th><th>loom</th>${head}</tr>
 ${rows}
 </table>

@@ -5,22 +5,9 @@
 // generator generates the document's material. Prints a JSON summary; exit 1 on any problem.
 //
 //   node web/validate-mtlx.mjs DIR/material.mtlx
-import { createRequire } from 'node:module';
 import fs from 'node:fs';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
-
-const bin = path.join(path.dirname(fileURLToPath(import.meta.url)), 'node_modules/@needle-tools/materialx/bin');
-
-// The Emscripten module is written for CommonJS and the browser: in an ES module it needs
-// `require` and its own path, and its library bundle is published as .data.txt.
-async function loadMaterialX() {
-  globalThis.require = createRequire(import.meta.url);
-  globalThis.__filename = path.join(bin, 'JsMaterialXGenShader.js');
-  globalThis.__dirname = bin;
-  const { default: MaterialX } = await import(path.join(bin, 'JsMaterialXGenShader.js'));
-  return MaterialX({ locateFile: (file) => path.join(bin, file.endsWith('.data') ? `${file}.txt` : file) });
-}
+import { errorMessage, loadMaterialX } from './materialx.mjs';
 
 function checkNode(node, doc, folder, problems) {
   const where = `node '${node.getName()}' (${node.getCategory()}, ${node.getType()})`;
@@ -77,7 +64,7 @@ async function main() {
       const shader = generator.generate(materials[0].getNamePath(), materials[0], context);
       pixelShaderBytes = shader.getSourceCode('pixel').length;
     } catch (error) {
-      problems.push(`shader generation failed: ${typeof error === 'number' ? mx.getExceptionMessage(error) : error}`);
+      problems.push(`shader generation failed: ${errorMessage(mx, error)}`);
     }
     if (pixelShaderBytes === 0 && problems.length === 0) problems.push('shader generation gave an empty pixel shader');
   }

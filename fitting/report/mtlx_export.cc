@@ -31,14 +31,16 @@ struct Textures {
 };
 
 // The wider axis' angle from the tangent (T, along the image's columns) as a fraction of a turn
-// in [0, 0.5), turning right-handedly about the quad's normal, as Standard Surface's rotate3d
-// turns the tangent: from T towards N × T, which is the sample's +y, down the image (the
-// opposite of the UV bitangent, which runs up it).
+// in [0, 0.5), turning clockwise about the quad's normal (from T towards T × N, up the image),
+// because that is how MaterialX's rotate3d turns the tangent by specular_rotation: its GLSL, ESSL
+// and OSL build the rotation matrix transposed (MaterialX issue #2083), so documents render as
+// written in the library's own shaders. Cycles, which turns right-handedly, reads the opposite
+// (blender/render_check.py).
 double RotationOfWiderAxis(const Image& maps, int x, int y, double pixel_mm, const WardParams<double>& p) {
   const AnisotropyFrame<double> frame = MakeAnisotropyFrame(p.n_s, p.alpha);
   const Eigen::Vector3d wider = p.sigma_y > p.sigma_x ? frame.b : frame.t;
   const Eigen::Vector3d axis = internal::SampleFromLocal(maps, x, y, pixel_mm) * wider;
-  const double turns = std::atan2(axis.y(), axis.x()) / (2 * M_PI);
+  const double turns = -std::atan2(axis.y(), axis.x()) / (2 * M_PI);
   return turns - std::floor(turns * 2) / 2;  // modulo half a turn
 }
 

@@ -15,9 +15,10 @@
 //   - roughness and anisotropy: GGX α = √2 σ per axis (internal/texture_frame.h); Standard
 //     Surface's α_x = r² / √(1 − a), α_y = r² √(1 − a), so r = (α_t α_b)^¼ and a = 1 − α_b / α_t
 //     (at most 0.98, its own clamp); specular_rotation turns the tangent onto the wider axis, as a
-//     fraction of a full turn in [0, 0.5) (a lobe is the same turned by half a turn), right-handed
-//     about the normal (from the image's columns towards down the image), as rotate3d turns. Where the
-//     wider axis flips across 0.5 between texels, filtering blends two rotations.
+//     fraction of a full turn in [0, 0.5) (a lobe is the same turned by half a turn), clockwise
+//     about the normal (from the image's columns towards up the image), as MaterialX's rotate3d
+//     turns in its own shaders (mtlx_export.cc says why). Where the wider axis flips across 0.5
+//     between texels, filtering blends two rotations.
 //   - normal: n_s in tangent space through a normalmap node, (n + 1) / 2 as glTF's normal textures
 //     (x along the image's columns, y up its rows), tilted by the heightmap's geometric normal
 //     when the maps have `height`.
@@ -25,7 +26,8 @@
 // and v up its rows, and the document's doc string gives the sample's size in mm. Pixels the fit
 // skipped (NaN) are black. No C++ MaterialX library is packaged in Debian 12, so the XML is
 // written here and checked by the MaterialX library itself (its WebAssembly build:
-// web/validate-mtlx.mjs; web/tests/mtlx_validation_test.sh).
+// web/validate-mtlx.mjs; web/tests/mtlx_validation_test.sh), which also generates the shader
+// that renders it beside loom's rendering (web/render-mtlx.mjs).
 
 #include <filesystem>
 

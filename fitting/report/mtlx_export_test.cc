@@ -65,9 +65,9 @@ TEST(MaterialXExportTest, WritesTheDocumentAndTexturesWithTheIorOfTheLargestSpec
   const cv::Mat rotation = cv::imread((dir / "rotation.png").string(), cv::IMREAD_GRAYSCALE);
   ASSERT_EQ(rotation.cols, 3);
   EXPECT_NEAR(rotation.at<uint8_t>(0, 0) / 255.0, 0.25, 1.0 / 255);
-  // Right-handed about the normal, as Standard Surface's rotate3d turns the tangent (and Cycles'
-  // anisotropic BSDF: blender/render_check.py) — not towards the UV bitangent, up the image.
-  EXPECT_NEAR(rotation.at<uint8_t>(0, 1) / 255.0, 0.3 / (2 * M_PI), 1.0 / 255);
+  // Clockwise about the normal, as MaterialX's rotate3d turns the tangent in its shaders
+  // (web/render-mtlx.mjs renders them): 0.3 rad towards down the image is half a turn less 0.3.
+  EXPECT_NEAR(rotation.at<uint8_t>(0, 1) / 255.0, 0.5 - 0.3 / (2 * M_PI), 1.0 / 255);
   const cv::Mat specular = cv::imread((dir / "specular_color.png").string(), cv::IMREAD_COLOR);
   EXPECT_EQ(specular.at<cv::Vec3b>(1, 2)[2], 255) << "the largest tint is white: the IOR carries the scale";
   for (const char* texture : {"base_color", "roughness", "anisotropy", "normal"}) {
