@@ -1,27 +1,33 @@
 # Renders loom's fitted maps with Blender's Cycles under each of an eval report's renderer views
 # (REPORT/renderer/views.json) and compares every texel with loom's own rendering of the same
-# view (fitting/report/renderer_views.h), as web/render-check.mjs does for three.js.
+# view (fitting/report/renderer_views.h), as web/render-check.mjs does for three.js. Two materials:
 #
-# The material is built natively from `loom export --mtlx`'s textures, because Blender 3.4's glTF
-# importer reads neither KHR_materials_anisotropy nor KHR_materials_specular: a Diffuse BSDF
-# (a_d) added to an Anisotropic GGX BSDF whose colour is a_s · F0 (specular_color.png times the
-# F0 that the document's specular_IOR carries), its roughness, anisotropy and rotation turned
-# from Standard Surface's parameters into Cycles' (α_x = r² / (1 + k), α_y = r² (1 + k) for
-# anisotropy k < 0 along the tangent: k = √(1 − a) − 1; the rotation's sense reversed, since
-# the document's follows MaterialX's rotate3d), and the tangent-space normal map. That
-# is loom's model but for the lobe (GGX for Ward, fitting/report/mtlx_export.h) and F0 taken as
-# Schlick's at normal incidence.
+# - built natively from `loom export --mtlx`'s textures (the default): a Diffuse BSDF (a_d) added
+#   to an Anisotropic GGX BSDF whose colour is a_s · F0 (specular_color.png times the F0 that the
+#   document's specular_IOR carries), its roughness, anisotropy and rotation turned from Standard
+#   Surface's parameters into Cycles' (α_x = r² / (1 + k), α_y = r² (1 + k) for anisotropy k < 0
+#   along the tangent: k = √(1 − a) − 1; the rotation's sense reversed, since the document's
+#   follows MaterialX's rotate3d), and the tangent-space normal map. That is loom's model but for
+#   the lobe (GGX for Ward, fitting/report/mtlx_export.h) and F0 taken as Schlick's at normal
+#   incidence. Blender 3.4's glTF importer cannot carry that: it reads no KHR_materials_anisotropy.
+# - `--gltf`: the report's glTF (REPORT/material) as Blender's glTF importer builds it, a
+#   Principled BSDF, as a user who imports it gets it (KHR_materials_specular turned into
+#   Principled's Specular and Specular Tint; no anisotropy; the diffuse under the specular layer).
+#   Its textures are read texel for texel (closest), as the other renderers' are.
 #
 # Each view: the maps on a flat quad at z = 0 in the sample frame (metres), a point light of
-# radius 0, an orthographic camera along the view direction, no world light. Cycles' unit of
+# radius 0, an orthographic camera along the view direction, no world light. Every sample of a
+# pixel then sees the same light and nothing else, so a few samples (4, the default) give what
+# 64 give: they only average the pixel's footprint. Cycles' unit of
 # light power is measured first: a Lambertian white plane 1 m under a 1 W point light. Each
 # texel's radiance is read at its centre's projection into the render.
 #
 #   blender -b --factory-startup --python-exit-code 1 --python blender/render_check.py -- \
-#       REPORT [MTLX_DIR] [--max-mean-difference D] [--samples N]
+#       REPORT [MTLX_DIR] [--gltf] [--max-mean-difference D] [--samples N]
 # MTLX_DIR defaults to REPORT/mtlx, which `loom eval` writes. Writes REPORT/renderer/cycles-VIEW.f32
-# (as loom's), cycles-VIEW.png (at the view's white, as loom's PNG) and cycles-comparison.json;
-# `node web/renderers-page.mjs REPORT` then shows every renderer beside loom.
+# (as loom's), cycles-VIEW.png (at the view's white, as loom's PNG) and cycles-comparison.json
+# (with --gltf: cycles-gltf-VIEW.* and cycles-gltf-comparison.json); `node web/renderers-page.mjs
+# REPORT` then shows every renderer beside loom.
 import json
 import math
 import os
@@ -30,14 +36,22 @@ import struct
 import sys
 
 import bpy
+import numpy
 from mathutils import Vector
+
+# Debian 12's Blender 3.4 glTF importer still spells numpy's bool `numpy.bool`, an alias that
+# Debian 12's numpy 1.24 removed.
+if "bool" not in numpy.__dict__:
+    numpy.bool = bool
 
 
 def parse_arguments(argv):
-    options = {"max_mean_difference": math.inf, "samples": 64, "paths": []}
+    options = {"max_mean_difference": math.inf, "samples": 4, "paths": [], "gltf": False}
     i = 0
     while i < len(argv):
-        if argv[i] == "--max-mean-difference":
+        if argv[i] == "--gltf":
+            options["gltf"] = True
+        elif argv[i] == "--max-mean-difference":
             options["max_mean_difference"] = float(argv[i + 1])
             i += 1
         elif argv[i] == "--samples":
@@ -49,7 +63,7 @@ def parse_arguments(argv):
     if len(options["paths"]) == 1:
         options["paths"].append(os.path.join(options["paths"][0], "mtlx"))
     if len(options["paths"]) != 2:
-        raise SystemExit("usage: render_check.py -- REPORT [MTLX_DIR] [--max-mean-difference D] [--samples N]")
+        raise SystemExit("usage: render_check.py -- REPORT [MTLX_DIR] [--gltf] [--max-mean-difference D] [--samples N]")
     return options
 
 
@@ -240,6 +254,20 @@ def loom_material(mtlx_dir):
     return material
 
 
+def imported_gltf(path):
+    """The glTF's quad and material as Blender's importer makes them (glTF's y up becomes
+    Blender's z up: the sample frame in metres), its textures read texel for texel."""
+    bpy.ops.import_scene.gltf(filepath=path)
+    meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+    if len(meshes) != 1:
+        raise RuntimeError("%s: %d meshes imported, expected the sample's quad" % (path, len(meshes)))
+    for material in meshes[0].data.materials:
+        for node in material.node_tree.nodes:
+            if node.type == "TEX_IMAGE":
+                node.interpolation = "Closest"
+    return meshes[0]
+
+
 def srgb(linear):
     v = min(max(linear, 0.0), 1.0)
     return 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1 / 2.4) - 0.055
@@ -277,33 +305,38 @@ def main():
     width, height, pixel_m = views["width"], views["height"], views["pixel_mm"] / 1000
     unit = watt_intensity(options["samples"], renderer_dir)
     resolution = min(max(8 * max(width, height), 64), 1024)
+    prefix = "cycles-gltf" if options["gltf"] else "cycles"
     results = []
     for view in views["views"]:
         scene = new_scene(resolution, options["samples"])
-        quad("maps", width * pixel_m / 2, height * pixel_m / 2, loom_material(mtlx_dir))
+        if options["gltf"]:
+            imported_gltf(os.path.join(report, "material", "material.gltf"))
+        else:
+            quad("maps", width * pixel_m / 2, height * pixel_m / 2, loom_material(mtlx_dir))
         # loom's intensity is per mm² at the sample; in metres it is 10⁻⁶ of that.
         point_light([c / 1000 for c in view["light_mm"]], view["intensity"] * 1e-6 / unit)
         cam = camera(view["view"], 1.05 * math.hypot(width, height) * pixel_m)
-        pixels, size = render(scene, os.path.join(renderer_dir, "cycles-%s.exr" % view["name"]))
+        pixels, size = render(scene, os.path.join(renderer_dir, "%s-%s.exr" % (prefix, view["name"])))
         cycles = []
         for y in range(height):
             for x in range(width):
                 centre = ((x + 0.5 - width / 2) * pixel_m, (y + 0.5 - height / 2) * pixel_m, 0)
                 cycles.extend(radiance_at(pixels, size, cam, centre))
         loom = read_f32(os.path.join(renderer_dir, view["loom"]))
-        with open(os.path.join(renderer_dir, "cycles-%s.f32" % view["name"]), "wb") as f:
+        with open(os.path.join(renderer_dir, "%s-%s.f32" % (prefix, view["name"])), "wb") as f:
             f.write(struct.pack("<%df" % len(cycles), *cycles))
-        write_png(os.path.join(renderer_dir, "cycles-%s.png" % view["name"]), cycles, width, height, view["white"])
+        write_png(os.path.join(renderer_dir, "%s-%s.png" % (prefix, view["name"])), cycles, width, height, view["white"])
         difference = sum(abs(a - b) for a, b in zip(cycles, loom)) / sum(abs(b) for b in loom)
         results.append({"name": view["name"], "relative_difference": difference,
                         "mean_loom": sum(loom) / len(loom), "mean_cycles": sum(cycles) / len(cycles)})
         print("%s: relative difference %.4f" % (view["name"], difference))
     mean = sum(r["relative_difference"] for r in results) / len(results)
     check = {"blender": bpy.app.version_string, "samples": options["samples"], "watt_intensity_w_per_sr": unit,
+             "material": "the glTF, imported" if options["gltf"] else "built from the MaterialX textures",
              "results": results, "mean_relative_difference": mean}
-    with open(os.path.join(renderer_dir, "cycles-comparison.json"), "w") as f:
+    with open(os.path.join(renderer_dir, prefix + "-comparison.json"), "w") as f:
         json.dump(check, f, indent=2)
-    print("mean relative difference %.4f (Blender %s, Cycles)" % (mean, bpy.app.version_string))
+    print("mean relative difference %.4f (Blender %s, Cycles, %s)" % (mean, bpy.app.version_string, check["material"]))
     if not mean <= options["max_mean_difference"]:
         raise RuntimeError("mean relative difference %.4f > --max-mean-difference %g" % (mean, options["max_mean_difference"]))
 

@@ -18,7 +18,8 @@ packages=(
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev xvfb
   # the browser side (web/): three.js renders in headless Chromium; blender/: Cycles renders
-  chromium blender
+  # (Blender's glTF importer needs numpy, which Debian's blender does not pull in)
+  chromium blender python3-numpy
   # scripts/slurm-fit-array.sh's test runs a single-node Slurm
   slurm-wlm munge
 )

@@ -11,9 +11,12 @@
 #      build/demo/report-*/;
 #   5. a one-screen summary (parameter errors, re-render L1, time per stage) and
 #      build/demo/summary.json. LOOM_DEMO_BASELINE=1 adds Ceres alone and CNN + Ceres (about 8 more minutes);
-#   6. the main result's glTF rendered by three.js in headless Chromium beside loom's own rendering
-#      (web/render-check.mjs) → build/demo/report-cnn+refine/renderer/index.html, and the report's
-#      interactive viewer (web/viewer.mjs) → build/demo/report-cnn+refine/viewer/index.html.
+#   6. the main result in other renderers beside loom's own rendering of the same views
+#      → build/demo/report-cnn+refine/renderer/index.html: its glTF in three.js (web/render-check.mjs)
+#      and its MaterialX document in the shader MaterialX generates for it (web/render-mtlx.mjs), in
+#      headless Chromium; Blender's Cycles rendering a material built from the MaterialX textures
+#      and the glTF as Blender imports it (blender/render_check.py); and the report's interactive
+#      viewer (web/viewer.mjs) → build/demo/report-cnn+refine/viewer/index.html.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -23,6 +26,15 @@ if [[ "${LOOM_DEMO_BASELINE:-0}" == 1 ]]; then methods=ceres,cnn+ceres,cnn,cnn+r
 ./build/apps/loom version
 rm -rf build/demo
 ./build/apps/loom demo --rig configs/rig/tac7-mini.yaml --object fabric:1 --preset low --methods "$methods" --out build/demo
-# In its own network namespace: Chromium reaches nothing, web/browser.mjs serves every file.
+# Each renderer in its own network namespace: Chromium reaches nothing (web/browser.mjs serves
+# every file), nor does Blender.
+cycles() {
+  unshare -n blender -b --factory-startup --python-exit-code 1 --python blender/render_check.py -- \
+    build/demo/report-cnn+refine "$@" 2>&1 | grep -E "mean relative difference|Error"
+}
+cycles         # a material built from the MaterialX textures
+cycles --gltf  # the glTF as Blender's importer builds it
+# Each writes renderer/index.html with every renderer that has run, Cycles' included.
 unshare -n node web/render-check.mjs build/demo/report-cnn+refine
+unshare -n node web/render-mtlx.mjs build/demo/report-cnn+refine
 node web/viewer.mjs build/demo/report-cnn+refine

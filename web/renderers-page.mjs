@@ -2,7 +2,8 @@
 // renderer's that has run — three.js rendering the glTF (render-check.mjs: comparison.json), the
 // shader MaterialX generates for the MaterialX document (render-mtlx.mjs:
 // materialx-comparison.json) and Blender's Cycles rendering a material built from the MaterialX
-// textures (blender/render_check.py: cycles-comparison.json) — with each one's relative difference
+// textures and the glTF as Blender imports it (blender/render_check.py: cycles-comparison.json,
+// cycles-gltf-comparison.json) — with each one's relative difference
 // Σ|other − loom| / Σ|loom| and where its model departs from GD10-Ward.
 //
 // Usage: node renderers-page.mjs REPORT (render-check.mjs calls writeRenderersPage itself).
@@ -32,7 +33,15 @@ const renderers = [
     version: (c) => `Blender ${c.blender} Cycles, ${c.samples} samples`,
     departs: 'renders a material built from <a href="../mtlx/material.mtlx">the MaterialX export</a>\'s textures: a ' +
       'Lambertian term added to an anisotropic GGX lobe (α = √2 σ per axis) of colour a_s · F0, without Fresnel\'s rise ' +
-      'at grazing angles (loom\'s fitting/report/mtlx_export.h), 8-bit textures, path-tracing noise.',
+      'at grazing angles (loom\'s fitting/report/mtlx_export.h), 8-bit textures.',
+  },
+  {
+    name: 'Cycles (glTF)', comparison: 'cycles-gltf-comparison.json', image: (view) => `cycles-gltf-${view}.png`,
+    version: (c) => `Blender ${c.blender} Cycles, ${c.samples} samples, <a href="../material/material.gltf">the glTF</a> as ` +
+      'Blender\'s importer builds it',
+    departs: 'a Principled BSDF: GGX for the Ward lobe (α = √2 σ), KHR_materials_specular turned into Principled\'s ' +
+      'Specular and Specular Tint, no anisotropy (Blender 3.4 reads no KHR_materials_anisotropy), the diffuse under the ' +
+      'specular layer where loom adds the two, Fresnel rising to 1 at grazing angles, 8-bit textures.',
   },
 ];
 

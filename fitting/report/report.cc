@@ -161,9 +161,9 @@ Status WriteRenderSection(const fs::path& dir, const ReportInputs& in, std::ostr
   return Status::Ok();
 }
 
-// The glTF and MaterialX exports and the views web/render-check.mjs (three.js) and
-// blender/render_check.py (Cycles) render; web/renderers-page.mjs's renderer/index.html shows
-// them beside loom once they have run.
+// The glTF and MaterialX exports and the views web/render-check.mjs (three.js),
+// web/render-mtlx.mjs (MaterialX's own shader) and blender/render_check.py (Cycles) render;
+// web/renderers-page.mjs's renderer/index.html shows them beside loom once they have run.
 Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::ostringstream& html) {
   if (in.renderer_views <= 0) return Status::Ok();
   LOOM_RETURN_IF_ERROR(WriteGltf(*in.maps, in.stack->pixel_mm, dir / "material").status());
@@ -180,8 +180,10 @@ Status WriteRendererSection(const fs::path& dir, const ReportInputs& in, std::os
        << views.size()
        << " point-lit views of it, rendered by loom's own model, are in renderer/views.json; "
           "<code>node web/render-check.mjs REPORT</code> renders the glTF under the same lights in three.js (headless "
-          "Chromium), <code>blender -b --python blender/render_check.py -- REPORT</code> a material built from "
-          "<a href=\"mtlx/material.mtlx\">the MaterialX export</a>'s textures in Blender's Cycles; "
+          "Chromium), <code>node web/render-mtlx.mjs REPORT</code> <a href=\"mtlx/material.mtlx\">the MaterialX "
+          "export</a> in the shader MaterialX generates for it, <code>blender -b --python blender/render_check.py -- "
+          "REPORT [--gltf]</code> a material built from the MaterialX textures (or the glTF as Blender imports it) in "
+          "Blender's Cycles; "
           "<a href=\"renderer/index.html\">renderer/index.html</a> shows them beside loom's rendering with their "
           "relative differences. <code>node web/viewer.mjs REPORT</code> adds "
           "<a href=\"viewer/index.html\">viewer/index.html</a>: the material in three.js under a light that follows "
