@@ -3,6 +3,8 @@
 #include <array>
 #include <cmath>
 
+#include "core/srgb.h"
+
 namespace loom {
 namespace {
 
@@ -13,8 +15,6 @@ constexpr std::array<std::array<int, 3>, ColourChartModel::kPatches> kChartSrgb 
     {56, 61, 150},   {70, 148, 73},   {175, 54, 60},   {231, 199, 31},  {187, 86, 149},  {8, 133, 161},
     {243, 243, 242}, {200, 200, 200}, {160, 160, 160}, {122, 122, 121}, {85, 85, 85},    {52, 52, 52},
 }};
-
-double SrgbToLinear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
 
 }  // namespace
 
@@ -36,7 +36,7 @@ int ColourChartModel::PatchAt(double x_mm, double y_mm) const {
 
 Eigen::Vector3d ColourChartModel::Albedo(int patch) {
   const auto& srgb = kChartSrgb.at(patch);
-  return {SrgbToLinear(srgb[0] / 255.0), SrgbToLinear(srgb[1] / 255.0), SrgbToLinear(srgb[2] / 255.0)};
+  return {SrgbDecode(srgb[0] / 255.0), SrgbDecode(srgb[1] / 255.0), SrgbDecode(srgb[2] / 255.0)};
 }
 
 }  // namespace loom

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/file_io.h"
+#include "core/srgb.h"
 
 namespace loom::photos {
 namespace {
@@ -51,8 +52,6 @@ std::string Numbered(int k, int digits, const std::string& extension = ".png") {
   return name.str();
 }
 
-double SrgbEncoded(double linear) { return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055; }
-
 Status WriteMask(const fs::path& path, const Image& mask_image) {
   cv::Mat mask(mask_image.height(), mask_image.width(), CV_8UC1);
   for (int y = 0; y < mask.rows; ++y) {
@@ -90,7 +89,7 @@ Status WriteLightPositions(const fs::path& dir, const PhotometricStereoCapture& 
   for (size_t k = 0; k < capture.images.size(); ++k) {
     const std::string name = Numbered(static_cast<int>(k) + 1, 3, ".jpg");
     LOOM_RETURN_IF_ERROR(WriteImage(
-        dir / name, Encoded(capture.images[k], CV_8UC3, 255, [&](double v) { return SrgbEncoded(v / capture.white); })));
+        dir / name, Encoded(capture.images[k], CV_8UC3, 255, [&](double v) { return SrgbEncode(v / capture.white); })));
     const Eigen::Vector3d& d = capture.light_directions[k];
     lp << name << " " << d.x() << " " << d.y() << " " << d.z() << "\n";
   }

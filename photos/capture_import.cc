@@ -20,6 +20,7 @@
 #include "core/exr_io.h"
 #include "core/file_io.h"
 #include "core/parallel.h"
+#include "core/srgb.h"
 
 namespace loom::photos {
 namespace {
@@ -221,7 +222,7 @@ double Decode(double v, const Encoding& encoding) {
     case Encoding::Kind::kLinear:
       return v;
     case Encoding::Kind::kSrgb:
-      return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+      return SrgbDecode(v);
     case Encoding::Kind::kGamma:
       return std::pow(std::max(0.0, v), encoding.gamma);
   }

@@ -9,6 +9,7 @@
 
 #include "core/check.h"
 #include "core/heightfield.h"
+#include "core/srgb.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/internal/grid_check.h"
 #include "sim/internal/noise.h"
@@ -148,9 +149,7 @@ Eigen::Vector3d HsvToLinearRgb(double h, double s, double v) {
   Eigen::Vector3d rgb = sextants[std::clamp(static_cast<int>(hp), 0, 5)];
   rgb.array() += v - c;
   // HSV values are display (sRGB-encoded) values: decode to linear.
-  for (int i = 0; i < 3; ++i) {
-    rgb[i] = rgb[i] <= 0.04045 ? rgb[i] / 12.92 : std::pow((rgb[i] + 0.055) / 1.055, 2.4);
-  }
+  for (int i = 0; i < 3; ++i) rgb[i] = SrgbDecode(rgb[i]);
   return rgb;
 }
 

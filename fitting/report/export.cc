@@ -8,6 +8,7 @@
 
 #include "core/file_io.h"
 #include "core/geometry.h"
+#include "core/srgb.h"
 #include "core/version.h"
 #include "fitting/io/axf_export.h"
 #include "fitting/model/svbrdf_maps.h"
@@ -50,8 +51,7 @@ Status WritePng(const std::filesystem::path& path, const cv::Mat& image) {
 
 uint8_t ToSrgb8(double linear) {
   const double v = std::clamp(linear, 0.0, 1.0);
-  const double encoded = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055;
-  return static_cast<uint8_t>(std::lround(255 * encoded));
+  return static_cast<uint8_t>(std::lround(255 * SrgbEncode(v)));
 }
 
 const std::vector<std::string>& SvbrdfPreviewNames() {
