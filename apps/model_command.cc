@@ -18,10 +18,10 @@
 
 #include "apps/command.h"
 #include "core/file_io.h"
-#include "core/output_directory.h"
 #include "core/output_file.h"
 #include "fitting/cnn/cnn.h"
 #include "fitting/cnn/cnn_dataset.h"
+#include "fitting/cnn/model_directory.h"
 
 namespace loom::apps {
 namespace {
@@ -52,69 +52,12 @@ void Describe(const fs::path& dir, const fitting::CnnModelInfo& info) {
             << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";
 }
 
-// Refuses an output folder that is one of the models it is made from: they stay as they are.
-Status CheckNotAnInput(const fs::path& to, const std::vector<fs::path>& inputs) {
-  std::error_code error;
-  for (const fs::path& input : inputs) {
-    if (fs::exists(to) && fs::equivalent(input, to, error)) {
-      const std::string which = inputs.size() == 1 ? "the model itself" : input.string() + ", a model it averages";
-      return InvalidArgumentError(to.string(), "is " + which + ": write into another folder, the original stays");
-    }
-  }
-  return Status::Ok();
-}
-
-// `cnn` saved in `to` (its info's weight storage), with the files beside the model `from`
-// (refine.json, README.md, ...); folders (checkpoints/, data/) stay behind.
-// The folder is written whole or not at all (OutputDirectory).
-Status WriteModel(const fitting::Cnn& cnn, const fs::path& from, const fs::path& to) {
-  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(to, "--out"));
-  LOOM_RETURN_IF_ERROR(cnn.Save(out.partial()));
-  std::error_code error;
-  for (const fs::directory_entry& entry : fs::directory_iterator(from)) {
-    const std::string name = entry.path().filename().string();
-    if (!entry.is_regular_file() || name == "model.json" || name == "weights.pt") continue;
-    fs::copy_file(entry.path(), out.partial() / name, error);
-    if (error) return IoError((to / name).string(), "cannot copy " + entry.path().string() + ": " + error.message());
-  }
-  const double megabytes = static_cast<double>(fs::file_size(out.partial() / "weights.pt")) / 1e6;
-  LOOM_RETURN_IF_ERROR(out.Commit());
+// The model written by the library says so, with what its weights take on disk.
+Status Wrote(const fs::path& to) {
+  LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(to));
   std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(cnn.info().weights) << ", "
-            << std::setprecision(4) << megabytes << " MB\n";
+            << std::setprecision(4) << static_cast<double>(fs::file_size(to / "weights.pt")) / 1e6 << " MB\n";
   return Status::Ok();
-}
-
-// The model in `to` with its weights stored as `storage`.
-Status Convert(const fs::path& from, const fs::path& to, fitting::WeightStorage storage) {
-  LOOM_RETURN_IF_ERROR(CheckNotAnInput(to, {from}));
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(from));
-  cnn.mutable_info().weights = storage;
-  return WriteModel(cnn, from, to);
-}
-
-// The uniform average of `model`'s and `others`' weights in `to`, stored as `storage`, with the
-// files beside `model`; its training text names every model averaged and keeps the first's.
-Status Average(const fs::path& model, const std::vector<std::string>& others, const fs::path& to,
-               fitting::WeightStorage storage) {
-  std::vector<fs::path> inputs = {model};
-  inputs.insert(inputs.end(), others.begin(), others.end());
-  LOOM_RETURN_IF_ERROR(CheckNotAnInput(to, inputs));
-  std::vector<fitting::Cnn> models;
-  std::string names;
-  for (const fs::path& input : inputs) {
-    LOOM_ASSIGN_OR_RETURN(fitting::Cnn cnn, fitting::Cnn::Load(input));
-    if (!models.empty()) {
-      const Status same = fitting::CheckSameNetwork(models.front().info(), cnn.info());
-      if (!same.ok()) return Status(same.code(), input.string(), same.message());
-    }
-    models.push_back(std::move(cnn));
-    names += (names.empty() ? "" : ", ") + input.string();
-  }
-  LOOM_ASSIGN_OR_RETURN(fitting::Cnn mean, fitting::Cnn::Average(models));
-  mean.mutable_info().weights = storage;
-  mean.mutable_info().training = "the uniform average of the weights of " + std::to_string(models.size()) + " models (" + names +
-                                 "); the first's training: " + models.front().info().training;
-  return WriteModel(mean, model, to);
 }
 
 struct ScoreArguments {
@@ -167,8 +110,11 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
     return Status::Ok();
   }
   const std::optional<fitting::WeightStorage> storage = fitting::WeightStorageFromName(weights.empty() ? "float32" : weights);
-  if (!average.empty()) return Average(model, average, out, *storage);
-  return Convert(model, out, *storage);
+  std::vector<fs::path> models = {model};
+  models.insert(models.end(), average.begin(), average.end());
+  LOOM_RETURN_IF_ERROR(average.empty() ? fitting::ConvertModel(model, out, *storage)
+                                       : fitting::AverageModels(models, out, *storage));
+  return Wrote(out);
 }
 
 }  // namespace
