@@ -16,7 +16,7 @@
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
 #include "fitting/report/export.h"
-#include "photos/capture_export.h"
+#include "photos/simulated_capture.h"
 #include "scan/plan.h"
 #include "scan/rig_state.h"
 #include "sim/fabric_stats.h"
@@ -116,79 +116,41 @@ Status Render(const RenderArguments& args) {
 }
 
 struct CaptureArguments {
-  sim::ObjectCaptureOptions options;
-  sim::FlashCaptureOptions flash;
-  sim::SampleSpec sample{.kind = "fabric", .seed = 1, .size_px = 64, .pixel_mm = 1.0};
+  photos::SimulatedCaptureRequest request;
   std::string layout = "ps", shape = "sphere", truth, normals, out, flash_offset;
   bool force = false;
 };
 
-// The truth's albedos in the units of images stored with `white` as the top value.
-void InStoredUnits(Image& truth, double white) {
-  for (int y = 0; y < truth.height(); ++y) {
-    for (int x = 0; x < truth.width(); ++x) {
-      for (int c = 3; c < 9; ++c) truth.at(c, y, x) = static_cast<float>(truth.at(c, y, x) / white);  // a_d, a_s
-    }
-  }
-}
-
-// A flat procedural material in the flash layout: the brightest half percent of values clip, as a
-// phone's highlights do.
-Status FlashCapture(CaptureArguments args) {
-  LOOM_RETURN_IF_ERROR(args.flash.Check());
-  LOOM_ASSIGN_OR_RETURN(sim::Material material, sim::MakeSample(args.sample));
-  const sim::FlashCapture capture = sim::RenderFlashCapture(material.maps, material.pixel_mm, args.flash);
-  std::vector<float> values;
-  for (const Image& image : capture.images) {
-    for (int c = 0; c < 3; ++c) values.insert(values.end(), image.channel(c).begin(), image.channel(c).end());
-  }
-  const auto top = values.begin() + static_cast<std::ptrdiff_t>(0.995 * static_cast<double>(values.size() - 1));
-  std::nth_element(values.begin(), top, values.end());
-  const double white = *top;
-  photos::FlashCapture flash{
-      capture.images, capture.cameras_cm, capture.cameras_cm, capture.width_cm, Eigen::Vector3d::Constant(args.flash.power),
-      white};
-  LOOM_RETURN_IF_ERROR(photos::WriteFlash(args.out, flash));
-  InStoredUnits(material.maps, white);
-  if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(sim::WriteMaterial(material, args.truth));
-  std::cout << "wrote " << args.out << ": " << material.name << " under a flash " << args.flash.flash_offset_cm.transpose()
-            << " cm beside the lens in " << capture.images.size() << " images (flash layout; the files put the flash at "
-            << "the lens; the truth's albedos in the stored units)\n";
-  return Status::Ok();
-}
-
-// A curved object in the ps or lp layout, with its truth beside (not inside) the folder: loom import
-// reads every image of a folder in some layouts.
-Status Capture(CaptureArguments args) {
-  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--truth", args.truth}, {"--normals", args.normals}}, args.force));
-  if (args.layout == "flash") return FlashCapture(std::move(args));
-  if (args.layout != "ps" && args.layout != "lp")
+Status ParseCaptureLayout(CaptureArguments& args) {
+  if (args.layout != "ps" && args.layout != "lp" && args.layout != "flash") {
     return InvalidArgumentError("--layout " + args.layout, "expected ps, lp or flash");
+  }
+  args.request.layout = args.layout == "flash" ? photos::CaptureLayout::kFlash
+                        : args.layout == "lp"  ? photos::CaptureLayout::kLightDome
+                                               : photos::CaptureLayout::kPhotometricStereo;
   if (args.shape != "sphere" && args.shape != "cylinder") {
     return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
   }
-  args.options.shape = args.shape == "sphere" ? sim::ObjectShape::kSphere : sim::ObjectShape::kCylinder;
-  LOOM_RETURN_IF_ERROR(args.options.Check());
-  sim::ObjectCapture capture = sim::RenderObjectCapture(args.options);
-  // Radiance 1 is stored as the top value unless a highlight is brighter: then the brightest is
-  // stored just below it (nothing clips), and the truth's albedos are in the stored images' units
-  // (what `loom import --scale 1` reads back).
-  double brightest = 0;
-  for (const Image& image : capture.images) {
-    for (int c = 0; c < 3; ++c) {
-      for (float v : image.channel(c)) brightest = std::max(brightest, static_cast<double>(v));
-    }
+  args.request.object.shape = args.shape == "sphere" ? sim::ObjectShape::kSphere : sim::ObjectShape::kCylinder;
+  if (args.flash_offset.empty()) return Status::Ok();
+  std::istringstream in(args.flash_offset);
+  char a = 0, b = 0;
+  Eigen::Vector3d& o = args.request.flash.flash_offset_cm;
+  if (!(in >> o.x() >> a >> o.y() >> b >> o.z()) || a != ',' || b != ',') {
+    return InvalidArgumentError("--flash-offset " + args.flash_offset, "expected X,Y,Z in cm");
   }
-  const double white = std::max(1.0, 1.01 * brightest);
-  InStoredUnits(capture.truth, white);
-  photos::PhotometricStereoCapture ps{std::move(capture.images), capture.light_directions, capture.mask, white};
-  LOOM_RETURN_IF_ERROR(args.layout == "lp" ? photos::WriteLightPositions(args.out, ps)
-                                           : photos::WritePhotometricStereo(args.out, ps));
+  return Status::Ok();
+}
+
+// Photographs as another rig takes them (photos/simulated_capture.h), with the truth beside (not
+// inside) the folder: loom import reads every image of a folder in some layouts.
+Status Capture(CaptureArguments args) {
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--truth", args.truth}, {"--normals", args.normals}}, args.force));
+  LOOM_RETURN_IF_ERROR(ParseCaptureLayout(args));
+  LOOM_ASSIGN_OR_RETURN(const photos::SimulatedCapture capture, photos::WriteSimulatedCapture(args.request, args.out));
   if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.truth, capture.truth, {{"loom.kind", std::string("svbrdf maps")}}));
-  if (!args.normals.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.normals, capture.normals, {}));
-  std::cout << "wrote " << args.out << ": a " << args.shape << " under " << ps.images.size() << " directional lights, "
-            << args.options.size_px << "x" << args.options.size_px << " px (" << args.layout << " layout; radiance ×" << 1 / white
-            << " as stored; the truth's albedos in the stored units)\n";
+  if (!args.normals.empty() && capture.normals) LOOM_RETURN_IF_ERROR(WriteExr(args.normals, *capture.normals, {}));
+  std::cout << "wrote " << args.out << ": " << capture.description << "; the truth's albedos in the stored units\n";
   return Status::Ok();
 }
 
@@ -254,27 +216,29 @@ int RunSim(int argc, char** argv) {
       "a photometric-stereo benchmark's, or lp, a light dome's) or a flat material under a phone's flash (--layout flash)");
   capture_app->add_option("--layout", capture.layout, "ps, lp (a light dome's: sRGB JPEGs) or flash")->capture_default_str();
   capture_app->add_option("--shape", capture.shape, "ps and lp: sphere or cylinder")->capture_default_str();
-  capture_app->add_option("--object", capture.sample.kind, "flash: the material (fabric, fabric-out-of-model)")
+  capture_app->add_option("--object", capture.request.sample.kind, "flash: the material (fabric, fabric-out-of-model)")
       ->capture_default_str();
-  capture_app->add_option("--object-seed", capture.sample.seed, "flash: the material's seed");
-  capture_app->add_option("--images", capture.flash.images, "flash: photographs")->check(CLI::Range(2, 100));
+  capture_app->add_option("--object-seed", capture.request.sample.seed, "flash: the material's seed");
+  capture_app->add_option("--images", capture.request.flash.images, "flash: photographs")->check(CLI::Range(2, 100));
   capture_app->add_option("--flash-offset", capture.flash_offset,
                           "flash: X,Y,Z cm of the flash from the lens (y up the image; default 0.8,0,0)");
-  capture_app->add_option("--size", capture.options.size_px, "Image size in pixels (square)")->check(CLI::Range(4, 4096));
-  capture_app->add_option("--pixel-mm", capture.sample.pixel_mm, "flash: the material's pixel size")->check(CLI::PositiveNumber);
-  capture_app->add_option("--lights", capture.options.lights, "Directional lights, spread over a cap")
+  capture_app->add_option("--size", capture.request.object.size_px, "Image size in pixels (square)")->check(CLI::Range(4, 4096));
+  capture_app->add_option("--pixel-mm", capture.request.sample.pixel_mm, "flash: the material's pixel size")
+      ->check(CLI::PositiveNumber);
+  capture_app->add_option("--lights", capture.request.object.lights, "Directional lights, spread over a cap")
       ->check(CLI::Range(3, 1000));
-  capture_app->add_option("--max-light-deg", capture.options.max_light_deg, "The cap's half-angle")->check(CLI::Range(1.0, 89.0));
-  capture_app->add_option("--sigma", capture.options.material.sigma_x, "The material's lobe width (isotropic)")
+  capture_app->add_option("--max-light-deg", capture.request.object.max_light_deg, "The cap's half-angle")
+      ->check(CLI::Range(1.0, 89.0));
+  capture_app->add_option("--sigma", capture.request.object.material.sigma_x, "The material's lobe width (isotropic)")
       ->check(CLI::Range(0.01, 1.0));
-  capture_app->add_option("--specular", capture.options.material.a_s[0], "The material's specular albedo (grey)")
+  capture_app->add_option("--specular", capture.request.object.material.a_s[0], "The material's specular albedo (grey)")
       ->check(CLI::Range(0.0, 1.0));
-  capture_app->add_option("--noise", capture.options.noise, "Relative sensor noise")->check(CLI::Range(0.0, 0.5));
+  capture_app->add_option("--noise", capture.request.object.noise, "Relative sensor noise")->check(CLI::Range(0.0, 0.5));
   bool out_of_model = false;
   capture_app->add_flag("--out-of-model", out_of_model,
                         "ps: the material shows what GD10 cannot (sim/reflectance.h): a grey GGX coat of albedo 0.1 and "
                         "roughness 0.1, and 4° of mesostructure");
-  capture_app->add_option("--seed", capture.options.seed, "Seed of the noise");
+  capture_app->add_option("--seed", capture.request.object.seed, "Seed of the noise");
   capture_app->add_option("--truth", capture.truth, "Also write the true maps on the image's grid (OpenEXR)");
   capture_app->add_option("--normals", capture.normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
   capture_app->add_option("--out", capture.out, "Folder for the capture")->required();
@@ -304,22 +268,14 @@ int RunSim(int argc, char** argv) {
   if (*stats) done = Stats(seeds, stats_size_px, json_path, force);
   if (*render) done = Render(r);
   if (*capture_app) {
-    capture.options.material.sigma_y = capture.options.material.sigma_x;
-    capture.options.material.a_s = Eigen::Vector3d::Constant(capture.options.material.a_s[0]);
-    if (out_of_model) capture.options.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
-    capture.sample.size_px = capture.options.size_px;
-    capture.flash.noise = capture.options.noise;
-    capture.flash.seed = capture.options.seed;
-    done = Status::Ok();
-    if (!capture.flash_offset.empty()) {
-      std::istringstream in(capture.flash_offset);
-      char a = 0, b = 0;
-      Eigen::Vector3d& o = capture.flash.flash_offset_cm;
-      if (!(in >> o.x() >> a >> o.y() >> b >> o.z()) || a != ',' || b != ',') {
-        done = InvalidArgumentError("--flash-offset " + capture.flash_offset, "expected X,Y,Z in cm");
-      }
-    }
-    if (done.ok()) done = Capture(capture);
+    photos::SimulatedCaptureRequest& q = capture.request;
+    q.object.material.sigma_y = q.object.material.sigma_x;
+    q.object.material.a_s = Eigen::Vector3d::Constant(q.object.material.a_s[0]);
+    if (out_of_model) q.object.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
+    q.sample.size_px = q.object.size_px;
+    q.flash.noise = q.object.noise;
+    q.flash.seed = q.object.seed;
+    done = Capture(capture);
   }
   if (*material) done = Material(sample, out);
   return ExitCode(done);

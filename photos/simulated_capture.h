@@ -1,0 +1,42 @@
+#pragma once
+// The simulator's captures (sim/object_capture.h) written in the layouts other rigs write
+// (capture_export.h), with their truth in the stored images' units, so that `loom import` →
+// `loom fit` → `loom eval` runs against ground truth (`loom sim capture`).
+//
+// The stored scale: a curved object's radiance 1 is the top value unless a highlight is brighter,
+// which is then stored just below it (nothing clips); a flash capture's brightest half percent of
+// values clip, as a phone's highlights do. The truth's albedos are divided by that top value,
+// which is what `loom import --scale 1` reads back.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "core/image.h"
+#include "core/status.h"
+#include "sim/object_capture.h"
+#include "sim/sample.h"
+
+namespace loom::photos {
+
+enum class CaptureLayout { kPhotometricStereo, kLightDome, kFlash };  // ps, lp, flash
+
+struct SimulatedCaptureRequest {
+  CaptureLayout layout = CaptureLayout::kPhotometricStereo;
+  sim::ObjectCaptureOptions object;                                                     // ps and lp: the curved object
+  sim::FlashCaptureOptions flash;                                                       // flash: the flash and the photographs
+  sim::SampleSpec sample{.kind = "fabric", .seed = 1, .size_px = 64, .pixel_mm = 1.0};  // flash: the planar material
+};
+
+struct SimulatedCapture {
+  Image truth;                   // SVBRDF maps on the images' grid, albedos in the stored units
+  std::optional<Image> normals;  // ps and lp: the true normals (x right, y up, z towards the camera)
+  double white = 1;              // the radiance stored as the top value
+  int images = 0;
+  std::string description;  // what was written, for a person
+};
+
+// Writes the capture into `dir` (the layout's writer: a new folder) and returns its truth.
+Result<SimulatedCapture> WriteSimulatedCapture(const SimulatedCaptureRequest& request, const std::filesystem::path& dir);
+
+}  // namespace loom::photos
