@@ -25,10 +25,18 @@ function parseArguments(argv) {
   return options;
 }
 
-const options = parseArguments(process.argv.slice(2));
-const views = await readViews(options.report);
-const { check, errors } = await renderInPage(
-  { '/three/': path.join(web, 'node_modules', 'three'), '/web/': web, '/report/': options.report },
-  '/web/render-check.html', '/report');
-await saveRenderings(options.report, 'threejs', 'comparison.json', views, check);
-exitAgainstBound(check, errors, options.maxMeanDifference, `three.js r${check.three}, ${check.renderer}`);
+async function main() {
+  const options = parseArguments(process.argv.slice(2));
+  const views = await readViews(options.report);
+  const { check, errors } = await renderInPage(
+    { '/three/': path.join(web, 'node_modules', 'three'), '/web/': web, '/report/': options.report },
+    '/web/render-check.html', '/report');
+  await saveRenderings(options.report, 'threejs', 'comparison.json', views, check);
+  exitAgainstBound(check, errors, options.maxMeanDifference, `three.js r${check.three}, ${check.renderer}`);
+}
+
+// A missing or broken file is one line naming it, not a stack trace.
+main().catch((error) => {
+  console.error(`render-check: ${error?.message ?? error}`);
+  process.exit(1);
+});

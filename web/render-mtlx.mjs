@@ -116,12 +116,21 @@ function pointLight(view) {
   return { type: pointLightId, intensity: view.intensity * ((d + 1) / d) ** 2 };
 }
 
-const options = parseArguments(process.argv.slice(2));
-const views = await readViews(options.report);
-const generated = await generate(path.join(options.mtlx, 'material.mtlx'));
-const { check, errors } = await renderInPage({ '/web/': web, '/report/': options.report, '/mtlx/': options.mtlx },
-  '/web/render-check.html?page=render-mtlx-page.js', { ...generated, views, lights: views.views.map(pointLight), report: '/report', textures: '/mtlx' });
-check.materialx = generated.materialx;
-check.document = path.relative(options.report, path.join(options.mtlx, 'material.mtlx'));
-await saveRenderings(options.report, 'materialx', 'materialx-comparison.json', views, check);
-exitAgainstBound(check, errors, options.maxMeanDifference, `MaterialX ${check.materialx}'s ESSL shader, ${check.renderer}`);
+async function main() {
+  const options = parseArguments(process.argv.slice(2));
+  const views = await readViews(options.report);
+  const generated = await generate(path.join(options.mtlx, 'material.mtlx'));
+  const roots = { '/web/': web, '/report/': options.report, '/mtlx/': options.mtlx };
+  const spec = { ...generated, views, lights: views.views.map(pointLight), report: '/report', textures: '/mtlx' };
+  const { check, errors } = await renderInPage(roots, '/web/render-check.html?page=render-mtlx-page.js', spec);
+  check.materialx = generated.materialx;
+  check.document = path.relative(options.report, path.join(options.mtlx, 'material.mtlx'));
+  await saveRenderings(options.report, 'materialx', 'materialx-comparison.json', views, check);
+  exitAgainstBound(check, errors, options.maxMeanDifference, `MaterialX ${check.materialx}'s ESSL shader, ${check.renderer}`);
+}
+
+// A missing or broken file is one line naming it, not a stack trace.
+main().catch((error) => {
+  console.error(`render-mtlx: ${error?.message ?? error}`);
+  process.exit(1);
+});
