@@ -52,12 +52,10 @@ void Describe(const fs::path& dir, const fitting::CnnModelInfo& info) {
             << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";
 }
 
-// The model written by the library says so, with what its weights take on disk.
-Status Wrote(const fs::path& to) {
-  LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(to));
-  std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(cnn.info().weights) << ", "
-            << std::setprecision(4) << static_cast<double>(fs::file_size(to / "weights.pt")) / 1e6 << " MB\n";
-  return Status::Ok();
+// What a new model directory's weights take on disk, for the operator.
+void ReportWritten(const fs::path& to, fitting::WeightStorage storage) {
+  std::cout << "wrote " << to.string() << ": weights " << fitting::WeightStorageName(storage) << ", " << std::setprecision(4)
+            << static_cast<double>(fs::file_size(to / "weights.pt")) / 1e6 << " MB\n";
 }
 
 struct ScoreArguments {
@@ -114,7 +112,8 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
   models.insert(models.end(), average.begin(), average.end());
   LOOM_RETURN_IF_ERROR(average.empty() ? fitting::ConvertModel(model, out, *storage)
                                        : fitting::AverageModels(models, out, *storage));
-  return Wrote(out);
+  ReportWritten(out, *storage);
+  return Status::Ok();
 }
 
 }  // namespace

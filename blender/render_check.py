@@ -18,9 +18,9 @@
 # Each view: the maps on a flat quad at z = 0 in the sample frame (metres), a point light of
 # radius 0, an orthographic camera along the view direction, no world light. Every sample of a
 # pixel then sees the same light and nothing else, so a few samples (4, the default) give what
-# 64 give: they only average the pixel's footprint. Cycles' unit of
-# light power is measured first: a Lambertian white plane 1 m under a 1 W point light. Each
-# texel's radiance is read at its centre's projection into the render.
+# 64 give: they only average the pixel's footprint. Cycles' unit of light power is measured
+# first: a Lambertian white plane 1 m under a 1 W point light. Each texel's radiance is read at
+# its centre's projection into the render.
 #
 #   blender -b --factory-startup --python-exit-code 1 --python blender/render_check.py -- \
 #       REPORT [MTLX_DIR] [--gltf] [--max-mean-difference D] [--samples N]
