@@ -12,7 +12,6 @@
 #include "calibration/photo_intrinsics.h"
 #include "calibration/scan_calibration.h"
 #include "core/file_io.h"
-#include "core/output_directory.h"
 #include "core/output_file.h"
 
 namespace loom::apps {
@@ -36,10 +35,7 @@ namespace fs = std::filesystem;
 constexpr int kExitRecalibrate = 3;
 
 Status CalibrateGeometry(const std::string& scan_dir, const std::string& out) {
-  LOOM_ASSIGN_OR_RETURN(OutputDirectory staged, OutputDirectory::Create(out, "--out"));
-  LOOM_ASSIGN_OR_RETURN(const calibration::GeometryCalibration result, calibration::CalibrateGeometryFromScan(scan_dir));
-  LOOM_RETURN_IF_ERROR(result.Write(staged.partial()));
-  LOOM_RETURN_IF_ERROR(staged.Commit());
+  LOOM_ASSIGN_OR_RETURN(const calibration::GeometryCalibration result, calibration::CalibrateGeometryToDirectory(scan_dir, out));
   result.Report(std::cout);
   std::cout << "written: " << out
             << " (one YAML per camera, geometry.json; light_positions.yaml, projector.yaml when the scan has what they need)\n";

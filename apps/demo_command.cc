@@ -1,27 +1,36 @@
-// loom demo: the main job on a simulated rig, end to end — calibration scan → loom calibrate
-// geometry and radiometry (or, with --no-calibration, the rig YAML's) → material scan of a
-// procedural fabric (or of a crop of it, --crop-mm) → loom reconstruct with that calibration →
-// loom fit (each method asked for) → loom eval against the simulator's ground truth → loom export
-// of the main result as glTF and AxF — then a one-screen summary and summary.json. Every stage is the
-// loom command of the same name, run in this process with the arguments it prints, so what the
-// demo does a user can repeat by hand.
+// loom demo: the main job on a simulated rig, end to end — calibration scan → geometric and
+// radiometric calibration (or, with --no-calibration, the rig YAML's) → material scan of a
+// procedural fabric (or of a crop of it, --crop-mm) → reconstruction with that calibration → fit
+// (each method asked for) → evaluation against the simulator's ground truth → export of the main
+// result as glTF and AxF — then a one-screen summary and summary.json. Each stage calls the
+// library function its loom command calls, with that command's defaults, and prints the command
+// that repeats it by hand.
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "apps/command.h"
+#include "apps/config_paths.h"
+#include "apps/progress.h"
 #include "apps/rig_loader.h"
+#include "apps/scanning.h"
+#include "calibration/scan_calibration.h"
 #include "core/file_io.h"
 #include "core/version.h"
+#include "fitting/fit_directory.h"
+#include "fitting/report/evaluate_directory.h"
+#include "fitting/report/export_maps.h"
 #include "fitting/report/report.h"
-#include "fitting/solve/stack_fitter.h"
-#include "reconstruction/reconstruct.h"
+#include "reconstruction/scan_reconstruction.h"
+#include "sim/fast_path_stack.h"
 
 namespace loom::apps {
 namespace {
@@ -45,109 +54,177 @@ struct StageTime {
   double seconds = 0;
 };
 
-// Runs loom commands in this process, one stage each, and keeps how long each took. Two stages
-// may run at once, on two threads.
+// Runs the stages and keeps how long each took. Two stages may run at once, on two threads.
 class Stages {
  public:
-  explicit Stages(bool quiet) : quiet_(quiet) {}
-
-  Status Run(const std::string& name, int (*command)(int, char**), std::vector<std::string> arguments) {
-    if (quiet_ && (arguments[0] == "scan" || arguments[0] == "reconstruct" || arguments[0] == "fit")) {
-      arguments.push_back("--quiet");
-    }
-    std::cout << "\n== " << name << ": loom";
-    for (const std::string& argument : arguments) std::cout << " " << argument;
-    std::cout << std::endl;
-    std::vector<char*> argv;
-    for (std::string& argument : arguments) argv.push_back(argument.data());
+  // `command`: the loom command line that does the same by hand, printed before the stage runs.
+  Status Run(const std::string& name, const std::string& command, const std::function<Status()>& stage) {
+    std::cout << "\n== " << name << ": loom " << command << std::endl;
     const auto start = std::chrono::steady_clock::now();
-    const int exit = command(static_cast<int>(argv.size()), argv.data());
+    const Status done = stage();
     {
       std::lock_guard lock(mutex_);
       times_.push_back({name, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
     }
     std::cout.flush();
-    if (exit != kExitOk) {
-      return InternalError("demo stage '" + name + "'", "failed (exit " + std::to_string(exit) + "; its message is above)");
-    }
+    if (!done.ok()) return done.WithContext("demo stage '" + name + "'");
     return Status::Ok();
   }
 
   const std::vector<StageTime>& times() const { return times_; }
 
  private:
-  bool quiet_;
   std::mutex mutex_;
   std::vector<StageTime> times_;
 };
 
-std::vector<std::string> WithSize(std::vector<std::string> arguments, int size_px) {
-  if (size_px > 0) arguments.insert(arguments.end(), {"--size", std::to_string(size_px)});
-  return arguments;
-}
+std::string SizeOption(int size_px) { return size_px > 0 ? " --size " + std::to_string(size_px) : ""; }
 
 Status ScanMaterial(const DemoArguments& args, const std::string& rig, Stages* stages) {
-  const fs::path out(args.out);
-  std::vector<std::string> scan = {
-      "scan", "--rig", rig, "--preset", args.preset, "--object", args.object, "--out", (out / "scan").string()};
-  if (args.crop_mm > 0) {
-    std::ostringstream crop;
-    crop << args.crop_mm;
-    scan.insert(scan.end(), {"--crop-mm", crop.str()});
-  }
-  return stages->Run("material scan", RunScan, scan);
+  const NewScanRequest scan{.rig_path = rig,
+                            .preset = args.preset,
+                            .object = args.object,
+                            .crop_mm = args.crop_mm,
+                            .out = fs::path(args.out) / "scan",
+                            .quiet = args.quiet};
+  std::ostringstream command;
+  command << "scan --rig " << rig << " --preset " << args.preset << " --object " << args.object << " --out " << scan.out.string();
+  if (args.crop_mm > 0) command << " --crop-mm " << args.crop_mm;
+  return stages->Run("material scan", command.str(), [&] { return NewScan(scan); });
 }
 
 // Geometry, then radiometry, from the calibration scan in `out`.
 Status Calibrate(const fs::path& out, Stages* stages) {
-  const std::string scan = (out / "calibration-scan").string(), calib = (out / "calib").string();
-  LOOM_RETURN_IF_ERROR(stages->Run("calibrate geometry", RunCalibrate, {"calibrate", "geometry", scan, "--out", calib}));
-  return stages->Run("calibrate radiometry", RunCalibrate, {"calibrate", "radiometry", scan, "--calib", calib});
+  const fs::path scan = out / "calibration-scan", calib = out / "calib";
+  LOOM_RETURN_IF_ERROR(
+      stages->Run("calibrate geometry", "calibrate geometry " + scan.string() + " --out " + calib.string(), [&]() -> Status {
+        LOOM_ASSIGN_OR_RETURN(const calibration::GeometryCalibration geometry,
+                              calibration::CalibrateGeometryToDirectory(scan, calib));
+        geometry.Report(std::cout);
+        return Status::Ok();
+      }));
+  return stages->Run("calibrate radiometry", "calibrate radiometry " + scan.string() + " --calib " + calib.string(),
+                     [&]() -> Status {
+                       LOOM_ASSIGN_OR_RETURN(const calibration::RadiometryCalibration radiometry,
+                                             calibration::CalibrateRadiometryFromScan(scan, calib, ""));
+                       for (const std::string& note : radiometry.notes) std::cerr << note << "\n";
+                       LOOM_RETURN_IF_ERROR(radiometry.Write(calib));
+                       radiometry.Report(std::cout);
+                       return Status::Ok();
+                     });
+}
+
+Status CalibrationScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
+  // A rig whose material scan reads a crop has sensors too large to read whole for every view
+  // of a calibration object.
+  const NewScanRequest scan{.rig_path = rig,
+                            .calibration = true,
+                            .object_windows = args.crop_mm > 0,
+                            .out = fs::path(args.out) / "calibration-scan",
+                            .quiet = args.quiet};
+  const std::string command =
+      "scan --rig " + rig + " --calibration --out " + scan.out.string() + (scan.object_windows ? " --object-windows" : "");
+  return stages->Run("calibration scan", command, [&] { return NewScan(scan); });
+}
+
+Status Reconstruct(const DemoArguments& args, Stages* stages) {
+  const fs::path out(args.out);
+  reconstruction::ReconstructOptions options;
+  if (args.size_px > 0) options.width_px = options.height_px = args.size_px;
+  const fs::path calib = args.calibrate ? out / "calib" : fs::path();
+  const std::string command = "reconstruct " + (out / "scan").string() + " --out " + (out / "reconstruction").string() +
+                              (args.calibrate ? " --calib " + calib.string() : "") + SizeOption(args.size_px);
+  return stages->Run("reconstruct", command, [&]() -> Status {
+    std::map<std::string, ProgressBar> bars;
+    const auto progress = [&](const reconstruction::ReconstructProgress& p) {
+      bars.try_emplace(p.stage, "reconstruct: " + p.stage, args.quiet)
+          .first->second.Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
+    };
+    LOOM_ASSIGN_OR_RETURN(const reconstruction::ReconstructedDirectory written,
+                          reconstruction::ReconstructToDirectory(out / "scan", calib, options, out / "reconstruction", progress));
+    bars.clear();
+    for (const std::string& note : written.scanned.notes) std::cerr << "note: " << note << "\n";
+    written.Report(std::cout);
+    return Status::Ok();
+  });
 }
 
 Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
-  const fs::path out(args.out);
-  if (args.calibrate) {
-    std::vector<std::string> calibration_scan = {"scan",          "--rig", rig,
-                                                 "--calibration", "--out", (out / "calibration-scan").string()};
-    // A rig whose material scan reads a crop has sensors too large to read whole for every view
-    // of a calibration object.
-    if (args.crop_mm > 0) calibration_scan.push_back("--object-windows");
-    LOOM_RETURN_IF_ERROR(stages->Run("calibration scan", RunScan, calibration_scan));
-  }
+  if (args.calibrate) LOOM_RETURN_IF_ERROR(CalibrationScan(args, rig, stages));
   // Calibrating needs the calibration scan, not the rig: it runs while the rig scans the
   // material, as a lab's would. Here the simulated scan keeps both cores busy, and the
-  // calibration's stretches on one core fill what it leaves (tac7's demo 15 min 20 s -> 14 min 38 s).
+  // calibration's stretches on one core fill what it leaves.
   std::future<Status> calibrated =
-      std::async(std::launch::async, [&] { return args.calibrate ? Calibrate(out, stages) : Status::Ok(); });
+      std::async(std::launch::async, [&] { return args.calibrate ? Calibrate(args.out, stages) : Status::Ok(); });
   const Status scanned = ScanMaterial(args, rig, stages);
   const Status calibration = calibrated.get();
   LOOM_RETURN_IF_ERROR(scanned);
   LOOM_RETURN_IF_ERROR(calibration);
-  std::vector<std::string> reconstruct = {"reconstruct", (out / "scan").string(), "--out", (out / "reconstruction").string()};
-  if (args.calibrate) reconstruct.insert(reconstruct.end(), {"--calib", (out / "calib").string()});
-  return stages->Run("reconstruct", RunReconstruct, WithSize(reconstruct, args.size_px));
+  return Reconstruct(args, stages);
+}
+
+Status GroundTruth(const DemoArguments& args, const std::string& rig, Stages* stages) {
+  const fs::path out(args.out);
+  const sim::FastPathStackRequest request{
+      .size_px = args.size_px, .out = out / "fast-path-stack.exr", .truth = out / "truth.exr"};
+  const std::string command = "sim render --rig " + rig + " --object " + args.object + " --stack --preset " + args.preset +
+                              " --truth " + request.truth.string() + " --out " + request.out.string() + SizeOption(args.size_px);
+  return stages->Run("ground truth", command, [&]() -> Status {
+    LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(rig, args.object));
+    if (!loaded.sim) return InvalidArgumentError(rig, "not a simulated rig (it has no 'geometry:' section)");
+    LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
+    return sim::WriteFastPathStack(*loaded.sim->world->scene(), preset, request, std::cout);
+  });
+}
+
+Status FitMethod(const DemoArguments& args, const std::string& method, Stages* stages) {
+  const fs::path out(args.out);
+  fitting::FitRequest request{.stack = out / "reconstruction" / "stack.exr",
+                              .out = out / ("fit-" + method),
+                              .method = method,
+                              .models_dir = fs::path(LOOM_CONFIGS_DIR) / "models"};
+  std::map<std::string, ProgressBar> bars;
+  request.options.progress = [&](const fitting::StackFitProgress& p) {
+    bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
+  };
+  const std::string command = "fit " + request.stack.string() + " --method " + method + " --out " + request.out.string();
+  return stages->Run("fit " + method, command, [&]() -> Status {
+    LOOM_ASSIGN_OR_RETURN(const fitting::FitDirectory fit, fitting::FitToDirectory(request, std::cerr));
+    bars.clear();
+    fit.Report(std::cout);
+    return Status::Ok();
+  });
+}
+
+Status EvaluateMethod(const DemoArguments& args, const std::string& rig, const std::string& method, Stages* stages) {
+  const fs::path out(args.out);
+  const fitting::EvaluateRequest request{
+      .maps = out / ("fit-" + method) / "svbrdf.exr",
+      .stack = out / "reconstruction" / "stack.exr",
+      .reference = out / "truth.exr",
+      .out = out / ("report-" + method),
+      .title = args.object + " on " + rig + " (scan → calibrate → reconstruct → " + method + ")"};
+  const std::string command = "eval " + request.maps.string() + " --stack " + request.stack.string() + " --reference " +
+                              request.reference.string() + " --out " + request.out.string() + " --title '" + request.title + "'";
+  return stages->Run("evaluate " + method, command, [&]() -> Status {
+    LOOM_ASSIGN_OR_RETURN(const fitting::EvaluatedDirectory evaluated, fitting::EvaluateToDirectory(request));
+    evaluated.Report(std::cout);
+    return Status::Ok();
+  });
 }
 
 Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages* stages) {
-  const fs::path out(args.out);
-  const std::string stack = (out / "reconstruction" / "stack.exr").string();
-  LOOM_RETURN_IF_ERROR(
-      stages->Run("ground truth", RunSim,
-                  WithSize({"sim", "render", "--rig", rig, "--object", args.object, "--stack", "--preset", args.preset, "--truth",
-                            (out / "truth.exr").string(), "--out", (out / "fast-path-stack.exr").string()},
-                           args.size_px)));
+  LOOM_RETURN_IF_ERROR(GroundTruth(args, rig, stages));
   for (const std::string& method : args.methods) {
-    const std::string fit = (out / ("fit-" + method)).string();
-    LOOM_RETURN_IF_ERROR(stages->Run("fit " + method, RunFit, {"fit", stack, "--method", method, "--out", fit}));
-    LOOM_RETURN_IF_ERROR(stages->Run("evaluate " + method, RunEval,
-                                     {"eval", fit + "/svbrdf.exr", "--stack", stack, "--reference", (out / "truth.exr").string(),
-                                      "--out", (out / ("report-" + method)).string(), "--title",
-                                      args.object + " on " + rig + " (scan → calibrate → reconstruct → " + method + ")"}));
+    LOOM_RETURN_IF_ERROR(FitMethod(args, method, stages));
+    LOOM_RETURN_IF_ERROR(EvaluateMethod(args, rig, method, stages));
   }
-  return stages->Run("export", RunExport,
-                     {"export", (out / ("fit-" + args.methods.back()) / "svbrdf.exr").string(), "--gltf", (out / "gltf").string(),
-                      "--axf", (out / "material.axf").string()});
+  const fs::path out(args.out);
+  const fitting::ExportRequest request{
+      .maps = out / ("fit-" + args.methods.back()) / "svbrdf.exr", .gltf = out / "gltf", .axf = out / "material.axf"};
+  const std::string command =
+      "export " + request.maps.string() + " --gltf " + request.gltf.string() + " --axf " + request.axf.string();
+  return stages->Run("export", command, [&] { return fitting::ExportMaps(request, std::cout); });
 }
 
 Result<nlohmann::ordered_json> ReadJson(const fs::path& path) {
@@ -204,7 +281,7 @@ Status Demo(const DemoArguments& args) {
   if (fs::exists(args.out) && !fs::is_empty(args.out)) {
     return AlreadyExistsError(args.out, "is not empty: the demo writes a fresh directory (remove it, or pick another --out)");
   }
-  Stages stages(args.quiet);
+  Stages stages;
   const auto start = std::chrono::steady_clock::now();
   LOOM_RETURN_IF_ERROR(CalibrateAndScan(args, rig, &stages));
   LOOM_RETURN_IF_ERROR(FitAndEvaluate(args, rig, &stages));

@@ -1,22 +1,13 @@
 // loom fit: an observation stack → SVBRDF maps (OpenEXR + PNG previews + fit.json).
-#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <map>
 #include <optional>
-#include <sstream>
-
-#include <nlohmann/json.hpp>
 
 #include "apps/command.h"
 #include "apps/progress.h"
-#include "core/file_io.h"
-#include "core/observation_stack.h"
-#include "core/output_directory.h"
-#include "core/version.h"
-#include "fitting/io/svbrdf_file.h"
+#include "fitting/fit_directory.h"
 #include "fitting/method_fit.h"
-#include "fitting/report/export.h"
 #include "fitting/solve/refine_settings.h"
 #include "fitting/solve/stack_fitter.h"
 
@@ -25,114 +16,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The noise level (StackFitOptions::prior_reference_noise_rms) of the stack the prior's weight
-// was picked on: fabric:1003 scanned and reconstructed on tac7-mini.
-constexpr double kPriorReferenceNoiseRms = 0.16;
-
-fitting::StackFitOptions DefaultOptions() {
-  fitting::StackFitOptions options;
-  // Picked on a training fabric's reconstructed stack (fabric:1003; docs/benchmarks.md): every
-  // parameter's NRMSE below the CNN's, re-render L1 within 1 % of CNN + Ceres.
-  options.refiner.prior.weight = 0.1;
-  options.prior_reference_noise_rms = kPriorReferenceNoiseRms;
-  return options;
-}
-
 struct FitArguments {
-  std::string stack;
-  std::string out;
-  std::string method;  // empty: fitting::RecommendedMethod
-  std::string start;   // maps that start every pixel instead of the clusters' fits ("": none)
-  std::string model;   // empty: configs/models/<the stack's rig>
-  std::string f0 = "1";
-  bool retries = false, no_retries = false;
-  double min_sigma = 0;  // 0: from the stack's sampling
-  fitting::RefineSettingsGiven given;
-  fitting::StackFitOptions options = DefaultOptions();
+  fitting::FitRequest request;
+  bool retries = false;
   bool quiet = false;
 };
 
-// --start's maps, checked against the stack they are to start: its grid and, where the file
-// states one, its pixel size (maps of another crop or resolution would start every pixel from
-// another pixel's lobe).
-Result<Image> ReadStartMaps(const std::string& path, const ObservationStack& stack) {
-  LOOM_ASSIGN_OR_RETURN(fitting::SvbrdfFile start, fitting::ReadSvbrdf(path));
-  LOOM_RETURN_IF_ERROR(
-      fitting::CheckOnStackGrid(start, stack.image.width(), stack.image.height(), stack.pixel_mm, "--start " + path));
-  return std::move(start.maps);
-}
-
 Status Fit(FitArguments args) {
-  LOOM_ASSIGN_OR_RETURN(const ObservationStack stack, ReadObservationStack(args.stack));
-  std::cerr << "fitting " << args.stack << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
-            << stack.observations.size() << " observations (" << stack.source << ")\n";
-  if (args.model.empty()) args.model = std::string(LOOM_CONFIGS_DIR) + "/models/" + stack.rig;
-  const bool recommended = args.method.empty();
-  if (recommended) {
-    args.method = fitting::FitMethodName(fitting::RecommendedMethod(stack, args.model, !args.start.empty()));
-    std::cerr << "method " << args.method << " (the recommended one for this stack; --method chooses another)\n";
-  }
-  std::optional<fitting::FitMethod> method = fitting::ParseFitMethod(args.method);
-  if (!method) {
-    return InvalidArgumentError("--method " + args.method,
-                                "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo");
-  }
-  fitting::StackFitOptions& options = args.options;
-  options.retry_poor_fits = !args.no_retries;
-  if (args.min_sigma > 0) options.min_sigma = args.min_sigma;
-  const bool refiner = *method == fitting::FitMethod::kRefine || *method == fitting::FitMethod::kCnnRefine;
-  LOOM_ASSIGN_OR_RETURN(options.fixed_f0, fitting::ParseFixedF0(args.f0, "--f0"));
-  LOOM_RETURN_IF_ERROR(fitting::ApplyRefineSettings(args.model, refiner, args.given, options));
-  std::optional<Image> start;
-  if (!args.start.empty()) {
-    if (fitting::StartsFromCnn(*method)) {
-      return InvalidArgumentError("--start " + args.start,
-                                  "starts the ceres and refine methods; --method " + args.method + " starts from the CNN's maps");
-    }
-    LOOM_ASSIGN_OR_RETURN(start, ReadStartMaps(args.start, stack));
-    options.initial_maps = &*start;
-    options.refiner.prior.weight = 0;  // the prior's 1σ are the CNN's measured errors, not these maps'
-  }
-  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
-  options.progress = [&](const fitting::StackFitProgress& p) {
+  args.request.options.progress = [&](const fitting::StackFitProgress& p) {
     bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
   };
-  fitting::MethodFit fit;
-  if (recommended) {
-    LOOM_ASSIGN_OR_RETURN(fitting::RecommendedFit chosen, fitting::FitWithRecommendedMethod(stack, args.model, options));
-    if (!chosen.fallback.empty()) std::cerr << chosen.fallback << "\n";
-    args.method = fitting::FitMethodName(chosen.method);
-    fit = std::move(chosen.fit);
-  } else {
-    LOOM_ASSIGN_OR_RETURN(fit, fitting::FitWithMethod(stack, *method, args.model, options));
-  }
+  args.request.models_dir = fs::path(LOOM_CONFIGS_DIR) / "models";
+  LOOM_ASSIGN_OR_RETURN(const fitting::FitDirectory fit, fitting::FitToDirectory(std::move(args.request), std::cerr));
   bars.clear();
-  if (!fit.cnn.empty()) std::cout << "CNN " << fit.cnn << ": " << FormatDuration(fit.cnn_seconds) << "\n";
-  if (fit.summary) fit.summary->Report(std::cout);
-  if (!fit.lambert.is_null()) {
-    std::cout << "photometric stereo: fitted " << fit.lambert["pixels_fitted"] << " of " << fit.lambert["pixels"] << " px ("
-              << fit.lambert["pixels_skipped"] << " skipped: masked, unseen or too few lit observations)\n";
-  }
-  if (!fit.view_selection.is_null()) {
-    const nlohmann::json& v = fit.view_selection;
-    std::cout << "few views (" << v["views"] << "): each pixel kept the model that predicted views left out of its fit "
-              << "better: GD10 " << v["pixels_gd10"] << " px, Lambertian " << v["pixels_lambert"]
-              << " px (left-out views' relative L1: GD10 " << v["left_out_view_l1"]["gd10"] << ", Lambertian "
-              << v["left_out_view_l1"]["lambert"] << ", chosen " << v["left_out_view_l1"]["chosen"] << ")\n";
-  }
-  if (const std::optional<std::string> warning = fitting::AlbedoBoundWarning(fit.maps))
-    std::cout << "warning: " << *warning << "\n";
-  nlohmann::json summary = fit.ToJson();
-  summary.update({{"method", args.method},
-                  {"model", fit.cnn.empty() ? "" : args.model},
-                  {"start", args.start},
-                  {"stack", args.stack},
-                  {"loom_version", std::string(VersionWithCommit())}});
-  LOOM_RETURN_IF_ERROR(fitting::WriteSvbrdf(out.partial(), fit.maps, {args.method, args.stack, stack.rig, stack.pixel_mm}));
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "fit.json", summary.dump(2) + "\n"));
-  LOOM_RETURN_IF_ERROR(out.Commit());
-  std::cout << "wrote " << (fs::path(args.out) / "svbrdf.exr").string() << ", previews and fit.json in " << args.out << "\n";
+  fit.Report(std::cout);
   return Status::Ok();
 }
 
@@ -142,10 +40,10 @@ int RunFit(int argc, char** argv) {
   CLI::App app("Fit SVBRDF maps (GD10 anisotropic Ward) to an observation stack", "loom fit");
   AddCommonOptions(app);
   FitArguments args;
-  app.add_option("stack", args.stack, "Observation stack (OpenEXR, from loom reconstruct or loom sim render --stack)")
+  app.add_option("stack", args.request.stack, "Observation stack (OpenEXR, from loom reconstruct or loom sim render --stack)")
       ->required();
-  app.add_option("--out", args.out, "Output directory: svbrdf.exr, PNG previews, fit.json")->required();
-  app.add_option("--method", args.method,
+  app.add_option("--out", args.request.out, "Output directory: svbrdf.exr, PNG previews, fit.json")->required();
+  app.add_option("--method", args.request.method,
                  "default: cnn+refine where the stack's rig has a model (configs/models/<rig>, or --model), ceres for "
                  "photographs from loom import, refine otherwise. ceres (clusters, then every pixel with Ceres), refine "
                  "(clusters, then every pixel with the batched "
@@ -153,51 +51,51 @@ int RunFit(int argc, char** argv) {
                  "cnn+refine (the CNN's maps start the batched refiner: Ceres' cost, many pixels at once, with 1 sigma "
                  "uncertainty maps), lambert (robust photometric stereo: a normal and an albedo per pixel, the "
                  "baseline) or lambert-albedo (an albedo per pixel on the geometric normal)");
-  app.add_option("--start", args.start,
+  app.add_option("--start", args.request.start,
                  "ceres and refine: maps that start every pixel's fit instead of the clusters' fits, on the stack's "
                  "grid: an earlier fit's svbrdf.exr (to refit a stored capture after recalibrating, or to finish a "
                  "fit with another method), an AxF file, or a simulator's truth (the fit nearest the true maps)");
-  app.add_option("--prior-weight", args.options.refiner.prior.weight,
+  app.add_option("--prior-weight", args.request.options.refiner.prior.weight,
                  "cnn+refine: weight of the prior toward the CNN's maps (default 0.1; 0: none; 1: the CNN's "
                  "measured errors as its 1 sigma)")
       ->check(CLI::Range(0.0, 1e6));
-  app.add_option("--min-sigma", args.min_sigma,
+  app.add_option("--min-sigma", args.request.min_sigma,
                  "The narrowest lobe a fit may reach (default: half the angle between the stack's neighbouring "
                  "half-vectors, at least 0.001 and at most 0.2)")
       ->check(CLI::Range(0.001, 0.999));
-  app.add_option("--left-out-views-max", args.options.left_out_view_selection_max_views,
+  app.add_option("--left-out-views-max", args.request.options.left_out_view_selection_max_views,
                  "ceres and refine: on a stack of at most this many views (a photograph's colour channels are one), each "
                  "appearance cluster keeps the GD10 fit or the Lambertian one, whichever predicts views left out of its "
                  "fit better, at (views + 1) fits of each (0: never)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
-  app.add_flag("!--no-photometric-stereo-starts", args.options.photometric_stereo_starts,
+  app.add_flag("!--no-photometric-stereo-starts", args.request.options.photometric_stereo_starts,
                "Start every pixel from its cluster's lobe on the stack's geometric normal instead of on the pixel's "
                "normal by photometric stereo");
-  app.add_option("--prior-noise", args.options.prior_reference_noise_rms,
+  app.add_option("--prior-noise", args.request.options.prior_reference_noise_rms,
                  "cnn+refine: the stack noise level (relative RMS of its best-fitted tenth) at which --prior-weight "
                  "holds; the weight scales with the square of the stack's own, so that exact data outweigh the CNN "
                  "(default 0.16, the level the weight was picked at; 0: the weight as given)")
       ->check(CLI::Range(0.0, 10.0));
   CLI::Option* smoothing_weight =
-      app.add_option("--smoothing-weight", args.options.smoothing.weight,
+      app.add_option("--smoothing-weight", args.request.options.smoothing.weight,
                      "refine methods: weight of a second pass's prior toward each pixel's 5x5 neighbourhood's median "
                      "lobe (with cnn+refine, its anisotropy angle from the neighbours the CNN's maps put on the "
                      "pixel's yarn), scaled with the stack's noise as --prior-weight is (default: the model "
                      "directory's refine.json, 3 for tac7-mini; without one 0: no second pass)")
           ->check(CLI::Range(0.0, 1e6));
-  app.add_option("--strip-samples", args.options.refiner.max_lights_per_observation,
+  app.add_option("--strip-samples", args.request.options.refiner.max_lights_per_observation,
                  "refine methods: light samples per linear-light observation, the stack's emitters merged along the "
                  "strip (0: all of them)")
       ->check(CLI::Range(0, 4096));
-  app.add_option("--coarse-samples", args.options.refiner.coarse_lights_per_observation,
+  app.add_option("--coarse-samples", args.request.options.refiner.coarse_lights_per_observation,
                  "refine methods: coarse to fine, each pixel first converged with its strips merged into this many "
                  "light samples, then finished with all of them (0: one pass)")
       ->check(CLI::Range(0, 4096));
   app.add_option_function<int>(
          "--strip-nodes",
          [&args](int nodes) {
-           if (nodes > 0) args.options.pixels.strip_quadrature = fitting::StripQuadratureWithNodes(nodes);
+           if (nodes > 0) args.request.options.pixels.strip_quadrature = fitting::StripQuadratureWithNodes(nodes);
          },
          "refine methods: the first fit integrates each linear light's strip by Gauss-Legendre quadrature with this "
          "many nodes, a fifth of them either side of the span of the pixel's specular lobe, instead of the stack's "
@@ -205,33 +103,33 @@ int RunFit(int argc, char** argv) {
          "fitting/model/strip_quadrature.h, docs/benchmarks.md)")
       ->check(CLI::Range(0, 127) & !CLI::Range(1, 4));
   CLI::Option* function_tolerance =
-      app.add_option("--function-tolerance", args.options.refiner.function_tolerance,
+      app.add_option("--function-tolerance", args.request.options.refiner.function_tolerance,
                      "refine methods: a pixel's fit ends at an accepted step that changes its cost by less than this "
                      "fraction (default: the model directory's refine.json, 1e-3 for tac7-mini; without one 1e-4; "
                      "Ceres' is 1e-6; looser is faster: docs/benchmarks.md)")
           ->check(CLI::Range(0.0, 0.5));
-  app.add_option("--model", args.model,
+  app.add_option("--model", args.request.model,
                  "Model directory: the CNN, and in refine.json the refiner's settings picked for its rig (default: "
                  "configs/models/<the stack's rig>)");
-  app.add_option("--clusters", args.options.clusters, "Appearance clusters that initialise the per-pixel fits")
+  app.add_option("--clusters", args.request.options.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
-  app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
+  app.add_option("--threads", args.request.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
   CLI::Option* f0 =
-      app.add_option("--f0", args.f0,
+      app.add_option("--f0", args.request.f0,
                      "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the observations fix; for the refine "
                      "methods the model directory's refine.json may say otherwise: 'material' for tac7 and tac7-mini), or "
                      "'material': one F0 for the material, fitted jointly with a sparse grid of its pixels (fit.json: "
                      "material_f0, f0_fits)");
-  app.add_option("--retry-above", args.options.retry_above_noise_rms,
+  app.add_option("--retry-above", args.request.options.retry_above_noise_rms,
                  "Fit a pixel again from grid-searched starts when its relative RMS exceeds this many times the "
                  "stack's noise level (the best-fitted tenth's RMS; default 2.5)")
       ->check(CLI::Range(1.0, 1e6));
-  app.add_option("--neighbour-rounds", args.options.retry_neighbour_rounds,
+  app.add_option("--neighbour-rounds", args.request.options.retry_neighbour_rounds,
                  "refine methods: rounds that fit a poor pixel again from its best-fitted neighbour's fit before "
                  "any grid search, while a trial of each round brings a quarter of its pixels below the retry "
                  "threshold (default 2; 0: grid search only)")
       ->check(CLI::Range(0, 100));
-  app.add_option("--neighbour-starts", args.options.retry_neighbour_starts,
+  app.add_option("--neighbour-starts", args.request.options.retry_neighbour_starts,
                  "refine methods: of a retried pixel's explored starts, how many are its best-fitted neighbours' fits "
                  "(default 1; the grid search gives the rest)")
       ->check(CLI::Range(0, 8));
@@ -240,20 +138,20 @@ int RunFit(int argc, char** argv) {
       "Retry poor fits from well-fitted neighbours and grid-searched starts (the default, but where the model "
       "directory's refine.json turns them off for the refine methods: tac7-mini's, whose smoothing pass restarts every pixel)");
   CLI::Option* no_retries =
-      app.add_flag("--no-retries", args.no_retries,
+      app.add_flag("--no-retries", args.request.no_retries,
                    "Keep every pixel's first fit: no second fit from grid-searched starts where it fits poorly");
   retries->excludes(no_retries);
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  if (!args.method.empty() && !fitting::ParseFitMethod(args.method)) {  // a usage error, as CLI11's own are
-    ExitCode(InvalidArgumentError("--method " + args.method,
+  if (!args.request.method.empty() && !fitting::ParseFitMethod(args.request.method)) {  // a usage error, as CLI11's own are
+    ExitCode(InvalidArgumentError("--method " + args.request.method,
                                   "expected ceres, refine, cnn, cnn+ceres, cnn+refine, lambert or lambert-albedo"));
     return kExitUsage;
   }
-  args.given = {.smoothing_weight = smoothing_weight->count() > 0,
-                .retries = retries->count() + no_retries->count() > 0,
-                .function_tolerance = function_tolerance->count() > 0,
-                .f0 = f0->count() > 0};
+  args.request.given = {.smoothing_weight = smoothing_weight->count() > 0,
+                        .retries = retries->count() + no_retries->count() > 0,
+                        .function_tolerance = function_tolerance->count() > 0,
+                        .f0 = f0->count() > 0};
   return ExitCode(Fit(args));
 }
 

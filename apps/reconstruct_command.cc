@@ -1,13 +1,10 @@
 // loom reconstruct: a scan → the calibrated observation stack (stack.exr) + reconstruction.json.
-#include <chrono>
 #include <filesystem>
 #include <iostream>
 #include <map>
 
 #include "apps/command.h"
 #include "apps/progress.h"
-#include "core/file_io.h"
-#include "core/output_directory.h"
 #include "reconstruction/scan_reconstruction.h"
 
 namespace loom::apps {
@@ -24,29 +21,17 @@ struct ReconstructArguments {
 };
 
 Status Reconstruct(const ReconstructArguments& args) {
-  const auto start = std::chrono::steady_clock::now();
-  LOOM_ASSIGN_OR_RETURN(const reconstruction::ScanToReconstruct opened,
-                        reconstruction::OpenScanToReconstruct(args.scan, args.calib, args.options));
-  LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(args.out, "--out"));
   std::map<std::string, ProgressBar> bars;
   const auto progress = [&](const reconstruction::ReconstructProgress& p) {
     const auto bar = bars.try_emplace(p.stage, "reconstruct: " + p.stage, args.quiet).first;
     bar->second.Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
   };
-  LOOM_ASSIGN_OR_RETURN(const reconstruction::ScanReconstruction scanned, reconstruction::ReconstructScan(opened, progress));
+  LOOM_ASSIGN_OR_RETURN(const reconstruction::ReconstructedDirectory written,
+                        reconstruction::ReconstructToDirectory(args.scan, args.calib, args.options, args.out, progress));
   bars.clear();
-  for (const std::string& note : scanned.notes) std::cerr << "note: " << note << "\n";
-  const reconstruction::Reconstruction& result = scanned.reconstruction;
-  LOOM_RETURN_IF_ERROR(WriteObservationStack(out.partial() / "stack.exr", result.stack));
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  LOOM_RETURN_IF_ERROR(WriteFileAtomically(out.partial() / "reconstruction.json", scanned.ToJson(seconds).dump(2) + "\n"));
-  LOOM_RETURN_IF_ERROR(out.Commit());
-  const fs::path stack_path = fs::path(args.out) / "stack.exr";
-  std::cout << "wrote " << stack_path.string() << ": " << result.stack.image.width() << "x" << result.stack.image.height()
-            << " px at " << args.options.pixel_mm << " mm, " << result.stack.observations.size()
-            << " observations; heightmap from " << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "
-            << 100 * result.unseen_fraction << " % of samples unseen, " << FormatDuration(seconds) << "\n";
-  return {};
+  for (const std::string& note : written.scanned.notes) std::cerr << "note: " << note << "\n";
+  written.Report(std::cout);
+  return Status::Ok();
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include "apps/command.h"
 #include "apps/progress.h"
 #include "apps/rig_loader.h"
+#include "apps/scanning.h"
 #include "core/file_io.h"
 #include "scan/capture_store.h"
 
@@ -75,14 +76,7 @@ Status ApplyCrop(LoadedRig& loaded, double crop_mm, bool quiet) {
   return Status::Ok();
 }
 
-struct NewScanRequest {
-  std::string rig_path, preset = "low", object;
-  bool calibration = false;
-  bool object_windows = false;  // calibration objects read through their windows
-  double crop_mm = 0;
-  fs::path out;
-  bool quiet = false;
-};
+}  // namespace
 
 Status NewScan(const NewScanRequest& request) {
   LOOM_ASSIGN_OR_RETURN(const std::string rig_text, ReadFile(ResolveRigPath(request.rig_path)));
@@ -99,6 +93,8 @@ Status NewScan(const NewScanRequest& request) {
                         scan::CaptureStore::Create(request.out, {rig_text, object, plan, request.crop_mm}));
   return RunScan(loaded, store.info().plan, store, request.quiet);
 }
+
+namespace {
 
 Status ResumeScan(const fs::path& directory, bool quiet) {
   LOOM_ASSIGN_OR_RETURN(scan::CaptureStore store, scan::CaptureStore::Open(directory, /*repair=*/true));

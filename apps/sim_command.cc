@@ -20,6 +20,7 @@
 #include "scan/plan.h"
 #include "scan/rig_state.h"
 #include "sim/fabric_stats.h"
+#include "sim/fast_path_stack.h"
 #include "sim/object_capture.h"
 #include "sim/plan_observations.h"
 #include "sim/sample.h"
@@ -64,30 +65,10 @@ struct RenderArguments {
 // The fast-path stack of the observations a material plan with the preset makes.
 Status RenderStack(const sim::Scene& scene, const RenderArguments& args) {
   LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(args.preset)));
-  LOOM_ASSIGN_OR_RETURN(const std::vector<sim::Observation> observations, sim::PresetObservations(scene.rig(), preset));
-  std::optional<sim::ScanEmulation> emulation;
-  if (!args.scan_emulation.empty()) {
-    LOOM_ASSIGN_OR_RETURN(emulation, sim::LoadScanEmulation(args.scan_emulation));
-  }
-  const sim::StackOptions options{.width_px = args.size_px, .height_px = args.size_px};
-  const uint64_t side = args.size_px > 0 ? static_cast<uint64_t>(args.size_px) : 4096;  // the sample's side is at most that
-  LOOM_RETURN_IF_ERROR(CheckFitsInMemory(
-      side * side * (kStackGeometryChannels + observations.size()) * sizeof(float),
-      "--size " + std::to_string(args.size_px) + " with " + std::to_string(observations.size()) + " observations"));
-  ObservationStack stack = sim::RenderStack(scene, observations, options);
-  if (emulation) {
-    const Status emulated = sim::EmulateScan(*emulation, args.seed, stack);
-    if (!emulated.ok()) return emulated.WithContext("--scan-emulation " + args.scan_emulation);
-    std::cout << "degraded as a scan: " << args.scan_emulation << " (seed " << args.seed << ")\n";
-  }
-  LOOM_RETURN_IF_ERROR(WriteObservationStack(args.out, stack));
-  if (!args.truth.empty()) {
-    LOOM_RETURN_IF_ERROR(sim::WriteMaterial(sim::TruthOnStackGrid(scene, options), args.truth));
-    std::cout << "wrote " << args.truth << ": the ground-truth maps on the stack's grid\n";
-  }
-  std::cout << "wrote " << args.out << ": " << stack.image.width() << "x" << stack.image.height() << " px, "
-            << observations.size() << " observations (preset " << preset.name << ")\n";
-  return Status::Ok();
+  return sim::WriteFastPathStack(
+      scene, preset,
+      {.size_px = args.size_px, .out = args.out, .truth = args.truth, .scan_emulation = args.scan_emulation, .seed = args.seed},
+      std::cout);
 }
 
 // One raw frame (and its radiance) of a simulated rig's camera, or the fast-path stack.

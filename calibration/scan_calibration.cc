@@ -10,6 +10,7 @@
 #include "calibration/radiometry_yaml.h"
 #include "calibration/scan_radiance.h"
 #include "core/file_io.h"
+#include "core/output_directory.h"
 #include "core/rig_file.h"
 #include "core/version.h"
 
@@ -147,6 +148,14 @@ Result<GeometryCalibration> CalibrateGeometryFromScan(const fs::path& scan_dir) 
   LOOM_ASSIGN_OR_RETURN(const ScanRadiance scan, ScanRadiance::Open(store, calibrated));
   LOOM_ASSIGN_OR_RETURN(result.lights, CalibrateLights(scan));
   LOOM_ASSIGN_OR_RETURN(result.projector, CalibrateProjectorPose(scan, opened.target, result.geometry.target));
+  return result;
+}
+
+Result<GeometryCalibration> CalibrateGeometryToDirectory(const fs::path& scan_dir, const fs::path& out) {
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory staged, OutputDirectory::Create(out, "--out"));
+  LOOM_ASSIGN_OR_RETURN(GeometryCalibration result, CalibrateGeometryFromScan(scan_dir));
+  LOOM_RETURN_IF_ERROR(result.Write(staged.partial()));
+  LOOM_RETURN_IF_ERROR(staged.Commit());
   return result;
 }
 

@@ -56,6 +56,8 @@ struct GeometryCalibration {
   void Report(std::ostream& out) const;
 };
 Result<GeometryCalibration> CalibrateGeometryFromScan(const std::filesystem::path& scan_dir);
+// The same, written into the new directory `out` (whole or not at all; `out` checked first).
+Result<GeometryCalibration> CalibrateGeometryToDirectory(const std::filesystem::path& scan_dir, const std::filesystem::path& out);
 
 // `loom calibrate radiometry`: light intensities, camera sensitivities and flat fields, filter
 // colour weights and linearity from the white reference and the colour chart, over the cameras

@@ -1,5 +1,12 @@
 #include "reconstruction/scan_reconstruction.h"
 
+#include <chrono>
+#include <ostream>
+
+#include "core/duration.h"
+#include "core/file_io.h"
+#include "core/observation_stack.h"
+#include "core/output_directory.h"
 #include "core/rig_file.h"
 #include "core/version.h"
 #include "scan/capture_store.h"
@@ -44,6 +51,31 @@ Result<ScanReconstruction> ReconstructScan(const ScanToReconstruct& scan,
   ScanReconstruction result{std::move(reconstruction), scan.calibration, scan.scan, scan.calibration_directory, scan.notes};
   if (std::string note = result.reconstruction.CoarseSamplingNote(); !note.empty()) result.notes.push_back(std::move(note));
   return result;
+}
+
+Result<ReconstructedDirectory> ReconstructToDirectory(const std::filesystem::path& scan,
+                                                      const std::filesystem::path& calibration_directory,
+                                                      const ReconstructOptions& options, const std::filesystem::path& out,
+                                                      const std::function<void(const ReconstructProgress&)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  LOOM_ASSIGN_OR_RETURN(const ScanToReconstruct opened, OpenScanToReconstruct(scan, calibration_directory, options));
+  LOOM_ASSIGN_OR_RETURN(OutputDirectory staged, OutputDirectory::Create(out, "--out"));
+  ReconstructedDirectory result{.out = out, .pixel_mm = opened.options.pixel_mm};
+  LOOM_ASSIGN_OR_RETURN(result.scanned, ReconstructScan(opened, progress));
+  LOOM_RETURN_IF_ERROR(WriteObservationStack(staged.partial() / "stack.exr", result.scanned.reconstruction.stack));
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  LOOM_RETURN_IF_ERROR(
+      WriteFileAtomically(staged.partial() / "reconstruction.json", result.scanned.ToJson(result.seconds).dump(2) + "\n"));
+  LOOM_RETURN_IF_ERROR(staged.Commit());
+  return result;
+}
+
+void ReconstructedDirectory::Report(std::ostream& out) const {
+  const Reconstruction& result = scanned.reconstruction;
+  out << "wrote " << (this->out / "stack.exr").string() << ": " << result.stack.image.width() << "x"
+      << result.stack.image.height() << " px at " << pixel_mm << " mm, " << result.stack.observations.size()
+      << " observations; heightmap from " << result.heightmap_camera << " (" << result.heightmap_filled << " px filled), "
+      << 100 * result.unseen_fraction << " % of samples unseen, " << FormatDuration(seconds) << "\n";
 }
 
 }  // namespace loom::reconstruction

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -50,5 +51,22 @@ struct ScanReconstruction {
 
 Result<ScanReconstruction> ReconstructScan(const ScanToReconstruct& scan,
                                            const std::function<void(const ReconstructProgress&)>& progress = nullptr);
+
+struct ReconstructedDirectory {
+  ScanReconstruction scanned;
+  std::filesystem::path out;
+  double pixel_mm = 0;
+  double seconds = 0;
+
+  // What `loom reconstruct` prints: what was written, the heightmap, unseen samples, the time.
+  void Report(std::ostream& out) const;
+};
+
+// Opens `scan` (OpenScanToReconstruct), checks `out` before the work, reconstructs and writes
+// OUT/stack.exr and OUT/reconstruction.json.
+Result<ReconstructedDirectory> ReconstructToDirectory(const std::filesystem::path& scan,
+                                                      const std::filesystem::path& calibration_directory,
+                                                      const ReconstructOptions& options, const std::filesystem::path& out,
+                                                      const std::function<void(const ReconstructProgress&)>& progress);
 
 }  // namespace loom::reconstruction

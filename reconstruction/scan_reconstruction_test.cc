@@ -37,6 +37,15 @@ TEST(ScanReconstructionTest, AFolderWithoutScanYamlIsRefusedNamingItAndLeftAsItW
   EXPECT_EQ(std::distance(fs::directory_iterator(folder), fs::directory_iterator()), 1);
 }
 
+TEST(ScanReconstructionTest, ReconstructingAMissingScanToADirectoryWritesNoDirectory) {
+  const fs::path parent = FreshDirectory("to-directory");
+  const Result<ReconstructedDirectory> written =
+      ReconstructToDirectory(parent / "no-such-scan", {}, {}, parent / "reconstruction", nullptr);
+  ASSERT_FALSE(written.ok());
+  EXPECT_NE(written.status().ToString().find("no-such-scan"), std::string::npos) << written.status().ToString();
+  EXPECT_TRUE(fs::is_empty(parent));
+}
+
 TEST(ScanReconstructionTest, ReconstructionJsonSaysWhatWasCalibrated) {
   ScanReconstruction nominal;
   nominal.scan = "scans/fabric";
