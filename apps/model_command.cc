@@ -10,47 +10,19 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
-#include <map>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "apps/command.h"
 #include "core/file_io.h"
 #include "core/output_file.h"
 #include "fitting/cnn/cnn.h"
-#include "fitting/cnn/cnn_dataset.h"
 #include "fitting/cnn/model_directory.h"
 
 namespace loom::apps {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string GroupCounts(const std::vector<ObservationGroup>& groups) {
-  std::map<std::string, int> counts;
-  for (ObservationGroup g : groups) ++counts[std::string(ObservationGroupName(g))];
-  std::string text;
-  for (const auto& [name, count] : counts) text += (text.empty() ? "" : ", ") + std::to_string(count) + " " + name;
-  return text;
-}
-
-void Describe(const fs::path& dir, const fitting::CnnModelInfo& info) {
-  const fitting::CnnArchitecture& a = info.architecture;
-  const std::array<int, 4> w = a.HiddenWidths();
-  std::cout << "model " << dir.string() << "\n"
-            << "  rig " << info.rig << ", " << a.input_channels << " input channels; "
-            << (info.paper_layout ? "the paper's layout (every preset of the rig)"
-                                  : "observations: " + GroupCounts(info.observation_groups))
-            << "\n"
-            << "  width divisor " << a.width_divisor << " (" << w[0] << ", " << w[1] << ", " << w[2] << ", " << w[3]
-            << " features), " << std::setprecision(3) << a.WeightCount() / 1e6 << " M weights, " << a.DenseFlopsPerPixel() / 1e6
-            << " MFLOP per pixel, dropout " << a.dropout << (a.centre_skip ? ", centre skip" : "") << "\n"
-            << "  weights " << fitting::WeightStorageName(info.weights) << ", " << std::setprecision(4)
-            << fs::file_size(dir / "weights.pt") / 1e6 << " MB; radiance scale " << info.radiance_scale << "\n"
-            << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";
-}
 
 // What a new model directory's weights take on disk, for the operator.
 void ReportWritten(const fs::path& to, fitting::WeightStorage storage) {
@@ -67,34 +39,14 @@ struct ScoreArguments {
   bool force = false;
 };
 
-void ReportScore(const std::string& set, int materials, const fitting::CnnScore& score) {
-  std::cout << std::setprecision(4) << set << " loss " << score.loss << ", re-rendering loss " << score.rerender_loss << " on "
-            << materials << " materials (" << score.pixels << " pixels); RMSE per label channel:\n   ";
-  fitting::ReportRmsePerChannel(std::cout, score);
-  std::cout << "\n";
-}
-
-// The model's label loss, RMSE and re-rendering loss on DATA's validation and test materials,
-// split as loom train splits them (the last --test by name, the --validation before them).
+// The model's losses on DATA's validation and test materials (fitting::ScoreModel).
 Status Score(const fs::path& model, const ScoreArguments& args) {
   if (!args.json.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(args.json, "--json", args.force));
-  LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
-  LOOM_ASSIGN_OR_RETURN(const fitting::CnnDataset dataset, fitting::CnnDataset::Open(args.data, args.validation, args.test));
-  LOOM_ASSIGN_OR_RETURN(const fitting::CnnHeldOutScore score, fitting::ScoreOnHeldOut(cnn, dataset, args.threads));
-  std::cout << "model " << model.string() << " on dataset " << args.data << " (" << dataset.train_count() << " training, "
-            << dataset.validation_count() << " validation, " << dataset.test_count() << " test materials)\n";
-  ReportScore("validation", dataset.validation_count(), score.validation);
-  ReportScore("test", dataset.test_count(), score.test);
+  LOOM_ASSIGN_OR_RETURN(const fitting::ModelScore score,
+                        fitting::ScoreModel(model, args.data, args.validation, args.test, args.threads));
+  score.Report(std::cout);
   if (args.json.empty()) return Status::Ok();
-  nlohmann::json report = {
-      {"model", model.string()},
-      {"dataset", args.data},
-      {"materials",
-       {{"train", dataset.train_count()}, {"validation", dataset.validation_count()}, {"test", dataset.test_count()}}},
-      {"label_channels", fitting::kLabelChannelNames},
-      {"validation", fitting::CnnScoreJson(score.validation)},
-      {"test", fitting::CnnScoreJson(score.test)}};
-  return WriteJsonReport(args.json, std::move(report));
+  return WriteJsonReport(args.json, score.ToJson());
 }
 
 Status RunModelCommand(const fs::path& model, const std::string& out, const std::string& weights,
@@ -104,7 +56,7 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
     if (!weights.empty()) return InvalidArgumentError("--weights", "converts into --out DIR: give one");
     if (!average.empty()) return InvalidArgumentError("--average", "writes the average into --out DIR: give one");
     LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
-    Describe(model, cnn.info());
+    fitting::DescribeModel(model, cnn.info(), std::cout);
     return Status::Ok();
   }
   const std::optional<fitting::WeightStorage> storage = fitting::WeightStorageFromName(weights.empty() ? "float32" : weights);

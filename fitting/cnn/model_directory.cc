@@ -1,11 +1,74 @@
 #include "fitting/cnn/model_directory.h"
 
+#include <iomanip>
+#include <map>
+#include <ostream>
 #include <string>
 #include <system_error>
 
 #include "core/output_directory.h"
+#include "fitting/cnn/cnn_training.h"
 
 namespace loom::fitting {
+namespace {
+
+std::string GroupCounts(const std::vector<ObservationGroup>& groups) {
+  std::map<std::string, int> counts;
+  for (ObservationGroup g : groups) ++counts[std::string(ObservationGroupName(g))];
+  std::string text;
+  for (const auto& [name, count] : counts) text += (text.empty() ? "" : ", ") + std::to_string(count) + " " + name;
+  return text;
+}
+
+void ReportScore(std::ostream& out, const std::string& set, int materials, const CnnScore& score) {
+  out << std::setprecision(4) << set << " loss " << score.loss << ", re-rendering loss " << score.rerender_loss << " on "
+      << materials << " materials (" << score.pixels << " pixels); RMSE per label channel:\n   ";
+  ReportRmsePerChannel(out, score);
+  out << "\n";
+}
+
+}  // namespace
+
+void DescribeModel(const std::filesystem::path& dir, const CnnModelInfo& info, std::ostream& out) {
+  const CnnArchitecture& a = info.architecture;
+  const std::array<int, 4> w = a.HiddenWidths();
+  out << "model " << dir.string() << "\n"
+      << "  rig " << info.rig << ", " << a.input_channels << " input channels; "
+      << (info.paper_layout ? "the paper's layout (every preset of the rig)"
+                            : "observations: " + GroupCounts(info.observation_groups))
+      << "\n"
+      << "  width divisor " << a.width_divisor << " (" << w[0] << ", " << w[1] << ", " << w[2] << ", " << w[3] << " features), "
+      << std::setprecision(3) << a.WeightCount() / 1e6 << " M weights, " << a.DenseFlopsPerPixel() / 1e6
+      << " MFLOP per pixel, dropout " << a.dropout << (a.centre_skip ? ", centre skip" : "") << "\n"
+      << "  weights " << WeightStorageName(info.weights) << ", " << std::setprecision(4)
+      << std::filesystem::file_size(dir / "weights.pt") / 1e6 << " MB; radiance scale " << info.radiance_scale << "\n"
+      << "  training: " << (info.training.empty() ? "(not described)" : info.training) << "\n";
+}
+
+Result<ModelScore> ScoreModel(const std::filesystem::path& model, const std::filesystem::path& dataset, int validation, int test,
+                              int threads) {
+  LOOM_ASSIGN_OR_RETURN(const Cnn cnn, Cnn::Load(model));
+  LOOM_ASSIGN_OR_RETURN(const CnnDataset data, CnnDataset::Open(dataset, validation, test));
+  LOOM_ASSIGN_OR_RETURN(const CnnHeldOutScore score, ScoreOnHeldOut(cnn, data, threads));
+  return ModelScore{model, dataset, data.train_count(), data.validation_count(), data.test_count(), score};
+}
+
+void ModelScore::Report(std::ostream& out) const {
+  out << "model " << model.string() << " on dataset " << dataset.string() << " (" << train << " training, " << validation
+      << " validation, " << test << " test materials)\n";
+  ReportScore(out, "validation", validation, score.validation);
+  ReportScore(out, "test", test, score.test);
+}
+
+nlohmann::json ModelScore::ToJson() const {
+  return {{"model", model.string()},
+          {"dataset", dataset.string()},
+          {"materials", {{"train", train}, {"validation", validation}, {"test", test}}},
+          {"label_channels", kLabelChannelNames},
+          {"validation", CnnScoreJson(score.validation)},
+          {"test", CnnScoreJson(score.test)}};
+}
+
 namespace {
 
 namespace fs = std::filesystem;

@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "fitting/model/label.h"
 
@@ -40,6 +41,23 @@ class ModelDirectoryTest : public ::testing::Test {
 
   fs::path root_;
 };
+
+TEST_F(ModelDirectoryTest, AModelIsDescribedByItsRigInputWidthWeightsAndTraining) {
+  const fs::path model = SavedModel("a", 1);
+  Result<Cnn> cnn = Cnn::Load(model);
+  ASSERT_TRUE(cnn.ok()) << cnn.status().ToString();
+  std::ostringstream text;
+  DescribeModel(model, cnn->info(), text);
+  EXPECT_NE(text.str().find("rig test, 8 input channels; observations: 4 monochrome"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("width divisor 16"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("training: a's run"), std::string::npos) << text.str();
+}
+
+TEST_F(ModelDirectoryTest, AScoreOnAMissingDatasetNamesIt) {
+  const Result<ModelScore> score = ScoreModel(SavedModel("a", 1), root_ / "no-such-data", 1, 1, 1);
+  ASSERT_FALSE(score.ok());
+  EXPECT_NE(score.status().ToString().find("no-such-data"), std::string::npos) << score.status().ToString();
+}
 
 TEST_F(ModelDirectoryTest, AConvertedModelKeepsItsFilesAndLeavesItsFoldersBehind) {
   const fs::path model = SavedModel("a", 1);
