@@ -28,6 +28,8 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kLastCheckpoint = "last";
 constexpr const char* kNextCheckpoint = "next";
 constexpr const char* kBestModel = "best";
+// Steps between progress reports, each of which waits for the device to read the running loss.
+constexpr int kProgressSteps = 16;
 
 // A copy of `cnn` with its weights on the CPU.
 Result<Cnn> CpuCopy(const Cnn& cnn) {
@@ -53,18 +55,50 @@ torch::Tensor ValidTensor(const CnnLabels& labels) {
       .to(torch::kFloat32);
 }
 
-// N × C × H × W features with radiance noise (WithRadianceNoise). The noise is drawn on the CPU
-// (`generator` is a CPU one), so that it is the same on any device.
+// A generator of `device`'s kind seeded with `seed`: the radiance noise is drawn where the
+// network trains, with nothing drawn or copied on the host (on the CPU the same numbers as a
+// CPU generator made with that seed).
+at::Generator SeededGenerator(const torch::Device& device, uint64_t seed) {
+  at::Generator generator = at::globalContext().defaultGenerator(device).clone();
+  generator.set_current_seed(seed);
+  return generator;
+}
+
+// N × C × H × W features with radiance noise (WithRadianceNoise), drawn by `generator` on the
+// features' device.
 torch::Tensor NoisyRadiance(const torch::Tensor& input, double relative_sigma, at::Generator& generator) {
   const torch::Tensor geometry = input.narrow(1, 0, kCnnGeometryChannels);
   const torch::Tensor features = input.narrow(1, kCnnGeometryChannels, input.size(1) - kCnnGeometryChannels);
   // The features are log(1 + L / scale): the noise multiplies L / scale = expm1(feature).
-  const torch::Tensor noise = torch::randn(features.sizes(), generator, features.options().device(torch::kCPU));
-  const torch::Tensor factor = 1 + relative_sigma * noise.to(features.device());
+  const torch::Tensor noise = torch::randn(features.sizes(), generator, features.options());
+  const torch::Tensor factor = 1 + relative_sigma * noise;
   return torch::cat({geometry, torch::log1p(torch::clamp_min(torch::expm1(features) * factor, 0))}, 1);
 }
 
-// One training material as tensors: the input, labels and validity. The input is kept unpadded
+// A summed-area table of a material's valid pixels, on the host: a tile's count of them without
+// reading the device, so that a step queues its work without waiting for the one before.
+class ValidCounts {
+ public:
+  explicit ValidCounts(const CnnLabels& labels) : width_(labels.labels.width), sums_((labels.labels.height + 1) * (width_ + 1)) {
+    for (int y = 0; y < labels.labels.height; ++y) {
+      for (int x = 0; x < width_; ++x) {
+        sums_[At(x + 1, y + 1)] = (labels.valid[static_cast<size_t>(y) * width_ + x] != 0) + sums_[At(x, y + 1)] +
+                                  sums_[At(x + 1, y)] - sums_[At(x, y)];
+      }
+    }
+  }
+  int64_t Tile(int x, int y, int tile) const {
+    return sums_[At(x + tile, y + tile)] - sums_[At(x, y + tile)] - sums_[At(x + tile, y)] + sums_[At(x, y)];
+  }
+
+ private:
+  size_t At(int x, int y) const { return static_cast<size_t>(y) * (width_ + 1) + x; }
+  int width_;
+  std::vector<int64_t> sums_;
+};
+
+// One training material as tensors: the input, labels and validity where the network trains;
+// what the re-rendering loss draws its pixels from, on the host. The input is kept unpadded
 // (a tile's halo is cut with its window, patch_windows.h): padded, a 32² material's 932 channels
 // took twice the memory, and a 1,656-fabric tac7 set did not fit in 24 GB.
 struct Material {
@@ -72,8 +106,11 @@ struct Material {
   torch::Tensor labels;  // 1 × 14 × H × W
   torch::Tensor valid;   // 1 × 1 × H × W
   int height, width;
+  std::shared_ptr<const ValidCounts> valid_counts;
   std::shared_ptr<const ObservationStack> stack;  // for the re-rendering loss: `pixels` reads it
   std::shared_ptr<const StackPixels> pixels;
+  torch::Tensor host_valid;   // the re-rendering loss's: 1 × 1 × H × W on the CPU
+  torch::Tensor host_labels;  // with its lobe-narrowness draw: 1 × 14 × H × W on the CPU
 };
 
 // A training example as tensors on `device` (copies: the example may go).
@@ -91,13 +128,19 @@ Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& 
   }
   const torch::Tensor input = torch::from_blob(const_cast<float*>(e.input.values.data()),
                                                {1, e.input.channels, e.input.height, e.input.width}, torch::kFloat32);
-  return Material{input.to(device, /*non_blocking=*/false, /*copy=*/true),
-                  AsTensor(e.labels.labels).to(device, /*non_blocking=*/false, /*copy=*/true),
-                  ValidTensor(e.labels).to(device),
-                  e.input.height,
-                  e.input.width,
-                  e.stack,
-                  std::move(pixels)};
+  Material material{input.to(device, /*non_blocking=*/false, /*copy=*/true),
+                    AsTensor(e.labels.labels).to(device, /*non_blocking=*/false, /*copy=*/true),
+                    ValidTensor(e.labels).to(device),
+                    e.input.height,
+                    e.input.width,
+                    std::make_shared<const ValidCounts>(e.labels),
+                    e.stack,
+                    std::move(pixels)};
+  if (options.rerender_weight > 0) {
+    material.host_valid = ValidTensor(e.labels);  // a copy: from_blob's memory goes with `e`
+    if (options.rerender_lobe_reference > 0) material.host_labels = AsTensor(e.labels.labels).clone();
+  }
+  return material;
 }
 
 struct TileOrigin {
@@ -106,13 +149,14 @@ struct TileOrigin {
 };
 
 struct Batch {
-  torch::Tensor input, labels, valid;
+  torch::Tensor input, labels, valid;  // where the network trains
   std::vector<TileOrigin> origins;
+  int64_t valid_pixels = 0;  // counted on the host
 };
 
 Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, std::mt19937_64& rng) {
   std::vector<torch::Tensor> inputs, labels, valid;
-  std::vector<TileOrigin> origins;
+  Batch batch;
   for (int i = 0; i < count; ++i) {
     const Material& m = materials[std::uniform_int_distribution<size_t>(0, materials.size() - 1)(rng)];
     const int y = std::uniform_int_distribution<int>(0, m.height - tile)(rng);
@@ -120,9 +164,18 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
     inputs.push_back(internal::TileWindow(m.input, x, y, tile, kPatchHalo));
     labels.push_back(m.labels.narrow(2, y, tile).narrow(3, x, tile));
     valid.push_back(m.valid.narrow(2, y, tile).narrow(3, x, tile));
-    origins.push_back({&m, x, y});
+    batch.origins.push_back({&m, x, y});
+    batch.valid_pixels += m.valid_counts->Tile(x, y, tile);
   }
-  return {torch::cat(inputs), torch::cat(labels), torch::cat(valid), std::move(origins)};
+  batch.input = torch::cat(inputs);
+  batch.labels = torch::cat(labels);
+  batch.valid = torch::cat(valid);
+  return batch;
+}
+
+// A tile's window of a material's host tensor (1 × K × H × W).
+torch::Tensor HostTile(const torch::Tensor& host, const TileOrigin& origin, int tile) {
+  return host.narrow(2, origin.y, tile).narrow(3, origin.x, tile);
 }
 
 // The re-rendering loss of a batch's predictions (N × 14 × T × T) at `rerender_pixels` valid pixels of
@@ -133,14 +186,15 @@ torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predict
   std::vector<std::vector<PixelObservation>> observations;
   std::vector<int64_t> pixels;  // flat indices into the batch's N × T × T output pixels
   const int tile = static_cast<int>(predicted.size(2));
-  // On the CPU in one copy, not one per pixel from a GPU.
-  torch::Tensor draw_weights = batch.valid.to(torch::kCPU);
-  if (options.rerender_lobe_reference > 0) {
-    draw_weights = draw_weights * internal::LobeNarrowness(batch.labels.to(torch::kCPU), options.rerender_lobe_reference);
-  }
   for (size_t b = 0; b < batch.origins.size(); ++b) {
     const TileOrigin& origin = batch.origins[b];
-    for (const int64_t at : internal::DrawPixels(draw_weights[static_cast<int64_t>(b)][0], options.rerender_pixels, rng)) {
+    // From the host's copies: nothing read back from where the network trains.
+    torch::Tensor draw_weights = HostTile(origin.material->host_valid, origin, tile);
+    if (options.rerender_lobe_reference > 0) {
+      draw_weights = draw_weights * internal::LobeNarrowness(HostTile(origin.material->host_labels, origin, tile),
+                                                             options.rerender_lobe_reference);
+    }
+    for (const int64_t at : internal::DrawPixels(draw_weights[0][0], options.rerender_pixels, rng)) {
       const int dy = static_cast<int>(at / tile), dx = static_cast<int>(at % tile);
       observations.push_back(origin.material->pixels->Observations(origin.x + dx, origin.y + dy));
       pixels.push_back(static_cast<int64_t>(b) * tile * tile + at);
@@ -473,9 +527,13 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
     }
     std::mt19937_64 rng(options.seed * 1000003 + epoch);
     torch::manual_seed(options.seed * 1000003 + epoch);
-    at::Generator noise = at::make_generator<at::CPUGeneratorImpl>(options.seed * 1000003 + epoch);
+    at::Generator noise = SeededGenerator(device, options.seed * 1000003 + epoch);
     net->train();
-    double loss_sum = 0, rerender_sum = 0, samples = 0;
+    // Sums kept where the network trains and read once an epoch (and for progress now and then):
+    // a step that read its loss would wait for the device before queueing the next.
+    torch::Tensor loss_sum = torch::zeros({}, torch::TensorOptions().dtype(torch::kDouble).device(device));
+    torch::Tensor rerender_sum = loss_sum.clone();
+    double samples = 0;
     const std::vector<std::vector<int>> windows = EpochWindows(train.count, options, epoch);
     int step = 0;
     for (size_t w = 0; w < windows.size(); ++w) {
@@ -488,8 +546,8 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
           static_cast<int>(static_cast<int64_t>(steps) * (static_cast<int64_t>(w + 1) * windows.front().size()) / train.count);
       for (; step < std::min(steps, w + 1 == windows.size() ? steps : window_end); ++step) {
         const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
-        const torch::Tensor count = batch.valid.sum();
-        if (count.item<double>() == 0) continue;
+        if (batch.valid_pixels == 0) continue;
+        const double count = static_cast<double>(batch.valid_pixels);
         optimizer->zero_grad();
         const torch::Tensor input =
             options.radiance_noise > 0 ? NoisyRadiance(batch.input, options.radiance_noise, noise) : batch.input;
@@ -500,18 +558,20 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
         if (options.rerender_weight > 0) {
           if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
             loss = loss + options.rerender_weight * rerender;
-            rerender_sum += rerender.item<double>();
+            rerender_sum += rerender.detach();
           }
         }
         loss.backward();
         optimizer->step();
-        loss_sum += loss.item<double>();
-        samples += count.item<double>();
-        if (options.progress) options.progress({epoch + 1, options.epochs, step + 1, steps, loss_sum / (step + 1)});
+        loss_sum += loss.detach();
+        samples += count;
+        if (options.progress && ((step + 1) % kProgressSteps == 0 || step + 1 == steps)) {
+          options.progress({epoch + 1, options.epochs, step + 1, steps, loss_sum.item<double>() / (step + 1)});
+        }
       }
     }
-    record.train_loss = loss_sum / steps;
-    record.train_rerender_loss = rerender_sum / steps;
+    record.train_loss = loss_sum.item<double>() / steps;
+    record.train_rerender_loss = rerender_sum.item<double>() / steps;
     if (!std::isfinite(record.train_loss) || !std::isfinite(record.train_rerender_loss)) {
       // Diverged: every later epoch would be NaN too, and a NaN model must never be written.
       return FailedPreconditionError("training, epoch " + std::to_string(epoch + 1),
