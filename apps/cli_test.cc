@@ -114,6 +114,9 @@ TEST(CliTest, VersionNamesLoomAndItsLibraries) {
     EXPECT_TRUE(Contains(run.output, library)) << library << " missing in:\n" << run.output;
   }
   EXPECT_EQ(RunLoom("version --short").output, std::string(loom::Version()) + "\n");
+  const LoomRun devices = RunLoom("version --devices");  // Debian's LibTorch is CPU-only
+  EXPECT_EQ(devices.exit_code, 0) << devices.output;
+  EXPECT_TRUE(Contains(devices.output, "\n  devices   cpu\n")) << devices.output;
 }
 
 // The commit is looked up when loom is built, not when the build was configured: otherwise an

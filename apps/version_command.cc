@@ -3,6 +3,7 @@
 #include "apps/command.h"
 #include "calibration/opencv_library.h"
 #include "core/version.h"
+#include "fitting/cnn/cnn_training.h"
 #include "fitting/solver_libraries.h"
 #include "hal/aravis/aravis_library.h"
 #include "hal/modbus/modbus_library.h"
@@ -14,6 +15,9 @@ int RunVersion(int argc, char** argv) {
   CLI::App app("Print loom's version and the libraries it runs with (for bug reports)", "loom version");
   bool short_form = false;
   app.add_flag("--short", short_form, "Print only loom's version number");
+  bool devices = false;
+  app.add_flag("--devices", devices,
+               "Also the devices the CNN can run on: the CPU, and the CUDA GPUs its LibTorch sees (loads LibTorch: ~1 s)");
   AddCommonOptions(app);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
   if (short_form) {
@@ -30,6 +34,10 @@ int RunVersion(int argc, char** argv) {
   for (const LinkedLibrary& library : libraries) {
     std::cout << "  " << library.name << std::string(10 - library.name.size(), ' ') << library.version << "\n";
   }
+  if (!devices) return kExitOk;
+  const Result<int> gpus = fitting::CudaDevices();  // the CNN's LibTorch's answer
+  std::cout << "  devices   cpu" << (gpus.ok() && *gpus > 0 ? ", " + std::to_string(*gpus) + " CUDA GPU(s)" : "")
+            << (gpus.ok() ? "" : " (the CNN's module: " + gpus.status().ToString() + ")") << "\n";
   return kExitOk;
 }
 

@@ -122,6 +122,11 @@ Status CheckTrainingDevice(CnnTrainingOptions::Device device) {
   return engine->CheckTrainingDevice(device);
 }
 
+Result<int> CudaDevices() {
+  LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
+  return engine->CudaDevices();
+}
+
 Result<CnnTensor> WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed) {
   LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
   return engine->WithRadianceNoise(input, relative_sigma, seed);

@@ -115,6 +115,8 @@ struct CnnTrainingOptions {
 
 // Whether `device` can train here: an error saying why not (no GPU, or a CPU-only LibTorch).
 Status CheckTrainingDevice(CnnTrainingOptions::Device device);
+// The CUDA GPUs the CNN's LibTorch sees (0 with Debian's CPU-only one).
+Result<int> CudaDevices();
 
 // The label's 14 channels in order, for reports: a_d.R … F0.
 extern const std::array<const char*, 14> kLabelChannelNames;

@@ -36,6 +36,7 @@ class CnnEngine {
 
   // Training and scoring (fitting/cnn/cnn_training.h).
   virtual Status CheckTrainingDevice(CnnTrainingOptions::Device device) const = 0;
+  virtual int CudaDevices() const = 0;  // the CUDA GPUs this LibTorch sees
   virtual CnnTensor WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed) const = 0;
   virtual Result<CnnScore> Score(const Cnn& cnn, const std::vector<CnnExample>& examples, int threads) const = 0;
   virtual Result<std::vector<CnnEpoch>> Train(Cnn& cnn, const CnnExampleSource& train, const std::vector<CnnExample>& validation,
@@ -45,7 +46,7 @@ class CnnEngine {
 // The module's one exported symbol: a C function returning its engine, which lives as long as
 // the process (the module is never unloaded). The suffix changes whenever CnnEngine does, so
 // that a module built from other sources is refused rather than called.
-inline constexpr const char* kCnnEngineEntry = "loom_cnn_engine_v3";
+inline constexpr const char* kCnnEngineEntry = "loom_cnn_engine_v4";
 using CnnEngineEntry = const CnnEngine* (*)();
 
 // Loads `module` and returns its engine; an error names the module and says what went wrong.

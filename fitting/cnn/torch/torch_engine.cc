@@ -4,6 +4,8 @@
 #include "fitting/cnn/internal/cnn_engine.h"
 #include "fitting/cnn/torch/torch_cnn.h"
 
+#include <torch/cuda.h>
+
 namespace loom::fitting::internal {
 namespace {
 
@@ -22,6 +24,7 @@ class TorchCnnEngine final : public CnnEngine {
     return PredictSlidingLabels(cnn, input, first, count, batch, threads);
   }
   Status CheckTrainingDevice(CnnTrainingOptions::Device device) const override { return CheckTorchDevice(device); }
+  int CudaDevices() const override { return static_cast<int>(torch::cuda::device_count()); }
   CnnTensor WithRadianceNoise(const CnnTensor& input, double relative_sigma, uint64_t seed) const override {
     return NoisyInput(input, relative_sigma, seed);
   }
@@ -38,7 +41,7 @@ class TorchCnnEngine final : public CnnEngine {
 }  // namespace loom::fitting::internal
 
 // The entry point internal::kCnnEngineEntry names.
-extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v3() {
+extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v4() {
   static const loom::fitting::internal::TorchCnnEngine engine;
   return &engine;
 }
