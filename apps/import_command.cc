@@ -2,7 +2,6 @@
 // dome, phone-flash captures) as an observation stack that loom fit and loom eval take
 // (photos/capture_import.h says the layouts).
 #include <iostream>
-#include <sstream>
 
 #include "apps/command.h"
 #include "core/file_io.h"
@@ -20,16 +19,6 @@ struct ImportArguments {
   bool force = false;
 };
 
-Result<Eigen::Vector3d> ParseOffset(const std::string& text) {
-  std::istringstream in(text);
-  Eigen::Vector3d v;
-  char comma1 = 0, comma2 = 0;
-  if (!(in >> v.x() >> comma1 >> v.y() >> comma2 >> v.z()) || comma1 != ',' || comma2 != ',' || !in.eof() || !v.allFinite()) {
-    return InvalidArgumentError("--flash-offset " + text, "expected X,Y,Z in cm");
-  }
-  return v;
-}
-
 Status Import(ImportArguments args) {
   if (!args.layout.empty()) {
     args.options.layout = photos::ParseLayout(args.layout);
@@ -39,7 +28,7 @@ Status Import(ImportArguments args) {
     LOOM_ASSIGN_OR_RETURN(args.options.encoding, photos::ParseEncoding(args.encoding, "--encoding"));
   }
   if (!args.flash_offset.empty()) {
-    LOOM_ASSIGN_OR_RETURN(args.options.flash_offset_cm, ParseOffset(args.flash_offset));
+    LOOM_ASSIGN_OR_RETURN(args.options.flash_offset_cm, photos::ParseFlashOffset(args.flash_offset, "--flash-offset"));
   }
   if (args.scale > 0) args.options.scale = args.scale;
   if ((args.hold_out >= 0) != !args.held_out.empty()) {

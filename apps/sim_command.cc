@@ -103,23 +103,15 @@ struct CaptureArguments {
 };
 
 Status ParseCaptureLayout(CaptureArguments& args) {
-  if (args.layout != "ps" && args.layout != "lp" && args.layout != "flash") {
-    return InvalidArgumentError("--layout " + args.layout, "expected ps, lp or flash");
-  }
-  args.request.layout = args.layout == "flash" ? photos::CaptureLayout::kFlash
-                        : args.layout == "lp"  ? photos::CaptureLayout::kLightDome
-                                               : photos::CaptureLayout::kPhotometricStereo;
+  const std::optional<photos::Layout> layout = photos::ParseLayout(args.layout);
+  if (!layout) return InvalidArgumentError("--layout " + args.layout, "expected ps, lp or flash");
+  args.request.layout = *layout;
   if (args.shape != "sphere" && args.shape != "cylinder") {
     return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
   }
   args.request.object.shape = args.shape == "sphere" ? sim::ObjectShape::kSphere : sim::ObjectShape::kCylinder;
   if (args.flash_offset.empty()) return Status::Ok();
-  std::istringstream in(args.flash_offset);
-  char a = 0, b = 0;
-  Eigen::Vector3d& o = args.request.flash.flash_offset_cm;
-  if (!(in >> o.x() >> a >> o.y() >> b >> o.z()) || a != ',' || b != ',') {
-    return InvalidArgumentError("--flash-offset " + args.flash_offset, "expected X,Y,Z in cm");
-  }
+  LOOM_ASSIGN_OR_RETURN(args.request.flash.flash_offset_cm, photos::ParseFlashOffset(args.flash_offset, "--flash-offset"));
   return Status::Ok();
 }
 

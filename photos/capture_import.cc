@@ -596,6 +596,16 @@ std::string Encoding::Name() const {
   return "?";
 }
 
+Result<Eigen::Vector3d> ParseFlashOffset(const std::string& text, const std::string& what) {
+  std::istringstream in(text);
+  Eigen::Vector3d v;
+  char comma1 = 0, comma2 = 0;
+  if (!(in >> v.x() >> comma1 >> v.y() >> comma2 >> v.z()) || comma1 != ',' || comma2 != ',' || !in.eof() || !v.allFinite()) {
+    return InvalidArgumentError(what + " " + text, "expected X,Y,Z in cm");
+  }
+  return v;
+}
+
 Result<Encoding> ParseEncoding(const std::string& text, const std::string& what) {
   if (text == "linear") return Encoding{};
   if (text == "srgb") return Encoding{Encoding::Kind::kSrgb, 1};

@@ -53,6 +53,8 @@ struct Encoding {
 };
 // "linear", "srgb" or "gamma:G" (G in (0, 10]); an error naming `what` otherwise.
 Result<Encoding> ParseEncoding(const std::string& text, const std::string& what);
+// "X,Y,Z" in cm (a flash's offset from the lens); an error naming `what` otherwise.
+Result<Eigen::Vector3d> ParseFlashOffset(const std::string& text, const std::string& what);
 
 struct ImportOptions {
   std::optional<Layout> layout;      // unset: detected from the files

@@ -227,5 +227,19 @@ TEST_F(CaptureImportTest, ANormalMapReadsInTheStackFrame) {
   EXPECT_TRUE(std::isnan(normals->at(0, 1, 1)));
 }
 
+TEST(CaptureOptionsTest, LayoutsEncodingsAndFlashOffsetsAreParsedOrRefusedNamingTheOption) {
+  EXPECT_EQ(ParseLayout("lp"), Layout::kLightPositions);
+  EXPECT_FALSE(ParseLayout("dome").has_value());
+  const Result<Eigen::Vector3d> offset = ParseFlashOffset("0.8,-0.5,0", "--flash-offset");
+  ASSERT_TRUE(offset.ok()) << offset.status().ToString();
+  EXPECT_EQ(*offset, Eigen::Vector3d(0.8, -0.5, 0));
+  for (const char* bad : {"0.8,0", "0.8;0;0", "1,2,3x", "nan,0,0"}) {
+    const Result<Eigen::Vector3d> refused = ParseFlashOffset(bad, "--flash-offset");
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_EQ(refused.status().subject(), std::string("--flash-offset ") + bad);
+  }
+  EXPECT_FALSE(ParseEncoding("gamma:0", "--encoding").ok());
+}
+
 }  // namespace
 }  // namespace loom::photos

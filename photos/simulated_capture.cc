@@ -61,7 +61,7 @@ Result<SimulatedCapture> WriteObjectCapture(const SimulatedCaptureRequest& reque
   InStoredUnits(rendered.truth, white);
   const int images = static_cast<int>(rendered.images.size());
   const PhotometricStereoCapture capture{std::move(rendered.images), rendered.light_directions, rendered.mask, white};
-  const bool dome = request.layout == CaptureLayout::kLightDome;
+  const bool dome = request.layout == Layout::kLightPositions;
   LOOM_RETURN_IF_ERROR(dome ? WriteLightPositions(dir, capture) : WritePhotometricStereo(dir, capture));
   std::ostringstream description;
   description << "a " << (request.object.shape == sim::ObjectShape::kSphere ? "sphere" : "cylinder") << " under " << images
@@ -73,7 +73,7 @@ Result<SimulatedCapture> WriteObjectCapture(const SimulatedCaptureRequest& reque
 }  // namespace
 
 Result<SimulatedCapture> WriteSimulatedCapture(const SimulatedCaptureRequest& request, const fs::path& dir) {
-  return request.layout == CaptureLayout::kFlash ? WriteFlashCapture(request, dir) : WriteObjectCapture(request, dir);
+  return request.layout == Layout::kFlash ? WriteFlashCapture(request, dir) : WriteObjectCapture(request, dir);
 }
 
 }  // namespace loom::photos

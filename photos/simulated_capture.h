@@ -14,15 +14,14 @@
 
 #include "core/image.h"
 #include "core/status.h"
+#include "photos/capture_import.h"
 #include "sim/object_capture.h"
 #include "sim/sample.h"
 
 namespace loom::photos {
 
-enum class CaptureLayout { kPhotometricStereo, kLightDome, kFlash };  // ps, lp, flash
-
 struct SimulatedCaptureRequest {
-  CaptureLayout layout = CaptureLayout::kPhotometricStereo;
+  Layout layout = Layout::kPhotometricStereo;                                           // as loom import reads them
   sim::ObjectCaptureOptions object;                                                     // ps and lp: the curved object
   sim::FlashCaptureOptions flash;                                                       // flash: the flash and the photographs
   sim::SampleSpec sample{.kind = "fabric", .seed = 1, .size_px = 64, .pixel_mm = 1.0};  // flash: the planar material

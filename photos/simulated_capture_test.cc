@@ -52,7 +52,7 @@ TEST_F(SimulatedCaptureTest, APhotometricStereoCaptureStoresItsRadianceAndTruthO
 
 TEST_F(SimulatedCaptureTest, AFlashCaptureClipsItsBrightestValuesAndSaysWhereTheFlashWas) {
   SimulatedCaptureRequest request;
-  request.layout = CaptureLayout::kFlash;
+  request.layout = Layout::kFlash;
   request.sample.size_px = 16;
   request.flash.images = 3;
   request.flash.flash_offset_cm = {0.8, 0, 0};
