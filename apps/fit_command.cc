@@ -114,6 +114,11 @@ int RunFit(int argc, char** argv) {
   app.add_option("--clusters", args.request.options.clusters, "Appearance clusters that initialise the per-pixel fits")
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", args.request.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
+  app.add_option("--device", args.request.cnn_device,
+                 "cnn methods: where the network runs, cpu or cuda (the first GPU; needs loom built against a CUDA "
+                 "LibTorch: docs/gpu-training.md); the refiner runs on --threads either way")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, fitting::CnnDevice>{{"cpu", fitting::CnnDevice::kCpu}, {"cuda", fitting::CnnDevice::kCuda}}));
   CLI::Option* f0 =
       app.add_option("--f0", args.request.f0,
                      "F0 held for every pixel (default 1: a_s carries a_s*F0, the product the observations fix; for the refine "

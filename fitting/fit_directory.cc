@@ -80,17 +80,23 @@ Result<FitDirectory> FitToDirectory(FitRequest request, std::ostream& notes) {
   LOOM_ASSIGN_OR_RETURN(const FitMethod method, ChooseMethod(request, stack, notes));
   std::optional<Image> start;
   LOOM_RETURN_IF_ERROR(ApplyRequest(request, method, stack, start));
+  if (request.cnn_device != CnnDevice::kCpu) {  // before the output, and never a silent fallback to refine
+    if (const Status usable = CheckCnnDevice(request.cnn_device); !usable.ok()) {
+      return FailedPreconditionError("--device cuda", usable.message());
+    }
+  }
   LOOM_ASSIGN_OR_RETURN(OutputDirectory out, OutputDirectory::Create(request.out, "--out"));
   FitDirectory result;
   if (recommended) {
-    LOOM_ASSIGN_OR_RETURN(RecommendedFit chosen, FitWithRecommendedMethod(stack, request.model, request.options));
+    LOOM_ASSIGN_OR_RETURN(RecommendedFit chosen,
+                          FitWithRecommendedMethod(stack, request.model, request.options, request.cnn_device));
     if (!chosen.fallback.empty()) notes << chosen.fallback << "\n";
     result.method = FitMethodName(chosen.method);
     result.fallback = std::move(chosen.fallback);
     result.fit = std::move(chosen.fit);
   } else {
     result.method = request.method;
-    LOOM_ASSIGN_OR_RETURN(result.fit, FitWithMethod(stack, method, request.model, request.options));
+    LOOM_ASSIGN_OR_RETURN(result.fit, FitWithMethod(stack, method, request.model, request.options, request.cnn_device));
   }
   result.summary = result.fit.ToJson();
   result.summary.update({{"method", result.method},

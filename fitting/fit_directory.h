@@ -35,6 +35,7 @@ struct FitRequest {
   double min_sigma = 0;       // 0: from the stack's sampling
   RefineSettingsGiven given;  // what the user set, which refine.json leaves alone
   StackFitOptions options = DefaultFitOptions();
+  CnnDevice cnn_device = CnnDevice::kCpu;  // where the cnn methods' network runs
 };
 
 struct FitDirectory {

@@ -1,6 +1,7 @@
 // `loom fit`'s files as one call: a stack file fitted into a new directory by the recommended
 // method (refine without a model), the method said and written in fit.json; an output directory
-// that holds something, start maps of another grid and an unknown method refused with nothing written.
+// that holds something, start maps of another grid, an unknown method and a GPU this LibTorch
+// cannot see refused with nothing written.
 #include "fitting/fit_directory.h"
 
 #include <gtest/gtest.h>
@@ -89,6 +90,15 @@ TEST_F(FitDirectoryTest, AnOccupiedOutputAnUnknownMethodAndStartMapsOfAnotherGri
   ASSERT_FALSE(other_grid.ok());
   EXPECT_NE(other_grid.status().ToString().find("--start"), std::string::npos) << other_grid.status().ToString();
   EXPECT_FALSE(fs::exists(dir_ / "started"));
+
+  // Debian's LibTorch is CPU-only: the GPU asked for is refused, not replaced by the CPU.
+  FitRequest on_gpu = Request("on-gpu");
+  on_gpu.cnn_device = CnnDevice::kCuda;
+  const Result<FitDirectory> no_gpu = FitToDirectory(on_gpu, notes);
+  ASSERT_FALSE(no_gpu.ok());
+  EXPECT_EQ(no_gpu.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(no_gpu.status().ToString().find("--device cuda"), std::string::npos) << no_gpu.status().ToString();
+  EXPECT_FALSE(fs::exists(dir_ / "on-gpu"));
 }
 
 }  // namespace

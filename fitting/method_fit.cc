@@ -60,7 +60,7 @@ FitMethod RecommendedMethod(const ObservationStack& stack, const std::filesystem
 }
 
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
-                                StackFitOptions options) {
+                                StackFitOptions options, CnnDevice cnn_device) {
   MethodFit fit;
   if (method == FitMethod::kLambert || method == FitMethod::kLambertAlbedo) {
     LambertFitOptions lambert;
@@ -80,7 +80,7 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
     LOOM_ASSIGN_OR_RETURN(const Cnn cnn, Cnn::Load(model_dir));
     fit.cnn = model_dir.string() + " (" + std::to_string(cnn.info().architecture.input_channels) + " input channels, width 1/" +
               std::to_string(cnn.info().architecture.width_divisor) + ")";
-    LOOM_ASSIGN_OR_RETURN(fit.maps, cnn.PredictMaps(stack, options.threads));
+    LOOM_ASSIGN_OR_RETURN(fit.maps, cnn.PredictMaps(stack, options.threads, cnn_device));
     fit.cnn_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (method == FitMethod::kCnn) return fit;
     options.initial_maps = &fit.maps;
@@ -109,10 +109,10 @@ nlohmann::json MethodFit::ToJson() const {
 }
 
 Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir,
-                                                const StackFitOptions& options) {
+                                                const StackFitOptions& options, CnnDevice cnn_device) {
   RecommendedFit recommended;
   recommended.method = RecommendedMethod(stack, model_dir, options.initial_maps != nullptr);
-  Result<MethodFit> fitted = FitWithMethod(stack, recommended.method, model_dir, options);
+  Result<MethodFit> fitted = FitWithMethod(stack, recommended.method, model_dir, options, cnn_device);
   if (recommended.method == FitMethod::kCnnRefine && !fitted.ok() && fitted.status().code() == StatusCode::kFailedPrecondition) {
     recommended.fallback = "cnn+refine cannot fit this stack (" + fitted.status().ToString() + "): method refine";
     recommended.method = FitMethod::kRefine;

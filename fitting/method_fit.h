@@ -14,6 +14,7 @@
 
 #include "core/image.h"
 #include "core/observation_stack.h"
+#include "fitting/cnn/cnn.h"
 #include "fitting/solve/stack_fitter.h"
 
 namespace loom::fitting {
@@ -43,8 +44,9 @@ FitMethod RecommendedMethod(const ObservationStack& stack, const std::filesystem
 // without model.json is an error naming it. `options.solver` is set from the method, and for
 // the cnn methods `options.initial_maps` (the CNN's maps); the other methods keep the caller's
 // (a user's start maps, or none: the clusters' fits).
+// `cnn_device`: where the CNN runs (the refiner runs on the CPU's threads either way).
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
-                                StackFitOptions options);
+                                StackFitOptions options, CnnDevice cnn_device = CnnDevice::kCpu);
 
 // The recommended method's fit (RecommendedMethod; start maps are options.initial_maps). Where
 // that is cnn+refine and the CNN cannot fit the stack (FailedPrecondition: most often a model
@@ -56,7 +58,7 @@ struct RecommendedFit {
   std::string fallback;  // why cnn+refine fell back to refine; empty where it did not
 };
 Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir,
-                                                const StackFitOptions& options);
+                                                const StackFitOptions& options, CnnDevice cnn_device = CnnDevice::kCpu);
 
 // Where more than 1 % of the fitted pixels have a diffuse albedo at the model's bound
 // (kMaxAlbedo), the stack's radiance scale is likely too high (an imported capture's unknown

@@ -167,9 +167,14 @@ Result<Cnn> Cnn::Average(const std::vector<Cnn>& models) {
   return engine->Averaged(models);
 }
 
-Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int max_tile, int threads) const {
+Status CheckCnnDevice(CnnDevice device) {
   LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
-  return engine->PredictDense(*this, input, max_tile, threads);
+  return engine->CheckTrainingDevice(device);
+}
+
+Result<CnnTensor> Cnn::PredictDense(const CnnTensor& input, int max_tile, int threads, CnnDevice device) const {
+  LOOM_ASSIGN_OR_RETURN(const internal::CnnEngine* engine, internal::BuiltCnnEngine());
+  return engine->PredictDense(*this, input, max_tile, threads, device);
 }
 
 Result<CnnTensor> Cnn::PredictSliding(const CnnTensor& input, int first, int count, int batch, int threads) const {
@@ -177,10 +182,10 @@ Result<CnnTensor> Cnn::PredictSliding(const CnnTensor& input, int first, int cou
   return engine->PredictSliding(*this, input, first, count, batch, threads);
 }
 
-Result<Image> Cnn::PredictMaps(const ObservationStack& stack, int threads) const {
+Result<Image> Cnn::PredictMaps(const ObservationStack& stack, int threads, CnnDevice device) const {
   Result<CnnTensor> input = CnnInputFromStack(stack, info_);
   if (!input.ok()) return input.status();
-  Result<CnnTensor> labels = PredictDense(*input, kDenseTile, threads);
+  Result<CnnTensor> labels = PredictDense(*input, kDenseTile, threads, device);
   if (!labels.ok()) return labels.status();
   const Image decoded = MapsFromLabels(*labels);
   Image maps = MakeSvbrdfImage(decoded.width(), decoded.height(), /*with_height=*/true);

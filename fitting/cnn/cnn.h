@@ -51,6 +51,12 @@ inline constexpr int kPatchSize = 15;
 inline constexpr int kPatchHalo = 7;    // (kPatchSize − 1) / 2
 inline constexpr int kDenseTile = 256;  // Cnn::PredictDense's largest tile side
 
+// Where the network runs: the CPU, or the first CUDA GPU (a build against a CUDA LibTorch:
+// docs/gpu-training.md; Debian's is CPU-only, and asking for cuda there is an error saying so).
+enum class CnnDevice { kCpu, kCuda };
+// Whether the network can run on `device` here: an error saying why not (no GPU, or a CPU-only LibTorch).
+Status CheckCnnDevice(CnnDevice device);
+
 struct CnnArchitecture {
   int input_channels = 934;  // the paper's; 4 + observations for a loom stack
   int width_divisor = 1;     // divides the hidden widths 512, 256, 512, 1024 (1: the paper's)
@@ -150,14 +156,16 @@ class Cnn {
   // in 5 × 5 of 126: 12 %); a 630² paper-size input peaks at about 5 GB (bench/cnn_bench.cc).
   // Prediction and training put torch's large tensors on huge pages and set the process's
   // malloc to keep freed memory for reuse (fitting/cnn/torch/cnn_net.h: SetUpTensorMemory says why).
-  Result<CnnTensor> PredictDense(const CnnTensor& input, int max_tile = kDenseTile, int threads = 0) const;
+  // On `device` cuda the tiles run one after another on the GPU, on a copy of the weights there.
+  Result<CnnTensor> PredictDense(const CnnTensor& input, int max_tile = kDenseTile, int threads = 0,
+                                 CnnDevice device = CnnDevice::kCpu) const;
   // The same outputs the sliding-window way, for pixels [first, first + count) in row-major
   // order (14 × count, as a 14 × 1 × count tensor), `batch` patches per forward pass.
   Result<CnnTensor> PredictSliding(const CnnTensor& input, int first, int count, int batch = 256, int threads = 0) const;
 
   // SVBRDF maps of a whole stack (fitting/model/svbrdf_maps.h layout with the stack's height): input, dense
   // prediction, decoded labels.
-  Result<Image> PredictMaps(const ObservationStack& stack, int threads = 0) const;
+  Result<Image> PredictMaps(const ObservationStack& stack, int threads = 0, CnnDevice device = CnnDevice::kCpu) const;
 
   // The torch module, for the CNN engine's code (internal/cnn_engine.h), which makes every Cnn.
   Cnn(CnnModelInfo info, std::shared_ptr<internal::CnnNetHolder> net);

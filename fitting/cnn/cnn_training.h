@@ -101,7 +101,8 @@ struct CnnTrainingOptions {
   // Where the network trains: the CPU, or the first CUDA GPU (a LibTorch built with CUDA and a
   // GPU needed; TrainCnn says so otherwise). The materials live on that device for the whole
   // run; validation and the saved weights are on the CPU, so that any build reads them.
-  enum class Device { kCpu, kCuda } device = Device::kCpu;
+  using Device = CnnDevice;
+  Device device = Device::kCpu;
   uint64_t seed = 1;
   // Empty: no checkpoints. Else after every epoch DIR/last/: model/ (the weights so far,
   // loadable by Cnn::Load), optimizer.pt and history.json, replaced whole; and DIR/best/, the

@@ -30,7 +30,8 @@ class CnnEngine {
   virtual Result<Cnn> Grown(const Cnn& cnn, const CnnArchitecture& to, uint64_t seed) const = 0;
   // Cnn::Average, the models already checked to be one network.
   virtual Result<Cnn> Averaged(const std::vector<Cnn>& models) const = 0;
-  virtual Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads) const = 0;
+  virtual Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads,
+                                         CnnDevice device) const = 0;
   virtual Result<CnnTensor> PredictSliding(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch,
                                            int threads) const = 0;
 
@@ -46,7 +47,7 @@ class CnnEngine {
 // The module's one exported symbol: a C function returning its engine, which lives as long as
 // the process (the module is never unloaded). The suffix changes whenever CnnEngine does, so
 // that a module built from other sources is refused rather than called.
-inline constexpr const char* kCnnEngineEntry = "loom_cnn_engine_v4";
+inline constexpr const char* kCnnEngineEntry = "loom_cnn_engine_v5";
 using CnnEngineEntry = const CnnEngine* (*)();
 
 // Loads `module` and returns its engine; an error names the module and says what went wrong.

@@ -374,9 +374,41 @@ Status internal::SaveCnn(const Cnn& cnn, const std::filesystem::path& directory)
   return WriteFileAtomically(directory / kInfoFile, InfoToJson(cnn.info()).dump(2) + "\n");
 }
 
-Result<CnnTensor> internal::PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads) {
+namespace {
+
+// The tiles one after another on the first CUDA GPU, on a copy of the weights there.
+torch::Tensor PredictOnGpu(const Cnn& cnn, const torch::Tensor& padded, int height, int width, int max_tile) {
+  const torch::Device gpu(torch::kCUDA, 0);
+  internal::CnnNet net(cnn.info().architecture);
+  {
+    torch::NoGradGuard no_grad;
+    const std::vector<torch::Tensor> from = cnn.net().net->parameters(), to = net->parameters();
+    for (size_t i = 0; i < from.size(); ++i) to[i].copy_(from[i]);
+  }
+  net->to(gpu);
+  net->eval();
+  c10::InferenceMode inference;
+  torch::Tensor out = torch::empty({kLabelSize, height, width});
+  for (int y = 0; y < height; y += max_tile) {
+    for (int x = 0; x < width; x += max_tile) {
+      const int h = std::min(max_tile, height - y), w = std::min(max_tile, width - x);
+      const torch::Tensor window = padded.narrow(2, y, h + 2 * kPatchHalo).narrow(3, x, w + 2 * kPatchHalo).to(gpu);
+      out.narrow(1, y, h).narrow(2, x, w).copy_(net->ForwardDense(window)[0].to(torch::kCPU));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<CnnTensor> internal::PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads,
+                                               CnnDevice device) {
   LOOM_RETURN_IF_ERROR(CheckInput(cnn, input));
   if (max_tile < 1) return InvalidArgumentError("CNN tile", "must be ≥ 1");
+  if (device == CnnDevice::kCuda) {
+    LOOM_RETURN_IF_ERROR(internal::CheckTorchDevice(device));
+    return FromTorch(PredictOnGpu(cnn, internal::PaddedInput(input), input.height, input.width, max_tile));
+  }
   // The tiles go to loom's threads, each tile's ops single-threaded: torch's own intra-op
   // threads split a convolution's sums by their count, so that the maps (and every fit started
   // from them) would change with --threads.

@@ -239,9 +239,9 @@ Status CheckExamples(const Cnn& cnn, const std::vector<CnnExample>& examples, in
 
 Status internal::CheckTorchDevice(CnnTrainingOptions::Device device) {
   if (device == CnnTrainingOptions::Device::kCuda && !torch::cuda::is_available()) {
-    return FailedPreconditionError("CNN training on cuda",
+    return FailedPreconditionError("the CNN on cuda",
                                    "no CUDA GPU is available to this build of LibTorch (Debian's libtorch is CPU-only): "
-                                   "train on the cpu, or build loom against a CUDA LibTorch (docs/gpu-training.md)");
+                                   "run it on the cpu, or build loom against a CUDA LibTorch (docs/gpu-training.md)");
   }
   return {};
 }

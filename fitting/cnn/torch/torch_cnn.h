@@ -21,7 +21,8 @@ Status SaveCnn(const Cnn& cnn, const std::filesystem::path& directory);
 Result<Cnn> GrowCnn(const Cnn& from, const CnnArchitecture& to, uint64_t seed);
 // The uniform average of the models' weights (Cnn::Average; one network, checked by the caller).
 Result<Cnn> AverageCnns(const std::vector<Cnn>& models);
-Result<CnnTensor> PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads);
+Result<CnnTensor> PredictDenseLabels(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads,
+                                     CnnDevice device = CnnDevice::kCpu);
 Result<CnnTensor> PredictSlidingLabels(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch, int threads);
 
 Status CheckTorchDevice(CnnTrainingOptions::Device device);

@@ -16,8 +16,9 @@ class TorchCnnEngine final : public CnnEngine {
   Status Save(const Cnn& cnn, const std::filesystem::path& directory) const override { return SaveCnn(cnn, directory); }
   Result<Cnn> Grown(const Cnn& cnn, const CnnArchitecture& to, uint64_t seed) const override { return GrowCnn(cnn, to, seed); }
   Result<Cnn> Averaged(const std::vector<Cnn>& models) const override { return AverageCnns(models); }
-  Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads) const override {
-    return PredictDenseLabels(cnn, input, max_tile, threads);
+  Result<CnnTensor> PredictDense(const Cnn& cnn, const CnnTensor& input, int max_tile, int threads,
+                                 CnnDevice device) const override {
+    return PredictDenseLabels(cnn, input, max_tile, threads, device);
   }
   Result<CnnTensor> PredictSliding(const Cnn& cnn, const CnnTensor& input, int first, int count, int batch,
                                    int threads) const override {
@@ -41,7 +42,7 @@ class TorchCnnEngine final : public CnnEngine {
 }  // namespace loom::fitting::internal
 
 // The entry point internal::kCnnEngineEntry names.
-extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v4() {
+extern "C" __attribute__((visibility("default"))) const loom::fitting::internal::CnnEngine* loom_cnn_engine_v5() {
   static const loom::fitting::internal::TorchCnnEngine engine;
   return &engine;
 }
