@@ -177,7 +177,7 @@ Status GroundTruth(const DemoArguments& args, const std::string& rig, Stages* st
   });
 }
 
-Status FitMethod(const DemoArguments& args, const std::string& method, Stages* stages) {
+Status FitByMethod(const DemoArguments& args, const std::string& method, Stages* stages) {
   const fs::path out(args.out);
   fitting::FitRequest request{.stack = out / "reconstruction" / "stack.exr",
                               .out = out / ("fit-" + method),
@@ -216,7 +216,7 @@ Status EvaluateMethod(const DemoArguments& args, const std::string& rig, const s
 Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages* stages) {
   LOOM_RETURN_IF_ERROR(GroundTruth(args, rig, stages));
   for (const std::string& method : args.methods) {
-    LOOM_RETURN_IF_ERROR(FitMethod(args, method, stages));
+    LOOM_RETURN_IF_ERROR(FitByMethod(args, method, stages));
     LOOM_RETURN_IF_ERROR(EvaluateMethod(args, rig, method, stages));
   }
   const fs::path out(args.out);
