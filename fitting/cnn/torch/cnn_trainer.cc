@@ -183,8 +183,8 @@ torch::Tensor HostTile(const torch::Tensor& host, const TileOrigin& origin, int 
 // nothing (an undefined tensor) when no tile has one.
 torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predicted, const CnnTrainingOptions& options,
                                 std::mt19937_64& rng) {
-  std::vector<std::vector<PixelObservation>> observations;
-  std::vector<int64_t> pixels;  // flat indices into the batch's N × T × T output pixels
+  std::vector<int64_t> pixels;                               // flat indices into the batch's N × T × T output pixels
+  std::vector<std::pair<const TileOrigin*, int64_t>> drawn;  // each pixel's tile and its index in it
   const int tile = static_cast<int>(predicted.size(2));
   for (size_t b = 0; b < batch.origins.size(); ++b) {
     const TileOrigin& origin = batch.origins[b];
@@ -195,17 +195,24 @@ torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predict
                                                              options.rerender_lobe_reference);
     }
     for (const int64_t at : internal::DrawPixels(draw_weights[0][0], options.rerender_pixels, rng)) {
-      const int dy = static_cast<int>(at / tile), dx = static_cast<int>(at % tile);
-      observations.push_back(origin.material->pixels->Observations(origin.x + dx, origin.y + dy));
+      drawn.emplace_back(&origin, at);
       pixels.push_back(static_cast<int64_t>(b) * tile * tile + at);
     }
   }
   if (pixels.empty()) return {};
+  // The drawn pixels' observations on the training's threads, each into its own slot: this
+  // gathering is most of a step's host work, and the order (so the loss) stays the draws'.
+  std::vector<std::vector<PixelObservation>> observations(drawn.size());
+  ParallelFor(static_cast<int>(drawn.size()), options.threads, [&](int i) {
+    const auto& [origin, at] = drawn[static_cast<size_t>(i)];
+    observations[static_cast<size_t>(i)] =
+        origin->material->pixels->Observations(origin->x + static_cast<int>(at % tile), origin->y + static_cast<int>(at / tile));
+  });
   const internal::RerenderBatch rerender = internal::MakeRerenderBatch(observations, options.rerender_strip_samples);
   if (rerender.radiance.numel() == 0) return {};
   // The pixels' labels in one gather (a view per pixel cost a full-size gradient each in the
   // backward pass), rendered where the network trains.
-  const torch::Tensor index = torch::tensor(pixels, torch::kLong).to(predicted.device());
+  const torch::Tensor index = internal::ToDevice(torch::tensor(pixels, torch::kLong), predicted.device());
   const torch::Tensor labels = predicted.permute({0, 2, 3, 1}).reshape({-1, kLabelSize}).index_select(0, index);
   return internal::RerenderLoss(labels, rerender.To(predicted.device()), options.rerender_huber);
 }

@@ -91,9 +91,21 @@ RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>
   return batch;
 }
 
+at::Tensor ToDevice(const at::Tensor& host, const at::Device& device) {
+  if (!device.is_cuda()) return host.to(device);
+  return host.pin_memory().to(device, /*non_blocking=*/true);
+}
+
 RerenderBatch RerenderBatch::To(const at::Device& device) const {
-  return {l.to(device),        irradiance.to(device),        sample_observation.to(device), v.to(device), weights.to(device),
-          radiance.to(device), observation_pixel.to(device), inverse_scale.to(device),      pixels};
+  return {ToDevice(l, device),
+          ToDevice(irradiance, device),
+          ToDevice(sample_observation, device),
+          ToDevice(v, device),
+          ToDevice(weights, device),
+          ToDevice(radiance, device),
+          ToDevice(observation_pixel, device),
+          ToDevice(inverse_scale, device),
+          pixels};
 }
 
 at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& batch) {

@@ -34,6 +34,11 @@ struct RerenderBatch {
   RerenderBatch To(const at::Device& device) const;
 };
 
+// `host` (a CPU tensor) on `device`. To a GPU through pinned memory and without waiting: a plain
+// copy from pageable memory waits for everything queued before it, so a training step would wait
+// for the one before.
+at::Tensor ToDevice(const at::Tensor& host, const at::Device& device);
+
 // `count` flat indices into a tile's pixels, drawn with replacement with probability ∝ `weights`
 // (the tile's H × W, ≥ 0, 0 where a pixel is not valid): the pixels the re-rendering loss
 // renders. None when every weight is 0.
