@@ -81,12 +81,13 @@ class Stages {
 std::string SizeOption(int size_px) { return size_px > 0 ? " --size " + std::to_string(size_px) : ""; }
 
 Status ScanMaterial(const DemoArguments& args, const std::string& rig, Stages* stages) {
-  const NewScanRequest scan{.rig_path = rig,
-                            .preset = args.preset,
-                            .object = args.object,
-                            .crop_mm = args.crop_mm,
-                            .out = fs::path(args.out) / "scan",
-                            .quiet = args.quiet};
+  NewScanRequest scan;
+  scan.rig_path = rig;
+  scan.preset = args.preset;
+  scan.object = args.object;
+  scan.crop_mm = args.crop_mm;
+  scan.out = fs::path(args.out) / "scan";
+  scan.quiet = args.quiet;
   std::ostringstream command;
   command << "scan --rig " << rig << " --preset " << args.preset << " --object " << args.object << " --out " << scan.out.string();
   if (args.crop_mm > 0) command << " --crop-mm " << args.crop_mm;
@@ -117,11 +118,12 @@ Status Calibrate(const fs::path& out, Stages* stages) {
 Status CalibrationScan(const DemoArguments& args, const std::string& rig, Stages* stages) {
   // A rig whose material scan reads a crop has sensors too large to read whole for every view
   // of a calibration object.
-  const NewScanRequest scan{.rig_path = rig,
-                            .calibration = true,
-                            .object_windows = args.crop_mm > 0,
-                            .out = fs::path(args.out) / "calibration-scan",
-                            .quiet = args.quiet};
+  NewScanRequest scan;
+  scan.rig_path = rig;
+  scan.calibration = true;
+  scan.object_windows = args.crop_mm > 0;
+  scan.out = fs::path(args.out) / "calibration-scan";
+  scan.quiet = args.quiet;
   const std::string command =
       "scan --rig " + rig + " --calibration --out " + scan.out.string() + (scan.object_windows ? " --object-windows" : "");
   return stages->Run("calibration scan", command, [&] { return NewScan(scan); });
@@ -165,8 +167,10 @@ Status CalibrateAndScan(const DemoArguments& args, const std::string& rig, Stage
 
 Status GroundTruth(const DemoArguments& args, const std::string& rig, Stages* stages) {
   const fs::path out(args.out);
-  const sim::FastPathStackRequest request{
-      .size_px = args.size_px, .out = out / "fast-path-stack.exr", .truth = out / "truth.exr"};
+  sim::FastPathStackRequest request;
+  request.size_px = args.size_px;
+  request.out = out / "fast-path-stack.exr";
+  request.truth = out / "truth.exr";
   const std::string command = "sim render --rig " + rig + " --object " + args.object + " --stack --preset " + args.preset +
                               " --truth " + request.truth.string() + " --out " + request.out.string() + SizeOption(args.size_px);
   return stages->Run("ground truth", command, [&]() -> Status {
@@ -179,10 +183,11 @@ Status GroundTruth(const DemoArguments& args, const std::string& rig, Stages* st
 
 Status FitByMethod(const DemoArguments& args, const std::string& method, Stages* stages) {
   const fs::path out(args.out);
-  fitting::FitRequest request{.stack = out / "reconstruction" / "stack.exr",
-                              .out = out / ("fit-" + method),
-                              .method = method,
-                              .models_dir = fs::path(LOOM_CONFIGS_DIR) / "models"};
+  fitting::FitRequest request;
+  request.stack = out / "reconstruction" / "stack.exr";
+  request.out = out / ("fit-" + method);
+  request.method = method;
+  request.models_dir = fs::path(LOOM_CONFIGS_DIR) / "models";
   std::map<std::string, ProgressBar> bars;
   request.options.progress = [&](const fitting::StackFitProgress& p) {
     bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
@@ -198,12 +203,12 @@ Status FitByMethod(const DemoArguments& args, const std::string& method, Stages*
 
 Status EvaluateMethod(const DemoArguments& args, const std::string& rig, const std::string& method, Stages* stages) {
   const fs::path out(args.out);
-  const fitting::EvaluateRequest request{
-      .maps = out / ("fit-" + method) / "svbrdf.exr",
-      .stack = out / "reconstruction" / "stack.exr",
-      .reference = out / "truth.exr",
-      .out = out / ("report-" + method),
-      .title = args.object + " on " + rig + " (scan → calibrate → reconstruct → " + method + ")"};
+  fitting::EvaluateRequest request;
+  request.maps = out / ("fit-" + method) / "svbrdf.exr";
+  request.stack = out / "reconstruction" / "stack.exr";
+  request.reference = out / "truth.exr";
+  request.out = out / ("report-" + method);
+  request.title = args.object + " on " + rig + " (scan → calibrate → reconstruct → " + method + ")";
   const std::string command = "eval " + request.maps.string() + " --stack " + request.stack.string() + " --reference " +
                               request.reference.string() + " --out " + request.out.string() + " --title '" + request.title + "'";
   return stages->Run("evaluate " + method, command, [&]() -> Status {
@@ -220,8 +225,10 @@ Status FitAndEvaluate(const DemoArguments& args, const std::string& rig, Stages*
     LOOM_RETURN_IF_ERROR(EvaluateMethod(args, rig, method, stages));
   }
   const fs::path out(args.out);
-  const fitting::ExportRequest request{
-      .maps = out / ("fit-" + args.methods.back()) / "svbrdf.exr", .gltf = out / "gltf", .axf = out / "material.axf"};
+  fitting::ExportRequest request;
+  request.maps = out / ("fit-" + args.methods.back()) / "svbrdf.exr";
+  request.gltf = out / "gltf";
+  request.axf = out / "material.axf";
   const std::string command =
       "export " + request.maps.string() + " --gltf " + request.gltf.string() + " --axf " + request.axf.string();
   return stages->Run("export", command, [&] { return fitting::ExportMaps(request, std::cout); });

@@ -36,7 +36,10 @@ class FitDirectoryTest : public ::testing::Test {
 
   fs::path stack() const { return dir_ / "stack.exr"; }
   FitRequest Request(const std::string& out) const {
-    FitRequest request{.stack = stack(), .out = dir_ / out, .models_dir = dir_ / "models"};
+    FitRequest request;
+    request.stack = stack();
+    request.out = dir_ / out;
+    request.models_dir = dir_ / "models";
     request.options.threads = 1;
     return request;
   }

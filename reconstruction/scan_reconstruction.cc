@@ -60,7 +60,9 @@ Result<ReconstructedDirectory> ReconstructToDirectory(const std::filesystem::pat
   const auto start = std::chrono::steady_clock::now();
   LOOM_ASSIGN_OR_RETURN(const ScanToReconstruct opened, OpenScanToReconstruct(scan, calibration_directory, options));
   LOOM_ASSIGN_OR_RETURN(OutputDirectory staged, OutputDirectory::Create(out, "--out"));
-  ReconstructedDirectory result{.out = out, .pixel_mm = opened.options.pixel_mm};
+  ReconstructedDirectory result;
+  result.out = out;
+  result.pixel_mm = opened.options.pixel_mm;
   LOOM_ASSIGN_OR_RETURN(result.scanned, ReconstructScan(opened, progress));
   LOOM_RETURN_IF_ERROR(WriteObservationStack(staged.partial() / "stack.exr", result.scanned.reconstruction.stack));
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -29,7 +29,10 @@ TEST(FastPathStackTest, ThePresetsObservationsAreWrittenWithTheTruthOnTheStacksG
   const Result<scan::Preset> preset = scan::LoadPreset(loom::testing::SourceDir() + "/configs/plans/low.yaml");
   ASSERT_TRUE(preset.ok()) << preset.status().ToString();
   std::ostringstream report;
-  const FastPathStackRequest request{.size_px = 8, .out = dir / "stack.exr", .truth = dir / "truth.exr"};
+  FastPathStackRequest request;
+  request.size_px = 8;
+  request.out = dir / "stack.exr";
+  request.truth = dir / "truth.exr";
   ASSERT_TRUE(WriteFastPathStack(scene, *preset, request, report).ok()) << report.str();
   const Result<ObservationStack> stack = ReadObservationStack(dir / "stack.exr");
   ASSERT_TRUE(stack.ok()) << stack.status().ToString();
@@ -40,7 +43,9 @@ TEST(FastPathStackTest, ThePresetsObservationsAreWrittenWithTheTruthOnTheStacksG
   EXPECT_EQ(truth->width(), 8);
   EXPECT_NE(report.str().find("wrote " + (dir / "stack.exr").string()), std::string::npos) << report.str();
 
-  const FastPathStackRequest huge{.size_px = 1 << 20, .out = dir / "huge.exr"};
+  FastPathStackRequest huge;
+  huge.size_px = 1 << 20;
+  huge.out = dir / "huge.exr";
   const Status refused = WriteFastPathStack(scene, *preset, huge, report);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.ToString().find("--size"), std::string::npos) << refused.ToString();

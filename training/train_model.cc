@@ -131,7 +131,10 @@ Result<TrainedModel> TrainModel(TrainRequest request) {
                         fitting::CnnDataset::Open(request.data, request.validation, request.test));
   const fitting::CnnInputKind input =
       request.input_layout == "paper" ? fitting::CnnInputKind::kPaperLayout : fitting::CnnInputKind::kStackObservations;
-  TrainedModel trained{.out = request.out, .data = request.data, .resident_materials = request.training.resident_materials};
+  TrainedModel trained;
+  trained.out = request.out;
+  trained.data = request.data;
+  trained.resident_materials = request.training.resident_materials;
   LOOM_ASSIGN_OR_RETURN(trained.run,
                         fitting::TrainOnDataset(dataset, {0, WidthDivisor(request), request.dropout, request.centre_skip},
                                                 request.init.string(), request.training, input));

@@ -26,11 +26,12 @@ class TrainModelTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   TrainRequest ToyRequest(const std::string& out) const {
-    TrainRequest request{.rig = loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml",
-                         .presets = {{"low", loom::testing::SourceDir() + "/configs/plans/low.yaml"}},
-                         .out = dir_ / out,
-                         .validation = 1,
-                         .test = 1};
+    TrainRequest request;
+    request.rig = loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml";
+    request.presets = {{"low", loom::testing::SourceDir() + "/configs/plans/low.yaml"}};
+    request.out = dir_ / out;
+    request.validation = 1;
+    request.test = 1;
     request.dataset.materials = 4;
     request.dataset.size_px = 16;
     request.training.tile = 8;

@@ -40,8 +40,13 @@ class ReportDirectoriesTest : public ::testing::Test {
 
 TEST_F(ReportDirectoriesTest, TheTruthEvaluatedAgainstItsOwnStackHasNoErrorAndItsReportIsWritten) {
   const fs::path truth = dir_ / "truth" / "svbrdf.exr";
-  const Result<EvaluatedDirectory> evaluated = EvaluateToDirectory(
-      {.maps = truth, .stack = dir_ / "stack.exr", .reference = truth, .out = dir_ / "report", .renderer_views = 0});
+  EvaluateRequest request;
+  request.maps = truth;
+  request.stack = dir_ / "stack.exr";
+  request.reference = truth;
+  request.out = dir_ / "report";
+  request.renderer_views = 0;
+  const Result<EvaluatedDirectory> evaluated = EvaluateToDirectory(request);
   ASSERT_TRUE(evaluated.ok()) << evaluated.status().ToString();
   EXPECT_LT(evaluated->evaluation.FitL1(), 1e-3);
   ASSERT_FALSE(evaluated->evaluation.parameters.empty());
@@ -49,8 +54,8 @@ TEST_F(ReportDirectoriesTest, TheTruthEvaluatedAgainstItsOwnStackHasNoErrorAndIt
   EXPECT_TRUE(fs::is_regular_file(dir_ / "report" / "index.html"));
   EXPECT_TRUE(fs::is_regular_file(dir_ / "report" / "summary.json"));
 
-  const Result<EvaluatedDirectory> again =
-      EvaluateToDirectory({.maps = truth, .stack = dir_ / "stack.exr", .out = dir_ / "report"});
+  request.reference.clear();
+  const Result<EvaluatedDirectory> again = EvaluateToDirectory(request);
   ASSERT_FALSE(again.ok());  // the report is there: an output never replaces earlier results
   EXPECT_NE(again.status().ToString().find("--out"), std::string::npos) << again.status().ToString();
 }
@@ -58,13 +63,19 @@ TEST_F(ReportDirectoriesTest, TheTruthEvaluatedAgainstItsOwnStackHasNoErrorAndIt
 TEST_F(ReportDirectoriesTest, ExportWritesEveryFormatAskedForOrNothingWhenOneOutputIsRefused) {
   const fs::path maps = dir_ / "truth" / "svbrdf.exr";
   std::ostringstream report;
-  ASSERT_TRUE(ExportMaps({.maps = maps, .gltf = dir_ / "gltf", .axf = dir_ / "material.axf"}, report).ok()) << report.str();
+  ExportRequest request;
+  request.maps = maps;
+  request.gltf = dir_ / "gltf";
+  request.axf = dir_ / "material.axf";
+  ASSERT_TRUE(ExportMaps(request, report).ok()) << report.str();
   EXPECT_TRUE(fs::is_regular_file(dir_ / "gltf" / "material.gltf"));
   EXPECT_TRUE(fs::is_regular_file(dir_ / "material.axf"));
   EXPECT_NE(report.str().find("wrote " + (dir_ / "material.axf").string()), std::string::npos) << report.str();
 
   ASSERT_EQ(::mkfifo((dir_ / "fifo").c_str(), 0600), 0);
-  const Status refused = ExportMaps({.maps = maps, .gltf = dir_ / "gltf-2", .axf = dir_ / "fifo"}, report);
+  request.gltf = dir_ / "gltf-2";
+  request.axf = dir_ / "fifo";
+  const Status refused = ExportMaps(request, report);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.ToString().find("FIFO"), std::string::npos) << refused.ToString();
   EXPECT_FALSE(fs::exists(dir_ / "gltf-2"));

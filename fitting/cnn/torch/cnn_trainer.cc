@@ -135,7 +135,9 @@ Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& 
                     e.input.width,
                     std::make_shared<const ValidCounts>(e.labels),
                     e.stack,
-                    std::move(pixels)};
+                    std::move(pixels),
+                    {},
+                    {}};
   if (options.rerender_weight > 0) {
     material.host_valid = ValidTensor(e.labels);  // a copy: from_blob's memory goes with `e`
     if (options.rerender_lobe_reference > 0) material.host_labels = AsTensor(e.labels.labels).clone();
