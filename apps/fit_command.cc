@@ -5,7 +5,7 @@
 #include <optional>
 
 #include "apps/command.h"
-#include "apps/progress.h"
+#include "core/progress_bar.h"
 #include "fitting/fit_directory.h"
 #include "fitting/method_fit.h"
 #include "fitting/solve/refine_settings.h"
@@ -23,13 +23,11 @@ struct FitArguments {
 };
 
 Status Fit(FitArguments args) {
-  std::map<std::string, ProgressBar> bars;
-  args.request.options.progress = [&](const fitting::StackFitProgress& p) {
-    bars.try_emplace(p.stage, p.stage, args.quiet).first->second.Update(p.done, p.total, p.stage);
-  };
+  StageProgressBars bars("", args.quiet);
+  args.request.options.progress = [&](const fitting::StackFitProgress& p) { bars.Update(p.stage, p.done, p.total, p.stage); };
   args.request.models_dir = fs::path(LOOM_CONFIGS_DIR) / "models";
   LOOM_ASSIGN_OR_RETURN(const fitting::FitDirectory fit, fitting::FitToDirectory(std::move(args.request), std::cerr));
-  bars.clear();
+  bars.Close();
   fit.Report(std::cout);
   return Status::Ok();
 }

@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "apps/command.h"
+#include "apps/config_paths.h"
 #include "apps/rig_loader.h"
 #include "scan/plan.h"
 

@@ -1,10 +1,9 @@
 // loom reconstruct: a scan → the calibrated observation stack (stack.exr) + reconstruction.json.
 #include <filesystem>
 #include <iostream>
-#include <map>
 
 #include "apps/command.h"
-#include "apps/progress.h"
+#include "core/progress_bar.h"
 #include "reconstruction/scan_reconstruction.h"
 
 namespace loom::apps {
@@ -21,14 +20,13 @@ struct ReconstructArguments {
 };
 
 Status Reconstruct(const ReconstructArguments& args) {
-  std::map<std::string, ProgressBar> bars;
+  StageProgressBars bars("reconstruct: ", args.quiet);
   const auto progress = [&](const reconstruction::ReconstructProgress& p) {
-    const auto bar = bars.try_emplace(p.stage, "reconstruct: " + p.stage, args.quiet).first;
-    bar->second.Update(p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
+    bars.Update(p.stage, p.done, p.total, p.stage == "heightmap" ? "steps" : "views");
   };
   LOOM_ASSIGN_OR_RETURN(const reconstruction::ReconstructedDirectory written,
                         reconstruction::ReconstructToDirectory(args.scan, args.calib, args.options, args.out, progress));
-  bars.clear();
+  bars.Close();
   for (const std::string& note : written.scanned.notes) std::cerr << "note: " << note << "\n";
   written.Report(std::cout);
   return Status::Ok();

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "apps/command.h"
+#include "apps/config_paths.h"
 #include "apps/rig_loader.h"
 #include "core/exr_io.h"
 #include "core/file_io.h"

@@ -11,7 +11,7 @@
 
 #include "apps/command.h"
 #include "apps/config_paths.h"
-#include "apps/progress.h"
+#include "core/progress_bar.h"
 #include "training/train_model.h"
 
 namespace loom::apps {

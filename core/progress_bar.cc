@@ -1,13 +1,13 @@
-#include "apps/progress.h"
+#include "core/progress_bar.h"
 
 #include <unistd.h>
 
 #include <cstdint>
 #include <iostream>
 
-#include "apps/command.h"
+#include "core/duration.h"
 
-namespace loom::apps {
+namespace loom {
 
 ProgressBar::ProgressBar(std::string label, bool quiet)
     : label_(std::move(label)), quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0), start_(std::chrono::steady_clock::now()) {}
@@ -35,4 +35,8 @@ void ProgressBar::Update(int64_t done, int64_t total, const std::string& unit, c
   drawn_ = true;
 }
 
-}  // namespace loom::apps
+void StageProgressBars::Update(const std::string& stage, int64_t done, int64_t total, const std::string& unit) {
+  bars_.try_emplace(stage, prefix_ + stage, quiet_).first->second.Update(done, total, unit);
+}
+
+}  // namespace loom

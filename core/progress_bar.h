@@ -4,10 +4,11 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 
-namespace loom::apps {
+namespace loom {
 
 class ProgressBar {
  public:
@@ -28,4 +29,18 @@ class ProgressBar {
   std::chrono::steady_clock::time_point start_;
 };
 
-}  // namespace loom::apps
+// A bar per stage of a job whose progress names its stage, each made at its stage's first update
+// and labelled `prefix` + the stage's name.
+class StageProgressBars {
+ public:
+  StageProgressBars(std::string prefix, bool quiet) : prefix_(std::move(prefix)), quiet_(quiet) {}
+  void Update(const std::string& stage, int64_t done, int64_t total, const std::string& unit);
+  void Close() { bars_.clear(); }  // ends the bars' lines before a report follows
+
+ private:
+  std::string prefix_;
+  bool quiet_;
+  std::map<std::string, ProgressBar> bars_;
+};
+
+}  // namespace loom
