@@ -16,7 +16,9 @@
 # Settings (environment): RIG (tac7-mini or tac7), FABRICS (1200; tac7 600), FIRST_SEED (60000: no run has trained
 # on seeds from there), TRAIN_S (240), EPOCHS (4), TILES (16 a step), SEED (30), LR_START (3e-5),
 # LR_END (5e-6), WIDTH (a width divisor below the model's widens it; default: the model's),
-# DEVICE (cuda; cpu for a dry run), LOOM (a built loom: no build), OUT (required for run).
+# DEVICE (cuda; cpu for a dry run), LOOM (a built loom: no build), OUT (required for run),
+# BENCH (1: fit a paper-size material first, where the build has `fit`; 0: no), BENCH_SIZE (630),
+# BENCH_ONLY (1: the build and the fits alone).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -113,6 +115,32 @@ PY
   return $status
 }
 
+# The paper's headline on this machine: a BENCH_SIZE² (630) tac7 low-preset fast-path material
+# (728 observations: the paper's input layout's 932 channels) fitted by the CNN alone and by CNN +
+# refine, the network on DEVICE and the refiner on every core; wall times, the CNN's own seconds
+# (fit.json's cnn_seconds) and the GPU's utilisation to round.log. It needs a loom that has `fit`:
+# the trainer-only build has not (docs/gpu-training.md), and then the stage says so and is skipped.
+bench() {
+  if ! "$loom" help fit > /dev/null 2>&1; then
+    echo "bench: skipped: $loom has no 'fit' (a trainer-only build)" | tee -a "$OUT/round.log"
+    return
+  fi
+  local size=${BENCH_SIZE:-630} stack=$work/bench/stack.exr start
+  mkdir -p "$work/bench"
+  start=$SECONDS
+  "$loom" sim render --rig configs/rig/tac7.yaml --stack --preset low --size "$size" --out "$stack" > "$OUT/bench.log" 2>&1
+  echo "bench: rendered a ${size}² tac7 low-preset stack: $((SECONDS - start)) s" | tee -a "$OUT/round.log"
+  local method
+  for method in cnn cnn+refine; do
+    start=$SECONDS
+    with_utilisation "bench-$method" "$loom" fit "$stack" --method "$method" --device "$device" --threads 0 --quiet \
+      --out "$work/bench/$method" >> "$OUT/bench.log" 2>&1
+    echo "bench: ${size}² $method on $device: $((SECONDS - start)) s wall, the CNN $(python3 -c \
+      'import json, sys; print(round(json.load(open(sys.argv[1]))["cnn_seconds"], 2))' "$work/bench/$method/fit.json") s" |
+      tee -a "$OUT/round.log"
+  done
+}
+
 # Samples a second in the short run's last epoch.
 rate_of() {
   python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["epochs"][-1]["samples_per_second"])' "$1/training.json"
@@ -143,6 +171,8 @@ run() {
     loom=build-trainer/apps/loom
   fi
   "$loom" version | tee "$OUT/version.txt"
+  [ "${BENCH:-1}" = 1 ] && bench
+  [ "${BENCH_ONLY:-0}" = 1 ] && return
 
   local start=$SECONDS
   with_utilisation short train "$work/short" 3 5 "${widen[@]}" > "$OUT/short.log" 2>&1
