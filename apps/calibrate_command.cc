@@ -54,7 +54,7 @@ Status CalibrateRadiometry(const std::string& scan_dir, const std::string& calib
 
 // Returns whether to recalibrate.
 Result<bool> CheckCalibration(const std::string& scan_dir, const std::string& calib, const std::string& json_path, bool force) {
-  if (!json_path.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(json_path, "--json", force));
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--json", json_path}}, force));
   LOOM_ASSIGN_OR_RETURN(const calibration::CalibrationCheck check, calibration::CheckCalibration(scan_dir, calib));
   check.Report(std::cout);
   if (!json_path.empty()) {
@@ -82,9 +82,8 @@ int RunCalibrate(int argc, char** argv) {
   std::string scan;
   CLI::App* geometry = app.add_subcommand(
       "geometry",
-      "Every camera's pose in the turntable's frame from a calibration scan's target views; the LEDs' positions and "
-      "the linear light's sweep from the chrome sphere; the projector's pose from its columns on the target (and its "
-      "focal length and centre from the white tile at two heights, where the cameras see enough of its field)");
+      "Camera poses from a calibration scan's target views, the LEDs' positions and the linear light's sweep from the "
+      "chrome sphere, the projector from its patterns");
   geometry->add_option("scan", scan, "Calibration scan directory (loom scan --calibration)")->required();
   geometry
       ->add_option("--out", out,

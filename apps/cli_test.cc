@@ -177,8 +177,8 @@ TEST(CliTest, ModelAveragesTheWeightsOfModelsOfOneNetwork) {
   EXPECT_TRUE(Contains(mixed.output, other_rig) && Contains(mixed.output, "rig 'tac7'")) << mixed.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "mixed"));
   const LoomRun nowhere = RunLoom("model " + shipped + " --average " + (dir / "32").string());
-  EXPECT_EQ(nowhere.exit_code, 1) << nowhere.output;
-  EXPECT_TRUE(Contains(nowhere.output, "--out")) << nowhere.output;
+  EXPECT_EQ(nowhere.exit_code, 2) << nowhere.output;  // a usage error
+  EXPECT_TRUE(Contains(nowhere.output, "--average requires --out")) << nowhere.output;
   std::filesystem::remove_all(dir);
 }
 

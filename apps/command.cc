@@ -35,6 +35,7 @@ Status CheckOutputFiles(const std::vector<std::pair<std::string, std::string>>& 
 }
 
 Status WriteJsonReport(const std::string& path, nlohmann::json document) {
+  if (path.empty()) return Status::Ok();
   document["loom_version"] = std::string(VersionWithCommit());
   return WriteFileAtomically(path, document.dump(2) + "\n");
 }

@@ -43,8 +43,9 @@ void AddForceOption(CLI::App& app, bool& force);
 // before a command's work, so that a refused one leaves nothing written.
 Status CheckOutputFiles(const std::vector<std::pair<std::string, std::string>>& outputs, bool force);
 
-// Writes a command's JSON report to a path the user named, with "loom_version": its marker under
-// core/output_file.h's rule, which the caller checked before the work.
+// Writes a command's JSON report to a path the user named (none where `path` is empty), with
+// "loom_version": its marker under core/output_file.h's rule, which the caller checked before the
+// work.
 Status WriteJsonReport(const std::string& path, nlohmann::json document);
 
 // Parses argv into `app`. Returns nothing on success; otherwise the exit code to return:

@@ -1,16 +1,13 @@
 #pragma once
-// Where a config named on the command line is: a path, or a name in configs/ (here, or in loom's
-// source tree).
+// A rig or gloss preset named on the command line: a path, or a name in configs/ here or in
+// loom's source tree (core/config_paths.h).
 
 #include <filesystem>
 #include <string>
 
 namespace loom::apps {
 
-// A gloss preset by name (configs/plans/NAME.yaml, from here or loom's source tree) or path.
-std::filesystem::path ResolvePresetPath(const std::string& preset);
-// A rig by path or name (configs/rig/NAME.yaml, from here or loom's source tree); as given when
-// neither exists, so that the error names what the user wrote.
-std::filesystem::path ResolveRigPath(const std::string& rig);
+std::filesystem::path ResolvePresetPath(const std::string& preset);  // configs/plans/NAME.yaml
+std::filesystem::path ResolveRigPath(const std::string& rig);        // configs/rig/NAME.yaml
 
 }  // namespace loom::apps

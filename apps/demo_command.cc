@@ -7,8 +7,7 @@
 #include "apps/config_paths.h"
 #include "apps/scanning.h"
 #include "demo/main_job.h"
-#include "fitting/method_fit.h"
-#include "reconstruction/scan_reconstruction.h"
+#include "fitting/solve/stack_fitter.h"
 
 namespace loom::apps {
 namespace {
@@ -35,12 +34,6 @@ Status Demo(DemoArguments args) {
   return Status::Ok();
 }
 
-std::vector<std::string> FitMethodNames() {
-  std::vector<std::string> names;
-  for (fitting::FitMethod method : fitting::kFitMethods) names.emplace_back(fitting::FitMethodName(method));
-  return names;
-}
-
 }  // namespace
 
 int RunDemo(int argc, char** argv) {
@@ -57,26 +50,18 @@ int RunDemo(int argc, char** argv) {
   app.add_option("--preset", request.preset, "Gloss preset of the material scan (default low)");
   app.add_option("--methods", request.methods, "Fit methods, in order, the last being the main result (default cnn cnn+refine)")
       ->delimiter(',')
-      ->check(CLI::IsMember(FitMethodNames()));
+      ->check(CLI::IsMember(fitting::FitMethodNames()));
   app.add_option("--size", request.size_px,
-                 "Stack size in pixels (square, centred; default: reconstruct's); the scans then read only that crop "
-                 "(--crop-mm of the size at reconstruct's pixel size) unless --crop-mm says otherwise")
+                 "Stack size in pixels (square, centred; default: reconstruct's); the scans read only that crop")
       ->check(CLI::Range(8, 8192));
   app.add_option("--crop-mm", request.crop_mm,
-                 "Scan only a centred square crop of the sample this wide, each camera reading the window that sees it "
-                 "(as loom scan --crop-mm; for rigs with large sensors, e.g. tac7 with --size 64 and 12.8); the "
-                 "calibration scan then reads each calibration object through its windows (loom scan --object-windows)")
+                 "Scan only a centred square crop of the sample this wide (loom scan --crop-mm; default: --size's)")
       ->check(CLI::Range(0.5, 1000.0));
   app.add_flag("!--no-calibration", request.calibrate,
-               "No calibration scan: reconstruct with the rig YAML's geometry and radiometry (on a simulated rig without "
-               "as_built: that is what it is)");
+               "No calibration scan: reconstruct with the rig YAML's geometry and radiometry");
   app.add_option("--out", request.out, "Directory to write, new or empty (default loom-demo)");
   app.add_flag("--quiet", request.quiet, "No progress bars");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  // A demo that reconstructs a crop scans only that crop: on tac7's 2048 × 1536 sensors a whole
-  // material scan takes hours here, the 12.8 mm that --size 64 reconstructs a few minutes.
-  if (request.crop_mm == 0 && request.size_px > 0)
-    request.crop_mm = request.size_px * reconstruction::ReconstructOptions{}.pixel_mm;
   return ExitCode(Demo(args));
 }
 

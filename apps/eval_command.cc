@@ -42,8 +42,8 @@ int RunEval(int argc, char** argv) {
   app.add_option("--out", args.request.out, "Report directory: index.html, summary.json, PNGs")->required();
   app.add_option("--title", args.request.title, "Title of the report");
   app.add_option("--reference-normals", args.reference_normals,
-                 "A true normal map (EXR X, Y, Z, or PNG storing (n+1)/2; x right, y up the image, z towards the camera, "
-                 "as photometric-stereo benchmarks give them): the angle error, and by true tilt (normals.json)");
+                 "A true normal map (EXR X, Y, Z, or PNG storing (n+1)/2; x right, y up, z towards the camera): the "
+                 "angle error, and by true tilt (normals.json)");
   app.add_option("--normals-downsample", args.normals_downsample,
                  "The --downsample the stack was imported with, to bring the normal map to its grid")
       ->check(CLI::Range(1, 64));

@@ -23,18 +23,13 @@ int RunExport(int argc, char** argv) {
   app.add_option("maps", args.maps, "Fitted maps (svbrdf.exr from loom fit, or an AxF file's SVBRDF)")->required();
   app.add_option("--gltf", args.gltf, "Directory to write: material.gltf, material.bin and its PNG textures");
   app.add_option("--gltf-anisotropy", args.anisotropy,
-                 "auto: KHR_materials_anisotropy unless the shading normals tilt more than the lobes are wide "
-                 "(renderers then misplace the highlights; fitting/report/gltf_export.h); on; off: isotropic")
+                 "auto: KHR_materials_anisotropy unless the shading normals tilt more than the lobes are wide; on; off")
       ->transform(
           CLI::CheckedTransformer(std::map<std::string, fitting::GltfAnisotropy>{{"auto", fitting::GltfAnisotropy::kAuto},
                                                                                  {"on", fitting::GltfAnisotropy::kOn},
                                                                                  {"off", fitting::GltfAnisotropy::kOff}}));
-  app.add_option("--axf", args.axf,
-                 "AxF file to write: /com.xrite.Materials/loom with DiffuseModel (Color, Normal), SpecularModel "
-                 "(Color, Lobes, AnisotropicRotation, Fresnel) and DisplacementFilter/Height (fitting/io/axf_export.h)");
-  app.add_option("--mtlx", args.mtlx,
-                 "Directory to write: material.mtlx (a MaterialX standard_surface) and its PNG textures "
-                 "(fitting/report/mtlx_export.h)");
+  app.add_option("--axf", args.axf, "AxF file to write: the SVBRDF in the model's own parameters (docs/formats.md)");
+  app.add_option("--mtlx", args.mtlx, "Directory to write: material.mtlx (a MaterialX standard_surface) and its PNG textures");
   app.add_option("--pixel-mm", args.pixel_mm, "The maps' pixel size (default: their loom.pixel_mm attribute)")
       ->check(CLI::PositiveNumber);
   AddForceOption(app, args.force);

@@ -21,8 +21,7 @@ struct ImportArguments {
 
 Status Import(ImportArguments args) {
   if (!args.layout.empty()) {
-    args.options.layout = photos::ParseLayout(args.layout);
-    if (!args.options.layout) return InvalidArgumentError("--layout " + args.layout, "expected ps, lp or flash");
+    LOOM_ASSIGN_OR_RETURN(args.options.layout, photos::ParseLayout(args.layout, "--layout"));
   }
   if (!args.encoding.empty()) {
     LOOM_ASSIGN_OR_RETURN(args.options.encoding, photos::ParseEncoding(args.encoding, "--encoding"));
@@ -43,7 +42,7 @@ Status Import(ImportArguments args) {
     LOOM_RETURN_IF_ERROR(WriteObservationStack(args.held_out, *imported.held_out));
     std::cout << "wrote " << args.held_out << ": image " << args.hold_out << " alone, left out of " << args.out << "\n";
   }
-  if (!args.json.empty()) LOOM_RETURN_IF_ERROR(WriteJsonReport(args.json, imported.ToJson()));
+  LOOM_RETURN_IF_ERROR(WriteJsonReport(args.json, imported.ToJson()));
   std::cout << "wrote " << args.out << "\n";
   return Status::Ok();
 }

@@ -41,11 +41,10 @@ struct ScoreArguments {
 
 // The model's losses on DATA's validation and test materials (fitting::ScoreModel).
 Status Score(const fs::path& model, const ScoreArguments& args) {
-  if (!args.json.empty()) LOOM_RETURN_IF_ERROR(CheckOutputFile(args.json, "--json", args.force));
+  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--json", args.json}}, args.force));
   LOOM_ASSIGN_OR_RETURN(const fitting::ModelScore score,
                         fitting::ScoreModel(model, args.data, args.validation, args.test, args.threads));
   score.Report(std::cout);
-  if (args.json.empty()) return Status::Ok();
   return WriteJsonReport(args.json, score.ToJson());
 }
 
@@ -53,8 +52,6 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
                        const std::vector<std::string>& average, const ScoreArguments& score) {
   if (!score.data.empty()) return Score(model, score);
   if (out.empty()) {
-    if (!weights.empty()) return InvalidArgumentError("--weights", "converts into --out DIR: give one");
-    if (!average.empty()) return InvalidArgumentError("--average", "writes the average into --out DIR: give one");
     LOOM_ASSIGN_OR_RETURN(const fitting::Cnn cnn, fitting::Cnn::Load(model));
     fitting::DescribeModel(model, cnn.info(), std::cout);
     return Status::Ok();
@@ -72,33 +69,29 @@ Status RunModelCommand(const fs::path& model, const std::string& out, const std:
 
 int RunModel(int argc, char** argv) {
   CLI::App app(
-      "Show a trained CNN: its rig and input, width, weights and training; copy it with its weights "
-      "stored otherwise, or average its weights with other models'; or score it on a training dataset's held-out "
-      "materials",
+      "Show a trained CNN, copy it with its weights stored otherwise, average its weights with other models', or "
+      "score it on a training dataset's held-out materials",
       "loom model");
   AddCommonOptions(app);
   std::string model, out, weights;
   app.add_option("model", model, "Model folder (model.json + weights.pt), e.g. configs/models/tac7-mini")
       ->required()
       ->check(CLI::ExistingDirectory);
-  app.add_option("--out", out,
-                 "Write a copy of the model here (with the files beside it: refine.json, README.md, ...) instead of "
-                 "showing it");
+  app.add_option("--out", out, "Write a copy of the model (with refine.json, README.md, ...) here instead of showing it");
   app.add_option("--weights", weights,
-                 "How the copy stores its weights: float32, or float16 (half the file; the network computes in float32 "
-                 "either way, from weights rounded to 11 significant bits)")
-      ->check(CLI::IsMember({"float32", "float16"}));
+                 "How the copy stores its weights: float32, or float16 (half the file; computed in float32 either way)")
+      ->check(CLI::IsMember({"float32", "float16"}))
+      ->needs("--out");
   std::vector<std::string> average;
   app.add_option("--average", average,
-                 "With --out: write the uniform average of this model's weights and these models' (one network on one "
-                 "input, e.g. checkpoints of one run, or fine-tunes of one model) instead of a copy")
-      ->check(CLI::ExistingDirectory);
+                 "With --out: write the average of this model's weights and these models' (one architecture and input) "
+                 "instead of a copy")
+      ->check(CLI::ExistingDirectory)
+      ->needs("--out");
   ScoreArguments score;
   CLI::Option* score_option =
       app.add_option("--score", score.data,
-                     "Score the model on this loom train dataset's held-out materials (NAME.stack.exr + NAME.truth.exr): "
-                     "label loss, RMSE per channel and re-rendering loss on its validation and test sets, as loom train "
-                     "reports them")
+                     "Score the model on this loom train dataset's validation and test materials, as loom train does")
           ->check(CLI::ExistingDirectory)
           ->excludes("--out")
           ->excludes("--weights")

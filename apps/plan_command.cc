@@ -3,21 +3,15 @@
 
 #include "apps/command.h"
 #include "apps/config_paths.h"
-#include "apps/rig_loader.h"
 #include "scan/plan.h"
 
 namespace loom::apps {
 namespace {
 
 Status ShowPlan(const std::string& rig_path, const std::string& preset_name, bool calibration, bool steps, bool yaml) {
-  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(rig_path)));
-  LOOM_ASSIGN_OR_RETURN(const RigModel rig, file.Model());
-  const scan::LightDriftSettings drift = scan::ReadLightDriftSettings(file);
-  LOOM_RETURN_IF_ERROR(file.Finish());
-  LOOM_ASSIGN_OR_RETURN(const scan::Preset preset, scan::LoadPreset(ResolvePresetPath(preset_name)));
-  LOOM_ASSIGN_OR_RETURN(
-      const scan::Plan plan,
-      scan::MakePlan(rig, preset, calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial, drift));
+  const scan::PlanPurpose purpose = calibration ? scan::PlanPurpose::kCalibration : scan::PlanPurpose::kMaterial;
+  LOOM_ASSIGN_OR_RETURN(const scan::Plan plan,
+                        scan::MakePlanForRigFile(ResolveRigPath(rig_path), ResolvePresetPath(preset_name), purpose));
   if (yaml) {
     std::cout << scan::PlanToYaml(plan);
     return Status::Ok();

@@ -43,17 +43,14 @@ int RunReconstruct(int argc, char** argv) {
   ReconstructArguments args;
   app.add_option("scan", args.scan, "Scan directory (from loom scan)")->required();
   app.add_option("--out", args.out, "Output directory: stack.exr, reconstruction.json")->required();
-  app.add_option("--calib", args.calib,
-                 "Calibration directory (CAMERA.yaml files, from loom calibrate); default: the "
-                 "scan's rig YAML, nominal");
+  app.add_option("--calib", args.calib, "Calibration directory (from loom calibrate); default: the scan's rig YAML, nominal");
   app.add_option("--size", args.options.width_px, "Stack size in pixels (square, centred on the turntable axis)")
       ->check(CLI::Range(1, 16384));
   app.add_option("--pixel-mm", args.options.pixel_mm, "Stack pixel size (mm)")->check(CLI::PositiveNumber);
   app.add_option("--normal-blur-mm", args.options.normal_blur_mm, "Blur of the heightmap for the geometric normals (mm)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--heightmap-camera", args.options.heightmap_camera,
-                 "Camera that decodes the structured light "
-                 "(default: the one looking most nearly down)");
+                 "Camera that decodes the structured light (default: the one looking most nearly down)");
   app.add_option("--threads", args.options.threads, "Worker threads (0: one per core)")->check(CLI::Range(0, 1024));
   app.add_flag("--quiet", args.quiet, "No progress output");
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;

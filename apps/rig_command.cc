@@ -1,17 +1,14 @@
 // loom rig list | status | snap | move | leds: operate a rig's devices one at a time, e.g. to
 // check the wiring of a new scanner or to recalibrate by hand. Every subcommand holds a
 // safe-state guard: LEDs go off and motion stops when it ends, Ctrl-C included.
-#include <chrono>
 #include <iostream>
-#include <thread>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "apps/backends.h"
 #include "apps/command.h"
-#include "apps/rig_loader.h"
 #include "core/file_io.h"
-#include "core/interrupt.h"
 #include "core/output_file.h"
 #include "hal/aravis/aravis_backend.h"
 #include "hal/device_status.h"
@@ -21,49 +18,22 @@
 namespace loom::apps {
 namespace {
 
-using hal::Device;
 using hal::Rig;
-
-std::string Pad(const std::string& text, size_t width) {
-  return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
-}
 
 int List(const std::string& rig_path, bool discover) {
   if (!rig_path.empty()) {
     Result<LoadedRig> loaded = LoadRig(rig_path);
     if (!loaded.ok()) return ExitCode(loaded.status());
-    const Rig& rig = *loaded->rig;
-    std::cout << "rig '" << rig.name() << "' (" << rig_path << "): " << rig.devices().size() << " devices"
+    std::cout << "rig '" << loaded->rig->name() << "' (" << rig_path << "): " << loaded->rig->devices().size() << " devices"
               << (loaded->sim ? ", simulated" : "") << "\n";
-    for (Device* device : rig.devices()) {
-      std::cout << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11) << device->address()
-                << "\n";
-    }
+    hal::ListRigDevices(*loaded->rig, std::cout);
   }
   if (discover) {
     const std::vector<hal::DiscoveredCamera> cameras = hal::DiscoverAravisCameras();
     std::cout << "cameras found by Aravis discovery: " << cameras.size() << "\n";
-    for (const hal::DiscoveredCamera& camera : cameras) {
-      std::cout << "  " << Pad(camera.id, 28) << Pad(camera.protocol, 12) << Pad(camera.address, 16) << camera.vendor << " "
-                << camera.model << " serial " << camera.serial << "\n";
-    }
+    hal::ListDiscoveredCameras(cameras, std::cout);
   }
   return kExitOk;
-}
-
-int StatusOfAll(Rig& rig) {
-  hal::SafeStateGuard guard(rig);
-  int failures = 0;
-  for (Device* device : rig.devices()) {
-    const Status opened = device->Open();
-    Result<std::string> line = opened.ok() ? hal::DescribeDeviceState(*device) : Result<std::string>(opened);
-    std::cout << "  " << Pad(device->name(), 14) << (line.ok() ? "ok      " + *line : "FAILED  " + line.status().ToString())
-              << "\n";
-    failures += line.ok() ? 0 : 1;
-  }
-  rig.MakeSafe().ok();
-  rig.CloseAll().ok();
-  return failures == 0 ? kExitOk : kExitFailure;
 }
 
 Status WriteFrame(const scan::RawFrame& frame, const std::string& path) {
@@ -96,7 +66,7 @@ Status Snap(Rig& rig, const std::string& camera, double exposure_us, const std::
 }
 
 Status Move(Rig& rig, const std::string& name, double to) {
-  LOOM_ASSIGN_OR_RETURN(Device* const device, hal::FindNamedDevice(rig, name));
+  LOOM_ASSIGN_OR_RETURN(hal::Device* const device, hal::FindNamedDevice(rig, name));
   hal::SafeStateGuard guard(rig);
   LOOM_RETURN_IF_ERROR(rig.OpenAndConfigure(device));
   LOOM_RETURN_IF_ERROR(device->Start());
@@ -108,14 +78,12 @@ Status Move(Rig& rig, const std::string& name, double to) {
 Status Leds(Rig& rig, const std::string& on, double hold_s) {
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> leds, scan::ParseLedDrives(on, "--on"));
   hal::SafeStateGuard guard(rig);
-  LOOM_RETURN_IF_ERROR(hal::LightLeds(rig, leds));
-  std::cout << leds.size() << " LEDs on for " << hold_s << " s (Ctrl-C ends it)" << std::endl;
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(hold_s);
-  while (std::chrono::steady_clock::now() < until && !InterruptRequested()) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  std::cout << "LEDs off\n";
-  return Status::Ok();  // the guard switches them off
+  return hal::HoldLeds(rig, leds, hold_s, std::cout);
+}
+
+// --rig, which every subcommand takes.
+CLI::Option* AddRigOption(CLI::App& app, std::string& rig_path) {
+  return app.add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/");
 }
 
 }  // namespace
@@ -127,15 +95,15 @@ int RunRig(int argc, char** argv) {
   std::string rig_path;
   bool discover = false;
   CLI::App* list = app.add_subcommand("list", "List the rig's devices (and, with --discover, the cameras on the network)");
-  list->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/");
+  AddRigOption(*list, rig_path);
   list->add_flag("--discover", discover, "Broadcast GigE Vision discovery on every network interface");
   CLI::App* status = app.add_subcommand("status", "Open every device and print what it reports");
-  status->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/")->required();
+  AddRigOption(*status, rig_path)->required();
   std::string camera;
   std::string out;
   double exposure_us = 0;
   CLI::App* snap = app.add_subcommand("snap", "Capture one frame from a camera to EXR (float DN) or 16-bit PNG");
-  snap->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/")->required();
+  AddRigOption(*snap, rig_path)->required();
   snap->add_option("--camera", camera, "Camera name in the rig")->required();
   snap->add_option("--out", out, "Output file, .exr or .png")->required();
   bool force = false;
@@ -146,13 +114,13 @@ int RunRig(int argc, char** argv) {
   std::string device;
   double to = 0;
   CLI::App* move = app.add_subcommand("move", "Move the turntable (deg), the linear light (mm) or a filter wheel (slot)");
-  move->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/")->required();
+  AddRigOption(*move, rig_path)->required();
   move->add_option("--device", device, "Device name in the rig")->required();
   move->add_option("--to", to, "Target: degrees, mm or slot")->required();
   std::string on;
   double hold_s = 5;
   CLI::App* leds = app.add_subcommand("leds", "Light LEDs for a while, then switch them off");
-  leds->add_option("--rig", rig_path, "Rig YAML, or its name in configs/rig/")->required();
+  AddRigOption(*leds, rig_path)->required();
   leds->add_option("--on", on, "LED:MILLIAMPS[,LED:MILLIAMPS...], LEDs numbered from 0")->required();
   leds->add_option("--hold-s", hold_s, "Seconds to keep them on (default 5)")->check(CLI::NonNegativeNumber);
   if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
@@ -167,7 +135,7 @@ int RunRig(int argc, char** argv) {
   Result<LoadedRig> loaded = LoadRig(rig_path);
   if (!loaded.ok()) return ExitCode(loaded.status());
   Rig& rig = *loaded->rig;
-  if (*status) return StatusOfAll(rig);
+  if (*status) return hal::ReportRigStatus(rig, std::cout) == 0 ? kExitOk : kExitFailure;
   Status done;
   if (*snap) done = Snap(rig, camera, exposure_us, snap_leds, out, force);
   if (*move) done = Move(rig, device, to);

@@ -65,12 +65,9 @@ int RunScan(int argc, char** argv) {
                  "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
   app.add_flag("--calibration", request.calibration, "Run the calibration plan");
   app.add_flag("--object-windows", request.object_windows,
-               "With --calibration: the steps of the calibration target, the chrome sphere and the colour chart read, "
-               "from every camera, only the window around where that object lies (the white tile's and the dark steps "
-               "read whole frames)");
+               "With --calibration: each camera reads only the window around the calibration object of a step");
   app.add_option("--crop-mm", request.crop_mm,
-                 "Scan a square crop of the sample of this side, centred: each camera reads only the window that sees "
-                 "it (reconstruct it with --size = this / the stack's pixel size)")
+                 "Scan a centred square crop of the sample this wide: each camera reads only the window that sees it")
       ->check(CLI::PositiveNumber);
   app.add_option("--out", request.out, "New scan directory");
   app.add_option("--resume", resume, "Continue the interrupted scan in this directory");

@@ -8,9 +8,9 @@
 #include <optional>
 #include <sstream>
 
+#include "apps/backends.h"
 #include "apps/command.h"
 #include "apps/config_paths.h"
-#include "apps/rig_loader.h"
 #include "core/exr_io.h"
 #include "core/file_io.h"
 #include "core/memory.h"
@@ -49,10 +49,7 @@ Status Stats(int seeds, int size_px, const std::string& json_path, bool force) {
   LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--json", json_path}}, force));
   const sim::FabricStatistics stats = sim::MeasureFabrics(seeds, size_px);
   stats.Report(std::cout);
-  if (json_path.empty()) return Status::Ok();
-  LOOM_RETURN_IF_ERROR(WriteJsonReport(json_path, stats.ToJson()));
-  std::cout << "wrote " << json_path << "\n";
-  return Status::Ok();
+  return WriteJsonReport(json_path, stats.ToJson());
 }
 
 struct RenderArguments {
@@ -82,14 +79,7 @@ Status Render(const RenderArguments& args) {
   sim::SceneState state;
   state.turntable_deg = args.angle_deg;
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, scan::ParseLedDrives(args.leds, "--leds"));
-  for (const scan::LedDrive& drive : drives) {
-    if (drive.led < 0 || drive.led >= static_cast<int>(scene->rig().leds.size())) {
-      return InvalidArgumentError("--leds " + args.leds, "rig '" + scene->rig().name + "' has LEDs 0 to " +
-                                                             std::to_string(scene->rig().leds.size() - 1) + ", not " +
-                                                             std::to_string(drive.led));
-    }
-    state.leds.push_back({drive.led, drive.current_ma});
-  }
+  for (const scan::LedDrive& drive : drives) state.leds.push_back({drive.led, drive.current_ma});
   LOOM_ASSIGN_OR_RETURN(const Image image,
                         sim::RenderCameraFrame(*scene, args.camera, state, {args.exposure_us, 0}, loaded.sim->world->seed));
   LOOM_RETURN_IF_ERROR(WriteExr(args.out, image, {{"loom.camera", args.camera}, {"loom.exposure_us", args.exposure_us}}));
@@ -104,9 +94,7 @@ struct CaptureArguments {
 };
 
 Status ParseCaptureLayout(CaptureArguments& args) {
-  const std::optional<photos::Layout> layout = photos::ParseLayout(args.layout);
-  if (!layout) return InvalidArgumentError("--layout " + args.layout, "expected ps, lp or flash");
-  args.request.layout = *layout;
+  LOOM_ASSIGN_OR_RETURN(args.request.layout, photos::ParseLayout(args.layout, "--layout"));
   if (args.shape != "sphere" && args.shape != "cylinder") {
     return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
   }
@@ -121,6 +109,10 @@ Status ParseCaptureLayout(CaptureArguments& args) {
 Status Capture(CaptureArguments args) {
   LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--truth", args.truth}, {"--normals", args.normals}}, args.force));
   LOOM_RETURN_IF_ERROR(ParseCaptureLayout(args));
+  // --size, --noise and --seed are the flash layout's too.
+  args.request.sample.size_px = args.request.object.size_px;
+  args.request.flash.noise = args.request.object.noise;
+  args.request.flash.seed = args.request.object.seed;
   LOOM_ASSIGN_OR_RETURN(const photos::SimulatedCapture capture, photos::WriteSimulatedCapture(args.request, args.out));
   if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.truth, capture.truth, {{"loom.kind", std::string("svbrdf maps")}}));
   if (!args.normals.empty() && capture.normals) LOOM_RETURN_IF_ERROR(WriteExr(args.normals, *capture.normals, {}));
@@ -140,8 +132,7 @@ Status MatchScan(const std::string& fast_path, const std::string& reconstructed_
     LOOM_RETURN_IF_ERROR(WriteFileAtomically(emulation_path, match.emulation.ToYaml()));
     std::cout << "wrote " << emulation_path << ": the emulation, for loom train --scan-emulation\n";
   }
-  if (!json_path.empty()) LOOM_RETURN_IF_ERROR(WriteJsonReport(json_path, match.ToJson()));
-  return Status::Ok();
+  return WriteJsonReport(json_path, match.ToJson());
 }
 
 }  // namespace
@@ -154,20 +145,16 @@ int RunSim(int argc, char** argv) {
   std::string out;
   CLI::App* material = app.add_subcommand("material", "Write a material's SVBRDF maps (OpenEXR) and preview PNGs");
   material->add_option("--kind", sample.kind,
-                       "fabric (procedural, by seed), fabric-out-of-model (the same with what GD10 cannot represent), "
-                       "white-tile, chessboard, colour-chart");
+                       "fabric, fabric-out-of-model (with what GD10 cannot represent), white-tile, chessboard, colour-chart");
   material->add_option("--seed", sample.seed, "Seed of a procedural fabric (same seed, same maps)");
   material->add_option("--size", sample.size_px, "Map size in pixels (square)")->check(CLI::Range(8, 8192));
   material->add_option("--pixel-mm", sample.pixel_mm, "Map pixel size on the sample in mm")->check(CLI::PositiveNumber);
   material->add_option("--out", out, "Output directory")->required();
   RenderArguments r;
-  CLI::App* render = app.add_subcommand("render",
-                                        "Render one camera frame (radiance + raw DN) or, with --stack, "
-                                        "the fast-path observation stack");
+  CLI::App* render =
+      app.add_subcommand("render", "Render one camera frame (radiance + raw DN) or, with --stack, the fast-path stack");
   render->add_option("--rig", r.rig, "Simulated rig YAML (with geometry:), or its name in configs/rig/")->required();
-  render->add_option("--object", r.object,
-                     "What lies on the turntable instead of the rig's sample: fabric:SEED, "
-                     "fabric-out-of-model:SEED, white-tile, chessboard, colour-chart");
+  render->add_option("--object", r.object, "What lies on the turntable instead of the rig's sample (as loom scan --object)");
   render->add_option("--camera", r.camera, "Camera of the rig geometry");
   render->add_option("--leds", r.leds, "LED:MILLIAMPS[,...] lit for the frame");
   render->add_option("--turntable-deg", r.angle_deg, "Turntable angle");
@@ -178,16 +165,15 @@ int RunSim(int argc, char** argv) {
       ->check(CLI::Range(0, 8192));
   render->add_option("--truth", r.truth, "With --stack: also write the ground-truth maps on its grid (OpenEXR)");
   render->add_option("--scan-emulation", r.scan_emulation,
-                     "With --stack: degrade it as a scan's reconstruction would (camera footprints, gains, noise; a YAML "
-                     "from loom sim match-scan, e.g. configs/models/tac7-mini/scan-emulation.yaml)");
+                     "With --stack: degrade it as a scan's reconstruction would (a loom sim match-scan --out YAML)");
   render->add_option("--seed", r.seed, "With --scan-emulation: the seed of its gains and noise");
   render->add_option("--out", r.out, "Output EXR")->required();
   AddForceOption(*render, r.force);
   CaptureArguments capture;
   CLI::App* capture_app = app.add_subcommand(
       "capture",
-      "Photographs as other rigs take them, with their truth: a curved object under directional lights (--layout ps, "
-      "a photometric-stereo benchmark's, or lp, a light dome's) or a flat material under a phone's flash (--layout flash)");
+      "Photographs as other rigs take them, with their truth: a curved object under directional lights (ps, lp) or a "
+      "flat material under a phone's flash (flash)");
   capture_app->add_option("--layout", capture.layout, "ps, lp (a light dome's: sRGB JPEGs) or flash")->capture_default_str();
   capture_app->add_option("--shape", capture.shape, "ps and lp: sphere or cylinder")->capture_default_str();
   capture_app->add_option("--object", capture.request.sample.kind, "flash: the material (fabric, fabric-out-of-model)")
@@ -203,15 +189,24 @@ int RunSim(int argc, char** argv) {
       ->check(CLI::Range(3, 1000));
   capture_app->add_option("--max-light-deg", capture.request.object.max_light_deg, "The cap's half-angle")
       ->check(CLI::Range(1.0, 89.0));
-  capture_app->add_option("--sigma", capture.request.object.material.sigma_x, "The material's lobe width (isotropic)")
+  fitting::WardParams<double>& object_material = capture.request.object.material;
+  capture_app
+      ->add_option_function<double>(
+          "--sigma", [&object_material](double sigma) { object_material.sigma_x = object_material.sigma_y = sigma; },
+          "The material's lobe width")
       ->check(CLI::Range(0.01, 1.0));
-  capture_app->add_option("--specular", capture.request.object.material.a_s[0], "The material's specular albedo (grey)")
+  capture_app
+      ->add_option_function<double>(
+          "--specular", [&object_material](double a_s) { object_material.a_s.setConstant(a_s); },
+          "The material's specular albedo (grey)")
       ->check(CLI::Range(0.0, 1.0));
   capture_app->add_option("--noise", capture.request.object.noise, "Relative sensor noise")->check(CLI::Range(0.0, 0.5));
-  bool out_of_model = false;
-  capture_app->add_flag("--out-of-model", out_of_model,
-                        "ps: the material shows what GD10 cannot (sim/reflectance.h): a grey GGX coat of albedo 0.1 and "
-                        "roughness 0.1, and 4° of mesostructure");
+  capture_app->add_flag_callback(
+      "--out-of-model",
+      [&capture] {
+        capture.request.object.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
+      },
+      "ps: the material shows what GD10 cannot: a grey GGX coat of albedo 0.1 and roughness 0.1, and 4° of mesostructure");
   capture_app->add_option("--seed", capture.request.object.seed, "Seed of the noise");
   capture_app->add_option("--truth", capture.truth, "Also write the true maps on the image's grid (OpenEXR)");
   capture_app->add_option("--normals", capture.normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
@@ -241,16 +236,7 @@ int RunSim(int argc, char** argv) {
   if (*match_scan) done = MatchScan(fast_path, reconstructed_path, emulation_path, json_path, force);
   if (*stats) done = Stats(seeds, stats_size_px, json_path, force);
   if (*render) done = Render(r);
-  if (*capture_app) {
-    photos::SimulatedCaptureRequest& q = capture.request;
-    q.object.material.sigma_y = q.object.material.sigma_x;
-    q.object.material.a_s = Eigen::Vector3d::Constant(q.object.material.a_s[0]);
-    if (out_of_model) q.object.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
-    q.sample.size_px = q.object.size_px;
-    q.flash.noise = q.object.noise;
-    q.flash.seed = q.object.seed;
-    done = Capture(capture);
-  }
+  if (*capture_app) done = Capture(capture);
   if (*material) done = Material(sample, out);
   return ExitCode(done);
 }

@@ -2,11 +2,9 @@
 // (training/train_model.h does the work).
 //
 //   loom train --rig configs/rig/tac7-mini.yaml --preset low --out MODEL [--data DIR] ...
-#include <algorithm>
 #include <cstdint>
 #include <iomanip>
 #include <iostream>
-#include <optional>
 #include <sstream>
 
 #include "apps/command.h"
@@ -27,24 +25,20 @@ struct TrainArguments {
 Status Train(TrainArguments args) {
   training::TrainRequest& request = args.request;
   request.rig = ResolveRigPath(args.rig);
-  const std::vector<std::string> presets = training::PresetNames(args.preset);
-  if (presets.empty() || std::find(presets.begin(), presets.end(), "") != presets.end()) {
-    return InvalidArgumentError("--preset " + args.preset, "a preset name, or several separated by commas");
-  }
+  LOOM_ASSIGN_OR_RETURN(const std::vector<std::string> presets, training::PresetNames(args.preset));
   for (const std::string& name : presets) request.presets.push_back({name, ResolvePresetPath(name)});
-  // The training's bar starts when the dataset's ends: its ETA counts from its start.
-  std::optional<ProgressBar> dataset(std::in_place, "dataset", args.quiet), training;
+  StageProgressBars bars("", args.quiet);
   request.dataset_progress = [&](int done, int total, const std::string& name) {
-    dataset->Update(done, total, "materials", name);
+    bars.Update("dataset", done, total, "materials", name);
   };
   request.training.progress = [&](const fitting::CnnTrainingProgress& p) {
-    if (!training) dataset.reset(), training.emplace("training", args.quiet);
     std::ostringstream detail;
     detail << "epoch " << p.epoch << "/" << p.epochs << ", loss " << std::setprecision(4) << p.loss;
-    training->Update(static_cast<int64_t>(p.epoch - 1) * p.steps + p.step, static_cast<int64_t>(p.epochs) * p.steps, "steps",
-                     detail.str());
+    bars.Update("training", static_cast<int64_t>(p.epoch - 1) * p.steps + p.step, static_cast<int64_t>(p.epochs) * p.steps,
+                "steps", detail.str());
   };
   LOOM_ASSIGN_OR_RETURN(const training::TrainedModel trained, training::TrainModel(std::move(request)));
+  bars.Close();
   trained.Report(std::cout);
   return Status::Ok();
 }
@@ -59,11 +53,10 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--rig", args.rig, "Simulated rig YAML (its geometry renders the dataset), or its name in configs/rig/")
       ->required();
   app.add_option("--preset", args.preset,
-                 "Gloss preset whose material plan makes the observations; several separated by commas (low,medium,high) "
-                 "take turns by material and need --input-layout paper");
+                 "Gloss preset whose material plan makes the observations; several (low,medium,high) need --input-layout paper");
   app.add_option("--input-layout", args.request.input_layout,
-                 "stack: the dataset's observations as they are (one preset); paper: the paper's layout, the same input "
-                 "for every preset, linear-light sweeps resampled to the coarsest one's positions (fitting/cnn/cnn_input.h)")
+                 "stack: the dataset's observations as they are (one preset); paper: the paper's layout, one input for "
+                 "every preset")
       ->check(CLI::IsMember({"stack", "paper"}));
   app.add_option("--out", args.request.out, "Model directory: model.json, weights.pt, training.json, checkpoints/")->required();
   app.add_option("--data", args.request.data, "Dataset directory (default OUT/data): NAME.stack.exr + NAME.truth.exr pairs");
@@ -72,19 +65,15 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--validation", args.request.validation, "Materials held out for validation")->check(CLI::Range(1, 100000));
   app.add_option("--test", args.request.test, "Materials held out for the final test")->check(CLI::Range(1, 100000));
   app.add_option("--size", args.request.dataset.size_px, "Material size in pixels (square)")->check(CLI::Range(16, 4096));
-  app.add_option("--first-seed", args.request.dataset.first_seed,
-                 "Seed of the first fabric (the main job's fabric:1 is not among the defaults)");
+  app.add_option("--first-seed", args.request.dataset.first_seed, "Seed of the first fabric");
   app.add_option("--width-divisor", args.request.width_divisor,
-                 "Network width: the paper's divided by this (1, 2, 4, 8, ...; default 8, or --init's, which a smaller "
-                 "divisor widens: the same function, more units to train)")
+                 "Network width: the paper's divided by this (default 8, or --init's, which a smaller divisor widens)")
       ->check(CLI::Range(1, 256));
   app.add_option("--dropout", args.request.dropout, "Dropout before the last layer")->check(CLI::Range(0.0, 0.9));
   app.add_flag("--centre-skip", args.request.centre_skip,
-               "Add a linear readout of each pixel's own features to its label (loom's, not the paper's; added to an "
-               "--init model as zeros: the same function to start from)");
+               "Add a linear readout of each pixel's own features to its label (loom's, not the paper's)");
   app.add_option("--weights", args.request.weights,
-                 "How OUT/weights.pt stores the trained weights: float32, or float16 (half the file, for a model kept in "
-                 "git; checkpoints stay float32; loom model converts a trained model)")
+                 "How OUT/weights.pt stores the trained weights: float32, or float16 (half the file)")
       ->check(CLI::IsMember({"float32", "float16"}));
   app.add_option("--epochs", t.epochs, "Epochs")->check(CLI::Range(1, 100000));
   app.add_option("--tile", t.tile, "Output pixels per training tile side")->check(CLI::Range(1, 1024));
@@ -95,50 +84,41 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--lr-end", t.learning_rate_end, "Learning rate at the last epoch (exponential decay)")
       ->check(CLI::PositiveNumber);
   app.add_option("--weight-decay", t.weight_decay, "Adam weight decay")->check(CLI::NonNegativeNumber);
-  app.add_option("--radiance-noise", t.radiance_noise,
-                 "Relative noise multiplied into the training tiles' radiance, as reconstructed stacks carry (0: none)")
+  app.add_option("--radiance-noise", t.radiance_noise, "Relative noise multiplied into the training tiles' radiance (0: none)")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--out-of-model-share", args.request.dataset.out_of_model_share,
-                 "Share of the fabrics made out of model: with what GD10 cannot represent (sim/fabric.h)")
+                 "Share of the fabrics with what GD10 cannot represent")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--scan-like-share", args.request.dataset.scan_like_share,
                  "Share of the fabrics degraded as a scan's reconstruction would be (needs --scan-emulation)")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--scan-emulation", args.request.scan_emulation,
-                 "How scans degrade the fast path on this rig: a loom sim match-scan --out file (sim/scan_emulation.h)")
+                 "How scans degrade the fast path on this rig: a loom sim match-scan --out file")
       ->check(CLI::ExistingFile);
   app.add_option("--init", args.request.init,
-                 "Start from this model (fine-tuning): its weights, architecture (widened by a smaller --width-divisor) and "
-                 "input normalisation")
+                 "Start from this model (fine-tuning): its weights, architecture and input normalisation")
       ->check(CLI::ExistingDirectory);
-  app.add_option(
-         "--rerender-weight", t.rerender_weight,
-         "Weight of the re-rendering loss beside the label loss (0: off; fitting/cnn/cnn_training.h); the kept epoch is then "
-         "the one with the lowest sum of both on the validation fabrics")
+  app.add_option("--rerender-weight", t.rerender_weight,
+                 "Weight of the re-rendering loss beside the label loss (0: off); the kept epoch minimises their sum")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--alpha-weight", t.alpha_weight,
-                 "Weight of the anisotropy angle's (cos 2α, sin 2α) channels in the label loss (the paper's: 1; the "
-                 "validation and test losses keep it)")
+                 "Weight of the anisotropy angle's channels in the training's label loss (the paper's: 1)")
       ->check(CLI::PositiveNumber);
   app.add_option("--normal-lobe-reference", t.normal_lobe_reference,
-                 "Lobe width (rad) below which the shading normal's label error weighs more, by (width / σ_min)² up to "
-                 "100 (0: the paper's weight; fitting/cnn/cnn_training.h)")
+                 "Lobe width (rad) below which the shading normal's label error weighs more (0: the paper's weight)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--rerender-pixels", t.rerender_pixels, "Pixels per tile the re-rendering loss renders")
       ->check(CLI::Range(1, 100000));
   app.add_option("--rerender-lobe-reference", t.rerender_lobe_reference,
-                 "Lobe width (rad) below which the re-rendering loss draws a pixel more often, by (width / σ_min)² up "
-                 "to 100 (0: uniformly; fitting/cnn/cnn_training.h)")
+                 "Lobe width (rad) below which the re-rendering loss draws a pixel more often (0: uniformly)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--resident-materials", t.resident_materials,
-                 "Training materials in memory at once (0: all); fewer stream the dataset from --data, "
-                 "a window at a time (needs --steps-per-epoch)")
+                 "Training materials in memory at once (0: all; fewer stream --data and need --steps-per-epoch)")
       ->check(CLI::Range(0, 100000000));
   app.add_option("--threads", t.threads, "Threads that render and read the dataset, and torch's on the cpu (0: one per core)")
       ->check(CLI::Range(0, 1024));
   app.add_option("--device", args.request.device,
-                 "Where the network trains: cpu, or cuda (the first GPU; needs loom built against a CUDA LibTorch, "
-                 "docs/gpu-training.md). The dataset is rendered on the CPU either way")
+                 "Where the network trains: cpu, or cuda (a CUDA LibTorch build: docs/gpu-training.md)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   app.add_option("--seed", t.seed, "Seed of the weights, tiles and dropout");
   app.add_flag("--resume", t.resume, "Go on from OUT/checkpoints (same options as the interrupted run)");

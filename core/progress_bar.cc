@@ -35,8 +35,14 @@ void ProgressBar::Update(int64_t done, int64_t total, const std::string& unit, c
   drawn_ = true;
 }
 
-void StageProgressBars::Update(const std::string& stage, int64_t done, int64_t total, const std::string& unit) {
-  bars_.try_emplace(stage, prefix_ + stage, quiet_).first->second.Update(done, total, unit);
+void StageProgressBars::Update(const std::string& stage, int64_t done, int64_t total, const std::string& unit,
+                               const std::string& detail) {
+  if (!bar_ || stage != stage_) {
+    bar_.reset();
+    bar_.emplace(prefix_ + stage, quiet_);
+    stage_ = stage;
+  }
+  bar_->Update(done, total, unit, detail);
 }
 
 }  // namespace loom

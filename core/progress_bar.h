@@ -4,7 +4,6 @@
 
 #include <chrono>
 #include <cstdint>
-#include <map>
 #include <optional>
 #include <string>
 
@@ -29,18 +28,19 @@ class ProgressBar {
   std::chrono::steady_clock::time_point start_;
 };
 
-// A bar per stage of a job whose progress names its stage, each made at its stage's first update
-// and labelled `prefix` + the stage's name.
+// A bar per stage of a job whose progress names its stage, labelled `prefix` + the stage's name:
+// a stage's first update ends the bar before it and starts its own, whose ETA counts from then.
 class StageProgressBars {
  public:
   StageProgressBars(std::string prefix, bool quiet) : prefix_(std::move(prefix)), quiet_(quiet) {}
-  void Update(const std::string& stage, int64_t done, int64_t total, const std::string& unit);
-  void Close() { bars_.clear(); }  // ends the bars' lines before a report follows
+  void Update(const std::string& stage, int64_t done, int64_t total, const std::string& unit, const std::string& detail = "");
+  void Close() { bar_.reset(); }  // ends the bar's line before a report follows
 
  private:
   std::string prefix_;
   bool quiet_;
-  std::map<std::string, ProgressBar> bars_;
+  std::string stage_;
+  std::optional<ProgressBar> bar_;
 };
 
 }  // namespace loom

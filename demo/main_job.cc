@@ -259,8 +259,12 @@ Result<nlohmann::ordered_json> Summarise(const Job& job, double wall_seconds) {
 
 }  // namespace
 
-Result<nlohmann::ordered_json> RunMainJob(const MainJobRequest& request, const ScanOnRig& scan_on_rig, std::ostream& report,
+Result<nlohmann::ordered_json> RunMainJob(MainJobRequest request, const ScanOnRig& scan_on_rig, std::ostream& report,
                                           std::ostream& notes) {
+  // A job that reconstructs a crop scans only that crop: on tac7's 2048 × 1536 sensors a whole
+  // material scan takes hours on 2 cores, the 12.8 mm that size 64 reconstructs a few minutes.
+  if (request.crop_mm == 0 && request.size_px > 0)
+    request.crop_mm = request.size_px * reconstruction::ReconstructOptions{}.pixel_mm;
   if (request.methods.empty()) return InvalidArgumentError("--methods", "names no fit method");
   LOOM_RETURN_IF_ERROR(CheckDirectoryOutputPath(request.out, "--out"));
   if (fs::exists(request.out) && !fs::is_empty(request.out)) {

@@ -26,11 +26,11 @@ struct MainJobRequest {
   std::filesystem::path preset_file;  // and its file
   std::vector<std::string> methods = {"cnn", "cnn+refine"};  // the last is the main result
   int size_px = 0;                                           // 0: the reconstruction's default
-  double crop_mm = 0;                                        // > 0: the material scan reads only the windows that see this crop
-  bool calibrate = true;                                     // false: reconstruct with the rig YAML's geometry and radiometry
-  bool quiet = false;                                        // no progress bars
-  std::filesystem::path models_dir;                          // the shipped CNN models (configs/models)
-  std::filesystem::path out;                                 // a new or empty directory
+  double crop_mm = 0;                // > 0: the scans read only the windows that see this crop; 0: size_px's crop, if any
+  bool calibrate = true;             // false: reconstruct with the rig YAML's geometry and radiometry
+  bool quiet = false;                // no progress bars
+  std::filesystem::path models_dir;  // the shipped CNN models (configs/models)
+  std::filesystem::path out;         // a new or empty directory
 };
 
 // Runs a new scan on the rig: whoever holds the device backends does (apps/scanning.h).
@@ -39,7 +39,7 @@ using ScanOnRig = std::function<Status(const scan::ScanRequest&)>;
 // Runs every stage into `request.out`, each stage's report to `report` and its notes and warnings
 // to `notes`; writes and returns summary.json: each method's evaluation, the camera calibration's
 // RMS and each stage's seconds.
-Result<nlohmann::ordered_json> RunMainJob(const MainJobRequest& request, const ScanOnRig& scan_on_rig, std::ostream& report,
+Result<nlohmann::ordered_json> RunMainJob(MainJobRequest request, const ScanOnRig& scan_on_rig, std::ostream& report,
                                           std::ostream& notes);
 
 // summary.json as one screen: the methods' scores side by side and the time per stage.

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/testing/build_tree.h"
+#include "reconstruction/scan_reconstruction.h"
 
 namespace loom::demo {
 namespace {
@@ -65,6 +66,16 @@ TEST_F(MainJobTest, AsksForTheCalibrationScanThenTheMaterialScanAndNamesTheStage
             std::string::npos)
       << report_.str();
   EXPECT_FALSE(fs::exists(request_.out / "summary.json"));
+}
+
+TEST_F(MainJobTest, ASizeWithoutACropScansOnlyTheCropItReconstructs) {
+  request_.size_px = 24;
+  const Result<nlohmann::ordered_json> summary = RunMainJob(request_, RecordingScans(false), report_, notes_);
+  ASSERT_FALSE(summary.ok());
+  ASSERT_EQ(scans_.size(), 2U);
+  const double pixel_mm = reconstruction::ReconstructOptions{}.pixel_mm;
+  EXPECT_TRUE(scans_[0].object_windows);
+  EXPECT_DOUBLE_EQ(scans_[1].crop_mm, 24 * pixel_mm);
 }
 
 TEST_F(MainJobTest, WithoutCalibratingReconstructsTheMaterialScanAloneAndNamesWhatIsMissing) {

@@ -89,7 +89,7 @@ Result<FitDirectory> FitToDirectory(FitRequest request, std::ostream& notes) {
   FitDirectory result;
   if (recommended) {
     LOOM_ASSIGN_OR_RETURN(RecommendedFit chosen,
-                          FitWithRecommendedMethod(stack, request.model, request.options, request.cnn_device));
+                          FitWithRecommendedMethod(stack, method, request.model, request.options, request.cnn_device));
     if (!chosen.fallback.empty()) notes << chosen.fallback << "\n";
     result.method = FitMethodName(chosen.method);
     result.fallback = std::move(chosen.fallback);

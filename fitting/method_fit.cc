@@ -108,10 +108,11 @@ nlohmann::json MethodFit::ToJson() const {
   return json;
 }
 
-Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir,
-                                                const StackFitOptions& options, CnnDevice cnn_device) {
+Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, FitMethod method,
+                                                const std::filesystem::path& model_dir, const StackFitOptions& options,
+                                                CnnDevice cnn_device) {
   RecommendedFit recommended;
-  recommended.method = RecommendedMethod(stack, model_dir, options.initial_maps != nullptr);
+  recommended.method = method;
   Result<MethodFit> fitted = FitWithMethod(stack, recommended.method, model_dir, options, cnn_device);
   if (recommended.method == FitMethod::kCnnRefine && !fitted.ok() && fitted.status().code() == StatusCode::kFailedPrecondition) {
     recommended.fallback = "cnn+refine cannot fit this stack (" + fitted.status().ToString() + "): method refine";

@@ -48,17 +48,18 @@ FitMethod RecommendedMethod(const ObservationStack& stack, const std::filesystem
 Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method, const std::filesystem::path& model_dir,
                                 StackFitOptions options, CnnDevice cnn_device = CnnDevice::kCpu);
 
-// The recommended method's fit (RecommendedMethod; start maps are options.initial_maps). Where
-// that is cnn+refine and the CNN cannot fit the stack (FailedPrecondition: most often a model
-// that takes another preset's stacks), refine's fit instead, `fallback` saying why; a failure of
-// the refiner's own is then refine's too, and reported as such.
+// The fit by `recommended` (RecommendedMethod's choice for the stack, made once by the caller;
+// start maps are options.initial_maps). Where that is cnn+refine and the CNN cannot fit the stack (FailedPrecondition: most often
+// a model that takes another preset's stacks), refine's fit instead, `fallback` saying why; a failure of the refiner's own is
+// then refine's too, and reported as such.
 struct RecommendedFit {
   FitMethod method = FitMethod::kRefine;  // the method that fitted
   MethodFit fit;
   std::string fallback;  // why cnn+refine fell back to refine; empty where it did not
 };
-Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir,
-                                                const StackFitOptions& options, CnnDevice cnn_device = CnnDevice::kCpu);
+Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, FitMethod recommended,
+                                                const std::filesystem::path& model_dir, const StackFitOptions& options,
+                                                CnnDevice cnn_device = CnnDevice::kCpu);
 
 // Where more than 1 % of the fitted pixels have a diffuse albedo at the model's bound
 // (kMaxAlbedo), the stack's radiance scale is likely too high (an imported capture's unknown

@@ -72,12 +72,14 @@ TEST(MethodFitTest, TheCnnAloneGivesItsMapsAndCnnRefineStartsFromThem) {
 
   // The recommended fit: cnn+refine with the model; refine, saying why, where the model cannot
   // take the stack (here: a stack of another plan's observations).
-  const Result<RecommendedFit> recommended = FitWithRecommendedMethod(stack, model, options);
+  const Result<RecommendedFit> recommended =
+      FitWithRecommendedMethod(stack, RecommendedMethod(stack, model, false), model, options);
   ASSERT_TRUE(recommended.ok()) << recommended.status().ToString();
   EXPECT_EQ(recommended->method, FitMethod::kCnnRefine);
   EXPECT_TRUE(recommended->fallback.empty());
   const ObservationStack other_plan = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 5), {});
-  const Result<RecommendedFit> fallen_back = FitWithRecommendedMethod(other_plan, model, options);
+  const Result<RecommendedFit> fallen_back =
+      FitWithRecommendedMethod(other_plan, RecommendedMethod(other_plan, model, false), model, options);
   ASSERT_TRUE(fallen_back.ok()) << fallen_back.status().ToString();
   EXPECT_EQ(fallen_back->method, FitMethod::kRefine);
   EXPECT_NE(fallen_back->fallback.find("cnn+refine cannot fit this stack"), std::string::npos) << fallen_back->fallback;

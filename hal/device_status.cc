@@ -1,8 +1,12 @@
 #include "hal/device_status.h"
 
+#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <thread>
+
+#include "core/interrupt.h"
 
 #include "hal/camera.h"
 #include "hal/led_array.h"
@@ -98,6 +102,45 @@ Result<scan::RawFrame> SnapFrame(Rig& rig, const std::string& camera_name, doubl
   // The other devices are read for the frame's rig state only where they are open: a snap moves
   // nothing, so the state recorded is what the open devices report.
   return rig.Snap(*camera);
+}
+
+namespace {
+
+std::string Pad(const std::string& text, size_t width) {
+  return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
+}
+
+}  // namespace
+
+void ListRigDevices(const Rig& rig, std::ostream& out) {
+  for (Device* device : rig.devices()) {
+    out << "  " << Pad(device->kind(), 14) << Pad(device->name(), 14) << Pad(device->backend(), 11) << device->address() << "\n";
+  }
+}
+
+int ReportRigStatus(Rig& rig, std::ostream& out) {
+  SafeStateGuard guard(rig);
+  int failures = 0;
+  for (Device* device : rig.devices()) {
+    const Status opened = device->Open();
+    const Result<std::string> line = opened.ok() ? DescribeDeviceState(*device) : Result<std::string>(opened);
+    out << "  " << Pad(device->name(), 14) << (line.ok() ? "ok      " + *line : "FAILED  " + line.status().ToString()) << "\n";
+    failures += line.ok() ? 0 : 1;
+  }
+  rig.MakeSafe().ok();  // a device that failed to open reports it above; the rest are made safe
+  rig.CloseAll().ok();
+  return failures;
+}
+
+Status HoldLeds(Rig& rig, const std::vector<scan::LedDrive>& leds, double hold_s, std::ostream& out) {
+  LOOM_RETURN_IF_ERROR(LightLeds(rig, leds));
+  out << leds.size() << " LEDs on for " << hold_s << " s (Ctrl-C ends it)" << std::endl;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(hold_s);
+  while (std::chrono::steady_clock::now() < until && !InterruptRequested()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  out << "LEDs off\n";
+  return Status::Ok();
 }
 
 }  // namespace loom::hal

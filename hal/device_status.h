@@ -3,6 +3,7 @@
 // (loom rig status | snap | move | leds): what a device reports now, in a line, moving whatever
 // moves, lighting LEDs and taking one frame.
 
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,13 @@ Result<std::string> MoveDevice(Device& device, double to);
 // The device of `rig` named `name`, or an error listing the rig's devices.
 Result<Device*> FindNamedDevice(const Rig& rig, const std::string& name);
 
+// One line per device of `rig`: kind, name, backend and address (loom rig list).
+void ListRigDevices(const Rig& rig, std::ostream& out);
+
+// Opens every device of `rig` and writes a line per device of what it reports, or why it failed;
+// leaves the rig safe and closed. Returns how many devices failed (loom rig status).
+int ReportRigStatus(Rig& rig, std::ostream& out);
+
 // Opens, starts and drives the rig's LED array; an error naming the rig if it has none.
 Status LightLeds(Rig& rig, const std::vector<scan::LedDrive>& leds);
 
@@ -35,5 +43,9 @@ Status LightLeds(Rig& rig, const std::vector<scan::LedDrive>& leds);
 // SafeStateGuard.
 Result<scan::RawFrame> SnapFrame(Rig& rig, const std::string& camera, double exposure_us,
                                  const std::vector<scan::LedDrive>& leds);
+
+// Lights `leds` and keeps them on for `hold_s` seconds or until an interruption (Ctrl-C); a
+// SafeStateGuard of the caller switches them off.
+Status HoldLeds(Rig& rig, const std::vector<scan::LedDrive>& leds, double hold_s, std::ostream& out);
 
 }  // namespace loom::hal

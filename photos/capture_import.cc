@@ -574,11 +574,11 @@ std::string_view LayoutName(Layout layout) {
   return "?";
 }
 
-std::optional<Layout> ParseLayout(std::string_view name) {
+Result<Layout> ParseLayout(const std::string& name, const std::string& what) {
   for (Layout layout : {Layout::kPhotometricStereo, Layout::kLightPositions, Layout::kFlash}) {
     if (LayoutName(layout) == name) return layout;
   }
-  return std::nullopt;
+  return InvalidArgumentError(what + " " + name, "expected ps, lp or flash");
 }
 
 std::string Encoding::Name() const {

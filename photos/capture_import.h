@@ -42,7 +42,8 @@ namespace loom::photos {
 
 enum class Layout { kPhotometricStereo, kLightPositions, kFlash };
 std::string_view LayoutName(Layout layout);  // "ps", "lp", "flash"
-std::optional<Layout> ParseLayout(std::string_view name);
+// A layout by name; an unknown one is an error naming `what` (the option) and the layouts.
+Result<Layout> ParseLayout(const std::string& name, const std::string& what);
 
 // How stored values map to linear radiance (before the scale): linear, the sRGB curve, or a
 // power (value^gamma).

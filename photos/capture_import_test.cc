@@ -228,8 +228,10 @@ TEST_F(CaptureImportTest, ANormalMapReadsInTheStackFrame) {
 }
 
 TEST(CaptureOptionsTest, LayoutsEncodingsAndFlashOffsetsAreParsedOrRefusedNamingTheOption) {
-  EXPECT_EQ(ParseLayout("lp"), Layout::kLightPositions);
-  EXPECT_FALSE(ParseLayout("dome").has_value());
+  EXPECT_EQ(*ParseLayout("lp", "--layout"), Layout::kLightPositions);
+  const Result<Layout> dome = ParseLayout("dome", "--layout");
+  ASSERT_FALSE(dome.ok());
+  EXPECT_NE(dome.status().ToString().find("--layout dome"), std::string::npos) << dome.status().ToString();
   const Result<Eigen::Vector3d> offset = ParseFlashOffset("0.8,-0.5,0", "--flash-offset");
   ASSERT_TRUE(offset.ok()) << offset.status().ToString();
   EXPECT_EQ(*offset, Eigen::Vector3d(0.8, -0.5, 0));

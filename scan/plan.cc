@@ -424,6 +424,16 @@ Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose pur
   return purpose == PlanPurpose::kCalibration ? MakeCalibrationPlan(rig, preset) : MakeMaterialPlan(rig, preset, drift);
 }
 
+Result<Plan> MakePlanForRigFile(const std::filesystem::path& rig_file, const std::filesystem::path& preset_file,
+                                PlanPurpose purpose) {
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(rig_file));
+  LOOM_ASSIGN_OR_RETURN(const RigModel rig, file.Model());
+  const LightDriftSettings drift = ReadLightDriftSettings(file);
+  LOOM_RETURN_IF_ERROR(file.Finish());
+  LOOM_ASSIGN_OR_RETURN(const Preset preset, LoadPreset(preset_file));
+  return MakePlan(rig, preset, purpose, drift);
+}
+
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset) {
   if (rig.cameras.empty()) return FailedPreconditionError("rig '" + rig.name + "'", "calibration needs cameras");
   LOOM_RETURN_IF_ERROR(CheckOpenSlots(rig));

@@ -166,6 +166,9 @@ Result<Plan> MakeMaterialPlan(const RigModel& rig, const Preset& preset, const L
 Result<Plan> MakeCalibrationPlan(const RigModel& rig, const Preset& preset);
 // One of the two (a calibration scan takes no drift references).
 Result<Plan> MakePlan(const RigModel& rig, const Preset& preset, PlanPurpose purpose, const LightDriftSettings& drift = {});
+// The same from a rig YAML (its geometry: and light_drift:, read strictly) and a preset file.
+Result<Plan> MakePlanForRigFile(const std::filesystem::path& rig_file, const std::filesystem::path& preset_file,
+                                PlanPurpose purpose);
 
 // The structured-light pattern names for a projector width: gray_x_NN and their inverses,
 // phase_x_K, plus "white" and "black" references.

@@ -160,6 +160,21 @@ TEST(PlanTest, ARigWithoutALinearLightCannotScanWithIt) {
   EXPECT_NE(plan.status().ToString().find("needs a linear light (70 positions)"), std::string::npos) << plan.status().ToString();
 }
 
+TEST(PlanTest, ARigFilesPlanIsItsModelsAndAMistypedKeyInItIsNamed) {
+  const std::string rig_file = loom::testing::SourceDir() + "/configs/rig/tac7-mini.yaml";
+  const std::string preset_file = loom::testing::SourceDir() + "/configs/plans/low.yaml";
+  const Result<Plan> plan = MakePlanForRigFile(rig_file, preset_file, PlanPurpose::kMaterial);
+  ASSERT_TRUE(plan.ok()) << plan.status().ToString();
+  EXPECT_EQ(*plan, *MakeMaterialPlan(ShippedRigModel("tac7-mini"), LoadShippedPreset("low")));
+  std::stringstream text;
+  text << std::ifstream(rig_file).rdbuf() << "light_drfit: {}\n";
+  const std::string typo = ::testing::TempDir() + "/typo-rig.yaml";
+  std::ofstream(typo) << text.str();
+  const Result<Plan> refused = MakePlanForRigFile(typo, preset_file, PlanPurpose::kMaterial);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("light_drfit"), std::string::npos) << refused.status().ToString();
+}
+
 TEST(PlanTest, PresetTyposAreErrors) {
   const std::string path = ::testing::TempDir() + "/typo.yaml";
   std::ofstream(path) << "schema_version: 1\npreset: low\nlinear_light_positons: 70\n";

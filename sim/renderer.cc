@@ -377,6 +377,13 @@ Result<Image> RenderCameraFrame(const Scene& scene, const std::string& camera, c
   const std::vector<CameraModel>& cameras = scene.rig().cameras;
   const auto found = std::find_if(cameras.begin(), cameras.end(), [&](const CameraModel& c) { return c.name == camera; });
   if (found == cameras.end()) return NotFoundError("camera '" + camera + "'", "not in rig '" + scene.rig().name + "'");
+  const int led_count = static_cast<int>(scene.rig().leds.size());
+  for (const LitLed& lit : state.leds) {
+    if (lit.led < 0 || lit.led >= led_count) {
+      return InvalidArgumentError("LED " + std::to_string(lit.led),
+                                  "not in rig '" + scene.rig().name + "' (LEDs 0 to " + std::to_string(led_count - 1) + ")");
+    }
+  }
   const Image radiance = scene.RenderRadiance(static_cast<int>(found - cameras.begin()), state);
   const std::vector<uint16_t> raw = CaptureRaw(radiance, found->sensor, settings, noise_seed);
   Image frame(radiance.width(), radiance.height(), {"radiance", "raw"});

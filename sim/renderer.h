@@ -195,7 +195,7 @@ std::vector<uint16_t> CaptureRaw(const Image& radiance, const SensorModel& senso
                                  uint64_t noise_seed, const SensorWindow& window, int sensor_width, int sensor_height);
 
 // The frame of the rig camera named `camera` under `state`: channel "radiance" and channel "raw"
-// (CaptureRaw's DN). An unknown camera is an error naming it.
+// (CaptureRaw's DN). An unknown camera, or a lit LED the rig lacks, is an error naming it.
 Result<Image> RenderCameraFrame(const Scene& scene, const std::string& camera, const SceneState& state,
                                 const CaptureSettings& settings, uint64_t noise_seed);
 

@@ -61,7 +61,7 @@ TEST(RendererTest, WhiteLambertianHasTheAnalyticRadiance) {
   EXPECT_GT(radiance.at(0, 50, 70), radiance.at(0, 50, 30));  // nearer the LED
 }
 
-TEST(RendererTest, ACameraFrameIsItsRadianceAndTheSensorsCountsAndAnUnknownCameraIsNamed) {
+TEST(RendererTest, ACameraFrameIsItsRadianceAndTheSensorsCountsAndAnUnknownCameraOrLedIsNamed) {
   const Scene scene(TestRig(), WhiteLambertian());
   const SceneState state{.leds = {{0, 1000}}};
   const Result<Image> frame = RenderCameraFrame(scene, "top", state, {.exposure_us = 5000}, 7);
@@ -74,6 +74,11 @@ TEST(RendererTest, ACameraFrameIsItsRadianceAndTheSensorsCountsAndAnUnknownCamer
   const Result<Image> unknown = RenderCameraFrame(scene, "side", state, {}, 7);
   ASSERT_FALSE(unknown.ok());
   EXPECT_NE(unknown.status().ToString().find("camera 'side'"), std::string::npos) << unknown.status().ToString();
+  const int leds = static_cast<int>(scene.rig().leds.size());
+  const Result<Image> no_such_led = RenderCameraFrame(scene, "top", {.leds = {{leds, 1000}}}, {}, 7);
+  ASSERT_FALSE(no_such_led.ok());
+  EXPECT_NE(no_such_led.status().ToString().find("LED " + std::to_string(leds)), std::string::npos)
+      << no_such_led.status().ToString();
 }
 
 // A tile raised 30 mm: near-vertical rays find its top to within the shadow test's tolerance,

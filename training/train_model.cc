@@ -115,10 +115,13 @@ nlohmann::json TrainingJson(const TrainRequest& request, const fitting::CnnDatas
 
 }  // namespace
 
-std::vector<std::string> PresetNames(const std::string& presets) {
+Result<std::vector<std::string>> PresetNames(const std::string& presets) {
   std::vector<std::string> names;
   std::stringstream list(presets);
   for (std::string name; std::getline(list, name, ',');) names.push_back(name);
+  if (names.empty() || std::find(names.begin(), names.end(), "") != names.end()) {
+    return InvalidArgumentError("--preset " + presets, "a preset name, or several separated by commas");
+  }
   return names;
 }
 

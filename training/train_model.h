@@ -55,8 +55,9 @@ struct TrainedModel {
   void Report(std::ostream& out) const;
 };
 
-// The presets' names as given to `--preset`, comma-separated.
-std::vector<std::string> PresetNames(const std::string& presets);
+// The presets' names as given to `--preset`, comma-separated; none, or an empty one, is an error
+// naming the option.
+Result<std::vector<std::string>> PresetNames(const std::string& presets);
 
 Result<TrainedModel> TrainModel(TrainRequest request);
 

@@ -86,9 +86,13 @@ TEST_F(TrainModelTest, ARequestThatCannotTrainIsRefusedBeforeRenderingNamingItsO
   EXPECT_TRUE(fs::is_empty(dir_));
 }
 
-TEST(PresetNamesTest, ACommaSeparatedListIsSplitKeepingEmptyNames) {
-  EXPECT_EQ(PresetNames("low,medium"), (std::vector<std::string>{"low", "medium"}));
-  EXPECT_EQ(PresetNames("low,,high"), (std::vector<std::string>{"low", "", "high"}));
+TEST(PresetNamesTest, ACommaSeparatedListIsSplitAndAnEmptyNameIsRefused) {
+  EXPECT_EQ(*PresetNames("low,medium"), (std::vector<std::string>{"low", "medium"}));
+  for (const char* bad : {"", "low,,high", ",low"}) {
+    const Result<std::vector<std::string>> names = PresetNames(bad);
+    ASSERT_FALSE(names.ok()) << bad;
+    EXPECT_NE(names.status().ToString().find("--preset " + std::string(bad)), std::string::npos) << names.status().ToString();
+  }
 }
 
 }  // namespace

@@ -347,6 +347,12 @@ std::optional<FitMethod> ParseFitMethod(std::string_view name) {
   return std::nullopt;
 }
 
+std::vector<std::string> FitMethodNames() {
+  std::vector<std::string> names;
+  for (FitMethod method : kFitMethods) names.emplace_back(FitMethodName(method));
+  return names;
+}
+
 bool StartsFromCnn(FitMethod method) {
   return method == FitMethod::kCnn || method == FitMethod::kCnnCeres || method == FitMethod::kCnnRefine;
 }

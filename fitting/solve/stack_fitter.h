@@ -29,6 +29,7 @@
 #include <functional>
 #include <optional>
 #include <ostream>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -65,6 +66,7 @@ inline constexpr FitMethod kFitMethods[] = {FitMethod::kCeres,        FitMethod:
 // "ceres", "refine", "cnn", "cnn+ceres", "cnn+refine", "lambert", "lambert-albedo"
 std::string_view FitMethodName(FitMethod method);
 std::optional<FitMethod> ParseFitMethod(std::string_view name);
+std::vector<std::string> FitMethodNames();  // every method's, in kFitMethods' order
 bool StartsFromCnn(FitMethod method);
 PixelSolver SolverOf(FitMethod method);  // for the methods that fit GD10 pixels
 

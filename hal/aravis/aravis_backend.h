@@ -9,6 +9,7 @@
 // Opening by device id broadcasts discovery on every interface: on a rig that is the point; in
 // tests it happens only inside a private network namespace.
 
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -30,5 +31,7 @@ struct DiscoveredCamera {
 // Every camera Aravis can find. BROADCASTS GigE Vision discovery on every network interface:
 // for setting up a rig on its camera network; tests call it only inside a private namespace.
 std::vector<DiscoveredCamera> DiscoverAravisCameras();
+// One line per camera: id, protocol, address, vendor, model and serial (loom rig list --discover).
+void ListDiscoveredCameras(const std::vector<DiscoveredCamera>& cameras, std::ostream& out);
 
 }  // namespace loom::hal

@@ -382,6 +382,13 @@ std::vector<DiscoveredCamera> DiscoverAravisCameras() {
   return cameras;
 }
 
+void ListDiscoveredCameras(const std::vector<DiscoveredCamera>& cameras, std::ostream& out) {
+  for (const DiscoveredCamera& c : cameras) {
+    out << "  " << c.id << "  " << c.protocol << "  " << c.address << "  " << c.vendor << " " << c.model << " serial " << c.serial
+        << "\n";
+  }
+}
+
 Status AravisCameraOptions::Check() const {
   std::vector<std::string> problems;
   if (address.empty()) problems.push_back("address must not be empty");

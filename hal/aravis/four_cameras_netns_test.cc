@@ -5,8 +5,10 @@
 #include <arv.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdlib>
+#include <sstream>
 #include <thread>
 
 #include "core/testing/subprocess.h"
@@ -117,9 +119,15 @@ TEST_F(FourCamerasTest, OneKilledMidAcquisitionIsNamedAndTheOthersGoOn) {
   }
 }
 
-TEST_F(FourCamerasTest, DiscoveryFindsAllFour) {
+TEST_F(FourCamerasTest, DiscoveryFindsAllFourAndListsEachInALine) {
   int found = 0;
-  for (const DiscoveredCamera& camera : DiscoverAravisCameras()) {
+  const std::vector<DiscoveredCamera> cameras = DiscoverAravisCameras();
+  std::ostringstream out;
+  ListDiscoveredCameras(cameras, out);
+  const std::string listed = out.str();
+  EXPECT_EQ(std::count(listed.begin(), listed.end(), '\n'), static_cast<long>(cameras.size())) << listed;
+  for (const DiscoveredCamera& camera : cameras) {
+    EXPECT_NE(listed.find(camera.id + "  GigEVision  " + camera.address), std::string::npos) << listed;
     if (camera.serial.starts_with("LOOMCAM0")) {
       ++found;
       EXPECT_EQ(camera.protocol, "GigEVision");
