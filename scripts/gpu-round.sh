@@ -8,7 +8,8 @@
 #
 # `run` unpacks the packages, builds the trainer-only loom against PyTorch's CUDA LibTorch,
 # trains 3 short epochs first (the check that a run outlives its second epoch's checkpoint: the
-# crash docs/gpu-training.md describes must stay fixed), renders FABRICS fresh fabrics on every core, and fine-tunes
+# crash docs/gpu-training.md describes must stay fixed), checks that the GPU computes the CPU's
+# losses (same_losses), renders FABRICS fresh fabrics on every core, and fine-tunes
 # the rig's shipped model on them with the chain's recipe (configs/models/<rig>/README.md),
 # for as many steps as the short run's rate fits into TRAIN_S seconds. $OUT gets the logs and the
 # model (float16 weights: what comes back from the machine is at most 16 MiB a file).
@@ -141,6 +142,28 @@ bench() {
   done
 }
 
+# One code path on every device (fitting/cnn/torch/cnn_trainer.cc): 4 steps of a fresh network
+# without dropout (whose masks each device draws with its own generator, as it does the radiance
+# noise, off here too) on the seeded fabrics, on the CPU and on DEVICE from one seed; their
+# epoch's losses must agree to float rounding (0.1 %), or the stage fails. Skipped on a CPU dry run.
+same_losses() {
+  [ "$device" = cpu ] && return
+  local on
+  for on in cpu "$device"; do
+    "$loom" train --rig "configs/rig/$rig.yaml" "${input[@]}" "${seeded[@]}" --out "$work/same-$on" --data "$data" \
+      --size 32 --epochs 1 --steps-per-epoch 4 --tiles-per-step 4 --dropout 0 --rerender-weight 10 \
+      --rerender-lobe-reference 0.1 --device "$on" --threads 0 --seed 7 --quiet > "$OUT/same-$on.log" 2>&1
+  done
+  python3 - "$work/same-cpu/training.json" "$work/same-$device/training.json" <<'PY' | tee -a "$OUT/round.log"
+import json, sys
+cpu, gpu = (json.load(open(f))["epochs"][0] for f in sys.argv[1:])
+worst = max(abs(gpu[k] - cpu[k]) / max(abs(cpu[k]), 1e-12) for k in ("train_loss", "train_rerender_loss", "validation_loss"))
+print(f"same losses, cpu against the gpu: train {cpu['train_loss']:.6g} / {gpu['train_loss']:.6g}, re-rendering "
+      f"{cpu['train_rerender_loss']:.6g} / {gpu['train_rerender_loss']:.6g}; worst relative difference {worst:.2e}")
+sys.exit(0 if worst <= 1e-3 else 1)
+PY
+}
+
 # Samples a second in the short run's last epoch.
 rate_of() {
   python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["epochs"][-1]["samples_per_second"])' "$1/training.json"
@@ -180,6 +203,7 @@ run() {
   rate=$(rate_of "$work/short")
   echo "3 epochs of 5 steps (the seeded fabrics rendered first): $((SECONDS - start)) s, the last at $rate samples/s" |
     tee -a "$OUT/round.log"
+  same_losses
 
   start=$SECONDS
   with_utilisation render render_fresh "$work/fresh" > "$OUT/render.log" 2>&1

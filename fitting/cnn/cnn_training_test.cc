@@ -305,6 +305,33 @@ TEST(CnnTrainingTest, TheRerenderingLossTrainsTheNetworkTowardsTheObservations) 
   EXPECT_NE(refused.status().ToString().find("fabric 4"), std::string::npos) << refused.status().ToString();
 }
 
+// One code path for every device: from the same seed, training on a GPU computes the losses the
+// CPU does (to float rounding: the devices sum in other orders). The draws (tiles, re-rendered
+// pixels) come from the host; radiance noise is drawn where the network trains, so it is off here.
+// Needs a CUDA build and a GPU: skipped elsewhere (the gathering it relies on is tested on the CPU
+// in fitting/cnn/torch/rerender_loss_test.cc).
+TEST(CnnTrainingTest, AGpuTrainsToTheLossesTheCpuDoes) {
+  const Result<int> gpus = CudaDevices();
+  if (!gpus.ok() || *gpus == 0) GTEST_SKIP() << "no CUDA GPU here";
+  auto [info, train, validation, options] = SimulatedFabrics(/*epochs=*/2, /*rerender_pixels=*/8);
+  options.rerender_weight = 1;
+  options.rerender_lobe_reference = 0.3;
+  std::vector<std::vector<CnnEpoch>> runs;
+  for (const CnnTrainingOptions::Device device : {CnnTrainingOptions::Device::kCpu, CnnTrainingOptions::Device::kCuda}) {
+    Result<Cnn> cnn = Cnn::Create(info, 3);
+    ASSERT_TRUE(cnn.ok());
+    options.device = device;
+    Result<std::vector<CnnEpoch>> history = TrainCnn(*cnn, train, validation, options);
+    ASSERT_TRUE(history.ok()) << history.status().ToString();
+    runs.push_back(std::move(*history));
+  }
+  for (size_t e = 0; e < runs[0].size(); ++e) {
+    EXPECT_NEAR(runs[1][e].train_loss, runs[0][e].train_loss, 1e-3 * runs[0][e].train_loss) << e;
+    EXPECT_NEAR(runs[1][e].train_rerender_loss, runs[0][e].train_rerender_loss, 1e-3 * runs[0][e].train_rerender_loss) << e;
+    EXPECT_NEAR(runs[1][e].validation_loss, runs[0][e].validation_loss, 1e-3 * runs[0][e].validation_loss) << e;
+  }
+}
+
 // The re-rendered pixels drawn by their lobe widths: the same first epoch renders other pixels (a
 // learning rate so small that only the pixels can tell the runs apart); recorded, and checked.
 TEST(CnnTrainingTest, TheRerenderLobeReferenceDrawsOtherPixelsToRender) {

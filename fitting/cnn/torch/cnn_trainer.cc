@@ -97,35 +97,41 @@ class ValidCounts {
   std::vector<int64_t> sums_;
 };
 
-// One training material as tensors: the input, labels and validity where the network trains;
-// what the re-rendering loss draws its pixels from, on the host. The input is kept unpadded
-// (a tile's halo is cut with its window, patch_windows.h): padded, a 32² material's 932 channels
-// took twice the memory, and a 1,656-fabric tac7 set did not fit in 24 GB.
+// One training material as tensors where the network trains: the input, labels and validity.
+// The input is kept unpadded (a tile's halo is cut with its window, patch_windows.h): padded, a
+// 32² material's 932 channels took twice the memory, and a 1,656-fabric tac7 set did not fit in
+// 24 GB.
 struct Material {
   torch::Tensor input;   // 1 × C × H × W
   torch::Tensor labels;  // 1 × 14 × H × W
   torch::Tensor valid;   // 1 × 1 × H × W
   int height, width;
   std::shared_ptr<const ValidCounts> valid_counts;
-  std::shared_ptr<const ObservationStack> stack;  // for the re-rendering loss: `pixels` reads it
-  std::shared_ptr<const StackPixels> pixels;
-  torch::Tensor host_valid;   // the re-rendering loss's: 1 × 1 × H × W on the CPU
-  torch::Tensor host_labels;  // with its lobe-narrowness draw: 1 × 14 × H × W on the CPU
+  // With the re-rendering loss: every pixel's observations (pixel (x, y) row y · width + x), on
+  // the host until the window's materials share one table where the network trains.
+  internal::RerenderTable rerender;
+  int64_t first_row = 0;  // the material's first row in that table
 };
 
-// A training example as tensors on `device` (copies: the example may go).
-Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& options, const torch::Device& device) {
-  std::shared_ptr<const StackPixels> pixels;
-  if (options.rerender_weight > 0) {
-    if (!e.stack) return InvalidArgumentError(e.name, "training example without its stack: the re-rendering loss needs it");
-    if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
-      return InvalidArgumentError(e.name, "training example whose stack is not the input's size");
-    }
-    // Cast shadows are left out: the test costs a ray march per emitter, and the robust loss
-    // takes the few shadowed observations as outliers.
-    pixels =
-        std::make_shared<const StackPixels>(*e.stack, StackPixelOptions{.cast_shadows = false, .strip_quadrature = std::nullopt});
+// The re-rendering table of every pixel of `stack` (on the calling thread: materials load on the
+// training's threads). Cast shadows are left out: the test costs a ray march per emitter, and the
+// robust loss takes the few shadowed observations as outliers.
+internal::RerenderTable RerenderTableOf(const ObservationStack& stack, int strip_samples) {
+  const StackPixels pixels(stack, {.cast_shadows = false, .strip_quadrature = std::nullopt});
+  // A row of pixels at a time: every pixel's observations at once, each emitter of a strip a
+  // light sample, take many times the memory of the table they make.
+  std::vector<internal::RerenderTable> rows;
+  for (int y = 0; y < pixels.height(); ++y) {
+    std::vector<std::vector<PixelObservation>> observations;
+    for (int x = 0; x < pixels.width(); ++x) observations.push_back(pixels.Observations(x, y));
+    rows.push_back(internal::MakeRerenderTable(observations, strip_samples));
   }
+  return internal::ConcatRerenderTables(rows);
+}
+
+// A training example as tensors on `device` (copies: the example may go); its re-rendering table
+// on the host.
+Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& options, const torch::Device& device) {
   const torch::Tensor input = torch::from_blob(const_cast<float*>(e.input.values.data()),
                                                {1, e.input.channels, e.input.height, e.input.width}, torch::kFloat32);
   Material material{input.to(device, /*non_blocking=*/false, /*copy=*/true),
@@ -134,25 +140,45 @@ Result<Material> PrepareMaterial(const CnnExample& e, const CnnTrainingOptions& 
                     e.input.height,
                     e.input.width,
                     std::make_shared<const ValidCounts>(e.labels),
-                    e.stack,
-                    std::move(pixels),
-                    {},
                     {}};
   if (options.rerender_weight > 0) {
-    material.host_valid = ValidTensor(e.labels);  // a copy: from_blob's memory goes with `e`
-    if (options.rerender_lobe_reference > 0) material.host_labels = AsTensor(e.labels.labels).clone();
+    if (!e.stack) return InvalidArgumentError(e.name, "training example without its stack: the re-rendering loss needs it");
+    if (e.stack->image.width() != e.input.width || e.stack->image.height() != e.input.height) {
+      return InvalidArgumentError(e.name, "training example whose stack is not the input's size");
+    }
+    material.rerender = RerenderTableOf(*e.stack, options.rerender_strip_samples);
   }
   return material;
 }
 
-struct TileOrigin {
-  const Material* material;
-  int x, y;
+// A window's materials and, with the re-rendering loss, their pixels' observations in one table,
+// both where the network trains.
+struct Resident {
+  std::vector<Material> materials;
+  internal::RerenderTable rerender;
 };
+
+Resident MakeResident(std::vector<Material> materials, const torch::Device& device) {
+  Resident resident;
+  std::vector<internal::RerenderTable> tables;
+  int64_t rows = 0;
+  for (Material& m : materials) {
+    if (!m.rerender.inverse_scale.defined()) continue;
+    m.first_row = rows;
+    rows += m.rerender.rows();
+    tables.push_back(m.rerender.To(device));  // one at a time: the host never holds two copies of them all
+    m.rerender = {};
+  }
+  if (!tables.empty()) resident.rerender = internal::ConcatRerenderTables(tables);
+  resident.materials = std::move(materials);
+  return resident;
+}
 
 struct Batch {
   torch::Tensor input, labels, valid;  // where the network trains
-  std::vector<TileOrigin> origins;
+  // Per tile, on the host until the re-rendering loss takes them there: the table row of its
+  // first pixel and its material's width (a row down the tile is that many table rows on).
+  std::vector<int64_t> first_row, row_stride;
   int64_t valid_pixels = 0;  // counted on the host
 };
 
@@ -166,7 +192,8 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
     inputs.push_back(internal::TileWindow(m.input, x, y, tile, kPatchHalo));
     labels.push_back(m.labels.narrow(2, y, tile).narrow(3, x, tile));
     valid.push_back(m.valid.narrow(2, y, tile).narrow(3, x, tile));
-    batch.origins.push_back({&m, x, y});
+    batch.first_row.push_back(m.first_row + static_cast<int64_t>(y) * m.width + x);
+    batch.row_stride.push_back(m.width);
     batch.valid_pixels += m.valid_counts->Tile(x, y, tile);
   }
   batch.input = torch::cat(inputs);
@@ -175,48 +202,32 @@ Batch SampleTiles(const std::vector<Material>& materials, int tile, int count, s
   return batch;
 }
 
-// A tile's window of a material's host tensor (1 × K × H × W).
-torch::Tensor HostTile(const torch::Tensor& host, const TileOrigin& origin, int tile) {
-  return host.narrow(2, origin.y, tile).narrow(3, origin.x, tile);
-}
-
-// The re-rendering loss of a batch's predictions (N × 14 × T × T) at `rerender_pixels` valid pixels of
-// each tile, drawn uniformly or as narrow as their true lobes are (rerender_lobe_reference);
-// nothing (an undefined tensor) when no tile has one.
-torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predicted, const CnnTrainingOptions& options,
-                                std::mt19937_64& rng) {
-  std::vector<int64_t> pixels;                               // flat indices into the batch's N × T × T output pixels
-  std::vector<std::pair<const TileOrigin*, int64_t>> drawn;  // each pixel's tile and its index in it
-  const int tile = static_cast<int>(predicted.size(2));
-  for (size_t b = 0; b < batch.origins.size(); ++b) {
-    const TileOrigin& origin = batch.origins[b];
-    // From the host's copies: nothing read back from where the network trains.
-    torch::Tensor draw_weights = HostTile(origin.material->host_valid, origin, tile);
-    if (options.rerender_lobe_reference > 0) {
-      draw_weights = draw_weights * internal::LobeNarrowness(HostTile(origin.material->host_labels, origin, tile),
-                                                             options.rerender_lobe_reference);
-    }
-    for (const int64_t at : internal::DrawPixels(draw_weights[0][0], options.rerender_pixels, rng)) {
-      drawn.emplace_back(&origin, at);
-      pixels.push_back(static_cast<int64_t>(b) * tile * tile + at);
-    }
+// The re-rendering loss of a batch's predictions (N × 14 × T × T) at `rerender_pixels` pixels of
+// each tile, drawn among its valid ones uniformly or as narrow as their true lobes are
+// (rerender_lobe_reference). Where the network trains, from `table`: the draws, and the drawn
+// pixels' observations gathered by row; a tile without a valid pixel draws pixels that weigh
+// nothing, so that nothing is read back to test for it.
+torch::Tensor BatchRerenderLoss(const Batch& batch, const torch::Tensor& predicted, const internal::RerenderTable& table,
+                                const CnnTrainingOptions& options, std::mt19937_64& rng) {
+  const int64_t tiles = predicted.size(0), tile = predicted.size(2);
+  const torch::Tensor valid = batch.valid.reshape({tiles, tile * tile});
+  torch::Tensor weights = valid;
+  if (options.rerender_lobe_reference > 0) {
+    const torch::Tensor narrowness = internal::LobeNarrowness(batch.labels, options.rerender_lobe_reference);
+    weights = torch::where(valid > 0, narrowness.reshape({tiles, tile * tile}), torch::zeros_like(valid));
   }
-  if (pixels.empty()) return {};
-  // The drawn pixels' observations on the training's threads, each into its own slot: this
-  // gathering is most of a step's host work, and the order (so the loss) stays the draws'.
-  std::vector<std::vector<PixelObservation>> observations(drawn.size());
-  ParallelFor(static_cast<int>(drawn.size()), options.threads, [&](int i) {
-    const auto& [origin, at] = drawn[static_cast<size_t>(i)];
-    observations[static_cast<size_t>(i)] =
-        origin->material->pixels->Observations(origin->x + static_cast<int>(at % tile), origin->y + static_cast<int>(at / tile));
-  });
-  const internal::RerenderBatch rerender = internal::MakeRerenderBatch(observations, options.rerender_strip_samples);
-  if (rerender.radiance.numel() == 0) return {};
+  const torch::Tensor drawn = internal::DrawRows(weights, options.rerender_pixels, rng);
+  const auto per_tile = [&](const std::vector<int64_t>& values) {
+    return internal::ToDevice(torch::tensor(values, torch::kLong), predicted.device()).unsqueeze(1);
+  };
+  const torch::Tensor rows =
+      per_tile(batch.first_row) + torch::div(drawn, tile, "floor") * per_tile(batch.row_stride) + torch::remainder(drawn, tile);
+  const internal::RerenderBatch rerender = internal::GatherRerenderBatch(table, rows.flatten(), valid.gather(1, drawn).flatten());
   // The pixels' labels in one gather (a view per pixel cost a full-size gradient each in the
-  // backward pass), rendered where the network trains.
-  const torch::Tensor index = internal::ToDevice(torch::tensor(pixels, torch::kLong), predicted.device());
+  // backward pass).
+  const torch::Tensor index = (torch::arange(tiles, drawn.options()).unsqueeze(1) * (tile * tile) + drawn).flatten();
   const torch::Tensor labels = predicted.permute({0, 2, 3, 1}).reshape({-1, kLabelSize}).index_select(0, index);
-  return internal::RerenderLoss(labels, rerender.To(predicted.device()), options.rerender_huber);
+  return internal::RerenderLoss(labels, rerender, options.rerender_huber);
 }
 
 double LearningRate(const CnnTrainingOptions& options, int epoch) {  // epoch 0-based
@@ -442,9 +453,10 @@ Result<CnnScore> internal::ScoreCnnLabels(const Cnn& cnn, const std::vector<CnnE
 
 namespace {
 
-// The training examples source.load(indices[i]) as materials, each checked.
-Result<std::vector<Material>> LoadMaterials(const Cnn& cnn, const CnnExampleSource& source, const std::vector<int>& indices,
-                                            const CnnTrainingOptions& options, const torch::Device& device) {
+// The training examples source.load(indices[i]) as materials, each checked, resident where the
+// network trains.
+Result<Resident> LoadMaterials(const Cnn& cnn, const CnnExampleSource& source, const std::vector<int>& indices,
+                               const CnnTrainingOptions& options, const torch::Device& device) {
   // On the training's threads: reading and decoding a material's EXR files takes ~0.25 s.
   std::vector<std::optional<Result<Material>>> prepared(indices.size());
   ParallelFor(static_cast<int>(indices.size()), options.threads, [&](int k) {
@@ -459,7 +471,7 @@ Result<std::vector<Material>> LoadMaterials(const Cnn& cnn, const CnnExampleSour
     if (!material->ok()) return material->status();
     materials.push_back(std::move(**material));
   }
-  return materials;
+  return MakeResident(std::move(materials), device);
 }
 
 // An epoch's windows of the training set: all of it, or with resident_materials a random order
@@ -515,12 +527,12 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
   }
 
   // In memory: every material, loaded once; streaming: one window at a time.
-  std::vector<Material> materials;
+  Resident resident;
   int steps = options.steps_per_epoch;
   if (!streaming) {
-    LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, EpochWindows(train.count, options, 0).front(), options, device));
+    LOOM_ASSIGN_OR_RETURN(resident, LoadMaterials(cnn, train, EpochWindows(train.count, options, 0).front(), options, device));
     double valid_pixels = 0;
-    for (const Material& m : materials) valid_pixels += m.valid.sum().item<double>();
+    for (const Material& m : resident.materials) valid_pixels += m.valid.sum().item<double>();
     const int tile_samples = options.tile * options.tile * options.tiles_per_step;
     if (steps == 0) steps = std::max(1, static_cast<int>(std::ceil(valid_pixels / tile_samples)));
   }
@@ -547,14 +559,14 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
     int step = 0;
     for (size_t w = 0; w < windows.size(); ++w) {
       if (streaming) {
-        materials.clear();  // before the next window: at most one window in memory
-        LOOM_ASSIGN_OR_RETURN(materials, LoadMaterials(cnn, train, windows[w], options, device));
+        resident = {};  // before the next window: at most one window in memory
+        LOOM_ASSIGN_OR_RETURN(resident, LoadMaterials(cnn, train, windows[w], options, device));
       }
       // The epoch's steps shared out among the windows by their size.
       const int window_end =
           static_cast<int>(static_cast<int64_t>(steps) * (static_cast<int64_t>(w + 1) * windows.front().size()) / train.count);
       for (; step < std::min(steps, w + 1 == windows.size() ? steps : window_end); ++step) {
-        const Batch batch = SampleTiles(materials, options.tile, options.tiles_per_step, rng);
+        const Batch batch = SampleTiles(resident.materials, options.tile, options.tiles_per_step, rng);
         if (batch.valid_pixels == 0) continue;
         const double count = static_cast<double>(batch.valid_pixels);
         optimizer->zero_grad();
@@ -565,10 +577,9 @@ Result<std::vector<CnnEpoch>> internal::TrainCnnNet(Cnn& cnn, const CnnExampleSo
             internal::NormalLobeWeights(channel_weights, batch.labels, options.normal_lobe_reference);
         torch::Tensor loss = internal::HuberSum(predicted, batch.labels, batch.valid, label_weights) / (count * kLabelSize);
         if (options.rerender_weight > 0) {
-          if (const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, options, rng); rerender.defined()) {
-            loss = loss + options.rerender_weight * rerender;
-            rerender_sum += rerender.detach();
-          }
+          const torch::Tensor rerender = BatchRerenderLoss(batch, predicted, resident.rerender, options, rng);
+          loss = loss + options.rerender_weight * rerender;
+          rerender_sum += rerender.detach();
         }
         loss.backward();
         optimizer->step();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 
 #include "fitting/cnn/torch/label_loss.h"
 #include "fitting/model/strip_quadrature.h"
@@ -34,6 +35,52 @@ at::Tensor Dot(const at::Tensor& a, const at::Tensor& b) { return (a * b).sum(1)
 
 at::Tensor Normalized(const at::Tensor& a) { return a / a.norm(2, 1, true); }
 
+// The light samples an observation renders with (those above both horizons, merged into at most
+// `max_lights`), or nothing when it is not usable (unseen, or lit by nothing).
+std::optional<std::vector<LightSample>> RenderedLights(const PixelObservation& o, int max_lights) {
+  if (!std::isfinite(o.radiance) || o.lights.empty()) return std::nullopt;
+  std::vector<LightSample> lights;
+  for (const LightSample& light : o.lights) {
+    if (o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) {
+      lights.push_back(light);
+    }
+  }
+  if (max_lights > 0) lights = MergeLightSamples(lights, max_lights);
+  return lights;
+}
+
+// A table of `rows` rows of nothing but padding, `observations` × `samples` wide.
+RerenderTable PaddingTable(int64_t rows, int64_t observations, int64_t samples, const at::TensorOptions& options) {
+  RerenderTable t;
+  t.l = at::zeros({rows, samples, 3}, options);
+  t.l.select(2, 2).fill_(1);
+  t.irradiance = at::zeros({rows, samples}, options);
+  t.sample_observation = at::zeros({rows, samples}, options.dtype(at::kInt));
+  t.v = at::zeros({rows, observations, 3}, options);
+  t.v.select(2, 2).fill_(1);
+  t.weights = at::zeros({rows, observations, 3}, options);
+  t.radiance = at::zeros({rows, observations}, options);
+  t.observation_weight = at::zeros({rows, observations}, options);
+  t.inverse_scale = at::ones({rows}, options);
+  return t;
+}
+
+// `table` padded to `observations` × `samples` per row.
+RerenderTable PaddedTable(const RerenderTable& table, int64_t observations, int64_t samples) {
+  const int64_t o = table.v.size(1), s = table.l.size(1);
+  if (o == observations && s == samples) return table;
+  RerenderTable t = PaddingTable(table.rows(), observations, samples, table.l.options());
+  t.l.narrow(1, 0, s).copy_(table.l);
+  t.irradiance.narrow(1, 0, s).copy_(table.irradiance);
+  t.sample_observation.narrow(1, 0, s).copy_(table.sample_observation);
+  t.v.narrow(1, 0, o).copy_(table.v);
+  t.weights.narrow(1, 0, o).copy_(table.weights);
+  t.radiance.narrow(1, 0, o).copy_(table.radiance);
+  t.observation_weight.narrow(1, 0, o).copy_(table.observation_weight);
+  t.inverse_scale.copy_(table.inverse_scale);
+  return t;
+}
+
 }  // namespace
 
 std::vector<int64_t> DrawPixels(const at::Tensor& weights, int count, std::mt19937_64& rng) {
@@ -46,6 +93,17 @@ std::vector<int64_t> DrawPixels(const at::Tensor& weights, int count, std::mt199
   return drawn;
 }
 
+at::Tensor DrawRows(const at::Tensor& weights, int count, std::mt19937_64& rng) {
+  std::vector<float> uniform(static_cast<size_t>(weights.size(0)) * static_cast<size_t>(count));
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (float& u : uniform) u = unit(rng);
+  const at::Tensor none = (weights.sum(1, /*keepdim=*/true) <= 0).to(weights.dtype());
+  const at::Tensor cdf = (weights + none).cumsum(1);
+  const at::Tensor u = ToDevice(at::from_blob(uniform.data(), {weights.size(0), count}, at::kFloat).clone(), weights.device());
+  const at::Tensor target = u * cdf.narrow(1, cdf.size(1) - 1, 1);
+  return at::clamp_max(at::searchsorted(cdf, target, /*out_int32=*/false, /*right=*/true), weights.size(1) - 1);
+}
+
 RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights) {
   std::vector<double> l, irradiance, v, weights, radiance, inverse_scale;
   std::vector<int64_t> sample_observation, observation_pixel;
@@ -54,15 +112,9 @@ RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>
     double sum = 0;
     int used = 0;
     for (const PixelObservation& o : pixels[p]) {
-      if (!std::isfinite(o.radiance) || o.lights.empty()) continue;
-      std::vector<LightSample> lights;
-      for (const LightSample& light : o.lights) {
-        if (o.v_local.z() > 0 && light.l_local.z() > 0 && (light.l_local + o.v_local).squaredNorm() >= 1e-20) {
-          lights.push_back(light);
-        }
-      }
-      if (max_lights > 0) lights = MergeLightSamples(lights, max_lights);
-      for (const LightSample& light : lights) {
+      const std::optional<std::vector<LightSample>> lights = RenderedLights(o, max_lights);
+      if (!lights) continue;
+      for (const LightSample& light : *lights) {
         l.insert(l.end(), {light.l_local.x(), light.l_local.y(), light.l_local.z()});
         irradiance.push_back(light.irradiance);
         sample_observation.push_back(observation);
@@ -91,21 +143,105 @@ RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>
   return batch;
 }
 
-at::Tensor ToDevice(const at::Tensor& host, const at::Device& device) {
-  if (!device.is_cuda()) return host.to(device);
-  return host.pin_memory().to(device, /*non_blocking=*/true);
+RerenderTable MakeRerenderTable(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights, int64_t observations,
+                                int64_t samples) {
+  // Each row's usable observations with their samples first, for the padded width.
+  std::vector<std::vector<std::pair<const PixelObservation*, std::vector<LightSample>>>> rows(pixels.size());
+  for (size_t p = 0; p < pixels.size(); ++p) {
+    int64_t row_samples = 0;
+    for (const PixelObservation& o : pixels[p]) {
+      std::optional<std::vector<LightSample>> lights = RenderedLights(o, max_lights);
+      if (!lights) continue;
+      row_samples += static_cast<int64_t>(lights->size());
+      rows[p].emplace_back(&o, std::move(*lights));
+    }
+    observations = std::max(observations, static_cast<int64_t>(rows[p].size()));
+    samples = std::max(samples, row_samples);
+  }
+  RerenderTable t = PaddingTable(static_cast<int64_t>(pixels.size()), observations, samples, at::TensorOptions(at::kFloat));
+  auto l = t.l.accessor<float, 3>(), v = t.v.accessor<float, 3>(), w = t.weights.accessor<float, 3>();
+  auto irradiance = t.irradiance.accessor<float, 2>(), radiance = t.radiance.accessor<float, 2>();
+  auto weight = t.observation_weight.accessor<float, 2>();
+  auto sample_observation = t.sample_observation.accessor<int32_t, 2>();
+  auto inverse_scale = t.inverse_scale.accessor<float, 1>();
+  for (size_t p = 0; p < rows.size(); ++p) {
+    double sum = 0;
+    int64_t s = 0;
+    for (size_t k = 0; k < rows[p].size(); ++k) {
+      const auto& [o, lights] = rows[p][k];
+      for (int c = 0; c < 3; ++c)
+        v[p][k][c] = static_cast<float>(o->v_local[c]), w[p][k][c] = static_cast<float>(o->rgb_weights[c]);
+      radiance[p][k] = static_cast<float>(o->radiance);
+      weight[p][k] = 1;
+      sum += std::abs(o->radiance);
+      for (const LightSample& light : lights) {
+        for (int c = 0; c < 3; ++c) l[p][s][c] = static_cast<float>(light.l_local[c]);
+        irradiance[p][s] = static_cast<float>(light.irradiance);
+        sample_observation[p][s++] = static_cast<int32_t>(k);
+      }
+    }
+    const double mean = rows[p].empty() ? 0 : sum / static_cast<double>(rows[p].size());
+    inverse_scale[p] = static_cast<float>(mean > 0 ? 1 / mean : 1);
+  }
+  return t;
 }
 
-RerenderBatch RerenderBatch::To(const at::Device& device) const {
+RerenderTable ConcatRerenderTables(const std::vector<RerenderTable>& tables) {
+  int64_t observations = 0, samples = 0;
+  for (const RerenderTable& t : tables) {
+    observations = std::max(observations, t.v.size(1));
+    samples = std::max(samples, t.l.size(1));
+  }
+  std::vector<RerenderTable> padded;
+  for (const RerenderTable& t : tables) padded.push_back(PaddedTable(t, observations, samples));
+  const auto cat = [&padded](at::Tensor RerenderTable::*field) {
+    std::vector<at::Tensor> parts;
+    for (const RerenderTable& t : padded) parts.push_back(t.*field);
+    return at::cat(parts);
+  };
+  return {cat(&RerenderTable::l),
+          cat(&RerenderTable::irradiance),
+          cat(&RerenderTable::sample_observation),
+          cat(&RerenderTable::v),
+          cat(&RerenderTable::weights),
+          cat(&RerenderTable::radiance),
+          cat(&RerenderTable::observation_weight),
+          cat(&RerenderTable::inverse_scale)};
+}
+
+RerenderTable RerenderTable::To(const at::Device& device) const {
   return {ToDevice(l, device),
           ToDevice(irradiance, device),
           ToDevice(sample_observation, device),
           ToDevice(v, device),
           ToDevice(weights, device),
           ToDevice(radiance, device),
-          ToDevice(observation_pixel, device),
-          ToDevice(inverse_scale, device),
-          pixels};
+          ToDevice(observation_weight, device),
+          ToDevice(inverse_scale, device)};
+}
+
+RerenderBatch GatherRerenderBatch(const RerenderTable& table, const at::Tensor& rows, const at::Tensor& pixel_weight) {
+  const int64_t pixels = rows.size(0), observations = table.v.size(1), samples = table.l.size(1);
+  const at::Tensor first_observation = at::arange(pixels, rows.options()).mul_(observations).unsqueeze(1);
+  RerenderBatch batch;
+  batch.l = table.l.index_select(0, rows).reshape({pixels * samples, 3});
+  batch.irradiance = table.irradiance.index_select(0, rows).reshape({pixels * samples});
+  batch.sample_observation =
+      (table.sample_observation.index_select(0, rows).to(at::kLong) + first_observation).reshape({pixels * samples});
+  batch.v = table.v.index_select(0, rows).reshape({pixels * observations, 3});
+  batch.weights = table.weights.index_select(0, rows).reshape({pixels * observations, 3});
+  batch.radiance = table.radiance.index_select(0, rows).reshape({pixels * observations});
+  batch.observation_pixel = at::arange(pixels, rows.options()).repeat_interleave(observations);
+  batch.inverse_scale = table.inverse_scale.index_select(0, rows);
+  batch.observation_weight = (table.observation_weight.index_select(0, rows) * pixel_weight.to(at::kFloat).unsqueeze(1))
+                                 .reshape({pixels * observations});
+  batch.pixels = pixels;
+  return batch;
+}
+
+at::Tensor ToDevice(const at::Tensor& host, const at::Device& device) {
+  if (!device.is_cuda()) return host.to(device);
+  return host.pin_memory().to(device, /*non_blocking=*/true);
 }
 
 at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& batch) {
@@ -156,7 +292,12 @@ at::Tensor RenderObservations(const at::Tensor& labels, const RerenderBatch& bat
 at::Tensor RerenderLoss(const at::Tensor& labels, const RerenderBatch& batch, double huber_delta) {
   const at::Tensor scale = batch.inverse_scale.index_select(0, batch.observation_pixel);
   const at::Tensor residual = (RenderObservations(labels, batch) - batch.radiance) * scale;
-  return at::huber_loss(residual, at::zeros_like(residual), at::Reduction::Mean, huber_delta);
+  if (!batch.observation_weight.defined()) {
+    return at::huber_loss(residual, at::zeros_like(residual), at::Reduction::Mean, huber_delta);
+  }
+  const at::Tensor each = at::huber_loss(residual, at::zeros_like(residual), at::Reduction::None, huber_delta);
+  // No sum of weights read back: a step that waited for it would wait for the device.
+  return (each * batch.observation_weight).sum() / at::clamp_min(batch.observation_weight.sum(), 1.0);
 }
 
 }  // namespace loom::fitting::internal
