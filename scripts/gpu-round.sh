@@ -151,6 +151,7 @@ same_losses() {
   local on
   for on in cpu "$device"; do
     "$loom" train --rig "configs/rig/$rig.yaml" "${input[@]}" "${seeded[@]}" --out "$work/same-$on" --data "$data" \
+      --out-of-model-share 0.5 --scan-like-share 0.5 --scan-emulation "$model/scan-emulation.yaml" \
       --size 32 --epochs 1 --steps-per-epoch 4 --tiles-per-step 4 --dropout 0 --rerender-weight 10 \
       --rerender-lobe-reference 0.1 --device "$on" --threads 0 --seed 7 --quiet > "$OUT/same-$on.log" 2>&1
   done
