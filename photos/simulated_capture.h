@@ -20,11 +20,20 @@
 
 namespace loom::photos {
 
+// A fabric of 64 px of 1 mm, seed 1: a phone photograph's sample.
+inline sim::SampleSpec FlashSample() {
+  sim::SampleSpec sample;
+  sample.seed = 1;
+  sample.size_px = 64;
+  sample.pixel_mm = 1.0;
+  return sample;
+}
+
 struct SimulatedCaptureRequest {
-  Layout layout = Layout::kPhotometricStereo;                                           // as loom import reads them
-  sim::ObjectCaptureOptions object;                                                     // ps and lp: the curved object
-  sim::FlashCaptureOptions flash;                                                       // flash: the flash and the photographs
-  sim::SampleSpec sample{.kind = "fabric", .seed = 1, .size_px = 64, .pixel_mm = 1.0};  // flash: the planar material
+  Layout layout = Layout::kPhotometricStereo;  // as loom import reads them
+  sim::ObjectCaptureOptions object;            // ps and lp: the curved object
+  sim::FlashCaptureOptions flash;              // flash: the flash and the photographs
+  sim::SampleSpec sample = FlashSample();      // flash: the planar material
 };
 
 struct SimulatedCapture {

@@ -35,7 +35,9 @@ TEST_F(SimulatedCaptureTest, APhotometricStereoCaptureStoresItsRadianceAndTruthO
   ASSERT_TRUE(capture.ok()) << capture.status().ToString();
   EXPECT_GT(capture->white, 1) << "this lobe's highlights are brighter than 1: the white must rise above them";
   ASSERT_TRUE(capture->normals.has_value());
-  Result<ImportResult> imported = ImportCapture(root_ / "ps", {.scale = 1.0});
+  ImportOptions at_stored_scale;
+  at_stored_scale.scale = 1.0;
+  Result<ImportResult> imported = ImportCapture(root_ / "ps", at_stored_scale);
   ASSERT_TRUE(imported.ok()) << imported.status().ToString();
   ASSERT_EQ(imported->images, 8);
   const sim::ObjectCapture rendered = sim::RenderObjectCapture(request.object);
@@ -61,7 +63,10 @@ TEST_F(SimulatedCaptureTest, AFlashCaptureClipsItsBrightestValuesAndSaysWhereThe
   EXPECT_EQ(capture->images, 3);
   EXPECT_FALSE(capture->normals.has_value());
   EXPECT_NE(capture->description.find("0.8,0,0 cm beside the lens"), std::string::npos) << capture->description;
-  Result<ImportResult> imported = ImportCapture(root_ / "flash", {.scale = 1.0, .flash_offset_cm = Eigen::Vector3d::Zero()});
+  ImportOptions as_the_files_say;  // the flash at the lens, as the files put it
+  as_the_files_say.scale = 1.0;
+  as_the_files_say.flash_offset_cm = Eigen::Vector3d::Zero();
+  Result<ImportResult> imported = ImportCapture(root_ / "flash", as_the_files_say);
   ASSERT_TRUE(imported.ok()) << imported.status().ToString();
   EXPECT_GT(imported->clipped_values, 0);
 }
