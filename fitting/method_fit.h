@@ -49,9 +49,10 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
                                 StackFitOptions options, CnnDevice cnn_device = CnnDevice::kCpu);
 
 // The fit by `recommended` (RecommendedMethod's choice for the stack, made once by the caller;
-// start maps are options.initial_maps). Where that is cnn+refine and the CNN cannot fit the stack (FailedPrecondition: most often
-// a model that takes another preset's stacks), refine's fit instead, `fallback` saying why; a failure of the refiner's own is
-// then refine's too, and reported as such.
+// start maps are options.initial_maps). Where that is cnn+refine and the CNN cannot fit the
+// stack (FailedPrecondition: most often a model that takes another preset's stacks), refine's fit
+// instead, `fallback` saying why; a failure of the refiner's own is then refine's too, and
+// reported as such.
 struct RecommendedFit {
   FitMethod method = FitMethod::kRefine;  // the method that fitted
   MethodFit fit;

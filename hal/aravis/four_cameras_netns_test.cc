@@ -127,7 +127,7 @@ TEST_F(FourCamerasTest, DiscoveryFindsAllFourAndListsEachInALine) {
   const std::string listed = out.str();
   EXPECT_EQ(std::count(listed.begin(), listed.end(), '\n'), static_cast<long>(cameras.size())) << listed;
   for (const DiscoveredCamera& camera : cameras) {
-    EXPECT_NE(listed.find(camera.id + "  GigEVision  " + camera.address), std::string::npos) << listed;
+    EXPECT_NE(listed.find(camera.id + "  " + camera.protocol + "  " + camera.address), std::string::npos) << listed;
     if (camera.serial.starts_with("LOOMCAM0")) {
       ++found;
       EXPECT_EQ(camera.protocol, "GigEVision");

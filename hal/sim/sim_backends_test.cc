@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "core/interrupt.h"
 #include "hal/device_status.h"
@@ -199,6 +201,31 @@ TEST_F(SimBackendsTest, DevicesMoveAndDescribeThemselvesAndBadTargetsAreNamed) {
   const Result<std::string> camera = MoveDevice(*rig_->cameras()[0], 1);
   ASSERT_FALSE(camera.ok());
   EXPECT_NE(camera.status().ToString().find("does not move"), std::string::npos) << camera.status().ToString();
+}
+
+// What loom rig list, status and leds print: a line per device, each device's state or why it
+// failed, and LEDs that are lit for the hold and switched off by the guard after it.
+TEST_F(SimBackendsTest, TheRigListsAndReportsItsDevicesAndHoldsItsLeds) {
+  Result<std::unique_ptr<Rig>> closed = MakeRig(kRigYaml);
+  ASSERT_TRUE(closed.ok()) << closed.status().ToString();
+  Rig& rig = **closed;
+  std::ostringstream list, reported, refused, held;
+  ListRigDevices(rig, list);
+  const std::string listed = list.str();
+  EXPECT_EQ(std::count(listed.begin(), listed.end(), '\n'), static_cast<long>(rig.devices().size())) << listed;
+  EXPECT_NE(listed.find("turntable"), std::string::npos) << listed;
+  EXPECT_EQ(ReportRigStatus(rig, reported), 0) << reported.str();
+  EXPECT_NE(reported.str().find("turntable     ok"), std::string::npos) << reported.str();
+  // The fixture's rig is running: no device of it can be opened again, and each says so.
+  EXPECT_EQ(ReportRigStatus(*rig_, refused), static_cast<int>(rig_->devices().size())) << refused.str();
+  EXPECT_NE(refused.str().find("turntable     FAILED"), std::string::npos) << refused.str();
+  {
+    SafeStateGuard guard(rig);
+    ASSERT_TRUE(HoldLeds(rig, {{1, 500}}, 0.05, held).ok());
+    EXPECT_EQ(rig.leds()->Read()->current_ma[1], 500);
+  }
+  EXPECT_NE(held.str().find("1 LEDs on for 0.05 s"), std::string::npos) << held.str();
+  EXPECT_EQ(rig.leds()->Read()->current_ma[1], 0);
 }
 
 TEST_F(SimBackendsTest, LinearLightAndProjectorLightTheSample) {

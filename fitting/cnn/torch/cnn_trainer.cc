@@ -163,7 +163,7 @@ Resident MakeResident(std::vector<Material> materials, const torch::Device& devi
   std::vector<internal::RerenderTable> tables;
   int64_t rows = 0;
   for (Material& m : materials) {
-    if (!m.rerender.inverse_scale.defined()) continue;
+    if (m.rerender.rows() == 0) continue;  // trained without the re-rendering loss
     m.first_row = rows;
     rows += m.rerender.rows();
     tables.push_back(m.rerender.To(device));  // one at a time: the host never holds two copies of them all

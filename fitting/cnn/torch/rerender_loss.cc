@@ -99,7 +99,7 @@ at::Tensor DrawRows(const at::Tensor& weights, int count, std::mt19937_64& rng) 
   for (float& u : uniform) u = unit(rng);
   const at::Tensor none = (weights.sum(1, /*keepdim=*/true) <= 0).to(weights.dtype());
   const at::Tensor cdf = (weights + none).cumsum(1);
-  const at::Tensor u = ToDevice(at::from_blob(uniform.data(), {weights.size(0), count}, at::kFloat).clone(), weights.device());
+  const at::Tensor u = ToDevice(at::tensor(uniform).view({weights.size(0), count}), weights.device());
   const at::Tensor target = u * cdf.narrow(1, cdf.size(1) - 1, 1);
   return at::clamp_max(at::searchsorted(cdf, target, /*out_int32=*/false, /*right=*/true), weights.size(1) - 1);
 }
@@ -143,8 +143,8 @@ RerenderBatch MakeRerenderBatch(const std::vector<std::vector<PixelObservation>>
   return batch;
 }
 
-RerenderTable MakeRerenderTable(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights, int64_t observations,
-                                int64_t samples) {
+RerenderTable MakeRerenderTable(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights) {
+  int64_t observations = 0, samples = 0;
   // Each row's usable observations with their samples first, for the padded width.
   std::vector<std::vector<std::pair<const PixelObservation*, std::vector<LightSample>>>> rows(pixels.size());
   for (size_t p = 0; p < pixels.size(); ++p) {

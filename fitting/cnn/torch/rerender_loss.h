@@ -73,10 +73,8 @@ struct RerenderTable {
   RerenderTable To(const at::Device& device) const;
 };
 
-// The table of `pixels` (one row each, in order), padded to at least `observations` and
-// `samples` per row.
-RerenderTable MakeRerenderTable(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights,
-                                int64_t observations = 0, int64_t samples = 0);
+// The table of `pixels` (one row each, in order), as wide as its widest row.
+RerenderTable MakeRerenderTable(const std::vector<std::vector<PixelObservation>>& pixels, int max_lights);
 
 // The tables one after another (rows of the first, then of the second, ...), each padded to the
 // widest.
