@@ -27,6 +27,7 @@ endforeach()
 list(REMOVE_ITEM TORCH_LIBRARIES torch)  # torch_library brings it, as needed, with its usage requirements
 find_package(Threads REQUIRED)
 find_package(ZLIB REQUIRED)  # PNG text chunks (core/output_file.cc)
+find_package(PNG REQUIRED)  # the exporters' 8-bit PNGs (fitting/report)
 
 if(LOOM_BUILD_TESTS)
   pkg_check_modules(UMOCKDEV REQUIRED IMPORTED_TARGET umockdev-1.0)

@@ -13,7 +13,7 @@ packages=(
   # hardware backends
   libaravis-dev aravis-tools libusb-1.0-0-dev libmodbus-dev
   # algorithms and data
-  libopencv-dev libceres-dev libopenexr-dev libtorch-dev libopenblas0-pthread
+  libopencv-dev libpng-dev libceres-dev libopenexr-dev libtorch-dev libopenblas0-pthread
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev xvfb

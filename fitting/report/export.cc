@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <png.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/file_io.h"
 #include "core/geometry.h"
@@ -36,15 +36,27 @@ namespace internal {
 uint8_t Unit8(double v) { return static_cast<uint8_t>(std::lround(255 * std::clamp(v, 0.0, 1.0))); }
 
 Status WritePng(const std::filesystem::path& path, const cv::Mat& image) {
-  // Encoded in memory and written through a temporary file, so that every write is checked (on
-  // a full disk imwrite may leave an empty file behind) and the file appears only whole.
-  std::vector<uchar> png;
-  try {
-    if (!cv::imencode(".png", image, png)) return IoError(path.string(), "cannot encode the PNG");
-  } catch (const cv::Exception& e) {
-    return IoError(path.string(), std::string("cannot encode the PNG: ") + e.what());
+  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3) || !image.isContinuous()) {
+    return InternalError(path.string(), "a PNG is written from 8-bit grey or BGR pixels");
   }
-  return WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  // Encoded in memory and written through a temporary file, so that every write is checked and
+  // the file appears only whole. libpng rather than OpenCV's imgcodecs: the GPU build, whose
+  // machine lacks imgcodecs' many codecs, writes the same previews.
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  png.width = static_cast<png_uint_32>(image.cols);
+  png.height = static_cast<png_uint_32>(image.rows);
+  png.format = image.channels() == 3 ? PNG_FORMAT_BGR : PNG_FORMAT_GRAY;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_get_memory_size(png, size, /*convert_to_8_bit=*/0, image.data, /*row_stride=*/0, nullptr)) {
+    return IoError(path.string(), std::string("cannot encode the PNG: ") + png.message);
+  }
+  std::string encoded(size, '\0');
+  if (!png_image_write_to_memory(&png, encoded.data(), &size, 0, image.data, 0, nullptr)) {
+    return IoError(path.string(), std::string("cannot encode the PNG: ") + png.message);
+  }
+  encoded.resize(size);
+  return WriteFileAtomically(path, encoded);
 }
 
 }  // namespace internal

@@ -1,5 +1,5 @@
 #pragma once
-// Writing 8-bit PNGs through OpenCV, for the exporters (export.cc, gltf_export.cc).
+// Writing 8-bit PNGs (libpng) from OpenCV's images, for the exporters (export.cc, gltf_export.cc).
 
 #include <filesystem>
 
