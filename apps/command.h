@@ -3,6 +3,8 @@
 // A command is a function RunX(argc, argv) where argv[0] is the command's name; it returns an
 // exit code: kExitOk, kExitFailure (the work failed; message on stderr) or kExitUsage.
 
+#include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -12,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/duration.h"
+#include "core/image.h"
 #include "core/status.h"
 
 namespace loom::apps {
@@ -26,11 +29,17 @@ struct Command {
   int (*run)(int argc, char** argv);
 };
 
-// All commands of this build, in the order `loom --help` lists them (commands.cc; a trainer-only
-// build's: trainer_commands.cc).
+// All commands of this build, in the order `loom --help` lists them (commands.cc; the GPU
+// build's: gpu_commands.cc).
 const std::vector<Command>& Commands();
 // What the build's libraries need before any command runs (main() calls it once).
 void StartLibraries(const char* program);
+// A reference normal map for `loom eval` (photos/capture_import.h's rule; the GPU build, which
+// reads no photographs, refuses it naming the file).
+Result<Image> ReadReferenceNormals(const std::filesystem::path& path, int downsample);
+// Adds `loom sim capture` to `sim` and returns what runs it once parsed (sim_capture_command.cc;
+// the GPU build's, which writes no photographs, refuses).
+std::function<Status()> AddSimCaptureCommand(CLI::App& sim);
 
 // Options every command accepts: --log-level. Call before parsing.
 void AddCommonOptions(CLI::App& app);

@@ -1,6 +1,7 @@
-// The full build's command table (a trainer-only build has trainer_commands.cc instead).
+// The full build's command table (the GPU build has gpu_commands.cc instead).
 #include "apps/command.h"
 #include "fitting/solve/ceres_failures.h"
+#include "photos/capture_import.h"
 
 namespace loom::apps {
 
@@ -27,5 +28,9 @@ const std::vector<Command>& Commands() {
 }
 
 void StartLibraries(const char* program) { fitting::StartCeresLogging(program); }
+
+Result<Image> ReadReferenceNormals(const std::filesystem::path& path, int downsample) {
+  return photos::ReadNormalMap(path, downsample);
+}
 
 }  // namespace loom::apps

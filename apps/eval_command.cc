@@ -6,7 +6,6 @@
 #include "apps/command.h"
 #include "core/image.h"
 #include "fitting/report/evaluate_directory.h"
-#include "photos/capture_import.h"
 
 namespace loom::apps {
 namespace {
@@ -20,7 +19,7 @@ struct EvalArgs {
 Status Evaluate(EvalArgs args) {
   std::optional<Image> normals;
   if (!args.reference_normals.empty()) {
-    LOOM_ASSIGN_OR_RETURN(normals, photos::ReadNormalMap(args.reference_normals, args.normals_downsample));
+    LOOM_ASSIGN_OR_RETURN(normals, ReadReferenceNormals(args.reference_normals, args.normals_downsample));
     args.request.reference_normals = &*normals;
     args.request.reference_normals_name = args.reference_normals;
   }

@@ -1,14 +1,14 @@
 // loom sim material | render | capture | stats | match-scan: the simulator's materials (SVBRDF
-// maps with preview PNGs), a simulated camera's frame or the fast-path stack, a curved object
-// photographed as a photometric-stereo rig does (photos/ writes its layout), the fabrics'
+// maps with preview PNGs), a simulated camera's frame or the fast-path stack (from the rig file
+// alone: no device), photographs as other rigs take them (sim_capture_command.cc), the fabrics'
 // parameter statistics, and how a scan's reconstruction differs from the fast path
 // (sim/scan_emulation.h).
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <sstream>
 
-#include "apps/backends.h"
 #include "apps/command.h"
 #include "apps/config_paths.h"
 #include "core/exr_io.h"
@@ -16,14 +16,15 @@
 #include "core/memory.h"
 #include "core/observation_stack.h"
 #include "core/output_directory.h"
+#include "core/rig_file.h"
 #include "fitting/report/export.h"
-#include "photos/simulated_capture.h"
 #include "scan/plan.h"
 #include "scan/rig_state.h"
 #include "sim/fabric_stats.h"
 #include "sim/fast_path_stack.h"
 #include "sim/object_capture.h"
 #include "sim/plan_observations.h"
+#include "sim/rig_scene.h"
 #include "sim/sample.h"
 #include "sim/scan_emulation.h"
 #include "sim/stack.h"
@@ -72,51 +73,20 @@ Status RenderStack(const sim::Scene& scene, const RenderArguments& args) {
 // One raw frame (and its radiance) of a simulated rig's camera, or the fast-path stack.
 Status Render(const RenderArguments& args) {
   LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--out", args.out}, {"--truth", args.truth}}, args.force));
-  LOOM_ASSIGN_OR_RETURN(const LoadedRig loaded, LoadRig(args.rig, args.object));
-  if (!loaded.sim) return InvalidArgumentError(args.rig, "not a simulated rig (it has no 'geometry:' section)");
-  const std::shared_ptr<const sim::Scene> scene = loaded.sim->world->scene();
+  LOOM_ASSIGN_OR_RETURN(const RigFile file, RigFile::Load(ResolveRigPath(args.rig)));
+  if (!file.Has("geometry")) return InvalidArgumentError(args.rig, "not a simulated rig (it has no 'geometry:' section)");
+  LOOM_ASSIGN_OR_RETURN(const RigModel model, file.Model());
+  LOOM_ASSIGN_OR_RETURN(const sim::RigScene rig, sim::MakeRigScene(file, model, args.object));
+  const std::shared_ptr<const sim::Scene> scene = rig.scene;
   if (args.stack) return RenderStack(*scene, args);
   sim::SceneState state;
   state.turntable_deg = args.angle_deg;
   LOOM_ASSIGN_OR_RETURN(const std::vector<scan::LedDrive> drives, scan::ParseLedDrives(args.leds, "--leds"));
   for (const scan::LedDrive& drive : drives) state.leds.push_back({drive.led, drive.current_ma});
-  LOOM_ASSIGN_OR_RETURN(const Image image,
-                        sim::RenderCameraFrame(*scene, args.camera, state, {args.exposure_us, 0}, loaded.sim->world->seed));
+  LOOM_ASSIGN_OR_RETURN(const Image image, sim::RenderCameraFrame(*scene, args.camera, state, {args.exposure_us, 0},
+                                                                  static_cast<uint64_t>(file.Seed())));
   LOOM_RETURN_IF_ERROR(WriteExr(args.out, image, {{"loom.camera", args.camera}, {"loom.exposure_us", args.exposure_us}}));
   std::cout << "wrote " << args.out << ": radiance and raw DN of " << args.camera << "\n";
-  return Status::Ok();
-}
-
-struct CaptureArguments {
-  photos::SimulatedCaptureRequest request;
-  std::string layout = "ps", shape = "sphere", truth, normals, out, flash_offset;
-  bool force = false;
-};
-
-Status ParseCaptureLayout(CaptureArguments& args) {
-  LOOM_ASSIGN_OR_RETURN(args.request.layout, photos::ParseLayout(args.layout, "--layout"));
-  if (args.shape != "sphere" && args.shape != "cylinder") {
-    return InvalidArgumentError("--shape " + args.shape, "expected sphere or cylinder");
-  }
-  args.request.object.shape = args.shape == "sphere" ? sim::ObjectShape::kSphere : sim::ObjectShape::kCylinder;
-  if (args.flash_offset.empty()) return Status::Ok();
-  LOOM_ASSIGN_OR_RETURN(args.request.flash.flash_offset_cm, photos::ParseFlashOffset(args.flash_offset, "--flash-offset"));
-  return Status::Ok();
-}
-
-// Photographs as another rig takes them (photos/simulated_capture.h), with the truth beside (not
-// inside) the folder: loom import reads every image of a folder in some layouts.
-Status Capture(CaptureArguments args) {
-  LOOM_RETURN_IF_ERROR(CheckOutputFiles({{"--truth", args.truth}, {"--normals", args.normals}}, args.force));
-  LOOM_RETURN_IF_ERROR(ParseCaptureLayout(args));
-  // --size, --noise and --seed are the flash layout's too.
-  args.request.sample.size_px = args.request.object.size_px;
-  args.request.flash.noise = args.request.object.noise;
-  args.request.flash.seed = args.request.object.seed;
-  LOOM_ASSIGN_OR_RETURN(const photos::SimulatedCapture capture, photos::WriteSimulatedCapture(args.request, args.out));
-  if (!args.truth.empty()) LOOM_RETURN_IF_ERROR(WriteExr(args.truth, capture.truth, {{"loom.kind", std::string("svbrdf maps")}}));
-  if (!args.normals.empty() && capture.normals) LOOM_RETURN_IF_ERROR(WriteExr(args.normals, *capture.normals, {}));
-  std::cout << "wrote " << args.out << ": " << capture.description << "; the truth's albedos in the stored units\n";
   return Status::Ok();
 }
 
@@ -169,49 +139,7 @@ int RunSim(int argc, char** argv) {
   render->add_option("--seed", r.seed, "With --scan-emulation: the seed of its gains and noise");
   render->add_option("--out", r.out, "Output EXR")->required();
   AddForceOption(*render, r.force);
-  CaptureArguments capture;
-  CLI::App* capture_app = app.add_subcommand(
-      "capture",
-      "Photographs as other rigs take them, with their truth: a curved object under directional lights (ps, lp) or a "
-      "flat material under a phone's flash (flash)");
-  capture_app->add_option("--layout", capture.layout, "ps, lp (a light dome's: sRGB JPEGs) or flash")->capture_default_str();
-  capture_app->add_option("--shape", capture.shape, "ps and lp: sphere or cylinder")->capture_default_str();
-  capture_app->add_option("--object", capture.request.sample.kind, "flash: the material (fabric, fabric-out-of-model)")
-      ->capture_default_str();
-  capture_app->add_option("--object-seed", capture.request.sample.seed, "flash: the material's seed");
-  capture_app->add_option("--images", capture.request.flash.images, "flash: photographs")->check(CLI::Range(2, 100));
-  capture_app->add_option("--flash-offset", capture.flash_offset,
-                          "flash: X,Y,Z cm of the flash from the lens (y up the image; default 0.8,0,0)");
-  capture_app->add_option("--size", capture.request.object.size_px, "Image size in pixels (square)")->check(CLI::Range(4, 4096));
-  capture_app->add_option("--pixel-mm", capture.request.sample.pixel_mm, "flash: the material's pixel size")
-      ->check(CLI::PositiveNumber);
-  capture_app->add_option("--lights", capture.request.object.lights, "Directional lights, spread over a cap")
-      ->check(CLI::Range(3, 1000));
-  capture_app->add_option("--max-light-deg", capture.request.object.max_light_deg, "The cap's half-angle")
-      ->check(CLI::Range(1.0, 89.0));
-  fitting::WardParams<double>& object_material = capture.request.object.material;
-  capture_app
-      ->add_option_function<double>(
-          "--sigma", [&object_material](double sigma) { object_material.sigma_x = object_material.sigma_y = sigma; },
-          "The material's lobe width")
-      ->check(CLI::Range(0.01, 1.0));
-  capture_app
-      ->add_option_function<double>(
-          "--specular", [&object_material](double a_s) { object_material.a_s.setConstant(a_s); },
-          "The material's specular albedo (grey)")
-      ->check(CLI::Range(0.0, 1.0));
-  capture_app->add_option("--noise", capture.request.object.noise, "Relative sensor noise")->check(CLI::Range(0.0, 0.5));
-  capture_app->add_flag_callback(
-      "--out-of-model",
-      [&capture] {
-        capture.request.object.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
-      },
-      "ps: the material shows what GD10 cannot: a grey GGX coat of albedo 0.1 and roughness 0.1, and 4° of mesostructure");
-  capture_app->add_option("--seed", capture.request.object.seed, "Seed of the noise");
-  capture_app->add_option("--truth", capture.truth, "Also write the true maps on the image's grid (OpenEXR)");
-  capture_app->add_option("--normals", capture.normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
-  capture_app->add_option("--out", capture.out, "Folder for the capture")->required();
-  AddForceOption(*capture_app, capture.force);
+  const std::function<Status()> capture = AddSimCaptureCommand(app);
   int seeds = 200, stats_size_px = 256;
   std::string json_path;
   CLI::App* stats = app.add_subcommand("stats", "Histograms of the procedural fabrics' parameters over many seeds");
@@ -236,7 +164,7 @@ int RunSim(int argc, char** argv) {
   if (*match_scan) done = MatchScan(fast_path, reconstructed_path, emulation_path, json_path, force);
   if (*stats) done = Stats(seeds, stats_size_px, json_path, force);
   if (*render) done = Render(r);
-  if (*capture_app) done = Capture(capture);
+  if (app.got_subcommand("capture")) done = capture();
   if (*material) done = Material(sample, out);
   return ExitCode(done);
 }

@@ -2,11 +2,12 @@
 # One fine-tuning round of a shipped CNN on a lent GPU machine, in one command
 # (docs/gpu-training.md, "A round on a lent machine"):
 #
-#   bash scripts/gpu-round.sh fetch   # here, once: the trainer build's Debian packages into
-#                                     # .gpu-deps/ (ignored, about 3 MB), which the device call carries
+#   bash scripts/gpu-round.sh fetch   # here, once: the GPU build's Debian packages into
+#                                     # .gpu-deps/ (ignored, about 18 MB), which the device call carries
 #   bash scripts/gpu-round.sh run     # there, as the device call's command (carry: .gpu-deps)
 #
-# `run` unpacks the packages, builds the trainer-only loom against PyTorch's CUDA LibTorch,
+# `run` unpacks the packages, builds the GPU build's loom against PyTorch's CUDA LibTorch,
+# fits a paper-size material (bench),
 # trains 3 short epochs first (the check that a run outlives its second epoch's checkpoint: the
 # crash docs/gpu-training.md describes must stay fixed), checks that the GPU computes the CPU's
 # losses (same_losses), renders FABRICS fresh fabrics on every core, and fine-tunes
@@ -24,8 +25,15 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 readonly deps_dir=.gpu-deps
+# The GPU build's Debian 12 packages that the machine's image lacks: headers, and the libraries
+# with what they load (Ceres' SuiteSparse and ATLAS, OpenCV core's TBB and GLX).
 readonly deps=(libopenexr-dev libopenexr-3-1-30 libimath-dev libimath-3-1-29 libyaml-cpp-dev libyaml-cpp0.7
-  libcli11-dev nlohmann-json3-dev libeigen3-dev)
+  libcli11-dev nlohmann-json3-dev libeigen3-dev libpng-dev libpng16-16
+  libceres-dev libceres3 libgoogle-glog-dev libgoogle-glog0v6 libgflags-dev libgflags2.2 libunwind8
+  libcholmod3 libspqr2 libcxsparse3 libamd2 libcamd2 libccolamd2 libcolamd2 libsuitesparseconfig5 libmetis5
+  libatlas3-base libgfortran5 libquadmath0
+  libopencv-core-dev libopencv-core406 libopencv-imgproc-dev libopencv-imgproc406 libtbb12
+  libglx0 libglvnd0 libx11-6 libx11-data libxcb1 libxau6 libxdmcp6 libbsd0 libmd0)
 
 fetch() {
   mkdir -p "$deps_dir"
@@ -36,8 +44,11 @@ fetch() {
 build() {
   local prefix=/tmp/gpu-deps
   for deb in "$deps_dir"/*.deb; do dpkg -x "$deb" "$prefix"; done
-  export CMAKE_PREFIX_PATH="$prefix/usr" LD_LIBRARY_PATH="$prefix/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
-  scripts/build-trainer.sh
+  # ATLAS keeps its BLAS and LAPACK in a folder of their own (Debian picks one by alternatives,
+  # which unpacking does not run).
+  local libs=$prefix/usr/lib/x86_64-linux-gnu
+  export CMAKE_PREFIX_PATH="$prefix/usr" LD_LIBRARY_PATH="$libs:$libs/atlas${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+  scripts/build-gpu.sh
 }
 
 # The rig's chain recipe (configs/models/<rig>/README.md and HISTORY.md): what the network
@@ -119,13 +130,8 @@ PY
 # The paper's headline on this machine: a BENCH_SIZE² (630) tac7 low-preset fast-path material
 # (728 observations: the paper's input layout's 932 channels) fitted by the CNN alone and by CNN +
 # refine, the network on DEVICE and the refiner on every core; wall times, the CNN's own seconds
-# (fit.json's cnn_seconds) and the GPU's utilisation to round.log. It needs a loom that has `fit`:
-# the trainer-only build has not (docs/gpu-training.md), and then the stage says so and is skipped.
+# (fit.json's cnn_seconds) and the GPU's utilisation to round.log.
 bench() {
-  if ! "$loom" help fit > /dev/null 2>&1; then
-    echo "bench: skipped: $loom has no 'fit' (a trainer-only build)" | tee -a "$OUT/round.log"
-    return
-  fi
   local size=${BENCH_SIZE:-630} stack=$work/bench/stack.exr start
   mkdir -p "$work/bench"
   start=$SECONDS
@@ -192,7 +198,7 @@ run() {
       exit 2
     fi
     build > "$OUT/build.log" 2>&1
-    loom=build-trainer/apps/loom
+    loom=build-gpu/apps/loom
   fi
   "$loom" version | tee "$OUT/version.txt"
   [ "${BENCH:-1}" = 1 ] && bench

@@ -1,6 +1,6 @@
 #pragma once
 // What differs between the LibTorch versions loom builds against, Debian 12's 1.13 (every CPU
-// build and CI) and PyTorch's 2.x (the trainer-only build on GPU machines), in one place, so
+// build and CI) and PyTorch's 2.x (the GPU build on GPU machines), in one place, so
 // that the rest of the code is written once. Only a 2.x build can check the 2.x side: the GPU
 // round's first stage is that build (scripts/gpu-round.sh, docs/gpu-training.md).
 
