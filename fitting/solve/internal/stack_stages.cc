@@ -66,11 +66,7 @@ double HalfVectorSpacing(const StackPixels& pixels) {
 
 // Grid-searched starts (GridInitialParams, or the refiner's GridStarts through `search`) around
 // the pixel's photometric-stereo normal where it has one: the search's normals lie within 20° of
-// the normal it is given, and a curved surface tilts much further than that. The search runs
-// around the stack's own normal too, and the lowest-cost starts of both are kept: a highlight
-// tilts a glossy flat fabric's photometric-stereo normal, and starts searched around it alone
-// left a noise-free fabric's retried pixels in a wrong basin (docs/benchmarks.md, "The per-pixel
-// Ceres fit").
+// the normal it is given, and a curved surface tilts much further than that.
 std::vector<WardParams<double>> GridStartsAround(
     const std::optional<Eigen::Matrix3d>& turn, const std::vector<PixelObservation>& observations,
     const std::function<std::vector<WardParams<double>>(const std::vector<PixelObservation>&)>& search) {
@@ -78,15 +74,8 @@ std::vector<WardParams<double>> GridStartsAround(
   std::vector<PixelObservation> turned = observations;
   internal::TurnObservations(*turn, turned);
   std::vector<WardParams<double>> starts = search(turned);
-  const size_t count = starts.size();
   for (WardParams<double>& start : starts) start = internal::TurnedBack(*turn, start);
-  for (const WardParams<double>& start : search(observations)) starts.push_back(start);
-  std::vector<std::pair<double, size_t>> ranked;
-  for (size_t k = 0; k < starts.size(); ++k) ranked.push_back({RelativeRms(starts[k], observations), k});
-  std::sort(ranked.begin(), ranked.end());
-  std::vector<WardParams<double>> best;
-  for (size_t k = 0; k < count && k < ranked.size(); ++k) best.push_back(starts[ranked[k].second]);
-  return best;
+  return starts;
 }
 
 // RMS of the model's residuals relative to the pixel's mean radiance.
