@@ -38,6 +38,13 @@ rm -rf "$work" && mkdir -p "$work"
 "$loom" fit "$work/stack.exr" --out "$work/cnn+refine" --quiet
 "$loom" fit "$work/stack.exr" --method ceres --out "$work/ceres" --quiet
 "$loom" eval "$work/cnn+refine/svbrdf.exr" --stack "$work/stack.exr" --reference "$work/truth.exr" --out "$work/eval" | tail -2
+# What this build cannot do it refuses, naming why (no image codecs).
+for refused in "sim capture --out $work/capture" \
+  "eval $work/cnn+refine/svbrdf.exr --stack $work/stack.exr --reference-normals $work/truth.exr --out $work/eval-normals"; do
+  # shellcheck disable=SC2086 # each line is one command's words
+  if message=$("$loom" $refused 2>&1); then echo "FAIL: loom $refused did not fail"; exit 1; fi
+  [[ $message == *"GPU build"* ]] || { echo "FAIL: loom $refused did not say why: $message"; exit 1; }
+done
 # What loom and the CNN's module load, and what the carried libraries load in turn, resolved in the
 # prefix (Debian's CPU LibTorch here brings more of OpenCV; PyTorch's on a GPU machine does not).
 missing=$(ldd "$loom" "$build_dir/build/fitting/cnn/torch/libloom_cnn_torch.so" | grep "not found" || true)
