@@ -16,6 +16,7 @@
 #include "core/duration.h"
 #include "core/image.h"
 #include "core/status.h"
+#include "core/version.h"
 
 namespace loom::apps {
 
@@ -34,6 +35,13 @@ struct Command {
 const std::vector<Command>& Commands();
 // What the build's libraries need before any command runs (main() calls it once).
 void StartLibraries(const char* program);
+// What `loom version` says of this build: the GPU build's, and the libraries only it links (the
+// full build's device and vision libraries; commands.cc or gpu_commands.cc).
+struct BuildFacts {
+  bool gpu = false;
+  std::vector<LinkedLibrary> libraries;
+};
+BuildFacts ThisBuild();
 // A reference normal map for `loom eval` (photos/capture_import.h's rule; the GPU build, which
 // reads no photographs, refuses it naming the file).
 Result<Image> ReadReferenceNormals(const std::filesystem::path& path, int downsample);

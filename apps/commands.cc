@@ -1,6 +1,10 @@
 // The full build's command table (the GPU build has gpu_commands.cc instead).
 #include "apps/command.h"
+#include "calibration/opencv_library.h"
 #include "fitting/solve/ceres_failures.h"
+#include "hal/aravis/aravis_library.h"
+#include "hal/modbus/modbus_library.h"
+#include "hal/usb/usb_library.h"
 #include "photos/capture_import.h"
 
 namespace loom::apps {
@@ -28,6 +32,10 @@ const std::vector<Command>& Commands() {
 }
 
 void StartLibraries(const char* program) { fitting::StartCeresLogging(program); }
+
+BuildFacts ThisBuild() {
+  return {.libraries = {hal::AravisLibrary(), hal::ModbusLibrary(), hal::UsbLibrary(), calibration::OpenCvLibrary()}};
+}
 
 Result<Image> ReadReferenceNormals(const std::filesystem::path& path, int downsample) {
   return photos::ReadNormalMap(path, downsample);

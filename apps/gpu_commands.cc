@@ -1,12 +1,7 @@
 // The command table of the GPU build (LOOM_GPU_BUILD: docs/gpu-training.md): training, fitting
 // and evaluating on a machine that has a CUDA LibTorch but not the scanner's other libraries.
-#include <iostream>
-
 #include "apps/command.h"
-#include "core/version.h"
-#include "fitting/cnn/cnn_training.h"
 #include "fitting/solve/ceres_failures.h"
-#include "fitting/solver_libraries.h"
 
 namespace loom::apps {
 
@@ -25,6 +20,8 @@ const std::vector<Command>& Commands() {
 
 void StartLibraries(const char* program) { fitting::StartCeresLogging(program); }
 
+BuildFacts ThisBuild() { return {.gpu = true}; }
+
 Result<Image> ReadReferenceNormals(const std::filesystem::path& path, int) {
   return UnimplementedError(path.string(),
                             "the GPU build reads no normal maps (it has no image codecs): evaluate with a full build");
@@ -36,24 +33,6 @@ std::function<Status()> AddSimCaptureCommand(CLI::App& sim) {
     return UnimplementedError("loom sim capture",
                               "the GPU build writes no photographs (it has no image codecs): use a full build");
   };
-}
-
-int RunVersion(int argc, char** argv) {
-  CLI::App app("Print loom's version, its libraries and the CUDA GPUs its LibTorch sees", "loom version");
-  bool devices = true;
-  app.add_flag("--devices", devices, "The devices the CNN can run on (this build always lists them)");
-  AddCommonOptions(app);
-  if (std::optional<int> exit = ParseCommandLine(app, argc, argv)) return *exit;
-  std::cout << "loom " << VersionWithCommit() << " (GPU build: fit, train, model, eval, sim)\n";
-  std::vector<LinkedLibrary> libraries = CoreLibraries();
-  for (const LinkedLibrary& library : fitting::SolverLibraries()) libraries.push_back(library);
-  for (const LinkedLibrary& library : libraries) {
-    std::cout << "  " << library.name << std::string(10 - library.name.size(), ' ') << library.version << "\n";
-  }
-  const Result<int> gpus = fitting::CudaDevices();  // the CNN's LibTorch's answer
-  std::cout << "  devices   cpu" << (gpus.ok() ? ", " + std::to_string(*gpus) + " CUDA GPU(s)" : "")
-            << (gpus.ok() ? "" : " (the CNN's module: " + gpus.status().ToString() + ")") << "\n";
-  return kExitOk;
 }
 
 }  // namespace loom::apps
