@@ -12,6 +12,7 @@
 
 #include "core/spectra.h"
 #include "fitting/solve/internal/pixel_cost.h"
+#include "fitting/solve/internal/stack_stages.h"
 #include "fitting/testing/tac7_mini.h"
 
 namespace loom::fitting {
@@ -219,6 +220,27 @@ TEST(PixelFitterTest, RecoversAnAnisotropicPixelFromAGenericStart) {
   EXPECT_LT((p.a_s - truth.a_s).cwiseAbs().maxCoeff(), 0.03);
   ExpectSameLobe(p, truth, 0.1, 5);
   EXPECT_EQ(fit->observations_used, static_cast<int>(observations.size()));
+}
+
+// A retry's grid starts (internal/stack_stages.h) around a photometric-stereo normal that a
+// highlight tilted 35° off a glossy pixel's: searched around that normal alone (within 20° of it,
+// as on sparse stacks) no start comes near the truth; on dense stacks the stack's own normal is
+// searched too and the lowest-cost starts of both are kept.
+TEST(PixelFitterTest, GridStartsAroundATiltedNormalAlsoSearchTheStacksOwnOnDenseStacks) {
+  WardParams<double> truth = Truth();
+  truth.sigma_x = 0.05;
+  truth.sigma_y = 0.08;
+  const std::vector<PixelObservation> observations = Observe(truth, 0, 1);
+  const Eigen::Vector3d tilted = Eigen::AngleAxisd(35 * kPi / 180, Eigen::Vector3d::UnitX()) * truth.n_s;
+  const Eigen::Matrix3d turn = internal::TurnOntoZ(tilted);
+  const auto search = [&](const std::vector<PixelObservation>& o) { return GridInitialParams(o, truth.f0, 4); };
+  const std::vector<WardParams<double>> sparse = internal::GridStartsAround({turn, false}, observations, search);
+  ASSERT_EQ(sparse.size(), 4u);
+  EXPECT_GT(AngleDeg(sparse.front().n_s, truth.n_s), 10.0);  // the failure this guards against
+  const std::vector<WardParams<double>> dense = internal::GridStartsAround({turn, true}, observations, search);
+  ASSERT_EQ(dense.size(), 4u);
+  EXPECT_LT(AngleDeg(dense.front().n_s, truth.n_s), 8.0);
+  EXPECT_LE(internal::RelativeRms(dense.front(), observations), internal::RelativeRms(sparse.front(), observations));
 }
 
 TEST(PixelFitterTest, WithF0FreeTheObservableSpecularProductIsRecovered) {

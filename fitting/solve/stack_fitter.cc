@@ -291,7 +291,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
   if (refiner) {
     LOOM_ASSIGN_OR_RETURN(summary.pixels_retry_finished,
                           RefineRetries(pixels, stack, retry, refine, options, summary.retry_threshold_rms, start_of, normals,
-                                        retry_progress, outcomes));
+                                        dense, retry_progress, outcomes));
     end_stage(stage.retries);
     if (smoothing.weight > 0) {
       LOOM_RETURN_IF_ERROR(SmoothingPass(
@@ -305,7 +305,7 @@ Result<StackFit> FitStack(const ObservationStack& stack, const StackFitOptions& 
         [&](int r) {
           const int i = retry[r];
           const std::vector<PixelObservation> observations = pixels.Observations(i % width, i / width);
-          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options, normals.Turn(i),
+          outcomes[i] = RetryFromGrid(observations, outcomes[i], pixel_options, options, {normals.Turn(i), dense},
                                       normals.empty() ? std::nullopt : normals.Pixel(i));
         },
         retry_progress);

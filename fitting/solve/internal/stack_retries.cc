@@ -52,7 +52,7 @@ std::vector<int> FittedNeighbours(const std::vector<PixelOutcome>& outcomes, int
 // Returns how many were finished.
 Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                              const RefineOptions& refine, const StackFitOptions& options, double threshold,
-                             const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals,
+                             const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals, bool dense,
                              std::vector<PixelOutcome>& outcomes) {
   const int width = pixels.width(), height = pixels.height();
   const int grid_starts = options.retry_grid_starts;
@@ -69,7 +69,7 @@ Result<int> RefineRetryChunk(const StackPixels& pixels, const ObservationStack& 
       candidates.push_back(outcomes[n].params);
     }
     if (const int more = grid_starts - static_cast<int>(candidates.size()); more > 0) {
-      for (const WardParams<double>& p : GridStartsAround(normals.Turn(i), observations[r], [&](const auto& o) {
+      for (const WardParams<double>& p : GridStartsAround({normals.Turn(i), dense}, observations[r], [&](const auto& o) {
              return GridStarts(o, refine.fixed_f0.value_or(1.0), more, kGridLights, kGridNormals);
            })) {
         candidates.push_back(p);
@@ -168,9 +168,9 @@ bool WorseThanLambertian(const PixelOutcome& outcome, const NormalStarts& normal
 // A pixel fitted again from grid-searched starts (its highlight is not where its start put it)
 // and, where it has one, from its Lambertian surface; the better of the fits is kept.
 PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, const PixelOutcome& first,
-                           const PixelFitOptions& fit, const StackFitOptions& options, const std::optional<Eigen::Matrix3d>& turn,
+                           const PixelFitOptions& fit, const StackFitOptions& options, const GridFrames& frames,
                            const std::optional<LambertPixel>& lambertian) {
-  std::vector<WardParams<double>> starts = GridStartsAround(turn, observations, [&](const auto& o) {
+  std::vector<WardParams<double>> starts = GridStartsAround(frames, observations, [&](const auto& o) {
     return GridInitialParams(o, fit.fixed_f0.value_or(1.0), options.retry_grid_starts);
   });
   if (lambertian) {  // the Lambertian surface with a faint lobe to grow from (at a_s 0 σ has no gradient)
@@ -237,7 +237,7 @@ Result<std::vector<int>> PropagateFromNeighbours(const StackPixels& pixels, cons
 // the fit when repeated), about 150 KB a pixel on tac7-mini. Returns how many were finished.
 Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                           const RefineOptions& refine, const StackFitOptions& options, double threshold,
-                          const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals,
+                          const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals, bool dense,
                           const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes) {
   constexpr size_t kChunk = 512;
   int finished = 0;
@@ -246,7 +246,7 @@ Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& sta
     const std::vector<int> chunk(retry.begin() + static_cast<std::ptrdiff_t>(first),
                                  retry.begin() + static_cast<std::ptrdiff_t>(end));
     LOOM_ASSIGN_OR_RETURN(const int chunk_finished,
-                          RefineRetryChunk(pixels, stack, chunk, refine, options, threshold, start_of, normals, outcomes));
+                          RefineRetryChunk(pixels, stack, chunk, refine, options, threshold, start_of, normals, dense, outcomes));
     finished += chunk_finished;
     progress(static_cast<int>(end));
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "core/geometry.h"
 #include "core/parallel.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/solve/internal/normal_frame.h"
@@ -64,18 +65,38 @@ double HalfVectorSpacing(const StackPixels& pixels) {
   return spacings[spacings.size() / 2];
 }
 
+// A photometric-stereo normal tilted further than this from the stack's normal has the retries
+// also search around the stack's (GridFrames::also_stack_normal): half the 20° that a search
+// reaches from the normal it is given.
+constexpr double kStackNormalSearchTiltDeg = 10;
+
 // Grid-searched starts (GridInitialParams, or the refiner's GridStarts through `search`) around
 // the pixel's photometric-stereo normal where it has one: the search's normals lie within 20° of
-// the normal it is given, and a curved surface tilts much further than that.
+// the normal it is given, and a curved surface tilts much further than that. With
+// `also_stack_normal` the search runs around the stack's own normal too (where the two lie more
+// than kStackNormalSearchTiltDeg apart) and the lowest-cost starts of both are kept: on a dense
+// stack a highlight tilts a glossy flat fabric's photometric-stereo normal, and starts searched
+// around it alone left a noise-free fabric's retried pixels in a wrong basin. Not on sparse
+// stacks: on a phone's eight flash photographs the lower-cost start generalised worse
+// (docs/benchmarks.md, "The per-pixel Ceres fit").
 std::vector<WardParams<double>> GridStartsAround(
-    const std::optional<Eigen::Matrix3d>& turn, const std::vector<PixelObservation>& observations,
+    const GridFrames& frames, const std::vector<PixelObservation>& observations,
     const std::function<std::vector<WardParams<double>>(const std::vector<PixelObservation>&)>& search) {
-  if (!turn) return search(observations);
+  if (!frames.turn) return search(observations);
   std::vector<PixelObservation> turned = observations;
-  internal::TurnObservations(*turn, turned);
+  internal::TurnObservations(*frames.turn, turned);
   std::vector<WardParams<double>> starts = search(turned);
-  for (WardParams<double>& start : starts) start = internal::TurnedBack(*turn, start);
-  return starts;
+  for (WardParams<double>& start : starts) start = internal::TurnedBack(*frames.turn, start);
+  // Tilted less than half the search's reach, the normal's search already covers the stack's.
+  if (!frames.also_stack_normal || (*frames.turn)(2, 2) > std::cos(DegToRad(kStackNormalSearchTiltDeg))) return starts;
+  const size_t count = starts.size();
+  for (const WardParams<double>& start : search(observations)) starts.push_back(start);
+  std::vector<std::pair<double, size_t>> ranked;
+  for (size_t k = 0; k < starts.size(); ++k) ranked.push_back({RelativeRms(starts[k], observations), k});
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<WardParams<double>> best;
+  for (size_t k = 0; k < count && k < ranked.size(); ++k) best.push_back(starts[ranked[k].second]);
+  return best;
 }
 
 // RMS of the model's residuals relative to the pixel's mean radiance.

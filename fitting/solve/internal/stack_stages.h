@@ -65,8 +65,15 @@ struct MaterialF0 {
 WardParams<double> NeutralStart();  // a pixel without a cluster, never fitted: a finite start
 WardParams<double> NanParams();     // a pixel not fitted, in every parameter
 double HalfVectorSpacing(const StackPixels& pixels);
+// Where a retry's grid search looks (GridStartsAround): around the pixel's photometric-stereo
+// normal (`turn` takes it onto z) where it has one, and on dense stacks around the stack's own
+// normal as well.
+struct GridFrames {
+  std::optional<Eigen::Matrix3d> turn;
+  bool also_stack_normal = false;
+};
 std::vector<WardParams<double>> GridStartsAround(
-    const std::optional<Eigen::Matrix3d>& turn, const std::vector<PixelObservation>& observations,
+    const GridFrames& frames, const std::vector<PixelObservation>& observations,
     const std::function<std::vector<WardParams<double>>(const std::vector<PixelObservation>&)>& search);
 double RelativeRms(const WardParams<double>& params, const std::vector<PixelObservation>& observations);
 Result<PixelFitResult> FitFromStarts(const std::vector<PixelObservation>& observations,
@@ -102,7 +109,7 @@ Result<std::vector<PixelOutcome>> RefineAll(const StackPixels& pixels, const Obs
 // Step 5 (stack_retries.cc).
 bool WorseThanLambertian(const PixelOutcome& outcome, const NormalStarts& normals, int i);
 PixelOutcome RetryFromGrid(const std::vector<PixelObservation>& observations, const PixelOutcome& first,
-                           const PixelFitOptions& fit, const StackFitOptions& options, const std::optional<Eigen::Matrix3d>& turn,
+                           const PixelFitOptions& fit, const StackFitOptions& options, const GridFrames& frames,
                            const std::optional<LambertPixel>& lambertian);
 Result<std::vector<int>> PropagateFromNeighbours(const StackPixels& pixels, const ObservationStack& stack, std::vector<int> retry,
                                                  const RefineOptions& refine, const StackFitOptions& options, double threshold,
@@ -110,7 +117,7 @@ Result<std::vector<int>> PropagateFromNeighbours(const StackPixels& pixels, cons
                                                  std::vector<PixelOutcome>& outcomes, int& propagated);
 Result<int> RefineRetries(const StackPixels& pixels, const ObservationStack& stack, const std::vector<int>& retry,
                           const RefineOptions& refine, const StackFitOptions& options, double threshold,
-                          const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals,
+                          const std::function<WardParams<double>(int)>& start_of, const NormalStarts& normals, bool dense,
                           const std::function<void(int)>& progress, std::vector<PixelOutcome>& outcomes);
 
 // The smoothing pass (stack_smoothing.cc).
