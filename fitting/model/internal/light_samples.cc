@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/cpu_clones.h"
 #include "core/geometry.h"
 
 namespace loom::fitting::internal {
@@ -15,11 +16,11 @@ EmitterArrays::EmitterArrays(const std::vector<PointEmitter>& emitters) {
   }
 }
 
-// target_clones: the loop runs 8 (AVX-512) or 4 (AVX2) emitters per instruction where the
+// LOOM_CPU_CLONES: the loop runs 8 (AVX-512) or 4 (AVX2) emitters per instruction where the
 // processor has them. fitting/CMakeLists.txt keeps this file's floating point exact (no
 // contraction into FMAs, no -ffast-math), so every clone gives the scalar code's numbers.
-[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void LightGeometryAt(
-    const EmitterArrays& e, const Eigen::Vector3d& p, const Eigen::Matrix3d& local_from_sample, LightGeometry& out) {
+LOOM_CPU_CLONES void LightGeometryAt(const EmitterArrays& e, const Eigen::Vector3d& p, const Eigen::Matrix3d& local_from_sample,
+                                     LightGeometry& out) {
   const int n = e.size();
   out.lx.resize(n), out.ly.resize(n), out.lz.resize(n), out.irradiance.resize(n), out.cosine.resize(n);
   const double px = p.x(), py = p.y(), pz = p.z();

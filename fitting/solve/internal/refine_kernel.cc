@@ -15,6 +15,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/cpu_clones.h"
+
 namespace loom::fitting::internal {
 namespace {
 
@@ -441,8 +443,7 @@ template <int kSpan>
 
 }  // namespace
 
-[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void EvaluateLanes(const LaneData& d, const LaneInputs& in,
-                                                                                         LaneEquations& out) {
+LOOM_CPU_CLONES void EvaluateLanes(const LaneData& d, const LaneInputs& in, LaneEquations& out) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
   const Lobe<kSlotPair> lobe_twice = Twice(lobe);
@@ -482,8 +483,7 @@ template <int kSpan>
   LANES { out.cost_resolution[p] = kRadianceResolution * std::sqrt(out.cost_resolution[p]); }
 }
 
-[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]] void SumTermsLanes(const LaneData& d, const LaneInputs& in,
-                                                                                         double* diffuse, double* specular) {
+LOOM_CPU_CLONES void SumTermsLanes(const LaneData& d, const LaneInputs& in, double* diffuse, double* specular) {
   LaneLobe lobe;
   PrepareLobe(in, lobe);
   for (int k = 0; k < d.observations; ++k) {
