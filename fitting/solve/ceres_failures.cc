@@ -10,7 +10,9 @@ namespace {
 
 constexpr int kExitFailure = 1;
 
-[[noreturn]] void ExitOnFailedCheck() {
+// glog takes a pointer to a function whose type is noreturn: the GNU attribute, unlike [[noreturn]],
+// is part of the type for clang as well as GCC.
+__attribute__((noreturn)) void ExitOnFailedCheck() {
   // Only async-signal-safe calls: glog calls this with its own locks held, possibly mid-solve.
   static constexpr char kMessage[] =
       "\nerror: internal: a check inside Ceres failed (the line above names it); nothing of this run was kept. "

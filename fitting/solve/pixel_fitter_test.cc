@@ -243,6 +243,26 @@ TEST(PixelFitterTest, GridStartsAroundATiltedNormalAlsoSearchTheStacksOwnOnDense
   EXPECT_LE(internal::RelativeRms(dense.front(), observations), internal::RelativeRms(sparse.front(), observations));
 }
 
+// The second search costs a full evaluation per start, so it runs only where the photometric-stereo
+// normal lies further from the stack's than half the 20° that one search reaches (10°).
+TEST(PixelFitterTest, GridStartsSearchTheStacksOwnNormalOnlyWhereTheGivenOneIsTiltedMoreThan10Degrees) {
+  WardParams<double> truth = Truth();
+  truth.sigma_x = 0.05;
+  truth.sigma_y = 0.08;
+  const std::vector<PixelObservation> observations = Observe(truth, 0, 1);
+  int searches = 0;
+  const auto search = [&](const std::vector<PixelObservation>& o) {
+    ++searches;
+    return GridInitialParams(o, truth.f0, 4);
+  };
+  for (const double tilt_deg : {8.0, 12.0}) {
+    searches = 0;
+    const Eigen::Vector3d tilted = Eigen::AngleAxisd(tilt_deg * kPi / 180, Eigen::Vector3d::UnitX()) * Eigen::Vector3d::UnitZ();
+    EXPECT_EQ(internal::GridStartsAround({internal::TurnOntoZ(tilted), true}, observations, search).size(), 4u);
+    EXPECT_EQ(searches, tilt_deg < 10 ? 1 : 2) << "normal tilted " << tilt_deg << "°";
+  }
+}
+
 TEST(PixelFitterTest, WithF0FreeTheObservableSpecularProductIsRecovered) {
   const WardParams<double> truth = Truth();
   const std::vector<PixelObservation> observations = Observe(truth, 0.01, 7);

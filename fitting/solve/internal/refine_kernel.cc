@@ -528,10 +528,14 @@ LOOM_CPU_CLONES void SumTermsLanes(const LaneData& d, const LaneInputs& in, doub
 }
 
 const char* RefineKernelIsa() {
+#if defined(__clang__)
+  return "x86-64 baseline (SSE2; clang builds no per-level clones: core/cpu_clones.h)";
+#else
   __builtin_cpu_init();
   if (__builtin_cpu_supports("x86-64-v4")) return "x86-64-v4 (AVX-512)";
   if (__builtin_cpu_supports("x86-64-v3")) return "x86-64-v3 (AVX2, FMA)";
   return "x86-64 baseline (SSE2)";
+#endif
 }
 
 LaneData::LaneData(const std::vector<int>& slots_per_observation) : observations(static_cast<int>(slots_per_observation.size())) {

@@ -71,7 +71,8 @@ Result<MaterialF0> SearchF0(const StackPixels& pixels, const ObservationStack& s
   ParallelFor(count, options.threads, [&](int k) { observations[k] = pixels.Observations(probe[k] % width, probe[k] / width); });
   LOOM_ASSIGN_OR_RETURN(const auto first, FitAtF0One(
                                               observations, stack, [&](int k) { return start_at(probe[k], 1.0); }, options));
-  const auto& [fitted, costs] = first;
+  const std::vector<WardParams<double>>& fitted = first.first;
+  const std::vector<double>& costs = first.second;
   // The best-fitted share: a pixel left in a wrong basin costs far more than the rest and tells
   // nothing of F0.
   std::vector<int> order(count);
