@@ -184,7 +184,7 @@ TEST_F(ImportCommandTest, AFlashCaptureOfFewViewsIsFittedNoWorseThanALambertianS
       << selection.dump();
   // The free GD10 fit predicted the views left out of it worse than the Lambertian surface did
   // (measured on such fabrics: 2–6× worse); the choice is no worse than the better of the two on
-  // the view this test held out (measured 1.00×).
+  // the view this test held out (measured 1.03×).
   EXPECT_LE(l1[0], 1.05 * l1[1]) << "ceres " << l1[0] << ", lambert " << l1[1];
 }
 

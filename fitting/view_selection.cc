@@ -107,11 +107,17 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     return label >= 0 ? static_cast<long>(label) : -1 - static_cast<long>(i);  // no cluster: the pixel alone
   };
   // Per region: each model's error over the pixels both predicted, and how many pixels each
-  // failed to predict (skipped by its fit of some fold) where the other did.
+  // failed to predict (skipped by its fit of some fold) where the other did. Where both predicted
+  // most of the region, their errors there choose: a model that fails on a few pixels (too few
+  // views left in a fold) loses those, not the region. Where they did not, the model that
+  // predicted more pixels is kept.
   struct RegionErrors {
     double gd10 = 0, lambert = 0;
-    int gd10_failed = 0, lambert_failed = 0;
-    bool Lambertian() const { return gd10_failed != lambert_failed ? gd10_failed > lambert_failed : lambert < gd10; }
+    int both = 0, gd10_failed = 0, lambert_failed = 0;
+    bool Lambertian() const {
+      if (both >= gd10_failed + lambert_failed) return lambert < gd10;
+      return gd10_failed >= lambert_failed;
+    }
   };
   std::map<long, RegionErrors> regions;
   double all_gd10 = 0, all_lambert = 0, all_measured = 0;
@@ -120,6 +126,7 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     const bool g = std::isfinite(gd10_error[i]), l = std::isfinite(lambert_error[i]);
     r.gd10_failed += !g && l, r.lambert_failed += g && !l;
     if (!g || !l) continue;
+    ++r.both;
     r.gd10 += gd10_error[i], r.lambert += lambert_error[i];
     all_gd10 += gd10_error[i], all_lambert += lambert_error[i], all_measured += measured[i];
   }

@@ -1,0 +1,117 @@
+// The choice between the GD10 fit and the Lambertian one by left-out views (view_selection.h), on
+// a few views of a small tac7-mini fabric. The two "fits" here return fixed maps, so that what
+// each model predicts of a left-out view is known: the truth for one, a worse material for the
+// other.
+#include "fitting/view_selection.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fitting/model/svbrdf_maps.h"
+#include "fitting/solve/stack_fitter.h"
+#include "fitting/testing/tac7_mini.h"
+#include "sim/fabric.h"
+#include "sim/stack.h"
+
+namespace loom::fitting {
+namespace {
+
+struct FewViews {
+  ObservationStack stack;
+  Image truth;
+};
+
+FewViews SixViewsOfAFabric() {
+  const sim::Scene scene(testing::TacMiniGeometry(), sim::GenerateFabric(4, {.width_px = 6, .height_px = 6, .pixel_mm = 0.2}));
+  const ObservationStack all = sim::RenderStack(scene, testing::TacMiniObservations(scene.rig(), 4), {});
+  std::vector<int> kept;
+  for (const std::vector<int>& view : StackViews(all)) {
+    if (StackViews(SelectObservations(all, kept)).size() == 6) break;
+    kept.insert(kept.end(), view.begin(), view.end());
+  }
+  return {SelectObservations(all, kept), sim::TruthOnStackGrid(scene, {}).maps};
+}
+
+// A pixel a fit skipped: NaN in every parameter (svbrdf_maps.h).
+WardParams<double> Skipped() {
+  WardParams<double> p;
+  p.n_s = p.a_d = p.a_s = Eigen::Vector3d::Constant(NAN);
+  p.sigma_x = p.sigma_y = p.alpha = p.f0 = NAN;
+  return p;
+}
+
+// One appearance region (fit.cluster 0) over every pixel, as the GD10 fit labels its clusters.
+Image OneRegion(Image maps) {
+  const int cluster = maps.AddChannel(kFitClusterChannel);
+  for (float& label : maps.channel(cluster)) label = 0;
+  return maps;
+}
+
+Image WithDiffuseScaled(Image maps, float factor) {
+  for (const char* name : {"a_d.R", "a_d.G", "a_d.B"}) {
+    for (float& value : maps.channel(*maps.FindChannel(name))) value *= factor;
+  }
+  return maps;
+}
+
+// A fit that cannot fit one pixel of a region (too few views left in some fold) loses that pixel,
+// not the region's choice: the region keeps the model that predicted its views better.
+TEST(ViewSelectionTest, AModelThatSkipsAPixelInSomeFoldsStillWinsTheRegionItPredictsBetter) {
+  const FewViews capture = SixViewsOfAFabric();
+  const size_t all_observations = capture.stack.observations.size();
+  const StackMapsFit gd10 = [&](const ObservationStack&) -> Result<Image> {
+    return OneRegion(WithDiffuseScaled(capture.truth, 1.5f));
+  };
+  const StackMapsFit lambert = [&](const ObservationStack& stack) -> Result<Image> {
+    Image maps = capture.truth;
+    if (stack.observations.size() < all_observations) SetParams(maps, 0, 0, Skipped());
+    return maps;
+  };
+  const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
+  ASSERT_TRUE(selection.ok()) << selection.status().ToString();
+  EXPECT_EQ(selection->views, 6);
+  EXPECT_EQ(selection->pixels_lambert, 36);
+  EXPECT_EQ(selection->pixels_gd10, 0);
+  EXPECT_LT(selection->held_out_l1_chosen, selection->held_out_l1_gd10);
+  EXPECT_EQ(GetParams(selection->maps, 0, 0).a_d, GetParams(capture.truth, 0, 0).a_d);
+}
+
+// A model that no fold could fit (too few views left for GD10's parameters) is not chosen for
+// the other's errors, however large: it predicted nothing to compare.
+TEST(ViewSelectionTest, AModelNoFoldCouldFitIsNotChosenOverOneThatPredictedBadly) {
+  const FewViews capture = SixViewsOfAFabric();
+  const size_t all_observations = capture.stack.observations.size();
+  const StackMapsFit gd10 = [&](const ObservationStack& stack) -> Result<Image> {
+    Image maps = OneRegion(capture.truth);
+    for (int y = 0; y < maps.height(); ++y) {
+      for (int x = 0; x < maps.width(); ++x) {
+        if (stack.observations.size() < all_observations) SetParams(maps, x, y, Skipped());
+      }
+    }
+    return maps;
+  };
+  const StackMapsFit lambert = [&](const ObservationStack&) -> Result<Image> { return WithDiffuseScaled(capture.truth, 4.0f); };
+  const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
+  ASSERT_TRUE(selection.ok()) << selection.status().ToString();
+  EXPECT_EQ(selection->pixels_lambert, 36);
+}
+
+// Where the other model wins, a pixel the full fit of the losing model skipped is not an error.
+TEST(ViewSelectionTest, TheRegionKeepsTheGd10FitWhereItPredictsTheLeftOutViewsBetter) {
+  const FewViews capture = SixViewsOfAFabric();
+  const StackMapsFit gd10 = [&](const ObservationStack&) -> Result<Image> { return OneRegion(capture.truth); };
+  const StackMapsFit lambert = [&](const ObservationStack&) -> Result<Image> {
+    Image maps = WithDiffuseScaled(capture.truth, 0.5f);
+    SetParams(maps, 1, 1, Skipped());
+    return maps;
+  };
+  const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
+  ASSERT_TRUE(selection.ok()) << selection.status().ToString();
+  EXPECT_EQ(selection->pixels_gd10, 36);
+  EXPECT_EQ(selection->pixels_lambert, 0);
+  EXPECT_LT(selection->held_out_l1_chosen, selection->held_out_l1_lambert);
+}
+
+}  // namespace
+}  // namespace loom::fitting
