@@ -108,9 +108,9 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
   };
   // Per region: each model's error over the pixels both predicted, and how many pixels each
   // failed to predict (skipped by its fit of some fold) where the other did. Where both predicted
-  // most of the region, their errors there choose: a model that fails on a few pixels (too few
-  // views left in a fold) loses those, not the region. Where they did not, the model that
-  // predicted more pixels is kept.
+  // at least as many pixels as the two failed on together, their errors there choose: a model
+  // that fails on a few pixels (too few views left in a fold) loses those, not the region.
+  // Elsewhere the model that predicted more pixels is kept.
   struct RegionErrors {
     double gd10 = 0, lambert = 0;
     int both = 0, gd10_failed = 0, lambert_failed = 0;
