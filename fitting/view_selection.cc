@@ -76,7 +76,8 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
   const auto start = std::chrono::steady_clock::now();
   const std::vector<std::vector<int>> views = StackViews(stack);
   const size_t pixels = stack.image.pixel_count();
-  std::vector<double> gd10_error(pixels, 0), lambert_error(pixels, 0);
+  // Per view left out, per pixel: each model's error on it.
+  std::vector<std::vector<double>> gd10_errors, lambert_errors;
   std::vector<double> measured(pixels, 0);
   for (size_t v = 0; v < views.size(); ++v) {
     std::vector<int> kept;
@@ -86,11 +87,18 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     const ObservationStack without = SelectObservations(stack, kept);
     LOOM_ASSIGN_OR_RETURN(const Image gd10_maps, gd10(without));
     LOOM_ASSIGN_OR_RETURN(const Image lambert_maps, lambert(without));
-    const std::vector<double> g = PixelErrors(gd10_maps, stack, views[v]);
-    const std::vector<double> l = PixelErrors(lambert_maps, stack, views[v]);
-    for (size_t i = 0; i < pixels; ++i) gd10_error[i] += g[i], lambert_error[i] += l[i];
+    gd10_errors.push_back(PixelErrors(gd10_maps, stack, views[v]));
+    lambert_errors.push_back(PixelErrors(lambert_maps, stack, views[v]));
     AddMeasured(stack, views[v], measured);
   }
+  const auto summed = [&](const std::vector<std::vector<double>>& by_view) {
+    std::vector<double> sums(pixels, 0);
+    for (const std::vector<double>& errors : by_view) {
+      for (size_t i = 0; i < pixels; ++i) sums[i] += errors[i];
+    }
+    return sums;
+  };
+  const std::vector<double> gd10_error = summed(gd10_errors), lambert_error = summed(lambert_errors);
   ViewSelection selection;  // (the totals below: over the pixels both models predicted)
   selection.views = static_cast<int>(views.size());
   LOOM_ASSIGN_OR_RETURN(selection.maps, gd10(stack));
@@ -106,17 +114,24 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     const float label = cluster_channel ? selection.maps.at(*cluster_channel, y, x) : -1.0f;
     return label >= 0 ? static_cast<long>(label) : -1 - static_cast<long>(i);  // no cluster: the pixel alone
   };
-  // Per region: each model's error over the pixels both predicted, and how many pixels each
-  // failed to predict (skipped by its fit of some fold) where the other did. Where both predicted
-  // at least as many pixels as the two failed on together, their errors there choose: a model
-  // that fails on a few pixels (too few views left in a fold) loses those, not the region.
-  // Elsewhere the model that predicted more pixels is kept.
+  // Per region: each model's error over the pixels both predicted (in all and per view left
+  // out), and how many pixels each failed to predict (skipped by its fit of some fold) where the
+  // other did. Where both predicted at least as many pixels as the two failed on together, their
+  // errors there choose: a model that fails on a few pixels (too few views left in a fold) loses
+  // those, not the region. GD10 is kept where it predicted the region better in all and on most
+  // of the views left out: one view's highlight that it happened to place can win the sum while
+  // it predicts the region worse on the other views, and a view left out of the capture's fit is
+  // more likely one of those. Elsewhere the model that predicted more pixels is kept.
   struct RegionErrors {
     double gd10 = 0, lambert = 0;
+    std::vector<double> gd10_views, lambert_views;
     int both = 0, gd10_failed = 0, lambert_failed = 0;
     bool Lambertian() const {
-      if (both >= gd10_failed + lambert_failed) return lambert < gd10;
-      return gd10_failed >= lambert_failed;
+      if (both < gd10_failed + lambert_failed) return gd10_failed >= lambert_failed;
+      if (!(gd10 < lambert)) return true;
+      size_t gd10_wins = 0;
+      for (size_t v = 0; v < gd10_views.size(); ++v) gd10_wins += gd10_views[v] < lambert_views[v];
+      return 2 * gd10_wins <= gd10_views.size();
     }
   };
   std::map<long, RegionErrors> regions;
@@ -128,6 +143,8 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     if (!g || !l) continue;
     ++r.both;
     r.gd10 += gd10_error[i], r.lambert += lambert_error[i];
+    r.gd10_views.resize(views.size()), r.lambert_views.resize(views.size());
+    for (size_t v = 0; v < views.size(); ++v) r.gd10_views[v] += gd10_errors[v][i], r.lambert_views[v] += lambert_errors[v][i];
     all_gd10 += gd10_error[i], all_lambert += lambert_error[i], all_measured += measured[i];
   }
   double chosen = 0;

@@ -110,5 +110,28 @@ TEST(ViewSelectionTest, TheRegionKeepsTheGd10FitWhereItPredictsTheLeftOutViewsBe
   EXPECT_LT(selection->held_out_l1_chosen, selection->held_out_l1_lambert);
 }
 
+// Whether `stack` is `all` without its first view (SelectObservations keeps the order, and
+// StackViews numbers views by their first observation).
+bool LeavesOutTheFirstView(const ObservationStack& stack, const ObservationStack& all) {
+  return stack.observations.front().emitters.front().position_mm != all.observations.front().emitters.front().position_mm;
+}
+
+// GD10 predicts the region far better on one left-out view and somewhat worse on the five others,
+// better in all: the region keeps the Lambertian fit, which predicted most views better.
+TEST(ViewSelectionTest, Gd10IsNotKeptWhereOneViewWinsItTheSumButItPredictsMostViewsWorse) {
+  const FewViews capture = SixViewsOfAFabric();
+  const StackMapsFit gd10 = [&](const ObservationStack&) -> Result<Image> {
+    return OneRegion(WithDiffuseScaled(capture.truth, 1.1f));
+  };
+  const StackMapsFit lambert = [&](const ObservationStack& stack) -> Result<Image> {
+    return WithDiffuseScaled(capture.truth, LeavesOutTheFirstView(stack, capture.stack) ? 3.0f : 1.05f);
+  };
+  const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
+  ASSERT_TRUE(selection.ok()) << selection.status().ToString();
+  ASSERT_LT(selection->held_out_l1_gd10, selection->held_out_l1_lambert);
+  EXPECT_EQ(selection->pixels_lambert, 36);
+  EXPECT_EQ(selection->pixels_gd10, 0);
+}
+
 }  // namespace
 }  // namespace loom::fitting
