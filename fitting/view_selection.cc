@@ -118,20 +118,32 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
   // out), and how many pixels each failed to predict (skipped by its fit of some fold) where the
   // other did. Where both predicted at least as many pixels as the two failed on together, their
   // errors there choose: a model that fails on a few pixels (too few views left in a fold) loses
-  // those, not the region. GD10 is kept where it predicted the region better in all and on most
-  // of the views left out: one view's highlight that it happened to place can win the sum while
-  // it predicts the region worse on the other views, and a view left out of the capture's fit is
-  // more likely one of those. Elsewhere the model that predicted more pixels is kept.
+  // those, not the region. GD10 is kept where it predicted the region better on most of the
+  // views left out and its mean gain over them is more than one standard error (paired view by
+  // view): its errors are heavy-tailed (a highlight placed or missed), so one view's placed
+  // highlight can win the sum while it predicts the others worse, and a gain smaller than its
+  // spread over eight views says as little about an unseen view as no gain. Elsewhere the model
+  // that predicted more pixels is kept.
   struct RegionErrors {
     double gd10 = 0, lambert = 0;
     std::vector<double> gd10_views, lambert_views;
     int both = 0, gd10_failed = 0, lambert_failed = 0;
     bool Lambertian() const {
       if (both < gd10_failed + lambert_failed) return gd10_failed >= lambert_failed;
-      if (!(gd10 < lambert)) return true;
       size_t gd10_wins = 0;
       for (size_t v = 0; v < gd10_views.size(); ++v) gd10_wins += gd10_views[v] < lambert_views[v];
-      return 2 * gd10_wins <= gd10_views.size();
+      return 2 * gd10_wins <= gd10_views.size() || Gd10GainInStandardErrors() <= 1;
+    }
+    // The mean over the left-out views of (Lambert's error − GD10's) over its standard error.
+    double Gd10GainInStandardErrors() const {
+      const double n = static_cast<double>(gd10_views.size());
+      double sum = 0, squares = 0;
+      for (size_t v = 0; v < gd10_views.size(); ++v) {
+        const double gain = lambert_views[v] - gd10_views[v];
+        sum += gain, squares += gain * gain;
+      }
+      const double mean = sum / n, variance = (squares - n * mean * mean) / (n - 1);
+      return variance > 0 ? mean / std::sqrt(variance / n) : (mean > 0 ? INFINITY : 0);
     }
   };
   std::map<long, RegionErrors> regions;

@@ -6,7 +6,7 @@
 // the others and scored on it (the sum of |predicted − measured| over the left-out views'
 // values), and each region of one appearance (the GD10 fit's clusters; a pixel alone where it has
 // none) keeps the model, fitted to every view, that predicted its pixels better: GD10 where it
-// predicted them better in all and on most of the left-out views.
+// predicted them better on most of the left-out views, by more than its gain's standard error.
 //
 // A view is a group of stack observations made with one camera and one set of lights: a
 // photograph's colour channels.

@@ -133,5 +133,21 @@ TEST(ViewSelectionTest, Gd10IsNotKeptWhereOneViewWinsItTheSumButItPredictsMostVi
   EXPECT_EQ(selection->pixels_gd10, 0);
 }
 
+// GD10 predicts the region a little better on five left-out views and much worse on the sixth,
+// better in all and on most views, but by less than its gain's spread over the views: the region
+// keeps the Lambertian fit (an unseen view may as well be one that GD10 predicts much worse).
+TEST(ViewSelectionTest, Gd10IsNotKeptWhereItsGainIsSmallAgainstItsSpreadOverTheViews) {
+  const FewViews capture = SixViewsOfAFabric();
+  const StackMapsFit gd10 = [&](const ObservationStack& stack) -> Result<Image> {
+    return OneRegion(WithDiffuseScaled(capture.truth, LeavesOutTheFirstView(stack, capture.stack) ? 1.5f : 1.1f));
+  };
+  const StackMapsFit lambert = [&](const ObservationStack&) -> Result<Image> { return WithDiffuseScaled(capture.truth, 1.2f); };
+  const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
+  ASSERT_TRUE(selection.ok()) << selection.status().ToString();
+  ASSERT_LT(selection->held_out_l1_gd10, selection->held_out_l1_lambert);
+  EXPECT_EQ(selection->pixels_lambert, 36);
+  EXPECT_EQ(selection->pixels_gd10, 0);
+}
+
 }  // namespace
 }  // namespace loom::fitting
