@@ -114,18 +114,16 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     const float label = cluster_channel ? selection.maps.at(*cluster_channel, y, x) : -1.0f;
     return label >= 0 ? static_cast<long>(label) : -1 - static_cast<long>(i);  // no cluster: the pixel alone
   };
-  // Per region: each model's error over the pixels both predicted (in all and per view left
-  // out), and how many pixels each failed to predict (skipped by its fit of some fold) where the
-  // other did. Where both predicted at least as many pixels as the two failed on together, their
-  // errors there choose: a model that fails on a few pixels (too few views left in a fold) loses
-  // those, not the region. GD10 is kept where it predicted the region better on most of the
-  // views left out and its mean gain over them is more than one standard error (paired view by
-  // view): its errors are heavy-tailed (a highlight placed or missed), so one view's placed
-  // highlight can win the sum while it predicts the others worse, and a gain smaller than its
-  // spread over eight views says as little about an unseen view as no gain. Elsewhere the model
-  // that predicted more pixels is kept.
+  // Per region: each model's error on each view left out over the pixels both predicted, and how
+  // many pixels each failed to predict (skipped by its fit of some fold) where the other did. Where
+  // both predicted at least as many pixels as the two failed on together, their errors there choose:
+  // a model that fails on a few pixels (too few views left in a fold) loses those, not the region.
+  // GD10 is kept where it predicted the region better on most of the views left out and its mean
+  // gain over them is more than one standard error (paired view by view): its errors are
+  // heavy-tailed (a highlight placed or missed), so one view's placed highlight can win the sum while it
+  // predicts the others worse, and a gain smaller than its spread over eight views says as little
+  // about an unseen view as no gain. Elsewhere the model that predicted more pixels is kept.
   struct RegionErrors {
-    double gd10 = 0, lambert = 0;
     std::vector<double> gd10_views, lambert_views;
     int both = 0, gd10_failed = 0, lambert_failed = 0;
     bool Lambertian() const {
@@ -154,7 +152,6 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     r.gd10_failed += !g && l, r.lambert_failed += g && !l;
     if (!g || !l) continue;
     ++r.both;
-    r.gd10 += gd10_error[i], r.lambert += lambert_error[i];
     r.gd10_views.resize(views.size()), r.lambert_views.resize(views.size());
     for (size_t v = 0; v < views.size(); ++v) r.gd10_views[v] += gd10_errors[v][i], r.lambert_views[v] += lambert_errors[v][i];
     all_gd10 += gd10_error[i], all_lambert += lambert_error[i], all_measured += measured[i];
