@@ -120,9 +120,10 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
   // a model that fails on a few pixels (too few views left in a fold) loses those, not the region.
   // GD10 is kept where it predicted the region better on most of the views left out and its mean
   // gain over them is more than one standard error (paired view by view): its errors are
-  // heavy-tailed (a highlight placed or missed), so one view's placed highlight can win the sum while it
-  // predicts the others worse, and a gain smaller than its spread over eight views says as little
-  // about an unseen view as no gain. Elsewhere the model that predicted more pixels is kept.
+  // heavy-tailed (a highlight placed or missed), so a few views' placed highlights can win the sum
+  // while it predicts the others worse, and a gain smaller than its spread over eight views says
+  // as little about an unseen view as no gain. Elsewhere the model that predicted more pixels is
+  // kept.
   struct RegionErrors {
     std::vector<double> gd10_views, lambert_views;
     int both = 0, gd10_failed = 0, lambert_failed = 0;
@@ -152,7 +153,7 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
     r.gd10_failed += !g && l, r.lambert_failed += g && !l;
     if (!g || !l) continue;
     ++r.both;
-    r.gd10_views.resize(views.size()), r.lambert_views.resize(views.size());
+    if (r.gd10_views.empty()) r.gd10_views.resize(views.size()), r.lambert_views.resize(views.size());
     for (size_t v = 0; v < views.size(); ++v) r.gd10_views[v] += gd10_errors[v][i], r.lambert_views[v] += lambert_errors[v][i];
     all_gd10 += gd10_error[i], all_lambert += lambert_error[i], all_measured += measured[i];
   }

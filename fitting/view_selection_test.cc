@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "fitting/model/svbrdf_maps.h"
@@ -110,21 +111,26 @@ TEST(ViewSelectionTest, TheRegionKeepsTheGd10FitWhereItPredictsTheLeftOutViewsBe
   EXPECT_LT(selection->held_out_l1_chosen, selection->held_out_l1_lambert);
 }
 
-// Whether `stack` is `all` without its first view (SelectObservations keeps the order, and
-// StackViews numbers views by their first observation).
-bool LeavesOutTheFirstView(const ObservationStack& stack, const ObservationStack& all) {
-  return stack.observations.front().emitters.front().position_mm != all.observations.front().emitters.front().position_mm;
+// Whether `stack` lacks view `view` of `all` (StackViews' numbering): none of its observations
+// has that view's camera and first light.
+bool LeavesOut(const ObservationStack& stack, const ObservationStack& all, int view) {
+  const StackObservation& first = all.observations[StackViews(all)[view].front()];
+  return std::none_of(stack.observations.begin(), stack.observations.end(), [&](const StackObservation& o) {
+    return o.camera_mm == first.camera_mm && o.emitters.front().position_mm == first.emitters.front().position_mm;
+  });
 }
 
-// GD10 predicts the region far better on one left-out view and somewhat worse on the five others,
-// better in all: the region keeps the Lambertian fit, which predicted most views better.
-TEST(ViewSelectionTest, Gd10IsNotKeptWhereOneViewWinsItTheSumButItPredictsMostViewsWorse) {
+// GD10 predicts the region far better on two left-out views and a little worse on the four
+// others, better in all and by more than its gain's standard error: the region keeps the
+// Lambertian fit, which predicted most views better.
+TEST(ViewSelectionTest, Gd10IsNotKeptWhereAFewViewsWinItTheSumButItPredictsMostViewsWorse) {
   const FewViews capture = SixViewsOfAFabric();
   const StackMapsFit gd10 = [&](const ObservationStack&) -> Result<Image> {
     return OneRegion(WithDiffuseScaled(capture.truth, 1.1f));
   };
   const StackMapsFit lambert = [&](const ObservationStack& stack) -> Result<Image> {
-    return WithDiffuseScaled(capture.truth, LeavesOutTheFirstView(stack, capture.stack) ? 3.0f : 1.05f);
+    const bool badly = LeavesOut(stack, capture.stack, 0) || LeavesOut(stack, capture.stack, 1);
+    return WithDiffuseScaled(capture.truth, badly ? 3.0f : 1.05f);
   };
   const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
   ASSERT_TRUE(selection.ok()) << selection.status().ToString();
@@ -139,7 +145,7 @@ TEST(ViewSelectionTest, Gd10IsNotKeptWhereOneViewWinsItTheSumButItPredictsMostVi
 TEST(ViewSelectionTest, Gd10IsNotKeptWhereItsGainIsSmallAgainstItsSpreadOverTheViews) {
   const FewViews capture = SixViewsOfAFabric();
   const StackMapsFit gd10 = [&](const ObservationStack& stack) -> Result<Image> {
-    return OneRegion(WithDiffuseScaled(capture.truth, LeavesOutTheFirstView(stack, capture.stack) ? 1.5f : 1.1f));
+    return OneRegion(WithDiffuseScaled(capture.truth, LeavesOut(stack, capture.stack, 0) ? 1.5f : 1.1f));
   };
   const StackMapsFit lambert = [&](const ObservationStack&) -> Result<Image> { return WithDiffuseScaled(capture.truth, 1.2f); };
   const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
