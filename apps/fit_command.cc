@@ -62,6 +62,12 @@ int RunFit(int argc, char** argv) {
                  "Lambertian fit, whichever predicts views left out of its fit better (0: never)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
+  app.add_option("--light-rounds", args.request.options.light_refinement_rounds,
+                 "ceres and refine on a stack lit by directional lights alone (loom import's ps and lp): rounds of "
+                 "re-estimating each light's direction and intensities from the fitted maps and fitting again (0: the "
+                 "stack's lights as they are)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10));
   app.add_flag("!--no-photometric-stereo-starts", args.request.options.photometric_stereo_starts,
                "Start every pixel on the geometric normal instead of its photometric-stereo normal");
   app.add_option("--prior-noise", args.request.options.prior_reference_noise_rms,

@@ -86,6 +86,15 @@ std::function<Status()> AddSimCaptureCommand(CLI::App& sim) {
       },
       "ps: the material shows what GD10 cannot: a grey GGX coat of albedo 0.1 and roughness 0.1, and 4° of mesostructure");
   capture_app->add_option("--seed", capture->request.object.seed, "Seed of the noise");
+  capture_app
+      ->add_option("--light-error-deg", capture->request.light_error_deg,
+                   "ps and lp: each light's direction in the files turned by |N(0, this)| degrees from the true one, as a "
+                   "dome's calibration errs")
+      ->check(CLI::Range(0.0, 20.0));
+  capture_app
+      ->add_option("--intensity-error", capture->request.intensity_error,
+                   "ps and lp: each light's true intensity off the files' by a factor N(1, this)")
+      ->check(CLI::Range(0.0, 0.5));
   capture_app->add_option("--truth", capture->truth, "Also write the true maps on the image's grid (OpenEXR)");
   capture_app->add_option("--normals", capture->normals, "Also write the true normals (OpenEXR X, Y, Z; y up)");
   capture_app->add_option("--out", capture->out, "Folder for the capture")->required();

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "fitting/cnn/cnn.h"
+#include "fitting/light_refinement.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "fitting/solve/lambert_fit.h"
 #include "fitting/view_selection.h"
@@ -51,6 +52,24 @@ Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, Stack
   return fit;
 }
 
+// Up to `rounds` of the stack's directional lights re-estimated from the last fit's maps and the
+// stack fitted again under them (light_refinement.h), while the corrections are worth applying;
+// each round's corrections from the stack's own lights. The maps are the last fit's; `report` the
+// corrections applied last, or the first estimate where none was worth applying.
+Result<StackFit> FitRefiningLights(const ObservationStack& stack, const StackFitOptions& options, StackFit fit,
+                                   nlohmann::json& report) {
+  for (int round = 0; round < options.light_refinement_rounds; ++round) {
+    LOOM_ASSIGN_OR_RETURN(const LightRefinement lights, EstimateLightCorrections(stack, fit.maps, options.threads));
+    if (!lights.WorthApplying()) {
+      if (round == 0) report = lights.ToJson();
+      break;
+    }
+    report = lights.ToJson();
+    LOOM_ASSIGN_OR_RETURN(fit, FitStack(WithCorrectedLights(stack, lights), options));
+  }
+  return fit;
+}
+
 }  // namespace
 
 FitMethod RecommendedMethod(const ObservationStack& stack, const std::filesystem::path& model_dir, bool start_maps) {
@@ -90,6 +109,9 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
   const bool few_views = static_cast<int>(StackViews(stack).size()) <= options.left_out_view_selection_max_views;
   if (!options.initial_maps && few_views) return FitChoosingByLeftOutViews(stack, options, std::move(fit));
   LOOM_ASSIGN_OR_RETURN(StackFit stack_fit, FitStack(stack, options));
+  if (!options.initial_maps && HasOnlyDirectionalLights(stack)) {
+    LOOM_ASSIGN_OR_RETURN(stack_fit, FitRefiningLights(stack, options, std::move(stack_fit), fit.light_refinement));
+  }
   fit.maps = std::move(stack_fit.maps);
   fit.summary = std::move(stack_fit.summary);
   return fit;
@@ -99,6 +121,7 @@ nlohmann::json MethodFit::ToJson() const {
   nlohmann::json json = summary ? summary->ToJson() : nlohmann::json{{"pixels", maps.pixel_count()}};
   if (!lambert.is_null()) json.update(lambert);
   if (!view_selection.is_null()) json["left_out_view_selection"] = view_selection;
+  if (!light_refinement.is_null()) json["light_refinement"] = light_refinement;
   if (summary) json.update(settings);
   std::vector<std::string> uncertainty;
   for (const std::string& name : maps.channel_names()) {

@@ -4,7 +4,9 @@
 // (fitting/solve/stack_fitter.h) started from those maps or from the clusters' fits; for lambert, robust
 // photometric stereo (fitting/solve/lambert_fit.h). ceres and refine on a stack of few views keep per pixel the
 // GD10 fit or the Lambertian one, whichever predicts left-out views better (view_selection.h,
-// StackFitOptions::left_out_view_selection_max_views).
+// StackFitOptions::left_out_view_selection_max_views); on a stack of more views lit by directional
+// lights alone they re-estimate the lights from their first fit and fit again under them where
+// that is worth it (light_refinement.h, StackFitOptions::light_refinement_rounds).
 
 #include <filesystem>
 #include <optional>
@@ -24,6 +26,7 @@ struct MethodFit {
   std::optional<StackFitSummary> summary;  // none for the CNN alone and for lambert
   nlohmann::json lambert;                  // lambert's summary (LambertFit::ToJson), null for the others
   nlohmann::json view_selection;           // where pixels chose by left-out views (ViewSelection::ToJson), else null
+  nlohmann::json light_refinement;         // the lights re-estimated (LightRefinement::ToJson), else null
   nlohmann::json settings;                 // the options the fit ran with (StackFitOptions::ToJson)
   std::string cnn;                         // the model used, described in a line ("" without one)
   double cnn_seconds = 0;

@@ -1,8 +1,14 @@
 #include "photos/simulated_capture.h"
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <span>
 #include <sstream>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "photos/capture_export.h"
 
@@ -48,9 +54,28 @@ Result<SimulatedCapture> WriteFlashCapture(const SimulatedCaptureRequest& reques
                           description.str()};
 }
 
+// The files' lights as a calibration errs (SimulatedCaptureRequest::light_error_deg and
+// intensity_error), the images staying those of the true lights but for each light's intensity.
+void MiscalibrateLights(const SimulatedCaptureRequest& request, sim::ObjectCapture& rendered) {
+  if (request.light_error_deg == 0 && request.intensity_error == 0) return;
+  std::mt19937_64 random(request.object.seed ^ 0x6c696768u);
+  std::normal_distribution<double> normal(0, 1);
+  for (size_t k = 0; k < rendered.light_directions.size(); ++k) {
+    Eigen::Vector3d& l = rendered.light_directions[k];
+    const Eigen::Vector3d axis = l.cross(Eigen::Vector3d(normal(random), normal(random), normal(random))).normalized();
+    const double turn = std::abs(normal(random)) * request.light_error_deg * std::numbers::pi / 180;
+    l = Eigen::AngleAxisd(turn, axis) * l;
+    const double intensity = std::max(0.5, 1 + request.intensity_error * normal(random));
+    for (float& v : std::span<float>(rendered.images[k].data(), rendered.images[k].pixel_count() * 3)) {
+      v = static_cast<float>(v * intensity);
+    }
+  }
+}
+
 Result<SimulatedCapture> WriteObjectCapture(const SimulatedCaptureRequest& request, const fs::path& dir) {
   LOOM_RETURN_IF_ERROR(request.object.Check());
   sim::ObjectCapture rendered = sim::RenderObjectCapture(request.object);
+  MiscalibrateLights(request, rendered);
   double brightest = 0;
   for (const Image& image : rendered.images) {
     for (int c = 0; c < 3; ++c) {
@@ -66,13 +91,29 @@ Result<SimulatedCapture> WriteObjectCapture(const SimulatedCaptureRequest& reque
   std::ostringstream description;
   description << "a " << (request.object.shape == sim::ObjectShape::kSphere ? "sphere" : "cylinder") << " under " << images
               << " directional lights, " << request.object.size_px << "x" << request.object.size_px << " px ("
-              << (dome ? "lp" : "ps") << " layout; radiance ×" << 1 / white << " as stored)";
+              << (dome ? "lp" : "ps") << " layout; radiance ×" << 1 / white << " as stored";
+  if (request.light_error_deg > 0 || request.intensity_error > 0) {
+    description << "; the files' lights off the true ones by |N(0, " << request.light_error_deg << "°)| and ×N(1, "
+                << request.intensity_error << ")";
+  }
+  description << ")";
   return SimulatedCapture{std::move(rendered.truth), std::move(rendered.normals), white, images, description.str()};
 }
 
 }  // namespace
 
+Status SimulatedCaptureRequest::Check() const {
+  std::vector<std::string> problems;
+  if (!(light_error_deg >= 0 && light_error_deg <= 20)) problems.push_back("light_error_deg must be in [0, 20]");
+  if (!(intensity_error >= 0 && intensity_error <= 0.5)) problems.push_back("intensity_error must be in [0, 0.5]");
+  if (layout == Layout::kFlash && (light_error_deg > 0 || intensity_error > 0)) {
+    problems.push_back("light_error_deg and intensity_error are the ps and lp layouts' (directional lights)");
+  }
+  return ProblemsStatus("SimulatedCaptureRequest", problems);
+}
+
 Result<SimulatedCapture> WriteSimulatedCapture(const SimulatedCaptureRequest& request, const fs::path& dir) {
+  LOOM_RETURN_IF_ERROR(request.Check());
   return request.layout == Layout::kFlash ? WriteFlashCapture(request, dir) : WriteObjectCapture(request, dir);
 }
 

@@ -34,6 +34,12 @@ struct SimulatedCaptureRequest {
   sim::ObjectCaptureOptions object;            // ps and lp: the curved object
   sim::FlashCaptureOptions flash;              // flash: the flash and the photographs
   sim::SampleSpec sample = FlashSample();      // flash: the planar material
+  // ps and lp: the files' lights as a dome's calibration errs, the images taken under the true
+  // ones: each direction turned by |N(0, light_error_deg)| about a random axis, each light's
+  // intensity off by a factor N(1, intensity_error) from the one the files say (its image scaled).
+  double light_error_deg = 0;
+  double intensity_error = 0;
+  Status Check() const;  // the error fields; the layout's own options are checked where written
 };
 
 struct SimulatedCapture {

@@ -50,6 +50,7 @@ nlohmann::json StackFitOptions::ToJson() const {
           {"hold_normals_of_unseen_peaks", hold_normals_of_unseen_peaks},
           {"held_normal_max_rms_ratio", held_normal_max_rms_ratio},
           {"left_out_view_selection_max_views", left_out_view_selection_max_views},
+          {"light_refinement_rounds", light_refinement_rounds},
           {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
           {"retries", retry_poor_fits},
           {"retry_above", retry_above_noise_rms},
@@ -150,6 +151,8 @@ Status StackFitOptions::Check() const {
   }
   if (retry_neighbour_starts < 0) problems.push_back("retry_neighbour_starts must be ≥ 0");
   if (left_out_view_selection_max_views < 0) problems.push_back("left_out_view_selection_max_views must be ≥ 0");
+  if (light_refinement_rounds < 0 || light_refinement_rounds > 10)
+    problems.push_back("light_refinement_rounds must be in [0, 10]");
   if (!(retry_min_gain >= 0 && retry_min_gain < 1)) problems.push_back("retry_min_gain must be in [0, 1)");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());

@@ -131,6 +131,11 @@ struct StackFitOptions {
   // has each pixel keep the GD10 fit or the Lambertian one, whichever predicts views left out of
   // it better. 0: never. Costs (views + 1) fits of each.
   int left_out_view_selection_max_views = 16;
+  // For `loom fit --method ceres | refine` without start maps on a stack lit by directional
+  // lights alone (FitWithMethod; fitting/light_refinement.h): this many rounds of re-estimating
+  // every light's direction and intensities from the fitted maps and fitting again. 0: the
+  // stack's lights as they are.
+  int light_refinement_rounds = 2;
   // > 0: refiner.prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
   // tenth of a sparse grid of pixels fitted without the prior) is this, and scales with the
   // square of the stack's own: the data term is a sum of squared relative residuals, not of
