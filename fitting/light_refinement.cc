@@ -84,9 +84,53 @@ std::vector<double> PredictUnder(ViewSamples& v, const Eigen::Vector3d& towards)
   return predicted;
 }
 
-// One view's light, its maps held: Gauss-Newton on a gain per observation and a turn of the
-// direction, each step's residuals weighted by Cauchy's function of their robust spread (a
-// highlight the maps misplace, or a cast shadow, is an outlier here).
+// Cauchy's scale for residuals: 2.5 robust standard deviations (1.4826 × their median magnitude).
+double RobustSpread(const std::vector<double>& residuals) {
+  std::vector<double> magnitudes(residuals.size());
+  for (size_t s = 0; s < residuals.size(); ++s) magnitudes[s] = std::abs(residuals[s]);
+  const auto middle = magnitudes.begin() + static_cast<std::ptrdiff_t>(magnitudes.size() / 2);
+  std::nth_element(magnitudes.begin(), middle, magnitudes.end());
+  return std::max(2.5 * 1.4826 * *middle, 1e-12);
+}
+
+// One Gauss-Newton step from `light` (given: the stack's direction): the change of each gain, then
+// the turn along e1 and e2. The residuals are weighted by Cauchy's function of their robust spread
+// (a highlight the maps misplace, or a cast shadow, is an outlier here); the prior holds each
+// correction's distance from the stack's calibration, in units of the residuals' spread.
+Eigen::VectorXd GaussNewtonStep(ViewSamples& v, const LightCorrection& light, const Eigen::Vector3d& given,
+                                const Eigen::Vector3d& e1, const Eigen::Vector3d& e2) {
+  const Eigen::Vector3d& l = light.towards_light;
+  const int channels = static_cast<int>(light.gains.size());
+  const std::vector<double> p0 = PredictUnder(v, l), p1 = PredictUnder(v, Turned(l, e1, kStepRad)),
+                            p2 = PredictUnder(v, Turned(l, e2, kStepRad));
+  std::vector<double> residuals(p0.size());
+  for (size_t s = 0; s < p0.size(); ++s)
+    residuals[s] = v.samples[s].observation.radiance - light.gains[v.samples[s].channel] * p0[s];
+  const double spread = RobustSpread(residuals);
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(channels + 2, channels + 2);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(channels + 2), j(channels + 2);
+  for (size_t s = 0; s < p0.size(); ++s) {
+    const int c = v.samples[s].channel;
+    const double u = residuals[s] / spread, weight = 1 / (1 + u * u), g = light.gains[c];
+    j.setZero();
+    j[c] = p0[s], j[channels] = g * (p1[s] - p0[s]) / kStepRad, j[channels + 1] = g * (p2[s] - p0[s]) / kStepRad;
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(j, weight);
+    rhs += weight * residuals[s] * j;
+  }
+  const double noise = spread / 2.5, turn_weight = Square(noise / kTurnPriorRad), gain_weight = Square(noise / kGainPrior);
+  const Eigen::Vector2d turned_by(-e1.dot(given), -e2.dot(given));  // the current turn from the given light
+  for (int c = 0; c < channels; ++c) {
+    normal(c, c) += gain_weight;
+    rhs[c] -= gain_weight * (light.gains[c] - 1);
+  }
+  for (int a = 0; a < 2; ++a) {
+    normal(channels + a, channels + a) += turn_weight;
+    rhs[channels + a] -= turn_weight * turned_by[a];
+  }
+  return normal.selfadjointView<Eigen::Lower>().ldlt().solve(rhs);
+}
+
+// One view's light, its maps held: a gain per observation and a turn of the direction.
 LightCorrection EstimateViewLight(const ObservationStack& stack, const Image& maps, const std::vector<int>& observations) {
   const ObservationStack view = SelectObservations(stack, observations);
   const int channels = static_cast<int>(observations.size());
@@ -96,46 +140,12 @@ LightCorrection EstimateViewLight(const ObservationStack& stack, const Image& ma
   correction.pixels = static_cast<int>(v.lobes.size());
   if (correction.pixels < kMinLightPixels) return correction;
   for (int iteration = 0; iteration < kIterations; ++iteration) {
-    const Eigen::Vector3d l = correction.towards_light;
-    const auto [e1, e2] = Perpendiculars(l);
-    const std::vector<double> p0 = PredictUnder(v, l), p1 = PredictUnder(v, Turned(l, e1, kStepRad)),
-                              p2 = PredictUnder(v, Turned(l, e2, kStepRad));
-    std::vector<double> residuals(p0.size()), magnitudes(p0.size());
-    for (size_t s = 0; s < p0.size(); ++s) {
-      residuals[s] = v.samples[s].observation.radiance - correction.gains[v.samples[s].channel] * p0[s];
-      magnitudes[s] = std::abs(residuals[s]);
-    }
-    std::nth_element(magnitudes.begin(), magnitudes.begin() + static_cast<std::ptrdiff_t>(magnitudes.size() / 2),
-                     magnitudes.end());
-    const double spread = std::max(2.5 * 1.4826 * magnitudes[magnitudes.size() / 2], 1e-12);
-    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(channels + 2, channels + 2);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(channels + 2);
-    Eigen::VectorXd j(channels + 2);
-    for (size_t s = 0; s < p0.size(); ++s) {
-      const int c = v.samples[s].channel;
-      const double u = residuals[s] / spread, weight = 1 / (1 + u * u), g = correction.gains[c];
-      j.setZero();
-      j[c] = p0[s], j[channels] = g * (p1[s] - p0[s]) / kStepRad, j[channels + 1] = g * (p2[s] - p0[s]) / kStepRad;
-      normal.selfadjointView<Eigen::Lower>().rankUpdate(j, weight);
-      rhs += weight * residuals[s] * j;
-    }
-    // The prior: each correction's deviation from the stack's calibration, in units of the
-    // residuals' robust spread (σ = spread / 2.5, Cauchy's weight near 1 within it).
-    const double noise = spread / 2.5, turn_weight = Square(noise / kTurnPriorRad), gain_weight = Square(noise / kGainPrior);
-    const Eigen::Vector2d turned_by(-e1.dot(given), -e2.dot(given));  // the current turn from the given light
-    for (int c = 0; c < channels; ++c) {
-      normal(c, c) += gain_weight;
-      rhs[c] -= gain_weight * (correction.gains[c] - 1);
-    }
-    for (int a = 0; a < 2; ++a) {
-      normal(channels + a, channels + a) += turn_weight;
-      rhs[channels + a] -= turn_weight * turned_by[a];
-    }
-    const Eigen::VectorXd step = normal.selfadjointView<Eigen::Lower>().ldlt().solve(rhs);
+    const auto [e1, e2] = Perpendiculars(correction.towards_light);
+    const Eigen::VectorXd step = GaussNewtonStep(v, correction, given, e1, e2);
     if (!step.allFinite()) break;
     for (int c = 0; c < channels; ++c) correction.gains[c] += step[c];
     const Eigen::Vector3d turn = step[channels] * e1 + step[channels + 1] * e2;
-    correction.towards_light = turn.norm() > 0 ? Turned(l, turn.normalized(), turn.norm()) : l;
+    if (turn.norm() > 0) correction.towards_light = Turned(correction.towards_light, turn.normalized(), turn.norm());
   }
   correction.turn_deg = AngleDeg(given, correction.towards_light);
   return correction;
@@ -168,6 +178,27 @@ double NormalSpread(const ObservationStack& stack, const Image& maps) {
   return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(moment / count).eigenvalues()[0];
 }
 
+// The corrections less the rotation and the gain common to them all (the stack's directions
+// `given`, one per light).
+void TakeOutCommonTurnAndGain(const std::vector<Eigen::Vector3d>& given, LightRefinement& refinement) {
+  std::vector<Eigen::Vector3d> corrected;
+  double log_gains = 0;
+  int gains = 0;
+  for (const LightCorrection& c : refinement.lights) {
+    corrected.push_back(c.towards_light);
+    for (double g : c.gains) log_gains += std::log(std::max(g, 1e-6)), ++gains;
+  }
+  const Eigen::Matrix3d common = CommonRotation(given, corrected);
+  refinement.common_turn_deg = Degrees(Eigen::AngleAxisd(common).angle());
+  const double mean_gain = gains ? std::exp(log_gains / gains) : 1.0;
+  for (size_t v = 0; v < refinement.lights.size(); ++v) {
+    LightCorrection& c = refinement.lights[v];
+    c.towards_light = (common.transpose() * c.towards_light).normalized();
+    c.turn_deg = AngleDeg(given[v], c.towards_light);
+    for (double& g : c.gains) g /= mean_gain;
+  }
+}
+
 }  // namespace
 
 bool HasOnlyDirectionalLights(const ObservationStack& stack) {
@@ -189,26 +220,10 @@ Result<LightRefinement> EstimateLightCorrections(const ObservationStack& stack, 
   refinement.lights.resize(views.size());
   ParallelFor(static_cast<int>(views.size()), threads,
               [&](int v) { refinement.lights[v] = EstimateViewLight(stack, maps, views[v]); });
-  std::vector<Eigen::Vector3d> given, corrected;
-  for (size_t v = 0; v < views.size(); ++v) {
-    given.push_back(stack.observations[views[v][0]].emitters[0].DirectionFrom(Eigen::Vector3d::Zero()));
-    corrected.push_back(refinement.lights[v].towards_light);
-  }
-  // Out with the common rotation and gain.
-  const Eigen::Matrix3d common = CommonRotation(given, corrected);
-  refinement.common_turn_deg = Degrees(Eigen::AngleAxisd(common).angle());
-  double log_gains = 0;
-  int gains = 0;
-  for (const LightCorrection& c : refinement.lights) {
-    for (double g : c.gains) log_gains += std::log(std::max(g, 1e-6)), ++gains;
-  }
-  const double mean_gain = gains ? std::exp(log_gains / gains) : 1.0;
-  for (size_t v = 0; v < refinement.lights.size(); ++v) {
-    LightCorrection& c = refinement.lights[v];
-    c.towards_light = (common.transpose() * c.towards_light).normalized();
-    c.turn_deg = AngleDeg(given[v], c.towards_light);
-    for (double& g : c.gains) g /= mean_gain;
-  }
+  std::vector<Eigen::Vector3d> given;
+  for (const std::vector<int>& view : views)
+    given.push_back(stack.observations[view[0]].emitters[0].DirectionFrom(Eigen::Vector3d::Zero()));
+  TakeOutCommonTurnAndGain(given, refinement);
   refinement.seconds = SecondsSince(start);
   return refinement;
 }
