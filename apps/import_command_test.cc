@@ -55,6 +55,7 @@ class ImportCommandTest : public ::testing::Test {
     const auto fit = RunCommand(
         Loom("fit " + Path("stack.exr") + " --method " + method + " " + options + " --out " + Path("fit-" + name) + " --quiet"));
     EXPECT_EQ(fit.exit_code, 0) << fit.output;
+    fit_output_ = fit.output;
     const auto eval = RunCommand(Loom("eval " + Path("fit-" + name + "/svbrdf.exr") + " --stack " + Path("stack.exr") +
                                       " --reference " + Path("truth.exr") + " --reference-normals " + Path("normals.exr") +
                                       " --renderer-views 0 --out " + Path("eval-" + name)));
@@ -74,6 +75,7 @@ class ImportCommandTest : public ::testing::Test {
   }
 
   fs::path dir_;
+  std::string fit_output_;  // the last FitAndScoreNormals' fit's
 };
 
 TEST_F(ImportCommandTest, ASphereIsFittedAroundItsMaskToItsTrueNormals) {
@@ -109,6 +111,8 @@ TEST_F(ImportCommandTest, ANoisyCylinderIsFittedAsWellAsPhotometricStereoFitsIt)
   CaptureAndImport("cylinder", "--noise 0.01 --sigma 0.25");
   const nlohmann::json lambert = FitAndScoreNormals("lambert");
   const nlohmann::json refine = FitAndScoreNormals("refine");
+  // A cylinder's normals span a plane: its lights cannot be re-estimated, and are kept.
+  EXPECT_NE(fit_output_.find("lights as given: their normals span too little"), std::string::npos) << fit_output_;
   EXPECT_LT(refine["mean_deg"].get<double>(), 1.5) << refine.dump();
   EXPECT_LE(refine["mean_deg"].get<double>(), lambert["mean_deg"].get<double>()) << refine.dump() << lambert.dump();
 }
@@ -138,6 +142,7 @@ TEST_F(ImportCommandTest, ADomesMiscalibratedLightsAreReEstimatedAndItsNormalsCo
   CaptureAndImport("sphere", "--noise 0.01 --light-error-deg 1.5 --intensity-error 0.03", 48, 48);
   const nlohmann::json as_given = FitAndScoreNormals("ceres", "--light-rounds 0", "as-given");
   const nlohmann::json refined = FitAndScoreNormals("ceres");
+  EXPECT_NE(fit_output_.find("lights re-estimated from the fit"), std::string::npos) << fit_output_;
   EXPECT_LT(refined["mean_deg"].get<double>(), 0.85 * as_given["mean_deg"].get<double>()) << refined.dump() << as_given.dump();
   EXPECT_TRUE(Json("fit-as-given/fit.json")["light_refinement"].is_null());
   const nlohmann::json lights = Json("fit-ceres/fit.json")["light_refinement"];

@@ -1,5 +1,6 @@
 #include "fitting/fit_directory.h"
 
+#include <iomanip>
 #include <ostream>
 #include <utility>
 
@@ -112,6 +113,27 @@ Result<FitDirectory> FitToDirectory(FitRequest request, std::ostream& notes) {
   return result;
 }
 
+namespace {
+
+// What the lights' re-estimate found (LightRefinement::ToJson) and whether the fit used it.
+void ReportLightRefinement(const nlohmann::json& lights, std::ostream& out) {
+  if (lights["lights"].empty()) {
+    out << std::fixed << std::setprecision(3) << "lights as given: their normals span too little to re-estimate them (spread "
+        << lights["normal_spread"].get<double>() << ")\n"
+        << std::defaultfloat;
+    return;
+  }
+  out << std::fixed << std::setprecision(2) << "lights re-estimated from the fit: turned "
+      << lights["mean_turn_deg"].get<double>() << " deg on average (at most " << lights["max_turn_deg"].get<double>()
+      << "), intensities spread " << 100 * lights["gain_spread"].get<double>() << " %; "
+      << (lights["applied"].get<bool>() ? "fitted again under them (fit.json: light_refinement)"
+                                        : "too little to refit: the lights as given")
+      << "\n"
+      << std::defaultfloat;
+}
+
+}  // namespace
+
 void FitDirectory::Report(std::ostream& out) const {
   if (!fit.cnn.empty()) out << "CNN " << fit.cnn << ": " << FormatDuration(fit.cnn_seconds) << "\n";
   if (fit.summary) fit.summary->Report(out);
@@ -126,6 +148,7 @@ void FitDirectory::Report(std::ostream& out) const {
         << " px (left-out views' relative L1: GD10 " << v["left_out_view_l1"]["gd10"] << ", Lambertian "
         << v["left_out_view_l1"]["lambert"] << ", chosen " << v["left_out_view_l1"]["chosen"] << ")\n";
   }
+  if (!fit.light_refinement.is_null()) ReportLightRefinement(fit.light_refinement, out);
   if (const std::optional<std::string> warning = AlbedoBoundWarning(fit.maps)) out << "warning: " << *warning << "\n";
   out << "wrote " << (this->out / "svbrdf.exr").string() << ", previews and fit.json in " << this->out.string() << "\n";
 }
