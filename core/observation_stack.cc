@@ -184,6 +184,20 @@ ObservationStack MakeObservationStack(int width, int height, double pixel_mm, st
   return stack;
 }
 
+ObservationStack EveryNthPixel(const ObservationStack& stack, int n) {
+  LOOM_CHECK(n >= 1) << "every n-th pixel needs n ≥ 1, not " << n;
+  const int width = (stack.image.width() + n - 1) / n, height = (stack.image.height() + n - 1) / n;
+  ObservationStack every = MakeObservationStack(width, height, stack.pixel_mm * n, stack.observations);
+  every.rig = stack.rig;
+  every.source = stack.source;
+  for (int c = 0; c < stack.image.num_channels(); ++c) {
+    for (int j = 0; j < height; ++j) {
+      for (int i = 0; i < width; ++i) every.image.at(c, j, i) = stack.image.at(c, j * n, i * n);
+    }
+  }
+  return every;
+}
+
 ObservationStack SelectObservations(const ObservationStack& stack, const std::vector<int>& keep) {
   std::vector<StackObservation> table;
   for (int k : keep) table.push_back(stack.observations.at(k));

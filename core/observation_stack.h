@@ -130,6 +130,11 @@ ObservationStack MakeObservationStack(int width, int height, double pixel_mm, st
 // entries, the geometry as it is. For leaving views out of a fit and scoring it on them.
 ObservationStack SelectObservations(const ObservationStack& stack, const std::vector<int>& keep);
 
+// The stack on every n-th pixel of each row and column (pixel (i, j) is the stack's (n·i, n·j)):
+// every channel and the table as they are, pixel_mm n times the stack's. For what needs a
+// stack's observations but not all of its pixels, faster.
+ObservationStack EveryNthPixel(const ObservationStack& stack, int n);
+
 // Uncompressed float EXR (radiance noise does not compress), atomically.
 Status WriteObservationStack(const std::filesystem::path& path, const ObservationStack& stack);
 

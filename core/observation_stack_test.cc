@@ -69,6 +69,26 @@ TEST_F(ObservationStackTest, RoundTripsChannelsAndTable) {
   EXPECT_EQ(read->observations[1].emitters.size(), 4u);
 }
 
+TEST_F(ObservationStackTest, EveryNthPixelKeepsThosePixelsChannelsAndTheTable) {
+  const ObservationStack stack = SmallStack();
+  const ObservationStack every = EveryNthPixel(stack, 2);
+  ASSERT_EQ(every.image.width(), 2);  // columns 0 and 2 of 3
+  ASSERT_EQ(every.image.height(), 1);
+  EXPECT_DOUBLE_EQ(every.pixel_mm, 0.5);
+  EXPECT_EQ(every.rig, "tiny");
+  EXPECT_EQ(every.source, "test");
+  ASSERT_EQ(every.observations.size(), 2u);
+  EXPECT_EQ(every.observations[1].emitters.size(), 4u);
+  ASSERT_EQ(every.image.channel_names(), stack.image.channel_names());
+  for (int c = 0; c < stack.image.num_channels(); ++c) {
+    EXPECT_EQ(every.image.at(c, 0, 0), stack.image.at(c, 0, 0)) << c;
+    EXPECT_EQ(every.image.at(c, 0, 1), stack.image.at(c, 0, 2)) << c;
+  }
+  const ObservationStack same = EveryNthPixel(stack, 1);
+  EXPECT_EQ(same.image.width(), 3);
+  EXPECT_TRUE(std::isnan(same.image.at(ObservationStack::ObservationChannel(1), 1, 2)));
+}
+
 TEST(PointEmitterTest, FallsOffAsACosinePowerAndIsDarkBehind) {
   const PointEmitter e{{0, 0, 100}, -Eigen::Vector3d::UnitZ(), 1000, 2};
   EXPECT_DOUBLE_EQ(e.IntensityTowards({0, 0, 0}), 1000);

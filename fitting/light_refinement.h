@@ -38,10 +38,10 @@ struct LightRefinement {
   // The spread of the gains (the standard deviation of their logarithms).
   double GainSpread() const;
   // Whether the corrections are larger than what a fit's own bias makes of a calibration without
-  // errors (kMinMeanTurnDeg, kMinGainSpread): on simulated objects whose files hold the true lights,
-  // the estimate turned them 0.01–0.08° on average and spread their gains by at most 0.1 %, and
-  // relighting by that made a broad lobe's normals worse (0.67° → 0.70°); with a dome's errors
-  // (1.5°, 3 %) it turned them 0.6–1.1° and spread the gains by 2 %.
+  // errors (kMinMeanTurnDeg, kMinGainSpread): on simulated objects whose files hold the true
+  // lights, the estimate turned them 0.01–0.08° on average and spread their gains by at most
+  // 0.1 %, and relighting by that made a broad lobe's normals worse (0.67° → 0.70°); with a dome's
+  // errors (1.5°, 3 %) it turned them 0.6–1.1° and spread the gains by 2 %.
   bool WorthApplying() const;
   nlohmann::json ToJson() const;
 };

@@ -11,6 +11,7 @@
 
 #include <Eigen/Dense>
 
+#include "fitting/method_fit.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/object_capture.h"
 
@@ -28,12 +29,12 @@ struct Capture {
   Image truth;
 };
 
-// An object under `lights` directional lights (y up in the files, y down in the stack; an
-// orthographic camera), each light's direction in the stack turned by `turn_deg` about a random
-// axis and its intensity scaled by a random factor within ±`gain_error`, the images rendered
-// under the true ones.
-Capture Miscalibrated(sim::ObjectShape shape, double turn_deg, double gain_error) {
-  const sim::ObjectCapture rendered = sim::RenderObjectCapture({.shape = shape, .size_px = 32, .lights = 32});
+// An object of `size_px`² px under `lights` directional lights (y up in the files, y down in the
+// stack; an orthographic camera), each light's direction in the stack turned by `turn_deg` about a
+// random axis and its intensity scaled by a random factor within ±`gain_error`, the images
+// rendered under the true ones.
+Capture Miscalibrated(sim::ObjectShape shape, double turn_deg, double gain_error, int size_px = 32, int lights = 32) {
+  const sim::ObjectCapture rendered = sim::RenderObjectCapture({.shape = shape, .size_px = size_px, .lights = lights});
   std::mt19937 random(7);
   std::uniform_real_distribution<double> uniform(-1, 1);
   std::vector<StackObservation> table;
@@ -155,6 +156,43 @@ TEST(LightRefinementTest, LightsThatTheNormalsCannotTellApartAreKept) {
   const Result<LightRefinement> flash = EstimateLightCorrections(sphere.stack, sphere.truth, 2);
   ASSERT_TRUE(flash.ok());
   EXPECT_TRUE(flash->lights.empty());
+}
+
+// The mean angle between the maps' normals and the truth's over the pixels both have.
+double MeanNormalErrorDeg(const Image& maps, const Image& truth) {
+  double sum = 0;
+  int count = 0;
+  for (int y = 0; y < maps.height(); ++y) {
+    for (int x = 0; x < maps.width(); ++x) {
+      if (IsSkippedPixel(maps, x, y) || IsSkippedPixel(truth, x, y)) continue;
+      sum += AngleDeg(GetParams(maps, x, y).n_s, GetParams(truth, x, y).n_s), ++count;
+    }
+  }
+  return count ? sum / count : NAN;
+}
+
+TEST(LightRefinementTest, TheFitEstimatesOnEveryNthPixelOfALargeStackAndFitsAllOfItUnderTheLights) {
+  const Capture capture = Miscalibrated(sim::ObjectShape::kSphere, 1.5, 0.05, 80, 48);
+  StackFitOptions options;
+  options.threads = 2;
+  options.light_refinement_rounds = 0;
+  const Result<MethodFit> as_given = FitWithMethod(capture.stack, FitMethod::kCeres, "", options);
+  ASSERT_TRUE(as_given.ok()) << as_given.status().ToString();
+  EXPECT_TRUE(as_given->light_refinement.is_null());
+  options.light_refinement_rounds = 2;
+  options.light_refinement_max_pixels = 1500;  // the sphere shows about 4,000
+  const Result<MethodFit> refined = FitWithMethod(capture.stack, FitMethod::kCeres, "", options);
+  ASSERT_TRUE(refined.ok()) << refined.status().ToString();
+  const nlohmann::json& lights = refined->light_refinement;
+  EXPECT_EQ(lights["every_nth_pixel"], 2) << lights.dump();
+  EXPECT_TRUE(lights["applied"].get<bool>()) << lights.dump();
+  // The whole grid fitted, every pixel the lights as given fitted.
+  ASSERT_EQ(refined->maps.width(), capture.stack.image.width());
+  EXPECT_EQ((*refined->summary).pixels_fitted, (*as_given->summary).pixels_fitted);
+  const double before = MeanNormalErrorDeg(as_given->maps, capture.truth),
+               after = MeanNormalErrorDeg(refined->maps, capture.truth);
+  // Measured: 0.68° → 0.59° (every light turned by 1.5°).
+  EXPECT_LT(after, 0.9 * before) << before << " → " << after;
 }
 
 TEST(LightRefinementTest, MapsOfAnotherGridAreRefused) {

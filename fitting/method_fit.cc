@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include "fitting/cnn/cnn.h"
@@ -52,22 +53,49 @@ Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, Stack
   return fit;
 }
 
-// Up to `rounds` of the stack's directional lights re-estimated from the last fit's maps and the
-// stack fitted again under them (light_refinement.h), while the corrections are worth applying;
-// each round's corrections from the stack's own lights. The maps are the last fit's; `report` the
-// corrections applied last, or the first estimate where none was worth applying.
-Result<StackFit> FitRefiningLights(const ObservationStack& stack, const StackFitOptions& options, StackFit fit,
-                                   nlohmann::json& report) {
+// The pixels of the stack with any seen observation.
+int SeenPixels(const ObservationStack& stack) {
+  int seen = 0;
+  for (int y = 0; y < stack.image.height(); ++y) {
+    for (int x = 0; x < stack.image.width(); ++x) {
+      for (size_t k = 0; k < stack.observations.size(); ++k) {
+        if (std::isfinite(stack.image.at(ObservationStack::ObservationChannel(static_cast<int>(k)), y, x))) {
+          ++seen;
+          break;
+        }
+      }
+    }
+  }
+  return seen;
+}
+
+// The stack fitted under its directional lights re-estimated (light_refinement.h): up to `rounds`
+// of estimating them from the last fit's maps and fitting again, while the corrections are worth
+// applying (each round's from the stack's own lights), then the whole stack fitted under the last
+// ones. The rounds run on every n-th pixel where the stack has more pixels seen than
+// options.light_refinement_max_pixels: a light's estimate needs thousands of pixels, not all of
+// them, and each round is a fit (on a 256² sphere of 96 lights, half the time for the same
+// angle). `report`: the corrections applied, or the first estimate where none was worth applying.
+Result<StackFit> FitRefiningLights(const ObservationStack& stack, const StackFitOptions& options, nlohmann::json& report) {
+  const int stride =
+      static_cast<int>(std::ceil(std::sqrt(SeenPixels(stack) / static_cast<double>(options.light_refinement_max_pixels))));
+  const std::optional<ObservationStack> sparse = stride > 1 ? std::optional(EveryNthPixel(stack, stride)) : std::nullopt;
+  const ObservationStack& rounds_stack = sparse ? *sparse : stack;
+  LOOM_ASSIGN_OR_RETURN(StackFit fit, FitStack(rounds_stack, options));
+  std::optional<LightRefinement> applied;
   for (int round = 0; round < options.light_refinement_rounds; ++round) {
-    LOOM_ASSIGN_OR_RETURN(const LightRefinement lights, EstimateLightCorrections(stack, fit.maps, options.threads));
+    LOOM_ASSIGN_OR_RETURN(LightRefinement lights, EstimateLightCorrections(rounds_stack, fit.maps, options.threads));
     if (!lights.WorthApplying()) {
       if (round == 0) report = lights.ToJson();
       break;
     }
     report = lights.ToJson();
-    LOOM_ASSIGN_OR_RETURN(fit, FitStack(WithCorrectedLights(stack, lights), options));
+    LOOM_ASSIGN_OR_RETURN(fit, FitStack(WithCorrectedLights(rounds_stack, lights), options));
+    applied = std::move(lights);
   }
-  return fit;
+  if (!sparse) return fit;
+  report["every_nth_pixel"] = stride;
+  return FitStack(applied ? WithCorrectedLights(stack, *applied) : stack, options);
 }
 
 }  // namespace
@@ -108,10 +136,9 @@ Result<MethodFit> FitWithMethod(const ObservationStack& stack, FitMethod method,
   fit.settings = options.ToJson();
   const bool few_views = static_cast<int>(StackViews(stack).size()) <= options.left_out_view_selection_max_views;
   if (!options.initial_maps && few_views) return FitChoosingByLeftOutViews(stack, options, std::move(fit));
-  LOOM_ASSIGN_OR_RETURN(StackFit stack_fit, FitStack(stack, options));
-  if (!options.initial_maps && HasOnlyDirectionalLights(stack)) {
-    LOOM_ASSIGN_OR_RETURN(stack_fit, FitRefiningLights(stack, options, std::move(stack_fit), fit.light_refinement));
-  }
+  const bool refine_lights = !options.initial_maps && options.light_refinement_rounds > 0 && HasOnlyDirectionalLights(stack);
+  LOOM_ASSIGN_OR_RETURN(StackFit stack_fit,
+                        refine_lights ? FitRefiningLights(stack, options, fit.light_refinement) : FitStack(stack, options));
   fit.maps = std::move(stack_fit.maps);
   fit.summary = std::move(stack_fit.summary);
   return fit;

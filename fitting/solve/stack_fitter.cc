@@ -51,6 +51,7 @@ nlohmann::json StackFitOptions::ToJson() const {
           {"held_normal_max_rms_ratio", held_normal_max_rms_ratio},
           {"left_out_view_selection_max_views", left_out_view_selection_max_views},
           {"light_refinement_rounds", light_refinement_rounds},
+          {"light_refinement_max_pixels", light_refinement_max_pixels},
           {"f0", fixed_f0 ? nlohmann::json(*fixed_f0) : nlohmann::json("material")},
           {"retries", retry_poor_fits},
           {"retry_above", retry_above_noise_rms},

@@ -136,6 +136,9 @@ struct StackFitOptions {
   // every light's direction and intensities from the fitted maps and fitting again. 0: the
   // stack's lights as they are.
   int light_refinement_rounds = 2;
+  // Those rounds fit every n-th pixel of each row and column where the stack has more pixels seen
+  // than this (a light's estimate needs thousands, not all), then the whole stack once.
+  int light_refinement_max_pixels = 16384;
   // > 0: refiner.prior.weight holds at a stack whose noise level (the relative RMS of the best-fitted
   // tenth of a sparse grid of pixels fitted without the prior) is this, and scales with the
   // square of the stack's own: the data term is a sum of squared relative residuals, not of
