@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <numbers>
 
 #include <Eigen/Dense>
 
 #include "core/duration.h"
+#include "core/geometry.h"
 #include "core/parallel.h"
 #include "fitting/model/stack_pixels.h"
 #include "fitting/model/svbrdf_maps.h"
@@ -17,19 +17,17 @@
 namespace loom::fitting {
 namespace {
 
-constexpr double kStepRad = 0.5 * std::numbers::pi / 180;  // the finite difference of a turn
+constexpr double kStepRad = DegToRad(0.5);  // the finite difference of a turn
 constexpr int kIterations = 4;
 // How far a calibration's directions and intensities are from the truth, a priori: a dome's
 // chrome-sphere directions err by a degree or two, its intensities by a few per cent. Where the
 // pixels say little about a light (the normals of a cylinder span one plane), the prior holds it.
-constexpr double kTurnPriorRad = 2 * std::numbers::pi / 180;
+constexpr double kTurnPriorRad = DegToRad(2);
 constexpr double kGainPrior = 0.1;
 
 double Square(double x) { return x * x; }
 
-double Degrees(double radians) { return radians * 180 / std::numbers::pi; }
-
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return Degrees(std::atan2(a.cross(b).norm(), a.dot(b))); }
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return RadToDeg(std::atan2(a.cross(b).norm(), a.dot(b))); }
 
 // Two unit vectors perpendicular to `l` and to each other: the axes a light's direction turns on.
 std::pair<Eigen::Vector3d, Eigen::Vector3d> Perpendiculars(const Eigen::Vector3d& l) {
@@ -189,7 +187,7 @@ void TakeOutCommonTurnAndGain(const std::vector<Eigen::Vector3d>& given, LightRe
     for (double g : c.gains) log_gains += std::log(std::max(g, 1e-6)), ++gains;
   }
   const Eigen::Matrix3d common = CommonRotation(given, corrected);
-  refinement.common_turn_deg = Degrees(Eigen::AngleAxisd(common).angle());
+  refinement.common_turn_deg = RadToDeg(Eigen::AngleAxisd(common).angle());
   const double mean_gain = gains ? std::exp(log_gains / gains) : 1.0;
   for (size_t v = 0; v < refinement.lights.size(); ++v) {
     LightCorrection& c = refinement.lights[v];

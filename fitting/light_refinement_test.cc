@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numbers>
 #include <random>
 
 #include <Eigen/Dense>
 
+#include "core/geometry.h"
 #include "fitting/method_fit.h"
 #include "fitting/model/svbrdf_maps.h"
 #include "sim/object_capture.h"
@@ -18,9 +18,7 @@
 namespace loom::fitting {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180;
-
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)) / kDeg; }
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return RadToDeg(std::atan2(a.cross(b).norm(), a.dot(b))); }
 
 struct Capture {
   ObservationStack stack;                    // lit as the files say
@@ -42,7 +40,7 @@ Capture Miscalibrated(sim::ObjectShape shape, double turn_deg, double gain_error
   for (const Eigen::Vector3d& file_light : rendered.light_directions) {
     const Eigen::Vector3d truth(file_light.x(), -file_light.y(), file_light.z());
     const Eigen::Vector3d axis = truth.cross(Eigen::Vector3d(uniform(random), uniform(random), uniform(random))).normalized();
-    const Eigen::Vector3d given = Eigen::AngleAxisd(turn_deg * kDeg, axis) * truth;
+    const Eigen::Vector3d given = Eigen::AngleAxisd(DegToRad(turn_deg), axis) * truth;
     const double gain = 1 + gain_error * uniform(random);
     capture.true_lights.push_back(truth);
     capture.true_gains.push_back(gain);

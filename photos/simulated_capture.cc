@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <random>
 #include <span>
 #include <sstream>
@@ -10,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/geometry.h"
 #include "photos/capture_export.h"
 
 namespace loom::photos {
@@ -63,7 +63,7 @@ void MiscalibrateLights(const SimulatedCaptureRequest& request, sim::ObjectCaptu
   for (size_t k = 0; k < rendered.light_directions.size(); ++k) {
     Eigen::Vector3d& l = rendered.light_directions[k];
     const Eigen::Vector3d axis = l.cross(Eigen::Vector3d(normal(random), normal(random), normal(random))).normalized();
-    const double turn = std::abs(normal(random)) * request.light_error_deg * std::numbers::pi / 180;
+    const double turn = DegToRad(std::abs(normal(random)) * request.light_error_deg);
     l = Eigen::AngleAxisd(turn, axis) * l;
     const double intensity = std::max(0.5, 1 + request.intensity_error * normal(random));
     for (float& v : std::span<float>(rendered.images[k].data(), rendered.images[k].pixel_count() * 3)) {
