@@ -2,18 +2,33 @@
 # Builds loom's libFuzzer targets with clang (ASan + UBSan) in build-fuzz/ and runs each for
 # SECONDS (default 60), seeded from the corpus/ folder beside its source; crashes, leaks, undefined
 # behaviour and slow inputs fail the run and land in build-fuzz/findings/. README command (2), and
-# so CI, runs it for 20 s per target before the tests (issue #24), as many targets at once as the
-# machine has cores; its random seed is fixed, so a run on one binary explores the same inputs first.
-#   scripts/fuzz.sh [SECONDS]
+# so CI, runs it for 20 s per target after the tests when its build fits CI's 30 minutes (issue
+# #24), as many targets at once as the machine has cores; its random seed is fixed, so a run on
+# one binary explores the same inputs first.
+#   scripts/fuzz.sh [SECONDS [BUILD_SECONDS]]
+# BUILD_SECONDS bounds the build as scripts/sanitizers.sh's does: if it has not finished by then no
+# target runs and the script exits 3 (what is built so far stays for the next run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
+build_seconds=${2:-0}
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DLOOM_BUILD_FUZZERS=ON -DLOOM_BUILD_TESTS=OFF -DLOOM_BUILD_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" > /dev/null
 declare -A corpus=([rig_model_fuzzer]=core/fuzz/corpus [plan_fuzzer]=scan/fuzz/corpus
   [journal_fuzzer]=scan/fuzz/journal-corpus [stack_fuzzer]=core/fuzz/stack-corpus [maps_fuzzer]=fitting/fuzz/maps-corpus)
-cmake --build build-fuzz -j "$(nproc)" --target "${!corpus[@]}"
+build=(cmake --build build-fuzz -j "$(nproc)" --target "${!corpus[@]}")
+if (( build_seconds > 0 )); then
+  code=0
+  timeout "$build_seconds" "${build[@]}" || code=$?
+  if (( code == 124 )); then
+    echo "fuzzers' build not finished within $build_seconds s: none run"
+    exit 3
+  fi
+  (( code == 0 )) || exit "$code"
+else
+  "${build[@]}"
+fi
 mkdir -p build-fuzz/findings
 # One target per core at a time (each is single-threaded), every target's report printed whole.
 fuzz_one() {  # FUZZER LOG

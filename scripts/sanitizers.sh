@@ -10,9 +10,9 @@
 # without_torch in CMakeLists.txt; fitting's CNN tests load it, apps' run the loom binary, which
 # loads it for the CNN's commands); the `ci` lane the suites of core (configs, images, EXR,
 # geometry, ParallelFor), scan (the capture store, its journal and plans) and the BRDF model.
-# README command (2), and so CI, runs the `ci` lane always and the whole `address` lane when its
-# build finishes by the run's 16th minute, i.e. from a warm compiler cache (each lane prints its
-# build and test times).
+# README command (2), and so CI, runs both after the normal suite, each when its build ends early
+# enough for its tests to end within CI's 30 minutes, i.e. from a warm compiler cache (each lane
+# prints its build and test times).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:-address}
