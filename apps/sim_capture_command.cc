@@ -85,6 +85,11 @@ std::function<Status()> AddSimCaptureCommand(CLI::App& sim) {
         capture->request.object.beyond = {.coat = Eigen::Vector3d::Constant(0.1), .coat_roughness = 0.1, .meso_deg = 4};
       },
       "ps: the material shows what GD10 cannot: a grey GGX coat of albedo 0.1 and roughness 0.1, and 4° of mesostructure");
+  capture_app
+      ->add_option("--subpixels", capture->request.object.subpixels,
+                   "ps and lp: each pixel the mean of N × N points of its footprint, as a camera integrates (edge "
+                   "pixels mix normals and the background); the truth stays the pixel centre's")
+      ->check(CLI::Range(1, 16));
   capture_app->add_option("--seed", capture->request.object.seed, "Seed of the noise");
   capture_app
       ->add_option("--light-error-deg", capture->request.light_error_deg,

@@ -34,6 +34,34 @@ std::optional<Eigen::Vector3d> NormalAt(ObjectShape shape, double u, double v) {
   return Eigen::Vector3d(u, 0, std::sqrt(1 - u * u));
 }
 
+// The material at image position (u, v) (y up) in the stack frame (y down), if the object covers
+// it: its own normal, and a_d modulated in stripes so that the albedo map has something to recover.
+std::optional<fitting::WardParams<double>> MaterialAt(const ObjectCaptureOptions& options, double u, double v) {
+  const std::optional<Eigen::Vector3d> normal = NormalAt(options.shape, u, v);
+  if (!normal) return std::nullopt;
+  fitting::WardParams<double> p = options.material;
+  p.n_s = Eigen::Vector3d(normal->x(), -normal->y(), normal->z());
+  p.a_d *= 0.8 + 0.2 * std::sin(6 * u + 3 * v);
+  return p;
+}
+
+// Pixel (i, j)'s RGB radiance under light l (stack frame): the mean over its subpixels.
+Eigen::Vector3d PixelRadiance(const ObjectCaptureOptions& options, int i, int j, const Eigen::Vector3d& l) {
+  const int n = options.size_px, s = options.subpixels;
+  const double radius_px = 0.45 * n;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int b = 0; b < s; ++b) {
+    for (int a = 0; a < s; ++a) {
+      const double x = i + (a + 0.5) / s, y = j + (b + 0.5) / s;
+      const auto p = MaterialAt(options, (x - n / 2.0) / radius_px, -(y - n / 2.0) / radius_px);
+      if (!p) continue;
+      const Reflectance reflectance(*p, options.beyond);
+      for (int c = 0; c < 3; ++c) sum[c] += reflectance.EvaluateCos(l, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Unit(c));
+    }
+  }
+  return sum / (s * s);
+}
+
 }  // namespace
 
 Status ObjectCaptureOptions::Check() const {
@@ -42,6 +70,7 @@ Status ObjectCaptureOptions::Check() const {
   if (lights < 3 || lights > 1000) problems.push_back("lights must be in [3, 1000]");
   if (!(max_light_deg > 0 && max_light_deg < 90)) problems.push_back("max_light_deg must be in (0, 90)");
   if (!(noise >= 0 && noise < 1)) problems.push_back("noise must be in [0, 1)");
+  if (subpixels < 1 || subpixels > 16) problems.push_back("subpixels must be in [1, 16]");
   for (const std::string& p : fitting::CheckWardParams(material)) problems.push_back("material: " + p);
   return ProblemsStatus("ObjectCaptureOptions", problems);
 }
@@ -53,25 +82,22 @@ ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options) {
   capture.mask = Image(n, n, {"mask"});
   capture.normals = Image(n, n, {"X", "Y", "Z"});
   capture.truth = fitting::MakeSvbrdfImage(n, n, /*with_height=*/false);
-  std::vector<std::optional<fitting::WardParams<double>>> materials(static_cast<size_t>(n) * n);
   const double radius_px = 0.45 * n;
   for (int j = 0; j < n; ++j) {
     for (int i = 0; i < n; ++i) {
       const double u = (i + 0.5 - n / 2.0) / radius_px, v = -(j + 0.5 - n / 2.0) / radius_px;
-      const std::optional<Eigen::Vector3d> normal = NormalAt(options.shape, u, v);
-      fitting::WardParams<double> p = options.material;
-      if (!normal) {
-        p.n_s = p.a_d = p.a_s = Eigen::Vector3d::Constant(NAN);
-        p.sigma_x = p.sigma_y = p.alpha = p.f0 = NAN;
-        fitting::SetParams(capture.truth, i, j, p);
+      const std::optional<fitting::WardParams<double>> p = MaterialAt(options, u, v);
+      if (!p) {
+        fitting::WardParams<double> none;
+        none.n_s = none.a_d = none.a_s = Eigen::Vector3d::Constant(NAN);
+        none.sigma_x = none.sigma_y = none.alpha = none.f0 = NAN;
+        fitting::SetParams(capture.truth, i, j, none);
         continue;
       }
       capture.mask.at(0, j, i) = 1;
-      for (int c = 0; c < 3; ++c) capture.normals.at(c, j, i) = static_cast<float>((*normal)[c]);
-      p.n_s = Eigen::Vector3d(normal->x(), -normal->y(), normal->z());  // the stack frame: y down
-      p.a_d *= 0.8 + 0.2 * std::sin(6 * u + 3 * v);
-      fitting::SetParams(capture.truth, i, j, p);
-      materials[static_cast<size_t>(j) * n + i] = p;
+      const Eigen::Vector3d normal(p->n_s.x(), -p->n_s.y(), p->n_s.z());  // the image frame: y up
+      for (int c = 0; c < 3; ++c) capture.normals.at(c, j, i) = static_cast<float>(normal[c]);
+      fitting::SetParams(capture.truth, i, j, *p);
     }
   }
   std::mt19937_64 random(options.seed);
@@ -81,13 +107,9 @@ ObjectCapture RenderObjectCapture(const ObjectCaptureOptions& options) {
     const Eigen::Vector3d l(light.x(), -light.y(), light.z());  // the stack frame
     for (int j = 0; j < n; ++j) {
       for (int i = 0; i < n; ++i) {
-        const auto& p = materials[static_cast<size_t>(j) * n + i];
-        if (!p) continue;
-        const Reflectance reflectance(*p, options.beyond);
-        for (int c = 0; c < 3; ++c) {
-          const double radiance = reflectance.EvaluateCos(l, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Unit(c));
-          image.at(c, j, i) = static_cast<float>(radiance * (1 + options.noise * gauss(random)));
-        }
+        if (capture.mask.at(0, j, i) == 0) continue;
+        const Eigen::Vector3d radiance = PixelRadiance(options, i, j, l);
+        for (int c = 0; c < 3; ++c) image.at(c, j, i) = static_cast<float>(radiance[c] * (1 + options.noise * gauss(random)));
       }
     }
     capture.images.push_back(std::move(image));

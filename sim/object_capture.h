@@ -28,6 +28,11 @@ struct ObjectCaptureOptions {
   // albedo map has something to recover. n_s is ignored: the object's own normal.
   fitting::WardParams<double> material = {{0, 0, 1}, {0.55, 0.35, 0.2}, {0.25, 0.25, 0.25}, 0.15, 0.15, 0, 1};
   double noise = 0;  // relative Gaussian noise on every value (sensor), 0: none
+  // Each pixel the mean over subpixels × subpixels points of its footprint, 0 where the object does
+  // not cover a point, as a camera's pixel integrates: an edge pixel mixes normals and the
+  // background. The mask, normals and truth stay those at the pixel's centre, as a benchmark's
+  // ground truth is. 1: the centre alone.
+  int subpixels = 1;
   uint64_t seed = 1;
   // What the material shows beyond GD10 (reflectance.h: a coat lobe, fibre masking,
   // mesostructure); none: GD10 exactly.
