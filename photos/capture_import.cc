@@ -9,7 +9,9 @@
 #include <iomanip>
 #include <iostream>
 #include <numbers>
+#include <optional>
 #include <sstream>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -303,6 +305,44 @@ std::vector<fs::path> FilesEndingIn(const fs::path& dir, const std::string& exte
   return files;
 }
 
+// An .lp line's image name, which may hold spaces, and its direction, the last three fields.
+struct LpLine {
+  std::string image;
+  std::vector<double> direction;
+};
+std::optional<LpLine> ParseLpLine(const std::string& line) {
+  std::vector<std::pair<size_t, size_t>> fields;  // [begin, end) of each whitespace-separated field
+  for (size_t at = 0; at < line.size();) {
+    const size_t begin = line.find_first_not_of(" \t", at);
+    if (begin == std::string::npos) break;
+    const size_t end = std::min(line.find_first_of(" \t", begin), line.size());
+    fields.emplace_back(begin, end);
+    at = end;
+  }
+  if (fields.size() < 4) return std::nullopt;
+  LpLine parsed;
+  for (size_t f = fields.size() - 3; f < fields.size(); ++f) {
+    double value = 0;
+    const auto [end, error] = std::from_chars(line.data() + fields[f].first, line.data() + fields[f].second, value);
+    if (error != std::errc() || end != line.data() + fields[f].second) return std::nullopt;
+    parsed.direction.push_back(value);
+  }
+  parsed.image = line.substr(0, fields[fields.size() - 4].second);
+  return parsed;
+}
+
+// Where an .lp line's image is: its name as written, relative to the .lp file's folder, or its
+// file name there or in a jpeg-exports/ folder beside it or beside that folder, where RTIBuilder
+// puts the images of a project whose .lp (in assembly-files/) names them by absolute Windows paths.
+fs::path LpImage(const fs::path& dir, const std::string& name) {
+  const std::string file_name = name.substr(name.find_last_of("/\\") + 1);
+  for (const fs::path& candidate :
+       {dir / name, dir / file_name, dir / "jpeg-exports" / file_name, dir.parent_path() / "jpeg-exports" / file_name}) {
+    if (fs::exists(candidate)) return candidate;
+  }
+  return dir / file_name;  // reported missing, by this name, where the images are read
+}
+
 Result<Capture> ReadLightPositions(const fs::path& dir) {
   const std::vector<fs::path> lp = FilesEndingIn(dir, ".lp");
   if (lp.size() != 1) return InvalidArgumentError(dir.string(), "expected one .lp file, found " + std::to_string(lp.size()));
@@ -318,16 +358,11 @@ Result<Capture> ReadLightPositions(const fs::path& dir) {
   }
   Capture capture;
   for (int k = 0; k < count; ++k) {
-    std::istringstream fields(lines[k + 1]);
-    std::string name;
-    std::vector<double> d(3);
-    if (!(fields >> name >> d[0] >> d[1] >> d[2])) {
-      return InvalidArgumentError(lp[0].string() + ":" + std::to_string(k + 2), "expected 'IMAGE x y z'");
-    }
+    const std::optional<LpLine> line = ParseLpLine(lines[k + 1]);
+    if (!line) return InvalidArgumentError(lp[0].string() + ":" + std::to_string(k + 2), "expected 'IMAGE x y z'");
     Shot shot;
-    shot.image = dir / fs::path(name).filename();
-    if (!fs::exists(shot.image)) shot.image = dir / name;
-    LOOM_ASSIGN_OR_RETURN(const Eigen::Vector3d towards, UnitDirection(d, lp[0], k + 2));
+    shot.image = LpImage(dir, line->image);
+    LOOM_ASSIGN_OR_RETURN(const Eigen::Vector3d towards, UnitDirection(line->direction, lp[0], k + 2));
     shot.towards_light = YUpToYDown(towards);
     shot.orthographic = true;
     capture.shots.push_back(shot);

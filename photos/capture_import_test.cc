@@ -207,6 +207,37 @@ TEST_F(CaptureImportTest, ALightDomesLpFileGivesDirectionalLightsAndSrgbImages) 
   EXPECT_NE(wrong.status().ToString().find("says 4 images but lists 3"), std::string::npos) << wrong.status().ToString();
 }
 
+// RTIBuilder's project layout: the .lp in assembly-files/ names its images by absolute Windows
+// paths into jpeg-exports/ beside it, with CRLF line ends; a name may hold spaces.
+TEST_F(CaptureImportTest, AnRtiBuilderProjectsLpFindsItsImagesBesideIt) {
+  const fs::path project = dir_ / "rti project";
+  fs::create_directories(project / "assembly-files");
+  fs::create_directories(project / "jpeg-exports");
+  for (const char* name : {"IMG 0001.jpg", "IMG 0002.jpg", "IMG 0003.jpg"}) {
+    cv::imwrite((project / "jpeg-exports" / name).string(), cv::Mat(6, 5, CV_8UC3, cv::Scalar(100, 150, 200)));
+  }
+  WriteText(project / "assembly-files" / "project.lp",
+            "3\r\nC:\\RTI\\project\\jpeg-exports\\IMG 0001.jpg 0 0 1\r\n"
+            "C:\\RTI\\project\\jpeg-exports\\IMG 0002.jpg\t0.6 0 0.8\r\n"
+            "C:\\RTI\\project\\jpeg-exports\\IMG 0003.jpg 0 0.6 0.8\r\n");
+  ImportOptions options;
+  options.scale = 1.0;
+  const Result<ImportResult> imported = ImportCapture(project / "assembly-files", options);
+  ASSERT_TRUE(imported.ok()) << imported.status().ToString();
+  EXPECT_EQ(imported->images, 3);
+  EXPECT_TRUE(imported->stack.observations[3].emitters[0].DirectionFrom({0, 0, 0}).isApprox(Eigen::Vector3d(0.6, 0, 0.8), 1e-9));
+  // An image found nowhere is named as the file lists it.
+  fs::remove(project / "jpeg-exports" / "IMG 0002.jpg");
+  const Result<ImportResult> missing = ImportCapture(project / "assembly-files", options);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().ToString().find("IMG 0002.jpg"), std::string::npos) << missing.status().ToString();
+  // A line without three numbers after its name is refused naming the file and line.
+  WriteText(project / "assembly-files" / "project.lp", "1\r\nIMG 0001.jpg 0 0\r\n");
+  const Result<ImportResult> short_line = ImportCapture(project / "assembly-files", options);
+  ASSERT_FALSE(short_line.ok());
+  EXPECT_NE(short_line.status().ToString().find("project.lp:2"), std::string::npos) << short_line.status().ToString();
+}
+
 TEST_F(CaptureImportTest, ANormalMapReadsInTheStackFrame) {
   cv::Mat png(2, 2, CV_8UC3, cv::Scalar(0, 0, 0));
   // (n + 1)/2 of n = (0, 0.6, 0.8) (y up), stored as B, G, R; pixel (1, 1) none.
