@@ -69,8 +69,8 @@ run_if_it_fits 70 "fuzzing" scripts/fuzz.sh 20
 # The suites of core, scan and the BRDF model under ASan + UBSan (any report fails the run).
 run_if_it_fits 45 "the sanitized core, scan and model suites" scripts/sanitizers.sh ci
 # Every other test that does not load LibTorch (the simulator, the devices and their peers, the
-# sequencer, calibration, reconstruction) under ASan + UBSan too: its tests take about 10 min.
-run_if_it_fits 620 "every sanitized suite" scripts/sanitizers.sh address
+# sequencer, calibration, reconstruction) under ASan + UBSan too: its tests take about 11 min.
+run_if_it_fits 660 "every sanitized suite" scripts/sanitizers.sh address
 if (( ${#left_out[@]} > 0 )); then
   echo "every test passed; left out to stay within 30 minutes (a cold compiler cache):"
   printf '  %s\n' "${left_out[@]}"
