@@ -10,6 +10,7 @@
 # target runs and the script exits 3 (what is built so far stays for the next run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bounded-build.sh
 seconds=${1:-60}
 build_seconds=${2:-0}
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
@@ -18,17 +19,7 @@ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=cl
 declare -A corpus=([rig_model_fuzzer]=core/fuzz/corpus [plan_fuzzer]=scan/fuzz/corpus
   [journal_fuzzer]=scan/fuzz/journal-corpus [stack_fuzzer]=core/fuzz/stack-corpus [maps_fuzzer]=fitting/fuzz/maps-corpus)
 build=(cmake --build build-fuzz -j "$(nproc)" --target "${!corpus[@]}")
-if (( build_seconds > 0 )); then
-  code=0
-  timeout "$build_seconds" "${build[@]}" || code=$?
-  if (( code == 124 )); then
-    echo "fuzzers' build not finished within $build_seconds s: none run"
-    exit 3
-  fi
-  (( code == 0 )) || exit "$code"
-else
-  "${build[@]}"
-fi
+bounded_build "$build_seconds" "the fuzzers' build" "${build[@]}"
 mkdir -p build-fuzz/findings
 # One target per core at a time (each is single-threaded), every target's report printed whole.
 fuzz_one() {  # FUZZER LOG

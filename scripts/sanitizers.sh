@@ -15,6 +15,7 @@
 # prints its build and test times).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bounded-build.sh
 kind=${1:-address}
 build_seconds=${2:-0}
 # The ASan + UBSan lanes build with clang at -O1 (what ASan's own documentation advises): their
@@ -37,17 +38,7 @@ start=$(date +%s)
 cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DLOOM_BUILD_BENCH=OFF "${compiler[@]}" \
   -DCMAKE_CXX_FLAGS="$opt -fno-omit-frame-pointer $flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" > /dev/null
 build=(cmake --build "$dir" -j "$(nproc)" --target "${suites[@]}" "${peers[@]}")
-if (( build_seconds > 0 )); then
-  code=0
-  timeout "$build_seconds" "${build[@]}" || code=$?
-  if (( code == 124 )); then
-    echo "$kind build not finished within $build_seconds s: its tests not run"
-    exit 3
-  fi
-  (( code == 0 )) || exit "$code"
-else
-  "${build[@]}"
-fi
+bounded_build "$build_seconds" "the $kind lane's build" "${build[@]}"
 echo "$kind build finished after $(( $(date +%s) - start )) s"
 # umockdev's preload library comes before ASan's runtime in the wrapped tests: let it.
 export ASAN_OPTIONS=detect_leaks=1:verify_asan_link_order=0 UBSAN_OPTIONS=print_stacktrace=1 TSAN_OPTIONS=halt_on_error=1
