@@ -77,6 +77,7 @@ int SeenPixels(const ObservationStack& stack) {
 // them, and each round is a fit (on a 256² sphere of 96 lights, half the time for the same
 // angle). `report`: the corrections applied, or the first estimate where none was worth applying.
 Result<StackFit> FitRefiningLights(const ObservationStack& stack, const StackFitOptions& options, nlohmann::json& report) {
+  LOOM_RETURN_IF_ERROR(options.Check());  // light_refinement_max_pixels divides below
   const int stride =
       static_cast<int>(std::ceil(std::sqrt(SeenPixels(stack) / static_cast<double>(options.light_refinement_max_pixels))));
   const std::optional<ObservationStack> sparse = stride > 1 ? std::optional(EveryNthPixel(stack, stride)) : std::nullopt;

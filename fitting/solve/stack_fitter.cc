@@ -154,6 +154,7 @@ Status StackFitOptions::Check() const {
   if (left_out_view_selection_max_views < 0) problems.push_back("left_out_view_selection_max_views must be ≥ 0");
   if (light_refinement_rounds < 0 || light_refinement_rounds > 10)
     problems.push_back("light_refinement_rounds must be in [0, 10]");
+  if (light_refinement_max_pixels < 1) problems.push_back("light_refinement_max_pixels must be ≥ 1");
   if (!(retry_min_gain >= 0 && retry_min_gain < 1)) problems.push_back("retry_min_gain must be in [0, 1)");
   if (Status s = cluster_fit.Check(); !s.ok()) problems.push_back("cluster_fit: " + s.message());
   if (Status s = pixel_fit.Check(); !s.ok()) problems.push_back("pixel_fit: " + s.message());

@@ -113,11 +113,12 @@ TEST(StackFitterTest, BadOptionsNameEveryField) {
   options.prior_reference_noise_rms = -0.1;
   options.refiner.threads = 2;  // the fit's own threads say
   options.refiner.max_lights_per_observation = -1;
+  options.light_refinement_max_pixels = 0;
   const Status status = options.Check();
   ASSERT_FALSE(status.ok());
-  for (const char* field :
-       {"clusters", "pixels_per_cluster_fit", "threads", "retry_neighbour_rounds", "retry_neighbour_min_yield",
-        "retry_neighbour_starts", "prior_reference_noise_rms", "refiner.threads", "refiner: max_lights_per_observation"}) {
+  for (const char* field : {"clusters", "pixels_per_cluster_fit", "threads", "retry_neighbour_rounds",
+                            "retry_neighbour_min_yield", "retry_neighbour_starts", "prior_reference_noise_rms", "refiner.threads",
+                            "refiner: max_lights_per_observation", "light_refinement_max_pixels"}) {
     EXPECT_NE(status.ToString().find(field), std::string::npos) << status.ToString();
   }
 }
