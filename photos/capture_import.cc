@@ -544,8 +544,11 @@ std::optional<Eigen::Vector3d> EstimateFlashOffset(const std::vector<Shot>& shot
 
 // ---- the stack ----
 
-// Block means of the seen values (NaN where a block has none): stack pixel (i, j) of the image
-// pixels [i·n, i·n + n) × [j·n, j·n + n).
+// Block means of the seen values: stack pixel (i, j) of the image pixels [i·n, i·n + n) ×
+// [j·n, j·n + n). NaN values (masked) are left out; the block is NaN where it has no seen value,
+// or where one of its values is +∞ (clipped): that block's true mean lies above its seen values'
+// by an unknown amount, so it is as unseen as the clipped value. Near a highlight, where the
+// clipped values gather, the seen values' mean would read the block darker than it is.
 float BlockMean(const cv::Mat& values, int channel, int i, int j, int n) {
   double sum = 0;
   int seen = 0;
@@ -554,6 +557,7 @@ float BlockMean(const cv::Mat& values, int channel, int i, int j, int n) {
     const float* row = values.ptr<float>(y);
     for (int x = i * n; x < (i + 1) * n; ++x) {
       const float v = row[x * channels + channel];
+      if (std::isinf(v)) return NAN;
       if (!std::isnan(v)) sum += v, ++seen;
     }
   }
@@ -837,7 +841,11 @@ Result<ImportResult> ImportCapture(const fs::path& dir, const ImportOptions& opt
         float& value = v[p * channels + c];
         if (masked) {
           value = NAN;
-        } else if (!std::isnan(value)) {
+        } else if (std::isnan(value)) {
+          // Clipped (ReadPhoto marks the top of an 8- or 16-bit range): BlockMean leaves its whole
+          // block unseen. An EXR's NaN is a value not recorded, left out alone.
+          if (photos[k]->bits != 32) value = INFINITY;
+        } else {
           const Shot& shot = capture.shots[k];
           const double divide = shot.towards_light ? (channels == 3 ? shot.intensity[c] : shot.intensity.mean()) : 1.0;
           value = static_cast<float>(Decode(value, result.encoding) / divide);

@@ -19,8 +19,10 @@
 // so every direction and position given with y up enters with y negated. Each RGB image is
 // three observations (one per channel, colour weights (1,0,0), (0,1,0), (0,0,1)); a grey one is
 // one (weights 1/3 each). Unseen values are NaN: outside the mask, and at the top of the
-// encoding's range (clipped). Radiance is the decoded value divided by the light's intensity,
-// times the scale (below).
+// encoding's range (clipped). A block with a clipped value is unseen in that channel: its mean
+// lies above its seen values' by an unknown amount, and near a highlight, where clipped values
+// gather, the seen ones' mean reads it darker than it is. Radiance is the decoded value divided
+// by the light's intensity, times the scale (below).
 //
 // Errors name the file: a missing light file, counts that do not match, an image of another size
 // or bit depth (1-, 2- and 4-bit PNGs are refused), a mask of another size.

@@ -99,6 +99,29 @@ TEST_F(CaptureImportTest, DownsamplingAveragesTheSeenValuesOfEachBlock) {
   EXPECT_NEAR(imported->stack.pixel_mm, 0.2, 1e-12);
 }
 
+TEST_F(CaptureImportTest, ABlockWithAClippedValueIsUnseenInThatChannel) {
+  const fs::path ps = WritePs();
+  // Image 1's pixel (3, 0) at the top of the 16-bit range in red alone.
+  const fs::path second = ps / "002.png";
+  cv::Mat stored = cv::imread(second.string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(stored.type(), CV_16UC3) << second;
+  stored.at<cv::Vec3w>(0, 3)[2] = 65535;  // B, G, R
+  ASSERT_TRUE(cv::imwrite(second.string(), stored));
+  ImportOptions options;
+  options.scale = 1.0;
+  options.downsample = 2;
+  const Result<ImportResult> imported = ImportCapture(ps, options);
+  ASSERT_TRUE(imported.ok()) << imported.status().ToString();
+  const Image& image = imported->stack.image;
+  EXPECT_EQ(imported->clipped_values, 1);
+  // Block (1, 0) of image 1: its red unseen (a mean of the other three would be 3.7/16, below
+  // the block's true mean); green and blue, and the other block, as before.
+  EXPECT_TRUE(std::isnan(image.at(ObservationStack::ObservationChannel(3), 0, 1)));
+  EXPECT_NEAR(image.at(ObservationStack::ObservationChannel(4), 0, 1), 2 * 3.5 / 16 / 2, 1e-4);
+  // Block (0, 0), whose pixel (0, 0) is masked, the mean of the other three, as before.
+  EXPECT_NEAR(image.at(ObservationStack::ObservationChannel(3), 0, 0), 2 * 5.0 / 3 / 16, 1e-4);
+}
+
 TEST_F(CaptureImportTest, TheAutomaticScaleBringsTooBrightImagesWithinTheAlbedoBound) {
   const fs::path ps = WritePs();
   const Result<ImportResult> imported = ImportCapture(ps);
