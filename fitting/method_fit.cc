@@ -171,7 +171,8 @@ Result<RecommendedFit> FitWithRecommendedMethod(const ObservationStack& stack, F
     LOOM_ASSIGN_OR_RETURN(recommended.fit, FitWithMethod(stack, recommended.method, model_dir, options));
     return recommended;
   }
-  LOOM_ASSIGN_OR_RETURN(recommended.fit, std::move(fitted));
+  if (!fitted.ok()) return fitted.status();
+  recommended.fit = *std::move(fitted);
   return recommended;
 }
 
