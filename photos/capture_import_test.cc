@@ -114,8 +114,8 @@ TEST_F(CaptureImportTest, ABlockWithAClippedValueIsUnseenInThatChannel) {
   ASSERT_TRUE(imported.ok()) << imported.status().ToString();
   const Image& image = imported->stack.image;
   EXPECT_EQ(imported->clipped_values, 1);
-  // Block (1, 0) of image 1: its red unseen (a mean of the other three would be 3.7/16, below
-  // the block's true mean); green and blue, and the other block, as before.
+  // Block (1, 0) of image 1: its red unseen (the other three's mean, 6.7/16, would lie below the
+  // block's true mean, above 7/16); green and blue, and the other block, as before.
   EXPECT_TRUE(std::isnan(image.at(ObservationStack::ObservationChannel(3), 0, 1)));
   EXPECT_NEAR(image.at(ObservationStack::ObservationChannel(4), 0, 1), 2 * 3.5 / 16 / 2, 1e-4);
   // Block (0, 0), whose pixel (0, 0) is masked, the mean of the other three, as before.
