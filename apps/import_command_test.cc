@@ -213,10 +213,15 @@ TEST_F(ImportCommandTest, AFlashCaptureOfFewViewsIsFittedNoWorseThanALambertianS
   const nlohmann::json fit = Json("ceres/fit.json");
   EXPECT_EQ(selection["pixels_gd10"].get<int>() + selection["pixels_lambert"].get<int>(), fit["pixels_fitted"].get<int>())
       << selection.dump();
+  // The Lambertian model was chosen for the stack by the same views: here the geometric normal,
+  // since photometric stereo's normals tilt to mimic the flash's highlight.
+  const nlohmann::json lambertian = selection["lambertian"];
+  EXPECT_EQ(lambertian["pixels_photometric_stereo"].get<int>(), 0) << selection.dump();
+  EXPECT_GT(lambertian["pixels_geometric_normal"].get<int>(), 0) << selection.dump();
   // The free GD10 fit predicted the views left out of it worse than the Lambertian surface did
-  // (measured on such fabrics: 2–6× worse); the choice is no worse than the better of the two on
-  // the view this test held out (measured 1.03×).
-  EXPECT_LE(l1[0], 1.05 * l1[1]) << "ceres " << l1[0] << ", lambert " << l1[1];
+  // (measured on such fabrics: 2–6× worse); the choice is no worse than photometric stereo on the
+  // view this test held out (measured 0.87×; 1.01× with photometric stereo's normals kept).
+  EXPECT_LE(l1[0], l1[1]) << "ceres " << l1[0] << ", lambert " << l1[1];
 }
 
 TEST_F(ImportCommandTest, AFolderWithoutALayoutOrWithABadHoldOutIsRefusedNamingIt) {

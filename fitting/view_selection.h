@@ -7,6 +7,8 @@
 // values), and each region of one appearance (the GD10 fit's clusters; a pixel alone where it has
 // none) keeps the model, fitted to every view, that predicted its pixels better: GD10 where it
 // predicted them better on most of the left-out views, by more than its gain's standard error.
+// Any richer model and simpler one compose so, the richer in GD10's place: method_fit.cc chooses
+// the Lambertian model itself between photometric stereo's normals and the geometric normal.
 //
 // A view is a group of stack observations made with one camera and one set of lights: a
 // photograph's colour channels.

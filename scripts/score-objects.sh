@@ -12,7 +12,7 @@ mkdir -p "$out" && cd "$out"
 score() {
   local name=$1
   shift
-  rm -rf "cap-$name" "fit-$name-"* "eval-$name-"*
+  rm -rf "cap-$name" "fit-$name-"{lambert,ceres}* "eval-$name-"{lambert,ceres}
   "$loom" sim capture --size 96 --lights 96 "$@" --normals "normals-$name.exr" --out "cap-$name" > /dev/null
   "$loom" import "cap-$name" --scale 1 --out "stack-$name.exr" > /dev/null
   for method in lambert ceres; do

@@ -41,16 +41,47 @@ double Quantile(std::vector<double> values, double q) {
   return values[i];
 }
 
+// Each observation's shading ratio L_o / ((w_o·ρ)|E_o|), the albedo's chromaticity ρ taken as the
+// median of L_o / ((w_o·1)|E_o|) over the observations of the same colour weights: a coloured
+// albedo makes one colour's ratios all higher than another's, which says nothing of shadows or
+// highlights, and ranked together they would trim by colour: a blue material would keep its red
+// observations alone, from which few views' nearly parallel lights find no normal.
+std::vector<double> ShadingRatios(const std::vector<Shading>& shading) {
+  std::vector<double> ratios(shading.size());
+  for (size_t o = 0; o < shading.size(); ++o) {
+    ratios[o] = shading[o].radiance / (shading[o].weights.sum() * shading[o].irradiance.norm());
+  }
+  std::vector<Eigen::Vector3d> colours;
+  std::vector<std::vector<size_t>> members;
+  for (size_t o = 0; o < shading.size(); ++o) {
+    const auto found = std::find(colours.begin(), colours.end(), shading[o].weights);
+    if (found == colours.end()) {
+      colours.push_back(shading[o].weights);
+      members.push_back({o});
+    } else {
+      members[found - colours.begin()].push_back(o);
+    }
+  }
+  std::vector<double> normalised = ratios;
+  for (const std::vector<size_t>& colour : members) {
+    std::vector<double> values;
+    for (size_t o : colour) values.push_back(ratios[o]);
+    const double median = Quantile(values, 0.5);
+    if (median > 0) {
+      for (size_t o : colour) normalised[o] = ratios[o] / median;
+    }
+  }
+  return normalised;
+}
+
 double Predict(const Shading& s, const Eigen::Vector3d& normal, const Eigen::Vector3d& albedo) {
   return s.weights.dot(albedo) / std::numbers::pi * std::max(0.0, normal.dot(s.irradiance));
 }
 
-// One alternation on the kept observations: g = |a| n at the chromaticity of `albedo`, then the
-// albedo at that normal (held as it is without `fit_normal`). False where they do not determine
-// a normal.
-bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>& kept, bool fit_normal, Eigen::Vector3d& normal,
-                   Eigen::Vector3d& albedo) {
-  const Eigen::Vector3d chroma = albedo.sum() > 0 ? Eigen::Vector3d(albedo / albedo.sum() * 3) : Eigen::Vector3d::Ones();
+// g = |a| n by least squares at chromaticity `chroma`: the normal and the albedo's size, nothing
+// where the kept observations' lights do not determine it or it faces away.
+std::optional<double> FitNormalAndSize(const std::vector<Shading>& shading, const std::vector<char>& kept,
+                                       const Eigen::Vector3d& chroma, Eigen::Vector3d& normal) {
   Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
   Eigen::Vector3d atb = Eigen::Vector3d::Zero();
   for (size_t o = 0; o < shading.size(); ++o) {
@@ -60,11 +91,36 @@ bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>&
     atb += row * shading[o].radiance;
   }
   const Eigen::LDLT<Eigen::Matrix3d> solver(ata);
-  if (solver.info() != Eigen::Success || !(solver.rcond() > 1e-10)) return false;
+  if (solver.info() != Eigen::Success || !(solver.rcond() > 1e-10)) return std::nullopt;
   const Eigen::Vector3d g = solver.solve(atb);
-  if (!(g.norm() > 0) || !g.allFinite()) return false;
-  if (fit_normal) normal = g.normalized();
-  if (normal.z() < 0) return false;  // a surface seen from behind: the data are not photometric stereo's
+  if (!(g.norm() > 0) || !g.allFinite()) return std::nullopt;
+  if (g.z() < 0) return std::nullopt;  // a surface seen from behind: the data are not photometric stereo's
+  normal = g.normalized();
+  return g.norm();
+}
+
+// |a| at a held normal by least squares: one unknown, which one lit observation determines.
+std::optional<double> FitSize(const std::vector<Shading>& shading, const std::vector<char>& kept, const Eigen::Vector3d& chroma,
+                              const Eigen::Vector3d& normal) {
+  double squares = 0, product = 0;
+  for (size_t o = 0; o < shading.size(); ++o) {
+    if (!kept[o]) continue;
+    const double row = shading[o].weights.dot(chroma) / std::numbers::pi * std::max(0.0, normal.dot(shading[o].irradiance));
+    squares += row * row, product += row * shading[o].radiance;
+  }
+  if (!(squares > 0)) return std::nullopt;
+  return std::max(product / squares, 0.0);
+}
+
+// One alternation on the kept observations: g = |a| n at the chromaticity of `albedo`, then the
+// albedo at that normal (held as it is without `fit_normal`). False where they do not determine
+// a normal.
+bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>& kept, bool fit_normal, Eigen::Vector3d& normal,
+                   Eigen::Vector3d& albedo) {
+  const Eigen::Vector3d chroma = albedo.sum() > 0 ? Eigen::Vector3d(albedo / albedo.sum() * 3) : Eigen::Vector3d::Ones();
+  const std::optional<double> size =
+      fit_normal ? FitNormalAndSize(shading, kept, chroma, normal) : FitSize(shading, kept, chroma, normal);
+  if (!size) return false;
   // The albedo at that normal: L_o = (w_o · a) s_o, s_o = (n · E_o)/π, by least squares; what the
   // weights leave free (a grey camera sees no colour) keeps the chromaticity it had, the
   // minimal-norm correction of a0 = ρ |g| (Eigen's complete orthogonal decomposition).
@@ -77,7 +133,7 @@ bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>&
     wtw += row * row.transpose();
     wtb += row * shading[o].radiance;
   }
-  const Eigen::Vector3d a0 = chroma * g.norm();
+  const Eigen::Vector3d a0 = chroma * *size;
   Eigen::CompleteOrthogonalDecomposition<Eigen::Matrix3d> decomposition;
   decomposition.setThreshold(1e-9);
   decomposition.compute(wtw);
@@ -92,28 +148,13 @@ bool FitKept(const std::vector<Shading>& shading, const std::vector<char>& kept,
   return AlternateOnce(shading, kept, fit_normal, normal, albedo) && AlternateOnce(shading, kept, fit_normal, normal, albedo);
 }
 
-}  // namespace
-
-Status LambertFitOptions::Check() const {
-  std::vector<std::string> problems;
-  if (!(trim_dark >= 0 && trim_dark < trim_bright && trim_bright <= 1)) {
-    problems.push_back("trim_dark and trim_bright must satisfy 0 ≤ trim_dark < trim_bright ≤ 1");
-  }
-  if (!(min_cos_light >= 0 && min_cos_light < 1)) problems.push_back("min_cos_light must be in [0, 1)");
-  if (!(reject_sigmas > 0)) problems.push_back("reject_sigmas must be > 0");
-  if (rounds < 0) problems.push_back("rounds must be ≥ 0");
-  if (min_observations < 3) problems.push_back("min_observations must be ≥ 3");
-  if (threads < 0) problems.push_back("threads must be ≥ 0");
-  return ProblemsStatus("LambertFitOptions", problems);
-}
-
-std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>& observations, const LambertFitOptions& options) {
+// The header's rule on one pixel.
+std::optional<LambertPixel> FitByRule(const std::vector<PixelObservation>& observations, const LambertFitOptions& options) {
   const std::vector<Shading> shading = ShadingOf(observations);
   const size_t n = shading.size();
   if (static_cast<int>(n) < options.min_observations) return std::nullopt;
   // Rule 1: the middle of the shading ratios.
-  std::vector<double> ratios(n);
-  for (size_t o = 0; o < n; ++o) ratios[o] = shading[o].radiance / (shading[o].weights.sum() * shading[o].irradiance.norm());
+  const std::vector<double> ratios = ShadingRatios(shading);
   const double low = Quantile(ratios, options.trim_dark), high = Quantile(ratios, options.trim_bright);
   std::vector<char> kept(n);
   for (size_t o = 0; o < n; ++o) kept[o] = ratios[o] >= low && ratios[o] <= high;
@@ -143,7 +184,7 @@ std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>&
     kept = std::move(next), normal = next_normal, albedo = next_albedo;
     if (same) break;
   }
-  LambertPixel pixel{normal, albedo, 0, 0};
+  LambertPixel pixel{normal, albedo, options.fit_normal, 0, 0};
   double squares = 0, sum = 0;
   for (size_t o = 0; o < n; ++o) {
     if (!kept[o]) continue;
@@ -161,6 +202,29 @@ std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>&
   const double count = static_cast<double>(observations.size());
   pixel.rms_all = all_sum > 0 ? std::sqrt(all_squares / count) / (all_sum / count) : 0;
   return pixel;
+}
+
+}  // namespace
+
+Status LambertFitOptions::Check() const {
+  std::vector<std::string> problems;
+  if (!(trim_dark >= 0 && trim_dark < trim_bright && trim_bright <= 1)) {
+    problems.push_back("trim_dark and trim_bright must satisfy 0 ≤ trim_dark < trim_bright ≤ 1");
+  }
+  if (!(min_cos_light >= 0 && min_cos_light < 1)) problems.push_back("min_cos_light must be in [0, 1)");
+  if (!(reject_sigmas > 0)) problems.push_back("reject_sigmas must be > 0");
+  if (rounds < 0) problems.push_back("rounds must be ≥ 0");
+  if (min_observations < 3) problems.push_back("min_observations must be ≥ 3");
+  if (threads < 0) problems.push_back("threads must be ≥ 0");
+  return ProblemsStatus("LambertFitOptions", problems);
+}
+
+std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>& observations, const LambertFitOptions& options) {
+  std::optional<LambertPixel> pixel = FitByRule(observations, options);
+  if (pixel || !options.geometric_normal_fallback || !options.fit_normal) return pixel;
+  LambertFitOptions albedo_only = options;
+  albedo_only.fit_normal = false;
+  return FitByRule(observations, albedo_only);
 }
 
 WardParams<double> AsWardParams(const LambertPixel& pixel) {

@@ -14,7 +14,8 @@
 // The rule that leaves observations out:
 //  1. the first fit takes the observations whose shading ratio L_o / ((w_o·ρ)|E_o|) lies
 //     between the `trim_dark` and `trim_bright` quantiles of the pixel's (cast and attached
-//     shadows are the darkest, highlights the brightest);
+//     shadows are the darkest, highlights the brightest), ρ each colour's median of L_o /
+//     ((w_o·1)|E_o|) over the pixel's observations of that colour;
 //  2. then, `rounds` times: every observation whose light lies at least `min_cos_light` above
 //     the fitted surface (n · Ê_o) and whose residual is within `reject_sigmas` robust standard
 //     deviations (1.4826 × the median absolute residual of those kept) is kept, and the pixel
@@ -44,6 +45,11 @@ struct LambertFitOptions {
   // False: the normal is held at the geometric one and only the albedo is fitted (the plainest
   // baseline: a Lambertian surface with one albedo per pixel).
   bool fit_normal = true;
+  // True: a pixel whose normal the rule cannot fit (too few observations kept, or lights too
+  // nearly parallel to find a normal facing the camera) gets the albedo under the geometric normal
+  // instead of no fit, so that a choice of the Lambertian model holds on every pixel
+  // (fitting/view_selection.h).
+  bool geometric_normal_fallback = false;
   int threads = 0;       // 0: one per core
   Status Check() const;  // every problem, naming the field
 };
@@ -51,6 +57,7 @@ struct LambertFitOptions {
 struct LambertPixel {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit, the pixel's local frame
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();   // RGB, not bounded
+  bool normal_fitted = true;                          // false: held at the geometric normal (geometric_normal_fallback)
   int observations_used = 0;
   double rms = 0;  // of the kept observations' residuals, relative to their mean radiance
   // The same surface as GD10 maps it (a_s 0) on every observation, as stack_fitter.cc's retries
@@ -62,7 +69,8 @@ struct LambertPixel {
 // σ 0.2 (the lobe absent: any width), F0 1.
 WardParams<double> AsWardParams(const LambertPixel& pixel);
 
-// One pixel's fit; nothing where fewer than options.min_observations are kept.
+// One pixel's fit; nothing where fewer than options.min_observations are kept (and, with
+// options.geometric_normal_fallback, nothing only where the albedo-only fit keeps too few).
 std::optional<LambertPixel> FitLambertPixel(const std::vector<PixelObservation>& observations, const LambertFitOptions& options);
 
 // Every pixel of the stack (threaded): maps in stack_fitter.h's layout with the shading normal,
