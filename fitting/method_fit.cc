@@ -25,7 +25,7 @@ Image NoMaps(const ObservationStack& stack) {
 }
 
 // The GD10 fit or the Lambertian one per pixel, by views left out (view_selection.h); the
-// summary is the GD10 fit's of every view.
+// summary is the GD10 fit's of every view, its pixel counts the chosen maps'.
 Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, StackFitOptions options, MethodFit fit) {
   std::optional<StackFitSummary> summary;
   const auto progress = options.progress;
@@ -44,26 +44,26 @@ Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, Stack
   // chose the Lambertian model keeps it rather than a GD10 fit judged worse there.
   const StackMapsFit photometric_stereo = [&](const ObservationStack& s) -> Result<Image> {
     LOOM_ASSIGN_OR_RETURN(LambertFit f, FitLambert(s, {.geometric_normal_fallback = true, .threads = options.threads}));
-    const int region = f.maps.AddChannel(kFitClusterChannel);
-    for (float& label : f.maps.channel(region)) label = 0;
     return std::move(f.maps);
   };
   const StackMapsFit geometric_normal = [&](const ObservationStack& s) -> Result<Image> {
     LOOM_ASSIGN_OR_RETURN(LambertFit f, FitLambert(s, {.fit_normal = false, .threads = options.threads}));
+    const int region = f.maps.AddChannel(kFitClusterChannel);
+    for (float& label : f.maps.channel(region)) label = 0;
     return std::move(f.maps);
   };
-  // The Lambertian model is itself chosen by views left out, once for the whole stack (its maps
-  // one region, fit.cluster 0): photometric stereo's normals where they predict the views better
-  // than the geometric normal does, by the rule that holds GD10. Under a flash, whose lights all
-  // lie near the view, those normals can tilt to mimic a lobe and predict other views worse than
-  // the sample's own normal; per pixel, eight views choose by chance about as often as by merit
-  // (the real flash capture's fold 2 went 1.04× → 1.18× `lambert`).
+  // The Lambertian model is itself chosen by views left out, once for the whole stack (the
+  // geometric normal's maps one region, fit.cluster 0): photometric stereo, the baseline, unless
+  // the geometric normal predicts the views better by the rule that holds GD10. Under a flash,
+  // whose lights all lie near the view, photometric stereo's normals can tilt to mimic a lobe and
+  // predict other views worse than the sample's own normal; per pixel, eight views choose by
+  // chance about as often as by merit (the real flash capture's fold 2 went 1.04× → 1.18×).
   nlohmann::json lambertian_choice;
   const StackMapsFit lambert = [&](const ObservationStack& s) -> Result<Image> {
-    LOOM_ASSIGN_OR_RETURN(ViewSelection normals, SelectByLeftOutViews(s, photometric_stereo, geometric_normal));
+    LOOM_ASSIGN_OR_RETURN(ViewSelection normals, SelectByLeftOutViews(s, geometric_normal, photometric_stereo));
     if (&s == &stack) {
-      lambertian_choice = {{"pixels_photometric_stereo", normals.pixels_gd10},
-                           {"pixels_geometric_normal", normals.pixels_lambert}};
+      lambertian_choice = {{"pixels_photometric_stereo", normals.pixels_lambert},
+                           {"pixels_geometric_normal", normals.pixels_gd10}};
     }
     return std::move(normals.maps);
   };
@@ -72,6 +72,10 @@ Result<MethodFit> FitChoosingByLeftOutViews(const ObservationStack& stack, Stack
   if (progress) progress({"views left out", 1, 1});
   fit.maps = std::move(selection.maps);
   fit.summary = std::move(summary);
+  if (fit.summary) {  // the maps written: a pixel GD10 skipped may have the Lambertian fit
+    fit.summary->pixels_fitted = selection.pixels_gd10 + selection.pixels_lambert;
+    fit.summary->pixels_skipped = fit.summary->pixels - fit.summary->pixels_fitted;
+  }
   fit.view_selection = selection.ToJson();
   fit.view_selection["lambertian"] = lambertian_choice;
   return fit;

@@ -160,8 +160,11 @@ Result<ViewSelection> SelectByLeftOutViews(const ObservationStack& stack, const 
   double chosen = 0;
   for (size_t i = 0; i < pixels; ++i) {
     const int x = static_cast<int>(i) % width, y = static_cast<int>(i) / width;
-    if (IsSkippedPixel(selection.maps, x, y)) continue;
-    const bool lambertian = regions[region_of(i)].Lambertian() && !IsSkippedPixel(lambert_maps, x, y);
+    // A pixel GD10 skipped (too few observations for its parameters) keeps the Lambertian fit
+    // where there is one, whatever its region chose: it is the only fit there.
+    const bool gd10_skipped = IsSkippedPixel(selection.maps, x, y), lambert_skipped = IsSkippedPixel(lambert_maps, x, y);
+    if (gd10_skipped && lambert_skipped) continue;
+    const bool lambertian = !lambert_skipped && (gd10_skipped || regions[region_of(i)].Lambertian());
     const double error = lambertian ? lambert_error[i] : gd10_error[i];
     if (std::isfinite(gd10_error[i]) && std::isfinite(lambert_error[i])) chosen += error;
     if (!lambertian) {

@@ -111,6 +111,25 @@ TEST(ViewSelectionTest, TheRegionKeepsTheGd10FitWhereItPredictsTheLeftOutViewsBe
   EXPECT_LT(selection->held_out_l1_chosen, selection->held_out_l1_lambert);
 }
 
+// A pixel GD10 cannot fit at all (too few observations for its parameters) keeps the Lambertian
+// fit even where its region keeps GD10: it is the only fit there.
+TEST(ViewSelectionTest, APixelGd10SkipsKeepsTheLambertianFit) {
+  const FewViews capture = SixViewsOfAFabric();
+  const StackMapsFit gd10 = [&](const ObservationStack&) -> Result<Image> {
+    Image maps = OneRegion(capture.truth);
+    SetParams(maps, 0, 0, Skipped());
+    return maps;
+  };
+  const Image lambert_maps = WithDiffuseScaled(capture.truth, 0.5f);
+  const StackMapsFit lambert = [&](const ObservationStack&) -> Result<Image> { return lambert_maps; };
+  const Result<ViewSelection> selection = SelectByLeftOutViews(capture.stack, gd10, lambert);
+  ASSERT_TRUE(selection.ok()) << selection.status().ToString();
+  EXPECT_EQ(selection->pixels_gd10, 35);
+  EXPECT_EQ(selection->pixels_lambert, 1);
+  EXPECT_EQ(GetParams(selection->maps, 0, 0).a_d, GetParams(lambert_maps, 0, 0).a_d);
+  EXPECT_EQ(GetParams(selection->maps, 1, 0).a_d, GetParams(capture.truth, 1, 0).a_d);
+}
+
 // Whether `stack` lacks view `view` of `all` (StackViews' numbering): none of its observations
 // has that view's camera and first light.
 bool LeavesOut(const ObservationStack& stack, const ObservationStack& all, int view) {
