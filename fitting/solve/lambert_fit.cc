@@ -112,9 +112,9 @@ std::optional<double> FitSize(const std::vector<Shading>& shading, const std::ve
   return std::max(product / squares, 0.0);
 }
 
-// One alternation on the kept observations: g = |a| n at the chromaticity of `albedo`, then the
-// albedo at that normal (held as it is without `fit_normal`). False where they do not determine
-// a normal.
+// One alternation on the kept observations: the albedo's size |a| at the chromaticity of
+// `albedo`, with the normal (g = |a| n) or at the normal held without `fit_normal`, then the albedo
+// at that normal. False where they determine neither.
 bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>& kept, bool fit_normal, Eigen::Vector3d& normal,
                    Eigen::Vector3d& albedo) {
   const Eigen::Vector3d chroma = albedo.sum() > 0 ? Eigen::Vector3d(albedo / albedo.sum() * 3) : Eigen::Vector3d::Ones();
@@ -123,7 +123,7 @@ bool AlternateOnce(const std::vector<Shading>& shading, const std::vector<char>&
   if (!size) return false;
   // The albedo at that normal: L_o = (w_o · a) s_o, s_o = (n · E_o)/π, by least squares; what the
   // weights leave free (a grey camera sees no colour) keeps the chromaticity it had, the
-  // minimal-norm correction of a0 = ρ |g| (Eigen's complete orthogonal decomposition).
+  // minimal-norm correction of a0 = ρ |a| (Eigen's complete orthogonal decomposition).
   Eigen::Matrix3d wtw = Eigen::Matrix3d::Zero();
   Eigen::Vector3d wtb = Eigen::Vector3d::Zero();
   for (size_t o = 0; o < shading.size(); ++o) {
